@@ -1,0 +1,37 @@
+"""jaxpose: consistent translation and scale normalization of 3D shapes with one-class SVMs."""
+from ._validate import ConvergenceError, InvalidInputError, JaxposeError
+from .moments import Moments, volume_moments
+from .pose import Pose, normalize, normalize_batch
+from .svdd import SVDD, decision_function, fit_svdd
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "SVDD",
+    "fit_svdd",
+    "decision_function",
+    "Moments",
+    "volume_moments",
+    "Pose",
+    "normalize",
+    "normalize_batch",
+    "sample_surface",
+    "normalize_mesh",
+    "baselines",
+    "JaxposeError",
+    "InvalidInputError",
+    "ConvergenceError",
+]
+
+
+def __getattr__(name):
+    # trimesh-dependent and optional pieces load on first use, keeping `import jaxpose` light
+    if name in ("sample_surface", "normalize_mesh"):
+        from . import mesh
+
+        return getattr(mesh, name)
+    if name in ("baselines", "datasets", "evaluation", "tuning", "bench", "plot", "mesh"):
+        import importlib
+
+        return importlib.import_module(f".{name}", __name__)
+    raise AttributeError(f"module 'jaxpose' has no attribute {name!r}")

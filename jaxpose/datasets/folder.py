@@ -1,0 +1,58 @@
+"""Load a folder of classes: ``root/<class>/<mesh files>``, or a flat folder as one class."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import trimesh
+
+from jaxpose._validate import InvalidInputError
+
+__all__ = ["load_folder", "MESH_SUFFIXES"]
+
+MESH_SUFFIXES = frozenset({".ply", ".obj", ".off", ".stl", ".glb", ".gltf"})
+
+
+def _mesh_files(folder: Path) -> list[Path]:
+    return sorted((p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in MESH_SUFFIXES),
+                  key=lambda p: p.name)
+
+
+def _load(path: Path) -> trimesh.Trimesh:
+    try:
+        mesh = trimesh.load(path, force="mesh", process=False)
+    except Exception as exc:  # trimesh raises many types on bad files
+        raise InvalidInputError(f"cannot read mesh {path}: {exc}") from None
+    if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+        raise InvalidInputError(f"{path} holds no triangle mesh")
+    mesh.metadata.setdefault("file_name", path.name)
+    return mesh
+
+
+def load_folder(path) -> dict[str, list[trimesh.Trimesh]]:
+    """Meshes of a folder, grouped by class.
+
+    ``path`` holds one sub-folder per class (classes and files sorted by name; sub-folders
+    without mesh files are skipped), or mesh files directly, then loaded as a single class
+    named after the folder. Symbolic links are followed. Vertices are kept as stored
+    (``process=False``), so meshes sharing a vertex order keep it (see
+    :func:`jaxpose.evaluation.align_core`).
+
+    Raises
+    ------
+    InvalidInputError : missing folder, no mesh files, or an unreadable mesh.
+    """
+    root = Path(path)
+    if not root.is_dir():
+        raise InvalidInputError(f"{root} is not a folder")
+    files = _mesh_files(root)
+    if files:
+        return {root.resolve().name: [_load(f) for f in files]}
+    classes = {}
+    for sub in sorted((p for p in root.iterdir() if p.is_dir()), key=lambda p: p.name):
+        sub_files = _mesh_files(sub)
+        if sub_files:
+            classes[sub.name] = [_load(f) for f in sub_files]
+    if not classes:
+        raise InvalidInputError(
+            f"{root} holds no mesh files ({', '.join(sorted(MESH_SUFFIXES))}) nor class sub-folders with some")
+    return classes

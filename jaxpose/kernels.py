@@ -1,0 +1,61 @@
+"""Gaussian kernel k(a, b) = exp(-gamma * ||a - b||^2) and blocked products with it."""
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+
+__all__ = ["sq_distances", "gaussian_kernel", "kernel_matvec_blocked", "power_iteration"]
+
+
+def sq_distances(a, b):
+    """Squared distances by explicit differences (robust to large offsets).
+
+    a : (n, 3), b : (m, 3) -> (n, m)
+    """
+    d = a[:, None, :] - b[None, :, :]
+    return jnp.sum(d * d, axis=-1)
+
+
+def gaussian_kernel(a, b, gamma):
+    """K[i, j] = exp(-gamma ||a_i - b_j||^2). a : (n, 3), b : (m, 3) -> (n, m)."""
+    return jnp.exp(-gamma * sq_distances(a, b))
+
+
+def _pad_rows(x, block):
+    n = x.shape[0]
+    pad = (-n) % block
+    if pad:
+        x = jnp.concatenate([x, jnp.broadcast_to(x[-1:], (pad,) + x.shape[1:])], axis=0)
+    return x, n
+
+
+def map_blocks(fn, x, block):
+    """Apply fn to row blocks of x (n, ...) with lax.map; returns the first n rows of the result.
+
+    Memory stays at one block's worth of intermediate values.
+    """
+    block = max(1, min(int(block), x.shape[0]))
+    xp, n = _pad_rows(x, block)
+    xb = xp.reshape((-1, block) + x.shape[1:])
+    out = jax.lax.map(fn, xb)
+    return jax.tree_util.tree_map(lambda o: o.reshape((-1,) + o.shape[2:])[:n], out)
+
+
+def kernel_matvec_blocked(points, v, gamma, block=1024):
+    """(K v) without materialising K. points : (m, 3), v : (m,) -> (m,)."""
+    return map_blocks(lambda rows: gaussian_kernel(rows, points, gamma) @ v, points, block)
+
+
+def power_iteration(matvec, m, dtype, iterations=30):
+    """Largest eigenvalue of a symmetric PSD operator (Rayleigh quotient after `iterations`).
+
+    Starts from the ones vector, which overlaps the Perron vector of a positive kernel.
+    """
+    v0 = jnp.ones((m,), dtype) / jnp.sqrt(jnp.asarray(m, dtype))
+
+    def body(_, v):
+        w = matvec(v)
+        return w / jnp.maximum(jnp.linalg.norm(w), jnp.finfo(dtype).tiny)
+
+    v = jax.lax.fori_loop(0, iterations, body, v0)
+    return jnp.vdot(v, matvec(v))

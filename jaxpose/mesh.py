@@ -1,0 +1,291 @@
+"""Meshes in and out: load, sample, normalize, export.
+
+The only module that uses trimesh for file I/O. Loading never modifies the input
+file; exporting is atomic (temporary file in the target directory, then
+``os.replace``) and refuses to overwrite unless ``force=True``.
+"""
+from __future__ import annotations
+
+import numbers
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+from . import baselines
+from ._validate import InvalidInputError, JaxposeError, check_gamma, check_nu, check_points
+
+__all__ = [
+    "METHODS",
+    "SAMPLING",
+    "load",
+    "sample_surface",
+    "normalize_mesh",
+    "pose_matrix",
+    "export",
+    "write_atomic",
+    "example_shape",
+]
+
+SAMPLING = ("even", "random")
+# method -> (center, scale) for the classical baselines; "ocsvm" is the paper's method
+_BASELINE_POSES = {
+    "surface_centroid": ("surface_centroid", "mean_distance"),
+    "vertex_mean": ("vertex_mean", "mean_distance"),
+    "bbox": ("bbox_center", "unit_cube"),
+    "min_ball": ("min_ball", "unit_sphere"),
+}
+METHODS = ("ocsvm",) + tuple(_BASELINE_POSES)
+
+
+# --------------------------------------------------------------------------- load
+def load(path_or_mesh):
+    """Read a mesh or point cloud from anything trimesh reads (OBJ, PLY, OFF, STL, GLB, ...).
+
+    A Scene is concatenated into one geometry; geometry without faces comes back as
+    a :class:`trimesh.PointCloud`. Trimesh/PointCloud/Scene objects and ``(n, 3)``
+    arrays are accepted as they are (arrays become point clouds).
+
+    Returns
+    -------
+    geometry : trimesh.Trimesh | trimesh.PointCloud
+    """
+    if isinstance(path_or_mesh, (str, os.PathLike)):
+        geometry = _read(Path(path_or_mesh))
+        source = str(path_or_mesh)
+    else:
+        geometry = path_or_mesh
+        source = "input"
+    if isinstance(geometry, trimesh.Scene):
+        geometry = _flatten(geometry, source)
+    if not isinstance(geometry, (trimesh.Trimesh, trimesh.PointCloud)):
+        if hasattr(geometry, "vertices") or isinstance(geometry, (np.ndarray, list, tuple)):
+            points = getattr(geometry, "vertices", geometry)
+            check_points(points, name=f"points of {source}", min_points=1)
+            geometry = trimesh.PointCloud(np.asarray(points, dtype=np.float64))
+        else:
+            raise InvalidInputError(f"{source}: cannot use a {type(geometry).__name__} as a mesh")
+    if len(geometry.vertices) == 0:
+        raise InvalidInputError(f"{source}: empty geometry (no vertices)")
+    if not np.all(np.isfinite(geometry.vertices)):
+        raise InvalidInputError(f"{source}: vertices with NaN or inf coordinates")
+    if isinstance(geometry, trimesh.Trimesh) and len(geometry.faces) == 0:
+        geometry = trimesh.PointCloud(np.asarray(geometry.vertices))
+    if source != "input" and isinstance(geometry, trimesh.Trimesh):
+        geometry.merge_vertices()  # STL and friends store each triangle's corners apart
+    return geometry
+
+
+def _read(path):
+    if not path.exists():
+        raise InvalidInputError(f"no such file: {path}")
+    if not path.is_file():
+        raise InvalidInputError(f"not a file: {path}")
+    ext = "".join(path.suffixes[-2:]).lower().lstrip(".") if path.suffix else ""
+    known = set(trimesh.available_formats())
+    if ext not in known:
+        ext = path.suffix.lower().lstrip(".")
+    if ext not in known:
+        raise InvalidInputError(
+            f"{path}: unsupported format {path.suffix or '(no extension)'!r}; "
+            f"readable: {', '.join(sorted(known))}"
+        )
+    try:
+        with open(path, "rb") as handle:  # read-only: the file is never touched
+            return trimesh.load(handle, file_type=ext, process=False)
+    except PermissionError as exc:
+        raise InvalidInputError(f"{path}: cannot read: {exc.strerror}") from None
+    except Exception as exc:  # every reader has its own errors for corrupt files
+        detail = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise InvalidInputError(f"{path}: cannot read {ext.upper()} file: {detail}") from None
+
+
+def _flatten(scene, source):
+    """Scene -> one Trimesh (meshes concatenated, transforms applied) or PointCloud."""
+    parts = scene.dump()
+    meshes = [g for g in parts if isinstance(g, trimesh.Trimesh) and len(g.faces) > 0]
+    if meshes:
+        return meshes[0] if len(meshes) == 1 else trimesh.util.concatenate(meshes)
+    points = [np.asarray(g.vertices) for g in parts if hasattr(g, "vertices") and len(g.vertices)]
+    if not points:
+        raise InvalidInputError(f"{source}: empty geometry (no meshes or points)")
+    return trimesh.PointCloud(np.concatenate(points, axis=0))
+
+
+# --------------------------------------------------------------------------- sample
+def sample_surface(mesh, count, seed=0, method="even"):
+    """Area-weighted points on the surface, deterministic per seed.
+
+    method "random": each point picks a face with probability proportional to area.
+    method "even": stratified; face f gets floor or ceil of count * area_f / area
+    points (systematic rounding with one random offset), which removes the
+    multinomial noise in the per-face counts.
+    Point clouds (and meshes without faces): `count` of the points, drawn without
+    replacement when there are enough.
+
+    mesh : Trimesh | PointCloud | (n, 3) array, count : int >= 4, seed : int
+    Returns samples : (count, 3) float64
+    """
+    count = _check_int(count, "count", minimum=4)
+    seed = _check_int(seed, "seed", minimum=0)
+    if method not in SAMPLING:
+        raise InvalidInputError(f"unknown sampling {method!r}; valid: {', '.join(SAMPLING)}")
+    rng = np.random.default_rng(seed)
+    vertices, faces = baselines._geometry(load(mesh))
+    if faces is None:
+        index = rng.choice(len(vertices), size=count, replace=len(vertices) < count)
+        return vertices[index].copy()
+    triangles = vertices[faces]  # (f, 3, 3)
+    areas = baselines._areas(triangles)
+    if method == "random":
+        face = rng.choice(len(faces), size=count, p=areas / areas.sum())
+    else:
+        expected = np.minimum(np.cumsum(areas) * (count / areas.sum()), count)
+        expected[-1] = count  # exact total despite round-off
+        edges = np.floor(np.concatenate([[0.0], expected]) + rng.uniform())
+        per_face = np.diff(edges).astype(np.int64)  # sums to count exactly
+        face = np.repeat(np.arange(len(faces)), per_face)
+    uv = rng.uniform(size=(count, 2))
+    flip = uv.sum(axis=1) > 1.0
+    uv[flip] = 1.0 - uv[flip]
+    tri = triangles[face]
+    return tri[:, 0] + uv[:, :1] * (tri[:, 1] - tri[:, 0]) + uv[:, 1:] * (tri[:, 2] - tri[:, 0])
+
+
+def _check_int(value, name, minimum):
+    if not isinstance(value, numbers.Integral) or isinstance(value, bool):
+        raise InvalidInputError(f"{name} must be an int, got {value!r}")
+    if value < minimum:
+        raise InvalidInputError(f"{name} must be >= {minimum}, got {value}")
+    return int(value)
+
+
+# --------------------------------------------------------------------------- normalize
+def normalize_mesh(
+    mesh_or_path,
+    gamma=47.0,
+    nu=0.5,
+    count=2000,
+    seed=0,
+    sampling="even",
+    method="ocsvm",
+    **options,
+):
+    """Normalize translation and scale of a mesh (or point cloud); the input is untouched.
+
+    method "ocsvm": `count` surface samples -> :func:`jaxpose.pose.normalize` (center 0,
+    mean distance 1 of the OCSVM volume); `options` go to it.
+    Baselines (exact, on the whole mesh): "surface_centroid" and "vertex_mean" with the
+    mean surface distance, "bbox" (bounding-box center, largest extent: fits the unit
+    cube), "min_ball" (center and radius of the minimum enclosing ball: unit sphere).
+
+    Returns
+    -------
+    normalized : Trimesh | PointCloud (a transformed copy)
+    pose : jaxpose.pose.Pose
+    """
+    check_gamma(gamma)
+    check_nu(nu)
+    if method not in METHODS:
+        raise InvalidInputError(f"unknown method {method!r}; valid: {', '.join(METHODS)}")
+    geometry = load(mesh_or_path)
+    if method == "ocsvm":
+        points = sample_surface(geometry, count, seed=seed, method=sampling)
+        from .pose import normalize  # lazy: keeps `import jaxpose.mesh` free of JAX
+
+        pose = normalize(points, gamma, nu, **options)
+    else:
+        if options:
+            raise InvalidInputError(f"method {method!r} takes no options, got {sorted(options)}")
+        from .pose import Pose
+
+        center_name, scale_name = _BASELINE_POSES[method]
+        c = baselines.center(geometry, center_name)
+        pose = Pose.from_center_scale(c, baselines.scale(geometry, scale_name, center=c))
+    if not bool(np.all(np.asarray(getattr(pose, "valid", True)))):
+        raise JaxposeError(
+            f"{method} normalization gave no valid pose (center {np.asarray(pose.center)}, "
+            f"scale {np.asarray(pose.scale)}); try other gamma / nu"
+        )
+    normalized = geometry.copy()
+    normalized.apply_transform(pose_matrix(pose))
+    return normalized, pose
+
+
+def pose_matrix(pose):
+    """The 4 x 4 matrix of x -> (x - pose.center) / pose.scale in float64.
+
+    (``pose.matrix`` follows JAX's default precision, float32 unless x64 is on; meshes
+    are transformed, and transforms reported, with this float64 one.)
+
+    Returns matrix : (4, 4) float64
+    """
+    center = np.asarray(pose.center, dtype=np.float64).reshape(3)
+    scale = float(np.asarray(pose.scale, dtype=np.float64))
+    matrix = np.eye(4)
+    matrix[:3, :3] /= scale
+    matrix[:3, 3] = -center / scale
+    return matrix
+
+
+# --------------------------------------------------------------------------- export
+def export(mesh, path, force=False):
+    """Write `mesh` to `path` atomically, in the format named by its extension.
+
+    Refuses an existing `path` unless `force`. Returns the path as a :class:`Path`.
+    """
+    path = Path(path)
+    ext = path.suffix.lower().lstrip(".")
+    if not ext:
+        raise InvalidInputError(f"{path}: no extension to choose an output format")
+    try:
+        data = mesh.export(file_type=ext)
+    except Exception as exc:
+        raise InvalidInputError(f"{path}: cannot write {type(mesh).__name__} as {ext!r}: {exc}") from None
+    if isinstance(data, str):
+        data = data.encode("utf-8")
+    return write_atomic(path, data, force=force)
+
+
+def write_atomic(path, data, force=False):
+    """Write bytes (or text, as UTF-8) to `path` via a temporary file and ``os.replace``.
+
+    Refuses an existing `path` unless `force`; a failed write leaves nothing behind.
+    """
+    path = Path(path)
+    if path.exists() and not force:
+        raise InvalidInputError(f"{path} exists (use force / --force to overwrite)")
+    directory = path.parent if str(path.parent) else Path(".")
+    if not directory.is_dir():
+        raise InvalidInputError(f"{path}: directory {directory} does not exist")
+    if isinstance(data, str):
+        data = data.encode("utf-8")
+    fd, tmp = tempfile.mkstemp(dir=directory, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as handle:
+            handle.write(data)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+    return path
+
+
+# --------------------------------------------------------------------------- example
+def example_shape():
+    """A capsule body with a thin outlying arm: the paper's hard case for centroids.
+
+    Returns mesh : trimesh.Trimesh (watertight parts, concatenated)
+    """
+    body = trimesh.creation.capsule(height=1.0, radius=0.5, count=[24, 24])
+    arm = trimesh.creation.cylinder(radius=0.08, height=1.6, sections=16)
+    arm.apply_transform(trimesh.transformations.rotation_matrix(np.pi / 2, [0.0, 1.0, 0.0]))
+    arm.apply_translation([1.2, 0.0, 0.3])
+    hand = trimesh.creation.icosphere(subdivisions=2, radius=0.2)
+    hand.apply_translation([2.0, 0.0, 0.3])
+    return trimesh.util.concatenate([body, arm, hand])

@@ -1,0 +1,112 @@
+"""Volume moments of the SVDD region {f >= 0} (eqs. 4, 5).
+
+Each grid cell gets a fractional occupancy from the local signed distance to
+the boundary, f / |grad f|, compared with the cell's width along the normal,
+sum_k |n_k| h_k:  w = clip(1/2 + f / sum_k |df/dx_k| h_k, 0, 1).
+That is the hard indicator of eqs. 4-5 integrated to sub-cell accuracy (error
+O(h^2), against O(h) for counting cells), and it is piecewise differentiable in
+f, so derivatives carry the boundary term of the coarea formula smeared over one
+cell (see docs of ``pose``).
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+
+from . import _validate
+from .grid import cell_centers, domain, evaluate_on_grid
+
+__all__ = ["Moments", "volume_moments", "occupancy", "moments_from_occupancy"]
+
+
+class Moments(NamedTuple):
+    """center : (3,) c_m (eq. 4); mean_distance : () d_m (eq. 5); volume : ();
+    second_moment : (3, 3) (1/V) int (x - c)(x - c)^T; cell : (3,) coarse grid spacing;
+    unrefined : () cells near the boundary left unrefined because ``band`` was too small."""
+
+    center: jax.Array
+    mean_distance: jax.Array
+    volume: jax.Array
+    second_moment: jax.Array
+    cell: jax.Array
+    unrefined: jax.Array = 0
+
+
+def occupancy(f, grad, h):
+    """Fraction of each cell inside {f >= 0}. f : (n,), grad : (n, 3), h : (3,) -> (n,)."""
+    width = jnp.sum(jnp.abs(grad) * h, axis=-1)
+    # Derivative fix (issue 3): with 0 < width < sqrt(tiny) the tangent of f / width,
+    # df / width - f dwidth / width^2, overflowed (width^2 underflows to 0 in float32,
+    # far from the points where grad f ~ 1e-25) and 0 * inf gave NaN gradients for the whole
+    # pose. Such cells use the indicator instead, which is the same value unless |f| < width/2.
+    ok = width > jnp.sqrt(jnp.finfo(width.dtype).tiny)
+    safe = jnp.where(ok, width, 1.0)
+    return jnp.where(ok, jnp.clip(0.5 + f / safe, 0.0, 1.0), (f >= 0).astype(f.dtype))
+
+
+def moments_from_occupancy(x, w, h):
+    """Moments of the weighted cells x : (n, 3), w : (n,), h : (3,)."""
+    mass = jnp.sum(w)
+    safe = jnp.where(mass > 0, mass, 1.0)
+    c = jnp.sum(w[:, None] * x, axis=0) / safe
+    d = x - c
+    dist = jnp.sqrt(jnp.sum(d * d, axis=-1) + jnp.finfo(x.dtype).tiny)
+    md = jnp.sum(w * dist) / safe
+    second = jnp.einsum("n,ni,nj->ij", w, d, d) / safe
+    return Moments(c, md, mass * jnp.prod(h), second, h, jnp.asarray(0))
+
+
+def _band_score(f, grad, h, gamma, offset):
+    """< 1 where a cell may hold part of the boundary: |f| within 1.5 linear cell widths plus
+    a curvature allowance (|Hess f| <= 2 gamma (f + mu) near x, so thin shells thinner
+    than a cell are still refined)."""
+    width = 1.5 * jnp.sum(jnp.abs(grad) * h, axis=-1) + gamma * jnp.maximum(f + offset, 0.0) * jnp.sum(h * h) / 2
+    return jax.lax.stop_gradient(jnp.where(width > 0, jnp.abs(f) / jnp.where(width > 0, width, 1.0), jnp.inf))
+
+
+def volume_moments(svdd, resolution=32, refine=8, band=8192, block=2048) -> Moments:
+    """Centroid, mean distance, volume and second moment of {f >= 0}.
+
+    svdd : SVDD (points in any units; moments come in the same units)
+    resolution : coarse cells per axis (static) on a box that provably covers the region
+    refine : power of 2; cells near the boundary are split in 2 x 2 x 2, log2(refine) times
+    band : cells refined at the first level, doubled at each further level (static caps;
+        ``Moments.unrefined`` counts candidate cells that did not fit; the curvature
+        allowance makes it conservative: most such cells are wholly in or out)
+
+    Cost: resolution^3 + 8 band (1 + 2 + 4 + ...) evaluations of f; accuracy near the
+    boundary is that of a (resolution * refine)^3 grid.
+    """
+    resolution = _validate.check_resolution(resolution)
+    refine, band = int(refine), int(band)
+    if refine < 1 or refine & (refine - 1) or band < 0:
+        raise _validate.InvalidInputError(f"refine must be a power of 2 and band >= 0, got {refine}, {band}")
+    return _volume_moments(svdd, resolution, int(block), refine, band)
+
+
+_CHILDREN = jnp.stack(jnp.meshgrid(*[jnp.array([-0.25, 0.25])] * 3, indexing="ij"), axis=-1).reshape(8, 3)
+
+
+def _volume_moments(svdd, resolution, block, refine=8, band=8192):
+    lo, hi = domain(svdd)
+    x, h = cell_centers(lo, hi, resolution)
+    f, grad = evaluate_on_grid(svdd, x, block)
+    xs, ws = [x], [occupancy(f, grad, h)]  # weights in units of a coarse cell
+    vol, unrefined = 1.0, jnp.asarray(0)
+    k = band
+    while refine > 1 and k > 0:
+        k = min(k, x.shape[0])
+        score = _band_score(f, grad, h, svdd.gamma, svdd.offset)
+        neg, idx = jax.lax.top_k(-score, k)
+        chosen = (-neg < 1.0).astype(x.dtype)
+        unrefined = unrefined + jnp.sum(score < 1.0) - jnp.sum(chosen).astype(unrefined.dtype)
+        ws[-1] = ws[-1].at[idx].multiply(1.0 - chosen)  # replaced by their children
+        x = (x[idx][:, None, :] + _CHILDREN.astype(x.dtype) * h).reshape(-1, 3)
+        h, vol, refine, k = h / 2, vol / 8, refine // 2, 2 * k
+        f, grad = evaluate_on_grid(svdd, x, block)
+        xs.append(x)
+        ws.append(occupancy(f, grad, h) * vol * jnp.repeat(chosen, 8))
+    mom = moments_from_occupancy(jnp.concatenate(xs), jnp.concatenate(ws), h * (2 ** (len(xs) - 1)))
+    return mom._replace(unrefined=unrefined)

@@ -1,0 +1,323 @@
+"""Support vector data description (the one-class SVM of the paper, eqs. 1-3).
+
+Dual (eq. 2), with a Gaussian kernel so that k(x, x) = 1:
+
+    min_a  a^T K a   s.t.  0 <= a_i <= C = 1 / (nu m),  sum a = 1,
+
+solved by accelerated projected gradient (``jaxopt.ProjectedGradient``, FISTA)
+with a fixed step 1 / (2 lambda_max(K)) and an exact capped-simplex projection.
+This is the only module that imports jaxopt.
+
+Decision function (eq. 3): with the free support vectors F = {0 < a_i < C},
+KKT gives 2 (K a)_i = mu on F, and
+
+    f(x) = R^2 - ||Phi(x) - c||^2 = 2 k(x)^T a - mu,   R^2 = 1 - mu + a^T K a.
+
+Mapping to scikit-learn / libsvm (``OneClassSVM(kernel="rbf", gamma, nu)``):
+libsvm solves min 1/2 b^T K b, 0 <= b_i <= 1, sum b = nu m. So b = nu m a,
+``dual_coef_[0]`` holds b at ``support_``, libsvm's rho = (K b)_i on free points
+= nu m mu / 2, ``offset_`` = rho, and its ``decision_function(x)`` =
+k(x)^T b - rho = (nu m / 2) f(x).
+
+Stopping rule: libsvm-like maximal KKT violation on the gradient 2 K a,
+``max_{a_j > 0} (Ka)_j - min_{a_i < C} (Ka)_i``, divided by a^T K a (the
+a-weighted mean of Ka) so it is scale-free; f at the training points is then
+within about 2 tol a^T K a ~ tol mu of its exact value.
+
+Derivatives: the solution a*(points, gamma, nu) is differentiated implicitly
+through the KKT system on the active set (Chapelle et al. 2002) in a
+``custom_jvp``, so forward and reverse mode both work without unrolling the
+iterations (jaxopt's own implicit diff is reverse-mode only).
+"""
+from __future__ import annotations
+
+from functools import partial
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+from . import _validate
+from .kernels import gaussian_kernel, kernel_matvec_blocked, map_blocks, power_iteration
+from .projection import projection_capped_simplex
+
+__all__ = ["SVDD", "fit_svdd", "decision_function", "decision_value_and_grad", "upper_bound"]
+
+_DENSE_LIMIT = 12_000  # m above which K is never stored (O(m * block) memory)
+
+
+class SVDD(NamedTuple):
+    """A fitted SVDD. A pytree: jit/vmap friendly.
+
+    points : (m, 3) training points (same units as given)
+    alpha : (m,) dual solution, sum 1, 0 <= alpha <= cap
+    gamma : () kernel parameter in 1 / units^2
+    cap : () upper bound C = min(1, 1 / (nu m))
+    offset : () mu, so that f(x) = 2 k(x)^T alpha - mu
+    objective : () alpha^T K alpha
+    iterations : () solver iterations
+    kkt_violation : () relative KKT violation at the end (see module docs)
+    converged : () bool, kkt_violation <= tol
+    mask : (m,) bool, points that take part (padding in batches is False)
+    """
+
+    points: jax.Array
+    alpha: jax.Array
+    gamma: jax.Array
+    cap: jax.Array
+    offset: jax.Array
+    objective: jax.Array
+    iterations: jax.Array
+    kkt_violation: jax.Array
+    converged: jax.Array
+    mask: jax.Array
+
+    @property
+    def radius2(self):
+        """R^2 of the feature-space ball (eq. 1)."""
+        return 1.0 - self.offset + self.objective
+
+    @property
+    def support(self):
+        """(m,) bool, the support vectors (alpha > 0)."""
+        return self.alpha > 0
+
+
+def upper_bound(nu, m):
+    """C = 1 / (nu m), capped at 1 (nu = 0: no upper bound), safe to differentiate."""
+    nm = nu * m
+    return jnp.where(nm > 1.0, 1.0 / jnp.where(nm > 1.0, nm, 1.0), 1.0)
+
+
+def _caps(nu, mask):
+    m_valid = jnp.sum(mask)
+    return jnp.where(mask, upper_bound(nu, m_valid), 0.0)
+
+
+def _make_matvec(points, gamma, kernel, block):
+    m = points.shape[0]
+    dense = kernel == "dense" or (kernel == "auto" and m <= _DENSE_LIMIT)
+    if dense:
+        K = gaussian_kernel(points, points, gamma)
+        return lambda v: K @ v
+    return lambda v: kernel_matvec_blocked(points, v, gamma, block)
+
+
+def _kkt(alpha, Ka, caps, mask):
+    """Relative maximal KKT violation (>= 0) and the objective a^T K a."""
+    inf = jnp.asarray(jnp.inf, Ka.dtype)
+    obj = jnp.vdot(alpha, Ka)
+    up = jnp.max(jnp.where(mask & (alpha > 0), Ka, -inf))
+    low = jnp.min(jnp.where(mask & (alpha < caps), Ka, inf))
+    viol = jnp.maximum(up - low, 0.0)
+    viol = jnp.where(jnp.isfinite(viol), viol, 0.0)
+    return viol / jnp.maximum(obj, jnp.finfo(Ka.dtype).tiny), obj
+
+
+def _offset(alpha, Ka, caps, mask):
+    """mu = 2 (K a)_i averaged on free support vectors; libsvm's midpoint rule if none."""
+    g = 2.0 * Ka
+    free = mask & (alpha > 0) & (alpha < caps)
+    n_free = jnp.sum(free)
+    mean_free = jnp.sum(jnp.where(free, g, 0.0)) / jnp.maximum(n_free, 1)
+    inf = jnp.asarray(jnp.inf, g.dtype)
+    lb = jnp.max(jnp.where(mask & (alpha >= caps) & (alpha > 0), g, -inf))  # f <= 0 there
+    ub = jnp.min(jnp.where(mask & (alpha <= 0), g, inf))  # f >= 0 there
+    mid = jnp.where(jnp.isfinite(lb) & jnp.isfinite(ub), 0.5 * (lb + ub), jnp.where(jnp.isfinite(lb), lb, ub))
+    return jnp.where(n_free > 0, mean_free, mid)
+
+
+def _solve(points, gamma, caps, mask, init_alpha, tol, max_iter, check_every, kernel, block, restart=True):
+    """Forward solve (no derivatives). Returns alpha, Ka, iterations, violation."""
+    import jaxopt  # deferred: jaxopt warns on import
+
+    dtype = points.dtype
+    matvec = _make_matvec(points, gamma, kernel, block)
+    m = points.shape[0]
+    lam = power_iteration(matvec, m, dtype)
+    # Gershgorin (max row sum) is a guaranteed bound; the Rayleigh quotient a close lower one.
+    gersh = jnp.max(jnp.where(mask, matvec(mask.astype(dtype)), 0.0))
+    step = 1.0 / (2.0 * jnp.minimum(1.02 * lam, gersh))
+
+    def fun(a):
+        Ka = matvec(a)
+        return jnp.vdot(a, Ka), 2.0 * Ka
+
+    pg = jaxopt.ProjectedGradient(
+        fun=fun,
+        projection=lambda y, c: projection_capped_simplex(y, c),
+        stepsize=lambda _: step,
+        acceleration=True,
+        value_and_grad=True,
+        maxiter=max_iter,
+        implicit_diff=False,
+        jit=False,
+    )
+    a0 = projection_capped_simplex(init_alpha, caps)
+    state0 = pg.init_state(a0, caps)
+    viol0, _ = _kkt(a0, matvec(a0), caps, mask)
+
+    def cond(carry):
+        _, _, it, viol = carry
+        return (viol > tol) & (it < max_iter)
+
+    def body(carry):
+        a, state, it, _ = carry
+
+        def inner(_, c):
+            a, state = c
+            nxt = pg.update(a, state, caps)
+            if restart:  # O'Donoghue & Candes gradient restart: drop momentum when it points uphill
+                up = jnp.vdot(state.velocity - nxt.params, nxt.params - a) > 0
+                st = nxt.state
+                st = st._replace(t=jnp.where(up, 1.0, st.t), velocity=jnp.where(up, nxt.params, st.velocity))
+                return nxt.params, st
+            return nxt.params, nxt.state
+
+        a, state = jax.lax.fori_loop(0, check_every, inner, (a, state))
+        viol, _ = _kkt(a, matvec(a), caps, mask)
+        return a, state, it + check_every, viol
+
+    a, _, it, viol = jax.lax.while_loop(cond, body, (a0, state0, jnp.asarray(0), viol0))
+    return a, matvec(a), it, viol
+
+
+@jax.custom_jvp
+def _implicit_alpha(alpha, points, gamma, caps, mask):
+    """Identity on the solution alpha; its JVP is the KKT implicit derivative."""
+    return alpha
+
+
+@_implicit_alpha.defjvp
+def _implicit_alpha_jvp(primals, tangents):
+    alpha, points, gamma, caps, mask = primals
+    _, dpoints, dgamma, dcaps, _ = tangents
+    alpha = jax.lax.stop_gradient(alpha)
+    dtype = alpha.dtype
+    # dK a, linear in (dpoints, dgamma)
+    _, dKa = jax.jvp(lambda p, g: gaussian_kernel(p, p, g) @ alpha, (points, gamma), (dpoints, dgamma))
+    K = gaussian_kernel(points, points, gamma)
+    free = mask & (alpha > 0) & (alpha < caps)
+    upper = mask & (alpha >= caps) & (alpha > 0) & ~free
+    fm = free.astype(dtype)
+    um = upper.astype(dtype)
+    da_b = um * dcaps  # bounded points follow the cap
+    m = alpha.shape[0]
+    # Tikhonov term: K_FF is numerically singular (cond ~1e13); directions it damps barely move f.
+    ridge = 10.0 * jnp.finfo(dtype).eps * jnp.max(jnp.sum(K, axis=1))
+    A = 2.0 * K * fm[:, None] * fm[None, :] + jnp.diag(1.0 - fm) + ridge * jnp.diag(fm)
+    M = jnp.zeros((m + 1, m + 1), dtype)
+    M = M.at[:m, :m].set(A).at[:m, m].set(fm).at[m, :m].set(fm)
+    rhs_top = -fm * (2.0 * dKa + 2.0 * (K @ da_b))
+    rhs = jnp.concatenate([rhs_top, -jnp.sum(da_b)[None]])
+    sol = jnp.linalg.solve(jax.lax.stop_gradient(M), rhs)
+    dalpha = fm * sol[:m] + da_b
+    return alpha, dalpha
+
+
+def fit_svdd(
+    points,
+    gamma,
+    nu,
+    *,
+    mask=None,
+    init_alpha=None,
+    tol=1e-3,
+    max_iter=20_000,
+    check_every=10,
+    kernel="auto",
+    block=1024,
+    throw=False,
+) -> SVDD:
+    """Fit the SVDD dual (eq. 2) on points.
+
+    points : (m, 3) float (float32 or float64; the result follows)
+    gamma : () > 0, kernel parameter in 1 / units of points squared (as scikit-learn)
+    nu : () in [0, 1]; C = 1 / (nu m); nu = 0 is the hard-margin ball
+    mask : (m,) bool, optional: False rows are padding and get alpha = 0
+    init_alpha : (m,) optional warm start (projected onto the feasible set)
+    tol : relative KKT violation to stop at (see module docs)
+    kernel : "auto" | "dense" | "blocked" (blocked keeps memory O(m * block))
+    throw : raise ConvergenceError if the iteration cap is hit (concrete calls only)
+
+    Jittable (with static options), vmappable over same-size point sets,
+    differentiable in points, gamma and nu by implicit differentiation.
+    """
+    if not _validate.is_traced(points):
+        _validate.check_points(points)
+    _validate.check_gamma(gamma)
+    _validate.check_nu(nu)
+    if kernel not in ("auto", "dense", "blocked"):
+        raise _validate.InvalidInputError(f"kernel must be 'auto', 'dense' or 'blocked', got {kernel!r}")
+    points = jnp.asarray(points)
+    if not jnp.issubdtype(points.dtype, jnp.floating):
+        points = points.astype(jnp.result_type(float))
+    result = _fit(
+        points, gamma, nu, mask, init_alpha,
+        tol=float(tol), max_iter=int(max_iter), check_every=int(check_every), kernel=kernel, block=int(block),
+    )
+    if throw and not _validate.is_traced(result.converged) and not bool(result.converged):
+        raise _validate.ConvergenceError(
+            f"SVDD solver hit max_iter={max_iter} with relative KKT violation {float(result.kkt_violation):.3g} > tol={tol}"
+        )
+    return result
+
+
+@partial(jax.jit, static_argnames=("tol", "max_iter", "check_every", "kernel", "block"))
+def _fit(points, gamma, nu, mask, init_alpha, tol, max_iter, check_every, kernel, block):
+    dtype = points.dtype
+    m = points.shape[0]
+    gamma = jnp.asarray(gamma, dtype)
+    nu = jnp.asarray(nu, dtype)
+    mask = jnp.ones((m,), bool) if mask is None else jnp.asarray(mask, bool)
+    caps = _caps(nu, mask)
+    if init_alpha is None:
+        init_alpha = jnp.where(mask, 1.0, 0.0).astype(dtype) / jnp.sum(mask)
+    sg = jax.lax.stop_gradient
+    a, _, it, viol = _solve(
+        sg(points), sg(gamma), sg(caps), mask, sg(jnp.asarray(init_alpha, dtype)),
+        tol, max_iter, check_every, kernel, block,
+    )
+    a = _implicit_alpha(a, points, gamma, caps, mask)
+    # Recomputed with the differentiable alpha so offset and objective carry derivatives.
+    Ka = _make_matvec(points, gamma, kernel, block)(a)
+    offset = _offset(a, Ka, caps, mask)
+    return SVDD(
+        points=points,
+        alpha=a,
+        gamma=gamma,
+        cap=upper_bound(nu, jnp.sum(mask)),
+        offset=offset,
+        objective=jnp.vdot(a, Ka),
+        iterations=it,
+        kkt_violation=viol,
+        converged=viol <= tol,
+        mask=mask,
+    )
+
+
+def decision_value_and_grad(svdd: SVDD, x, block=4096):
+    """f(x) (eq. 3) and its spatial gradient, in blocks of query points.
+
+    x : (n, 3) -> f : (n,), grad : (n, 3). Memory O(block * m).
+    """
+    p, a, g = svdd.points, svdd.alpha, svdd.gamma
+
+    def one_block(xb):
+        d = xb[:, None, :] - p[None, :, :]
+        w = a * jnp.exp(-g * jnp.sum(d * d, axis=-1))
+        f = 2.0 * jnp.sum(w, axis=1) - svdd.offset
+        grad = -4.0 * g * jnp.einsum("nm,nmk->nk", w, d)
+        return f, grad
+
+    return map_blocks(one_block, x, block)
+
+
+def decision_function(svdd: SVDD, x, block=4096):
+    """f(x) = 2 k(x)^T alpha - mu (eq. 3), positive inside. x : (n, 3) -> (n,)."""
+    x = jnp.asarray(x, svdd.points.dtype)
+    if x.ndim != 2 or x.shape[-1] != 3:
+        raise _validate.InvalidInputError(f"x must have shape (n, 3), got {tuple(x.shape)}")
+    if x.shape[0] == 0:
+        return jnp.zeros((0,), x.dtype)
+    p, a, g = svdd.points, svdd.alpha, svdd.gamma
+    return map_blocks(lambda xb: 2.0 * (gaussian_kernel(xb, p, g) @ a) - svdd.offset, x, block)

@@ -1,0 +1,65 @@
+"""Shared fixtures: deterministic point sets and a float64 switch."""
+from __future__ import annotations
+
+import pathlib
+
+import jax
+import numpy as np
+import pytest
+
+SHARED = pathlib.Path(__file__).resolve().parents[1].parent / "shared"
+FAUST = SHARED / "data" / "faust-dev"
+
+
+@pytest.fixture
+def x64():
+    """Run a test in float64 and restore the previous setting."""
+    old = jax.config.jax_enable_x64
+    jax.config.update("jax_enable_x64", True)
+    yield
+    jax.config.update("jax_enable_x64", old)
+
+
+def sphere_with_arm(m, seed=0):
+    """Points on a sphere of radius 0.4 with an outlying arm along +x. (m, 3)."""
+    rng = np.random.default_rng(seed)
+    v = rng.normal(size=(m, 3))
+    v *= 0.4 / np.linalg.norm(v, axis=1, keepdims=True)
+    k = m // 6
+    t = rng.uniform(0, 1, k)
+    v[:k] = np.c_[0.4 + 0.5 * t, 0.04 * rng.normal(size=k), 0.04 * rng.normal(size=k)]
+    return v
+
+
+def clusters(m, seed=0):
+    """Four Gaussian clusters of different sizes. (m, 3)."""
+    rng = np.random.default_rng(seed)
+    centers = rng.uniform(-0.5, 0.5, size=(4, 3))
+    which = rng.choice(4, size=m, p=[0.4, 0.3, 0.2, 0.1])
+    return centers[which] + rng.normal(size=(m, 3)) * np.array([0.08, 0.05, 0.12, 0.03])[which, None]
+
+
+def box_surface(m, seed=0, extents=(1.0, 0.6, 0.3)):
+    """Uniform samples of a box surface (area-weighted faces). (m, 3)."""
+    rng = np.random.default_rng(seed)
+    e = np.asarray(extents)
+    areas = np.array([e[1] * e[2], e[0] * e[2], e[0] * e[1]] * 2)
+    face = rng.choice(6, size=m, p=areas / areas.sum())
+    p = rng.uniform(-0.5, 0.5, size=(m, 3)) * e
+    axis = face % 3
+    sign = np.where(face < 3, 0.5, -0.5)
+    p[np.arange(m), axis] = sign * e[axis]
+    return p
+
+
+def faust_points(m, index=0, seed=0):
+    """Area-weighted samples of a FAUST mesh scaled to the unit cube; skips without ../shared."""
+    path = FAUST / f"tr_reg_{index:03d}.ply"
+    if not path.exists():
+        pytest.skip("../shared/data/faust-dev is not available")
+    import trimesh
+
+    mesh = trimesh.load(path, process=False)
+    pts = np.asarray(trimesh.sample.sample_surface(mesh, m, seed=seed)[0])
+    lo, hi = pts.min(0), pts.max(0)
+    return (pts - (lo + hi) / 2) / (hi - lo).max()

@@ -1,0 +1,215 @@
+"""Classical centers and scales: analytic values, miniball oracle, equivariance."""
+import numpy as np
+import pytest
+import trimesh
+from scipy.spatial.transform import Rotation
+
+from jaxpose import baselines
+from jaxpose._validate import InvalidInputError
+
+miniball = pytest.importorskip("miniball")  # test-only oracle
+
+
+def box(extents=(1.0, 2.0, 3.0), offset=(0.3, -0.2, 0.5)):
+    mesh = trimesh.creation.box(extents=extents)
+    mesh.apply_translation(offset)
+    return mesh
+
+
+def lumpy(seed=0):
+    """A non-symmetric mesh: an icosphere with a bump and a translated arm."""
+    body = trimesh.creation.icosphere(subdivisions=2, radius=1.0)
+    body.vertices[:, 0] *= 1.0 + 0.3 * (body.vertices[:, 0] > 0)
+    arm = trimesh.creation.box(extents=(2.0, 0.2, 0.2))
+    arm.apply_translation([2.0, 0.5, 0.1])
+    return trimesh.util.concatenate([body, arm])
+
+
+# --------------------------------------------------------------------------- analytic
+def test_box_values():
+    offset = np.array([0.3, -0.2, 0.5])
+    mesh = box(offset=offset)
+    np.testing.assert_allclose(baselines.surface_centroid(mesh), offset, atol=1e-12)
+    np.testing.assert_allclose(baselines.vertex_mean(mesh), offset, atol=1e-12)
+    np.testing.assert_allclose(baselines.bbox_center(mesh), offset, atol=1e-12)
+    assert baselines.unit_cube(mesh) == pytest.approx(3.0)
+    half_diagonal = np.sqrt(1 + 4 + 9) / 2
+    assert baselines.unit_sphere(mesh, offset) == pytest.approx(half_diagonal)
+    c, r = baselines.min_ball(mesh)
+    np.testing.assert_allclose(c, offset, atol=1e-12)
+    assert r == pytest.approx(half_diagonal)
+
+
+def test_surface_centroid_is_area_weighted():
+    # two triangles of areas 1/2 and 2 in the plane z = 0
+    vertices = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [3, 0, 0], [5, 0, 0], [3, 2, 0]], float)
+    mesh = trimesh.Trimesh(vertices, [[0, 1, 2], [3, 4, 5]], process=False)
+    c1, c2 = vertices[:3].mean(0), vertices[3:].mean(0)
+    expected = (0.5 * c1 + 2.0 * c2) / 2.5
+    np.testing.assert_allclose(baselines.surface_centroid(mesh), expected, atol=1e-12)
+
+
+def test_refining_faces_moves_vertex_mean_not_surface_centroid():
+    mesh = box(offset=(0, 0, 0))
+    refined = mesh.subdivide(face_index=[0, 1])  # more vertices on one side only
+    np.testing.assert_allclose(baselines.surface_centroid(refined), 0.0, atol=1e-12)
+    assert np.linalg.norm(baselines.vertex_mean(refined)) > 1e-2
+
+
+@pytest.mark.parametrize("radius", [0.5, 2.0])
+def test_mean_distance_of_sphere_is_radius(radius):
+    sphere = trimesh.creation.icosphere(subdivisions=5, radius=radius)
+    assert baselines.mean_distance(sphere, np.zeros(3)) == pytest.approx(radius, rel=2e-3)
+    assert baselines.mean_distance(sphere) == pytest.approx(radius, rel=2e-3)  # centroid default
+
+
+def test_mean_distance_of_square_matches_integral():
+    # square [-1, 1]^2: mean distance from its center is (sqrt(2) + asinh(1)) / 3
+    v = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], float)
+    square = trimesh.Trimesh(v, [[0, 1, 2], [0, 2, 3]], process=False)
+    exact = (np.sqrt(2) + np.arcsinh(1.0)) / 3
+    assert baselines.mean_distance(square, np.zeros(3)) == pytest.approx(exact, rel=2e-3)
+    # away from the surface the integrand is smooth and the quadrature near-exact
+    far = np.array([0.0, 0.0, 10.0])
+    reference = _mean_distance_monte_carlo(square, far)
+    assert baselines.mean_distance(square, far) == pytest.approx(reference, rel=1e-4)
+
+
+def _mean_distance_monte_carlo(mesh, center, count=400_000):
+    points, _ = trimesh.sample.sample_surface(mesh, count, seed=0)
+    return float(np.linalg.norm(points - center, axis=1).mean())
+
+
+def test_point_clouds_fall_back_to_points():
+    rng = np.random.default_rng(0)
+    points = rng.normal(size=(200, 3))
+    np.testing.assert_allclose(baselines.surface_centroid(points), points.mean(0))
+    np.testing.assert_allclose(baselines.surface_centroid(trimesh.PointCloud(points)), points.mean(0))
+    c = np.array([0.1, 0.2, 0.3])
+    assert baselines.mean_distance(points, c) == pytest.approx(np.linalg.norm(points - c, axis=1).mean())
+    assert baselines.unit_cube(points) == pytest.approx(np.ptp(points, axis=0).max())
+
+
+# --------------------------------------------------------------------------- min ball
+@pytest.mark.parametrize("seed", range(6))
+@pytest.mark.parametrize("kind", ["normal", "cube", "sphere", "few"])
+def test_min_ball_matches_miniball(seed, kind):
+    rng = np.random.default_rng(seed)
+    if kind == "normal":
+        points = rng.normal(size=(500, 3)) * [1.0, 2.0, 0.5] + 3.0
+    elif kind == "cube":
+        points = rng.uniform(-1, 1, size=(300, 3))
+    elif kind == "sphere":
+        points = rng.normal(size=(300, 3))
+        points /= np.linalg.norm(points, axis=1, keepdims=True)
+    else:
+        points = rng.normal(size=(int(rng.integers(2, 7)), 3))
+    center, radius = baselines.min_ball(points)
+    ref_center, ref_r2 = miniball.get_bounding_ball(points)
+    np.testing.assert_allclose(center, ref_center, atol=1e-9)
+    assert radius == pytest.approx(np.sqrt(ref_r2), rel=1e-9)
+    assert np.all(np.linalg.norm(points - center, axis=1) <= radius * (1 + 1e-12))
+
+
+def test_min_ball_of_mesh_matches_miniball():
+    mesh = lumpy()
+    center, radius = baselines.min_ball(mesh)
+    ref_center, ref_r2 = miniball.get_bounding_ball(np.asarray(mesh.vertices))
+    np.testing.assert_allclose(center, ref_center, atol=1e-9)
+    assert radius == pytest.approx(np.sqrt(ref_r2), rel=1e-9)
+
+
+@pytest.mark.parametrize(
+    "points, center, radius",
+    [
+        (np.array([[0, 0, 0], [2, 0, 0]] * 3, float), [1, 0, 0], 1.0),  # duplicates
+        (np.array([[0, 0, 0], [1, 0, 0], [4, 0, 0]], float), [2, 0, 0], 2.0),  # collinear
+        (np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0.5, 0.5, 0]], float), [0, 0, 0], 1.0),
+    ],
+)
+def test_min_ball_degenerate_sets(points, center, radius):
+    c, r = baselines.min_ball(points)
+    np.testing.assert_allclose(c, center, atol=1e-12)
+    assert r == pytest.approx(radius)
+
+
+def test_min_ball_is_deterministic():
+    points = np.random.default_rng(3).normal(size=(1000, 3))
+    a, b = baselines.min_ball(points), baselines.min_ball(points)
+    np.testing.assert_array_equal(a[0], b[0])
+    assert a[1] == b[1]
+
+
+# --------------------------------------------------------------------------- equivariance
+def _moved(mesh, seed):
+    rotation = Rotation.random(random_state=seed).as_matrix()
+    shift = np.random.default_rng(seed).normal(size=3)
+    moved = mesh.copy()
+    moved.apply_transform(np.block([[rotation, shift[:, None]], [np.zeros((1, 3)), np.ones((1, 1))]]))
+    return moved, rotation, shift
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+@pytest.mark.parametrize("method", ["surface_centroid", "vertex_mean", "min_ball"])
+def test_rotation_equivariant_centers(method, seed):
+    mesh = lumpy()
+    moved, rotation, shift = _moved(mesh, seed)
+    expected = rotation @ baselines.center(mesh, method) + shift
+    np.testing.assert_allclose(baselines.center(moved, method), expected, atol=1e-9)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+@pytest.mark.parametrize("method", ["mean_distance", "unit_sphere"])
+def test_rotation_invariant_scales(method, seed):
+    mesh = lumpy()
+    moved, _, _ = _moved(mesh, seed)
+    assert baselines.scale(moved, method) == pytest.approx(baselines.scale(mesh, method), rel=1e-9)
+
+
+@pytest.mark.parametrize("method", baselines.CENTERS)
+def test_translation_equivariant_all_centers(method):
+    mesh = lumpy()
+    shift = np.array([1.5, -2.0, 0.25])
+    moved = mesh.copy()
+    moved.apply_translation(shift)
+    np.testing.assert_allclose(baselines.center(moved, method), baselines.center(mesh, method) + shift, atol=1e-9)
+    assert baselines.scale(moved, "unit_cube") == pytest.approx(baselines.scale(mesh, "unit_cube"))
+
+
+def test_scales_are_homogeneous():
+    mesh = lumpy()
+    big = mesh.copy()
+    big.apply_scale(2.5)
+    for method in baselines.SCALES:
+        assert baselines.scale(big, method) == pytest.approx(2.5 * baselines.scale(mesh, method), rel=1e-9)
+
+
+# --------------------------------------------------------------------------- dispatch & errors
+def test_dispatch_matches_functions():
+    mesh = lumpy()
+    np.testing.assert_array_equal(baselines.center(mesh, "bbox_center"), baselines.bbox_center(mesh))
+    np.testing.assert_array_equal(baselines.center(mesh, "min_ball"), baselines.min_ball(mesh)[0])
+    c = baselines.vertex_mean(mesh)
+    assert baselines.scale(mesh, "unit_sphere", center=c) == baselines.unit_sphere(mesh, c)
+    assert baselines.scale(mesh, "mean_distance") == baselines.mean_distance(mesh, baselines.surface_centroid(mesh))
+
+
+def test_unknown_method_lists_valid_names():
+    with pytest.raises(InvalidInputError, match="surface_centroid.*min_ball"):
+        baselines.center(box(), "centroid")
+    with pytest.raises(InvalidInputError, match="mean_distance"):
+        baselines.scale(box(), "diameter")
+
+
+@pytest.mark.parametrize(
+    "bad",
+    [np.array([[0.0, np.nan, 0.0], [1, 1, 1]]), np.zeros((5, 2)), np.array([["a", "b", "c"]])],
+)
+def test_bad_points_raise(bad):
+    with pytest.raises(InvalidInputError):
+        baselines.vertex_mean(bad)
+
+
+def test_bad_center_raises():
+    with pytest.raises(InvalidInputError, match="center"):
+        baselines.mean_distance(box(), [0.0, 1.0])

@@ -1,0 +1,117 @@
+"""normalize_batch: equals normalize per object, compiles once, rejects bad input."""
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import jaxpose
+from jaxpose import pose as pose_module
+from jaxpose._validate import InvalidInputError
+
+from conftest import box_surface, clusters, sphere_with_arm
+
+# small grid: equality per object does not depend on the resolution, only the runtime does
+OPTS = dict(resolution=16, refine=2, band=512)
+
+
+def _sets():
+    return [
+        sphere_with_arm(150, seed=1),
+        box_surface(181, seed=2) + np.array([3.0, -1.0, 0.5]),  # offset: pre-scaling must be per object
+        2.5 * clusters(203, seed=3),  # another size and scale
+        sphere_with_arm(227, seed=4) * 0.1,
+    ]
+
+
+@pytest.fixture(scope="module")
+def batch_and_single():
+    sets = _sets()
+    batch = jaxpose.normalize_batch(sets, 47.0, 0.5, **OPTS)
+    single = [jaxpose.normalize(p, 47.0, 0.5, **OPTS) for p in sets]
+    return sets, batch, single
+
+
+def test_batch_shapes(batch_and_single):
+    sets, batch, _ = batch_and_single
+    n = len(sets)
+    assert batch.center.shape == (n, 3)
+    assert batch.scale.shape == (n,)
+    assert batch.converged.shape == (n,) and bool(jnp.all(batch.converged))
+    assert bool(jnp.all(batch.valid))
+
+
+def test_batch_equals_normalize_per_object(batch_and_single):
+    sets, batch, single = batch_and_single
+    for i, s in enumerate(single):
+        scale = float(s.scale)
+        assert scale > 0
+        np.testing.assert_allclose(np.asarray(batch.center[i]), np.asarray(s.center), atol=1e-3 * scale, rtol=0)
+        assert abs(float(batch.scale[i]) - scale) <= 1e-3 * scale
+        assert bool(batch.converged[i]) == bool(s.converged)
+
+
+def test_batch_order_does_not_matter(batch_and_single):
+    sets, batch, _ = batch_and_single
+    order = [2, 0, 3, 1]
+    again = jaxpose.normalize_batch([sets[i] for i in order], 47.0, 0.5, **OPTS)
+    for j, i in enumerate(order):
+        np.testing.assert_allclose(np.asarray(again.center[j]), np.asarray(batch.center[i]),
+                                   atol=1e-4 * float(batch.scale[i]), rtol=0)
+
+
+def test_one_compilation_for_different_sizes():
+    """Different point counts share one compiled function (same padded size and batch)."""
+    sets = _sets()
+    opts = dict(OPTS, refine=1)  # an option set no other test uses: a fresh cache entry
+    before = pose_module._batched._cache_size()
+    jaxpose.normalize_batch(sets, 47.0, 0.5, pad_to=240, **opts)
+    after_first = pose_module._batched._cache_size()
+    assert after_first == before + 1
+    # other sizes (all <= pad_to), other values of gamma and nu: no new compilation
+    other = [sphere_with_arm(120 + 17 * i, seed=10 + i) for i in range(4)]
+    jaxpose.normalize_batch(other, 30.0, 0.3, pad_to=240, **opts)
+    jaxpose.normalize_batch(sets[::-1], 47.0, 0.5, pad_to=240, **opts)
+    assert pose_module._batched._cache_size() == after_first
+
+
+def test_pad_to_does_not_change_results(batch_and_single):
+    sets, batch, _ = batch_and_single
+    padded = jaxpose.normalize_batch(sets, 47.0, 0.5, pad_to=260, **OPTS)
+    np.testing.assert_allclose(np.asarray(padded.center), np.asarray(batch.center),
+                               atol=1e-3 * float(jnp.min(batch.scale)), rtol=0)
+    np.testing.assert_allclose(np.asarray(padded.scale), np.asarray(batch.scale), rtol=1e-3)
+
+
+def test_single_object_batch():
+    p = sphere_with_arm(150, seed=1)
+    batch = jaxpose.normalize_batch([p], **OPTS)
+    single = jaxpose.normalize(p, **OPTS)
+    assert batch.center.shape == (1, 3)
+    np.testing.assert_allclose(np.asarray(batch.center[0]), np.asarray(single.center), atol=1e-3 * float(single.scale))
+
+
+@pytest.mark.parametrize(
+    "bad",
+    [
+        [],  # empty list
+        [np.zeros((50, 2))],  # wrong number of coordinates
+        [sphere_with_arm(100), np.ones((80, 4))],  # mismatched shapes
+        [sphere_with_arm(100), np.ones(30)],  # 1-D
+        [sphere_with_arm(100), np.full((60, 3), np.nan)],  # non-finite
+        [sphere_with_arm(100), np.ones((60, 3))],  # all identical
+    ],
+)
+def test_bad_input_is_rejected(bad):
+    with pytest.raises(InvalidInputError):
+        jaxpose.normalize_batch(bad, **OPTS)
+
+
+def test_bad_options_are_rejected():
+    sets = [sphere_with_arm(100), sphere_with_arm(120, seed=1)]
+    with pytest.raises(InvalidInputError):
+        jaxpose.normalize_batch(sets, pad_to=110)  # smaller than the largest set
+    with pytest.raises(InvalidInputError):
+        jaxpose.normalize_batch(sets, not_an_option=3)
+    with pytest.raises(InvalidInputError):
+        jaxpose.normalize_batch(sets, gamma=-1.0)
+    with pytest.raises(InvalidInputError):
+        jaxpose.normalize_batch(sets, nu=1.5)

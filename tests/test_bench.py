@@ -1,0 +1,115 @@
+"""jaxpose bench: runs in quick mode on tiny sizes and writes the JSON schema. No timing assertions."""
+import json
+
+import pytest
+
+from jaxpose import bench, cli
+
+pytestmark = pytest.mark.filterwarnings("ignore::UserWarning")
+
+
+def _tiny(monkeypatch):
+    monkeypatch.setitem(bench.QUICK, "m", 120)
+    monkeypatch.setitem(bench.QUICK, "repeats", 1)
+    monkeypatch.setitem(bench.QUICK, "batch_objects", 2)
+    monkeypatch.setitem(bench.QUICK, "batch_m", 80)
+    monkeypatch.setitem(bench.QUICK, "scaling_m", (80,))
+    monkeypatch.setitem(bench.QUICK, "resolutions", (8,))
+    monkeypatch.setitem(bench.QUICK, "resolution", 8)
+    monkeypatch.setitem(bench.QUICK, "sk_resolution", 8)
+    monkeypatch.setitem(bench.QUICK, "ref_resolution", 8)
+    monkeypatch.setitem(bench.QUICK, "ref_refine", 2)
+
+
+def _timing(d, compiled=True):
+    assert d["median_s"] >= 0 and isinstance(d["runs_s"], list)
+    if compiled:
+        assert d["compile_s"] >= 0 and d["first_s"] >= 0
+
+
+def _check_schema(r, sk):
+    assert r["schema_version"] == bench.SCHEMA_VERSION
+    assert r["quick"] is True
+    assert {"source", "gamma", "nu", "repeats", "environment", "sklearn", "sections"} <= set(r)
+    assert r["environment"]["backend"]
+    assert set(r["sections"]) == set(bench.SECTIONS)
+    s = r["sections"]
+
+    solver = s["solver"]
+    _timing(solver["jaxpose"])
+    assert {"iterations", "objective", "kkt_violation", "n_support", "feasibility"} <= set(solver["jaxpose"])
+    end = s["end2end"]
+    _timing(end["jaxpose"])
+    assert {"center", "scale", "center_err", "center_err_rel_scale"} <= set(end["jaxpose"])
+    assert {"center", "scale", "boundary_resolution"} <= set(end["reference"])
+    batch = s["batch"]
+    for k in ("jaxpose_batch", "jaxpose_loop"):
+        _timing(batch[k])
+        assert batch[k]["objects_per_s"] > 0
+    scaling = s["scaling"]
+    assert [row["m"] for row in scaling["in_m"]] == [80]
+    assert "peak_rss_mb" in scaling["in_m"][0]["jaxpose"], scaling["in_m"][0]["jaxpose"]
+    assert [row["resolution"] for row in scaling["in_resolution"]["rows"]] == [8]
+
+    if sk:
+        assert r["sklearn"] == "available"
+        _timing(solver["sklearn"], compiled=False)
+        assert solver["ratio"] > 0
+        # same problem, same mapping: the objectives agree to solver tolerance (not a timing)
+        assert abs(solver["objective_rel_diff"]) < 1e-2
+        assert end["ratio"] > 0 and "center_err" in end["sklearn"]
+        assert batch["sklearn_loop"]["objects_per_s"] > 0
+        assert "peak_rss_mb" in scaling["in_m"][0]["sklearn"]
+        assert scaling["in_resolution"]["rows"][0]["ratio"] > 0
+    else:
+        assert r["sklearn"] == bench.UNAVAILABLE
+        assert solver["sklearn"] == bench.UNAVAILABLE and solver["ratio"] is None
+        assert end["sklearn"] == bench.UNAVAILABLE
+        assert batch["sklearn_loop"] == bench.UNAVAILABLE
+
+
+def test_bench_quick_json(tmp_path, monkeypatch, capsys):
+    _tiny(monkeypatch)
+    out = tmp_path / "bench.json"
+    code = cli.main(["bench", "--quick", "--json", str(out)])
+    assert code == 0
+    text = capsys.readouterr().out
+    assert "[solver]" in text and "[end2end]" in text and "ratio" in text
+    r = json.loads(out.read_text())
+    _check_schema(r, sk=bench.sklearn_available())
+    # refuses to overwrite
+    assert bench.cli(["--quick", "--sections", "solver", "--json", str(out)]) == 1
+
+
+def test_bench_without_sklearn(monkeypatch):
+    _tiny(monkeypatch)
+    monkeypatch.setattr(bench, "sklearn_available", lambda: False)
+    r = bench.run(("solver", "end2end", "batch"), quick=True)
+    assert r["sklearn"] == bench.UNAVAILABLE
+    assert r["sections"]["solver"]["sklearn"] == bench.UNAVAILABLE
+    assert r["sections"]["end2end"]["ratio"] is None
+    assert r["sections"]["batch"]["ratio_batch_vs_sklearn"] is None
+    assert "unavailable" in bench.format_table(r)
+
+
+def test_bench_usage_errors(capsys):
+    assert bench.cli(["--sections", "nope"]) == 2
+    assert bench.cli(["--m", "2"]) == 2
+    assert bench.cli(["--help"]) == 0
+    assert "--quick" in capsys.readouterr().out
+
+
+def test_sklearn_mapping_objective():
+    """The libsvm solution mapped into our scaling is feasible: sum a = 1, 0 <= a <= 1/(nu m)."""
+    if not bench.sklearn_available():
+        pytest.skip("scikit-learn is not installed")
+    import numpy as np
+
+    points, _ = bench.load_points(150)
+    y = bench.prescale(points)[0]
+    oc = bench._sk_fit(y, 47.0, 0.5)
+    a = bench._sk_alpha(oc, len(y), 0.5)
+    assert abs(a.sum() - 1.0) < 1e-9
+    assert a.min() >= 0 and a.max() <= 1.0 / (0.5 * len(y)) * (1 + 1e-9)
+    assert bench.dual_objective(y, a, 47.0) > 0
+    np.testing.assert_allclose(bench.prescale(points)[0].mean(axis=0), 0, atol=1e-12)

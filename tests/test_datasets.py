@@ -1,0 +1,150 @@
+"""Procedural dataset and folder loader."""
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+from jaxpose._validate import InvalidInputError
+from jaxpose.datasets import CLASSES, DEFORMATIONS, load_folder, make_dataset, make_object
+
+SHARED = next((p for p in (Path(__file__).resolve().parents[1] / ".." / "shared", Path("/work/shared"))
+               if (p / "data" / "faust-dev").is_dir()), None)
+
+
+@pytest.fixture(scope="module")
+def dataset():
+    return make_dataset(seed=0)
+
+
+def test_classes_and_counts(dataset):
+    assert CLASSES == ("human", "dolphin", "chair", "tree", "pot", "desktop_computer",
+                       "hand", "dog", "guitar", "piano", "spider", "horse")
+    assert list(dataset) == list(CLASSES)
+    assert all(len(meshes) == 10 for meshes in dataset.values())
+    small = make_dataset(seed=0, instances=3, classes=["dog", "pot"])
+    assert list(small) == ["dog", "pot"] and all(len(m) == 3 for m in small.values())
+
+
+def test_deterministic_per_seed(dataset):
+    again = make_object("spider", 3, seed=0)
+    np.testing.assert_array_equal(again.vertices, dataset["spider"][3].vertices)
+    np.testing.assert_array_equal(again.faces, dataset["spider"][3].faces)
+    other = make_object("spider", 3, seed=1)
+    assert other.vertices.shape != again.vertices.shape or not np.array_equal(other.vertices, again.vertices)
+    # references do not depend on the seed
+    np.testing.assert_array_equal(make_object("horse", 0, seed=5).vertices, dataset["horse"][0].vertices)
+
+
+def test_meshes_are_finite_and_unit_sized(dataset):
+    for name, meshes in dataset.items():
+        ref = meshes[0]
+        np.testing.assert_allclose(ref.extents.max(), 1.0, rtol=1e-12)
+        np.testing.assert_allclose(ref.bounds.mean(axis=0), 0.0, atol=1e-12)
+        for mesh in meshes:
+            assert isinstance(mesh, trimesh.Trimesh)
+            assert np.all(np.isfinite(mesh.vertices))
+            assert len(mesh.faces) > 50 and mesh.faces.max() < len(mesh.vertices)
+            assert 0.6 < mesh.extents.max() < 1.6, (name, mesh.metadata)
+            assert mesh.area > 0
+
+
+def test_instances_differ_but_share_their_rigid_core(dataset):
+    for name, meshes in dataset.items():
+        ref = meshes[0]
+        n = ref.metadata["core_vertex_count"]
+        assert 0 < n < len(ref.vertices)
+        assert ref.metadata["deformation"] == "reference"
+        for i, mesh in enumerate(meshes[1:], start=1):
+            assert mesh.metadata["core_vertex_count"] == n
+            np.testing.assert_array_equal(mesh.vertices[:n], ref.vertices[:n])
+            assert mesh.metadata["deformation"].startswith(DEFORMATIONS[i - 1].split("_")[0])
+            same = mesh.vertices.shape == ref.vertices.shape and np.allclose(mesh.vertices, ref.vertices)
+            assert not same, (name, i)
+
+
+def test_deformation_proportions():
+    kinds = [d.split("_")[0] for d in DEFORMATIONS]
+    assert kinds.count("articulation") > kinds.count("extrusion") > 0
+    assert kinds.count("outlier") >= 1
+    # later instances draw their deformation but stay valid
+    mesh = make_object("dog", 17, seed=2)
+    assert np.all(np.isfinite(mesh.vertices)) and mesh.metadata["instance"] == 17
+
+
+def test_outliers_change_the_part_count(dataset):
+    for name, meshes in dataset.items():
+        added, removed = meshes[8], meshes[9]
+        assert added.metadata["deformation"] == "outlier added"
+        assert len(added.vertices) > len(meshes[0].vertices)
+        assert removed.metadata["deformation"].startswith("outlier removed")
+        assert len(removed.vertices) < len(meshes[0].vertices)
+
+
+def test_make_dataset_is_fast():
+    import time
+
+    start = time.perf_counter()
+    make_dataset(seed=3)
+    assert time.perf_counter() - start < 10.0
+
+
+@pytest.mark.parametrize("call", [
+    lambda: make_object("cat", 0),
+    lambda: make_object("dog", -1),
+    lambda: make_object("dog", 1.5),
+    lambda: make_dataset(instances=0),
+    lambda: make_dataset(classes=["dog", "unicorn"]),
+])
+def test_bad_arguments(call):
+    with pytest.raises(InvalidInputError):
+        call()
+
+
+def test_load_folder_round_trip(tmp_path, dataset):
+    for name, suffix in (("chair", ".ply"), ("pot", ".obj")):
+        (tmp_path / name).mkdir()
+        for i in (2, 0, 1):  # written out of order, read sorted by file name
+            dataset[name][i].export(tmp_path / name / f"{name}_{i:02d}{suffix}")
+    (tmp_path / "chair" / "notes.txt").write_text("not a mesh")
+    (tmp_path / "empty").mkdir()
+    loaded = load_folder(tmp_path)
+    assert list(loaded) == ["chair", "pot"]
+    for name in ("chair", "pot"):
+        assert len(loaded[name]) == 3
+        for i, mesh in enumerate(loaded[name]):
+            np.testing.assert_allclose(mesh.vertices, dataset[name][i].vertices, atol=1e-6)
+            np.testing.assert_array_equal(mesh.faces, dataset[name][i].faces)
+    flat = load_folder(tmp_path / "pot")
+    assert list(flat) == ["pot"] and len(flat["pot"]) == 3
+
+
+def test_load_folder_errors(tmp_path):
+    with pytest.raises(InvalidInputError, match="not a folder"):
+        load_folder(tmp_path / "missing")
+    with pytest.raises(InvalidInputError, match="no mesh files"):
+        load_folder(tmp_path)
+    (tmp_path / "a").mkdir()
+    (tmp_path / "a" / "readme.md").write_text("x")
+    with pytest.raises(InvalidInputError, match="no mesh files"):
+        load_folder(tmp_path)
+    (tmp_path / "a" / "broken.ply").write_text("this is not a ply file")
+    with pytest.raises(InvalidInputError):
+        load_folder(tmp_path)
+
+
+@pytest.mark.shared
+@pytest.mark.skipif(SHARED is None, reason="needs ../shared/data/faust-dev")
+def test_load_folder_faust_classes(tmp_path):
+    source = SHARED / "data" / "faust-dev"
+    for person, ids in (("person_a", range(0, 3)), ("person_b", range(10, 13))):
+        (tmp_path / person).mkdir()
+        for i in ids:
+            os.symlink(source / f"tr_reg_{i:03d}.ply", tmp_path / person / f"tr_reg_{i:03d}.ply")
+    loaded = load_folder(tmp_path)
+    assert list(loaded) == ["person_a", "person_b"]
+    for meshes in loaded.values():
+        assert len(meshes) == 3
+        assert {m.vertices.shape for m in meshes} == {(6890, 3)}
+        assert np.all(np.isfinite(meshes[0].vertices))

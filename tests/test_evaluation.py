@@ -1,0 +1,289 @@
+"""Within-class spread measures, evaluation driver, sweeps and rigid-core alignment."""
+import os
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+import trimesh
+
+import jaxpose
+from jaxpose import evaluation
+from jaxpose._validate import InvalidInputError
+from jaxpose.evaluation import align_core, evaluate, format_table, scale_spread, spread, sweep
+
+SHARED = next((p for p in (Path(__file__).resolve().parents[1] / ".." / "shared", Path("/work/shared"))
+               if (p / "data" / "faust-dev").is_dir()), None)
+
+
+def _sample(mesh, count, seed):
+    from jaxpose.mesh import sample_surface
+
+    return sample_surface(mesh, count, seed)
+
+
+@pytest.fixture
+def fake_normalize(monkeypatch):
+    """jaxpose.normalize replaced by: center = gamma * mean of the points, scale = 1 + nu."""
+    calls = []
+
+    def normalize(points, gamma=47.0, nu=0.5, **options):
+        calls.append(options)
+        return SimpleNamespace(center=gamma * np.asarray(points).mean(axis=0), scale=1.0 + nu)
+
+    monkeypatch.setattr(jaxpose, "normalize", normalize, raising=False)
+    monkeypatch.delattr(jaxpose, "normalize_batch", raising=False)
+    return calls
+
+
+def _boxes():
+    """Two boxes: centers (0,0,0), (2,0,0); extents 1, 3 (hand-checkable spreads)."""
+    a = trimesh.creation.box(extents=(1.0, 1.0, 1.0))
+    b = trimesh.creation.box(extents=(3.0, 3.0, 3.0))
+    b.apply_translation((2.0, 0.0, 0.0))
+    return [a, b]
+
+
+# ------------------------------------------------------------------ measures
+def test_spread_by_hand():
+    # mean (.5,.5,.5); squared distances .75, 2.75, 2.75, 2.75 -> mean 2.25 -> 1.5
+    # per axis: values (0,2,0,0) -> population variance .75 on every axis
+    out = spread([[0, 0, 0], [2, 0, 0], [0, 2, 0], [0, 0, 2]])
+    assert out["sigma_tr"] == pytest.approx(1.5, rel=1e-14)
+    assert out["sigma_tr_axis"] == pytest.approx(np.sqrt(0.75), rel=1e-14)
+    out = spread([[0, 0, 0], [2, 0, 0]])
+    assert out == pytest.approx({"sigma_tr": 1.0, "sigma_tr_axis": 1.0 / 3.0})
+    assert spread([[1.0, 2.0, 3.0]]) == {"sigma_tr": 0.0, "sigma_tr_axis": 0.0}
+
+
+def test_scale_spread_by_hand():
+    assert scale_spread([1.0, 3.0]) == pytest.approx({"sigma_scale": 1.0, "cv_scale": 0.5})
+    # (2, 4, 6): mean 4, population variance 8/3
+    assert scale_spread([2.0, 4.0, 6.0]) == pytest.approx({"sigma_scale": np.sqrt(8 / 3), "cv_scale": np.sqrt(8 / 3) / 4})
+
+
+@pytest.mark.parametrize("bad", [np.zeros((3, 2)), np.zeros((0, 3)), [[0, 0, np.nan]]])
+def test_spread_rejects(bad):
+    with pytest.raises(InvalidInputError):
+        spread(bad)
+
+
+@pytest.mark.parametrize("bad", [[], [1.0, -1.0], [[1.0, 2.0]], [1.0, np.inf]])
+def test_scale_spread_rejects(bad):
+    with pytest.raises(InvalidInputError):
+        scale_spread(bad)
+
+
+# ------------------------------------------------------------------ alignment
+def _rigid(rng):
+    rot = trimesh.transformations.random_rotation_matrix(rng.uniform(size=3))[:3, :3]
+    return rot, rng.normal(size=3)
+
+
+def test_align_core_recovers_a_rigid_copy():
+    rng = np.random.default_rng(0)
+    v = rng.normal(size=(300, 3))
+    rot, t = _rigid(rng)
+    out = align_core([v, v @ rot.T + t, v @ rot.T @ rot.T + 2 * t])
+    for mesh in out:
+        np.testing.assert_allclose(mesh.vertices, v, atol=1e-10)
+    np.testing.assert_array_equal(out[0].metadata["core_transform"], np.eye(4))
+    matrix = out[1].metadata["core_transform"]
+    np.testing.assert_allclose(matrix[:3, :3], rot.T, atol=1e-12)  # the inverse motion
+    np.testing.assert_allclose(matrix[:3, 3], -rot.T @ t, atol=1e-12)
+
+
+def test_align_core_ignores_moved_vertices():
+    rng = np.random.default_rng(1)
+    v = rng.uniform(-1, 1, size=(500, 3))
+    moved = rng.permutation(500)[:200]  # 40% of the vertices articulated away
+    copies = [v]
+    for _ in range(3):
+        rot, t = _rigid(rng)
+        w = v.copy()
+        w[moved] += rng.normal(scale=0.5, size=(200, 3))
+        copies.append(w @ rot.T + t)
+    out = align_core(copies)
+    still = np.setdiff1d(np.arange(500), moved)
+    for mesh in out[1:]:
+        np.testing.assert_allclose(mesh.vertices[still], v[still], atol=1e-9)
+    # on all vertices a single Kabsch fit would not get there
+    naive = align_core(copies, keep=1.0)
+    assert np.abs(naive[1].vertices[still] - v[still]).max() > 1e-3
+
+
+def test_align_core_keeps_faces_and_checks_counts():
+    box = trimesh.creation.box()
+    moved = box.copy()
+    moved.apply_transform(trimesh.transformations.rotation_matrix(0.3, (0, 0, 1), point=(1, 2, 3)))
+    out = align_core([box, moved])
+    np.testing.assert_array_equal(out[1].faces, box.faces)
+    np.testing.assert_allclose(out[1].vertices, box.vertices, atol=1e-12)
+    with pytest.raises(InvalidInputError, match="same vertex count"):
+        align_core([box, trimesh.creation.icosphere()])
+    with pytest.raises(InvalidInputError):
+        align_core([box], keep=0.0)
+
+
+# ------------------------------------------------------------------ evaluate
+def test_evaluate_baselines_by_hand(fake_normalize):
+    result = evaluate({"boxes": _boxes(), "same": _boxes()}, methods=["bbox", "min_ball", "surface_centroid"])
+    assert [row["method"] for row in result["summary"]] == ["bbox", "min_ball", "surface_centroid"]
+    cell = result["per_class"]["boxes"]["bbox"]
+    np.testing.assert_allclose(cell["centers"], [[0, 0, 0], [2, 0, 0]], atol=1e-12)
+    assert cell["scales"] == pytest.approx([1.0, 3.0])
+    assert cell["sigma_tr"] == pytest.approx(1.0) and cell["sigma_tr_axis"] == pytest.approx(1 / 3)
+    assert cell["sigma_scale"] == pytest.approx(1.0) and cell["cv_scale"] == pytest.approx(0.5)
+    ball = result["per_class"]["boxes"]["min_ball"]
+    assert ball["scales"] == pytest.approx([np.sqrt(3) / 2, 3 * np.sqrt(3) / 2])
+    assert ball["sigma_tr"] == pytest.approx(1.0, abs=1e-9)
+    centroid = result["per_class"]["boxes"]["surface_centroid"]
+    np.testing.assert_allclose(centroid["centers"], [[0, 0, 0], [2, 0, 0]], atol=1e-12)
+    summary = {row["method"]: row for row in result["summary"]}
+    assert summary["bbox"]["sigma_tr"] == pytest.approx(1.0)  # same in both classes
+    assert summary["bbox"]["seconds"] >= 0.0
+    assert not fake_normalize  # ocsvm was not asked for
+    import json
+
+    json.dumps(result)
+
+
+def test_evaluate_ocsvm_uses_samples_and_options(fake_normalize):
+    boxes = _boxes()
+    result = evaluate({"boxes": boxes}, gamma=2.0, nu=0.25, methods=["ocsvm"], count=500, seed=3,
+                      resolution=16)
+    cell = result["per_class"]["boxes"]["ocsvm"]
+    expected = np.stack([2.0 * _sample(m, 500, 3).mean(axis=0) for m in boxes])
+    np.testing.assert_allclose(cell["centers"], expected, rtol=1e-12, atol=1e-12)
+    assert cell["scales"] == [1.25, 1.25] and cell["sigma_scale"] == 0.0
+    assert cell["sigma_tr"] == pytest.approx(spread(expected)["sigma_tr"])
+    assert cell["sigma_tr"] == pytest.approx(2.0, rel=0.05)  # the box centers, doubled
+    assert fake_normalize == [{"resolution": 16}] * 2
+    assert result["params"]["normalize_options"] == {"resolution": 16}
+    assert result["params"]["gamma"] == 2.0 and result["params"]["count"] == 500
+
+
+def test_evaluate_prefers_normalize_batch(fake_normalize, monkeypatch):
+    batches = []
+
+    def normalize_batch(points_list, gamma=47.0, nu=0.5, **options):
+        batches.append(len(points_list))
+        centers = np.stack([gamma * np.asarray(p).mean(axis=0) for p in points_list])
+        return SimpleNamespace(center=centers, scale=np.full(len(points_list), 1.0 + nu))
+
+    monkeypatch.setattr(jaxpose, "normalize_batch", normalize_batch, raising=False)
+    batched = evaluate({"boxes": _boxes()}, methods=["ocsvm"], count=200)
+    assert batches == [2] and not fake_normalize
+    assert batched["per_class"]["boxes"]["ocsvm"]["converged"] == [True, True]
+    listed = []
+
+    def normalize_list(points_list, gamma=47.0, nu=0.5, **options):  # a list of poses works too
+        listed.append(len(points_list))
+        return [jaxpose.normalize(p, gamma=gamma, nu=nu) for p in points_list]
+
+    monkeypatch.setattr(jaxpose, "normalize_batch", normalize_list)
+    as_list = evaluate({"boxes": _boxes()}, methods=["ocsvm"], count=200)
+    assert listed == [2] and len(fake_normalize) == 2
+    monkeypatch.delattr(jaxpose, "normalize_batch")
+    looped = evaluate({"boxes": _boxes()}, methods=["ocsvm"], count=200)
+    assert len(fake_normalize) == 4
+    np.testing.assert_allclose(as_list["per_class"]["boxes"]["ocsvm"]["centers"],
+                               looped["per_class"]["boxes"]["ocsvm"]["centers"], rtol=1e-12)
+    np.testing.assert_allclose(batched["per_class"]["boxes"]["ocsvm"]["centers"],
+                               looped["per_class"]["boxes"]["ocsvm"]["centers"], rtol=1e-12)
+
+
+def test_evaluate_align_core_and_progress(fake_normalize):
+    box = trimesh.creation.box(extents=(1.0, 2.0, 3.0))
+    moved = box.copy()
+    moved.apply_transform(trimesh.transformations.rotation_matrix(0.7, (1, 1, 0), point=(3, 0, 0)))
+    messages = []
+    plain = evaluate({"box": [box, moved]}, methods=["surface_centroid"])
+    aligned = evaluate({"box": [box, moved]}, methods=["surface_centroid"], align_core=True,
+                       progress=messages.append)
+    assert plain["per_class"]["box"]["surface_centroid"]["sigma_tr"] > 0.1
+    assert aligned["per_class"]["box"]["surface_centroid"]["sigma_tr"] < 1e-10
+    assert messages and all(isinstance(m, str) for m in messages)
+
+
+@pytest.mark.parametrize("kwargs", [{"methods": ["ocsvm", "median"]}, {"methods": []}])
+def test_evaluate_rejects(kwargs, fake_normalize):
+    with pytest.raises(InvalidInputError):
+        evaluate({"boxes": _boxes()}, **kwargs)
+    with pytest.raises(InvalidInputError, match="at least 2"):
+        evaluate({"boxes": _boxes()[:1]})
+    with pytest.raises(InvalidInputError):
+        evaluate({})
+
+
+def test_sweep_with_fake_normalize(fake_normalize):
+    classes = {"boxes": _boxes()}
+    out = sweep(classes, "gamma", values=[1.0, 3.0], count=300)
+    assert out["param"] == "gamma" and out["values"] == [1.0, 3.0] and out["fixed"] == {"nu": 0.0}
+    s1, s3 = out["per_class"]["boxes"]["sigma_tr"]
+    assert s3 == pytest.approx(3.0 * s1, rel=1e-12)  # the fake center scales with gamma
+    assert out["average"]["sigma_tr"] == [s1, s3]
+    assert out["surface_centroid"]["average"]["sigma_tr"] == pytest.approx(1.0)
+    out = sweep(classes, "nu", values=[0.1, 0.5], count=300)
+    assert out["fixed"] == {"gamma": 47.0}
+    assert out["average"]["sigma_scale"] == [0.0, 0.0]
+    with pytest.raises(InvalidInputError):
+        sweep(classes, "count")
+
+
+def test_evaluate_with_sweep_flag(fake_normalize, monkeypatch):
+    monkeypatch.setattr(evaluation, "SWEEP_VALUES", {"gamma": (1.0, 2.0), "nu": (0.1,)})
+    result = evaluate({"boxes": _boxes()}, methods=["surface_centroid"], count=100, sweep=True)
+    assert set(result["sweeps"]) == {"gamma", "nu"}
+    assert result["sweeps"]["gamma"]["values"] == [1.0, 2.0]
+
+
+def test_format_table():
+    row = {"sigma_tr_axis": 0.02, "cv_scale": 0.1, "seconds": 1.5}
+    result = {"params": {"gamma": 47.0, "nu": 0.5, "count": 2000, "align_core": False},
+              "per_class": {"a": {}},
+              "summary": [{"method": "ocsvm", "sigma_tr": 0.0361, "sigma_scale": 0.01425, **row},
+                          {"method": "surface_centroid", "sigma_tr": 0.0475, "sigma_scale": 0.01699, **row}]}
+    text = format_table(result)
+    assert "ocsvm" in text and "surface_centroid" in text and "sigma_tr_axis" in text
+    assert "0.03610" in text and "0.04750" in text
+    assert "sigma_tr +24.0%" in text and "sigma_scale +16.1%" in text
+
+
+# ------------------------------------------------------------------ end to end
+@pytest.mark.skipif(not hasattr(jaxpose, "normalize"), reason="jaxpose.normalize not available yet")
+def test_evaluate_end_to_end_small():
+    from jaxpose.datasets import make_dataset
+
+    classes = make_dataset(seed=0, instances=3, classes=["chair", "pot"])
+    result = evaluate(classes, methods=["ocsvm", "surface_centroid"], count=200, resolution=24)
+    assert result["params"]["normalize_options"] == {"resolution": 24}
+    for name, meshes in classes.items():
+        cell = result["per_class"][name]["ocsvm"]
+        assert len(cell["converged"]) == 3 and all(isinstance(c, bool) for c in cell["converged"])
+        centers = np.asarray(cell["centers"])
+        assert np.all(np.isfinite(centers)) and np.all(np.asarray(cell["scales"]) > 0)
+        for c, m in zip(centers, meshes):
+            assert np.all(c > m.bounds[0] - 1e-6) and np.all(c < m.bounds[1] + 1e-6)
+        assert 0.0 <= cell["sigma_tr"] < 0.2
+    assert "reduction" in format_table(result)
+
+
+@pytest.mark.shared
+@pytest.mark.skipif(SHARED is None, reason="needs ../shared/data/faust-dev")
+def test_faust_core_alignment(tmp_path):
+    from jaxpose.datasets import load_folder
+
+    (tmp_path / "person_a").mkdir()
+    for i in range(3):
+        name = f"tr_reg_{i:03d}.ply"
+        os.symlink(SHARED / "data" / "faust-dev" / name, tmp_path / "person_a" / name)
+    classes = load_folder(tmp_path)
+    aligned = align_core(classes["person_a"])
+    np.testing.assert_array_equal(aligned[0].vertices, classes["person_a"][0].vertices)
+    for mesh in aligned:
+        rot = mesh.metadata["core_transform"][:3, :3]
+        np.testing.assert_allclose(rot @ rot.T, np.eye(3), atol=1e-12)
+        assert np.linalg.det(rot) == pytest.approx(1.0)
+    result = evaluate(classes, methods=["surface_centroid", "bbox"], align_core=True)
+    assert all(np.isfinite(row["sigma_tr"]) for row in result["summary"])

@@ -1,0 +1,119 @@
+"""SVDD dual against scikit-learn's OneClassSVM (libsvm) as the oracle.
+
+Mapping (see jaxpose/svdd.py): libsvm's b = dual_coef_ at support_, b = nu m alpha;
+rho = offset_ = nu m mu / 2; decision_function = (nu m / 2) f.
+"""
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import jaxpose
+from jaxpose.svdd import fit_svdd, decision_function
+from conftest import clusters, faust_points, sphere_with_arm
+
+sklearn_svm = pytest.importorskip("sklearn.svm")
+
+GAMMA = 47.0
+
+
+def libsvm(points, nu):
+    oc = sklearn_svm.OneClassSVM(kernel="rbf", gamma=GAMMA, nu=nu, tol=1e-6, cache_size=500).fit(points)
+    m = len(points)
+    b = np.zeros(m)
+    b[oc.support_] = oc.dual_coef_[0]
+    return oc, b / (nu * m)
+
+
+def kernel(p):
+    d = p[:, None, :] - p[None]
+    return np.exp(-GAMMA * (d * d).sum(-1))
+
+
+@pytest.mark.parametrize("shape", ["sphere_with_arm", "clusters", "faust"])
+@pytest.mark.parametrize("nu", [0.1, 0.5, 0.9])
+def test_dual_and_signs_match_libsvm(x64, shape, nu):
+    m = 1000
+    pts = {"sphere_with_arm": sphere_with_arm, "clusters": clusters, "faust": faust_points}[shape](m)
+    svdd = fit_svdd(pts, GAMMA, nu, tol=1e-6, max_iter=200_000)
+    assert bool(svdd.converged)
+    oc, a_sk = libsvm(pts, nu)
+    K = kernel(pts)
+    ours, theirs = float(svdd.alpha @ K @ svdd.alpha), float(a_sk @ K @ a_sk)
+    assert ours <= theirs * (1 + 1e-6), (ours, theirs)
+    a = np.asarray(svdd.alpha)
+    assert abs(a.sum() - 1) < 1e-12 and a.min() >= 0 and a.max() <= 1 / (nu * m) * (1 + 1e-12)
+    rng = np.random.default_rng(1)
+    lo, hi = pts.min(0) - 0.2, pts.max(0) + 0.2
+    test = rng.uniform(lo, hi, size=(10_000, 3))
+    near = pts[rng.choice(m, 2_000)] + rng.normal(size=(2_000, 3)) * 0.05  # the boundary region
+    test = np.concatenate([test[:8_000], near])
+    f = np.asarray(decision_function(svdd, test))
+    f_sk = oc.decision_function(test) * 2 / (nu * m)
+    keep = np.abs(f) > 1e-6
+    agree = np.mean(np.sign(f[keep]) == np.sign(f_sk[keep]))
+    assert agree >= 0.999, agree
+    # the two decision functions are the same function up to solver accuracy
+    assert np.max(np.abs(f - f_sk)) < 1e-3 * np.ptp(f)
+    # R^2 = 1 - mu + a^T K a, mu = 2 rho / (nu m)
+    np.testing.assert_allclose(float(svdd.offset), 2 * oc.offset_[0] / (nu * m), rtol=1e-3)
+
+
+def test_hard_margin_nu_zero_all_points_inside(x64):
+    pts = sphere_with_arm(400)
+    svdd = fit_svdd(pts, GAMMA, 0.0, tol=1e-8, max_iter=100_000)
+    assert float(svdd.cap) == 1.0
+    f = np.asarray(decision_function(svdd, pts))
+    assert f.min() > -1e-6 * float(svdd.offset)  # every training point in the ball
+
+
+def test_nu_one_uniform(x64):
+    pts = clusters(300)
+    svdd = fit_svdd(pts, GAMMA, 1.0)
+    np.testing.assert_allclose(np.asarray(svdd.alpha), 1 / 300, rtol=1e-12)
+    assert np.isfinite(float(svdd.offset))
+
+
+def test_float32_and_jit_and_vmap():
+    pts = jnp.asarray(np.stack([sphere_with_arm(300, seed=s) for s in range(3)]), jnp.float32)
+    fit = jax.jit(lambda p, g, n: fit_svdd(p, g, n))
+    batched = jax.vmap(fit, in_axes=(0, None, None))(pts, GAMMA, 0.5)
+    assert batched.alpha.shape == (3, 300) and batched.alpha.dtype == jnp.float32
+    for i in range(3):
+        single = fit_svdd(pts[i], GAMMA, 0.5)
+        f1 = decision_function(single, pts[i])
+        fb = decision_function(jax.tree_util.tree_map(lambda v: v[i], batched), pts[i])
+        assert np.max(np.abs(np.asarray(f1 - fb))) < 2e-3 * float(single.offset)
+    assert bool(jnp.all(batched.converged))
+
+
+def test_blocked_kernel_matches_dense(x64):
+    pts = clusters(500)
+    d = fit_svdd(pts, GAMMA, 0.3, kernel="dense", tol=1e-7)
+    b = fit_svdd(pts, GAMMA, 0.3, kernel="blocked", block=128, tol=1e-7)
+    np.testing.assert_allclose(np.asarray(d.alpha), np.asarray(b.alpha), atol=1e-7)
+
+
+def test_decision_function_blocks_and_far_offsets(x64):
+    pts = sphere_with_arm(300) + 1e6
+    svdd = fit_svdd(pts, GAMMA, 0.5)
+    x = pts[:50] + 0.01
+    f_small_blocks = decision_function(svdd, x, block=7)
+    d = x[:, None] - pts[None]
+    direct = 2 * np.exp(-GAMMA * (d * d).sum(-1)) @ np.asarray(svdd.alpha) - float(svdd.offset)
+    np.testing.assert_allclose(np.asarray(f_small_blocks), direct, atol=1e-12)
+
+
+def test_throw_on_iteration_cap():
+    pts = clusters(300)
+    with pytest.raises(jaxpose.ConvergenceError):
+        fit_svdd(pts, GAMMA, 0.5, tol=1e-12, max_iter=20, throw=True)
+    svdd = fit_svdd(pts, GAMMA, 0.5, tol=1e-12, max_iter=20)
+    assert not bool(svdd.converged) and int(svdd.iterations) == 20
+
+
+@pytest.mark.parametrize("bad", [dict(gamma=0.0), dict(gamma=float("nan")), dict(nu=1.5), dict(nu=-0.1)])
+def test_bad_hyperparameters(bad):
+    args = dict(gamma=GAMMA, nu=0.5) | bad
+    with pytest.raises(jaxpose.InvalidInputError):
+        fit_svdd(clusters(50), **args)

@@ -563,7 +563,8 @@ def run(sections=SECTIONS, quick=False, m=None, repeats=None, scaling_m=None, re
     points, source = load_points(cfg["m"])
     result = {"schema_version": SCHEMA_VERSION, "quick": bool(quick), "source": source, "gamma": GAMMA, "nu": NU,
               "repeats": cfg["repeats"], "environment": _environment(),
-              "sklearn": "available" if (use_sklearn and sklearn_available()) else UNAVAILABLE, "sections": {}}
+              "sklearn": ("available" if sklearn_available() else UNAVAILABLE) if use_sklearn else "disabled",
+              "sections": {}}
     sk = use_sklearn
     if "solver" in sections:
         say(f"solver (m={cfg['m']})")

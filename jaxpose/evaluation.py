@@ -141,23 +141,19 @@ def _sample(mesh, count, seed):
 
 
 def _ocsvm(points_list, gamma, nu, options):
-    """Centers (n, 3), scales (n,) and solver convergence flags of jaxpose.normalize per point set."""
+    """Centers (n, 3), scales (n,) and solver convergence flags of jaxpose.normalize per point set.
+
+    A loop over ``normalize`` (one compilation for equal point counts): on CPU it is faster
+    than ``normalize_batch``, whose vmapped loops run every object as long as the slowest
+    and cannot skip work per object.
+    """
     import jaxpose
 
-    batch = getattr(jaxpose, "normalize_batch", None)
-    if batch is not None and len(points_list) > 1:
-        poses = batch(points_list, gamma=gamma, nu=nu, **options)
-    else:
-        poses = [jaxpose.normalize(p, gamma=gamma, nu=nu, **options) for p in points_list]
-    if hasattr(poses, "center"):  # one Pose with batched fields (a NamedTuple: test this first)
-        centers = np.asarray(poses.center, dtype=np.float64).reshape(-1, 3)
-        scales = np.asarray(poses.scale, dtype=np.float64).reshape(-1)
-        converged = np.broadcast_to(np.asarray(getattr(poses, "converged", True)), scales.shape)
-    else:  # a sequence of Pose
-        centers = np.stack([np.asarray(p.center, dtype=np.float64).reshape(3) for p in poses])
-        scales = np.array([float(np.asarray(p.scale)) for p in poses])
-        converged = np.array([bool(np.asarray(getattr(p, "converged", True))) for p in poses])
-    return centers, scales, [bool(c) for c in converged]
+    poses = [jaxpose.normalize(p, gamma=gamma, nu=nu, **options) for p in points_list]
+    centers = np.stack([np.asarray(p.center, dtype=np.float64).reshape(3) for p in poses])
+    scales = np.array([float(np.asarray(p.scale)) for p in poses])
+    converged = [bool(np.asarray(p.converged)) for p in poses]
+    return centers, scales, converged
 
 
 def _baseline(meshes, method):

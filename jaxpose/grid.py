@@ -44,23 +44,47 @@ def cell_centers(lo, hi, resolution):
     return x, h
 
 
+SV_CHUNK = 256
+
+
 def evaluate_on_grid(svdd, x, block=2048):
     """f and grad f at x : (n, 3), in blocks of rows. -> (n,), (n, 3).
 
     grad f = -4 gamma sum_i alpha_i k(x, x_i) (x - x_i). Distances come from one
     matrix product (about 10x faster than explicit differences); both sides are
     shifted by the points' mean first so the expansion loses no accuracy.
+    Points are sorted by alpha and taken in chunks; chunks with no support vector
+    (alpha = 0: often a third of the points or more) are skipped with ``lax.cond``.
     """
     shift = jax.lax.stop_gradient(jnp.mean(svdd.points, axis=0))
-    p = svdd.points - shift
+    m = svdd.points.shape[0]
+    chunk = min(SV_CHUNK, m)
+    pad = (-m) % chunk
+    order = jnp.argsort(-jax.lax.stop_gradient(svdd.alpha))
+    p = jnp.concatenate([(svdd.points - shift)[order], jnp.zeros((pad, 3), svdd.points.dtype)])
+    a = jnp.concatenate([svdd.alpha[order], jnp.zeros((pad,), svdd.alpha.dtype)])
+    p, a = p.reshape(-1, chunk, 3), a.reshape(-1, chunk)
     pn = jnp.sum(p * p, axis=-1)
-    a, g, mu = svdd.alpha, svdd.gamma, svdd.offset
+    g, mu = svdd.gamma, svdd.offset
 
     def one_block(xb):
         xb = xb - shift
-        d2 = jnp.maximum(jnp.sum(xb * xb, axis=-1)[:, None] + pn[None, :] - 2.0 * xb @ p.T, 0.0)
-        e = jnp.exp(-g * d2) * a
-        s = jnp.sum(e, axis=-1)
-        return 2.0 * s - mu, -4.0 * g * (xb * s[:, None] - e @ p)
+        xn = jnp.sum(xb * xb, axis=-1)[:, None]
+
+        def add_chunk(acc, c):
+            pc, ac, pnc = c
+
+            def terms(_):
+                d2 = jnp.maximum(xn + pnc[None, :] - 2.0 * xb @ pc.T, 0.0)
+                e = jnp.exp(-g * d2) * ac
+                return jnp.sum(e, axis=-1), e @ pc
+
+            zero = (jnp.zeros(xb.shape[:1], xb.dtype), jnp.zeros_like(xb))
+            s, ep = jax.lax.cond(jnp.any(jax.lax.stop_gradient(ac) > 0), terms, lambda _: zero, None)
+            return (acc[0] + s, acc[1] + ep), None
+
+        init = (jnp.zeros(xb.shape[:1], xb.dtype), jnp.zeros_like(xb))
+        (s, ep), _ = jax.lax.scan(add_chunk, init, (p, a, pn))
+        return 2.0 * s - mu, -4.0 * g * (xb * s[:, None] - ep)
 
     return map_blocks(one_block, x, block)

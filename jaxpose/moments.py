@@ -24,7 +24,7 @@ __all__ = ["Moments", "volume_moments", "occupancy", "moments_from_occupancy"]
 class Moments(NamedTuple):
     """center : (3,) c_m (eq. 4); mean_distance : () d_m (eq. 5); volume : ();
     second_moment : (3, 3) (1/V) int (x - c)(x - c)^T; cell : (3,) coarse grid spacing;
-    unrefined : () cells near the boundary left unrefined because ``band`` was too small."""
+    unrefined : () cells cut by the boundary left unrefined because ``band`` was too small."""
 
     center: jax.Array
     mean_distance: jax.Array
@@ -66,15 +66,15 @@ def _band_score(f, grad, h, gamma, offset):
     return jax.lax.stop_gradient(jnp.where(width > 0, jnp.abs(f) / jnp.where(width > 0, width, 1.0), jnp.inf))
 
 
-def volume_moments(svdd, resolution=32, refine=8, band=8192, block=2048) -> Moments:
+def volume_moments(svdd, resolution=32, refine=4, band=8192, block=2048) -> Moments:
     """Centroid, mean distance, volume and second moment of {f >= 0}.
 
     svdd : SVDD (points in any units; moments come in the same units)
     resolution : coarse cells per axis (static) on a box that provably covers the region
     refine : power of 2; cells near the boundary are split in 2 x 2 x 2, log2(refine) times
     band : cells refined at the first level, doubled at each further level (static caps;
-        ``Moments.unrefined`` counts candidate cells that did not fit; the curvature
-        allowance makes it conservative: most such cells are wholly in or out)
+        ``Moments.unrefined`` counts cells cut by the boundary that did not fit: 0 means
+        the band was wide enough)
 
     Cost: resolution^3 + 8 band (1 + 2 + 4 + ...) evaluations of f; accuracy near the
     boundary is that of a (resolution * refine)^3 grid.
@@ -89,7 +89,7 @@ def volume_moments(svdd, resolution=32, refine=8, band=8192, block=2048) -> Mome
 _CHILDREN = jnp.stack(jnp.meshgrid(*[jnp.array([-0.25, 0.25])] * 3, indexing="ij"), axis=-1).reshape(8, 3)
 
 
-def _volume_moments(svdd, resolution, block, refine=8, band=8192):
+def _volume_moments(svdd, resolution, block, refine=4, band=8192):
     lo, hi = domain(svdd)
     x, h = cell_centers(lo, hi, resolution)
     f, grad = evaluate_on_grid(svdd, x, block)
@@ -98,10 +98,13 @@ def _volume_moments(svdd, resolution, block, refine=8, band=8192):
     k = band
     while refine > 1 and k > 0:
         k = min(k, x.shape[0])
-        score = _band_score(f, grad, h, svdd.gamma, svdd.offset)
+        w = jax.lax.stop_gradient(ws[-1])
+        partial = (w > 0) & (w < vol)  # cut by the linearised boundary: must be refined
+        # partial cells first, the most evenly cut first (not index order: no spatial bias on overflow)
+        score = jnp.where(partial, -1.5 + jnp.abs(w / vol - 0.5), _band_score(f, grad, h, svdd.gamma, svdd.offset))
         neg, idx = jax.lax.top_k(-score, k)
         chosen = (-neg < 1.0).astype(x.dtype)
-        unrefined = unrefined + jnp.sum(score < 1.0) - jnp.sum(chosen).astype(unrefined.dtype)
+        unrefined = unrefined + jnp.sum(partial) - jnp.sum(partial[idx])
         ws[-1] = ws[-1].at[idx].multiply(1.0 - chosen)  # replaced by their children
         x = (x[idx][:, None, :] + _CHILDREN.astype(x.dtype) * h).reshape(-1, 3)
         h, vol, refine, k = h / 2, vol / 8, refine // 2, 2 * k

@@ -101,7 +101,7 @@ def _normalize(points, mask, gamma, nu, resolution, refine, band, tol, max_iter,
 
 
 _STATIC = ("resolution", "refine", "band", "tol", "max_iter", "check_every", "kernel", "block")
-DEFAULTS = dict(resolution=32, refine=8, band=8192, tol=1e-3, max_iter=20_000, check_every=10, kernel="auto", block=2048)
+DEFAULTS = dict(resolution=32, refine=4, band=8192, tol=1e-3, max_iter=20_000, check_every=10, kernel="auto", block=2048)
 _normalize_jit = jax.jit(_normalize, static_argnames=_STATIC)
 
 
@@ -130,7 +130,7 @@ def normalize(
     nu=0.5,
     *,
     resolution=32,
-    refine=8,
+    refine=4,
     band=8192,
     tol=1e-3,
     max_iter=20_000,
@@ -144,7 +144,7 @@ def normalize(
     gamma : () > 0, dimensionless (for the pre-scaled points, see module docs)
     nu : () in [0, 1]
     resolution, refine, band : volume-integral grid (static, see ``volume_moments``);
-        the defaults resolve the boundary like a 256^3 grid
+        the defaults resolve the boundary like a 128^3 grid; refine=8, band=16384 like 256^3 (4x slower)
     tol, max_iter, check_every, kernel, block : solver options (see ``fit_svdd``)
 
     A pure JAX function of (points, gamma, nu): jittable (options static),

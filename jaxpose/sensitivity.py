@@ -5,7 +5,7 @@ solution is differentiated through its KKT system on the active set
 (``svdd._implicit_alpha``), the region moments through the coarea boundary term
 (``moments``). The solution a*(gamma) is smooth between rare active-set changes,
 and this derivative agrees with central finite differences (see
-tests/test_gradients.py and the report in scripts/check_gradients.py).
+``sweep`` in tests/test_gradients.py: within 5 % on smooth shapes at m = 400).
 
 nu: what is delivered is a *secant* derivative, the slope of the SVDD solution over
 the interval [nu (1 - delta), nu (1 + delta)] (``nu_delta``, default 1.5 %):

@@ -1,0 +1,389 @@
+"""Figures of the paper, headless (matplotlib's Agg canvas; no pyplot state, no OpenGL).
+
+Every function draws into ``ax`` when given (an Axes, or a sequence of them where a function
+draws several panels) or into a new :class:`matplotlib.figure.Figure`, saves it as PNG when
+``path`` is given, and returns the Figure. matplotlib is imported inside the functions so that
+``import jaxpose`` stays light.
+
+* :func:`region_slices`   slices of the decision function f through the region's center, the
+  f = 0 contour and the samples (paper, Fig. 3);
+* :func:`mesh_3d`         a mesh (Poly3DCollection) or a point cloud (scatter);
+* :func:`centers_plot`    a shape with the baseline centers and the OCSVM center marked;
+* :func:`sweep_curves`    sigma_tr (or sigma_scale) against gamma / nu, averaged (Fig. 5) or per
+  class (Fig. 6), with the surface centroid's value as a red line;
+* :func:`scale_bars`      per-class sigma_scale, OCSVM against the surface's mean distance (Fig. 7);
+* :func:`overlay_pairs`   pairs of normalized objects of one class overlaid (Fig. 8);
+* :func:`evaluation_figures`  all figures of an :func:`jaxpose.evaluation.evaluate` result.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["region_slices", "mesh_3d", "centers_plot", "sweep_curves", "scale_bars",
+           "overlay_pairs", "evaluation_figures"]
+
+OCSVM_COLOR = "tab:blue"  # the paper's blue curve
+SURFACE_COLOR = "tab:red"  # and red line
+REGION_COLOR = "tab:orange"  # the paper's orange distribution
+CENTER_STYLES = {  # name -> (label, color, marker)
+    "ocsvm": ("OCSVM", OCSVM_COLOR, "*"),
+    "surface_centroid": ("surface centroid", SURFACE_COLOR, "o"),
+    "vertex_mean": ("vertex mean", "tab:green", "s"),
+    "bbox_center": ("bounding-box center", "tab:purple", "^"),
+    "min_ball": ("min. ball center", "tab:brown", "D"),
+}
+_PLANES = {"xy": (0, 1), "xz": (0, 2), "yz": (1, 2)}
+
+
+# --------------------------------------------------------------------------- helpers
+def _figure(ax, nrows=1, ncols=1, size=(4.0, 3.5), projection=None, **kw):
+    """(figure, axes as a flat list) drawing into ``ax`` or a new Figure."""
+    if ax is not None:
+        axes = list(np.ravel(ax)) if isinstance(ax, (list, tuple, np.ndarray)) else [ax]
+        return axes[0].figure, axes
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(size[0] * ncols, size[1] * nrows), layout="constrained")
+    if projection == "3d":
+        import mpl_toolkits.mplot3d  # noqa: F401  (registers the projection)
+    axes = fig.subplots(nrows, ncols, squeeze=False, subplot_kw={"projection": projection} if projection else None, **kw)
+    return fig, list(axes.ravel())
+
+
+def _finish(fig, path, dpi=90):
+    if path is not None:
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fig.savefig(path, dpi=dpi)
+    return fig
+
+
+def _vertices_faces(mesh_or_points):
+    v = np.asarray(getattr(mesh_or_points, "vertices", mesh_or_points), dtype=np.float64)
+    f = getattr(mesh_or_points, "faces", None)
+    f = np.asarray(f, dtype=np.int64) if f is not None and len(f) > 0 else None
+    if v.ndim != 2 or v.shape[1] != 3 or len(v) == 0:
+        raise ValueError(f"expected a mesh or an (n, 3) array of points, got shape {v.shape}")
+    return v, f
+
+
+def _center_scale(pose):
+    """(center (3,), scale) of a Pose-like object or a (center, scale) pair."""
+    if hasattr(pose, "center"):
+        return np.asarray(pose.center, float).reshape(3), float(np.asarray(pose.scale).reshape(()))
+    c, s = pose
+    return np.asarray(c, float).reshape(3), float(s)
+
+
+def _equal_3d(ax, points):
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    mid, half = (lo + hi) / 2, max(float((hi - lo).max()) / 2, 1e-9)
+    ax.set_xlim(mid[0] - half, mid[0] + half)
+    ax.set_ylim(mid[1] - half, mid[1] + half)
+    ax.set_zlim(mid[2] - half, mid[2] + half)
+    ax.set_box_aspect((1, 1, 1))
+
+
+# --------------------------------------------------------------------------- Fig. 3
+def region_slices(svdd_or_points, gamma=47.0, nu=0.5, *, center=None, planes=("xy", "xz", "yz"),
+                  resolution=100, thickness=0.04, ax=None, path=None, title=None):
+    """Slices of the OCSVM decision function through the region's center (paper, Fig. 3).
+
+    svdd_or_points : an :class:`jaxpose.SVDD` (drawn in its own units) or (m, 3) surface
+        samples, fitted here like :func:`jaxpose.normalize` does: pre-scaled by
+        :func:`jaxpose.pose.reference_frame`, ``gamma`` dimensionless; drawn in the units of
+        the points
+    center : (3,) where the slices cut; default the region's centroid c_m (eq. 4)
+    planes : which slices, from "xy", "xz", "yz"; one panel each
+    resolution : pixels per side of a slice; thickness : samples within this fraction of the
+        largest extent from a slice are drawn black, the others light grey
+    The region f >= 0 is filled orange, its boundary f = 0 drawn black, the center a blue star.
+    """
+    import jax.numpy as jnp
+
+    from jaxpose.moments import volume_moments
+    from jaxpose.pose import reference_frame
+    from jaxpose.svdd import SVDD, decision_function, fit_svdd
+
+    if isinstance(svdd_or_points, SVDD):
+        svdd = svdd_or_points
+        mask = np.asarray(svdd.mask, bool)
+        points = np.asarray(svdd.points, np.float64)[mask]
+        mean, size = np.zeros(3), 1.0
+        label = f"gamma={float(svdd.gamma):g}"
+    else:
+        points = np.asarray(svdd_or_points, np.float64)
+        m, s = reference_frame(jnp.asarray(points))
+        mean, size = np.asarray(m, np.float64), float(s)
+        svdd = fit_svdd(jnp.asarray((points - mean) / size), gamma, nu)
+        label = f"gamma={gamma:g}, nu={nu:g}"
+    if center is None:
+        center = mean + size * np.asarray(volume_moments(svdd, resolution=24).center, np.float64)
+    center = np.asarray(center, np.float64).reshape(3)
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    pad = 0.15 * float((hi - lo).max())
+    lo, hi = lo - pad, hi + pad
+    fig, axes = _figure(ax, 1, len(planes))
+    if len(axes) != len(planes):
+        raise ValueError(f"got {len(axes)} axes for {len(planes)} planes")
+    for a, plane in zip(axes, planes):
+        i, j = _PLANES[plane]
+        k = 3 - i - j
+        u = np.linspace(lo[i], hi[i], resolution)
+        v = np.linspace(lo[j], hi[j], resolution)
+        uu, vv = np.meshgrid(u, v)
+        x = np.empty(uu.shape + (3,))
+        x[..., i], x[..., j], x[..., k] = uu, vv, center[k]
+        f = np.asarray(decision_function(svdd, jnp.asarray(((x - mean) / size).reshape(-1, 3), svdd.points.dtype)))
+        f = f.reshape(uu.shape)
+        bound = float(np.abs(f).max()) or 1.0
+        a.imshow(f, origin="lower", extent=(lo[i], hi[i], lo[j], hi[j]), cmap="Greys_r", vmin=-bound, vmax=bound,
+                 alpha=0.35, interpolation="bilinear")
+        if f.max() > 0:
+            a.contourf(uu, vv, f, levels=[0.0, np.inf], colors=[REGION_COLOR], alpha=0.55)
+            if f.min() < 0:
+                a.contour(uu, vv, f, levels=[0.0], colors="k", linewidths=0.8)
+        near = np.abs(points[:, k] - center[k]) <= thickness * float((hi - lo).max())
+        a.scatter(points[~near, i], points[~near, j], s=1, c="0.75", linewidths=0)
+        a.scatter(points[near, i], points[near, j], s=2, c="k", linewidths=0)
+        a.plot(center[i], center[j], "*", color=OCSVM_COLOR, ms=10, mec="w", mew=0.6)
+        a.set_aspect("equal")
+        a.set_xlabel("xyz"[i])
+        a.set_ylabel("xyz"[j])
+        a.set_title(f"{plane} slice, {label}" if title is None else title, fontsize=8)
+    return _finish(fig, path)
+
+
+# --------------------------------------------------------------------------- 3D shapes
+def mesh_3d(mesh_or_points, ax=None, *, color="0.7", alpha=0.5, edgecolor=None, max_faces=6000, point_size=2,
+            elev=15, azim=-60, path=None, title=None, label=None, limits=None):
+    """A mesh as a Poly3DCollection (at most ``max_faces`` faces, an evenly spaced subset
+    beyond), or points (n, 3) as a scatter. ``limits`` : (k, 3) points the equal-aspect view
+    must contain (default the shape's vertices)."""
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    v, f = _vertices_faces(mesh_or_points)
+    fig, (a,) = _figure(ax, projection="3d", size=(4.0, 4.0))
+    if f is not None:
+        if len(f) > max_faces:
+            f = f[np.linspace(0, len(f) - 1, max_faces).astype(int)]
+        poly = Poly3DCollection(v[f], facecolor=color, edgecolor=edgecolor or "none", alpha=alpha,
+                                linewidths=0.1, label=label)
+        a.add_collection3d(poly)
+    else:
+        a.scatter(v[:, 0], v[:, 1], v[:, 2], s=point_size, c=color, alpha=alpha, linewidths=0, label=label)
+    _equal_3d(a, v if limits is None else np.asarray(limits, float).reshape(-1, 3))
+    a.view_init(elev=elev, azim=azim)
+    a.set_xlabel("x")
+    a.set_ylabel("y")
+    a.set_zlabel("z")
+    if title:
+        a.set_title(title, fontsize=9)
+    return _finish(fig, path)
+
+
+def centers_plot(mesh_or_points, pose=None, gamma=47.0, nu=0.5, *, methods=("surface_centroid", "vertex_mean",
+                 "bbox_center", "min_ball"), count=1000, seed=0, plane="xz", ax=None, path=None, title=None,
+                 **normalize_options):
+    """A shape with the baseline centers and the OCSVM center marked.
+
+    pose : the OCSVM :class:`jaxpose.Pose` (or (center, scale)); default ``jaxpose.normalize``
+        of ``count`` surface samples with (gamma, nu, normalize_options)
+    plane : None for a 3D view, or "xy" / "xz" / "yz" for a projection of surface samples
+        (markers are never hidden behind the surface there)
+    The OCSVM scale is drawn as a circle (sphere outline) of radius ``pose.scale`` about its center.
+    """
+    import jaxpose
+    from jaxpose import baselines
+
+    v, f = _vertices_faces(mesh_or_points)
+    samples = np.asarray(jaxpose.sample_surface(mesh_or_points, count, seed)) if f is not None else v
+    if pose is None:
+        pose = jaxpose.normalize(samples, gamma, nu, **normalize_options)
+    c, s = _center_scale(pose)
+    centers = {"ocsvm": c, **{m: np.asarray(baselines.center(mesh_or_points, m), float) for m in methods}}
+    if plane is None:
+        fig = mesh_3d(mesh_or_points, ax, alpha=0.25, title=title)
+        a = fig.axes[0] if ax is None else ax
+        for name, p in centers.items():
+            lab, col, mk = CENTER_STYLES[name]
+            a.scatter(*p, marker=mk, c=col, s=80 if name == "ocsvm" else 40, label=lab, depthshade=False)
+    else:
+        fig, (a,) = _figure(ax, size=(5.0, 4.0))
+        i, j = _PLANES[plane]
+        a.scatter(samples[:, i], samples[:, j], s=2, c="0.6", linewidths=0)
+        t = np.linspace(0, 2 * np.pi, 200)
+        a.plot(c[i] + s * np.cos(t), c[j] + s * np.sin(t), "--", color=OCSVM_COLOR, lw=0.8, label="OCSVM scale")
+        for name, p in centers.items():
+            lab, col, mk = CENTER_STYLES[name]
+            a.plot(p[i], p[j], mk, color=col, ms=12 if name == "ocsvm" else 7, mec="k", mew=0.5, label=lab, ls="none")
+        a.set_aspect("equal")
+        a.set_xlabel("xyz"[i])
+        a.set_ylabel("xyz"[j])
+        a.set_title(title or f"centers (OCSVM gamma={gamma:g}, nu={nu:g})", fontsize=9)
+    a.legend(fontsize=7, loc="best")
+    return _finish(fig, path)
+
+
+# --------------------------------------------------------------------------- Fig. 5, 6, 7
+_GREEK = {"gamma": "γ", "nu": "ν"}
+
+
+def _sweeps(result_sweeps):
+    if "param" in result_sweeps:  # one sweep
+        return {result_sweeps["param"]: result_sweeps}
+    if "sweeps" in result_sweeps:  # a whole evaluate() result
+        return dict(result_sweeps["sweeps"])
+    return dict(result_sweeps)
+
+
+def _sweep_panel(a, sweep, curve, reference, metric, title):
+    p = sweep["param"]
+    a.plot(sweep["values"], curve, "o-", color=OCSVM_COLOR, ms=3, label="OCSVM")
+    if reference is not None:
+        a.axhline(reference, color=SURFACE_COLOR, label="surface centroid")
+    fixed = ", ".join(f"{_GREEK.get(k, k)}={v:g}" for k, v in sweep.get("fixed", {}).items())
+    a.set_xlabel(_GREEK.get(p, p))
+    a.set_ylabel(f"σ_tr" if metric == "sigma_tr" else "σ_scale")
+    a.set_title(f"{title} ({fixed})" if fixed else title, fontsize=8)
+    a.grid(alpha=0.3)
+
+
+def sweep_curves(result_sweeps, *, param=None, per_class=False, metric="sigma_tr", ax=None, path=None, ncols=4):
+    """sigma_tr (or ``metric="sigma_scale"``) of OCSVM against gamma and nu, with the surface
+    centroid's value as a red line.
+
+    result_sweeps : ``result["sweeps"]`` of :func:`jaxpose.evaluation.evaluate` ({"gamma": sweep,
+        "nu": sweep}), a whole result, or one :func:`jaxpose.evaluation.sweep` dict
+    per_class : False -> one panel per swept parameter, averaged over classes (Fig. 5 a, b);
+        True -> one panel per class for ``param`` (default "nu", else the first; Fig. 6)
+    """
+    sweeps = _sweeps(result_sweeps)
+    if not sweeps:
+        raise ValueError("no sweeps to draw")
+    ref_key = metric if metric in ("sigma_tr", "sigma_scale") else None
+    if not per_class:
+        names = [param] if param is not None else [p for p in ("gamma", "nu") if p in sweeps] or list(sweeps)
+        fig, axes = _figure(ax, 1, len(names))
+        for a, p, letter in zip(axes, names, "abcdefgh"):
+            sw = sweeps[p]
+            ref = sw.get("surface_centroid", {}).get("average", {}).get(ref_key)
+            _sweep_panel(a, sw, sw["average"][metric], ref, metric, f"({letter}) average over classes")
+        axes[0].legend(fontsize=7)
+        return _finish(fig, path)
+    p = param or ("nu" if "nu" in sweeps else next(iter(sweeps)))
+    sw = sweeps[p]
+    classes = list(sw["per_class"])
+    cols = min(ncols, len(classes))
+    fig, axes = _figure(ax, math.ceil(len(classes) / cols), cols, size=(2.8, 2.3))
+    for a, name in zip(axes, classes):
+        ref = sw.get("surface_centroid", {}).get("per_class", {}).get(name, {}).get(ref_key)
+        _sweep_panel(a, sw, sw["per_class"][name][metric], ref, metric, name)
+    for a in axes[len(classes):]:
+        a.set_axis_off()
+    axes[0].legend(fontsize=6)
+    return _finish(fig, path)
+
+
+def scale_bars(result, *, metric="sigma_scale", methods=("ocsvm", "surface_centroid"), ax=None, path=None):
+    """Per-class bars of ``metric`` (default sigma_scale; Fig. 7) for ``methods`` of an
+    :func:`jaxpose.evaluation.evaluate` result, the average over classes last."""
+    per_class = result["per_class"]
+    classes = list(per_class)
+    methods = [m for m in methods if all(m in per_class[c] for c in classes)]
+    if not methods:
+        raise ValueError("none of the methods is in the result")
+    labels = classes + ["average"]
+    fig, (a,) = _figure(ax, size=(max(4.0, 0.55 * len(labels) * len(methods) + 1.5), 3.2))
+    width = 0.8 / len(methods)
+    x = np.arange(len(labels))
+    colors = {"ocsvm": OCSVM_COLOR, "surface_centroid": SURFACE_COLOR}
+    for n, m in enumerate(methods):
+        vals = [per_class[c][m][metric] for c in classes]
+        vals.append(float(np.mean(vals)))
+        a.bar(x + (n - (len(methods) - 1) / 2) * width, vals, width, label=m.replace("_", " "),
+              color=colors.get(m, f"C{n + 2}"))
+    a.set_xticks(x, [lab.replace("_", "\n") for lab in labels], fontsize=7)
+    a.set_ylabel({"sigma_scale": "σ_scale", "sigma_tr": "σ_tr"}.get(metric, metric))
+    a.set_title(f"{metric} per class (lower is more consistent)", fontsize=9)
+    a.legend(fontsize=7)
+    a.grid(axis="y", alpha=0.3)
+    return _finish(fig, path)
+
+
+# --------------------------------------------------------------------------- Fig. 8
+def overlay_pairs(meshes, poses, *, labels=None, colors=("tab:blue", "tab:orange"), ax=None, path=None,
+                  elev=15, azim=-60):
+    """Pairs of objects, each normalized by its pose, overlaid (paper, Fig. 8).
+
+    meshes : sequence of pairs (mesh_a, mesh_b) (or (n, 3) points)
+    poses : sequence of pairs (pose_a, pose_b) (Pose or (center, scale)) -> one row; or a dict
+        {row label: sequence of pairs}, e.g. {"OCSVM": ..., "surface centroid": ...} -> one row each
+    Consistent normalization makes the two shapes of a pair coincide on their common parts.
+    """
+    rows = dict(poses) if isinstance(poses, dict) else {None: poses}
+    meshes = list(meshes)
+    for label, ps in rows.items():
+        if len(ps) != len(meshes):
+            raise ValueError(f"{len(ps)} pose pairs for {len(meshes)} mesh pairs ({label})")
+    fig, axes = _figure(ax, len(rows), len(meshes), projection="3d", size=(3.0, 3.0))
+    k = 0
+    for r, (label, ps) in enumerate(rows.items()):
+        for pair, pose_pair, title in zip(meshes, ps, labels or [None] * len(meshes)):
+            a = axes[k]
+            k += 1
+            normalized = []
+            for m, pose in zip(pair, pose_pair):
+                c, s = _center_scale(pose)
+                v, f = _vertices_faces(m)
+                normalized.append(((v - c) / s, f))
+            limits = np.concatenate([v for v, _ in normalized])
+            for (v, f), col in zip(normalized, colors):
+                mesh_3d(_Shape(v, f), a, color=col, alpha=0.35, elev=elev, azim=azim, limits=limits)
+            a.scatter([0], [0], [0], marker="+", c="k", s=40, depthshade=False)
+            a.set_xticklabels([])
+            a.set_yticklabels([])
+            a.set_zticklabels([])
+            a.set_xlabel("")
+            a.set_ylabel("")
+            a.set_zlabel("")
+            head = " - ".join(x for x in (label, title) if x)
+            if head:
+                a.set_title(head, fontsize=8)
+    return _finish(fig, path)
+
+
+class _Shape:
+    def __init__(self, vertices, faces):
+        self.vertices, self.faces = vertices, faces
+
+
+# --------------------------------------------------------------------------- all of an evaluation
+def evaluation_figures(result, out_dir) -> list:
+    """Write the figures of an :func:`jaxpose.evaluation.evaluate` result into ``out_dir``.
+
+    Always ``sigma_tr_bars.png`` and ``sigma_scale_bars.png`` (Fig. 7) over the methods present;
+    with ``result["sweeps"]`` also ``sweep_average.png`` (Fig. 5) and ``sweep_per_class_<param>.png``
+    (Fig. 6) for each swept parameter. Returns the list of written paths.
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    methods = list(result.get("params", {}).get("methods") or next(iter(result["per_class"].values())))
+    written = []
+    for metric in ("sigma_tr", "sigma_scale"):
+        p = out / f"{metric}_bars.png"
+        scale_bars(result, metric=metric, methods=methods, path=p)
+        written.append(p)
+    sweeps = result.get("sweeps") or {}
+    if sweeps:
+        p = out / "sweep_average.png"
+        sweep_curves(sweeps, path=p)
+        written.append(p)
+        for param in sweeps:
+            p = out / f"sweep_per_class_{param}.png"
+            sweep_curves(sweeps, param=param, per_class=True, path=p)
+            written.append(p)
+    return written

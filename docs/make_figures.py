@@ -48,8 +48,8 @@ def main(argv=None) -> int:
     points = np.asarray(jaxpose.sample_surface(shape, count, 0))
     fig = Figure(figsize=(11, 6.5), layout="constrained")
     axes = fig.subplots(2, 3)
-    plot.region_slices(points, 15.0, 0.02, ax=axes[0])
-    plot.region_slices(points, 45.0, 0.8, ax=axes[1])
+    plot.region_slices(points, 15.0, 0.02, ax=axes[0], **opts)
+    plot.region_slices(points, 45.0, 0.8, ax=axes[1], **opts)
     fig.suptitle("OCSVM region (orange, f >= 0) through its center: γ=15, ν=0.02 (top), γ=45, ν=0.8 (bottom)")
     fig.savefig(out / "regions.png", dpi=70)
     say("regions.png")
@@ -64,8 +64,13 @@ def main(argv=None) -> int:
         say(p.name)
 
     # Fig. 8: pairs (reference, a deformed instance) normalized by OCSVM and by the surface
-    names = [c for c in ("human", "dolphin", "chair", "tree") if c in data][:3]
-    pairs = [(data[c][0], data[c][-1]) for c in names]
+    # for each class, the instance whose surface centroid moved most from the reference's
+    names = [c for c in ("human", "guitar", "horse", "dolphin", "chair") if c in data][:3]
+    pairs = []
+    for c in names:
+        ref = baselines.center(data[c][0], "surface_centroid")
+        moved = [np.linalg.norm(baselines.center(m, "surface_centroid") - ref) for m in data[c]]
+        pairs.append((data[c][0], data[c][int(np.argmax(moved))]))
     ocsvm, surface = [], []
     for pair in pairs:
         ocsvm.append([jaxpose.normalize(np.asarray(jaxpose.sample_surface(m, count, 0)), **opts) for m in pair])

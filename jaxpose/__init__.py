@@ -17,6 +17,7 @@ __all__ = [
     "normalize_batch",
     "sample_surface",
     "normalize_mesh",
+    "pose_sensitivity",
     "baselines",
     "JaxposeError",
     "InvalidInputError",
@@ -30,7 +31,11 @@ def __getattr__(name):
         from . import mesh
 
         return getattr(mesh, name)
-    if name in ("baselines", "datasets", "evaluation", "tuning", "bench", "plot", "mesh"):
+    if name == "pose_sensitivity":
+        from .sensitivity import pose_sensitivity
+
+        return pose_sensitivity
+    if name in ("baselines", "sensitivity", "datasets", "evaluation", "tuning", "bench", "plot", "mesh"):
         import importlib
 
         return importlib.import_module(f".{name}", __name__)

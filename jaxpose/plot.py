@@ -89,14 +89,16 @@ def _equal_3d(ax, points):
 
 # --------------------------------------------------------------------------- Fig. 3
 def region_slices(svdd_or_points, gamma=47.0, nu=0.5, *, center=None, planes=("xy", "xz", "yz"),
-                  resolution=100, thickness=0.04, ax=None, path=None, title=None):
+                  resolution=100, thickness=0.04, ax=None, path=None, title=None, **normalize_options):
     """Slices of the OCSVM decision function through the region's center (paper, Fig. 3).
 
     svdd_or_points : an :class:`jaxpose.SVDD` (drawn in its own units) or (m, 3) surface
         samples, fitted here like :func:`jaxpose.normalize` does: pre-scaled by
         :func:`jaxpose.pose.reference_frame`, ``gamma`` dimensionless; drawn in the units of
         the points
-    center : (3,) where the slices cut; default the region's centroid c_m (eq. 4)
+    center : (3,) where the slices cut; default the region's centroid c_m (eq. 4): for points,
+        ``jaxpose.normalize(points, gamma, nu, **normalize_options).center`` (its compilation is
+        shared with other calls of ``normalize``), for an SVDD ``volume_moments(svdd).center``
     planes : which slices, from "xy", "xz", "yz"; one panel each
     resolution : pixels per side of a slice; thickness : samples within this fraction of the
         largest extent from a slice are drawn black, the others light grey
@@ -105,7 +107,7 @@ def region_slices(svdd_or_points, gamma=47.0, nu=0.5, *, center=None, planes=("x
     import jax.numpy as jnp
 
     from jaxpose.moments import volume_moments
-    from jaxpose.pose import reference_frame
+    from jaxpose.pose import normalize, reference_frame
     from jaxpose.svdd import SVDD, decision_function, fit_svdd
 
     if isinstance(svdd_or_points, SVDD):
@@ -120,8 +122,10 @@ def region_slices(svdd_or_points, gamma=47.0, nu=0.5, *, center=None, planes=("x
         mean, size = np.asarray(m, np.float64), float(s)
         svdd = fit_svdd(jnp.asarray((points - mean) / size), gamma, nu)
         label = f"gamma={gamma:g}, nu={nu:g}"
-    if center is None:
-        center = mean + size * np.asarray(volume_moments(svdd, resolution=24).center, np.float64)
+    if center is None and isinstance(svdd_or_points, SVDD):
+        center = np.asarray(volume_moments(svdd, resolution=24).center, np.float64)
+    elif center is None:
+        center = np.asarray(normalize(jnp.asarray(points), gamma, nu, **normalize_options).center, np.float64)
     center = np.asarray(center, np.float64).reshape(3)
     lo, hi = points.min(axis=0), points.max(axis=0)
     pad = 0.15 * float((hi - lo).max())
@@ -297,7 +301,7 @@ def scale_bars(result, *, metric="sigma_scale", methods=("ocsvm", "surface_centr
     if not methods:
         raise ValueError("none of the methods is in the result")
     labels = classes + ["average"]
-    fig, (a,) = _figure(ax, size=(max(4.0, 0.55 * len(labels) * len(methods) + 1.5), 3.2))
+    fig, (a,) = _figure(ax, size=(min(12.0, max(4.0, 0.22 * len(labels) * len(methods) + 2.0)), 3.2))
     width = 0.8 / len(methods)
     x = np.arange(len(labels))
     colors = {"ocsvm": OCSVM_COLOR, "surface_centroid": SURFACE_COLOR}
@@ -307,7 +311,7 @@ def scale_bars(result, *, metric="sigma_scale", methods=("ocsvm", "surface_centr
         a.bar(x + (n - (len(methods) - 1) / 2) * width, vals, width, label=m.replace("_", " "),
               color=colors.get(m, f"C{n + 2}"))
     a.set_xticks(x, [lab.replace("_", "\n") for lab in labels], fontsize=7)
-    a.set_ylabel({"sigma_scale": "σ_scale", "sigma_tr": "σ_tr"}.get(metric, metric))
+    a.set_ylabel({"sigma_scale": "σ_scale", "sigma_tr": "σ_tr", "cv_scale": "σ_scale / mean scale"}.get(metric, metric))
     a.set_title(f"{metric} per class (lower is more consistent)", fontsize=9)
     a.legend(fontsize=7)
     a.grid(axis="y", alpha=0.3)
@@ -344,12 +348,8 @@ def overlay_pairs(meshes, poses, *, labels=None, colors=("tab:blue", "tab:orange
             for (v, f), col in zip(normalized, colors):
                 mesh_3d(_Shape(v, f), a, color=col, alpha=0.35, elev=elev, azim=azim, limits=limits)
             a.scatter([0], [0], [0], marker="+", c="k", s=40, depthshade=False)
-            a.set_xticklabels([])
-            a.set_yticklabels([])
-            a.set_zticklabels([])
-            a.set_xlabel("")
-            a.set_ylabel("")
-            a.set_zlabel("")
+            a.set_axis_off()
+            a.set_box_aspect((1, 1, 1), zoom=1.25)
             head = " - ".join(x for x in (label, title) if x)
             if head:
                 a.set_title(head, fontsize=8)
@@ -365,7 +365,9 @@ class _Shape:
 def evaluation_figures(result, out_dir) -> list:
     """Write the figures of an :func:`jaxpose.evaluation.evaluate` result into ``out_dir``.
 
-    Always ``sigma_tr_bars.png`` and ``sigma_scale_bars.png`` (Fig. 7) over the methods present;
+    Always ``sigma_tr_bars.png`` and ``cv_scale_bars.png`` over the methods present and
+    ``sigma_scale_bars.png`` (Fig. 7: OCSVM against the surface's mean distance, the two scales
+    measured the same way; the other methods' scales are extents or radii, compare them by cv_scale);
     with ``result["sweeps"]`` also ``sweep_average.png`` (Fig. 5) and ``sweep_per_class_<param>.png``
     (Fig. 6) for each swept parameter. Returns the list of written paths.
     """
@@ -373,9 +375,11 @@ def evaluation_figures(result, out_dir) -> list:
     out.mkdir(parents=True, exist_ok=True)
     methods = list(result.get("params", {}).get("methods") or next(iter(result["per_class"].values())))
     written = []
-    for metric in ("sigma_tr", "sigma_scale"):
+    for metric, ms in (("sigma_tr", methods), ("sigma_scale", ("ocsvm", "surface_centroid")), ("cv_scale", methods)):
+        if not any(m in methods for m in ms):
+            continue
         p = out / f"{metric}_bars.png"
-        scale_bars(result, metric=metric, methods=methods, path=p)
+        scale_bars(result, metric=metric, methods=ms, path=p)
         written.append(p)
     sweeps = result.get("sweeps") or {}
     if sweeps:

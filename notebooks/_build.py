@@ -1,0 +1,204 @@
+"""Write the notebooks of this folder (without outputs): ``python notebooks/_build.py``.
+
+Every notebook starts with a parameter cell: ``SMALL`` comes from the environment variable
+``JAXPOSE_NOTEBOOK_SMALL`` (tests/test_notebooks.py sets it) and shrinks the workload; every
+cell still runs.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import nbformat
+from nbformat.v4 import new_code_cell, new_markdown_cell, new_notebook
+
+HERE = Path(__file__).resolve().parent
+
+PARAMS = '''import os
+SMALL = os.environ.get("JAXPOSE_NOTEBOOK_SMALL", "0") == "1"  # the tests run the notebooks small
+COUNT = 300 if SMALL else 1500        # surface samples per object
+RESOLUTION = 24 if SMALL else 32      # grid resolution of the volume integrals'''
+
+SETUP = '''%matplotlib inline
+import numpy as np
+import matplotlib.pyplot as plt
+import jaxpose
+from jaxpose import plot'''
+
+QUICKSTART = [
+    new_markdown_cell("# jaxpose quickstart\n\n"
+                      "Translation and scale normalization of a 3D shape with a one-class SVM: the center is the "
+                      "centroid of the *volume* the OCSVM encloses (eq. 4), the scale the mean distance of that "
+                      "volume from it (eq. 5). γ is dimensionless (points are pre-scaled to the size of a unit "
+                      "cube), ν the fraction of samples allowed outside."),
+    new_code_cell(PARAMS),
+    new_code_cell(SETUP),
+    new_markdown_cell("## A shape with an outlying arm\n\nA capsule body with a thin arm and a ball at its end: "
+                      "the kind of part that drags surface centroids away from the body."),
+    new_code_cell('''from jaxpose.mesh import example_shape
+shape = example_shape()
+points = np.asarray(jaxpose.sample_surface(shape, COUNT, seed=0))
+pose = jaxpose.normalize(points, gamma=47.0, nu=0.5, resolution=RESOLUTION)
+print("center", np.asarray(pose.center), "scale", float(pose.scale), "converged", bool(pose.converged))'''),
+    new_markdown_cell("## Before and after\n\n`pose.apply` maps the shape to the normalized frame: center at the "
+                      "origin, mean distance of the region 1."),
+    new_code_cell('''import trimesh
+normalized = trimesh.Trimesh(np.asarray(pose.apply(shape.vertices)), shape.faces, process=False)
+fig, axes = plt.subplots(1, 2, figsize=(9, 4.5), subplot_kw={"projection": "3d"})
+plot.mesh_3d(shape, axes[0], title="input")
+plot.mesh_3d(normalized, axes[1], color="tab:blue", title="normalized (center at origin, scale 1)")
+axes[1].scatter([0], [0], [0], c="k", marker="+", s=60)
+fig'''),
+    new_markdown_cell("## The OCSVM region for two settings (the paper's Fig. 3)\n\n"
+                      "Slices of the decision function through the region's center; orange: f ≥ 0, black "
+                      "dots: samples near the slice. A small γ gives a smooth, sphere-like region; a large ν "
+                      "lets the region drop a large share of the samples."),
+    new_code_cell('''fig, axes = plt.subplots(2, 3, figsize=(12, 7), layout="constrained")
+plot.region_slices(points, 15.0, 0.02, ax=axes[0], resolution=60 if SMALL else 120)  # pixels per slice
+plot.region_slices(points, 45.0, 0.8, ax=axes[1], resolution=60 if SMALL else 120)
+fig'''),
+    new_markdown_cell("## OCSVM center against the classical ones\n\n"
+                      "The dashed circle has the OCSVM scale as its radius."),
+    new_code_cell('''plot.centers_plot(shape, pose, count=COUNT)'''),
+    new_code_cell('''from jaxpose import baselines
+for method in ("surface_centroid", "vertex_mean", "bbox_center", "min_ball"):
+    print(f"{method:18s}", np.round(baselines.center(shape, method), 4))
+print(f"{'ocsvm':18s}", np.round(np.asarray(pose.center), 4))'''),
+]
+
+GRADIENTS = [
+    new_markdown_cell("# Gradients and tuning\n\n"
+                      "`jaxpose.normalize` is a JAX function of (points, γ, ν): the pose can be differentiated "
+                      "with respect to the parameters, and the parameters tuned by gradient descent on the "
+                      "within-class spread of the centers."),
+    new_code_cell(PARAMS + '''
+CLASSES = 2 if SMALL else 4           # classes of the built-in dataset used below
+INSTANCES = 3 if SMALL else 6         # objects per class
+STEPS = 2 if SMALL else 15            # tuning steps'''),
+    new_code_cell(SETUP + '''
+import jax
+from jaxpose import datasets, evaluation
+from jaxpose.mesh import example_shape
+points = np.asarray(jaxpose.sample_surface(example_shape(), COUNT, seed=0))'''),
+    new_markdown_cell("## Derivatives of the pose in γ and ν\n\n"
+                      "`jaxpose.sensitivity.pose_sensitivity` gives d center / dγ, d scale / dγ (exact implicit "
+                      "derivative) and the same for ν (a secant slope over ν(1 ± 1.5 %), see its module "
+                      "docs). Without that module, `jax.grad` of `jaxpose.normalize` gives the γ derivative."),
+    new_code_cell('''try:
+    from jaxpose.sensitivity import pose_sensitivity
+except ImportError:
+    pose_sensitivity = None
+if pose_sensitivity is not None:
+    sens = pose_sensitivity(points, 47.0, 0.5, resolution=RESOLUTION)
+    for k in ("center", "scale", "dcenter_dgamma", "dscale_dgamma", "dcenter_dnu", "dscale_dnu"):
+        print(f"{k:15s}", np.round(np.asarray(sens[k]), 5))
+else:
+    dscale = jax.grad(lambda g: jaxpose.normalize(points, g, 0.5, resolution=RESOLUTION).scale)(47.0)
+    print("dscale/dgamma", float(dscale))'''),
+    new_markdown_cell("The same with `jax.grad` directly, checked against a central finite difference:"),
+    new_code_cell('''scale_of = lambda g: jaxpose.normalize(points, g, 0.5, resolution=RESOLUTION).scale
+g0, h = 47.0, 1.0
+print("jax.grad           ", float(jax.grad(scale_of)(g0)))
+print("finite difference  ", float((scale_of(g0 + h) - scale_of(g0 - h)) / (2 * h)))'''),
+    new_markdown_cell("## How the pose moves with γ\n\nThe OCSVM center's x coordinate (the arm is along +x) and "
+                      "the scale over γ; small γ approaches the minimum enclosing ball."),
+    new_code_cell('''gammas = [2.0, 10.0, 30.0, 47.0] if SMALL else [1.0, 2.0, 5.0, 10.0, 20.0, 30.0, 40.0, 47.0, 60.0]
+poses = [jaxpose.normalize(points, g, 0.5, resolution=RESOLUTION) for g in gammas]
+fig, axes = plt.subplots(1, 2, figsize=(9, 3.2), layout="constrained")
+axes[0].plot(gammas, [float(p.center[0]) for p in poses], "o-")
+axes[0].set(xlabel="γ", ylabel="center x")
+axes[1].plot(gammas, [float(p.scale) for p in poses], "o-")
+axes[1].set(xlabel="γ", ylabel="scale")
+fig'''),
+    new_markdown_cell("## σ_tr against γ and ν (the paper's Fig. 5) on a small subset\n\n"
+                      "σ_tr is the RMS distance of a class's OCSVM centers from their mean (objects of a class "
+                      "share the pose of their rigid core); blue OCSVM, red the surface centroid."),
+    new_code_cell('''data = datasets.make_dataset(seed=0, instances=INSTANCES, classes=datasets.CLASSES[:CLASSES])
+sweeps = {
+    "gamma": evaluation.sweep(data, "gamma", values=[2.0, 10.0, 47.0] if SMALL else None,
+                              count=COUNT, resolution=RESOLUTION),
+    "nu": evaluation.sweep(data, "nu", values=[0.1, 0.5] if SMALL else None, count=COUNT, resolution=RESOLUTION),
+}
+plot.sweep_curves(sweeps)'''),
+    new_markdown_cell("## Tuning γ and ν by gradient descent\n\n"
+                      "`jaxpose.tuning.tune` minimises the mean within-class σ_tr with Adam in (log γ, logit ν)."),
+    new_code_cell('''try:
+    from jaxpose import tuning
+except ImportError:
+    tuning = None
+if tuning is not None:
+    samples = {name: [np.asarray(jaxpose.sample_surface(m, COUNT // 2, seed=0)) for m in meshes]
+               for name, meshes in data.items()}
+    run = tuning.tune(samples, steps=STEPS, lr=0.05, resolution=RESOLUTION)
+    traj = run["trajectory"]
+    fig, axes = plt.subplots(1, 3, figsize=(11, 3), layout="constrained")
+    for a, key in zip(axes, ("sigma_tr", "gamma", "nu")):
+        a.plot([t["step"] for t in traj], [t[key] for t in traj], "o-")
+        a.set(xlabel="step", ylabel=key)
+    print(f"gamma {run['gamma0']:g} -> {run['gamma']:.3f}, nu {run['nu0']:g} -> {run['nu']:.3f}, "
+          f"sigma_tr {run['train']['sigma_tr_start']:.5f} -> {run['train']['sigma_tr_end']:.5f}")
+else:
+    fig = plot.sweep_curves(sweeps, param="gamma")
+fig'''),
+]
+
+EVALUATION = [
+    new_markdown_cell("# Evaluation on the built-in dataset (the paper's sec. 4)\n\n"
+                      "Twelve procedural classes; inside a class every object shares the pose of its rigid "
+                      "core, so a consistent normalization gives them all the same center and scale. Lower "
+                      "σ_tr (spread of the centers) and σ_scale (spread of the scales) is better."),
+    new_code_cell(PARAMS + '''
+CLASSES = 4 if SMALL else 12
+INSTANCES = 5 if SMALL else 10'''),
+    new_code_cell(SETUP + '''
+from jaxpose import datasets, evaluation'''),
+    new_code_cell('''data = datasets.make_dataset(seed=0, instances=INSTANCES, classes=datasets.CLASSES[:CLASSES])
+result = evaluation.evaluate(data, gamma=47.0, nu=0.5, count=COUNT, resolution=RESOLUTION)
+print(evaluation.format_table(result))'''),
+    new_markdown_cell("## Per class: σ_tr of every method, and σ_scale of OCSVM against the surface (Fig. 7)"),
+    new_code_cell('''plot.scale_bars(result, metric="sigma_tr", methods=evaluation.METHODS)'''),
+    new_code_cell('''plot.scale_bars(result, metric="sigma_scale")'''),
+    new_markdown_cell("## Sweeps (Fig. 5 and 6)\n\nIn small mode on two classes and a few values only."),
+    new_code_cell('''subset = dict(list(data.items())[:2]) if SMALL else data
+small_values = {"gamma": [5.0, 47.0], "nu": [0.1, 0.5]}
+result["sweeps"] = {p: evaluation.sweep(subset, p, values=small_values[p] if SMALL else None,
+                                        count=COUNT, resolution=RESOLUTION) for p in ("gamma", "nu")}
+plot.sweep_curves(result["sweeps"])'''),
+    new_code_cell('''plot.sweep_curves(result["sweeps"], param="nu", per_class=True)'''),
+    new_markdown_cell("## Pairs of normalized objects overlaid (Fig. 8)\n\nThe reference object of a class and a "
+                      "deformed instance, each normalized on its own; top OCSVM, bottom surface centroid and mean "
+                      "distance."),
+    new_code_cell('''from jaxpose import baselines
+names = list(data)[:3]
+pairs = [(data[c][0], data[c][-1]) for c in names]
+ocsvm = [[jaxpose.normalize(np.asarray(jaxpose.sample_surface(m, COUNT, 0)), resolution=RESOLUTION) for m in p]
+         for p in pairs]
+surface = [[(baselines.center(m, "surface_centroid"),
+             baselines.scale(m, "mean_distance", baselines.center(m, "surface_centroid"))) for m in p] for p in pairs]
+plot.overlay_pairs(pairs, {"OCSVM": ocsvm, "surface": surface}, labels=names)'''),
+    new_markdown_cell("## All figures to files\n\nWhat `jaxpose evaluate --sweep --plots DIR` writes:"),
+    new_code_cell('''import tempfile
+out = tempfile.mkdtemp()
+for p in plot.evaluation_figures(result, out):
+    print(p.name)'''),
+]
+
+NOTEBOOKS = {
+    "01_quickstart.ipynb": QUICKSTART,
+    "02_gradients_and_tuning.ipynb": GRADIENTS,
+    "03_evaluation.ipynb": EVALUATION,
+}
+
+
+def build(folder=HERE):
+    for name, cells in NOTEBOOKS.items():
+        nb = new_notebook(cells=cells, metadata={
+            "kernelspec": {"display_name": "Python 3", "language": "python", "name": "python3"},
+            "language_info": {"name": "python"}})
+        for i, cell in enumerate(nb.cells):  # stable ids: rebuilding gives the same files
+            cell["id"] = f"{Path(name).stem[:2]}-{i:02d}"
+        nbformat.validate(nb)
+        nbformat.write(nb, Path(folder) / name)
+
+
+if __name__ == "__main__":
+    build()

@@ -1,0 +1,145 @@
+"""jaxpose.plot: every figure draws on small inputs and writes a non-empty PNG."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from conftest import sphere_with_arm
+
+plot = pytest.importorskip("jaxpose.plot")
+
+PNG = b"\x89PNG\r\n\x1a\n"
+
+
+def _png(path):
+    data = path.read_bytes()
+    assert data[:8] == PNG and len(data) > 1000
+    return data
+
+
+@pytest.fixture(scope="module")
+def shape():
+    from jaxpose.mesh import example_shape
+
+    return example_shape()
+
+
+@pytest.fixture(scope="module")
+def fake_result():
+    rng = np.random.default_rng(0)
+    classes = ("a", "b", "c")
+    methods = ("ocsvm", "surface_centroid", "vertex_mean", "bbox", "min_ball")
+    keys = ("sigma_tr", "sigma_tr_axis", "sigma_scale", "cv_scale")
+
+    def cell():
+        return {**{k: float(rng.uniform(0.01, 0.05)) for k in keys},
+                "centers": rng.normal(size=(4, 3)).tolist(), "scales": rng.uniform(0.5, 1, 4).tolist()}
+
+    def sweep(param, values, fixed):
+        per = {c: {"sigma_tr": rng.uniform(0.01, 0.05, len(values)).tolist(),
+                   "sigma_scale": rng.uniform(0.01, 0.05, len(values)).tolist()} for c in classes}
+        ref = {c: {"sigma_tr": 0.03, "sigma_scale": 0.02} for c in classes}
+        return {"param": param, "values": list(values), "fixed": fixed, "per_class": per,
+                "average": {k: np.mean([per[c][k] for c in classes], axis=0).tolist() for k in ("sigma_tr", "sigma_scale")},
+                "surface_centroid": {"per_class": ref, "average": {"sigma_tr": 0.03, "sigma_scale": 0.02}}}
+
+    per_class = {c: {m: cell() for m in methods} for c in classes}
+    return {"params": {"gamma": 47.0, "nu": 0.5, "count": 100, "seed": 0, "methods": list(methods),
+                       "classes": list(classes)},
+            "summary": [{"method": m, **{k: 0.02 for k in keys}, "seconds": 1.0} for m in methods],
+            "per_class": per_class,
+            "sweeps": {"gamma": sweep("gamma", (1.0, 10.0, 47.0), {"nu": 0.0}),
+                       "nu": sweep("nu", (0.1, 0.3, 0.5), {"gamma": 47.0})}}
+
+
+def test_region_slices_points_and_svdd(tmp_path):
+    import jax.numpy as jnp
+
+    import jaxpose
+
+    pts = sphere_with_arm(80)
+    fig = plot.region_slices(pts, 15.0, 0.1, resolution=30, path=tmp_path / "r.png")
+    assert len(fig.axes) == 3
+    _png(tmp_path / "r.png")
+    svdd = jaxpose.fit_svdd(jnp.asarray(pts), 20.0, 0.2)
+    fig = plot.region_slices(svdd, planes=("xz",), resolution=20, center=np.zeros(3), path=tmp_path / "s.png")
+    assert len(fig.axes) == 1
+    _png(tmp_path / "s.png")
+
+
+def test_region_slices_into_given_axes():
+    from matplotlib.figure import Figure
+
+    fig = Figure()
+    axes = fig.subplots(2, 3)
+    pts = sphere_with_arm(60)
+    assert plot.region_slices(pts, 10.0, 0.1, resolution=16, ax=axes[1]) is fig
+    with pytest.raises(ValueError):
+        plot.region_slices(pts, 10.0, 0.1, resolution=16, ax=axes[0][:2])
+
+
+def test_mesh_3d_mesh_and_points(tmp_path, shape):
+    fig = plot.mesh_3d(shape, path=tmp_path / "m.png", max_faces=300, title="shape")
+    assert fig.axes[0].name == "3d"
+    _png(tmp_path / "m.png")
+    plot.mesh_3d(sphere_with_arm(50), path=tmp_path / "p.png")
+    _png(tmp_path / "p.png")
+    with pytest.raises(ValueError):
+        plot.mesh_3d(np.zeros((4, 2)))
+
+
+def test_centers_plot(tmp_path, shape):
+    pose = ((0.2, 0.0, 0.0), 0.8)  # given: no fit needed
+    plot.centers_plot(shape, pose, count=200, path=tmp_path / "c.png")
+    _png(tmp_path / "c.png")
+    plot.centers_plot(shape, pose, count=200, plane=None, methods=("surface_centroid",), path=tmp_path / "c3.png")
+    _png(tmp_path / "c3.png")
+
+
+def test_sweep_curves(tmp_path, fake_result):
+    fig = plot.sweep_curves(fake_result["sweeps"], path=tmp_path / "avg.png")
+    assert len(fig.axes) == 2
+    _png(tmp_path / "avg.png")
+    fig = plot.sweep_curves(fake_result, per_class=True, path=tmp_path / "pc.png", ncols=2)
+    assert len(fig.axes) == 4  # 3 classes on a 2 x 2 grid
+    _png(tmp_path / "pc.png")
+    fig = plot.sweep_curves(fake_result["sweeps"]["gamma"], metric="sigma_scale")
+    assert len(fig.axes) == 1
+
+
+def test_scale_bars(tmp_path, fake_result):
+    plot.scale_bars(fake_result, path=tmp_path / "b.png")
+    _png(tmp_path / "b.png")
+    with pytest.raises(ValueError):
+        plot.scale_bars(fake_result, methods=("nope",))
+
+
+def test_overlay_pairs(tmp_path, shape):
+    moved = shape.copy()
+    moved.apply_translation([0.5, 0.0, 0.0])
+    pairs = [(shape, moved)]
+    poses = {"ocsvm": [[((0, 0, 0), 1.0), ((0.5, 0, 0), 1.0)]], "none": [[((0, 0, 0), 1.0)] * 2]}
+    fig = plot.overlay_pairs(pairs, poses, labels=["example"], path=tmp_path / "o.png")
+    assert len(fig.axes) == 2
+    _png(tmp_path / "o.png")
+    with pytest.raises(ValueError):
+        plot.overlay_pairs(pairs, [])
+
+
+def test_evaluation_figures(tmp_path, fake_result):
+    paths = plot.evaluation_figures(fake_result, tmp_path / "figs")
+    names = sorted(p.name for p in paths)
+    assert names == sorted(["sigma_tr_bars.png", "sigma_scale_bars.png", "cv_scale_bars.png", "sweep_average.png",
+                            "sweep_per_class_gamma.png", "sweep_per_class_nu.png"])
+    for p in paths:
+        _png(p)
+    no_sweeps = {k: v for k, v in fake_result.items() if k != "sweeps"}
+    assert len(plot.evaluation_figures(no_sweeps, tmp_path / "f2")) == 3
+
+
+def test_import_jaxpose_does_not_import_matplotlib():
+    import subprocess
+    import sys
+
+    code = "import sys, jaxpose, jaxpose.plot; assert 'matplotlib' not in sys.modules, 'matplotlib loaded'"
+    subprocess.run([sys.executable, "-c", code], check=True)

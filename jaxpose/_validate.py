@@ -17,6 +17,10 @@ __all__ = [
     "check_gamma",
     "check_nu",
     "check_resolution",
+    "check_array",
+    "check_options",
+    "compute_dtype",
+    "frame64",
     "is_traced",
 ]
 
@@ -42,33 +46,91 @@ def is_traced(x) -> bool:
     return isinstance(x, jax.core.Tracer)
 
 
-def check_points(points, name: str = "points", min_points: int = MIN_POINTS):
-    """Check an (m, 3) array of finite, not all identical points; return it unchanged.
+def check_array(x, name: str = "x", min_rows: int = 0):
+    """Check an (n, 3) array of finite real numbers (n >= min_rows); return it unchanged.
 
     Tracers are returned as they are (only their shape is checked).
     """
-    shape = getattr(points, "shape", None)
+    shape = getattr(x, "shape", None)
     if shape is None:
         try:
-            points = np.asarray(points)
+            x = np.asarray(x)
         except Exception as exc:  # ragged lists and the like
             raise InvalidInputError(f"{name} must be an (m, 3) array: {exc}") from None
-        shape = points.shape
+        shape = x.shape
     if len(shape) != 2 or shape[1] != 3:
         raise InvalidInputError(f"{name} must have shape (m, 3), got {tuple(shape)}")
-    if shape[0] < min_points:
-        raise InvalidInputError(f"{name} needs at least {min_points} points, got {shape[0]}")
-    if is_traced(points):
-        return points
-    arr = np.asarray(points)
+    if shape[0] < min_rows:
+        raise InvalidInputError(f"{name} needs at least {min_rows} points, got {shape[0]}")
+    if is_traced(x):
+        return x
+    arr = np.asarray(x)
     if not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
         raise InvalidInputError(f"{name} must be real numbers, got dtype {arr.dtype}")
     if not np.all(np.isfinite(arr)):
         bad = int(np.count_nonzero(~np.isfinite(arr).all(axis=1)))
         raise InvalidInputError(f"{name} has {bad} rows with NaN or inf coordinates")
-    if np.all(arr == arr[0]):
-        raise InvalidInputError(f"all {shape[0]} {name} are identical: no shape to normalize")
+    return x
+
+
+def check_points(points, name: str = "points", min_points: int = MIN_POINTS):
+    """Check an (m, 3) array of finite, not all identical points; return it unchanged.
+
+    Tracers are returned as they are (only their shape is checked).
+    """
+    points = check_array(points, name, min_points)
+    if is_traced(points):
+        return points
+    arr = np.asarray(points)
+    if len(arr) and np.all(arr == arr[0]):
+        raise InvalidInputError(f"all {arr.shape[0]} {name} are identical: no shape to normalize")
     return points
+
+
+def check_options(tol, max_iter, check_every, block):
+    """Solver options shared by fit_svdd and normalize (check_every = 0 would loop forever)."""
+    try:
+        ok = float(tol) > 0 and np.isfinite(float(tol))
+        ints = [int(v) == v and not isinstance(v, bool) for v in (max_iter, check_every, block)]
+    except (TypeError, ValueError):
+        ok, ints = False, [False]
+    if not ok or not all(ints) or int(max_iter) < 1 or int(check_every) < 1 or int(block) < 1:
+        raise InvalidInputError(
+            f"tol must be finite and > 0, max_iter, check_every and block ints >= 1; "
+            f"got tol={tol!r}, max_iter={max_iter!r}, check_every={check_every!r}, block={block!r}"
+        )
+
+
+def compute_dtype(points):
+    """The floating dtype JAX computes concrete points in: at least float32 (float16 and
+    integers are promoted), float64 only when x64 is enabled."""
+    from jax import dtypes
+
+    dtype = np.result_type(np.asarray(points).dtype, np.float32)
+    return np.dtype(dtypes.canonicalize_dtype(dtype if np.issubdtype(dtype, np.floating) else np.float32))
+
+
+def frame64(points, name: str = "points"):
+    """Mean (3,) and RMS distance () of concrete points, in float64 without overflow.
+
+    Used to center and scale points in NumPy before they become float32, so coordinates far
+    from the origin or of extreme magnitude (1e6 offsets, 1e-30 or 1e30 units) keep their shape.
+    Raises if the frame cannot be represented in the compute dtype.
+    """
+    arr = np.asarray(points, dtype=np.float64)
+    big = float(np.max(np.abs(arr)))
+    unit = big if big > 0 else 1.0
+    mean = np.mean(arr / unit, axis=0) * unit
+    d = arr - mean
+    spread = float(np.max(np.abs(d)))
+    rms = spread * float(np.sqrt(np.mean(np.sum((d / spread) ** 2, axis=1)))) if spread > 0 else 0.0
+    finfo = np.finfo(compute_dtype(points))
+    if not (np.all(np.isfinite(mean)) and np.isfinite(rms)) or big > float(finfo.max) or not rms > float(finfo.tiny):
+        raise InvalidInputError(
+            f"{name} span {rms:.3g} at coordinates up to {big:.3g}: outside the range of {finfo.dtype} "
+            f"(rescale the input, or enable jax_enable_x64 for float64)"
+        )
+    return mean, rms
 
 
 def _scalar(value, name):

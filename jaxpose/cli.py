@@ -216,10 +216,8 @@ def _cmd_evaluate(args):
         write_atomic(args.json, json.dumps(result, indent=2) + "\n", force=args.force)
         print(f"wrote {args.json}")
     if args.plots:
-        try:
-            from . import plot
-        except ImportError:
-            return _fail("plots not available (jaxpose.plot is missing)")
+        from . import plot
+
         plot.evaluation_figures(result, args.plots)
         print(f"wrote figures to {args.plots}")
     return 0

@@ -89,7 +89,7 @@ def _equal_3d(ax, points):
 
 # --------------------------------------------------------------------------- Fig. 3
 def region_slices(svdd_or_points, gamma=47.0, nu=0.5, *, center=None, planes=("xy", "xz", "yz"),
-                  resolution=100, thickness=0.04, ax=None, path=None, title=None, **normalize_options):
+                  pixels=100, thickness=0.04, ax=None, path=None, title=None, **normalize_options):
     """Slices of the OCSVM decision function through the region's center (paper, Fig. 3).
 
     svdd_or_points : an :class:`jaxpose.SVDD` (drawn in its own units) or (m, 3) surface
@@ -100,7 +100,7 @@ def region_slices(svdd_or_points, gamma=47.0, nu=0.5, *, center=None, planes=("x
         ``jaxpose.normalize(points, gamma, nu, **normalize_options).center`` (its compilation is
         shared with other calls of ``normalize``), for an SVDD ``volume_moments(svdd).center``
     planes : which slices, from "xy", "xz", "yz"; one panel each
-    resolution : pixels per side of a slice; thickness : samples within this fraction of the
+    pixels : pixels per side of a slice; thickness : samples within this fraction of the
         largest extent from a slice are drawn black, the others light grey
     The region f >= 0 is filled orange, its boundary f = 0 drawn black, the center a blue star.
     """
@@ -136,8 +136,8 @@ def region_slices(svdd_or_points, gamma=47.0, nu=0.5, *, center=None, planes=("x
     for a, plane in zip(axes, planes):
         i, j = _PLANES[plane]
         k = 3 - i - j
-        u = np.linspace(lo[i], hi[i], resolution)
-        v = np.linspace(lo[j], hi[j], resolution)
+        u = np.linspace(lo[i], hi[i], pixels)
+        v = np.linspace(lo[j], hi[j], pixels)
         uu, vv = np.meshgrid(u, v)
         x = np.empty(uu.shape + (3,))
         x[..., i], x[..., j], x[..., k] = uu, vv, center[k]

@@ -11,9 +11,11 @@ gamma range (0, 50] keeps its meaning for objects of about that size. The
 measure is invariant to rotation and translation and proportional to scale,
 hence normalize(R s X + t) gives the same normalized shape rotated by R.
 
-The SVDD is fitted on the pre-scaled points; its region's centroid c_m (eq. 4)
-and mean distance d_m (eq. 5) are mapped back: center = mean + s_ref c_m,
-scale = s_ref d_m.
+The pre-scaled points are also turned to their principal axes (``principal_axes``),
+so the volume grid turns with the object: the result is equivariant under
+rotations up to float rounding, not only up to grid error. The SVDD is fitted on
+these points; its region's centroid c_m (eq. 4) and mean distance d_m (eq. 5) are
+mapped back: center = mean + s_ref axes c_m, scale = s_ref d_m.
 
 Derivatives in gamma and nu flow through the SVDD solution (implicit, KKT) and
 the grid occupancy, whose derivative is the coarea boundary term
@@ -22,6 +24,7 @@ int g df/dtheta delta(f) dV with delta smeared over one cell.
 from __future__ import annotations
 
 import math
+import numbers
 from typing import NamedTuple, Sequence
 
 import jax
@@ -32,7 +35,7 @@ from . import _validate
 from .moments import _volume_moments
 from .svdd import _fit
 
-__all__ = ["Pose", "normalize", "normalize_batch", "reference_frame", "REFERENCE_RMS"]
+__all__ = ["Pose", "normalize", "normalize_batch", "reference_frame", "prescale", "principal_axes", "REFERENCE_RMS"]
 
 REFERENCE_RMS = math.sqrt(5.0 / 12.0)
 
@@ -88,13 +91,38 @@ def reference_frame(points, mask=None):
     return mean, rms / REFERENCE_RMS
 
 
-def _normalize(points, mask, gamma, nu, resolution, refine, band, tol, max_iter, check_every, kernel, block):
+def principal_axes(y, mask=None):
+    """(3, 3) orthonormal eigenvectors (columns) of the covariance of centered y : (m, 3).
+
+    The grid is laid out along these axes, so it turns with the object and the
+    discretization error does not depend on the object's orientation. Treated as a
+    constant for differentiation (the exact moments do not depend on the frame).
+    """
+    w = jnp.ones(y.shape[:1], y.dtype) if mask is None else jnp.asarray(mask, y.dtype)
+    cov = jnp.einsum("m,mi,mj->ij", w, y, y) / jnp.sum(w)
+    _, axes = jnp.linalg.eigh(jax.lax.stop_gradient(cov))
+    return jax.lax.stop_gradient(axes)
+
+
+def prescale(points, mask=None):
+    """Points in the reference frame: y = ((x - mean) / s_ref) @ axes.
+
+    -> y : (m, 3), and ``to_world(c)`` mapping a point of that frame back: mean + s_ref axes c;
+    s_ref : () (0 for degenerate input; y is then computed with 1).
+    """
     mean, size = reference_frame(points, mask)
     safe = jnp.where(size > 0, size, 1.0)
-    y = (points - mean) / safe
+    axes = principal_axes(points - mean, mask)
+    y = ((points - mean) / safe) @ axes
+    return y, (lambda c: mean + safe * (axes @ c)), size
+
+
+def _normalize(points, mask, gamma, nu, resolution, refine, band, tol, max_iter, check_every, kernel, block):
+    y, to_world, size = prescale(points, mask)
+    safe = jnp.where(size > 0, size, 1.0)
     svdd = _fit(y, gamma, nu, mask, None, tol=tol, max_iter=max_iter, check_every=check_every, kernel=kernel, block=block)
     mom = _volume_moments(svdd, resolution, block, refine, band)
-    center = mean + safe * mom.center
+    center = to_world(mom.center)
     scale = safe * mom.mean_distance
     valid = (size > 0) & jnp.all(jnp.isfinite(center)) & jnp.isfinite(scale) & (scale > 0) & (mom.volume > 0)
     return Pose(center, scale, svdd.converged, valid, svdd.iterations)
@@ -106,10 +134,9 @@ _normalize_jit = jax.jit(_normalize, static_argnames=_STATIC)
 
 
 def _options(resolution, refine, band, tol, max_iter, check_every, kernel, block):
-    if int(refine) < 1 or int(refine) & (int(refine) - 1) or int(band) < 0:
-        raise _validate.InvalidInputError(f"refine must be a power of 2 and band >= 0, got {refine}, {band}")
-    if not (float(tol) > 0) or int(max_iter) < 1 or int(check_every) < 1:
-        raise _validate.InvalidInputError("tol must be > 0, max_iter and check_every >= 1")
+    if not all(isinstance(v, numbers.Integral) for v in (refine, band)) or refine < 1 or refine & (refine - 1) or band < 0:
+        raise _validate.InvalidInputError(f"refine must be a power of 2 and band >= 0, got {refine!r}, {band!r}")
+    _validate.check_options(tol, max_iter, check_every, block)  # issue 6: also rejects NaN tol, block < 1
     if kernel not in ("auto", "dense", "blocked"):
         raise _validate.InvalidInputError(f"kernel must be 'auto', 'dense' or 'blocked', got {kernel!r}")
     return dict(
@@ -137,6 +164,7 @@ def normalize(
     check_every=10,
     kernel="auto",
     block=2048,
+    throw=False,
 ) -> Pose:
     """The OCSVM pose (center c_m, scale d_m) of surface samples.
 
@@ -146,28 +174,65 @@ def normalize(
     resolution, refine, band : volume-integral grid (static, see ``volume_moments``);
         the defaults resolve the boundary like a 128^3 grid; refine=8, band=16384 like 256^3 (4x slower)
     tol, max_iter, check_every, kernel, block : solver options (see ``fit_svdd``)
+    throw : concrete calls only: raise ConvergenceError if the solver hit max_iter,
+        JaxposeError if the pose is not valid (otherwise see ``Pose.converged`` / ``Pose.valid``)
 
     A pure JAX function of (points, gamma, nu): jittable (options static),
     vmappable, differentiable in gamma and nu (and points).
+    Concrete points are centered and scaled in float64 NumPy first (float16 and integers
+    are computed in float32), so float32 coordinates far from the origin keep their shape.
     """
     opts = _options(resolution, refine, band, tol, max_iter, check_every, kernel, block)
     _validate.check_points(points)
     _validate.check_gamma(gamma)
     _validate.check_nu(nu)
-    points = jnp.asarray(points)
-    if not jnp.issubdtype(points.dtype, jnp.floating):
-        points = points.astype(jnp.result_type(float))
-    return _normalize_jit(points, None, gamma, nu, **opts)
+    shift, size = None, None
+    if _validate.is_traced(points):  # pure-JAX path (jit, vmap, grad in points): unchanged
+        points = jnp.asarray(points)
+        if not jnp.issubdtype(points.dtype, jnp.floating):
+            points = points.astype(jnp.result_type(float))
+    else:  # issue 6: pre-center/scale in float64 before the cast to the compute dtype
+        dtype = _validate.compute_dtype(points)
+        shift, size = _validate.frame64(points)
+        points = jnp.asarray((np.asarray(points, np.float64) - shift) / size, dtype)
+    pose = _normalize_jit(points, None, gamma, nu, **opts)
+    return _finish(pose, shift, size, gamma, nu, throw, tol)
 
 
-def normalize_batch(list_of_points: Sequence, gamma=47.0, nu=0.5, *, pad_to=None, **options) -> Pose:
+def _finish(pose, shift, size, gamma, nu, throw, tol):
+    """Issue 6: map a pre-scaled pose back, flag out-of-range traced gamma / nu as not valid,
+    and raise on request (concrete results only)."""
+    if shift is not None:
+        dtype = pose.center.dtype
+        center = jnp.asarray(shift, dtype) + jnp.asarray(size, dtype)[..., None] * pose.center
+        scale = jnp.asarray(size, dtype) * pose.scale
+        finite = jnp.all(jnp.isfinite(center), axis=-1) & jnp.isfinite(scale) & (scale > 0)
+        pose = pose._replace(center=center, scale=scale, valid=pose.valid & finite)
+    g, n = jnp.asarray(gamma), jnp.asarray(nu)
+    in_range = jnp.isfinite(g) & (g > 0) & jnp.isfinite(n) & (n >= 0) & (n <= 1)
+    pose = pose._replace(valid=pose.valid & in_range)
+    if throw and not _validate.is_traced(pose.valid):
+        if not bool(jnp.all(pose.converged)):
+            raise _validate.ConvergenceError(
+                f"SVDD solver hit its iteration cap ({np.asarray(pose.iterations)} iterations) before tol={tol}"
+            )
+        if not bool(jnp.all(pose.valid)):
+            raise _validate.JaxposeError(
+                f"no valid pose (center {np.asarray(pose.center)}, scale {np.asarray(pose.scale)}): "
+                "the region is empty or degenerate at this grid; try other gamma / nu / resolution"
+            )
+    return pose
+
+
+def normalize_batch(list_of_points: Sequence, gamma=47.0, nu=0.5, *, pad_to=None, throw=False, **options) -> Pose:
     """Normalize many objects with one compilation (padding + masks, vmapped).
 
     list_of_points : sequence of (m_i, 3) arrays; rows are padded to
     max(m_i) (or ``pad_to``) and masked out of every sum.
     Returns a Pose whose fields have a leading axis of len(list_of_points).
     Point counts differ only in padding: results equal ``normalize`` per object
-    up to solver tolerance.
+    up to solver tolerance. Point sets must be concrete (under jit, vmap ``normalize``);
+    each is centered and scaled in float64 first, as in ``normalize``. ``throw`` as there.
     """
     unknown = set(options) - set(DEFAULTS)
     if unknown:
@@ -175,13 +240,19 @@ def normalize_batch(list_of_points: Sequence, gamma=47.0, nu=0.5, *, pad_to=None
     opts = _options(**{**DEFAULTS, **options})
     if len(list_of_points) == 0:
         raise _validate.InvalidInputError("normalize_batch needs at least one point set")
-    arrays = [np.asarray(_validate.check_points(p, name=f"points[{i}]")) for i, p in enumerate(list_of_points)]
+    arrays = [_validate.check_points(p, name=f"points[{i}]") for i, p in enumerate(list_of_points)]
+    if any(_validate.is_traced(a) for a in arrays):  # issue 6: padding needs concrete arrays
+        raise _validate.InvalidInputError("normalize_batch needs concrete point sets; under jit, use jax.vmap(normalize)")
+    # issue 6: pre-center/scale each set in float64 (see normalize), mapped back in _finish
+    dtype = np.result_type(*[_validate.compute_dtype(a) for a in arrays])
+    frames = [_validate.frame64(a, name=f"points[{i}]") for i, a in enumerate(arrays)]
+    arrays = [(np.asarray(a, np.float64) - c) / r for a, (c, r) in zip(arrays, frames)]
+    shift, size = np.stack([c for c, _ in frames]), np.asarray([r for _, r in frames])
     _validate.check_gamma(gamma)
     _validate.check_nu(nu)
     m = max(a.shape[0] for a in arrays) if pad_to is None else int(pad_to)
     if m < max(a.shape[0] for a in arrays):
         raise _validate.InvalidInputError(f"pad_to={m} is smaller than the largest point set")
-    dtype = np.result_type(*[a.dtype for a in arrays], np.float32)
     pts = np.empty((len(arrays), m, 3), dtype)
     mask = np.zeros((len(arrays), m), bool)
     for i, a in enumerate(arrays):
@@ -191,7 +262,8 @@ def normalize_batch(list_of_points: Sequence, gamma=47.0, nu=0.5, *, pad_to=None
     pts = jnp.asarray(pts)  # float64 becomes float32 unless x64 is on
     gamma = jnp.broadcast_to(jnp.asarray(gamma, pts.dtype), (len(arrays),))
     nu = jnp.broadcast_to(jnp.asarray(nu, pts.dtype), (len(arrays),))
-    return _batched(pts, jnp.asarray(mask), gamma, nu, **opts)
+    pose = _batched(pts, jnp.asarray(mask), gamma, nu, **opts)
+    return _finish(pose, shift, size, gamma, nu, throw, opts["tol"])
 
 
 def _batched_impl(points, mask, gamma, nu, **opts):

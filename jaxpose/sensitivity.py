@@ -40,7 +40,7 @@ import numpy as np
 
 from . import _validate
 from .moments import _volume_moments
-from .pose import DEFAULTS, Pose, _options, reference_frame
+from .pose import DEFAULTS, Pose, _options, prescale
 from .svdd import _caps, _fit, _make_matvec, _offset
 
 __all__ = ["pose", "pose_sensitivity", "NU_DELTA"]
@@ -67,9 +67,8 @@ def _nu_slope(nu, y, gamma, alpha0, cfg):
 def _pose(points, gamma, nu, resolution, refine, band, tol, max_iter, check_every, kernel, block,
           nu_delta=NU_DELTA, nu_tol=None):
     """Like ``pose._normalize`` (no mask), with the secant nu-derivative. Same forward values."""
-    mean, size = reference_frame(points)
+    y, to_world, size = prescale(points)
     safe = jnp.where(size > 0, size, 1.0)
-    y = (points - mean) / safe
     dtype = y.dtype
     gamma = jnp.asarray(gamma, dtype)
     nu = jnp.asarray(nu, dtype)
@@ -88,7 +87,7 @@ def _pose(points, gamma, nu, resolution, refine, band, tol, max_iter, check_ever
     Ka = _make_matvec(y, gamma, kernel, block)(a)
     s = s._replace(alpha=a, offset=_offset(a, Ka, caps, mask), objective=jnp.vdot(a, Ka))
     mom = _volume_moments(s, resolution, block, refine, band)
-    center = mean + safe * mom.center
+    center = to_world(mom.center)
     scale = safe * mom.mean_distance
     valid = (size > 0) & jnp.all(jnp.isfinite(center)) & jnp.isfinite(scale) & (scale > 0) & (mom.volume > 0)
     return Pose(center, scale, s.converged, valid, s.iterations)

@@ -36,6 +36,8 @@ from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
+import numpy as np
+
 from . import _validate
 from .kernels import gaussian_kernel, kernel_matvec_blocked, map_blocks, power_iteration
 from .projection import projection_capped_simplex
@@ -242,12 +244,24 @@ def fit_svdd(
     Jittable (with static options), vmappable over same-size point sets,
     differentiable in points, gamma and nu by implicit differentiation.
     """
-    if not _validate.is_traced(points):
-        _validate.check_points(points)
+    points = _validate.check_points(points)
     _validate.check_gamma(gamma)
     _validate.check_nu(nu)
     if kernel not in ("auto", "dense", "blocked"):
         raise _validate.InvalidInputError(f"kernel must be 'auto', 'dense' or 'blocked', got {kernel!r}")
+    # issue 6: check_every = 0 looped forever; mask / init_alpha shapes gave JAX-internal errors
+    _validate.check_options(tol, max_iter, check_every, block)
+    m = points.shape[0] if hasattr(points, "shape") else len(points)
+    if mask is not None:
+        if tuple(getattr(mask, "shape", (len(mask),))) != (m,):
+            raise _validate.InvalidInputError(f"mask must have shape ({m},), got {tuple(jnp.shape(mask))}")
+        if not _validate.is_traced(mask) and not _validate.is_traced(points):
+            _validate.check_points(np.asarray(points)[np.asarray(mask, bool)], name="points selected by mask")
+    if init_alpha is not None:
+        if tuple(jnp.shape(init_alpha)) != (m,):
+            raise _validate.InvalidInputError(f"init_alpha must have shape ({m},), got {tuple(jnp.shape(init_alpha))}")
+        if not _validate.is_traced(init_alpha) and not np.all(np.isfinite(np.asarray(init_alpha, np.float64))):
+            raise _validate.InvalidInputError("init_alpha has NaN or inf entries")
     points = jnp.asarray(points)
     if not jnp.issubdtype(points.dtype, jnp.floating):
         points = points.astype(jnp.result_type(float))
@@ -314,9 +328,10 @@ def decision_value_and_grad(svdd: SVDD, x, block=4096):
 
 def decision_function(svdd: SVDD, x, block=4096):
     """f(x) = 2 k(x)^T alpha - mu (eq. 3), positive inside. x : (n, 3) -> (n,)."""
+    if not isinstance(svdd, SVDD):  # issue 6: clear errors for a wrong model or NaN / non-numeric x
+        raise _validate.InvalidInputError(f"svdd must be an SVDD from fit_svdd, got {type(svdd).__name__}")
+    _validate.check_array(x, name="x")
     x = jnp.asarray(x, svdd.points.dtype)
-    if x.ndim != 2 or x.shape[-1] != 3:
-        raise _validate.InvalidInputError(f"x must have shape (n, 3), got {tuple(x.shape)}")
     if x.shape[0] == 0:
         return jnp.zeros((0,), x.dtype)
     p, a, g = svdd.points, svdd.alpha, svdd.gamma

@@ -53,8 +53,9 @@ fig'''),
                       "dots: samples near the slice. A small γ gives a smooth, sphere-like region; a large ν "
                       "lets the region drop a large share of the samples."),
     new_code_cell('''fig, axes = plt.subplots(2, 3, figsize=(12, 7), layout="constrained")
-plot.region_slices(points, 15.0, 0.02, ax=axes[0], resolution=60 if SMALL else 120)  # pixels per slice
-plot.region_slices(points, 45.0, 0.8, ax=axes[1], resolution=60 if SMALL else 120)
+PIXELS = 60 if SMALL else 120  # per side of a slice
+plot.region_slices(points, 15.0, 0.02, ax=axes[0], pixels=PIXELS, resolution=RESOLUTION)
+plot.region_slices(points, 45.0, 0.8, ax=axes[1], pixels=PIXELS, resolution=RESOLUTION)
 fig'''),
     new_markdown_cell("## OCSVM center against the classical ones\n\n"
                       "The dashed circle has the OCSVM scale as its radius."),

@@ -29,7 +29,7 @@ def fake_normalize(monkeypatch):
 
     def normalize(points, gamma=47.0, nu=0.5, **options):
         calls.append(options)
-        return SimpleNamespace(center=gamma * np.asarray(points).mean(axis=0), scale=1.0 + nu)
+        return SimpleNamespace(center=gamma * np.asarray(points).mean(axis=0), scale=1.0 + nu, converged=True)
 
     monkeypatch.setattr(jaxpose, "normalize", normalize, raising=False)
     monkeypatch.delattr(jaxpose, "normalize_batch", raising=False)
@@ -163,34 +163,10 @@ def test_evaluate_ocsvm_uses_samples_and_options(fake_normalize):
     assert result["params"]["gamma"] == 2.0 and result["params"]["count"] == 500
 
 
-def test_evaluate_prefers_normalize_batch(fake_normalize, monkeypatch):
-    batches = []
-
-    def normalize_batch(points_list, gamma=47.0, nu=0.5, **options):
-        batches.append(len(points_list))
-        centers = np.stack([gamma * np.asarray(p).mean(axis=0) for p in points_list])
-        return SimpleNamespace(center=centers, scale=np.full(len(points_list), 1.0 + nu))
-
-    monkeypatch.setattr(jaxpose, "normalize_batch", normalize_batch, raising=False)
-    batched = evaluate({"boxes": _boxes()}, methods=["ocsvm"], count=200)
-    assert batches == [2] and not fake_normalize
-    assert batched["per_class"]["boxes"]["ocsvm"]["converged"] == [True, True]
-    listed = []
-
-    def normalize_list(points_list, gamma=47.0, nu=0.5, **options):  # a list of poses works too
-        listed.append(len(points_list))
-        return [jaxpose.normalize(p, gamma=gamma, nu=nu) for p in points_list]
-
-    monkeypatch.setattr(jaxpose, "normalize_batch", normalize_list)
-    as_list = evaluate({"boxes": _boxes()}, methods=["ocsvm"], count=200)
-    assert listed == [2] and len(fake_normalize) == 2
-    monkeypatch.delattr(jaxpose, "normalize_batch")
-    looped = evaluate({"boxes": _boxes()}, methods=["ocsvm"], count=200)
-    assert len(fake_normalize) == 4
-    np.testing.assert_allclose(as_list["per_class"]["boxes"]["ocsvm"]["centers"],
-                               looped["per_class"]["boxes"]["ocsvm"]["centers"], rtol=1e-12)
-    np.testing.assert_allclose(batched["per_class"]["boxes"]["ocsvm"]["centers"],
-                               looped["per_class"]["boxes"]["ocsvm"]["centers"], rtol=1e-12)
+def test_evaluate_calls_normalize_once_per_object(fake_normalize):
+    result = evaluate({"boxes": _boxes()}, methods=["ocsvm"], count=200)
+    assert len(fake_normalize) == 2
+    assert result["per_class"]["boxes"]["ocsvm"]["converged"] == [True, True]
 
 
 def test_evaluate_align_core_and_progress(fake_normalize):

@@ -58,11 +58,11 @@ def test_region_slices_points_and_svdd(tmp_path):
     import jaxpose
 
     pts = sphere_with_arm(80)
-    fig = plot.region_slices(pts, 15.0, 0.1, resolution=30, path=tmp_path / "r.png")
+    fig = plot.region_slices(pts, 15.0, 0.1, pixels=30, resolution=16, path=tmp_path / "r.png")
     assert len(fig.axes) == 3
     _png(tmp_path / "r.png")
     svdd = jaxpose.fit_svdd(jnp.asarray(pts), 20.0, 0.2)
-    fig = plot.region_slices(svdd, planes=("xz",), resolution=20, center=np.zeros(3), path=tmp_path / "s.png")
+    fig = plot.region_slices(svdd, planes=("xz",), pixels=20, center=np.zeros(3), path=tmp_path / "s.png")
     assert len(fig.axes) == 1
     _png(tmp_path / "s.png")
 
@@ -73,9 +73,9 @@ def test_region_slices_into_given_axes():
     fig = Figure()
     axes = fig.subplots(2, 3)
     pts = sphere_with_arm(60)
-    assert plot.region_slices(pts, 10.0, 0.1, resolution=16, ax=axes[1]) is fig
+    assert plot.region_slices(pts, 10.0, 0.1, pixels=16, resolution=16, ax=axes[1]) is fig
     with pytest.raises(ValueError):
-        plot.region_slices(pts, 10.0, 0.1, resolution=16, ax=axes[0][:2])
+        plot.region_slices(pts, 10.0, 0.1, pixels=16, resolution=16, ax=axes[0][:2])
 
 
 def test_mesh_3d_mesh_and_points(tmp_path, shape):

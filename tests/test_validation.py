@@ -1,0 +1,356 @@
+"""Issue 6: bad input, degenerate shapes, numerical safety.
+
+Every public function and command either gives a correct result or raises a clear
+JaxposeError (value problems also ValueError): never a silent NaN, a hang, a JAX-internal
+traceback or a half-written output file. Point sets have m = 300 and default options so the
+few compilations are shared between tests.
+"""
+import os
+import stat
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import jaxpose
+from jaxpose import ConvergenceError, InvalidInputError, JaxposeError, decision_function, fit_svdd, normalize
+from conftest import box_surface
+
+M = 300
+P = box_surface(M, seed=3)
+FIT = dict(tol=1e-3)
+
+
+def finite_pose(pose):
+    return bool(np.all(np.isfinite(np.asarray(pose.center)))) and bool(np.isfinite(float(pose.scale)))
+
+
+def rotation(angles):
+    a, b, c = angles
+    rx = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
+    ry = np.array([[np.cos(b), 0, np.sin(b)], [0, 1, 0], [-np.sin(b), 0, np.cos(b)]])
+    rz = np.array([[np.cos(c), -np.sin(c), 0], [np.sin(c), np.cos(c), 0], [0, 0, 1]])
+    return rz @ ry @ rx
+
+
+# --------------------------------------------------------------------------- errors
+def test_exception_hierarchy():
+    assert issubclass(InvalidInputError, JaxposeError) and issubclass(InvalidInputError, ValueError)
+    assert issubclass(ConvergenceError, JaxposeError)
+
+
+BAD_POINTS = {
+    "2 columns": (P[:, :2], "shape (m, 3)"),
+    "1-d": (P[0], "shape (m, 3)"),
+    "3-d": (P[None], "shape (m, 3)"),
+    "ragged": ([[0, 0, 0], [1, 1]], "(m, 3) array"),
+    "empty": (np.zeros((0, 3)), "at least 4"),
+    "too few": (P[:3], "at least 4"),
+    "nan": (np.where(np.arange(M)[:, None] == 7, np.nan, P), "NaN or inf"),
+    "inf": (np.where(np.arange(M)[:, None] == 7, -np.inf, P), "NaN or inf"),
+    "identical": (np.ones((20, 3)), "identical"),
+    "complex": (P.astype(complex), "real numbers"),
+    "strings": (P.astype(str), "real numbers"),
+    "bool": (P > 0, "real numbers"),
+    "object": (P.astype(object), "real numbers"),
+}
+
+
+@pytest.mark.parametrize("name", list(BAD_POINTS))
+def test_bad_points_everywhere(name):
+    bad, fragment = BAD_POINTS[name]
+    for call in (
+        lambda: normalize(bad),
+        lambda: fit_svdd(bad, 1.0, 0.5),
+        lambda: jaxpose.normalize_batch([P, bad]),
+    ):
+        with pytest.raises(InvalidInputError, match=fragment.replace("(", r"\(").replace(")", r"\)")):
+            call()
+
+
+@pytest.mark.parametrize(
+    "kw,fragment",
+    [
+        (dict(gamma=0.0), "gamma must be > 0"),
+        (dict(gamma=-1.0), "gamma must be > 0"),
+        (dict(gamma=np.nan), "gamma must be finite"),
+        (dict(gamma=np.inf), "gamma must be finite"),
+        (dict(gamma="a"), "real scalar"),
+        (dict(gamma=None), "real scalar"),
+        (dict(gamma=np.ones(2)), "real scalar"),
+        (dict(nu=-0.1), r"nu must be in \[0, 1\]"),
+        (dict(nu=1.5), r"nu must be in \[0, 1\]"),
+        (dict(nu=np.nan), "nu must be finite"),
+    ],
+)
+def test_bad_hyperparameters(kw, fragment):
+    args = {**dict(gamma=1.0, nu=0.5), **kw}
+    with pytest.raises(InvalidInputError, match=fragment):
+        normalize(P, **args)
+    with pytest.raises(InvalidInputError, match=fragment):
+        fit_svdd(P, **args)
+    with pytest.raises(InvalidInputError, match=fragment):
+        jaxpose.normalize_batch([P], **args)
+
+
+@pytest.mark.parametrize(
+    "kw",
+    [
+        dict(resolution=4), dict(resolution=8.0), dict(resolution=True), dict(refine=3), dict(refine=0),
+        dict(band=-1), dict(tol=0.0), dict(tol=np.nan), dict(max_iter=0), dict(check_every=0),
+        dict(block=0), dict(kernel="x"),
+    ],
+)
+def test_bad_options(kw):
+    with pytest.raises(InvalidInputError):
+        normalize(P, **kw)
+    with pytest.raises(InvalidInputError):
+        jaxpose.normalize_batch([P], **kw)
+
+
+@pytest.mark.parametrize(
+    "kw,fragment",
+    [
+        (dict(check_every=0), "check_every"),  # used to loop forever
+        (dict(max_iter=0), "max_iter"),
+        (dict(tol=-1.0), "tol"),
+        (dict(block=0), "block"),
+        (dict(mask=np.ones(5, bool)), "mask must have shape"),
+        (dict(mask=np.zeros(M, bool)), "selected by mask needs at least 4"),
+        (dict(init_alpha=np.ones(5)), "init_alpha must have shape"),
+        (dict(init_alpha=np.full(M, np.nan)), "init_alpha has NaN"),
+    ],
+)
+def test_fit_svdd_bad_options(kw, fragment):
+    with pytest.raises(InvalidInputError, match=fragment):
+        fit_svdd(P, 1.0, 0.5, **kw)
+
+
+def test_decision_function_bad_input():
+    svdd = fit_svdd(P, 10.0, 0.5, **FIT)
+    for x, fragment in [(np.zeros((4, 2)), "shape"), (np.full((2, 3), np.nan), "NaN"), (np.zeros((2, 3), complex), "real")]:
+        with pytest.raises(InvalidInputError, match=fragment):
+            decision_function(svdd, x)
+    with pytest.raises(InvalidInputError, match="SVDD"):
+        decision_function(P, P)
+    assert decision_function(svdd, np.zeros((0, 3))).shape == (0,)
+    f = decision_function(svdd, [[0.0, 0.0, 0.0], [50.0, 0.0, 0.0]])  # lists are fine
+    assert np.all(np.isfinite(np.asarray(f))) and float(f[0]) > 0 > float(f[1])
+
+
+def test_normalize_batch_bad_input():
+    with pytest.raises(InvalidInputError, match="at least one"):
+        jaxpose.normalize_batch([])
+    with pytest.raises(InvalidInputError, match="pad_to"):
+        jaxpose.normalize_batch([P], pad_to=10)
+    with pytest.raises(InvalidInputError, match="unknown options"):
+        jaxpose.normalize_batch([P], foo=1)
+    with pytest.raises(InvalidInputError, match="concrete"):
+        jax.jit(lambda p: jaxpose.normalize_batch([p]).scale)(jnp.asarray(P))
+
+
+def test_out_of_range_for_float32():
+    if jax.config.jax_enable_x64:
+        pytest.skip("float32 only")
+    with pytest.raises(InvalidInputError, match="float32"):
+        normalize(P * 1e300)
+
+
+# --------------------------------------------------------------------------- convergence
+def test_iteration_cap_is_reported():
+    pose = normalize(P, max_iter=10)
+    assert not bool(pose.converged) and finite_pose(pose)
+    with pytest.raises(ConvergenceError, match="iteration cap"):
+        normalize(P, max_iter=10, throw=True)
+    with pytest.raises(ConvergenceError, match="max_iter=10"):
+        fit_svdd(P, 10.0, 0.5, max_iter=10, throw=True)
+    assert not bool(fit_svdd(P, 10.0, 0.5, max_iter=10).converged)
+    with pytest.raises(ConvergenceError):
+        jaxpose.normalize_batch([P, P[::-1]], max_iter=10, throw=True)
+
+
+def test_invalid_result_flagged_or_raised():
+    pose = normalize(P, gamma=1e6)  # kernel far narrower than a grid cell: empty region
+    assert not bool(pose.valid)
+    with pytest.raises(JaxposeError, match="no valid pose"):
+        normalize(P, gamma=1e6, throw=True)
+
+
+# --------------------------------------------------------------------------- under jit
+def test_validity_flag_under_jit():
+    f = jax.jit(lambda p, g, n: normalize(p, g, n))
+    pts = jnp.asarray(P, jnp.float32)
+    good = f(pts, 47.0, 0.5)
+    assert bool(good.valid) and finite_pose(good)
+    assert not bool(f(jnp.ones((M, 3), jnp.float32), 47.0, 0.5).valid)  # all identical
+    assert not bool(f(pts.at[3, 1].set(jnp.nan), 47.0, 0.5).valid)
+    for g, n in [(-1.0, 0.5), (0.0, 0.5), (jnp.nan, 0.5), (47.0, 2.0), (47.0, -0.5), (47.0, jnp.nan)]:
+        assert not bool(f(pts, g, n).valid), (g, n)
+    # jit of a concrete-points closure (gamma traced) takes the float64 pre-scaling path
+    scale = jax.jit(lambda g: normalize(P, g, 0.5).scale)(47.0)
+    np.testing.assert_allclose(float(scale), float(good.scale), rtol=1e-3)
+
+
+# --------------------------------------------------------------------------- degenerate, legal
+def test_degenerate_but_legal_shapes():
+    rng = np.random.default_rng(0)
+    t = np.linspace(0.0, 2.0, M)
+    cases = {
+        "collinear": np.c_[t, 0.5 * t, np.zeros(M)] + 3.0,
+        "coplanar": np.c_[rng.uniform(size=(M, 2)), np.zeros(M)],
+        "two points": np.r_[np.zeros((M // 2, 3)), np.ones((M // 2, 3))],
+        "duplicates": np.r_[P[: M // 2], P[: M // 2]],
+        "20 parts": np.concatenate([0.02 * P[k::20] + 2.0 * rng.normal(size=3) for k in range(20)]),
+    }
+    for name, pts in cases.items():
+        pose = normalize(pts, throw=True)
+        assert bool(pose.valid) and finite_pose(pose) and float(pose.scale) > 0, name
+        lo, hi = pts.min(0), pts.max(0)
+        assert np.all(np.asarray(pose.center) >= lo - 1e-3) and np.all(np.asarray(pose.center) <= hi + 1e-3), name
+    pose = normalize(cases["collinear"])
+    np.testing.assert_allclose(np.asarray(pose.center), [4.0, 3.5, 3.0], atol=2e-3)
+    pose = normalize(cases["two points"])
+    np.testing.assert_allclose(np.asarray(pose.center), [0.5, 0.5, 0.5], atol=2e-3)
+
+
+def test_float32_far_offsets_and_extreme_units():
+    if jax.config.jax_enable_x64:
+        pytest.skip("float32 only")
+    ref = normalize(P)
+    c, s = np.asarray(ref.center, np.float64), float(ref.scale)
+    # float32 points at 1e6: compare with the same (quantized) points moved to the origin in float64
+    p32 = (P + 1e6).astype(np.float32)
+    near = normalize(p32.astype(np.float64) - 1e6)
+    far = normalize(p32)
+    assert far.center.dtype == jnp.float32 and bool(far.valid)
+    assert np.max(np.abs(np.asarray(far.center, np.float64) - 1e6 - np.asarray(near.center))) < 0.07  # float32 ulp(1e6) = 0.0625
+    np.testing.assert_allclose(float(far.scale), float(near.scale), rtol=1e-4)
+    # float64 points at 1e6 with x64 off: their shape is kept (centered in float64 first)
+    far64 = normalize(P + 1e6)
+    np.testing.assert_allclose(float(far64.scale), s, rtol=1e-4)
+    assert np.max(np.abs(np.asarray(far64.center, np.float64) - 1e6 - c)) < 0.07
+    for unit in (1e-6, 1e-30, 1e6, 1e30):
+        pose = normalize((P * unit).astype(np.float32))
+        assert bool(pose.valid), unit
+        np.testing.assert_allclose(float(pose.scale) / unit, s, rtol=1e-3)
+        np.testing.assert_allclose(np.asarray(pose.center, np.float64) / unit, c, atol=1e-3 * s)
+    for dtype in (np.float16, np.int64):
+        pose = normalize((P * 100).astype(dtype))
+        assert pose.center.dtype == jnp.float32 and bool(pose.valid)
+        np.testing.assert_allclose(float(pose.scale), 100 * s, rtol=2e-2)
+
+
+@pytest.mark.parametrize("gamma,nu", [(1e-3, 0.5), (200.0, 0.5), (47.0, 0.0), (47.0, 1.0), (47.0, 1e-3)])
+def test_edge_hyperparameters(gamma, nu):
+    pose = normalize(P, gamma, nu)
+    assert bool(pose.valid) and bool(pose.converged) and finite_pose(pose)
+    assert float(pose.scale) > 0
+
+
+def test_edge_hyperparameters_fit_svdd():
+    for gamma, nu in [(1e-3, 0.5), (200.0, 0.5), (1.0, 0.0), (1.0, 1.0), (1.0, 1e-3)]:
+        svdd = fit_svdd(P, gamma, nu, **FIT)
+        assert bool(svdd.converged) and np.isfinite(float(svdd.offset)) and np.isfinite(float(svdd.radius2))
+        np.testing.assert_allclose(float(jnp.sum(svdd.alpha)), 1.0, rtol=1e-5)
+    # nu = 0 and nu below 1/m both mean no upper bound: the same solution
+    a, b = fit_svdd(P, 1.0, 0.0, **FIT), fit_svdd(P, 1.0, 1e-3, **FIT)
+    np.testing.assert_allclose(np.asarray(a.alpha), np.asarray(b.alpha), atol=1e-6)
+
+
+# --------------------------------------------------------------------------- properties (float64)
+@settings(max_examples=4, deadline=None, suppress_health_check=list(HealthCheck))
+@given(
+    angles=st.tuples(*[st.floats(0, 2 * np.pi)] * 3),
+    log_scale=st.floats(-4, 4),
+    shift=st.tuples(*[st.floats(-1e4, 1e4)] * 3),
+)
+def test_equivariance_property(x64, angles, log_scale, shift):
+    base = normalize(P)
+    R, s, t = rotation(angles), 10.0 ** log_scale, np.asarray(shift)
+    moved = normalize(s * P @ R.T + t)
+    expect = s * np.asarray(base.center) @ R.T + t
+    size = s * float(base.scale)
+    assert np.linalg.norm(np.asarray(moved.center) - expect) < 2e-3 * size
+    assert abs(float(moved.scale) - size) < 2e-3 * size
+
+
+@settings(max_examples=3, deadline=None, suppress_health_check=list(HealthCheck))
+@given(seed=st.integers(0, 2**31 - 1))
+def test_point_order_invariance_property(x64, seed):
+    base = normalize(P)
+    perm = np.random.default_rng(seed).permutation(M)
+    pose = normalize(P[perm])
+    s = float(base.scale)
+    assert np.linalg.norm(np.asarray(pose.center) - np.asarray(base.center)) < 1e-3 * s
+    assert abs(float(pose.scale) - s) < 1e-3 * s
+
+
+def test_duplicating_every_point(x64):
+    # the dual with each point twice has the same optimum (alpha split in halves, C halved)
+    base = normalize(P, tol=1e-5)
+    twice = normalize(np.r_[P, P], tol=1e-5)
+    s = float(base.scale)
+    assert np.linalg.norm(np.asarray(twice.center) - np.asarray(base.center)) < 1e-3 * s
+    assert abs(float(twice.scale) - s) < 1e-3 * s
+
+
+# --------------------------------------------------------------------------- CLI
+def _run_cli(args, capsys):
+    from jaxpose.cli import main
+
+    code = main([str(a) for a in args])
+    out, err = capsys.readouterr()
+    assert "Traceback" not in err
+    return code, out, err
+
+
+def _digest(folder):
+    return {p.name: p.read_bytes() for p in folder.iterdir() if p.is_file()}
+
+
+def test_cli_bad_and_degenerate_files(tmp_path, capsys):
+    import trimesh
+
+    trimesh.PointCloud(box_surface(400, seed=1)).export(tmp_path / "cloud.ply")
+    flat = trimesh.Trimesh(vertices=[[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], faces=[[0, 1, 2], [0, 2, 3]])
+    flat.export(tmp_path / "flat.obj")
+    (tmp_path / "corrupt.ply").write_bytes(b"ply\nformat garbage\n")
+    (tmp_path / "nan.obj").write_text("v nan 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    (tmp_path / "empty.obj").write_text("")
+    (tmp_path / "shape.xyz123").write_text("1 2 3\n")
+    before = _digest(tmp_path)
+    failures = [
+        ([tmp_path / "missing.ply"], 1, "no such file"),
+        ([tmp_path / "shape.xyz123"], 1, "unsupported format"),
+        ([tmp_path / "corrupt.ply"], 1, "cannot read PLY"),
+        ([tmp_path / "nan.obj"], 1, "NaN"),
+        ([tmp_path / "empty.obj"], 1, "empty geometry"),
+        ([tmp_path / "cloud.ply", "--gamma", "-1"], 1, "gamma must be > 0"),
+        ([tmp_path / "cloud.ply", "--nu", "nan"], 1, "nu must be finite"),
+        ([tmp_path / "cloud.ply", "--count", "2"], 1, "count must be >= 4"),
+        ([tmp_path / "cloud.ply", "--resolution", "2"], 1, "resolution must be >= 8"),
+        ([tmp_path / "cloud.ply", "-o", tmp_path / "nodir" / "x.ply"], 1, "does not exist"),
+        ([tmp_path / "cloud.ply", "-o", tmp_path / "flat.obj"], 1, "exists"),
+        ([], 2, "needs an INPUT"),
+    ]
+    for args, code, fragment in failures:
+        got, out, err = _run_cli(["normalize", *args], capsys)
+        assert got == code and fragment in err and err.startswith("jaxpose: error:"), (args, err)
+    with pytest.raises(SystemExit) as exc:
+        _run_cli(["normalize", tmp_path / "cloud.ply", "--bogus"], capsys)
+    assert exc.value.code == 2
+    for name in ("cloud.ply", "flat.obj"):  # point cloud and flat mesh: fine
+        out_path = tmp_path / f"out_{name}.ply"
+        got, out, err = _run_cli(["normalize", tmp_path / name, "-o", out_path, "--count", str(M)], capsys)
+        assert got == 0, err
+        assert out_path.exists() and (tmp_path / f"out_{name}.transform.json").exists()
+        mode = stat.S_IMODE(out_path.stat().st_mode)
+        umask = os.umask(0)
+        os.umask(umask)
+        assert mode == 0o666 & ~umask  # not mkstemp's 0600
+    after = _digest(tmp_path)
+    assert {k: after[k] for k in before} == before  # no input modified
+    assert not [p for p in tmp_path.iterdir() if p.name.endswith(".tmp")]  # no half-written files

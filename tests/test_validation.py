@@ -12,7 +12,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
 import jaxpose
@@ -261,7 +261,7 @@ def test_edge_hyperparameters_fit_svdd():
 
 
 # --------------------------------------------------------------------------- properties (float64)
-@settings(max_examples=4, deadline=None, suppress_health_check=list(HealthCheck))
+@settings(max_examples=4, deadline=None, suppress_health_check=list(HealthCheck), phases=(Phase.explicit, Phase.generate), derandomize=True)
 @given(
     angles=st.tuples(*[st.floats(0, 2 * np.pi)] * 3),
     log_scale=st.floats(-4, 4),
@@ -277,7 +277,7 @@ def test_equivariance_property(x64, angles, log_scale, shift):
     assert abs(float(moved.scale) - size) < 2e-3 * size
 
 
-@settings(max_examples=3, deadline=None, suppress_health_check=list(HealthCheck))
+@settings(max_examples=3, deadline=None, suppress_health_check=list(HealthCheck), phases=(Phase.explicit, Phase.generate), derandomize=True)
 @given(seed=st.integers(0, 2**31 - 1))
 def test_point_order_invariance_property(x64, seed):
     base = normalize(P)

@@ -4,16 +4,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
-__all__ = ["sq_distances", "gaussian_kernel", "kernel_matvec_blocked", "power_iteration"]
-
-
-def sq_distances(a, b):
-    """Squared distances by explicit differences (robust to large offsets).
-
-    a : (n, 3), b : (m, 3) -> (n, m)
-    """
-    d = a[:, None, :] - b[None, :, :]
-    return jnp.sum(d * d, axis=-1)
+__all__ = ["gaussian_kernel", "kernel_matvec_blocked", "power_iteration"]
 
 
 def gaussian_kernel(a, b, gamma):

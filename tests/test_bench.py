@@ -83,7 +83,8 @@ def test_bench_quick_json(tmp_path, monkeypatch, capsys):
 
 def test_bench_without_sklearn(monkeypatch):
     _tiny(monkeypatch)
-    monkeypatch.setattr(bench, "sklearn_available", lambda: False)
+    # every section asks jaxpose.bench._common.sklearn_available (the package re-exports it)
+    monkeypatch.setattr(bench._common, "sklearn_available", lambda: False)
     r = bench.run(("solver", "end2end", "batch"), quick=True)
     assert r["sklearn"] == bench.UNAVAILABLE
     assert r["sections"]["solver"]["sklearn"] == bench.UNAVAILABLE

@@ -1,0 +1,7 @@
+"""``python -m jaxpose.bench ...``: the same as ``jaxpose bench ...``."""
+import sys
+
+from .report import cli
+
+if __name__ == "__main__":
+    raise SystemExit(cli(sys.argv[1:]))

@@ -1,0 +1,252 @@
+"""Driver, table and command line of ``jaxpose bench``: ``run``, ``format_table``, ``cli``."""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from . import _common
+from ._common import GAMMA, NU, UNAVAILABLE, load_points
+from .scaling import bench_scaling
+from .sections import bench_batch, bench_end2end, bench_solver
+
+SCHEMA_VERSION = 1
+SECTIONS = ("solver", "end2end", "batch", "scaling")
+
+QUICK = dict(m=300, repeats=2, batch_objects=3, batch_m=200, scaling_m=(200,), resolutions=(16,),
+             ref_resolution=32, ref_refine=2, sk_resolution=16, resolution=16, refine=2)
+FULL = dict(m=2000, repeats=5, batch_objects=8, batch_m=1000, scaling_m=(1000, 2000, 4000, 8000, 16000),
+            resolutions=(32, 64, 128), ref_resolution=64, ref_refine=4, sk_resolution=32, resolution=None, refine=None)
+
+
+# --------------------------------------------------------------------------- driver
+def _environment():
+    import jax
+
+    env = {"python": platform.python_version(), "jax": jax.__version__, "backend": jax.default_backend(),
+           "devices": [str(d) for d in jax.devices()], "x64": bool(jax.config.jax_enable_x64),
+           "cpu_count": os.cpu_count(), "platform": platform.platform()}
+    try:
+        import sklearn
+
+        env["sklearn"] = sklearn.__version__
+    except ImportError:
+        env["sklearn"] = UNAVAILABLE
+    return env
+
+
+def run(sections=SECTIONS, quick=False, m=None, repeats=None, scaling_m=None, resolutions=None, tol=1e-3,
+        sk_max_m=8000, use_sklearn=True, x64=False, progress=None, scaling_max_iter=None):
+    """Run the chosen sections; returns the JSON-ready result dict."""
+    cfg = dict(QUICK if quick else FULL)
+    if m is not None:
+        cfg["m"] = int(m)
+    if repeats is not None:
+        cfg["repeats"] = int(repeats)
+    if scaling_m is not None:
+        cfg["scaling_m"] = tuple(int(v) for v in scaling_m)
+    if resolutions is not None:
+        cfg["resolutions"] = tuple(int(v) for v in resolutions)
+    unknown = set(sections) - set(SECTIONS)
+    if unknown:
+        raise ValueError(f"unknown sections {sorted(unknown)}; valid: {', '.join(SECTIONS)}")
+    say = progress or (lambda s: None)
+    points, source = load_points(cfg["m"])
+    result = {"schema_version": SCHEMA_VERSION, "quick": bool(quick), "source": source, "gamma": GAMMA, "nu": NU,
+              "repeats": cfg["repeats"], "environment": _environment(),
+              "sklearn": ("available" if _common.sklearn_available() else UNAVAILABLE) if use_sklearn else "disabled",
+              "sections": {}}
+    sk = use_sklearn
+    if "solver" in sections:
+        say(f"solver (m={cfg['m']})")
+        result["sections"]["solver"] = bench_solver(points, repeats=cfg["repeats"], tol=tol, use_sklearn=sk)
+    if "end2end" in sections:
+        say(f"end2end (m={cfg['m']})")
+        result["sections"]["end2end"] = bench_end2end(
+            points, repeats=cfg["repeats"], resolution=cfg["resolution"], refine=cfg["refine"], sk_resolution=cfg["sk_resolution"],
+            ref_resolution=cfg["ref_resolution"], ref_refine=cfg["ref_refine"], use_sklearn=sk)
+    if "batch" in sections:
+        say(f"batch ({cfg['batch_objects']} objects, m<={cfg['batch_m']})")
+        result["sections"]["batch"] = bench_batch(cfg["batch_objects"], cfg["batch_m"], repeats=cfg["repeats"],
+                                                  resolution=cfg["resolution"], refine=cfg["refine"],
+                                                  sk_resolution=cfg["sk_resolution"],
+                                                  use_sklearn=sk)
+    if "scaling" in sections:
+        say(f"scaling (m in {cfg['scaling_m']}, resolution in {cfg['resolutions']})")
+        result["sections"]["scaling"] = bench_scaling(
+            cfg["scaling_m"], cfg["resolutions"], m_grid=min(cfg["m"], 2000), repeats=max(1, min(cfg["repeats"], 2)),
+            sk_max_m=sk_max_m, use_sklearn=sk, x64=x64, resolution=cfg["resolution"] or 32,
+            max_iter=scaling_max_iter)
+    return result
+
+
+# --------------------------------------------------------------------------- table
+def _t(x):
+    if not isinstance(x, dict) or "median_s" not in x:
+        return "n/a" if not isinstance(x, str) else ("n/a" if x == UNAVAILABLE else "skipped")
+    return f"{x['median_s']:.4g} s"
+
+
+def _r(x):
+    return "n/a" if x is None else f"{x:.3g}x"
+
+
+def _c(x):
+    if isinstance(x, dict) and x.get("cold_only"):
+        return "incl."
+    return f"{x['compile_s']:.3g} s" if isinstance(x, dict) and "compile_s" in x else "-"
+
+
+def _solver_lines(r):
+    j, k = r["jaxpose"], r["sklearn"]
+    lines = ["", f"[solver]  m={r['m']}  tol={r['tol']:g}  dtype={r['dtype']}",
+             f"  jaxpose fit   {_t(j):>12}  compile {_c(j)}  iterations {j['iterations']}  "
+             f"kkt {j['kkt_violation']:.2g}  objective {j['objective']:.10g}"]
+    if isinstance(k, dict):
+        lines.append(f"  sklearn fit   {_t(k):>12}  iterations {k['iterations']}  objective {k['objective']:.10g}")
+        lines.append(f"  ratio {_r(r['ratio'])}   objective (ours - libsvm) / libsvm = {r['objective_rel_diff']:.3g}")
+    else:
+        lines.append("  sklearn       unavailable")
+    return lines
+
+
+def _end2end_lines(r):
+    j, k, ref = r["jaxpose"], r["sklearn"], r["reference"]
+    lines = ["", f"[end2end]  m={r['m']}  reference: fit tol {ref['fit_tol']:g}, {ref['resolution']}^3 refined "
+                 f"{ref['refine']}^3 on the boundary (= {ref['boundary_resolution']}^3)",
+             f"  jaxpose normalize  {_t(j):>12}  compile {_c(j)}  grid {j['resolution']}^3 x refine "
+             f"{j['refine']}  center err {j['center_err']:.2e} ({j['center_err_rel_scale']:.2e} of scale)"]
+    if isinstance(k, dict):
+        lines.append(f"  sklearn pipeline   {_t(k):>12}  grid {k['resolution']}^3 indicator  (fit {k['fit_s_last']:.3g} s"
+                     f" + grid {k['grid_s_last']:.3g} s)  center err {k['center_err']:.2e} "
+                     f"({k['center_err_rel_scale']:.2e} of scale)")
+        lines.append(f"  ratio {_r(r['ratio'])}")
+    else:
+        lines.append("  sklearn            unavailable")
+    return lines
+
+
+def _batch_lines(r):
+    lines = ["", f"[batch]  {r['n_objects']} objects, m = {min(r['m'])}..{max(r['m'])}"]
+    for name in ("jaxpose_batch", "jaxpose_loop", "sklearn_loop"):
+        v = r.get(name)
+        if isinstance(v, dict):
+            lines.append(f"  {name:<14} {_t(v):>12}  {v['objects_per_s']:.3g} objects/s  compile {_c(v)}")
+        else:
+            lines.append(f"  {name:<14} unavailable")
+    lines.append(f"  ratios: batch/sklearn {_r(r['ratio_batch_vs_sklearn'])}  loop/sklearn "
+                 f"{_r(r['ratio_loop_vs_sklearn'])}  batch/loop {_r(r['ratio_batch_vs_loop'])}  "
+                 f"max |center batch - loop| {r['batch_vs_loop_max_center_diff']:.2e}")
+    return lines
+
+
+def _scaling_lines(r):
+    n = r.get("in_m_resolution", 32)
+    lines = ["", f"[scaling in m]  fit + moments ({n}^3, default refine) vs sklearn fit + {n}^3 indicator; "
+                 "one process per case, peak = VmHWM",
+             f"  {'m':>6} {'jaxpose':>12} {'compile':>9} {'iters':>6} {'peak MB':>8} {'sklearn':>12} {'peak MB':>8} {'ratio':>8}"]
+    for row in r["in_m"]:
+        j, k = row["jaxpose"], row["sklearn"]
+        jm = f"{j['peak_rss_mb']:.0f}" if "peak_rss_mb" in j else j.get("error", "?")[:30]
+        km = f"{k['peak_rss_mb']:.0f}" if isinstance(k, dict) and "peak_rss_mb" in k else "-"
+        lines.append(f"  {row['m']:>6} {_t(j):>12} {_c(j):>9} {j.get('iterations', '-')!s:>6} {jm:>8} "
+                     f"{_t(k):>12} {km:>8} {_r(row['ratio']):>8}")
+    if any(isinstance(row["jaxpose"], dict) and row["jaxpose"].get("max_iter") for row in r["in_m"]):
+        lines.append("  (solver capped by --scaling-max-iter: times are per capped run; peak memory is unaffected)")
+    skipped = [row["m"] for row in r["in_m"] if isinstance(row["sklearn"], str) and row["sklearn"].startswith("skipped")]
+    if skipped:
+        lines.append(f"  sklearn skipped for m > {r['sklearn_max_m']}: {skipped}")
+    g = r["in_resolution"]
+    lines += [f"[scaling in resolution]  m={g['m']}, moments on a plain grid (refine 1) vs decision_function",
+              f"  {'N':>5} {'points':>9} {'jaxpose':>12} {'sklearn':>12} {'ratio':>8}"]
+    for row in g["rows"]:
+        k = row["sklearn"]
+        ext = " (extrapolated)" if isinstance(k, dict) and "extrapolated_from_points" in k else ""
+        lines.append(f"  {row['resolution']:>5} {row['grid_points']:>9} {_t(row['jaxpose']):>12} {_t(k):>12} "
+                     f"{_r(row['ratio']):>8}{ext}")
+    return lines
+
+
+_SECTION_LINES = {"solver": _solver_lines, "end2end": _end2end_lines, "batch": _batch_lines, "scaling": _scaling_lines}
+
+
+def format_table(result):
+    lines = [f"jaxpose bench  source={result['source']}  gamma={result['gamma']:g} nu={result['nu']:g}  "
+             f"repeats={result['repeats']}  backend={result['environment']['backend']}  sklearn={result['sklearn']}",
+             "ratio = jaxpose / sklearn (median of warm runs; < 1 means jaxpose is faster)"]
+    for name in SECTIONS:
+        if name in result["sections"]:
+            lines += _SECTION_LINES[name](result["sections"][name])
+    return "\n".join(lines)
+
+
+# --------------------------------------------------------------------------- command line
+def _parser():
+    p = argparse.ArgumentParser(prog="jaxpose bench", description="timings of jaxpose against scikit-learn")
+    p.add_argument("--quick", action="store_true", help="small sizes, 2 repeats (well under a minute)")
+    p.add_argument("--json", help="write the full result as JSON here")
+    p.add_argument("--m", type=int, default=None, help="points per object for solver / end2end (default 2000)")
+    p.add_argument("--repeats", type=int, default=None, help="warm runs per case (default 5; quick 2)")
+    p.add_argument("--sections", default=",".join(SECTIONS), help=f"comma list of {','.join(SECTIONS)}")
+    p.add_argument("--scaling-m", default=None, help="comma list of m for the scaling section (default 1000..16000)")
+    p.add_argument("--resolutions", default=None, help="comma list of grid resolutions (default 32,64,128)")
+    p.add_argument("--sklearn-max-m", type=int, default=8000, help="largest m the sklearn side runs in scaling")
+    p.add_argument("--tol", type=float, default=1e-3, help="solver tolerance in the solver section (default 1e-3)")
+    p.add_argument("--scaling-max-iter", type=int, default=None,
+                   help="cap solver iterations in scaling (peak memory of large m without the full run time)")
+    p.add_argument("--no-sklearn", action="store_true", help="time jaxpose only")
+    p.add_argument("--x64", action="store_true", help="enable float64 in JAX (default float32)")
+    p.add_argument("--force", action="store_true", help="overwrite an existing --json file")
+    return p
+
+
+def _ints(text):
+    return [int(v) for v in text.split(",") if v.strip()] if text else None
+
+
+def cli(argv=None) -> int:
+    """``jaxpose bench [--quick] [--json PATH] [--m M] [--repeats N] [--sections ...]``."""
+    p = _parser()
+    try:
+        args = p.parse_args(argv)
+    except SystemExit as exc:
+        return int(exc.code or 0)
+    sections = [s.strip() for s in args.sections.split(",") if s.strip()]
+    bad = [s for s in sections if s not in SECTIONS]
+    if bad or not sections:
+        print(f"jaxpose bench: error: unknown sections {bad}; valid: {','.join(SECTIONS)}", file=sys.stderr)
+        return 2
+    if args.json and Path(args.json).exists() and not args.force:
+        print(f"jaxpose bench: error: {args.json} exists (use --force to overwrite)", file=sys.stderr)
+        return 1
+    if args.m is not None and args.m < 8:
+        print("jaxpose bench: error: --m must be >= 8", file=sys.stderr)
+        return 2
+    if args.x64:
+        import jax
+
+        jax.config.update("jax_enable_x64", True)
+    result = run(sections, quick=args.quick, m=args.m, repeats=args.repeats, scaling_m=_ints(args.scaling_m),
+                 resolutions=_ints(args.resolutions), tol=args.tol, sk_max_m=args.sklearn_max_m,
+                 use_sklearn=not args.no_sklearn, x64=args.x64, scaling_max_iter=args.scaling_max_iter,
+                 progress=lambda s: print(f"jaxpose bench: {s}", file=sys.stderr, flush=True))
+    print(format_table(result))
+    if args.json:
+        from ..mesh import write_atomic
+
+        write_atomic(args.json, json.dumps(result, indent=2, default=_jsonable) + "\n", force=args.force)
+        print(f"wrote {args.json}")
+    return 0
+
+
+def _jsonable(x):
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    if isinstance(x, (np.floating, np.integer, np.bool_)):
+        return x.item()
+    raise TypeError(f"not JSON serializable: {type(x).__name__}")

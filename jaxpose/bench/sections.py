@@ -1,0 +1,146 @@
+"""The per-object and many-object sections of ``jaxpose bench``: solver, end2end, batch."""
+from __future__ import annotations
+
+import numpy as np
+
+from . import _common
+from ._common import GAMMA, NU, UNAVAILABLE, _faust_dir, _grid_opts, _interleaved, _now, _ratio, load_points, prescale
+from ._sklearn import _feasibility, _sk_alpha, _sk_fit, dual_objective, sklearn_pipeline
+
+
+def bench_solver(points, gamma=GAMMA, nu=NU, repeats=5, tol=1e-3, use_sklearn=True):
+    """Fit alone, both sides, interleaved; dual objectives and their relative difference."""
+    from ..svdd import fit_svdd
+
+    y, _, _ = prescale(points)
+    m = y.shape[0]
+    cases = {"jaxpose": lambda: fit_svdd(y, gamma, nu, tol=tol)}
+    sk = use_sklearn and _common.sklearn_available()
+    if sk:
+        cases["sklearn"] = lambda: _sk_fit(y, gamma, nu)
+    times, last = _interleaved(cases, repeats)
+    ours = last["jaxpose"]
+    a = np.asarray(ours.alpha, np.float64)
+    cap = 1.0 / (nu * m)
+    out = {
+        "m": m, "gamma": gamma, "nu": nu, "tol": tol, "dtype": str(ours.alpha.dtype),
+        "jaxpose": {**times["jaxpose"], "iterations": int(ours.iterations),
+                    "kkt_violation": float(ours.kkt_violation), "converged": bool(ours.converged),
+                    "n_support": int(np.sum(a > 0)), "objective": dual_objective(y, a, gamma),
+                    "feasibility": _feasibility(a, cap)},
+    }
+    if sk:
+        oc = last["sklearn"]
+        b = _sk_alpha(oc, m, nu)
+        out["sklearn"] = {**times["sklearn"], "iterations": int(np.ravel(oc.n_iter_)[0]),
+                          "n_support": int(len(oc.support_)), "objective": dual_objective(y, b, gamma),
+                          "feasibility": _feasibility(b, cap)}
+        o, s = out["jaxpose"]["objective"], out["sklearn"]["objective"]
+        out["objective_rel_diff"] = (o - s) / s
+        out["ratio"] = _ratio(out["jaxpose"], out["sklearn"])
+    else:
+        out["sklearn"] = UNAVAILABLE
+        out["objective_rel_diff"] = out["ratio"] = None
+    return out
+
+
+def _reference(points, gamma, nu, resolution, refine, tol, max_iter):
+    """High-resolution center/scale: tight fit, every boundary cell refined."""
+    import jax.numpy as jnp
+
+    from ..moments import volume_moments
+    from ..svdd import fit_svdd
+
+    y, mean, size = prescale(points)
+    t = _now()
+    svdd = fit_svdd(jnp.asarray(y), gamma, nu, tol=tol, max_iter=max_iter)
+    mom = volume_moments(svdd, resolution=resolution, refine=refine, band=min(resolution**3, 65_536))
+    center = mean + size * np.asarray(mom.center, np.float64)
+    return {"center": center, "scale": size * float(mom.mean_distance), "fit_tol": tol,
+            "resolution": resolution, "refine": refine, "boundary_resolution": resolution * refine,
+            "converged": bool(svdd.converged), "kkt_violation": float(svdd.kkt_violation),
+            "unrefined": int(mom.unrefined), "time_s": _now() - t}
+
+
+def _accuracy(center, scale, ref):
+    """Center and scale errors against the reference ``ref`` (a ``_reference`` result)."""
+    d = float(np.linalg.norm(np.asarray(center, np.float64) - ref["center"]))
+    return {"center": [float(v) for v in center], "scale": float(scale), "center_err": d,
+            "center_err_rel_scale": d / ref["scale"], "scale_err_rel": abs(float(scale) - ref["scale"]) / ref["scale"]}
+
+
+def bench_end2end(points, gamma=GAMMA, nu=NU, repeats=5, resolution=None, refine=None, sk_resolution=32,
+                  ref_resolution=64, ref_refine=4, ref_tol=1e-4, ref_max_iter=20_000, use_sklearn=True):
+    """normalize vs the scikit-learn pipeline, per object; centers against a reference.
+    resolution / refine: None = the defaults of ``normalize``."""
+    from ..pose import normalize
+
+    m = len(points)
+    opts = _grid_opts(resolution, refine)
+    resolution, refine = opts["resolution"], opts["refine"]
+    cases = {"jaxpose": lambda: normalize(points, gamma, nu, **opts)}
+    sk = use_sklearn and _common.sklearn_available()
+    if sk:
+        cases["sklearn"] = lambda: sklearn_pipeline(points, gamma, nu, sk_resolution)
+    times, last = _interleaved(cases, repeats)
+    ref = _reference(points, gamma, nu, ref_resolution, ref_refine, ref_tol, ref_max_iter)
+    pose = last["jaxpose"]
+    center = np.asarray(pose.center, np.float64)
+    scale = float(pose.scale)
+    out = {
+        "m": m, "gamma": gamma, "nu": nu,
+        "jaxpose": {**times["jaxpose"], "resolution": resolution, "refine": refine,
+                    "iterations": int(pose.iterations), "converged": bool(pose.converged),
+                    **_accuracy(center, scale, ref)},
+        "reference": {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in ref.items()},
+    }
+    if sk:
+        res = last["sklearn"]
+        out["sklearn"] = {**times["sklearn"], "resolution": sk_resolution, "fit_s_last": res["fit_s"],
+                          "grid_s_last": res["grid_s"], "n_support": res["n_support"],
+                          **_accuracy(res["center"], res["scale"], ref)}
+        out["ratio"] = _ratio(out["jaxpose"], out["sklearn"])
+    else:
+        out["sklearn"] = UNAVAILABLE
+        out["ratio"] = None
+    return out
+
+
+def _batch_objects(n, m, seed=0):
+    """n point sets of slightly different sizes (m, 0.95 m, ...): distinct FAUST meshes if present."""
+    sets, names = [], []
+    for i in range(n):
+        mi = max(8, int(round(m * (1.0 - 0.05 * (i % 4)))))
+        p, name = load_points(mi, seed=seed + i, index=i if _faust_dir() is not None else 0)
+        sets.append(p)
+        names.append(name)
+    return sets, names
+
+
+def bench_batch(n_objects=8, m=1000, gamma=GAMMA, nu=NU, repeats=3, resolution=None, refine=None, sk_resolution=32,
+                use_sklearn=True):
+    """Objects per second: normalize_batch vs a loop of normalize vs a loop of the sklearn pipeline."""
+    from ..pose import normalize, normalize_batch
+
+    sets, names = _batch_objects(n_objects, m)
+    opts = _grid_opts(resolution, refine)
+    cases = {
+        "jaxpose_batch": lambda: normalize_batch(sets, gamma, nu, **opts),
+        "jaxpose_loop": lambda: [normalize(p, gamma, nu, **opts) for p in sets],
+    }
+    sk = use_sklearn and _common.sklearn_available()
+    if sk:
+        cases["sklearn_loop"] = lambda: [sklearn_pipeline(p, gamma, nu, sk_resolution) for p in sets]
+    times, last = _interleaved(cases, repeats)
+    bc = np.asarray(last["jaxpose_batch"].center, np.float64)
+    lc = np.stack([np.asarray(p.center, np.float64) for p in last["jaxpose_loop"]])
+    out = {"n_objects": n_objects, "m": [len(p) for p in sets], **opts, "sources": sorted(set(names)),
+           "batch_vs_loop_max_center_diff": float(np.max(np.linalg.norm(bc - lc, axis=1)))}
+    for k, v in times.items():
+        out[k] = {**v, "objects_per_s": n_objects / v["median_s"]}
+    if not sk:
+        out["sklearn_loop"] = UNAVAILABLE
+    out["ratio_batch_vs_sklearn"] = _ratio(out["jaxpose_batch"], out.get("sklearn_loop"))
+    out["ratio_loop_vs_sklearn"] = _ratio(out["jaxpose_loop"], out.get("sklearn_loop"))
+    out["ratio_batch_vs_loop"] = _ratio(out["jaxpose_batch"], out["jaxpose_loop"])
+    return out

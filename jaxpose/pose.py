@@ -224,8 +224,9 @@ def _finish(pose, shift, size, gamma, nu, throw, tol):
     return pose
 
 
-def normalize_batch(list_of_points: Sequence, gamma=47.0, nu=0.5, *, pad_to=None, throw=False, **options) -> Pose:
-    """Normalize many objects with one compilation (padding + masks, vmapped).
+def normalize_batch(list_of_points: Sequence, gamma=47.0, nu=0.5, *, pad_to=None, throw=False, strategy="auto",
+                    **options) -> Pose:
+    """Normalize many objects with one compilation (padding + masks).
 
     list_of_points : sequence of (m_i, 3) arrays; rows are padded to
     max(m_i) (or ``pad_to``) and masked out of every sum.
@@ -233,7 +234,16 @@ def normalize_batch(list_of_points: Sequence, gamma=47.0, nu=0.5, *, pad_to=None
     Point counts differ only in padding: results equal ``normalize`` per object
     up to solver tolerance. Point sets must be concrete (under jit, vmap ``normalize``);
     each is centered and scaled in float64 first, as in ``normalize``. ``throw`` as there.
+    strategy : "vmap" (all objects in lock-step: fills wide accelerators, but every object
+        runs as many solver iterations as the slowest and skipped grid chunks become
+        selects), "map" (``lax.map``, one object after another inside the compiled call:
+        2.2x faster than "vmap" on 2 CPU cores, 12 objects at m = 1000), or "auto"
+        ("map" on CPU, "vmap" elsewhere).
     """
+    if strategy not in ("auto", "map", "vmap"):
+        raise _validate.InvalidInputError(f"strategy must be 'auto', 'map' or 'vmap', got {strategy!r}")
+    if strategy == "auto":
+        strategy = "map" if jax.default_backend() == "cpu" else "vmap"
     unknown = set(options) - set(DEFAULTS)
     if unknown:
         raise _validate.InvalidInputError(f"unknown options {sorted(unknown)}; valid: {sorted(DEFAULTS)}")
@@ -262,13 +272,15 @@ def normalize_batch(list_of_points: Sequence, gamma=47.0, nu=0.5, *, pad_to=None
     pts = jnp.asarray(pts)  # float64 becomes float32 unless x64 is on
     gamma = jnp.broadcast_to(jnp.asarray(gamma, pts.dtype), (len(arrays),))
     nu = jnp.broadcast_to(jnp.asarray(nu, pts.dtype), (len(arrays),))
-    pose = _batched(pts, jnp.asarray(mask), gamma, nu, **opts)
+    pose = _batched(pts, jnp.asarray(mask), gamma, nu, strategy=strategy, **opts)
     return _finish(pose, shift, size, gamma, nu, throw, opts["tol"])
 
 
-def _batched_impl(points, mask, gamma, nu, **opts):
+def _batched_impl(points, mask, gamma, nu, strategy="vmap", **opts):
     fn = lambda p, mk, g, n: _normalize(p, mk, g, n, **opts)
+    if strategy == "map":
+        return jax.lax.map(lambda args: fn(*args), (points, mask, gamma, nu))
     return jax.vmap(fn)(points, mask, gamma, nu)
 
 
-_batched = jax.jit(_batched_impl, static_argnames=_STATIC)
+_batched = jax.jit(_batched_impl, static_argnames=_STATIC + ("strategy",))

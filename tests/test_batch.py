@@ -73,6 +73,16 @@ def test_one_compilation_for_different_sizes():
     assert pose_module._batched._cache_size() == after_first
 
 
+@pytest.mark.parametrize("strategy", ["vmap", "map"])
+def test_strategies_agree_with_normalize(batch_and_single, strategy):
+    """lax.map and vmap batches both equal per-object normalize (up to solver tolerance)."""
+    sets, _, single = batch_and_single
+    batch = jaxpose.normalize_batch(sets, 47.0, 0.5, strategy=strategy, **OPTS)
+    for i, s in enumerate(single):
+        np.testing.assert_allclose(np.asarray(batch.center[i]), np.asarray(s.center), atol=1e-3 * float(s.scale), rtol=0)
+        assert abs(float(batch.scale[i]) - float(s.scale)) <= 1e-3 * float(s.scale)
+
+
 def test_pad_to_does_not_change_results(batch_and_single):
     sets, batch, _ = batch_and_single
     padded = jaxpose.normalize_batch(sets, 47.0, 0.5, pad_to=260, **OPTS)
@@ -115,3 +125,5 @@ def test_bad_options_are_rejected():
         jaxpose.normalize_batch(sets, gamma=-1.0)
     with pytest.raises(InvalidInputError):
         jaxpose.normalize_batch(sets, nu=1.5)
+    with pytest.raises(InvalidInputError):
+        jaxpose.normalize_batch(sets, strategy="pmap")

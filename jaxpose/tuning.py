@@ -99,20 +99,18 @@ def _stack(classes, name):
 
 
 def _split(classes, holdout, seed):
+    """Hold out round(holdout * n_classes) whole classes (at least 1, leaving at least 1)."""
     if holdout <= 0:
         return classes, {}
     if not holdout < 1:
         raise _validate.InvalidInputError(f"holdout must be in [0, 1), got {holdout}")
-    rng = np.random.default_rng(seed)
-    train, test = {}, {}
-    for name, objs in classes.items():
-        n = len(objs)
-        k = int(round(holdout * n))
-        k = min(max(k, 2 if n >= 4 else 0), n - 2)
-        perm = rng.permutation(n)
-        train[name] = [objs[i] for i in sorted(perm[k:])]
-        if k >= 2:
-            test[name] = [objs[i] for i in sorted(perm[:k])]
+    names = sorted(classes)
+    if len(names) < 2:
+        raise _validate.InvalidInputError(f"holdout needs at least 2 classes, got {len(names)}")
+    k = min(max(int(round(holdout * len(names))), 1), len(names) - 1)
+    held = set(np.random.default_rng(seed).permutation(len(names))[:k].tolist())
+    train = {n: classes[n] for i, n in enumerate(names) if i not in held}
+    test = {n: classes[n] for i, n in enumerate(names) if i in held}
     return train, test
 
 
@@ -132,8 +130,8 @@ def tune(classes, gamma0=47.0, nu0=0.5, steps=20, lr=0.05, scale_weight=0.0, hol
     classes : {name: [(m, 3) arrays]} (same m within a class; at least 2 objects each)
     gamma0, nu0 : start (the paper's 47, 0.5); steps, lr : optax.adam steps and rate
     scale_weight : weight of the mean coefficient of variation of the scale
-    holdout : fraction of each class's objects kept out of training (>= 2 per class
-        or none), evaluated at the start and the end only; seed : split seed
+    holdout : fraction of the classes kept out of tuning (whole classes: at least one
+        is held out and one kept), evaluated at the start and the end only; seed : split seed
     progress : optional callable(str) told about every step
     normalize_options : static options of ``normalize`` (resolution, refine, band, tol, ...)
 
@@ -194,7 +192,8 @@ def tune(classes, gamma0=47.0, nu0=0.5, steps=20, lr=0.05, scale_weight=0.0, hol
         gamma0=float(gamma0), nu0=float(nu0),
         train=dict(sigma_tr_start=trajectory[0]["sigma_tr"],
                    sigma_tr_end=objective(train_s, best_theta, class_loss)[1],
-                   classes=len(train_s), objects=int(sum(p.shape[0] for p in train_s.values()))),
+                   classes=len(train_s), objects=int(sum(p.shape[0] for p in train_s.values())),
+                   names=sorted(train_s)),
         holdout=None,
         trajectory=trajectory,
         steps=int(steps), lr=float(lr), scale_weight=float(scale_weight), seed=int(seed),
@@ -204,7 +203,8 @@ def tune(classes, gamma0=47.0, nu0=0.5, steps=20, lr=0.05, scale_weight=0.0, hol
     if test_s:
         result["holdout"] = dict(sigma_tr_start=objective(test_s, start_theta, class_loss)[1],
                                  sigma_tr_end=objective(test_s, best_theta, class_loss)[1],
-                                 classes=len(test_s), objects=int(sum(p.shape[0] for p in test_s.values())))
+                                 classes=len(test_s), objects=int(sum(p.shape[0] for p in test_s.values())),
+                                 names=sorted(test_s))
     return result
 
 
@@ -214,7 +214,7 @@ def _parser():
     p.add_argument("--data", default=None, help="folder of class subfolders of meshes (default: procedural dataset)")
     p.add_argument("--steps", type=int, default=20)
     p.add_argument("--lr", type=float, default=0.05)
-    p.add_argument("--holdout", type=float, default=0.0)
+    p.add_argument("--holdout", type=float, default=0.0, help="fraction of the classes held out of tuning")
     p.add_argument("--json", default=None, help="write the result here")
     p.add_argument("--count", type=int, default=500, help="surface samples per object")
     p.add_argument("--seed", type=int, default=0)

@@ -51,7 +51,24 @@ def test_tune_result_is_json_and_moves_parameters():
     for part in ("train", "holdout"):
         assert res[part]["sigma_tr_start"] > 0 and res[part]["sigma_tr_end"] > 0
     assert res["train"]["objects"] == 4 and res["holdout"]["objects"] == 4
+    # whole classes are held out (issue 3: "splits classes into tuning and held-out sets")
+    assert res["train"]["classes"] == 1 and res["holdout"]["classes"] == 1
+    assert set(res["train"]["names"]) | set(res["holdout"]["names"]) == {"box", "capsule"}
+    assert not set(res["train"]["names"]) & set(res["holdout"]["names"])
     assert res["train"]["sigma_tr_end"] <= res["train"]["sigma_tr_start"] + 1e-12  # best point kept
+
+
+def test_holdout_splits_whole_classes():
+    classes = {f"c{i}": [i] * 3 for i in range(10)}
+    train, test = tuning._split(classes, 0.3, seed=0)
+    assert len(test) == 3 and len(train) == 7 and not set(train) & set(test)
+    assert all(train[k] == classes[k] for k in train)  # objects of a class stay together
+    assert tuning._split(classes, 0.3, seed=0) == (train, test)  # seeded
+    assert len(tuning._split({"a": [1, 2], "b": [1, 2]}, 0.01, seed=0)[1]) == 1  # at least one held out
+    with pytest.raises(jaxpose.InvalidInputError):
+        tuning._split({"a": [1, 2]}, 0.5, seed=0)
+    with pytest.raises(jaxpose.InvalidInputError):
+        tuning._split(classes, 1.0, seed=0)
 
 
 def test_tune_zero_steps_and_validation():

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 import numbers
+from functools import partial
 from typing import NamedTuple, Sequence
 
 import jax
@@ -32,6 +33,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from . import _validate
+from ._hyper import hyper_jvp
 from .moments import _volume_moments
 from .svdd import _fit
 
@@ -118,6 +120,14 @@ def prescale(points, mask=None):
 
 
 def _normalize(points, mask, gamma, nu, resolution, refine, band, tol, max_iter, check_every, kernel, block):
+    # issue 3: derivatives in (gamma, nu) alone come from forward-mode columns, also under jax.grad
+    # (same values and derivatives; see jaxpose/_hyper.py); derivatives in points as before.
+    impl = partial(_normalize_impl, resolution=resolution, refine=refine, band=band, tol=tol, max_iter=max_iter,
+                   check_every=check_every, kernel=kernel, block=block)
+    return hyper_jvp(impl, (2, 3))(points, mask, gamma, nu)
+
+
+def _normalize_impl(points, mask, gamma, nu, resolution, refine, band, tol, max_iter, check_every, kernel, block):
     y, to_world, size = prescale(points, mask)
     safe = jnp.where(size > 0, size, 1.0)
     svdd = _fit(y, gamma, nu, mask, None, tol=tol, max_iter=max_iter, check_every=check_every, kernel=kernel, block=block)

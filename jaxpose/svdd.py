@@ -190,30 +190,44 @@ def _implicit_alpha(alpha, points, gamma, caps, mask):
     return alpha
 
 
-@_implicit_alpha.defjvp
+@partial(_implicit_alpha.defjvp, symbolic_zeros=True)
 def _implicit_alpha_jvp(primals, tangents):
+    from jax.custom_derivatives import SymbolicZero  # local: tangents arrive with symbolic zeros
+
     alpha, points, gamma, caps, mask = primals
     _, dpoints, dgamma, dcaps, _ = tangents
     alpha = jax.lax.stop_gradient(alpha)
     dtype = alpha.dtype
-    # dK a, linear in (dpoints, dgamma)
-    _, dKa = jax.jvp(lambda p, g: gaussian_kernel(p, p, g) @ alpha, (points, gamma), (dpoints, dgamma))
-    K = gaussian_kernel(points, points, gamma)
+    m = alpha.shape[0]
+    zero = lambda t: isinstance(t, SymbolicZero)
+    # K and dK a, linear in (dpoints, dgamma); the points' tangent only when they are perturbed
+    # (issue 3: a zero (m, 3) tangent cost a second (m, m) kernel tangent per column).
+    if zero(dpoints) and zero(dgamma):
+        K, dKa = gaussian_kernel(points, points, gamma), jnp.zeros_like(alpha)
+    elif zero(dpoints):
+        K, dK = jax.jvp(lambda g: gaussian_kernel(points, points, g), (gamma,), (dgamma,))
+        dKa = dK @ alpha
+    else:
+        K, dK = jax.jvp(lambda p, g: gaussian_kernel(p, p, g), (points, gamma),
+                         (dpoints, jnp.zeros_like(gamma) if zero(dgamma) else dgamma))
+        dKa = dK @ alpha
+    K = jax.lax.stop_gradient(K)
     free = mask & (alpha > 0) & (alpha < caps)
     upper = mask & (alpha >= caps) & (alpha > 0) & ~free
     fm = free.astype(dtype)
-    um = upper.astype(dtype)
-    da_b = um * dcaps  # bounded points follow the cap
-    m = alpha.shape[0]
+    da_b = jnp.zeros_like(alpha) if zero(dcaps) else upper.astype(dtype) * dcaps  # bounded points follow the cap
     # Tikhonov term: K_FF is numerically singular (cond ~1e13); directions it damps barely move f.
     ridge = 10.0 * jnp.finfo(dtype).eps * jnp.max(jnp.sum(K, axis=1))
     A = 2.0 * K * fm[:, None] * fm[None, :] + jnp.diag(1.0 - fm) + ridge * jnp.diag(fm)
     M = jnp.zeros((m + 1, m + 1), dtype)
     M = M.at[:m, :m].set(A).at[:m, m].set(fm).at[m, :m].set(fm)
+    M = jnp.where(jnp.any(free), M, jnp.eye(m + 1, dtype=dtype))  # no free point: M was singular (NaN)
     rhs_top = -fm * (2.0 * dKa + 2.0 * (K @ da_b))
     rhs = jnp.concatenate([rhs_top, -jnp.sum(da_b)[None]])
-    sol = jnp.linalg.solve(jax.lax.stop_gradient(M), rhs)
-    dalpha = fm * sol[:m] + da_b
+    # (Solving at the size of the free set, by lax.switch over a few static sizes, was up to 10x
+    # cheaper, but wedged XLA's CPU thread pool under vmap, where a switch runs every branch.)
+    da_f = jnp.linalg.solve(M, rhs)[:m]
+    dalpha = fm * da_f + da_b
     return alpha, dalpha
 
 

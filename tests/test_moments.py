@@ -103,3 +103,63 @@ def test_band_refinement_matches_fine_grid(x64):
     np.testing.assert_allclose(float(banded.volume), float(fine.volume), rtol=2e-3)
     small = volume_moments(svdd, resolution=32, refine=4, band=16)
     assert int(small.unrefined) > 0  # the diagnostic reports a band that was too small
+
+
+def test_domain_is_snapped_and_piecewise_constant(x64):
+    # issue 3: the grid must not follow gamma continuously (derivatives hold it fixed)
+    from jaxpose.grid import LATTICE, region_radius
+
+    svdd = fit_svdd(box_surface(300), 47.0, 0.5, tol=1e-6)
+    lo, hi = (np.asarray(v) for v in domain(svdd))
+    sv = np.asarray(svdd.points)[np.asarray(svdd.alpha) > 0]
+    r = float(region_radius(svdd))
+    assert np.all(lo <= sv.min(0) - r) and np.all(hi >= sv.max(0) + r)
+    q = 2.0 ** np.floor(np.log2(np.max(hi - lo))) / LATTICE
+    assert np.all(np.max(hi - lo) / q <= 2 * LATTICE)
+    np.testing.assert_array_equal(np.round(lo / q), lo / q)
+    np.testing.assert_array_equal(np.round(hi / q), hi / q)
+    assert np.all(lo >= sv.min(0) - r - q) and np.all(hi <= sv.max(0) + r + q)
+    nearby = svdd._replace(gamma=svdd.gamma * (1 + 1e-6))
+    for a, b in zip(domain(svdd), domain(nearby)):
+        np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
+
+
+def test_boundary_tangent_equals_tangent_through_all_cells(x64):
+    """_volume_moments differentiates f only at the cells cut by the boundary; the same
+    moments differentiated through every cell, with f written out densely (no skipped chunks),
+    give the same JVP and VJP. The alpha tangent is nonzero at points with alpha = 0 too (as
+    the secant nu-slope is, where points enter the support): their terms must not be skipped."""
+    import jax
+
+    from jaxpose.grid import SV_CHUNK
+    from jaxpose.moments import _cells
+
+    m = 600
+    svdd = fit_svdd(sphere_with_arm(m), 47.0, 0.5, tol=1e-6)
+    assert int(jnp.sum(svdd.alpha == 0)) >= m % SV_CHUNK  # a whole chunk of alpha = 0 exists
+    args = (svdd.alpha, svdd.gamma, svdd.offset, svdd.points)
+    x, occ, fac, hc, h, _ = jax.jit(_cells, static_argnums=(1, 2, 3, 4))(svdd, 8, 512, 4, 256)
+    assert 0 < int(jnp.sum((occ > 0) & (occ < 1) & (fac > 0))) < x.shape[0] // 2
+
+    def fast(a, g, o, p):
+        m = _volume_moments(svdd._replace(alpha=a, gamma=g, offset=o, points=p), 8, 512, 4, 256)
+        return jnp.concatenate([m.center, m.mean_distance[None], m.volume[None]])
+
+    def dense(a, g, o, p):  # every cell differentiated (the grid is piecewise constant: same cells)
+        d = x[:, None, :] - p[None, :, :]
+        k = jnp.exp(-g * jnp.sum(d * d, axis=-1)) * a
+        f, grad = 2.0 * jnp.sum(k, axis=1) - o, -4.0 * g * jnp.einsum("np,npk->nk", k, d)
+        m = moments_from_occupancy(x, occupancy(f, grad, hc) * fac, h)
+        return jnp.concatenate([m.center, m.mean_distance[None], m.volume[None]])
+
+    rng = np.random.default_rng(0)
+    tangents = (jnp.asarray(rng.normal(size=m)) * 1e-3, jnp.asarray(1.0), jnp.asarray(0.3),
+                jnp.asarray(rng.normal(size=(m, 3))) * 1e-2)
+    v1, t1 = jax.jit(lambda a, t: jax.jvp(fast, a, t))(args, tangents)
+    v2, t2 = jax.jit(lambda a, t: jax.jvp(dense, a, t))(args, tangents)
+    np.testing.assert_allclose(np.asarray(v1), np.asarray(v2), rtol=1e-12)
+    np.testing.assert_allclose(np.asarray(t1), np.asarray(t2), rtol=1e-9, atol=1e-12)
+    g1 = jax.jit(jax.grad(lambda *a: (lambda v: v[0] + v[3])(fast(*a)), argnums=(0, 1, 2, 3)))(*args)
+    g2 = jax.jit(jax.grad(lambda *a: (lambda v: v[0] + v[3])(dense(*a)), argnums=(0, 1, 2, 3)))(*args)
+    for a, b in zip(g1, g2):
+        np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-9, atol=1e-12)

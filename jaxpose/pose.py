@@ -119,36 +119,43 @@ def prescale(points, mask=None):
     return y, (lambda c: mean + safe * (axes @ c)), size
 
 
-def _normalize(points, mask, gamma, nu, resolution, refine, band, tol, max_iter, check_every, kernel, block):
+def _normalize(points, mask, gamma, nu, resolution, refine, band, tol, max_iter, check_every, kernel, block,
+               solver="pg"):
     # issue 3: derivatives in (gamma, nu) alone come from forward-mode columns, also under jax.grad
     # (same values and derivatives; see jaxpose/_hyper.py); derivatives in points as before.
     impl = partial(_normalize_impl, resolution=resolution, refine=refine, band=band, tol=tol, max_iter=max_iter,
-                   check_every=check_every, kernel=kernel, block=block)
+                   check_every=check_every, kernel=kernel, block=block, solver=solver)
     return hyper_jvp(impl, (2, 3))(points, mask, gamma, nu)
 
 
-def _normalize_impl(points, mask, gamma, nu, resolution, refine, band, tol, max_iter, check_every, kernel, block):
+def _normalize_impl(points, mask, gamma, nu, resolution, refine, band, tol, max_iter, check_every, kernel, block,
+                    solver="pg"):
     y, to_world, size = prescale(points, mask)
     safe = jnp.where(size > 0, size, 1.0)
-    svdd = _fit(y, gamma, nu, mask, None, tol=tol, max_iter=max_iter, check_every=check_every, kernel=kernel, block=block)
-    mom = _volume_moments(svdd, resolution, block, refine, band)
+    svdd = _fit(y, gamma, nu, mask, None, tol=tol, max_iter=max_iter, check_every=check_every, kernel=kernel, block=block,
+                solver=solver)
+    # the implicit KKT derivative moves alpha only on the support: skip the alpha = 0 pass
+    mom = _volume_moments(svdd, resolution, block, refine, band, outside=False)
     center = to_world(mom.center)
     scale = safe * mom.mean_distance
     valid = (size > 0) & jnp.all(jnp.isfinite(center)) & jnp.isfinite(scale) & (scale > 0) & (mom.volume > 0)
     return Pose(center, scale, svdd.converged, valid, svdd.iterations)
 
 
-_STATIC = ("resolution", "refine", "band", "tol", "max_iter", "check_every", "kernel", "block")
-DEFAULTS = dict(resolution=32, refine=4, band=8192, tol=1e-3, max_iter=20_000, check_every=10, kernel="auto", block=2048)
+_STATIC = ("resolution", "refine", "band", "tol", "max_iter", "check_every", "kernel", "block", "solver")
+DEFAULTS = dict(resolution=32, refine=4, band=8192, tol=1e-3, max_iter=20_000, check_every=10, kernel="auto", block=2048,
+                solver="pg")
 _normalize_jit = jax.jit(_normalize, static_argnames=_STATIC)
 
 
-def _options(resolution, refine, band, tol, max_iter, check_every, kernel, block):
+def _options(resolution, refine, band, tol, max_iter, check_every, kernel, block, solver="pg"):
     if not all(isinstance(v, numbers.Integral) for v in (refine, band)) or refine < 1 or refine & (refine - 1) or band < 0:
         raise _validate.InvalidInputError(f"refine must be a power of 2 and band >= 0, got {refine!r}, {band!r}")
     _validate.check_options(tol, max_iter, check_every, block)  # issue 6: also rejects NaN tol, block < 1
     if kernel not in ("auto", "dense", "blocked"):
         raise _validate.InvalidInputError(f"kernel must be 'auto', 'dense' or 'blocked', got {kernel!r}")
+    if solver not in ("auto", "smo", "pg"):
+        raise _validate.InvalidInputError(f"solver must be 'auto', 'smo' or 'pg', got {solver!r}")
     return dict(
         resolution=_validate.check_resolution(resolution),
         refine=int(refine),
@@ -158,6 +165,7 @@ def _options(resolution, refine, band, tol, max_iter, check_every, kernel, block
         check_every=int(check_every),
         kernel=kernel,
         block=int(block),
+        solver=solver,
     )
 
 
@@ -174,6 +182,7 @@ def normalize(
     check_every=10,
     kernel="auto",
     block=2048,
+    solver="pg",
     throw=False,
 ) -> Pose:
     """The OCSVM pose (center c_m, scale d_m) of surface samples.
@@ -183,7 +192,7 @@ def normalize(
     nu : () in [0, 1]
     resolution, refine, band : volume-integral grid (static, see ``volume_moments``);
         the defaults resolve the boundary like a 128^3 grid; refine=8, band=16384 like 256^3 (4x slower)
-    tol, max_iter, check_every, kernel, block : solver options (see ``fit_svdd``)
+    tol, max_iter, check_every, kernel, block, solver : solver options (see ``fit_svdd``)
     throw : concrete calls only: raise ConvergenceError if the solver hit max_iter,
         JaxposeError if the pose is not valid (otherwise see ``Pose.converged`` / ``Pose.valid``)
 
@@ -192,7 +201,7 @@ def normalize(
     Concrete points are centered and scaled in float64 NumPy first (float16 and integers
     are computed in float32), so float32 coordinates far from the origin keep their shape.
     """
-    opts = _options(resolution, refine, band, tol, max_iter, check_every, kernel, block)
+    opts = _options(resolution, refine, band, tol, max_iter, check_every, kernel, block, solver)
     _validate.check_points(points)
     _validate.check_gamma(gamma)
     _validate.check_nu(nu)

@@ -61,7 +61,7 @@ NU_DELTA = 0.015  # relative half-width of the nu interval of the secant derivat
 def _nu_slope(nu, y, gamma, alpha0, cfg):
     """Secant slopes of (alpha, mu) in nu over [nu (1 - delta), nu (1 + delta)], no derivatives.
     -> (m,), ()"""
-    delta, tol, max_iter, check_every, kernel, block = cfg
+    delta, tol, max_iter, check_every, kernel, block, solver = cfg
     sg = jax.lax.stop_gradient
     nu, y, gamma, alpha0 = sg(nu), sg(y), sg(gamma), sg(alpha0)
     lo = nu * (1.0 - delta)
@@ -69,7 +69,7 @@ def _nu_slope(nu, y, gamma, alpha0, cfg):
 
     def solve(n):  # warm-started from the solution at nu
         s = _fit(y, gamma, n, None, alpha0, tol=tol, max_iter=max_iter, check_every=check_every,
-                 kernel=kernel, block=block)
+                 kernel=kernel, block=block, solver=solver)
         return s.alpha, s.offset
 
     (a_hi, mu_hi), (a_lo, mu_lo) = solve(hi), solve(lo)
@@ -78,28 +78,29 @@ def _nu_slope(nu, y, gamma, alpha0, cfg):
 
 
 def _pose(points, gamma, nu, resolution, refine, band, tol, max_iter, check_every, kernel, block,
-          nu_delta=NU_DELTA, nu_tol=None):
+          solver="pg", nu_delta=NU_DELTA, nu_tol=None):
     """Like ``pose._normalize`` (no mask), with the secant nu-derivative. Same forward values.
 
     Derivatives in (gamma, nu) alone come from forward-mode columns, also under jax.grad /
     jacrev (``_hyper.hyper_jvp``: same derivatives, reverse mode at the cost of forward mode)."""
     impl = partial(_pose_impl, resolution=resolution, refine=refine, band=band, tol=tol, max_iter=max_iter,
-                   check_every=check_every, kernel=kernel, block=block, nu_delta=nu_delta, nu_tol=nu_tol)
+                   check_every=check_every, kernel=kernel, block=block, solver=solver, nu_delta=nu_delta,
+                   nu_tol=nu_tol)
     return hyper_jvp(impl, (1, 2))(points, gamma, nu)
 
 
 def _pose_impl(points, gamma, nu, resolution, refine, band, tol, max_iter, check_every, kernel, block,
-               nu_delta=NU_DELTA, nu_tol=None):
+               solver="pg", nu_delta=NU_DELTA, nu_tol=None):
     y, to_world, size = prescale(points)
     safe = jnp.where(size > 0, size, 1.0)
     dtype = y.dtype
     gamma = jnp.asarray(gamma, dtype)
     nu = jnp.asarray(nu, dtype)
     s = _fit(y, gamma, jax.lax.stop_gradient(nu), None, None, tol=tol, max_iter=max_iter,
-             check_every=check_every, kernel=kernel, block=block)
+             check_every=check_every, kernel=kernel, block=block, solver=solver)
     if nu_tol is None:
         nu_tol = min(tol, 1e-6 if dtype == jnp.float64 else 1e-5)
-    cfg = (float(nu_delta), float(nu_tol), int(max_iter), int(check_every), kernel, int(block))
+    cfg = (float(nu_delta), float(nu_tol), int(max_iter), int(check_every), kernel, int(block), solver)
     # Straight-through: (nu - stop_gradient(nu)) is exactly 0, so the value is alpha; its
     # derivative in nu is the secant slope. (A custom_jvp did not survive grad-of-vmap.)
     # The two secant solves run on every call of ``pose``, differentiated or not.
@@ -112,7 +113,7 @@ def _pose_impl(points, gamma, nu, resolution, refine, band, tol, max_iter, check
     caps = _caps(jax.lax.stop_gradient(nu), mask)
     offset = _offset(s.alpha, _make_matvec(y, gamma, kernel, block)(s.alpha), caps, mask) + dn * mu_slope
     s = s._replace(alpha=s.alpha + dn * slope, offset=offset)
-    mom = _volume_moments(s, resolution, block, refine, band)
+    mom = _volume_moments(s, resolution, block, refine, band, outside=True)  # the secant moves alpha = 0 points
     center = to_world(mom.center)
     scale = safe * mom.mean_distance
     valid = (size > 0) & jnp.all(jnp.isfinite(center)) & jnp.isfinite(scale) & (scale > 0) & (mom.volume > 0)

@@ -4,8 +4,24 @@ Dual (eq. 2), with a Gaussian kernel so that k(x, x) = 1:
 
     min_a  a^T K a   s.t.  0 <= a_i <= C = 1 / (nu m),  sum a = 1,
 
-solved by accelerated projected gradient (``jaxopt.ProjectedGradient``, FISTA)
-with a fixed step 1 / (2 lambda_max(K)) and an exact capped-simplex projection.
+solved by one of two solvers (``fit_svdd(solver=)``):
+
+- "smo": sequential minimal optimization, libsvm's algorithm: move mass between the
+  most violating pair (second-order selection), keeping G = K a up to date with two
+  kernel columns, O(m) per update; started from alpha = C on the lowest-density points
+  (the likely outliers). On sampled meshes it needs ~0.05-0.2 m updates.
+- "pg": accelerated projected gradient (``jaxopt.ProjectedGradient``, FISTA) with a
+  fixed step 1 / (2 lambda_max(K)) and an exact capped-simplex projection: one kernel
+  product per step, the better tail where most support vectors are free and tol is tight.
+- "auto": SMO up to ``SMO_BUDGET * m`` updates, then PG from there if needed.
+
+"pg" is the default. At the same tol, SMO stops at a less even point of the tolerance
+ball: on 2000 FAUST samples through ``normalize`` (tol 1e-3) its center is 1.3e-4 and its
+scale 3.8e-4 (relative to the scale) off the tol-1e-8 solution, against 5e-5 and 4e-6 for
+PG; SMO at tol 1e-4 comes close to PG at 1e-3 (2.4e-5, 5.8e-5). SMO pays off from a few
+thousand points: the fit at m = 8000 takes 0.31-0.36 s against 1.9 s for PG (2 CPU cores).
+On degenerate input (collinear points) its solutions at tol 1e-3 are far less symmetric.
+
 This is the only module that imports jaxopt.
 
 Decision function (eq. 3): with the free support vectors F = {0 < a_i < C},
@@ -45,6 +61,10 @@ from .projection import projection_capped_simplex
 __all__ = ["SVDD", "fit_svdd", "decision_function", "decision_value_and_grad", "upper_bound"]
 
 _DENSE_LIMIT = 12_000  # m above which K is never stored (O(m * block) memory)
+# "auto": SMO pair updates per point before PG takes over. Real meshes at the paper's (47, 0.5)
+# need ~0.05-0.2 m; nearly uniform densities with many free support vectors (a sphere, small nu,
+# tol <= 1e-4) need 10-20 m, where PG's kernel products are cheaper (measured, m = 1000-4000).
+SMO_BUDGET = 10
 
 
 class SVDD(NamedTuple):
@@ -184,6 +204,68 @@ def _solve(points, gamma, caps, mask, init_alpha, tol, max_iter, check_every, ke
     return a, matvec(a), it, viol
 
 
+def _density_start(matvec, caps, mask):
+    """A feasible start for SMO: alpha = C on the lowest-density points (kernel density K 1),
+    which are the likely bounded support vectors (outside the ball), until the mass is 1."""
+    dtype = caps.dtype
+    dens = jnp.where(mask, matvec(mask.astype(dtype)), jnp.inf)
+    order = jnp.argsort(dens)
+    c = jnp.max(caps)
+    before = jnp.arange(caps.shape[0], dtype=dtype) * c  # mass given to the lower-density points
+    a = jnp.zeros_like(caps).at[order].set(jnp.clip(1.0 - before, 0.0, c))
+    return jnp.where(mask, a, 0.0)
+
+
+def _solve_smo(points, gamma, caps, mask, init_alpha, tol, max_iter, kernel, block, density_start):
+    """Forward solve by SMO (libsvm's pair updates with second-order working-set selection,
+    Fan, Chen & Lin 2005) on the gradient G = K a, kept up to date with two kernel columns
+    per step. Returns alpha, Ka, iterations (pair updates), violation (from an exact K a)."""
+    dtype = points.dtype
+    m = points.shape[0]
+    inf = jnp.asarray(jnp.inf, dtype)
+    dense = kernel == "dense" or (kernel == "auto" and m <= _DENSE_LIMIT)
+    if dense:
+        K = gaussian_kernel(points, points, gamma)
+        matvec, column = (lambda v: K @ v), (lambda i: K[i])
+    else:
+        matvec = lambda v: kernel_matvec_blocked(points, v, gamma, block)
+        column = lambda i: gaussian_kernel(points[i][None], points, gamma)[0]
+    if density_start:
+        a0 = _density_start(matvec, caps, mask)
+    else:
+        a0 = projection_capped_simplex(init_alpha, caps)
+
+    def violation(a, G):
+        v, _ = _kkt(a, G, caps, mask)
+        return v
+
+    def step(carry):
+        a, G, it, _ = carry
+        i = jnp.argmin(jnp.where(mask & (a < caps), G, inf))  # most violating pair: i gains mass
+        ki = column(i)
+        d = G - G[i]
+        quad = jnp.maximum(2.0 - 2.0 * ki, jnp.finfo(dtype).eps)  # k(x,x) = 1
+        score = jnp.where(mask & (a > 0) & (d > 0), d * d / quad, -inf)
+        j = jnp.argmax(score)  # ... from j, the largest decrease of the objective
+        delta = jnp.minimum(jnp.minimum(d[j] / quad[j], caps[i] - a[i]), a[j])
+        delta = jnp.where(jnp.isfinite(score[j]), delta, 0.0)
+        a = a.at[i].add(delta).at[j].add(-delta)
+        G = G + delta * (ki - column(j))
+        return a, G, it + 1, violation(a, G)
+
+    def running(carry):
+        return (carry[3] > tol) & (carry[2] < max_iter)
+
+    def sweep(carry):  # SMO on the running G, then G recomputed exactly (float32 drift)
+        a, _, it, _ = jax.lax.while_loop(running, step, carry)
+        G = matvec(a)
+        return a, G, it, violation(a, G)
+
+    G0 = matvec(a0)
+    a, G, it, viol = jax.lax.while_loop(running, sweep, (a0, G0, jnp.asarray(0), violation(a0, G0)))
+    return a, G, it, viol
+
+
 @jax.custom_jvp
 def _implicit_alpha(alpha, points, gamma, caps, mask):
     """Identity on the solution alpha; its JVP is the KKT implicit derivative."""
@@ -243,6 +325,7 @@ def fit_svdd(
     check_every=10,
     kernel="auto",
     block=1024,
+    solver="pg",
     throw=False,
 ) -> SVDD:
     """Fit the SVDD dual (eq. 2) on points.
@@ -254,6 +337,11 @@ def fit_svdd(
     init_alpha : (m,) optional warm start (projected onto the feasible set)
     tol : relative KKT violation to stop at (see module docs)
     kernel : "auto" | "dense" | "blocked" (blocked keeps memory O(m * block))
+    solver : "auto" | "smo" | "pg". "smo": pair updates (libsvm's algorithm, O(m) per update,
+        no kernel matrix needed); "pg": jaxopt's accelerated projected gradient (FISTA, one
+        kernel product per step); "auto": SMO for at most min(SMO_BUDGET * m, max_iter // 2)
+        updates, then, if not converged, PG from there for the rest of max_iter. Same problem,
+        stopping rule and derivatives. ``iterations`` counts pair updates plus gradient steps.
     throw : raise ConvergenceError if the iteration cap is hit (concrete calls only)
 
     Jittable (with static options), vmappable over same-size point sets,
@@ -262,6 +350,8 @@ def fit_svdd(
     points = _validate.check_points(points)
     _validate.check_gamma(gamma)
     _validate.check_nu(nu)
+    if solver not in ("auto", "smo", "pg"):
+        raise _validate.InvalidInputError(f"solver must be 'auto', 'smo' or 'pg', got {solver!r}")
     if kernel not in ("auto", "dense", "blocked"):
         raise _validate.InvalidInputError(f"kernel must be 'auto', 'dense' or 'blocked', got {kernel!r}")
     # issue 6: check_every = 0 looped forever; mask / init_alpha shapes gave JAX-internal errors
@@ -283,6 +373,7 @@ def fit_svdd(
     result = _fit(
         points, gamma, nu, mask, init_alpha,
         tol=float(tol), max_iter=int(max_iter), check_every=int(check_every), kernel=kernel, block=int(block),
+        solver=solver,
     )
     if throw and not _validate.is_traced(result.converged) and not bool(result.converged):
         raise _validate.ConvergenceError(
@@ -291,21 +382,30 @@ def fit_svdd(
     return result
 
 
-@partial(jax.jit, static_argnames=("tol", "max_iter", "check_every", "kernel", "block"))
-def _fit(points, gamma, nu, mask, init_alpha, tol, max_iter, check_every, kernel, block):
+@partial(jax.jit, static_argnames=("tol", "max_iter", "check_every", "kernel", "block", "solver"))
+def _fit(points, gamma, nu, mask, init_alpha, tol, max_iter, check_every, kernel, block, solver="pg"):
     dtype = points.dtype
     m = points.shape[0]
     gamma = jnp.asarray(gamma, dtype)
     nu = jnp.asarray(nu, dtype)
     mask = jnp.ones((m,), bool) if mask is None else jnp.asarray(mask, bool)
     caps = _caps(nu, mask)
-    if init_alpha is None:
+    cold = init_alpha is None
+    if cold:
         init_alpha = jnp.where(mask, 1.0, 0.0).astype(dtype) / jnp.sum(mask)
     sg = jax.lax.stop_gradient
-    a, _, it, viol = _solve(
-        sg(points), sg(gamma), sg(caps), mask, sg(jnp.asarray(init_alpha, dtype)),
-        tol, max_iter, check_every, kernel, block,
-    )
+    args = (sg(points), sg(gamma), sg(caps), mask, sg(jnp.asarray(init_alpha, dtype)))
+    if solver == "pg":
+        a, _, it, viol = _solve(*args, tol, max_iter, check_every, kernel, block)
+    else:
+        budget = max_iter if solver == "smo" else min(max_iter // 2, SMO_BUDGET * m)
+        a, _, it, viol = _solve_smo(*args, tol, budget, kernel, block, density_start=cold)
+        if solver == "auto":  # SMO's tail is slow where most support vectors are free: finish by PG
+            def finish(a):
+                r = _solve(args[0], args[1], args[2], mask, a, tol, max_iter - budget, check_every, kernel, block)
+                return r[0], it + r[2], r[3]
+
+            a, it, viol = jax.lax.cond(viol > tol, finish, lambda a: (a, it, viol), a)
     a = _implicit_alpha(a, points, gamma, caps, mask)
     # Recomputed with the differentiable alpha so offset and objective carry derivatives.
     Ka = _make_matvec(points, gamma, kernel, block)(a)

@@ -83,6 +83,21 @@ def test_strategies_agree_with_normalize(batch_and_single, strategy):
         assert abs(float(batch.scale[i]) - float(s.scale)) <= 1e-3 * float(s.scale)
 
 
+@pytest.mark.parametrize("strategy", ["map", "vmap"])
+def test_smo_solver_in_batches(batch_and_single, strategy):
+    """solver="smo" through padding + masks, both strategies: per-object normalize with the same
+    solver, and the default solver's pose within what tol 1e-4 allows."""
+    sets, batch, _ = batch_and_single
+    opts = {**OPTS, "solver": "smo", "tol": 1e-4}
+    b = jaxpose.normalize_batch(sets, 47.0, 0.5, strategy=strategy, **opts)
+    assert bool(np.all(np.asarray(b.converged)))
+    for i, p in enumerate(sets):
+        s = jaxpose.normalize(p, 47.0, 0.5, **opts)
+        np.testing.assert_allclose(np.asarray(b.center[i]), np.asarray(s.center), atol=1e-3 * float(s.scale), rtol=0)
+        np.testing.assert_allclose(np.asarray(b.center[i]), np.asarray(batch.center[i]), atol=2e-3 * float(s.scale), rtol=0)
+        assert abs(float(b.scale[i]) - float(batch.scale[i])) <= 2e-3 * float(s.scale)
+
+
 def test_pad_to_does_not_change_results(batch_and_single):
     sets, batch, _ = batch_and_single
     padded = jaxpose.normalize_batch(sets, 47.0, 0.5, pad_to=260, **OPTS)
@@ -127,3 +142,5 @@ def test_bad_options_are_rejected():
         jaxpose.normalize_batch(sets, nu=1.5)
     with pytest.raises(InvalidInputError):
         jaxpose.normalize_batch(sets, strategy="pmap")
+    with pytest.raises(InvalidInputError, match="solver"):
+        jaxpose.normalize_batch(sets, solver="newton")

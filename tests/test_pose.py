@@ -122,7 +122,8 @@ def test_bad_points(bad):
         normalize(bad)
 
 
-@pytest.mark.parametrize("kw", [dict(gamma=-1.0), dict(nu=2.0), dict(resolution=4), dict(refine=0), dict(kernel="x")])
+@pytest.mark.parametrize("kw", [dict(gamma=-1.0), dict(nu=2.0), dict(resolution=4), dict(refine=0), dict(kernel="x"),
+                                dict(solver="x")])
 def test_bad_options(kw):
     with pytest.raises(jaxpose.InvalidInputError):
         normalize(clusters(50), **kw)

@@ -30,12 +30,13 @@ def kernel(p):
     return np.exp(-GAMMA * (d * d).sum(-1))
 
 
+@pytest.mark.parametrize("solver", ["pg", "auto"])
 @pytest.mark.parametrize("shape", ["sphere_with_arm", "clusters", "faust"])
 @pytest.mark.parametrize("nu", [0.1, 0.5, 0.9])
-def test_dual_and_signs_match_libsvm(x64, shape, nu):
+def test_dual_and_signs_match_libsvm(x64, shape, nu, solver):
     m = 1000
     pts = {"sphere_with_arm": sphere_with_arm, "clusters": clusters, "faust": faust_points}[shape](m)
-    svdd = fit_svdd(pts, GAMMA, nu, tol=1e-6, max_iter=200_000)
+    svdd = fit_svdd(pts, GAMMA, nu, tol=1e-6, max_iter=200_000, solver=solver)
     assert bool(svdd.converged)
     oc, a_sk = libsvm(pts, nu)
     K = kernel(pts)
@@ -102,6 +103,44 @@ def test_decision_function_blocks_and_far_offsets(x64):
     d = x[:, None] - pts[None]
     direct = 2 * np.exp(-GAMMA * (d * d).sum(-1)) @ np.asarray(svdd.alpha) - float(svdd.offset)
     np.testing.assert_allclose(np.asarray(f_small_blocks), direct, atol=1e-12)
+
+
+@pytest.mark.parametrize("shape", ["clusters", "faust"])
+def test_smo_alone_matches_libsvm(x64, shape):
+    """Pure SMO (no PG fallback) to a tight tol: libsvm's objective, to its float32 floor."""
+    m = 1000
+    pts = {"clusters": clusters, "faust": faust_points}[shape](m)
+    svdd = fit_svdd(pts, GAMMA, 0.5, tol=1e-6, max_iter=200_000, solver="smo")
+    assert bool(svdd.converged) and int(svdd.iterations) < 20 * m
+    _, a_sk = libsvm(pts, 0.5)
+    K = kernel(pts)
+    ours, theirs = float(svdd.alpha @ K @ svdd.alpha), float(a_sk @ K @ a_sk)
+    assert ours <= theirs * (1 + 1e-6), (ours, theirs)
+    a = np.asarray(svdd.alpha)
+    assert abs(a.sum() - 1) < 1e-12 and a.min() >= 0 and a.max() <= 1 / (0.5 * m) * (1 + 1e-12)
+
+
+def test_smo_masks_and_blocked_kernel(x64):
+    """Padding rows (mask False) take no part in SMO; the blocked (matrix-free) kernel gives the
+    same solution as the stored one."""
+    pts = faust_points(400)
+    ref = fit_svdd(pts, GAMMA, 0.5, tol=1e-8, max_iter=100_000, solver="smo")
+    padded = np.concatenate([pts, np.repeat(pts[:1], 50, axis=0)])
+    mask = np.r_[np.ones(400, bool), np.zeros(50, bool)]
+    s = fit_svdd(padded, GAMMA, 0.5, mask=mask, tol=1e-8, max_iter=100_000, solver="smo")
+    assert bool(s.converged) and np.all(np.asarray(s.alpha)[400:] == 0)
+    np.testing.assert_allclose(np.asarray(s.alpha)[:400], np.asarray(ref.alpha), atol=1e-7 / 200)
+    b = fit_svdd(pts, GAMMA, 0.5, tol=1e-8, max_iter=100_000, solver="smo", kernel="blocked", block=128)
+    np.testing.assert_allclose(float(b.objective), float(ref.objective), rtol=1e-9)
+
+
+def test_auto_solver_caps_total_iterations():
+    """"auto" gives SMO half of max_iter, then PG the rest: max_iter bounds the sum."""
+    pts = clusters(300)
+    svdd = fit_svdd(pts, GAMMA, 0.5, tol=1e-12, max_iter=20, solver="auto")
+    assert not bool(svdd.converged) and int(svdd.iterations) == 20
+    with pytest.raises(jaxpose.InvalidInputError, match="solver"):
+        fit_svdd(pts, GAMMA, 0.5, solver="newton")
 
 
 def test_throw_on_iteration_cap():

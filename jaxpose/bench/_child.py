@@ -30,6 +30,7 @@ def _child_main(spec_json):
         base = _maxrss_mb()
 
         fit_opts = {"max_iter": int(spec["max_iter"])} if spec.get("max_iter") else {}
+        fit_opts.update(spec.get("fit") or {})  # solver, tol
 
         def fn():
             svdd = fit_svdd(y, gamma, nu, **fit_opts)
@@ -54,6 +55,7 @@ def _child_main(spec_json):
         out["converged"] = bool(res[0].converged)
         out["kernel"] = "dense" if m <= 12_000 else "blocked"
         out["max_iter"] = spec.get("max_iter")
+        out["fit"] = spec.get("fit") or {}
     else:
         out["fit_s_last"], out["grid_s_last"] = res["fit_s"], res["grid_s"]
     print(MARKER + json.dumps(out), flush=True)

@@ -41,8 +41,12 @@ def _environment():
 
 
 def run(sections=SECTIONS, quick=False, m=None, repeats=None, scaling_m=None, resolutions=None, tol=1e-3,
-        sk_max_m=8000, use_sklearn=True, x64=False, progress=None, scaling_max_iter=None):
-    """Run the chosen sections; returns the JSON-ready result dict."""
+        sk_max_m=8000, use_sklearn=True, x64=False, progress=None, scaling_max_iter=None, solver="pg",
+        solver_tol=None):
+    """Run the chosen sections; returns the JSON-ready result dict.
+
+    solver, solver_tol: jaxpose's solver options in end2end, batch and scaling (the solver
+    section always times both solvers at ``tol``); solver_tol None: normalize's default."""
     cfg = dict(QUICK if quick else FULL)
     if m is not None:
         cfg["m"] = int(m)
@@ -58,10 +62,11 @@ def run(sections=SECTIONS, quick=False, m=None, repeats=None, scaling_m=None, re
     say = progress or (lambda s: None)
     points, source = load_points(cfg["m"])
     result = {"schema_version": SCHEMA_VERSION, "quick": bool(quick), "source": source, "gamma": GAMMA, "nu": NU,
-              "repeats": cfg["repeats"], "environment": _environment(),
+              "repeats": cfg["repeats"], "environment": _environment(), "solver": solver, "solver_tol": solver_tol,
               "sklearn": ("available" if _common.sklearn_available() else UNAVAILABLE) if use_sklearn else "disabled",
               "sections": {}}
     sk = use_sklearn
+    fit = {"solver": solver, **({"tol": float(solver_tol)} if solver_tol is not None else {})}
     if "solver" in sections:
         say(f"solver (m={cfg['m']})")
         result["sections"]["solver"] = bench_solver(points, repeats=cfg["repeats"], tol=tol, use_sklearn=sk)
@@ -69,19 +74,19 @@ def run(sections=SECTIONS, quick=False, m=None, repeats=None, scaling_m=None, re
         say(f"end2end (m={cfg['m']})")
         result["sections"]["end2end"] = bench_end2end(
             points, repeats=cfg["repeats"], resolution=cfg["resolution"], refine=cfg["refine"], sk_resolution=cfg["sk_resolution"],
-            ref_resolution=cfg["ref_resolution"], ref_refine=cfg["ref_refine"], use_sklearn=sk)
+            ref_resolution=cfg["ref_resolution"], ref_refine=cfg["ref_refine"], use_sklearn=sk, fit=fit)
     if "batch" in sections:
         say(f"batch ({cfg['batch_objects']} objects, m<={cfg['batch_m']})")
         result["sections"]["batch"] = bench_batch(cfg["batch_objects"], cfg["batch_m"], repeats=cfg["repeats"],
                                                   resolution=cfg["resolution"], refine=cfg["refine"],
                                                   sk_resolution=cfg["sk_resolution"],
-                                                  use_sklearn=sk)
+                                                  use_sklearn=sk, fit=fit)
     if "scaling" in sections:
         say(f"scaling (m in {cfg['scaling_m']}, resolution in {cfg['resolutions']})")
         result["sections"]["scaling"] = bench_scaling(
             cfg["scaling_m"], cfg["resolutions"], m_grid=min(cfg["m"], 2000), repeats=max(1, min(cfg["repeats"], 2)),
             sk_max_m=sk_max_m, use_sklearn=sk, x64=x64, resolution=cfg["resolution"] or 32,
-            max_iter=scaling_max_iter)
+            max_iter=scaling_max_iter, fit=fit)
     return result
 
 
@@ -107,19 +112,31 @@ def _solver_lines(r):
     lines = ["", f"[solver]  m={r['m']}  tol={r['tol']:g}  dtype={r['dtype']}",
              f"  jaxpose fit   {_t(j):>12}  compile {_c(j)}  iterations {j['iterations']}  "
              f"kkt {j['kkt_violation']:.2g}  objective {j['objective']:.10g}"]
+    au = r.get("jaxpose_auto")
+    if isinstance(au, dict):
+        lines.append(f"  jaxpose auto  {_t(au):>12}  compile {_c(au)}  iterations {au['iterations']}  "
+                     f"kkt {au['kkt_violation']:.2g}  objective {au['objective']:.10g}  (solver='auto': SMO)")
     if isinstance(k, dict):
         lines.append(f"  sklearn fit   {_t(k):>12}  iterations {k['iterations']}  objective {k['objective']:.10g}")
         lines.append(f"  ratio {_r(r['ratio'])}   objective (ours - libsvm) / libsvm = {r['objective_rel_diff']:.3g}")
+        if r.get("ratio_auto") is not None:
+            lines.append(f"  ratio auto {_r(r['ratio_auto'])}   objective (auto - libsvm) / libsvm = "
+                         f"{r['objective_rel_diff_auto']:.3g}")
     else:
         lines.append("  sklearn       unavailable")
     return lines
+
+
+def _fit(j):
+    f = j.get("fit") or {}
+    return "".join(f"{k} {v}  " for k, v in sorted(f.items()) if not (k == "solver" and v == "pg"))
 
 
 def _end2end_lines(r):
     j, k, ref = r["jaxpose"], r["sklearn"], r["reference"]
     lines = ["", f"[end2end]  m={r['m']}  reference: fit tol {ref['fit_tol']:g}, {ref['resolution']}^3 refined "
                  f"{ref['refine']}^3 on the boundary (= {ref['boundary_resolution']}^3)",
-             f"  jaxpose normalize  {_t(j):>12}  compile {_c(j)}  grid {j['resolution']}^3 x refine "
+             f"  jaxpose normalize  {_t(j):>12}  compile {_c(j)}  {_fit(j)}grid {j['resolution']}^3 x refine "
              f"{j['refine']}  center err {j['center_err']:.2e} ({j['center_err_rel_scale']:.2e} of scale)"]
     if isinstance(k, dict):
         lines.append(f"  sklearn pipeline   {_t(k):>12}  grid {k['resolution']}^3 indicator  (fit {k['fit_s_last']:.3g} s"
@@ -197,6 +214,10 @@ def _parser():
     p.add_argument("--resolutions", default=None, help="comma list of grid resolutions (default 32,64,128)")
     p.add_argument("--sklearn-max-m", type=int, default=8000, help="largest m the sklearn side runs in scaling")
     p.add_argument("--tol", type=float, default=1e-3, help="solver tolerance in the solver section (default 1e-3)")
+    p.add_argument("--solver", choices=("pg", "smo", "auto"), default="pg",
+                   help="jaxpose's solver in end2end, batch and scaling (default pg; the solver section times pg and auto)")
+    p.add_argument("--solver-tol", type=float, default=None,
+                   help="jaxpose's solver tol in end2end, batch and scaling (default: normalize's, 1e-3)")
     p.add_argument("--scaling-max-iter", type=int, default=None,
                    help="cap solver iterations in scaling (peak memory of large m without the full run time)")
     p.add_argument("--no-sklearn", action="store_true", help="time jaxpose only")
@@ -234,6 +255,7 @@ def cli(argv=None) -> int:
     result = run(sections, quick=args.quick, m=args.m, repeats=args.repeats, scaling_m=_ints(args.scaling_m),
                  resolutions=_ints(args.resolutions), tol=args.tol, sk_max_m=args.sklearn_max_m,
                  use_sklearn=not args.no_sklearn, x64=args.x64, scaling_max_iter=args.scaling_max_iter,
+                 solver=args.solver, solver_tol=args.solver_tol,
                  progress=lambda s: print(f"jaxpose bench: {s}", file=sys.stderr, flush=True))
     print(format_table(result))
     if args.json:

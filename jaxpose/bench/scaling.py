@@ -35,12 +35,12 @@ def _timing(x):
     return x if isinstance(x, dict) and "median_s" in x else None
 
 
-def _scaling_in_m(ms, gamma, nu, repeats, sk, sk_max_m, timeout, x64, resolution, warm_max_m, max_iter):
+def _scaling_in_m(ms, gamma, nu, repeats, sk, sk_max_m, timeout, x64, resolution, warm_max_m, max_iter, fit=None):
     rows = []
     for m in ms:
         # beyond the dense limit one fit takes minutes: one cold run only (compile not separated)
         spec = {"m": int(m), "repeats": repeats if m <= warm_max_m else 0, "max_iter": max_iter, "gamma": gamma,
-                "nu": nu, "resolution": resolution, "sk_resolution": resolution}
+                "nu": nu, "resolution": resolution, "sk_resolution": resolution, "fit": dict(fit or {})}
         row = {"m": int(m), "jaxpose": _run_child({**spec, "kind": "jaxpose", "x64": x64}, timeout)}
         if not sk:
             row["sklearn"] = UNAVAILABLE
@@ -93,13 +93,13 @@ def _scaling_in_resolution(resolutions, m_grid, gamma, nu, repeats, sk, sk_max_g
 
 def bench_scaling(ms=(1000, 2000, 4000, 8000, 16000), resolutions=(32, 64, 128), m_grid=2000, gamma=GAMMA, nu=NU,
                   repeats=1, sk_max_m=8000, sk_max_grid_points=32_768, use_sklearn=True, timeout=1800, x64=False,
-                  resolution=32, warm_max_m=12_000, max_iter=None):
+                  resolution=32, warm_max_m=12_000, max_iter=None, fit=None):
     """Scaling in m (fit + moments per subprocess, with peak RSS) and in grid resolution.
 
     max_iter: cap the solver (memory only depends on shapes, so a capped run measures peak memory
     of large m in a fraction of the time; timings are then per capped run and marked)."""
     sk = use_sklearn and _common.sklearn_available()
-    in_m = _scaling_in_m(ms, gamma, nu, repeats, sk, sk_max_m, timeout, x64, resolution, warm_max_m, max_iter)
+    in_m = _scaling_in_m(ms, gamma, nu, repeats, sk, sk_max_m, timeout, x64, resolution, warm_max_m, max_iter, fit)
     in_res = _scaling_in_resolution(resolutions, m_grid, gamma, nu, repeats, sk, sk_max_grid_points)
     return {"in_m": in_m, "in_m_resolution": resolution, "in_resolution": {"m": m_grid, "refine": 1, "rows": in_res},
             "sklearn_max_m": sk_max_m}

@@ -14,7 +14,8 @@ def bench_solver(points, gamma=GAMMA, nu=NU, repeats=5, tol=1e-3, use_sklearn=Tr
 
     y, _, _ = prescale(points)
     m = y.shape[0]
-    cases = {"jaxpose": lambda: fit_svdd(y, gamma, nu, tol=tol)}
+    cases = {"jaxpose": lambda: fit_svdd(y, gamma, nu, tol=tol),  # the default solver, "pg"
+             "jaxpose_auto": lambda: fit_svdd(y, gamma, nu, tol=tol, solver="auto")}  # SMO (then PG if needed)
     sk = use_sklearn and _common.sklearn_available()
     if sk:
         cases["sklearn"] = lambda: _sk_fit(y, gamma, nu)
@@ -29,6 +30,10 @@ def bench_solver(points, gamma=GAMMA, nu=NU, repeats=5, tol=1e-3, use_sklearn=Tr
                     "n_support": int(np.sum(a > 0)), "objective": dual_objective(y, a, gamma),
                     "feasibility": _feasibility(a, cap)},
     }
+    pg = last["jaxpose_auto"]
+    out["jaxpose_auto"] = {**times["jaxpose_auto"], "iterations": int(pg.iterations),
+                         "kkt_violation": float(pg.kkt_violation), "converged": bool(pg.converged),
+                         "objective": dual_objective(y, np.asarray(pg.alpha, np.float64), gamma)}
     if sk:
         oc = last["sklearn"]
         b = _sk_alpha(oc, m, nu)
@@ -38,9 +43,11 @@ def bench_solver(points, gamma=GAMMA, nu=NU, repeats=5, tol=1e-3, use_sklearn=Tr
         o, s = out["jaxpose"]["objective"], out["sklearn"]["objective"]
         out["objective_rel_diff"] = (o - s) / s
         out["ratio"] = _ratio(out["jaxpose"], out["sklearn"])
+        out["ratio_auto"] = _ratio(out["jaxpose_auto"], out["sklearn"])
+        out["objective_rel_diff_auto"] = (out["jaxpose_auto"]["objective"] - s) / s
     else:
         out["sklearn"] = UNAVAILABLE
-        out["objective_rel_diff"] = out["ratio"] = None
+        out["objective_rel_diff"] = out["ratio"] = out["ratio_auto"] = out["objective_rel_diff_auto"] = None
     return out
 
 
@@ -70,7 +77,7 @@ def _accuracy(center, scale, ref):
 
 
 def bench_end2end(points, gamma=GAMMA, nu=NU, repeats=5, resolution=None, refine=None, sk_resolution=32,
-                  ref_resolution=64, ref_refine=4, ref_tol=1e-4, ref_max_iter=20_000, use_sklearn=True):
+                  ref_resolution=64, ref_refine=4, ref_tol=1e-4, ref_max_iter=20_000, use_sklearn=True, fit=None):
     """normalize vs the scikit-learn pipeline, per object; centers against a reference.
     resolution / refine: None = the defaults of ``normalize``."""
     from ..pose import normalize
@@ -78,6 +85,7 @@ def bench_end2end(points, gamma=GAMMA, nu=NU, repeats=5, resolution=None, refine
     m = len(points)
     opts = _grid_opts(resolution, refine)
     resolution, refine = opts["resolution"], opts["refine"]
+    opts = {**opts, **(fit or {})}  # solver options of the jaxpose side
     cases = {"jaxpose": lambda: normalize(points, gamma, nu, **opts)}
     sk = use_sklearn and _common.sklearn_available()
     if sk:
@@ -89,7 +97,7 @@ def bench_end2end(points, gamma=GAMMA, nu=NU, repeats=5, resolution=None, refine
     scale = float(pose.scale)
     out = {
         "m": m, "gamma": gamma, "nu": nu,
-        "jaxpose": {**times["jaxpose"], "resolution": resolution, "refine": refine,
+        "jaxpose": {**times["jaxpose"], "resolution": resolution, "refine": refine, "fit": dict(fit or {}),
                     "iterations": int(pose.iterations), "converged": bool(pose.converged),
                     **_accuracy(center, scale, ref)},
         "reference": {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in ref.items()},
@@ -118,12 +126,12 @@ def _batch_objects(n, m, seed=0):
 
 
 def bench_batch(n_objects=8, m=1000, gamma=GAMMA, nu=NU, repeats=3, resolution=None, refine=None, sk_resolution=32,
-                use_sklearn=True):
+                use_sklearn=True, fit=None):
     """Objects per second: normalize_batch vs a loop of normalize vs a loop of the sklearn pipeline."""
     from ..pose import normalize, normalize_batch
 
     sets, names = _batch_objects(n_objects, m)
-    opts = _grid_opts(resolution, refine)
+    opts = {**_grid_opts(resolution, refine), **(fit or {})}
     cases = {
         "jaxpose_batch": lambda: normalize_batch(sets, gamma, nu, **opts),
         "jaxpose_loop": lambda: [normalize(p, gamma, nu, **opts) for p in sets],

@@ -11,13 +11,23 @@ SHARED = pathlib.Path(__file__).resolve().parents[1].parent / "shared"
 FAUST = SHARED / "data" / "faust-dev"
 
 
-@pytest.fixture
-def x64():
-    """Run a test in float64 and restore the previous setting."""
+def _float64():
     old = jax.config.jax_enable_x64
     jax.config.update("jax_enable_x64", True)
     yield
     jax.config.update("jax_enable_x64", old)
+
+
+@pytest.fixture
+def x64():
+    """Run a test in float64 and restore the previous setting."""
+    yield from _float64()
+
+
+@pytest.fixture(scope="module")
+def x64_module():
+    """float64 for a whole module (use with pytestmark = pytest.mark.usefixtures("x64_module"))."""
+    yield from _float64()
 
 
 def sphere_with_arm(m, seed=0):

@@ -36,12 +36,7 @@ from jaxpose.sensitivity import pose, pose_sensitivity
 OPTS = dict(resolution=16, refine=2, band=2048, tol=1e-7, max_iter=200_000)
 
 
-@pytest.fixture(autouse=True, scope="module")
-def x64():
-    old = jax.config.jax_enable_x64
-    jax.config.update("jax_enable_x64", True)
-    yield
-    jax.config.update("jax_enable_x64", old)
+pytestmark = pytest.mark.usefixtures("x64_module")  # every test in float64
 
 
 def _vec(p):
@@ -137,12 +132,12 @@ def gamma_check(points, g, n, opts=None, steps=STEPS):
 
 
 @pytest.fixture(scope="module")
-def shape_points(x64):
+def shape_points(x64_module):
     return jnp.asarray(sample_surface(example_shape(), 400, seed=1))
 
 
 @pytest.fixture(scope="module")
-def small_points(x64):
+def small_points(x64_module):
     return jnp.asarray(sample_surface(example_shape(), 200, seed=2))
 
 
@@ -218,7 +213,7 @@ def test_nu_secant_derivative_matches_fd(shape_points):
     assert _ok(J, fd, 0.20), (J, fd, _rel(J, fd))
 
 
-def test_nu_secant_where_points_enter_the_support(x64):
+def test_nu_secant_where_points_enter_the_support():
     """Regression (issue 3): the secant slope is nonzero at points with alpha = 0 that enter the
     support within the interval; the grid evaluation skipped their terms and the scale's
     nu-derivative came out -0.156 against FD +0.025 (box, (25, 0.3)). The offset's slope is

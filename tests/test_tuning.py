@@ -16,12 +16,7 @@ from jaxpose.mesh import sample_surface
 FAST = dict(resolution=8, refine=2, band=256, tol=1e-3)
 
 
-@pytest.fixture(autouse=True, scope="module")
-def x64():
-    old = jax.config.jax_enable_x64
-    jax.config.update("jax_enable_x64", True)
-    yield
-    jax.config.update("jax_enable_x64", old)
+pytestmark = pytest.mark.usefixtures("x64_module")  # every test in float64
 
 
 def _classes(count=120, n=4):

@@ -131,13 +131,18 @@ def _normalize(points, mask, gamma, nu, resolution, refine, band, tol, max_iter,
 def _normalize_impl(points, mask, gamma, nu, resolution, refine, band, tol, max_iter, check_every, kernel, block,
                     solver="pg"):
     y, to_world, size = prescale(points, mask)
-    safe = jnp.where(size > 0, size, 1.0)
     svdd = _fit(y, gamma, nu, mask, None, tol=tol, max_iter=max_iter, check_every=check_every, kernel=kernel, block=block,
                 solver=solver)
     # the implicit KKT derivative moves alpha only on the support: skip the alpha = 0 pass
-    mom = _volume_moments(svdd, resolution, block, refine, band, outside=False)
+    return _pose_of(svdd, to_world, size, resolution, refine, band, block, outside=False)
+
+
+def _pose_of(svdd, to_world, size, resolution, refine, band, block, outside):
+    """The pose (eqs. 4, 5) of an SVDD fitted to pre-scaled points, in world units.
+    outside: see ``moments._boundary_weights`` (False when alpha's tangent vanishes where alpha = 0)."""
+    mom = _volume_moments(svdd, resolution, block, refine, band, outside=outside)
     center = to_world(mom.center)
-    scale = safe * mom.mean_distance
+    scale = jnp.where(size > 0, size, 1.0) * mom.mean_distance
     valid = (size > 0) & jnp.all(jnp.isfinite(center)) & jnp.isfinite(scale) & (scale > 0) & (mom.volume > 0)
     return Pose(center, scale, svdd.converged, valid, svdd.iterations)
 

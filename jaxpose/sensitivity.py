@@ -49,8 +49,7 @@ import numpy as np
 
 from . import _validate
 from ._hyper import hyper_jvp
-from .moments import _volume_moments
-from .pose import DEFAULTS, Pose, _options, prescale
+from .pose import DEFAULTS, Pose, _options, _pose_of, prescale
 from .svdd import _caps, _fit, _make_matvec, _offset
 
 __all__ = ["pose", "pose_sensitivity", "NU_DELTA"]
@@ -92,7 +91,6 @@ def _pose(points, gamma, nu, resolution, refine, band, tol, max_iter, check_ever
 def _pose_impl(points, gamma, nu, resolution, refine, band, tol, max_iter, check_every, kernel, block,
                solver="pg", nu_delta=NU_DELTA, nu_tol=None):
     y, to_world, size = prescale(points)
-    safe = jnp.where(size > 0, size, 1.0)
     dtype = y.dtype
     gamma = jnp.asarray(gamma, dtype)
     nu = jnp.asarray(nu, dtype)
@@ -113,11 +111,7 @@ def _pose_impl(points, gamma, nu, resolution, refine, band, tol, max_iter, check
     caps = _caps(jax.lax.stop_gradient(nu), mask)
     offset = _offset(s.alpha, _make_matvec(y, gamma, kernel, block)(s.alpha), caps, mask) + dn * mu_slope
     s = s._replace(alpha=s.alpha + dn * slope, offset=offset)
-    mom = _volume_moments(s, resolution, block, refine, band, outside=True)  # the secant moves alpha = 0 points
-    center = to_world(mom.center)
-    scale = safe * mom.mean_distance
-    valid = (size > 0) & jnp.all(jnp.isfinite(center)) & jnp.isfinite(scale) & (scale > 0) & (mom.volume > 0)
-    return Pose(center, scale, s.converged, valid, s.iterations)
+    return _pose_of(s, to_world, size, resolution, refine, band, block, outside=True)  # the secant moves alpha = 0 points
 
 
 _STATIC = tuple(DEFAULTS) + ("nu_delta", "nu_tol")

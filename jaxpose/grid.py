@@ -20,7 +20,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
-from .kernels import _pad_rows, map_blocks
+from .kernels import map_blocks
 
 __all__ = ["region_radius", "domain", "snap", "cell_centers", "evaluate_on_grid"]
 
@@ -117,17 +117,4 @@ def evaluate_on_grid(svdd, x, block=2048, count=None, support=None):
         (s, ep), _ = jax.lax.scan(add_chunk, init, (p, a, pn, c))
         return 2.0 * s - mu, -4.0 * g * (xb * s[:, None] - ep)
 
-    if count is None:
-        return map_blocks(one_block, x, block)
-    bs = max(1, min(int(block), x.shape[0]))
-    xp, n = _pad_rows(x, bs)
-    xb = xp.reshape(-1, bs, 3)
-    starts = jnp.arange(xb.shape[0]) * bs
-
-    def guarded(args):
-        xb, start = args
-        zero = (jnp.zeros(xb.shape[:1], xb.dtype), jnp.zeros_like(xb))
-        return jax.lax.cond(start < count, one_block, lambda _: zero, xb)
-
-    f, grad = jax.lax.map(guarded, (xb, starts))
-    return f.reshape(-1)[:n], grad.reshape(-1, 3)[:n]
+    return map_blocks(one_block, x, block, count=count)

@@ -27,15 +27,23 @@ def _pad_rows(x, block):
     return x, n
 
 
-def map_blocks(fn, x, block):
+def map_blocks(fn, x, block, count=None):
     """Apply fn to row blocks of x (n, ...) with lax.map; returns the first n rows of the result.
 
     Memory stays at one block's worth of intermediate values.
+    count : optional () int: only the blocks holding rows < count are evaluated (``lax.cond``);
+    the others give zeros.
     """
     block = max(1, min(int(block), x.shape[0]))
     xp, n = _pad_rows(x, block)
     xb = xp.reshape((-1, block) + x.shape[1:])
-    out = jax.lax.map(fn, xb)
+    if count is None:
+        out = jax.lax.map(fn, xb)
+    else:
+        shapes = jax.eval_shape(fn, xb[0])
+        zeros = lambda _: jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape, s.dtype), shapes)
+        starts = jnp.arange(xb.shape[0]) * block
+        out = jax.lax.map(lambda args: jax.lax.cond(args[1] < count, fn, zeros, args[0]), (xb, starts))
     return jax.tree_util.tree_map(lambda o: o.reshape((-1,) + o.shape[2:])[:n], out)
 
 

@@ -87,6 +87,17 @@ def check_points(points, name: str = "points", min_points: int = MIN_POINTS):
     return points
 
 
+CHOICES = {"kernel": ("auto", "dense", "blocked"), "solver": ("auto", "smo", "pg")}
+
+
+def check_choices(**values):
+    """String options of fit_svdd and normalize (``CHOICES``)."""
+    for name, value in values.items():
+        if value not in CHOICES[name]:
+            valid = ", ".join(repr(c) for c in CHOICES[name])
+            raise InvalidInputError(f"{name} must be one of {valid}, got {value!r}")
+
+
 def check_options(tol, max_iter, check_every, block):
     """Solver options shared by fit_svdd and normalize (check_every = 0 would loop forever)."""
     try:

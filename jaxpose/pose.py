@@ -157,10 +157,7 @@ def _options(resolution, refine, band, tol, max_iter, check_every, kernel, block
     if not all(isinstance(v, numbers.Integral) for v in (refine, band)) or refine < 1 or refine & (refine - 1) or band < 0:
         raise _validate.InvalidInputError(f"refine must be a power of 2 and band >= 0, got {refine!r}, {band!r}")
     _validate.check_options(tol, max_iter, check_every, block)  # issue 6: also rejects NaN tol, block < 1
-    if kernel not in ("auto", "dense", "blocked"):
-        raise _validate.InvalidInputError(f"kernel must be 'auto', 'dense' or 'blocked', got {kernel!r}")
-    if solver not in ("auto", "smo", "pg"):
-        raise _validate.InvalidInputError(f"solver must be 'auto', 'smo' or 'pg', got {solver!r}")
+    _validate.check_choices(kernel=kernel, solver=solver)
     return dict(
         resolution=_validate.check_resolution(resolution),
         refine=int(refine),

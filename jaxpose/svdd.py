@@ -115,13 +115,19 @@ def _caps(nu, mask):
     return jnp.where(mask, upper_bound(nu, m_valid), 0.0)
 
 
-def _make_matvec(points, gamma, kernel, block):
+def _kernel_ops(points, gamma, kernel, block):
+    """(v -> K v, i -> K[i]) with K stored (dense) or computed in blocks / per column."""
     m = points.shape[0]
     dense = kernel == "dense" or (kernel == "auto" and m <= _DENSE_LIMIT)
     if dense:
         K = gaussian_kernel(points, points, gamma)
-        return lambda v: K @ v
-    return lambda v: kernel_matvec_blocked(points, v, gamma, block)
+        return (lambda v: K @ v), (lambda i: K[i])
+    return ((lambda v: kernel_matvec_blocked(points, v, gamma, block)),
+            (lambda i: gaussian_kernel(points[i][None], points, gamma)[0]))
+
+
+def _make_matvec(points, gamma, kernel, block):
+    return _kernel_ops(points, gamma, kernel, block)[0]
 
 
 def _kkt(alpha, Ka, caps, mask):
@@ -221,23 +227,14 @@ def _solve_smo(points, gamma, caps, mask, init_alpha, tol, max_iter, kernel, blo
     Fan, Chen & Lin 2005) on the gradient G = K a, kept up to date with two kernel columns
     per step. Returns alpha, Ka, iterations (pair updates), violation (from an exact K a)."""
     dtype = points.dtype
-    m = points.shape[0]
     inf = jnp.asarray(jnp.inf, dtype)
-    dense = kernel == "dense" or (kernel == "auto" and m <= _DENSE_LIMIT)
-    if dense:
-        K = gaussian_kernel(points, points, gamma)
-        matvec, column = (lambda v: K @ v), (lambda i: K[i])
-    else:
-        matvec = lambda v: kernel_matvec_blocked(points, v, gamma, block)
-        column = lambda i: gaussian_kernel(points[i][None], points, gamma)[0]
+    matvec, column = _kernel_ops(points, gamma, kernel, block)
     if density_start:
         a0 = _density_start(matvec, caps, mask)
     else:
         a0 = projection_capped_simplex(init_alpha, caps)
 
-    def violation(a, G):
-        v, _ = _kkt(a, G, caps, mask)
-        return v
+    violation = lambda a, G: _kkt(a, G, caps, mask)[0]
 
     def step(carry):
         a, G, it, _ = carry
@@ -350,10 +347,7 @@ def fit_svdd(
     points = _validate.check_points(points)
     _validate.check_gamma(gamma)
     _validate.check_nu(nu)
-    if solver not in ("auto", "smo", "pg"):
-        raise _validate.InvalidInputError(f"solver must be 'auto', 'smo' or 'pg', got {solver!r}")
-    if kernel not in ("auto", "dense", "blocked"):
-        raise _validate.InvalidInputError(f"kernel must be 'auto', 'dense' or 'blocked', got {kernel!r}")
+    _validate.check_choices(kernel=kernel, solver=solver)
     # issue 6: check_every = 0 looped forever; mask / init_alpha shapes gave JAX-internal errors
     _validate.check_options(tol, max_iter, check_every, block)
     m = points.shape[0] if hasattr(points, "shape") else len(points)

@@ -96,6 +96,7 @@ def test_bench_without_sklearn(monkeypatch):
 def test_bench_usage_errors(capsys):
     assert bench.cli(["--sections", "nope"]) == 2
     assert bench.cli(["--m", "2"]) == 2
+    assert bench.cli(["--refine", "3"]) == 2
     assert bench.cli(["--help"]) == 0
     assert "--quick" in capsys.readouterr().out
 

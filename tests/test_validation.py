@@ -210,10 +210,21 @@ def test_degenerate_but_legal_shapes():
         assert bool(pose.valid) and finite_pose(pose) and float(pose.scale) > 0, name
         lo, hi = pts.min(0), pts.max(0)
         assert np.all(np.asarray(pose.center) >= lo - 1e-3) and np.all(np.asarray(pose.center) <= hi + 1e-3), name
+    # float32: the solver's solution on collinear points is asymmetric at its tol (1.9e-3 with the
+    # plain grid estimate, 2.8e-3 extrapolated, 2.3-2.5e-3 at finer grids: not the grid);
+    # in float64 the center is exact (test_degenerate_shapes_are_symmetric_in_float64)
     pose = normalize(cases["collinear"])
-    np.testing.assert_allclose(np.asarray(pose.center), [4.0, 3.5, 3.0], atol=2e-3)
+    np.testing.assert_allclose(np.asarray(pose.center), [4.0, 3.5, 3.0], atol=3e-3)
     pose = normalize(cases["two points"])
     np.testing.assert_allclose(np.asarray(pose.center), [0.5, 0.5, 0.5], atol=2e-3)
+
+
+def test_degenerate_shapes_are_symmetric_in_float64(x64):
+    t = np.linspace(0.0, 2.0, M)
+    pose = normalize(np.c_[t, 0.5 * t, np.zeros(M)] + 3.0)
+    np.testing.assert_allclose(np.asarray(pose.center), [4.0, 3.5, 3.0], atol=1e-6)
+    pose = normalize(np.r_[np.zeros((M // 2, 3)), np.ones((M // 2, 3))])
+    np.testing.assert_allclose(np.asarray(pose.center), [0.5, 0.5, 0.5], atol=1e-6)
 
 
 def test_float32_far_offsets_and_extreme_units():

@@ -15,7 +15,8 @@ solver    fit alone: ``fit_svdd`` vs ``OneClassSVM.fit``; both dual objectives a
 end2end   per object: ``normalize`` (fit + grid volume + center + scale) vs fit + grid
           indicator; the center of each, compared with a high-resolution reference
           (fit tol 1e-4, 64^3 coarse grid refined 4x per axis near the boundary, up to 65,536
-          cells at the first level: boundary resolution of a 256^3 grid).
+          cells at the first level: boundary resolution of a 256^3 grid, Richardson-extrapolated
+          with the 128 level as ``volume_moments`` does by default).
 batch     many objects: ``normalize_batch`` vs a loop of ``normalize`` vs a loop of the
           scikit-learn pipeline; objects per second.
 scaling   in m (one subprocess per case, so peak memory ru_maxrss is per case) and in the

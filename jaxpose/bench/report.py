@@ -42,11 +42,12 @@ def _environment():
 
 def run(sections=SECTIONS, quick=False, m=None, repeats=None, scaling_m=None, resolutions=None, tol=1e-3,
         sk_max_m=8000, use_sklearn=True, x64=False, progress=None, scaling_max_iter=None, solver="pg",
-        solver_tol=None):
+        solver_tol=None, refine=None):
     """Run the chosen sections; returns the JSON-ready result dict.
 
     solver, solver_tol: jaxpose's solver options in end2end, batch and scaling (the solver
-    section always times both solvers at ``tol``); solver_tol None: normalize's default."""
+    section always times both solvers at ``tol``); solver_tol None: normalize's default.
+    refine: normalize's grid refinement in end2end and batch (None: its default)."""
     cfg = dict(QUICK if quick else FULL)
     if m is not None:
         cfg["m"] = int(m)
@@ -56,6 +57,8 @@ def run(sections=SECTIONS, quick=False, m=None, repeats=None, scaling_m=None, re
         cfg["scaling_m"] = tuple(int(v) for v in scaling_m)
     if resolutions is not None:
         cfg["resolutions"] = tuple(int(v) for v in resolutions)
+    if refine is not None:
+        cfg["refine"] = int(refine)
     unknown = set(sections) - set(SECTIONS)
     if unknown:
         raise ValueError(f"unknown sections {sorted(unknown)}; valid: {', '.join(SECTIONS)}")
@@ -135,7 +138,7 @@ def _fit(j):
 def _end2end_lines(r):
     j, k, ref = r["jaxpose"], r["sklearn"], r["reference"]
     lines = ["", f"[end2end]  m={r['m']}  reference: fit tol {ref['fit_tol']:g}, {ref['resolution']}^3 refined "
-                 f"{ref['refine']}^3 on the boundary (= {ref['boundary_resolution']}^3)",
+                 f"{ref['refine']}^3 on the boundary (= {ref['boundary_resolution']}^3, extrapolated)",
              f"  jaxpose normalize  {_t(j):>12}  compile {_c(j)}  {_fit(j)}grid {j['resolution']}^3 x refine "
              f"{j['refine']}  center err {j['center_err']:.2e} ({j['center_err_rel_scale']:.2e} of scale)"]
     if isinstance(k, dict):
@@ -220,6 +223,8 @@ def _parser():
                    help="jaxpose's solver tol in end2end, batch and scaling (default: normalize's, 1e-3)")
     p.add_argument("--scaling-max-iter", type=int, default=None,
                    help="cap solver iterations in scaling (peak memory of large m without the full run time)")
+    p.add_argument("--refine", type=int, default=None,
+                   help="normalize's refine in end2end and batch (default: normalize's, 4)")
     p.add_argument("--no-sklearn", action="store_true", help="time jaxpose only")
     p.add_argument("--x64", action="store_true", help="enable float64 in JAX (default float32)")
     p.add_argument("--force", action="store_true", help="overwrite an existing --json file")
@@ -248,6 +253,9 @@ def cli(argv=None) -> int:
     if args.m is not None and args.m < 8:
         print("jaxpose bench: error: --m must be >= 8", file=sys.stderr)
         return 2
+    if args.refine is not None and (args.refine < 1 or args.refine & (args.refine - 1)):
+        print("jaxpose bench: error: --refine must be a power of 2", file=sys.stderr)
+        return 2
     if args.x64:
         import jax
 
@@ -255,7 +263,7 @@ def cli(argv=None) -> int:
     result = run(sections, quick=args.quick, m=args.m, repeats=args.repeats, scaling_m=_ints(args.scaling_m),
                  resolutions=_ints(args.resolutions), tol=args.tol, sk_max_m=args.sklearn_max_m,
                  use_sklearn=not args.no_sklearn, x64=args.x64, scaling_max_iter=args.scaling_max_iter,
-                 solver=args.solver, solver_tol=args.solver_tol,
+                 solver=args.solver, solver_tol=args.solver_tol, refine=args.refine,
                  progress=lambda s: print(f"jaxpose bench: {s}", file=sys.stderr, flush=True))
     print(format_table(result))
     if args.json:

@@ -72,7 +72,7 @@ MORTON_BITS = 10  # per axis: 30-bit codes fit int32
 
 
 def _spread_bits(v):
-    """Insert two zero bits between the low 10 bits of v (int32): 0b1011 -> 0b001000001001."""
+    """Insert two zero bits between the low 10 bits of v (int array, jnp or numpy): 0b1011 -> 0b001000001001."""
     v = v & 0x3FF
     v = (v | (v << 16)) & 0x030000FF
     v = (v | (v << 8)) & 0x0300F00F
@@ -80,12 +80,17 @@ def _spread_bits(v):
     return (v | (v << 2)) & 0x09249249
 
 
+def _interleave(q):
+    """Morton code of integer lattice coordinates q : (n, 3) (x bits highest)."""
+    return _spread_bits(q[:, 0]) << 2 | _spread_bits(q[:, 1]) << 1 | _spread_bits(q[:, 2])
+
+
 def morton_codes(x, lo, hi):
     """Z-order codes of x : (n, 3) on a 2^10 lattice over the box [lo, hi] (points outside are
     clamped). -> (n,) int32; sorting by them keeps nearby points together."""
     ext = jnp.maximum(jnp.max(hi - lo), jnp.finfo(x.dtype).tiny)
     q = jnp.clip(jnp.floor((x - lo) / ext * (2**MORTON_BITS)), 0, 2**MORTON_BITS - 1).astype(jnp.int32)
-    return _spread_bits(q[:, 0]) << 2 | _spread_bits(q[:, 1]) << 1 | _spread_bits(q[:, 2])
+    return _interleave(q)
 
 
 def morton_order(resolution):
@@ -93,11 +98,7 @@ def morton_order(resolution):
     so that consecutive blocks of cells are compact in space."""
     i = np.arange(resolution)
     ijk = np.stack(np.meshgrid(i, i, i, indexing="ij"), axis=-1).reshape(-1, 3)
-    code = np.zeros(len(ijk), np.int64)
-    for bit in range(int(resolution - 1).bit_length()):
-        for axis in range(3):
-            code |= ((ijk[:, axis] >> bit) & 1) << (3 * bit + 2 - axis)
-    return np.argsort(code, kind="stable")
+    return np.argsort(_interleave(ijk), kind="stable")
 
 
 def _cutoff(mu, dtype):

@@ -81,14 +81,11 @@ def moments_from_occupancy(x, w, h):
     return Moments(c, md, mass * jnp.prod(h), second, h, jnp.asarray(0))
 
 
-BAND_LINEAR = 1.5
-
-
 def _band_score(f, grad, h, gamma, offset):
     """< 1 where a cell may hold part of the boundary: |f| within 1.5 linear cell widths plus
     a curvature allowance (|Hess f| <= 2 gamma (f + mu) near x, so thin shells thinner
     than a cell are still refined)."""
-    width = BAND_LINEAR * jnp.sum(jnp.abs(grad) * h, axis=-1) + gamma * jnp.maximum(f + offset, 0.0) * jnp.sum(h * h) / 2
+    width = 1.5 * jnp.sum(jnp.abs(grad) * h, axis=-1) + gamma * jnp.maximum(f + offset, 0.0) * jnp.sum(h * h) / 2
     return jax.lax.stop_gradient(jnp.where(width > 0, jnp.abs(f) / jnp.where(width > 0, width, 1.0), jnp.inf))
 
 

@@ -17,13 +17,16 @@ equivariant under the axis flips and permutations of the principal frame.
 """
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 from .kernels import map_blocks
 
-__all__ = ["region_radius", "domain", "snap", "cell_centers", "morton_order", "morton_codes", "evaluate_on_grid"]
+__all__ = ["region_radius", "domain", "snap", "cell_centers", "morton_order", "morton_codes", "evaluate_on_grid",
+           "evaluate_subgrids", "evaluate_grid"]
 
 
 def region_radius(svdd):
@@ -108,6 +111,55 @@ def _cutoff(mu, dtype):
     return jnp.log(32.0 / (eps * jnp.maximum(mu, jnp.finfo(dtype).tiny)))
 
 
+class _Chunks(NamedTuple):
+    """The support points in chunks of nearby points (Z-order), shifted by ``shift``."""
+
+    shift: jax.Array  # (3,)
+    p: jax.Array  # (k, chunk, 3)
+    a: jax.Array  # (k, chunk) alpha, 0 off the support
+    c: jax.Array  # (k, chunk) bool, on the support
+    lo: jax.Array  # (k, 3) bounding box of each chunk's support points (no derivatives)
+    hi: jax.Array
+    cut: jax.Array  # () squared distance beyond which a chunk's terms are dropped
+
+
+def _chunks(svdd, support=None):
+    shift = jax.lax.stop_gradient(jnp.mean(svdd.points, axis=0))
+    m = svdd.points.shape[0]
+    chunk = min(SV_CHUNK, m)
+    pad = (-m) % chunk
+    sup = jax.lax.stop_gradient(svdd.alpha != 0 if support is None else support)
+    p0 = jax.lax.stop_gradient(svdd.points - shift)
+    code = morton_codes(p0, jnp.min(p0, axis=0), jnp.max(p0, axis=0))
+    order = jnp.argsort(jnp.where(sup, code, jnp.iinfo(jnp.int32).max))
+    p = jnp.concatenate([(svdd.points - shift)[order], jnp.zeros((pad, 3), svdd.points.dtype)])
+    c = jnp.concatenate([sup[order], jnp.zeros((pad,), bool)])
+    # terms outside the support are dropped (value 0 where alpha = 0; their tangents too)
+    a = jnp.where(c, jnp.concatenate([svdd.alpha[order], jnp.zeros((pad,), svdd.alpha.dtype)]), 0.0)
+    p, a, c = p.reshape(-1, chunk, 3), a.reshape(-1, chunk), c.reshape(-1, chunk)
+    ps = jax.lax.stop_gradient(p)
+    inf = jnp.asarray(jnp.inf, p.dtype)
+    lo = jnp.min(jnp.where(c[..., None], ps, inf), axis=1)
+    hi = jnp.max(jnp.where(c[..., None], ps, -inf), axis=1)
+    cut = jax.lax.stop_gradient(_cutoff(svdd.offset, p.dtype) / svdd.gamma)
+    return _Chunks(shift, p, a, c, lo, hi, cut)
+
+
+def _sum_near(ch, blo, bhi, terms, init):
+    """Sum terms(p, a) (a pytree like init) over the chunks not too far from the box [blo, bhi]."""
+    gap = jnp.maximum(0.0, jnp.maximum(ch.lo - bhi, blo - ch.hi))
+    near = jnp.any(ch.c, axis=1) & (jnp.sum(gap * gap, axis=-1) <= ch.cut)
+
+    def add_chunk(acc, chunk_):
+        pc, ac, keep = chunk_
+        zero = lambda _: jax.tree_util.tree_map(jnp.zeros_like, init)
+        t = jax.lax.cond(keep, lambda _: terms(pc, ac), zero, None)
+        return jax.tree_util.tree_map(jnp.add, acc, t), None
+
+    acc, _ = jax.lax.scan(add_chunk, init, (ch.p, ch.a, near))
+    return acc
+
+
 def evaluate_on_grid(svdd, x, block=2048, count=None, support=None):
     """f and grad f at x : (n, 3), in blocks of rows. -> (n,), (n, 3).
 
@@ -124,49 +176,86 @@ def evaluate_on_grid(svdd, x, block=2048, count=None, support=None):
     its terms sum to less than eps * mu / 16 (``_cutoff``; Sum a = 1): below f's rounding, in
     float32 and float64 alike. Blocks of nearby cells (``morton_order``) make that common.
     """
-    shift = jax.lax.stop_gradient(jnp.mean(svdd.points, axis=0))
-    m = svdd.points.shape[0]
-    chunk = min(SV_CHUNK, m)
-    pad = (-m) % chunk
-    sup = jax.lax.stop_gradient(svdd.alpha != 0 if support is None else support)
-    p0 = jax.lax.stop_gradient(svdd.points - shift)
-    code = morton_codes(p0, jnp.min(p0, axis=0), jnp.max(p0, axis=0))
-    order = jnp.argsort(jnp.where(sup, code, jnp.iinfo(jnp.int32).max))
-    p = jnp.concatenate([(svdd.points - shift)[order], jnp.zeros((pad, 3), svdd.points.dtype)])
-    c = jnp.concatenate([sup[order], jnp.zeros((pad,), bool)])
-    # terms outside the support are dropped (value 0 where alpha = 0; their tangents too)
-    a = jnp.where(c, jnp.concatenate([svdd.alpha[order], jnp.zeros((pad,), svdd.alpha.dtype)]), 0.0)
-    p, a, c = p.reshape(-1, chunk, 3), a.reshape(-1, chunk), c.reshape(-1, chunk)
-    pn = jnp.sum(p * p, axis=-1)
-    ps = jax.lax.stop_gradient(p)
-    inf = jnp.asarray(jnp.inf, p.dtype)
-    clo = jnp.min(jnp.where(c[..., None], ps, inf), axis=1)
-    chi = jnp.max(jnp.where(c[..., None], ps, -inf), axis=1)
+    ch = _chunks(svdd, support)
+    pn = jnp.sum(ch.p * ch.p, axis=-1)
     g, mu = svdd.gamma, svdd.offset
-    cut = jax.lax.stop_gradient(_cutoff(mu, p.dtype) / g)  # squared distance
 
     def one_block(xb):
-        xb = xb - shift
+        xb = xb - ch.shift
         xn = jnp.sum(xb * xb, axis=-1)[:, None]
         xs = jax.lax.stop_gradient(xb)
-        blo, bhi = jnp.min(xs, axis=0), jnp.max(xs, axis=0)
-        gap = jnp.maximum(0.0, jnp.maximum(clo - bhi, blo - chi))
-        near = jnp.any(c, axis=1) & (jnp.sum(gap * gap, axis=-1) <= cut)
 
-        def add_chunk(acc, chunk_):
-            pc, ac, pnc, keep = chunk_
-
-            def terms(_):
-                d2 = jnp.maximum(xn + pnc[None, :] - 2.0 * xb @ pc.T, 0.0)
-                e = jnp.exp(-g * d2) * ac
-                return jnp.sum(e, axis=-1), e @ pc
-
-            zero = (jnp.zeros(xb.shape[:1], xb.dtype), jnp.zeros_like(xb))
-            s, ep = jax.lax.cond(keep, terms, lambda _: zero, None)
-            return (acc[0] + s, acc[1] + ep), None
+        def terms(pc, ac):
+            d2 = jnp.maximum(xn + jnp.sum(pc * pc, axis=-1)[None, :] - 2.0 * xb @ pc.T, 0.0)
+            e = jnp.exp(-g * d2) * ac
+            return jnp.sum(e, axis=-1), e @ pc
 
         init = (jnp.zeros(xb.shape[:1], xb.dtype), jnp.zeros_like(xb))
-        (s, ep), _ = jax.lax.scan(add_chunk, init, (p, a, pn, near))
+        s, ep = _sum_near(ch, jnp.min(xs, axis=0), jnp.max(xs, axis=0), terms, init)
         return 2.0 * s - mu, -4.0 * g * (xb * s[:, None] - ep)
 
     return map_blocks(one_block, x, block, count=count)
+
+
+def evaluate_subgrids(svdd, corners, h, n, block=2048, count=None):
+    """f and grad f at the centers of n x n x n cells of size h : (3,) tiling a box from each
+    lower corner in corners : (b, 3). -> f (b, n^3), grad (b, n^3, 3); cell (i, j, k) of a box
+    is row (i n + j) n + k, centered at corner + (i + 1/2, j + 1/2, k + 1/2) h.
+
+    Separable (the grids are tensor products): exp(-gamma |x - p|^2) is the product of one
+    factor per axis, so each box and support point costs 3 n exponentials and a batched matrix
+    product instead of n^3 exponentials (2.7x faster at n = 4, 8x for a whole 32^3 grid,
+    measured on 2 CPU cores; n = 2 gains nothing). Same chunks, cutoff and ``count`` as
+    ``evaluate_on_grid``; no derivatives (used under ``stop_gradient``).
+    """
+    svdd = jax.lax.stop_gradient(svdd)
+    ch = _chunks(svdd)
+    g, mu = svdd.gamma, svdd.offset
+    off = (jnp.arange(n, dtype=corners.dtype) + 0.5)[None, :, None] * h  # (1, n, 3)
+
+    def one_block(cb):
+        X = (cb - ch.shift)[:, None, :] + off  # (bb, n, 3): the cells' coordinates per axis
+        bb = X.shape[0]
+
+        def terms(pc, ac):
+            e = jnp.exp(-g * (X[:, :, None, :] - pc) ** 2)  # (bb, n, chunk, 3)
+            exy = (e[:, :, None, :, 0] * e[:, None, :, :, 1]).reshape(bb, n * n, -1)
+            w = jnp.concatenate([ac[:, None], ac[:, None] * pc], axis=-1)  # (chunk, 4)
+            ez = (e[..., 2][..., None] * w).transpose(0, 2, 1, 3).reshape(bb, -1, n * 4)
+            return jnp.einsum("bap,bpq->baq", exy, ez)
+
+        r = _sum_near(ch, jnp.min(X[:, 0], axis=0), jnp.max(X[:, -1], axis=0), terms,
+                      jnp.zeros((bb, n * n, n * 4), X.dtype)).reshape(bb, n, n, n, 4)
+        s, ep = r[..., 0], r[..., 1:]
+        x = jnp.stack(jnp.broadcast_arrays(X[:, :, None, None, 0], X[:, None, :, None, 1], X[:, None, None, :, 2]), -1)
+        grad = -4.0 * g * (x * s[..., None] - ep)
+        return (2.0 * s - mu).reshape(bb, n**3), grad.reshape(bb, n**3, 3)
+
+    return map_blocks(one_block, corners, max(1, block // n**3), count=count)
+
+
+SUBGRID = 32  # cells per axis of the boxes the coarse grid is evaluated in
+
+
+def _coarse_layout(resolution):
+    """Static (numpy): the grid of resolution^3 cells split into k^3 boxes of n^3 cells
+    (k n >= resolution; cells past the grid are evaluated and dropped). -> k, n, and for each
+    cell in ``morton_order`` its row in the flattened (k^3 n^3) output of ``evaluate_subgrids``."""
+    k = -(-resolution // SUBGRID)
+    n = -(-resolution // k)
+    i = np.arange(resolution)
+    ijk = np.stack(np.meshgrid(i, i, i, indexing="ij"), axis=-1).reshape(-1, 3)[morton_order(resolution)]
+    b, s = ijk // n, ijk % n
+    rows = ((b[:, 0] * k + b[:, 1]) * k + b[:, 2]) * n**3 + (s[:, 0] * n + s[:, 1]) * n + s[:, 2]
+    return k, n, rows
+
+
+def evaluate_grid(svdd, lo, hi, resolution, block=2048):
+    """The cells of ``cell_centers(lo, hi, resolution)`` in ``morton_order`` with f and grad f
+    there (separable, ``evaluate_subgrids``; no derivatives).
+    -> x (resolution^3, 3), h (3,), f (resolution^3,), grad (resolution^3, 3)."""
+    x, h = cell_centers(lo, hi, resolution)
+    k, n, rows = _coarse_layout(resolution)
+    b = np.stack(np.meshgrid(*[np.arange(k)] * 3, indexing="ij"), axis=-1).reshape(-1, 3)
+    f, grad = evaluate_subgrids(svdd, lo + jnp.asarray(b * n, lo.dtype) * h, h, n, block)
+    return x[morton_order(resolution)], h, f.reshape(-1)[rows], grad.reshape(-1, 3)[rows]

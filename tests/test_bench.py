@@ -97,6 +97,7 @@ def test_bench_usage_errors(capsys):
     assert bench.cli(["--sections", "nope"]) == 2
     assert bench.cli(["--m", "2"]) == 2
     assert bench.cli(["--refine", "3"]) == 2
+    assert bench.cli(["--sk-resolution", "1"]) == 2
     assert bench.cli(["--help"]) == 0
     assert "--quick" in capsys.readouterr().out
 
@@ -115,3 +116,12 @@ def test_sklearn_mapping_objective():
     assert a.min() >= 0 and a.max() <= 1.0 / (0.5 * len(y)) * (1 + 1e-9)
     assert bench.dual_objective(y, a, 47.0) > 0
     np.testing.assert_allclose(bench.prescale(points)[0].mean(axis=0), 0, atol=1e-12)
+
+
+def test_sk_resolution_reaches_the_sklearn_pipeline(monkeypatch):
+    """--sk-resolution sets the scikit-learn pipeline's grid (the issue's text compares 64^3)."""
+    if not bench.sklearn_available():
+        pytest.skip("scikit-learn is not installed")
+    _tiny(monkeypatch)
+    r = bench.run(("end2end",), quick=True, sk_resolution=12)
+    assert r["sections"]["end2end"]["sklearn"]["resolution"] == 12

@@ -24,6 +24,7 @@ import math
 import sys
 import time
 from functools import partial
+from pathlib import Path
 
 import jax
 import jax.numpy as jnp
@@ -220,6 +221,7 @@ def _parser():
     p.add_argument("--lr", type=float, default=0.05)
     p.add_argument("--holdout", type=float, default=0.0, help="fraction of the classes held out of tuning")
     p.add_argument("--json", default=None, help="write the result here")
+    p.add_argument("--force", action="store_true", help="overwrite an existing --json file")
     p.add_argument("--count", type=int, default=500, help="surface samples per object")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--scale-weight", type=float, default=0.0)
@@ -229,18 +231,23 @@ def _parser():
     p.add_argument("--refine", type=int, default=2)
     p.add_argument("--band", type=int, default=2048)
     p.add_argument("--tol", type=float, default=1e-4)
+    p.add_argument("--solver", choices=("pg", "smo", "auto"), default="pg", help="SVDD solver (see fit_svdd)")
     p.add_argument("--classes", default=None, help="comma-separated subset of classes")
     p.add_argument("--instances", type=int, default=10, help="objects per class (procedural dataset)")
     return p
 
 
 def cli(argv) -> int:
-    """``jaxpose tune [--data DIR] [--steps N] [--lr X] [--holdout F] [--json PATH] [--count N] [--seed S]``."""
+    """``jaxpose tune [--data DIR] [--steps N] [--lr X] [--holdout F] [--json PATH [--force]] [--count N]
+    [--seed S] [--solver pg|smo|auto] ...``."""
     parser = _parser()
     try:
         args = parser.parse_args(list(argv))
     except SystemExit as exc:
         return int(exc.code or 0)
+    if args.json and Path(args.json).exists() and not args.force:  # before minutes of work, not after
+        print(f"jaxpose tune: error: {args.json} exists (use --force to overwrite)", file=sys.stderr)
+        return 1
     # float64: the secant nu-derivative is a difference of two solutions 3 % of nu apart,
     # and float32 solver noise (tol >= 1e-5) is a sizeable part of it.
     x64 = jax.config.jax_enable_x64
@@ -269,13 +276,14 @@ def _run_cli(args) -> int:
         result = tune(classes, gamma0=args.gamma, nu0=args.nu, steps=args.steps, lr=args.lr,
                       scale_weight=args.scale_weight, holdout=args.holdout, seed=args.seed,
                       progress=lambda s: print(s, file=sys.stderr, flush=True),
-                      resolution=args.resolution, refine=args.refine, band=args.band, tol=args.tol)
+                      resolution=args.resolution, refine=args.refine, band=args.band, tol=args.tol,
+                      solver=args.solver)
     except _validate.JaxposeError as exc:
         print(f"jaxpose tune: error: {exc}", file=sys.stderr)
         return 1
     text = json.dumps(result, indent=2)
     if args.json:
-        write_atomic(args.json, text.encode(), force=True)
+        write_atomic(args.json, text.encode(), force=True)  # checked before the run
     tr, ho = result["train"], result["holdout"]
     print(f"gamma {result['gamma0']:.4g} -> {result['gamma']:.4g}, nu {result['nu0']:.4g} -> {result['nu']:.4g}")
     print(f"train sigma_tr {tr['sigma_tr_start']:.5g} -> {tr['sigma_tr_end']:.5g}")

@@ -111,9 +111,16 @@ def test_cli_tune_on_folder(tmp_path, capsys):
     assert "sigma_tr" in capsys.readouterr().out
 
 
-def test_cli_tune_usage_and_errors(tmp_path):
+def test_cli_tune_usage_and_errors(tmp_path, capsys):
     assert tuning.cli(["--steps", "x"]) == 2
     assert tuning.cli(["--data", str(tmp_path / "missing"), "--steps", "0"]) == 1
+    assert tuning.cli(["--solver", "newton"]) == 2
+    # an existing --json is refused before any work (bench and evaluate do the same), kept intact
+    out = tmp_path / "r.json"
+    out.write_text("keep")
+    assert tuning.cli(["--data", str(tmp_path / "missing"), "--json", str(out)]) == 1
+    assert "use --force" in capsys.readouterr().err
+    assert out.read_text() == "keep"
 
 
 def test_lazy_export():

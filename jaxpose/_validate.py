@@ -87,7 +87,7 @@ def check_points(points, name: str = "points", min_points: int = MIN_POINTS):
     return points
 
 
-CHOICES = {"kernel": ("auto", "dense", "blocked"), "solver": ("auto", "smo", "pg")}
+CHOICES = {"kernel": ("auto", "dense", "blocked"), "solver": (None, "auto", "smo", "pg")}
 
 
 def check_choices(**values):

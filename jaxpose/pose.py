@@ -120,7 +120,7 @@ def prescale(points, mask=None):
 
 
 def _normalize(points, mask, gamma, nu, resolution, refine, band, tol, max_iter, check_every, kernel, block,
-               solver="pg"):
+               solver=None):
     # issue 3: derivatives in (gamma, nu) alone come from forward-mode columns, also under jax.grad
     # (same values and derivatives; see jaxpose/_hyper.py); derivatives in points as before.
     impl = partial(_normalize_impl, resolution=resolution, refine=refine, band=band, tol=tol, max_iter=max_iter,
@@ -129,7 +129,7 @@ def _normalize(points, mask, gamma, nu, resolution, refine, band, tol, max_iter,
 
 
 def _normalize_impl(points, mask, gamma, nu, resolution, refine, band, tol, max_iter, check_every, kernel, block,
-                    solver="pg"):
+                    solver=None):
     y, to_world, size = prescale(points, mask)
     svdd = _fit(y, gamma, nu, mask, None, tol=tol, max_iter=max_iter, check_every=check_every, kernel=kernel, block=block,
                 solver=solver)
@@ -149,11 +149,11 @@ def _pose_of(svdd, to_world, size, resolution, refine, band, block, outside):
 
 _STATIC = ("resolution", "refine", "band", "tol", "max_iter", "check_every", "kernel", "block", "solver")
 DEFAULTS = dict(resolution=32, refine=4, band=8192, tol=1e-3, max_iter=20_000, check_every=10, kernel="auto", block=2048,
-                solver="pg")
+                solver=None)
 _normalize_jit = jax.jit(_normalize, static_argnames=_STATIC)
 
 
-def _options(resolution, refine, band, tol, max_iter, check_every, kernel, block, solver="pg"):
+def _options(resolution, refine, band, tol, max_iter, check_every, kernel, block, solver=None):
     if not all(isinstance(v, numbers.Integral) for v in (refine, band)) or refine < 1 or refine & (refine - 1) or band < 0:
         raise _validate.InvalidInputError(f"refine must be a power of 2 and band >= 0, got {refine!r}, {band!r}")
     _validate.check_options(tol, max_iter, check_every, block)  # issue 6: also rejects NaN tol, block < 1
@@ -184,7 +184,7 @@ def normalize(
     check_every=10,
     kernel="auto",
     block=2048,
-    solver="pg",
+    solver=None,
     throw=False,
 ) -> Pose:
     """The OCSVM pose (center c_m, scale d_m) of surface samples.
@@ -196,7 +196,8 @@ def normalize(
         the defaults resolve the boundary like a 128^3 grid, extrapolated with the 64^3 level
         (center ~1e-5 of the object's size off a 512 reference on FAUST meshes); refine=2 halves the
         time (~2e-4); refine=8, band=16384 for thin shells (3x slower)
-    tol, max_iter, check_every, kernel, block, solver : solver options (see ``fit_svdd``)
+    tol, max_iter, check_every, kernel, block, solver : solver options (see ``fit_svdd``; solver None:
+        "pg" up to 2500 points, "auto" above, on CPU)
     throw : concrete calls only: raise ConvergenceError if the solver hit max_iter,
         JaxposeError if the pose is not valid (otherwise see ``Pose.converged`` / ``Pose.valid``)
 

@@ -77,7 +77,7 @@ def _nu_slope(nu, y, gamma, alpha0, cfg):
 
 
 def _pose(points, gamma, nu, resolution, refine, band, tol, max_iter, check_every, kernel, block,
-          solver="pg", nu_delta=NU_DELTA, nu_tol=None):
+          solver=None, nu_delta=NU_DELTA, nu_tol=None):
     """Like ``pose._normalize`` (no mask), with the secant nu-derivative. Same forward values.
 
     Derivatives in (gamma, nu) alone come from forward-mode columns, also under jax.grad /
@@ -89,7 +89,7 @@ def _pose(points, gamma, nu, resolution, refine, band, tol, max_iter, check_ever
 
 
 def _pose_impl(points, gamma, nu, resolution, refine, band, tol, max_iter, check_every, kernel, block,
-               solver="pg", nu_delta=NU_DELTA, nu_tol=None):
+               solver=None, nu_delta=NU_DELTA, nu_tol=None):
     y, to_world, size = prescale(points)
     dtype = y.dtype
     gamma = jnp.asarray(gamma, dtype)

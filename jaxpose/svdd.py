@@ -14,13 +14,19 @@ solved by one of two solvers (``fit_svdd(solver=)``):
   fixed step 1 / (2 lambda_max(K)) and an exact capped-simplex projection: one kernel
   product per step, the better tail where most support vectors are free and tol is tight.
 - "auto": SMO up to ``SMO_BUDGET * m`` updates, then PG from there if needed.
+- None (the default): "pg" up to ``PG_MAX_M`` points, "auto" above, on CPU; "pg" on other backends.
 
-"pg" is the default. At the same tol, SMO stops at a less even point of the tolerance
-ball: on 2000 FAUST samples through ``normalize`` (tol 1e-3) its center is 1.3e-4 and its
-scale 3.8e-4 (relative to the scale) off the tol-1e-8 solution, against 5e-5 and 4e-6 for
-PG; SMO at tol 1e-4 comes close to PG at 1e-3 (2.4e-5, 5.8e-5). SMO pays off from a few
-thousand points: the fit at m = 8000 takes 0.31-0.36 s against 1.9 s for PG (2 CPU cores).
-On degenerate input (collinear points) its solutions at tol 1e-3 are far less symmetric.
+Why by size (issue 5): PG's cost is its kernel products, and on CPU they are fast while K stays in
+cache (m = 2000: 16 MB, 0.12 ms a product; m = 4000: 64 MB, 2 ms). On FAUST samples (tol 1e-3,
+2 CPU cores) PG fits 2000 points in 44 ms, SMO in 29 ms (48 ms at tol 1e-4); at 4000, PG 0.38 s,
+SMO 0.10 s; at 8000, 1.9 s against 0.31-0.36 s. Up to ``PG_MAX_M`` PG is kept for its solution:
+at the same tol SMO stops at a less even point of the tolerance ball (2000 samples through
+``normalize``: center 1.3e-4 and scale 3.8e-4 of the scale off the tol-1e-8 solution, against
+5e-5 and 4e-6 for PG); above it, the end-to-end center error of SMO at tol 1e-3 is still 3e-5
+(m = 4000) and 8e-5 (m = 8000) of the object's size, against 1e-5 and 3e-5 for PG, at a quarter
+of the time at m = 8000. On degenerate input (collinear points) SMO's solutions at tol 1e-3 are
+far less symmetric. On accelerators kernel products are cheap and SMO's thousands of sequential
+pair updates are not (not measured: no device here), so None means "pg" there.
 
 This is the only module that imports jaxopt.
 
@@ -58,8 +64,9 @@ from . import _validate
 from .kernels import gaussian_kernel, kernel_matvec_blocked, map_blocks, power_iteration
 from .projection import projection_capped_simplex
 
-__all__ = ["SVDD", "fit_svdd", "decision_function", "decision_value_and_grad", "upper_bound"]
+__all__ = ["SVDD", "fit_svdd", "decision_function", "decision_value_and_grad", "upper_bound", "pick_solver"]
 
+PG_MAX_M = 2500  # solver=None: "pg" up to this many points (on CPU), "auto" above (module docs)
 _DENSE_LIMIT = 12_000  # m above which K is never stored (O(m * block) memory)
 # "auto": SMO pair updates per point before PG takes over. Real meshes at the paper's (47, 0.5)
 # need ~0.05-0.2 m; nearly uniform densities with many free support vectors (a sphere, small nu,
@@ -310,6 +317,13 @@ def _implicit_alpha_jvp(primals, tangents):
     return alpha, dalpha
 
 
+def pick_solver(solver, m):
+    """The solver that ``solver=None`` stands for at m points (static; module docs)."""
+    if solver is not None:
+        return solver
+    return "pg" if m <= PG_MAX_M or jax.default_backend() != "cpu" else "auto"
+
+
 def fit_svdd(
     points,
     gamma,
@@ -322,7 +336,7 @@ def fit_svdd(
     check_every=10,
     kernel="auto",
     block=1024,
-    solver="pg",
+    solver=None,
     throw=False,
 ) -> SVDD:
     """Fit the SVDD dual (eq. 2) on points.
@@ -334,7 +348,8 @@ def fit_svdd(
     init_alpha : (m,) optional warm start (projected onto the feasible set)
     tol : relative KKT violation to stop at (see module docs)
     kernel : "auto" | "dense" | "blocked" (blocked keeps memory O(m * block))
-    solver : "auto" | "smo" | "pg". "smo": pair updates (libsvm's algorithm, O(m) per update,
+    solver : None | "auto" | "smo" | "pg". None: "pg" up to PG_MAX_M = 2500 points, "auto" above,
+        on CPU, "pg" on other backends (module docs). "smo": pair updates (libsvm's algorithm, O(m) per update,
         no kernel matrix needed); "pg": jaxopt's accelerated projected gradient (FISTA, one
         kernel product per step); "auto": SMO for at most min(SMO_BUDGET * m, max_iter // 2)
         updates, then, if not converged, PG from there for the rest of max_iter. Same problem,
@@ -377,9 +392,10 @@ def fit_svdd(
 
 
 @partial(jax.jit, static_argnames=("tol", "max_iter", "check_every", "kernel", "block", "solver"))
-def _fit(points, gamma, nu, mask, init_alpha, tol, max_iter, check_every, kernel, block, solver="pg"):
+def _fit(points, gamma, nu, mask, init_alpha, tol, max_iter, check_every, kernel, block, solver=None):
     dtype = points.dtype
     m = points.shape[0]
+    solver = pick_solver(solver, m)
     gamma = jnp.asarray(gamma, dtype)
     nu = jnp.asarray(nu, dtype)
     mask = jnp.ones((m,), bool) if mask is None else jnp.asarray(mask, bool)

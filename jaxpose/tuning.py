@@ -231,7 +231,8 @@ def _parser():
     p.add_argument("--refine", type=int, default=2)
     p.add_argument("--band", type=int, default=2048)
     p.add_argument("--tol", type=float, default=1e-4)
-    p.add_argument("--solver", choices=("pg", "smo", "auto"), default="pg", help="SVDD solver (see fit_svdd)")
+    p.add_argument("--solver", choices=("pg", "smo", "auto"), default=None,
+                   help="SVDD solver (default: normalize's, pg up to 2500 points, auto above)")
     p.add_argument("--classes", default=None, help="comma-separated subset of classes")
     p.add_argument("--instances", type=int, default=10, help="objects per class (procedural dataset)")
     return p

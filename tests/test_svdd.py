@@ -143,6 +143,21 @@ def test_auto_solver_caps_total_iterations():
         fit_svdd(pts, GAMMA, 0.5, solver="newton")
 
 
+
+def test_default_solver_is_chosen_by_size():
+    """solver=None: "pg" up to PG_MAX_M points, "auto" above (on CPU): the same solution as asking
+    for that solver by name, bit for bit (both sides of the threshold, float32)."""
+    from jaxpose.svdd import PG_MAX_M, pick_solver
+
+    assert pick_solver("smo", 10) == "smo" and pick_solver(None, PG_MAX_M) == "pg"
+    expected = "auto" if jax.default_backend() == "cpu" else "pg"
+    assert pick_solver(None, PG_MAX_M + 1) == expected
+    for m, name in ((400, "pg"), (PG_MAX_M + 100, expected)):
+        pts = jnp.asarray(sphere_with_arm(m), jnp.float32)
+        default, named = fit_svdd(pts, GAMMA, 0.5), fit_svdd(pts, GAMMA, 0.5, solver=name)
+        np.testing.assert_array_equal(np.asarray(default.alpha), np.asarray(named.alpha))
+        assert int(default.iterations) == int(named.iterations)
+
 def test_throw_on_iteration_cap():
     pts = clusters(300)
     with pytest.raises(jaxpose.ConvergenceError):

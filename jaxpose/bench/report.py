@@ -41,7 +41,7 @@ def _environment():
 
 
 def run(sections=SECTIONS, quick=False, m=None, repeats=None, scaling_m=None, resolutions=None, tol=1e-3,
-        sk_max_m=8000, use_sklearn=True, x64=False, progress=None, scaling_max_iter=None, solver="pg",
+        sk_max_m=8000, use_sklearn=True, x64=False, progress=None, scaling_max_iter=None, solver=None,
         solver_tol=None, refine=None, sk_resolution=None):
     """Run the chosen sections; returns the JSON-ready result dict.
 
@@ -117,7 +117,7 @@ def _c(x):
 def _solver_lines(r):
     j, k = r["jaxpose"], r["sklearn"]
     lines = ["", f"[solver]  m={r['m']}  tol={r['tol']:g}  dtype={r['dtype']}",
-             f"  jaxpose fit   {_t(j):>12}  compile {_c(j)}  iterations {j['iterations']}  "
+             f"  jaxpose pg    {_t(j):>12}  compile {_c(j)}  iterations {j['iterations']}  "
              f"kkt {j['kkt_violation']:.2g}  objective {j['objective']:.10g}"]
     au = r.get("jaxpose_auto")
     if isinstance(au, dict):
@@ -136,7 +136,7 @@ def _solver_lines(r):
 
 def _fit(j):
     f = j.get("fit") or {}
-    return "".join(f"{k} {v}  " for k, v in sorted(f.items()) if not (k == "solver" and v == "pg"))
+    return "".join(f"{k} {v}  " for k, v in sorted(f.items()) if v is not None)
 
 
 def _end2end_lines(r):
@@ -221,8 +221,9 @@ def _parser():
     p.add_argument("--resolutions", default=None, help="comma list of grid resolutions (default 32,64,128)")
     p.add_argument("--sklearn-max-m", type=int, default=8000, help="largest m the sklearn side runs in scaling")
     p.add_argument("--tol", type=float, default=1e-3, help="solver tolerance in the solver section (default 1e-3)")
-    p.add_argument("--solver", choices=("pg", "smo", "auto"), default="pg",
-                   help="jaxpose's solver in end2end, batch and scaling (default pg; the solver section times pg and auto)")
+    p.add_argument("--solver", choices=("pg", "smo", "auto"), default=None,
+                   help="jaxpose's solver in end2end, batch and scaling (default: normalize's, pg up to 2500 "
+                        "points, auto above; the solver section times pg and auto)")
     p.add_argument("--solver-tol", type=float, default=None,
                    help="jaxpose's solver tol in end2end, batch and scaling (default: normalize's, 1e-3)")
     p.add_argument("--scaling-max-iter", type=int, default=None,

@@ -14,7 +14,7 @@ def bench_solver(points, gamma=GAMMA, nu=NU, repeats=5, tol=1e-3, use_sklearn=Tr
 
     y, _, _ = prescale(points)
     m = y.shape[0]
-    cases = {"jaxpose": lambda: fit_svdd(y, gamma, nu, tol=tol),  # the default solver, "pg"
+    cases = {"jaxpose": lambda: fit_svdd(y, gamma, nu, tol=tol, solver="pg"),  # the default up to 2500 points
              "jaxpose_auto": lambda: fit_svdd(y, gamma, nu, tol=tol, solver="auto")}  # SMO (then PG if needed)
     sk = use_sklearn and _common.sklearn_available()
     if sk:
@@ -81,6 +81,7 @@ def bench_end2end(points, gamma=GAMMA, nu=NU, repeats=5, resolution=None, refine
     """normalize vs the scikit-learn pipeline, per object; centers against a reference.
     resolution / refine: None = the defaults of ``normalize``."""
     from ..pose import normalize
+    from ..svdd import pick_solver
 
     m = len(points)
     opts = _grid_opts(resolution, refine)
@@ -97,7 +98,8 @@ def bench_end2end(points, gamma=GAMMA, nu=NU, repeats=5, resolution=None, refine
     scale = float(pose.scale)
     out = {
         "m": m, "gamma": gamma, "nu": nu,
-        "jaxpose": {**times["jaxpose"], "resolution": resolution, "refine": refine, "fit": dict(fit or {}),
+        "jaxpose": {**times["jaxpose"], "resolution": resolution, "refine": refine,
+                    "fit": {**(fit or {}), "solver": pick_solver((fit or {}).get("solver"), m)},  # None -> by size
                     "iterations": int(pose.iterations), "converged": bool(pose.converged),
                     **_accuracy(center, scale, ref)},
         "reference": {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in ref.items()},

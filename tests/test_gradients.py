@@ -229,7 +229,7 @@ def test_nu_secant_where_points_enter_the_support():
 
 def test_derivatives_do_not_depend_on_the_solver(shape_points):
     """The derivatives come from the KKT system at the solution, not from the iterations: SMO
-    ("auto") and FISTA (the default "pg") at a tight tol give the same values and derivatives."""
+    ("auto") and FISTA (the default "pg" up to 2500 points) at a tight tol give the same values and derivatives."""
     a = pose_sensitivity(shape_points, 30.0, 0.4, **{**OPTS, "solver": "auto"})
     b = pose_sensitivity(shape_points, 30.0, 0.4, **OPTS)
     for k in ("center", "scale", "dcenter_dgamma", "dscale_dgamma", "dcenter_dnu", "dscale_dnu"):

@@ -177,7 +177,6 @@ def evaluate_on_grid(svdd, x, block=2048, count=None, support=None):
     float32 and float64 alike. Blocks of nearby cells (``morton_order``) make that common.
     """
     ch = _chunks(svdd, support)
-    pn = jnp.sum(ch.p * ch.p, axis=-1)
     g, mu = svdd.gamma, svdd.offset
 
     def one_block(xb):

@@ -239,14 +239,15 @@ SUBGRID = 32  # cells per axis of the boxes the coarse grid is evaluated in
 def _coarse_layout(resolution):
     """Static (numpy): the grid of resolution^3 cells split into k^3 boxes of n^3 cells
     (k n >= resolution; cells past the grid are evaluated and dropped). -> k, n, and for each
-    cell in ``morton_order`` its row in the flattened (k^3 n^3) output of ``evaluate_subgrids``."""
+    cell in ``morton_order`` (also returned) its row in the flattened (k^3 n^3) output of
+    ``evaluate_subgrids``."""
     k = -(-resolution // SUBGRID)
     n = -(-resolution // k)
-    i = np.arange(resolution)
-    ijk = np.stack(np.meshgrid(i, i, i, indexing="ij"), axis=-1).reshape(-1, 3)[morton_order(resolution)]
+    order = morton_order(resolution)
+    ijk = np.stack(np.unravel_index(order, (resolution,) * 3), axis=-1)
     b, s = ijk // n, ijk % n
     rows = ((b[:, 0] * k + b[:, 1]) * k + b[:, 2]) * n**3 + (s[:, 0] * n + s[:, 1]) * n + s[:, 2]
-    return k, n, rows
+    return k, n, order, rows
 
 
 def evaluate_grid(svdd, lo, hi, resolution, block=2048):
@@ -254,7 +255,7 @@ def evaluate_grid(svdd, lo, hi, resolution, block=2048):
     there (separable, ``evaluate_subgrids``; no derivatives).
     -> x (resolution^3, 3), h (3,), f (resolution^3,), grad (resolution^3, 3)."""
     x, h = cell_centers(lo, hi, resolution)
-    k, n, rows = _coarse_layout(resolution)
-    b = np.stack(np.meshgrid(*[np.arange(k)] * 3, indexing="ij"), axis=-1).reshape(-1, 3)
+    k, n, order, rows = _coarse_layout(resolution)
+    b = np.stack(np.unravel_index(np.arange(k**3), (k,) * 3), axis=-1)
     f, grad = evaluate_subgrids(svdd, lo + jnp.asarray(b * n, lo.dtype) * h, h, n, block)
-    return x[morton_order(resolution)], h, f.reshape(-1)[rows], grad.reshape(-1, 3)[rows]
+    return x[order], h, f.reshape(-1)[rows], grad.reshape(-1, 3)[rows]

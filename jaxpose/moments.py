@@ -210,8 +210,9 @@ def _cells(svdd, resolution, block, refine=4, band=8192, extrapolate=True, separ
         unrefined = unrefined + jnp.sum(partial_) - jnp.sum(partial_[idx])
         before = fac[-1]
         fac[-1] = fac[-1].at[idx].multiply(1.0 - chosen.astype(x.dtype))  # replaced by their children
-        f, grad = _children_values(svdd, x, idx, chosen, parents if separable else None, h, block)
-        parents, x = x[idx], (x[idx][:, None, :] + _CHILDREN.astype(x.dtype) * h).reshape(-1, 3)
+        children = (x[idx][:, None, :] + _CHILDREN.astype(x.dtype) * h).reshape(-1, 3)
+        f, grad = _children_values(svdd, children, idx, chosen, parents if separable else None, h, block)
+        parents, x = x[idx], children
         h, vol, refine, k = h / 2, vol / 8, refine // 2, 2 * k
         xs.append(x)
         occ.append(occupancy(f, grad, h))
@@ -225,9 +226,9 @@ def _cells(svdd, resolution, block, refine=4, band=8192, extrapolate=True, separ
     return jnp.concatenate(xs), jnp.concatenate(occ), factor, hc, hs[0], unrefined
 
 
-def _children_values(svdd, x, idx, chosen, parents, h, block):
-    """f and grad f at the 8 children (``_CHILDREN`` order) of the cells x[idx] : (k,) of size h
-    (only where ``chosen``, a prefix; 0 elsewhere). -> (8k,), (8k, 3).
+def _children_values(svdd, children, idx, chosen, parents, h, block):
+    """f and grad f at children (8k, 3), the 8 children (``_CHILDREN`` order) of the cells idx : (k,)
+    of size h (only where ``chosen``, a prefix; 0 elsewhere). -> (8k,), (8k, 3).
 
     The first level evaluates each chosen cell's 2 x 2 x 2 children. Further levels evaluate, for
     each parent ``parents`` (the cells x came from, 8 rows each) with a chosen child, its whole
@@ -238,7 +239,6 @@ def _children_values(svdd, x, idx, chosen, parents, h, block):
     objects, m = 1000), so batched callers pass parents=None (``_cells(separable=False)``)."""
     k = idx.shape[0]
     if parents is None:  # (separable 2 x 2 x 2 grids were no faster)
-        children = (x[idx][:, None, :] + _CHILDREN.astype(x.dtype) * h).reshape(-1, 3)
         return evaluate_on_grid(svdd, children, block, count=8 * jnp.sum(chosen))
     slot, octant = idx // 8, idx % 8
     used = jnp.zeros(parents.shape[:1], bool).at[slot].max(chosen)

@@ -17,16 +17,18 @@ solved by one of two solvers (``fit_svdd(solver=)``):
 - None (the default): "pg" up to ``PG_MAX_M`` points, "auto" above, on CPU; "pg" on other backends.
 
 Why by size (issue 5): PG's cost is its kernel products, and on CPU they are fast while K stays in
-cache (m = 2000: 16 MB, 0.12 ms a product; m = 4000: 64 MB, 2 ms). On FAUST samples (tol 1e-3,
-2 CPU cores) PG fits 2000 points in 44 ms, SMO in 29 ms (48 ms at tol 1e-4); at 4000, PG 0.38 s,
-SMO 0.10 s; at 8000, 1.9 s against 0.31-0.36 s. Up to ``PG_MAX_M`` PG is kept for its solution:
-at the same tol SMO stops at a less even point of the tolerance ball (2000 samples through
-``normalize``: center 1.3e-4 and scale 3.8e-4 of the scale off the tol-1e-8 solution, against
-5e-5 and 4e-6 for PG); above it, the end-to-end center error of SMO at tol 1e-3 is still 3e-5
-(m = 4000) and 8e-5 (m = 8000) of the object's size, against 1e-5 and 3e-5 for PG, at a quarter
-of the time at m = 8000. On degenerate input (collinear points) SMO's solutions at tol 1e-3 are
-far less symmetric. On accelerators kernel products are cheap and SMO's thousands of sequential
-pair updates are not (not measured: no device here), so None means "pg" there.
+cache (m = 2000: 16 MB, 0.12 ms a product; m = 4000: 64 MB, 2 ms). SMO's updates cost ~8 us at
+m = 2000 (the stopping rule is checked every ``SMO_GROUP`` updates: checked after each, an update
+cost 28 us). On FAUST samples (tol 1e-3, 2 CPU cores) PG fits 2000 points in 44 ms, SMO in 10 ms;
+at 4000, PG 0.37 s, SMO 52 ms; at 8000, 1.5 s against 0.17 s. Up to ``PG_MAX_M`` PG is kept for its
+solution: at the same tol SMO stops at a less even point of the tolerance ball (5 FAUST shapes of
+2000 samples through ``normalize``: center up to 5e-4 of the scale off a tol-1e-6 solution,
+against 1.6e-4 for PG), its pair choices flip with rounding, so its stopping point jumps with tiny
+changes of the input, and on degenerate input (collinear points) its solutions are far less
+symmetric. Above it, the end-to-end center error of SMO at tol 1e-3 is still 3e-5 (m = 4000) and
+8e-5 (m = 8000) of the object's size, against 1e-5 and 3e-5 for PG, with fits in a ninth of PG's
+time at m = 8000. On accelerators kernel products are cheap and SMO's thousands of sequential pair
+updates are not (not measured: no device here), so None means "pg" there.
 
 This is the only module that imports jaxopt.
 
@@ -72,6 +74,7 @@ _DENSE_LIMIT = 12_000  # m above which K is never stored (O(m * block) memory)
 # need ~0.05-0.2 m; nearly uniform densities with many free support vectors (a sphere, small nu,
 # tol <= 1e-4) need 10-20 m, where PG's kernel products are cheaper (measured, m = 1000-4000).
 SMO_BUDGET = 10
+SMO_GROUP = 8  # SMO updates between two checks of the stopping rule
 
 
 class SVDD(NamedTuple):
@@ -229,10 +232,20 @@ def _density_start(matvec, caps, mask):
     return jnp.where(mask, a, 0.0)
 
 
-def _solve_smo(points, gamma, caps, mask, init_alpha, tol, max_iter, kernel, block, density_start):
+def _first_index(x, value):
+    """The first i with x[i] == value (as argmin / argmax of x break ties). Two vectorized
+    reductions: XLA's CPU argmin / argmax (a variadic reduce) is a scalar loop."""
+    return jnp.min(jnp.where(x == value, jnp.arange(x.shape[0]), x.shape[0] - 1))
+
+
+def _solve_smo(points, gamma, caps, mask, init_alpha, tol, max_iter, kernel, block, density_start, group=SMO_GROUP):
     """Forward solve by SMO (libsvm's pair updates with second-order working-set selection,
     Fan, Chen & Lin 2005) on the gradient G = K a, kept up to date with two kernel columns
-    per step. Returns alpha, Ka, iterations (pair updates), violation (from an exact K a)."""
+    per step. Returns alpha, Ka, iterations (pair updates), violation (from an exact K a).
+
+    The stopping rule is checked every ``group`` updates (issue 5: a loop iteration's fixed cost
+    on CPU was most of an update's; SMO updates never raise the objective, so the few after
+    convergence only help)."""
     dtype = points.dtype
     inf = jnp.asarray(jnp.inf, dtype)
     matvec, column = _kernel_ops(points, gamma, kernel, block)
@@ -244,24 +257,34 @@ def _solve_smo(points, gamma, caps, mask, init_alpha, tol, max_iter, kernel, blo
     violation = lambda a, G: _kkt(a, G, caps, mask)[0]
 
     def step(carry):
-        a, G, it, _ = carry
-        i = jnp.argmin(jnp.where(mask & (a < caps), G, inf))  # most violating pair: i gains mass
+        a, G, it = carry
+        low = jnp.where(mask & (a < caps), G, inf)
+        g_i = jnp.min(low)
+        i = _first_index(low, g_i)  # most violating pair: i gains mass
         ki = column(i)
-        d = G - G[i]
+        d = G - g_i
         quad = jnp.maximum(2.0 - 2.0 * ki, jnp.finfo(dtype).eps)  # k(x,x) = 1
         score = jnp.where(mask & (a > 0) & (d > 0), d * d / quad, -inf)
-        j = jnp.argmax(score)  # ... from j, the largest decrease of the objective
+        best = jnp.max(score)
+        j = _first_index(score, best)  # ... from j, the largest decrease of the objective
         delta = jnp.minimum(jnp.minimum(d[j] / quad[j], caps[i] - a[i]), a[j])
-        delta = jnp.where(jnp.isfinite(score[j]), delta, 0.0)
+        live = jnp.isfinite(best) & (it < max_iter)
+        delta = jnp.where(live, delta, 0.0)
         a = a.at[i].add(delta).at[j].add(-delta)
         G = G + delta * (ki - column(j))
-        return a, G, it + 1, violation(a, G)
+        return a, G, it + live.astype(it.dtype)
+
+    def steps(carry):
+        a, G, it, _ = carry
+        for _ in range(group):
+            a, G, it = step((a, G, it))
+        return a, G, it, violation(a, G)
 
     def running(carry):
         return (carry[3] > tol) & (carry[2] < max_iter)
 
     def sweep(carry):  # SMO on the running G, then G recomputed exactly (float32 drift)
-        a, _, it, _ = jax.lax.while_loop(running, step, carry)
+        a, _, it, _ = jax.lax.while_loop(running, steps, carry)
         G = matvec(a)
         return a, G, it, violation(a, G)
 

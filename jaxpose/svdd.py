@@ -242,12 +242,12 @@ def _first_index(x, value):
     return jnp.min(jnp.where(x == value, jnp.arange(x.shape[0]), x.shape[0] - 1))
 
 
-def _solve_smo(points, gamma, caps, mask, init_alpha, tol, max_iter, kernel, block, density_start, group=SMO_GROUP):
+def _solve_smo(points, gamma, caps, mask, init_alpha, tol, max_iter, kernel, block, density_start):
     """Forward solve by SMO (libsvm's pair updates with second-order working-set selection,
     Fan, Chen & Lin 2005) on the gradient G = K a, kept up to date with two kernel columns
     per step. Returns alpha, Ka, iterations (pair updates), violation (from an exact K a).
 
-    The stopping rule is checked every ``group`` updates (issue 5: a loop iteration's fixed cost
+    The stopping rule is checked every ``SMO_GROUP`` updates (issue 5: a loop iteration's fixed cost
     on CPU was most of an update's; SMO updates never raise the objective, so the few after
     convergence only help)."""
     dtype = points.dtype
@@ -280,7 +280,7 @@ def _solve_smo(points, gamma, caps, mask, init_alpha, tol, max_iter, kernel, blo
 
     def steps(carry):
         a, G, it, _ = carry
-        for _ in range(group):
+        for _ in range(SMO_GROUP):
             a, G, it = step((a, G, it))
         return a, G, it, violation(a, G)
 

@@ -19,6 +19,8 @@ def _tiny(monkeypatch):
     monkeypatch.setitem(bench.QUICK, "sk_resolution", 8)
     monkeypatch.setitem(bench.QUICK, "ref_resolution", 8)
     monkeypatch.setitem(bench.QUICK, "ref_refine", 2)
+    monkeypatch.setitem(bench.QUICK, "accuracy_objects", 2)
+    monkeypatch.setitem(bench.QUICK, "accuracy_sk_resolutions", (8, 12))
 
 
 def _timing(d, compiled=True):
@@ -50,6 +52,9 @@ def _check_schema(r, sk):
     assert [row["m"] for row in scaling["in_m"]] == [80]
     assert "peak_rss_mb" in scaling["in_m"][0]["jaxpose"], scaling["in_m"][0]["jaxpose"]
     assert [row["resolution"] for row in scaling["in_resolution"]["rows"]] == [8]
+    acc = s["accuracy"]
+    assert acc["n_objects"] == 2 and len(acc["objects"]) == 2 and len(set(acc["objects"])) == 2
+    _check_errors(acc["jaxpose"], 2)
 
     if sk:
         assert r["sklearn"] == "available"
@@ -61,11 +66,28 @@ def _check_schema(r, sk):
         assert batch["sklearn_loop"]["objects_per_s"] > 0
         assert "peak_rss_mb" in scaling["in_m"][0]["sklearn"]
         assert scaling["in_resolution"]["rows"][0]["ratio"] > 0
+        assert sorted(acc["sklearn"]) == ["12", "8"]
+        for v in acc["sklearn"].values():
+            _check_errors(v, 2)
     else:
         assert r["sklearn"] == bench.UNAVAILABLE
         assert solver["sklearn"] == bench.UNAVAILABLE and solver["ratio"] is None
         assert end["sklearn"] == bench.UNAVAILABLE
         assert batch["sklearn_loop"] == bench.UNAVAILABLE
+        assert acc["sklearn"] == bench.UNAVAILABLE
+
+
+def _check_errors(v, n):
+    """The accuracy section's summary is that of its per-object errors."""
+    import numpy as np
+
+    err = np.array(v["center_err"])
+    assert err.shape == (n,) and np.all(np.isfinite(err)) and np.all(err >= 0)
+    assert v["median"] == np.median(err) and v["max"] == err.max()
+    assert v["within_bar"] == int(np.sum(err <= bench.sections.ACCURACY_BAR))
+    sc = np.array(v["scale_err_rel"])
+    assert sc.shape == (n,) and np.all(np.isfinite(sc)) and np.all(sc >= 0)
+    assert v["scale_median"] == np.median(sc) and v["scale_max"] == sc.max()
 
 
 def test_bench_quick_json(tmp_path, monkeypatch, capsys):
@@ -74,7 +96,7 @@ def test_bench_quick_json(tmp_path, monkeypatch, capsys):
     code = cli.main(["bench", "--quick", "--json", str(out)])
     assert code == 0
     text = capsys.readouterr().out
-    assert "[solver]" in text and "[end2end]" in text and "ratio" in text
+    assert "[solver]" in text and "[end2end]" in text and "[accuracy]" in text and "ratio" in text
     r = json.loads(out.read_text())
     _check_schema(r, sk=bench.sklearn_available())
     # refuses to overwrite
@@ -85,11 +107,12 @@ def test_bench_without_sklearn(monkeypatch):
     _tiny(monkeypatch)
     # every section asks jaxpose.bench._common.sklearn_available (the package re-exports it)
     monkeypatch.setattr(bench._common, "sklearn_available", lambda: False)
-    r = bench.run(("solver", "end2end", "batch"), quick=True)
+    r = bench.run(("solver", "end2end", "batch", "accuracy"), quick=True)
     assert r["sklearn"] == bench.UNAVAILABLE
     assert r["sections"]["solver"]["sklearn"] == bench.UNAVAILABLE
     assert r["sections"]["end2end"]["ratio"] is None
     assert r["sections"]["batch"]["ratio_batch_vs_sklearn"] is None
+    assert r["sections"]["accuracy"]["sklearn"] == bench.UNAVAILABLE
     assert "unavailable" in bench.format_table(r)
 
 
@@ -98,6 +121,7 @@ def test_bench_usage_errors(capsys):
     assert bench.cli(["--m", "2"]) == 2
     assert bench.cli(["--refine", "3"]) == 2
     assert bench.cli(["--sk-resolution", "1"]) == 2
+    assert bench.cli(["--objects", "0"]) == 2
     assert bench.cli(["--help"]) == 0
     assert "--quick" in capsys.readouterr().out
 
@@ -125,3 +149,15 @@ def test_sk_resolution_reaches_the_sklearn_pipeline(monkeypatch):
     _tiny(monkeypatch)
     r = bench.run(("end2end",), quick=True, sk_resolution=12)
     assert r["sections"]["end2end"]["sklearn"]["resolution"] == 12
+
+
+def test_accuracy_section_objects(monkeypatch):
+    """--objects reaches the accuracy section, which measures distinct objects (FAUST meshes, or
+    samplings of the example shape with distinct seeds), and the table shows it."""
+    _tiny(monkeypatch)
+    monkeypatch.setattr(bench._common, "sklearn_available", lambda: False)
+    r = bench.run(("accuracy",), quick=True, objects=3)
+    acc = r["sections"]["accuracy"]
+    assert acc["n_objects"] == 3 and len(set(acc["objects"])) == 3
+    _check_errors(acc["jaxpose"], 3)
+    assert "[accuracy]  3 objects" in bench.format_table(r)

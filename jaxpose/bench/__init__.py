@@ -21,6 +21,10 @@ batch     many objects: ``normalize_batch`` vs a loop of ``normalize`` vs a loop
           scikit-learn pipeline; objects per second.
 scaling   in m (one subprocess per case, so peak memory ru_maxrss is per case) and in the
           grid resolution (moments alone vs ``decision_function`` on the grid).
+accuracy  no timings: center and scale errors over many objects (FAUST tr_reg_000.. when present) of
+          ``normalize`` and of the scikit-learn pipeline at 32^3, 48^3 and 64^3 against the
+          end2end reference; median, max and how many are within 1e-3. It is why the
+          scikit-learn side gets 64^3 by default (the coarsest within 1e-3 on most FAUST meshes).
 
 Every timing is a median of warm runs, jaxpose and scikit-learn runs interleaved; jaxpose's
 compile time is reported separately as first call minus the warm median. No timing is ever
@@ -29,7 +33,7 @@ asserted anywhere: the machine this runs on decides the numbers.
 from __future__ import annotations
 
 # Layout: _common (constants, input points, timing helpers), _sklearn (the scikit-learn
-# pipeline and the dual objective), sections (solver, end2end, batch), scaling (+ _child, the
+# pipeline and the dual objective), sections (solver, end2end, batch, accuracy), scaling (+ _child, the
 # subprocess that runs one scaling case: ``python -m jaxpose.bench._child``), report (run,
 # format_table, cli). To switch the scikit-learn side off in a test, patch
 # ``jaxpose.bench._common.sklearn_available``: every section asks through it.
@@ -37,7 +41,7 @@ from ._common import FAUST, GAMMA, NU, UNAVAILABLE, load_points, prescale, sklea
 from ._sklearn import _sk_alpha, _sk_fit, dual_objective, sklearn_pipeline
 from .report import FULL, QUICK, SCHEMA_VERSION, SECTIONS, cli, format_table, run
 from .scaling import bench_scaling
-from .sections import bench_batch, bench_end2end, bench_solver
+from .sections import bench_accuracy, bench_batch, bench_end2end, bench_solver
 
 __all__ = [
     "SCHEMA_VERSION",
@@ -49,6 +53,7 @@ __all__ = [
     "dual_objective",
     "bench_solver",
     "bench_end2end",
+    "bench_accuracy",
     "bench_batch",
     "bench_scaling",
     "run",

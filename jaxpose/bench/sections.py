@@ -169,18 +169,19 @@ def bench_accuracy(n_objects=20, m=2000, gamma=GAMMA, nu=NU, resolution=None, re
     from ..pose import normalize
 
     faust = _faust_dir() is not None
-    opts = {**_grid_opts(resolution, refine), **(fit or {})}
+    grid = _grid_opts(resolution, refine)
     sk = use_sklearn and _common.sklearn_available()
+    sk_resolutions = tuple(int(r) for r in sk_resolutions) if sk else ()
     names, rows = [], []
     for i in range(int(n_objects)):
         points, name = load_points(m, seed=0 if faust else i, index=i if faust else 0)
         names.append(name if faust else f"{name}/seed{i}")
         ref = _reference(points, gamma, nu, ref_resolution, ref_refine, ref_tol, ref_max_iter)
-        pose = normalize(points, gamma, nu, **opts)  # as in end2end
+        pose = normalize(points, gamma, nu, **grid, **(fit or {}))  # as in end2end
         row = {"jaxpose": _accuracy(np.asarray(pose.center, np.float64), float(pose.scale), ref)}
-        for r in sk_resolutions if sk else ():
-            res = sklearn_pipeline(points, gamma, nu, int(r))
-            row[f"sklearn_{int(r)}"] = _accuracy(res["center"], res["scale"], ref)
+        for r in sk_resolutions:
+            res = sklearn_pipeline(points, gamma, nu, r)
+            row[r] = _accuracy(res["center"], res["scale"], ref)
         rows.append(row)
 
     def stats(k):
@@ -190,12 +191,8 @@ def bench_accuracy(n_objects=20, m=2000, gamma=GAMMA, nu=NU, resolution=None, re
                 "within_bar": int(np.sum(v <= ACCURACY_BAR)), "scale_err_rel": sc.tolist(),
                 "scale_median": float(np.median(sc)), "scale_max": float(np.max(sc))}
 
-    out = {"n_objects": int(n_objects), "m": int(m), "bar": ACCURACY_BAR, "objects": names,
-           **_grid_opts(resolution, refine), "fit": {k: v for k, v in (fit or {}).items() if v is not None},
-           "reference": {"resolution": ref_resolution, "refine": ref_refine, "fit_tol": ref_tol},
-           "jaxpose": stats("jaxpose"), "sklearn": {}}
-    for r in sk_resolutions if sk else ():
-        out["sklearn"][str(int(r))] = stats(f"sklearn_{int(r)}")
-    if not sk:
-        out["sklearn"] = UNAVAILABLE
-    return out
+    return {"n_objects": int(n_objects), "m": int(m), "bar": ACCURACY_BAR, "objects": names, **grid,
+            "fit": {k: v for k, v in (fit or {}).items() if v is not None},
+            "reference": {"resolution": ref_resolution, "refine": ref_refine, "fit_tol": ref_tol},
+            "jaxpose": stats("jaxpose"),
+            "sklearn": {str(r): stats(r) for r in sk_resolutions} if sk else UNAVAILABLE}

@@ -13,17 +13,28 @@ weights, and each integral's error falls as c h^2 when the boundary cells halve 
 4x per level on FAUST meshes). The integrals with and without the finest level, I_h and
 I_2h, are both at hand, so the weights are taken as (4 w_h - w_2h) / 3. On FAUST meshes
 (m = 2000, gamma 47, nu 0.5, float64, against boundary resolution 512): center error
-1.2e-3 -> 5e-5 and mean-distance error 3.2e-3 -> 1e-5 (relative) at the default 32 x 4,
+1.2e-3 -> 5e-5 and mean-distance error 3.2e-3 -> 1e-5 (relative) at 32 x 4 (boundary 128),
 the same number of evaluations of f; 32 x 2 extrapolated (half the cost) beats 32 x 4 plain.
 Where the coarser level is not yet in the h^2 regime (a thin arm, tests/test_moments.py) the
 gain is smaller: center 6e-4 -> 2e-5, volume 2 % -> 0.05 %, mean distance 1.2e-4 -> 2e-4.
 
 Evaluation (issue 5): the coarse grid and the levels after the first are tensor-product grids,
-where exp(-gamma |x - p|^2) factors per axis (``grid.evaluate_subgrids``): the coarse 32^3 grid in
-one box (8x faster than per cell), and each level from the second on as the 4 x 4 x 4 grid of
-grandchildren of every cell with a chosen child (~2x faster per needed cell on FAUST meshes, where
-~80 % of those grandchildren are needed). The first level evaluates the chosen cells' children
-directly. Same values as evaluating every cell (float64: moments equal to 1e-15).
+where exp(-gamma |x - p|^2) factors per axis (``grid.evaluate_subgrids``): the coarse grid in boxes
+of 32^3 cells (8x faster than per cell: a whole 64^3 grid costs ~17 ms at m = 2000, less than the
+~30 ms that refining a 32^3 grid's band once costs), and each level from the second on as the
+4 x 4 x 4 grid of grandchildren of every cell with a chosen child (~2x faster per needed cell on
+FAUST meshes, where ~80 % of those grandchildren are needed). The first level evaluates the chosen
+cells' children directly. Same values as evaluating every cell (float64: moments equal to 1e-15).
+Hence the default 64 x 2 (one full 64^3 grid, one level of 128^3 cells on the band) rather than
+32 x 4: the same boundary resolution and extrapolation, in ~60 % of the time on FAUST meshes.
+
+Band (issue 5): every level refines the cells the linearised boundary cuts, plus a margin
+(``_band_score``: 1.5 linear cell widths and a curvature allowance). A cell missed there loses all
+later levels; at the last level it only keeps its own occupancy, so the last level takes the cut
+cells and half the curvature allowance (``LAST_BAND``): on FAUST meshes (64 x 2) that is 7-11k cells
+instead of the 16-27k of the full band; the center moves by <= 4e-7 (3.3e-5 off the reference,
+median over 20 meshes, either way), the mean distance by <= 2.2e-4 (relative: the extra cells only
+refine the quadrature of |x - c| inside), the thin arm of tests/test_moments.py not at all.
 
 Derivatives (issue 3): the cells, the refinement and the occupancies are computed once
 without derivatives (``_cells``); the weights then pass through ``_boundary_weights``,
@@ -88,15 +99,19 @@ def moments_from_occupancy(x, w, h):
     return Moments(c, md, mass * jnp.prod(h), second, h, jnp.asarray(0))
 
 
-def _band_score(f, grad, h, gamma, offset):
-    """< 1 where a cell may hold part of the boundary: |f| within 1.5 linear cell widths plus
-    a curvature allowance (|Hess f| <= 2 gamma (f + mu) near x, so thin shells thinner
+# (linear widths, share of the curvature allowance) of the last level's band (module docs); others: (1.5, 1)
+LAST_BAND = (0.5, 0.5)
+
+
+def _band_score(f, grad, h, gamma, offset, lin=1.5, curv=1.0):
+    """< 1 where a cell may hold part of the boundary: |f| within ``lin`` linear cell widths plus
+    ``curv`` times a curvature allowance (|Hess f| <= 2 gamma (f + mu) near x, so thin shells thinner
     than a cell are still refined)."""
-    width = 1.5 * jnp.sum(jnp.abs(grad) * h, axis=-1) + gamma * jnp.maximum(f + offset, 0.0) * jnp.sum(h * h) / 2
+    width = lin * jnp.sum(jnp.abs(grad) * h, axis=-1) + curv * gamma * jnp.maximum(f + offset, 0.0) * jnp.sum(h * h) / 2
     return jax.lax.stop_gradient(jnp.where(width > 0, jnp.abs(f) / jnp.where(width > 0, width, 1.0), jnp.inf))
 
 
-def volume_moments(svdd, resolution=32, refine=4, band=8192, block=2048, extrapolate=True) -> Moments:
+def volume_moments(svdd, resolution=64, refine=2, band=16384, block=2048, extrapolate=True) -> Moments:
     """Centroid, mean distance, volume and second moment of {f >= 0}.
 
     svdd : SVDD (points in any units; moments come in the same units)
@@ -175,7 +190,7 @@ def _boundary_weights_jvp(block, outside, primals, tangents):
     return w, jnp.zeros_like(w).at[sel].add(dws)
 
 
-def _cells(svdd, resolution, block, refine=4, band=8192, extrapolate=True, separable=True):
+def _cells(svdd, resolution, block, refine=2, band=16384, extrapolate=True, separable=True):
     """The discretization of {f >= 0} (no derivatives): coarse grid on ``domain(svdd)``, then
     ``log2(refine)`` levels of narrow-band refinement.
 
@@ -201,15 +216,11 @@ def _cells(svdd, resolution, block, refine=4, band=8192, extrapolate=True, separ
         partial_ = (w > 0) & (w < vol)  # cut by the linearised boundary: must be refined
         # partial cells first, the most evenly cut first (not index order: no spatial bias on overflow);
         # only cells that count (fac > 0: not the unevaluated children of unrefined cells)
-        score = jnp.where(partial_, -1.5 + jnp.abs(w / vol - 0.5), _band_score(f, grad, h, svdd.gamma, svdd.offset))
+        lin, curv = LAST_BAND if refine == 2 else (1.5, 1.0)
+        score = jnp.where(partial_, -1.5 + jnp.abs(w / vol - 0.5), _band_score(f, grad, h, svdd.gamma, svdd.offset, lin, curv))
         score = jnp.where(fac[-1] > 0, score, jnp.inf)
-        neg, idx = jax.lax.top_k(-score, k)
-        chosen = -neg < 1.0  # a prefix of idx
-        # the chosen cells in Z-order (nearby children share blocks), the rest after them
-        code = morton_codes(x[idx], lo, hi)
-        perm = jnp.argsort(jnp.where(chosen, code, jnp.iinfo(jnp.int32).max))
-        idx, chosen = idx[perm], chosen[perm]
-        unrefined = unrefined + jnp.sum(partial_) - jnp.sum(partial_[idx])
+        idx, chosen = _select(score, k, x, lo, hi)
+        unrefined = unrefined + jnp.sum(partial_) - jnp.sum(partial_[idx] & chosen)
         before = fac[-1]
         fac[-1] = fac[-1].at[idx].multiply(1.0 - chosen.astype(x.dtype))  # replaced by their children
         children = (x[idx][:, None, :] + _CHILDREN.astype(x.dtype) * h).reshape(-1, 3)
@@ -226,6 +237,28 @@ def _cells(svdd, resolution, block, refine=4, band=8192, extrapolate=True, separ
         coarse = jnp.concatenate(fac[:-2] + [before, jnp.zeros_like(fac[-1])])
         factor = (4.0 * factor - coarse) / 3.0
     return jnp.concatenate(xs), jnp.concatenate(occ), factor, hc, hs[0], unrefined
+
+
+def _select(score, k, x, lo, hi):
+    """The k slots of a level: idx (k,) cells to refine, chosen (k,) bool (a prefix; the other
+    slots are not refined). Every cell with score < 1 when they fit, in index order (Z-order,
+    or the Z-order of the parents at later levels); otherwise the k best scores, in Z-order.
+    (top_k and the sort cost 11 ms at 64^3, k = 16384, more than half of the coarse grid.)"""
+    want = score < 1.0
+    n = jnp.sum(want)
+
+    def by_index(_):
+        return jnp.nonzero(want, size=k, fill_value=0)[0].astype(jnp.int32), jnp.arange(k) < n
+
+    def by_score(_):
+        neg, idx = jax.lax.top_k(-score, k)
+        chosen = -neg < 1.0  # a prefix of idx
+        # the chosen cells in Z-order (nearby children share blocks), the rest after them
+        code = morton_codes(x[idx], lo, hi)
+        perm = jnp.argsort(jnp.where(chosen, code, jnp.iinfo(jnp.int32).max))
+        return idx[perm].astype(jnp.int32), chosen[perm]
+
+    return jax.lax.cond(n <= k, by_index, by_score, None)
 
 
 def _children_values(svdd, children, idx, chosen, parents, h, block):
@@ -259,7 +292,7 @@ def _children_values(svdd, children, idx, chosen, parents, h, block):
     return f, grad
 
 
-def _volume_moments(svdd, resolution, block, refine=4, band=8192, outside=True, extrapolate=True, separable=True):
+def _volume_moments(svdd, resolution, block, refine=2, band=16384, outside=True, extrapolate=True, separable=True):
     # outside=False: alpha's tangent vanishes where alpha = 0 (see _boundary_weights).
     # The cells and their weights are computed without derivatives; the derivative of the
     # weights (the boundary term) enters through _boundary_weights, which evaluates the tangent

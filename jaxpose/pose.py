@@ -148,7 +148,7 @@ def _pose_of(svdd, to_world, size, resolution, refine, band, block, outside, sep
 
 
 _STATIC = ("resolution", "refine", "band", "tol", "max_iter", "check_every", "kernel", "block", "solver")
-DEFAULTS = dict(resolution=32, refine=4, band=8192, tol=1e-3, max_iter=20_000, check_every=10, kernel="auto", block=2048,
+DEFAULTS = dict(resolution=64, refine=2, band=16384, tol=1e-3, max_iter=20_000, check_every=10, kernel="auto", block=2048,
                 solver=None)
 _normalize_jit = jax.jit(_normalize, static_argnames=_STATIC)
 
@@ -176,9 +176,9 @@ def normalize(
     gamma=47.0,
     nu=0.5,
     *,
-    resolution=32,
-    refine=4,
-    band=8192,
+    resolution=64,
+    refine=2,
+    band=16384,
     tol=1e-3,
     max_iter=20_000,
     check_every=10,
@@ -194,8 +194,8 @@ def normalize(
     nu : () in [0, 1]
     resolution, refine, band : volume-integral grid (static, see ``volume_moments``);
         the defaults resolve the boundary like a 128^3 grid, extrapolated with the 64^3 level
-        (center ~1e-5 of the object's size off a 512 reference on FAUST meshes); refine=2 halves the
-        time (~2e-4); refine=8, band=16384 for thin shells (3x slower)
+        (center ~1e-5 of the object's size off a 512 reference on FAUST meshes); resolution=32
+        takes about half the time (~2e-4); resolution=32, refine=8 for thin shells (3x slower)
     tol, max_iter, check_every, kernel, block, solver : solver options (see ``fit_svdd``; solver None:
         "pg" up to 2500 points, "auto" above, on CPU)
     throw : concrete calls only: raise ConvergenceError if the solver hit max_iter,

@@ -44,12 +44,12 @@ def _environment():
 
 def run(sections=SECTIONS, quick=False, m=None, repeats=None, scaling_m=None, resolutions=None, tol=1e-3,
         sk_max_m=8000, use_sklearn=True, x64=False, progress=None, scaling_max_iter=None, solver=None,
-        solver_tol=None, refine=None, sk_resolution=None, objects=None):
+        solver_tol=None, refine=None, sk_resolution=None, objects=None, resolution=None):
     """Run the chosen sections; returns the JSON-ready result dict.
 
     solver, solver_tol: jaxpose's solver options in end2end, batch and scaling (the solver
     section always times both solvers at ``tol``); solver_tol None: normalize's default.
-    refine: normalize's grid refinement in end2end and batch (None: its default).
+    resolution, refine: normalize's grid in end2end, batch and accuracy (None: its defaults).
     sk_resolution: the scikit-learn pipeline's grid in end2end and batch (None: 64^3, the issue's
     text, and the coarsest whose center is within 1e-3 on most FAUST meshes: 18 of 20, against 10
     at 48^3 and 5 at 32^3; the ``accuracy`` section measures it).
@@ -65,6 +65,8 @@ def run(sections=SECTIONS, quick=False, m=None, repeats=None, scaling_m=None, re
         cfg["resolutions"] = tuple(int(v) for v in resolutions)
     if refine is not None:
         cfg["refine"] = int(refine)
+    if resolution is not None:
+        cfg["resolution"] = int(resolution)
     if sk_resolution is not None:
         cfg["sk_resolution"] = int(sk_resolution)
     if objects is not None:
@@ -256,8 +258,10 @@ def _parser():
                    help="jaxpose's solver tol in end2end, batch and scaling (default: normalize's, 1e-3)")
     p.add_argument("--scaling-max-iter", type=int, default=None,
                    help="cap solver iterations in scaling (peak memory of large m without the full run time)")
+    p.add_argument("--resolution", type=int, default=None,
+                   help="normalize's resolution in end2end, batch and accuracy (default: normalize's, 64)")
     p.add_argument("--refine", type=int, default=None,
-                   help="normalize's refine in end2end and batch (default: normalize's, 4)")
+                   help="normalize's refine in end2end, batch and accuracy (default: normalize's, 2)")
     p.add_argument("--sk-resolution", type=int, default=None,
                    help="scikit-learn pipeline's grid per axis in end2end and batch (default 64; quick 16)")
     p.add_argument("--objects", type=int, default=None,
@@ -293,6 +297,9 @@ def cli(argv=None) -> int:
     if args.refine is not None and (args.refine < 1 or args.refine & (args.refine - 1)):
         print("jaxpose bench: error: --refine must be a power of 2", file=sys.stderr)
         return 2
+    if args.resolution is not None and args.resolution < 8:
+        print("jaxpose bench: error: --resolution must be >= 8", file=sys.stderr)
+        return 2
     if args.sk_resolution is not None and args.sk_resolution < 2:
         print("jaxpose bench: error: --sk-resolution must be >= 2", file=sys.stderr)
         return 2
@@ -306,7 +313,7 @@ def cli(argv=None) -> int:
     result = run(sections, quick=args.quick, m=args.m, repeats=args.repeats, scaling_m=_ints(args.scaling_m),
                  resolutions=_ints(args.resolutions), tol=args.tol, sk_max_m=args.sklearn_max_m,
                  use_sklearn=not args.no_sklearn, x64=args.x64, scaling_max_iter=args.scaling_max_iter,
-                 solver=args.solver, solver_tol=args.solver_tol, refine=args.refine,
+                 solver=args.solver, solver_tol=args.solver_tol, refine=args.refine, resolution=args.resolution,
                  sk_resolution=args.sk_resolution, objects=args.objects, progress=lambda s: print(f"jaxpose bench: {s}", file=sys.stderr, flush=True))
     print(format_table(result))
     if args.json:

@@ -31,10 +31,11 @@ Hence the default 64 x 2 (one full 64^3 grid, one level of 128^3 cells on the ba
 Band (issue 5): every level refines the cells the linearised boundary cuts, plus a margin
 (``_band_score``: 1.5 linear cell widths and a curvature allowance). A cell missed there loses all
 later levels; at the last level it only keeps its own occupancy, so the last level takes the cut
-cells and half the curvature allowance (``LAST_BAND``): on FAUST meshes (64 x 2) that is 7-11k cells
-instead of the 16-27k of the full band; the center moves by <= 4e-7 (3.3e-5 off the reference,
-median over 20 meshes, either way), the mean distance by <= 2.2e-4 (relative: the extra cells only
-refine the quadrature of |x - c| inside), the thin arm of tests/test_moments.py not at all.
+cells and half the curvature allowance (``LAST_BAND``). On FAUST meshes (64 x 2) that is 7-12k cells
+instead of the 18-27k of the full band, and no cell the boundary passes through is missed (brute force,
+tests/test_moments.py; a quarter of the allowance missed 84 on the thin arm). The center moves by
+<= 4e-7 (3.3e-5 off the reference, median over 20 meshes, either way), the mean distance by <= 2.2e-4
+(relative: the extra cells only refined the quadrature of |x - c| inside), the thin arm not at all.
 
 Derivatives (issue 3): the cells, the refinement and the occupancies are computed once
 without derivatives (``_cells``); the weights then pass through ``_boundary_weights``,

@@ -120,6 +120,7 @@ def test_bench_usage_errors(capsys):
     assert bench.cli(["--sections", "nope"]) == 2
     assert bench.cli(["--m", "2"]) == 2
     assert bench.cli(["--refine", "3"]) == 2
+    assert bench.cli(["--resolution", "4"]) == 2
     assert bench.cli(["--sk-resolution", "1"]) == 2
     assert bench.cli(["--objects", "0"]) == 2
     assert bench.cli(["--help"]) == 0
@@ -161,3 +162,17 @@ def test_accuracy_section_objects(monkeypatch):
     assert acc["n_objects"] == 3 and len(set(acc["objects"])) == 3
     _check_errors(acc["jaxpose"], 3)
     assert "[accuracy]  3 objects" in bench.format_table(r)
+
+
+def test_resolution_reaches_normalize(monkeypatch):
+    """--resolution sets normalize's coarse grid in end2end and accuracy (default: normalize's, 64)."""
+    _tiny(monkeypatch)
+    monkeypatch.setattr(bench._common, "sklearn_available", lambda: False)
+    r = bench.run(("end2end", "accuracy"), quick=True, resolution=12, objects=1)
+    assert r["sections"]["end2end"]["jaxpose"]["resolution"] == 12
+    assert r["sections"]["accuracy"]["resolution"] == 12
+    monkeypatch.setitem(bench.QUICK, "resolution", None)
+    from jaxpose.pose import DEFAULTS
+
+    r = bench.run(("end2end",), quick=True)
+    assert r["sections"]["end2end"]["jaxpose"]["resolution"] == DEFAULTS["resolution"] == 64

@@ -61,3 +61,43 @@ def test_jacobian_matches_finite_differences(x64):
     dcap = jax.grad(lambda c: projection_capped_simplex(y, c) @ jnp.arange(30.0))(cap)
     fdc = (oracle(y, cap + eps) - oracle(y, cap - eps)) @ np.arange(30.0) / (2 * eps)
     np.testing.assert_allclose(dcap, fdc, rtol=1e-5, atol=1e-7)
+
+
+@pytest.mark.parametrize("kind", ["outlier", "ties", "constant", "tiny", "all_at_cap"])
+def test_hard_inputs_match_oracle(x64, kind):
+    """Issue 5: tau is found by safeguarded Newton steps (not 64 bisection steps); inputs where the
+    sum is flat, has ties, spans 10 orders of magnitude, or is solved with every coordinate at the cap."""
+    rng = np.random.default_rng(0)
+    m, cap = 300, 0.01
+    y = rng.normal(size=m) * 1e-3
+    if kind == "outlier":
+        y[7] = 1e4
+    elif kind == "ties":
+        y = np.round(y * 1e3) / 1e3
+    elif kind == "constant":
+        y = np.full(m, 0.3)
+    elif kind == "tiny":
+        y = y * 1e-9
+    else:
+        cap = 1.0 / m
+    a = np.asarray(projection_capped_simplex(jnp.asarray(y), cap))
+    np.testing.assert_allclose(a, oracle(y, cap), atol=1e-12 * max(1.0, cap / 1e-2))
+    assert abs(a.sum() - 1) < 1e-12
+    assert a.min() >= 0 and a.max() <= cap * (1 + 1e-12)
+
+
+def test_search_takes_few_steps(x64):
+    """The steps the tau search takes on a solver-like input (a feasible point plus a small step)."""
+    from jaxpose.projection import _find_tau
+
+    rng = np.random.default_rng(2)
+    m, cap = 2000, 1e-3
+    a = np.asarray(projection_capped_simplex(jnp.asarray(rng.uniform(0, 1, m)), cap))
+    y = jnp.asarray(a - 2e-3 * rng.uniform(0, 1, m))
+    steps = []
+    for limit in range(1, 65):
+        tau = _find_tau(y, jnp.full(m, cap), limit)
+        steps.append(float(jnp.sum(jnp.clip(y - tau, 0, cap))))
+        if abs(steps[-1] - 1) < 1e-13:
+            break
+    assert len(steps) <= 12, steps  # 64 bisection steps before issue 5

@@ -19,8 +19,9 @@ solved by one of two solvers (``fit_svdd(solver=)``):
 Why by size (issue 5): PG's cost is its kernel products, and on CPU they are fast while K stays in
 cache (m = 2000: 16 MB, 0.12 ms a product; m = 4000: 64 MB, 2 ms). SMO's updates cost ~8 us at
 m = 2000 (the stopping rule is checked every ``SMO_GROUP`` updates: checked after each, an update
-cost 28 us). On FAUST samples (tol 1e-3, 2 CPU cores) PG fits 2000 points in 44 ms, SMO in 10 ms;
-at 4000, PG 0.37 s, SMO 52 ms; at 8000, 1.5 s against 0.17 s. Up to ``PG_MAX_M`` PG is kept for its
+cost 28 us). On FAUST samples (tol 1e-3, 2 CPU cores) PG fits 2000 points in 28-30 ms (44 ms before the
+projection's Newton search, issue 5), SMO in 10-15 ms; at 4000, PG 0.37 s, SMO 52 ms; at 8000, 2.1 s
+against 0.2 s (``jaxpose bench --sections solver --m 8000``). Up to ``PG_MAX_M`` PG is kept for its
 solution: at the same tol SMO stops at a less even point of the tolerance ball (5 FAUST shapes of
 2000 samples through ``normalize``: center up to 5e-4 of the scale off a tol-1e-6 solution, against
 1.6e-4 for PG), its pair choices flip with rounding, so its stopping point jumps with tiny changes

@@ -20,13 +20,14 @@ gain is smaller: center 6e-4 -> 2e-5, volume 2 % -> 0.05 %, mean distance 1.2e-4
 
 Evaluation (issue 5): the coarse grid and the levels after the first are tensor-product grids,
 where exp(-gamma |x - p|^2) factors per axis (``grid.evaluate_subgrids``): the coarse grid in boxes
-of 32^3 cells (8x faster than per cell: a whole 64^3 grid costs ~17 ms at m = 2000, less than the
-~30 ms that refining a 32^3 grid's band once costs), and each level from the second on as the
+of 32^3 cells (8x faster than per cell: a whole 64^3 grid costs ~17 ms at m = 2000), and each level
+from the second on as the
 4 x 4 x 4 grid of grandchildren of every cell with a chosen child (~2x faster per needed cell on
 FAUST meshes, where ~80 % of those grandchildren are needed). The first level evaluates the chosen
 cells' children directly. Same values as evaluating every cell (float64: moments equal to 1e-15).
-Hence the default 64 x 2 (one full 64^3 grid, one level of 128^3 cells on the band) rather than
-32 x 4: the same boundary resolution and extrapolation, in ~60 % of the time on FAUST meshes.
+The default is 64 x 2 (one full 64^3 grid, one level of 128^3 cells on the band) since issue 5, 32 x 4
+before: the same boundary resolution and extrapolation with one level instead of two. With the last
+band below they cost about the same (volume_moments on 3 FAUST meshes, m = 2000: 64 x 2 0-8 % less).
 
 Band (issue 5): every level refines the cells the linearised boundary cuts, plus a margin
 (``_band_score``: 1.5 linear cell widths and a curvature allowance). A cell missed there loses all

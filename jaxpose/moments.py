@@ -192,7 +192,7 @@ def _boundary_weights_jvp(block, outside, primals, tangents):
     return w, jnp.zeros_like(w).at[sel].add(dws)
 
 
-def _cells(svdd, resolution, block, refine=2, band=16384, extrapolate=True, separable=True):
+def _cells(svdd, resolution, block, refine, band, extrapolate=True, separable=True):
     """The discretization of {f >= 0} (no derivatives): coarse grid on ``domain(svdd)``, then
     ``log2(refine)`` levels of narrow-band refinement.
 
@@ -294,7 +294,7 @@ def _children_values(svdd, children, idx, chosen, parents, h, block):
     return f, grad
 
 
-def _volume_moments(svdd, resolution, block, refine=2, band=16384, outside=True, extrapolate=True, separable=True):
+def _volume_moments(svdd, resolution, block, refine, band, outside=True, extrapolate=True, separable=True):
     # outside=False: alpha's tangent vanishes where alpha = 0 (see _boundary_weights).
     # The cells and their weights are computed without derivatives; the derivative of the
     # weights (the boundary term) enters through _boundary_weights, which evaluates the tangent

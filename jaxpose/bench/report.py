@@ -49,7 +49,8 @@ def run(sections=SECTIONS, quick=False, m=None, repeats=None, scaling_m=None, re
 
     solver, solver_tol: jaxpose's solver options in end2end, batch and scaling (the solver
     section always times both solvers at ``tol``); solver_tol None: normalize's default.
-    resolution, refine: normalize's grid in end2end, batch and accuracy (None: its defaults).
+    resolution, refine: normalize's grid in end2end, batch and accuracy (None: its defaults); resolution
+    is also the m-scaling's grid (None there: 32, the issue's scaling setup).
     sk_resolution: the scikit-learn pipeline's grid in end2end and batch (None: 64^3, the issue's
     text, and the coarsest whose center is within 1e-3 on most FAUST meshes: 18 of 20, against 10
     at 48^3 and 5 at 32^3; the ``accuracy`` section measures it).
@@ -259,7 +260,8 @@ def _parser():
     p.add_argument("--scaling-max-iter", type=int, default=None,
                    help="cap solver iterations in scaling (peak memory of large m without the full run time)")
     p.add_argument("--resolution", type=int, default=None,
-                   help="normalize's resolution in end2end, batch and accuracy (default: normalize's, 64)")
+                   help="normalize's resolution in end2end, batch and accuracy (default: normalize's, 64), "
+                        "and the m-scaling's grid (default 32)")
     p.add_argument("--refine", type=int, default=None,
                    help="normalize's refine in end2end, batch and accuracy (default: normalize's, 2)")
     p.add_argument("--sk-resolution", type=int, default=None,

@@ -26,7 +26,7 @@ import numpy as np
 from .kernels import map_blocks
 
 __all__ = ["region_radius", "domain", "snap", "cell_centers", "morton_order", "morton_codes", "evaluate_on_grid",
-           "evaluate_subgrids", "evaluate_grid"]
+           "evaluate_subgrids", "evaluate_children", "evaluate_grid"]
 
 
 def region_radius(svdd):
@@ -146,18 +146,19 @@ def _chunks(svdd, support=None):
     return _Chunks(shift, p, w, c, lo, hi, cut)
 
 
-def _sum_near(ch, blo, bhi, terms, init):
-    """Sum terms(p, w) (a pytree like init) over the chunks not too far from the box [blo, bhi]."""
+def _sum_near(ch, blo, bhi, terms, init, table=None):
+    """Sum terms(p, w) (a pytree like init) over the chunks not too far from the box [blo, bhi];
+    terms(p, w, table[i]) with a per-chunk table."""
     gap = jnp.maximum(0.0, jnp.maximum(ch.lo - bhi, blo - ch.hi))
     near = jnp.any(ch.c, axis=1) & (jnp.sum(gap * gap, axis=-1) <= ch.cut)
 
     def add_chunk(acc, chunk_):
-        pc, wc, keep = chunk_
+        keep, args = chunk_[0], chunk_[1:]
         zero = lambda _: jax.tree_util.tree_map(jnp.zeros_like, init)
-        t = jax.lax.cond(keep, lambda _: terms(pc, wc), zero, None)
+        t = jax.lax.cond(keep, lambda _: terms(*args), zero, None)
         return jax.tree_util.tree_map(jnp.add, acc, t), None
 
-    acc, _ = jax.lax.scan(add_chunk, init, (ch.p, ch.w, near))
+    acc, _ = jax.lax.scan(add_chunk, init, (near, ch.p, ch.w) + (() if table is None else (table,)))
     return acc
 
 
@@ -230,6 +231,57 @@ def evaluate_subgrids(svdd, corners, h, n, block=2048, count=None):
         return (2.0 * s - mu).reshape(bb, n**3), grad.reshape(bb, n**3, 3)
 
     return map_blocks(one_block, corners, max(1, block // n**3), count=count)
+
+
+# bytes of the per-axis factor tables of ``evaluate_children`` beyond which it evaluates directly
+TABLE_BYTES = 1 << 28
+
+
+def evaluate_children(svdd, lo, h, cells, n, block=512, count=None):
+    """f and grad f at the 8 children of cells : (k, 3), centers of cells of size h : (3,) on the
+    lattice lo + (i + 1/2) h (i integer), on a box of n / 2 of them per axis (n static).
+    -> f (k, 8), grad (k, 8, 3); child 4 a + 2 b + c is at the cell's center + ((a, b, c) - 1/2) h / 2.
+
+    The children lie on a lattice of n points per axis, where exp(-gamma |x - p|^2) factors per
+    axis: the factors of every lattice line and support point are tabulated once (3 n m
+    exponentials), and each cell's 8 children cost 12 products and a (8, chunk) @ (chunk, 4)
+    product per chunk, no exponential (2x faster than ``evaluate_on_grid`` on FAUST meshes,
+    float32). Same chunks, cutoff and ``count`` (in cells) as ``evaluate_on_grid``; no derivatives.
+    Tables over ``TABLE_BYTES`` (n m > ~2e7 in float32): the children are evaluated directly.
+    """
+    svdd = jax.lax.stop_gradient(svdd)
+    dtype = svdd.points.dtype
+    if 3 * n * svdd.points.shape[0] * jnp.dtype(dtype).itemsize > TABLE_BYTES:
+        offsets = (np.stack(np.unravel_index(np.arange(8), (2, 2, 2)), -1) - 0.5) / 2
+        x = (cells[:, None, :] + jnp.asarray(offsets, dtype) * h).reshape(-1, 3)
+        c8 = None if count is None else 8 * count
+        f, grad = evaluate_on_grid(svdd, x, 4 * block, c8)
+        return f.reshape(-1, 8), grad.reshape(-1, 8, 3)
+    ch = _chunks(svdd)
+    g, mu = svdd.gamma, svdd.offset
+    hc = h / 2
+    t = lo - ch.shift + (jnp.arange(n, dtype=dtype)[:, None] + 0.5) * hc  # (n, 3) lattice lines per axis
+    table = jnp.exp(-g * (t.T[None, :, :, None] - jnp.swapaxes(ch.p, 1, 2)[:, :, None, :]) ** 2)  # (chunks, 3, n, chunk)
+    two = jnp.arange(2)[None, :, None]
+    ijk = jnp.round((cells - lo) / h - 0.5).astype(jnp.int32)
+
+    def one_block(ib):
+        b = ib.shape[0]
+        rows = 2 * ib[:, None, :] + two  # (b, 2, 3): the children's lattice lines
+        xc = lo - ch.shift + (rows + 0.5) * hc
+
+        def terms(pc, wc, e):
+            ex, ey, ez = (e[a][rows[:, :, a]] for a in range(3))  # (b, 2, chunk)
+            exy = (ex[:, :, None] * ey[:, None]).reshape(b, 4, -1)
+            return (exy[:, :, None] * ez[:, None]).reshape(8 * b, -1) @ wc
+
+        r = _sum_near(ch, jnp.min(xc[:, 0], axis=0), jnp.max(xc[:, 1], axis=0), terms, jnp.zeros((8 * b, 4), dtype), table)
+        s, ep = r[:, 0], r[:, 1:]
+        x = jnp.stack(jnp.broadcast_arrays(xc[:, :, None, None, 0], xc[:, None, :, None, 1], xc[:, None, None, :, 2]), -1)
+        grad = -4.0 * g * (x.reshape(-1, 3) * s[:, None] - ep)
+        return (2.0 * s - mu).reshape(b, 8), grad.reshape(b, 8, 3)
+
+    return map_blocks(one_block, ijk, block, count=count)
 
 
 SUBGRID = 32  # cells per axis of the boxes the coarse grid is evaluated in

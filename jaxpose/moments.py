@@ -18,16 +18,19 @@ the same number of evaluations of f; 32 x 2 extrapolated (half the cost) beats 3
 Where the coarser level is not yet in the h^2 regime (a thin arm, tests/test_moments.py) the
 gain is smaller: center 6e-4 -> 2e-5, volume 2 % -> 0.05 %, mean distance 1.2e-4 -> 2e-4.
 
-Evaluation (issue 5): the coarse grid and the levels after the first are tensor-product grids,
-where exp(-gamma |x - p|^2) factors per axis (``grid.evaluate_subgrids``): the coarse grid in boxes
-of 32^3 cells (8x faster than per cell: a whole 64^3 grid costs ~17 ms at m = 2000), and each level
-from the second on as the
-4 x 4 x 4 grid of grandchildren of every cell with a chosen child (~2x faster per needed cell on
-FAUST meshes, where ~80 % of those grandchildren are needed). The first level evaluates the chosen
-cells' children directly. Same values as evaluating every cell (float64: moments equal to 1e-15).
-The default is 64 x 2 (one full 64^3 grid, one level of 128^3 cells on the band) since issue 5, 32 x 4
-before: the same boundary resolution and extrapolation with one level instead of two. With the last
-band below they cost about the same (volume_moments on 3 FAUST meshes, m = 2000: 64 x 2 0-8 % less).
+Evaluation (issue 5): every level is on a tensor-product lattice, where exp(-gamma |x - p|^2)
+factors per axis. The coarse grid is evaluated in boxes of 32^3 cells (``grid.evaluate_subgrids``,
+8x faster than per cell: a whole 64^3 grid costs ~17 ms at m = 2000); the children of the cells
+chosen at each level from tables of the per-axis factors on their lattice (``grid.evaluate_children``:
+no exponential per child: 2x faster than evaluating them directly, and closer to float64 in float32,
+where the direct sums' expanded distances |x|^2 + |p|^2 - 2 x.p lose digits: FAUST centers at 64 x 2
+1-2e-6 -> 1-2e-8 off their float64 values). Same values as evaluating
+every cell (float64: moments equal to 1e-15).
+The default is 64 x 2 (one full 64^3 grid, one level of 128^3 cells on the band) since issue 5,
+32 x 4 before: the same boundary resolution and extrapolation with one level instead of two, and
+the same moments wherever the 32^3 level's band holds the boundary (20 FAUST meshes: the same
+errors to 3 digits). 32 x 4 is now ~10 % cheaper (normalize on 3 FAUST meshes); 64 x 2 does not
+rely on a 32^3 band to catch thin parts.
 
 Band (issue 5): every level refines the cells the linearised boundary cuts, plus a margin
 (``_band_score``: 1.5 linear cell widths and a curvature allowance). A cell missed there loses all
@@ -59,7 +62,7 @@ import jax
 import jax.numpy as jnp
 
 from . import _validate
-from .grid import domain, evaluate_grid, evaluate_on_grid, evaluate_subgrids, morton_codes
+from .grid import domain, evaluate_children, evaluate_grid, evaluate_on_grid, morton_codes
 
 __all__ = ["Moments", "volume_moments", "occupancy", "moments_from_occupancy"]
 
@@ -127,8 +130,8 @@ def volume_moments(svdd, resolution=64, refine=2, band=16384, block=2048, extrap
     extrapolate : combine the finest level with the one before (Richardson, module docs);
         False gives the plain sub-cell estimate of a (resolution * refine)^3 grid, error O(h^2)
 
-    Cost: resolution^3 (separable) + 8 (cells chosen at the first level) + 64 (cells with a
-    chosen child, each later level) evaluations of f (module docs).
+    Cost: resolution^3 (separable) + 8 (cells chosen, each level) evaluations of f, those of the
+    levels from tables of per-axis factors (module docs).
     """
     resolution = _validate.check_resolution(resolution)
     refine, band = int(refine), int(band)
@@ -192,7 +195,7 @@ def _boundary_weights_jvp(block, outside, primals, tangents):
     return w, jnp.zeros_like(w).at[sel].add(dws)
 
 
-def _cells(svdd, resolution, block, refine, band, extrapolate=True, separable=True):
+def _cells(svdd, resolution, block, refine, band, extrapolate=True):
     """The discretization of {f >= 0} (no derivatives): coarse grid on ``domain(svdd)``, then
     ``log2(refine)`` levels of narrow-band refinement.
 
@@ -202,8 +205,6 @@ def _cells(svdd, resolution, block, refine, band, extrapolate=True, separable=Tr
     extrapolate (static): fac becomes (4 fac - fac') / 3, fac' the factors without the finest
     level (Richardson extrapolation of every integral, module docs); refined cells of the
     level before then weigh -1/3 of their volume, their children 4/3.
-    separable (static): levels >= 2 by grandchildren grids (``_children_values``); False evaluates
-    only the chosen cells' children, the cheaper choice where ``count`` cannot skip blocks (vmap).
     """
     svdd = jax.lax.stop_gradient(svdd)
     lo, hi = domain(svdd)
@@ -211,7 +212,7 @@ def _cells(svdd, resolution, block, refine, band, extrapolate=True, separable=Tr
     x, h, f, grad = evaluate_grid(svdd, lo, hi, resolution, block)
     xs, occ, fac, hs = [x], [occupancy(f, grad, h)], [jnp.ones(x.shape[:1], x.dtype)], [h]
     vol, unrefined = 1.0, jnp.asarray(0)
-    k, parents = band, None
+    k, per_axis = band, resolution
     while refine > 1 and k > 0:
         k = min(k, x.shape[0])
         w = occ[-1] * fac[-1]
@@ -226,8 +227,9 @@ def _cells(svdd, resolution, block, refine, band, extrapolate=True, separable=Tr
         before = fac[-1]
         fac[-1] = fac[-1].at[idx].multiply(1.0 - chosen.astype(x.dtype))  # replaced by their children
         children = (x[idx][:, None, :] + _CHILDREN.astype(x.dtype) * h).reshape(-1, 3)
-        f, grad = _children_values(svdd, children, idx, chosen, parents if separable else None, h, block)
-        parents, x = x[idx], children
+        f, grad = evaluate_children(svdd, lo, h, x[idx], 2 * per_axis, max(1, block // 4), jnp.sum(chosen))
+        f, grad = f.reshape(-1), grad.reshape(-1, 3)
+        x, per_axis = children, 2 * per_axis
         h, vol, refine, k = h / 2, vol / 8, refine // 2, 2 * k
         xs.append(x)
         occ.append(occupancy(f, grad, h))
@@ -263,43 +265,12 @@ def _select(score, k, x, lo, hi):
     return jax.lax.cond(n <= k, by_index, by_score, None)
 
 
-def _children_values(svdd, children, idx, chosen, parents, h, block):
-    """f and grad f at children (8k, 3), the 8 children (``_CHILDREN`` order) of the cells idx : (k,)
-    of size h (only where ``chosen``, a prefix; 0 elsewhere). -> (8k,), (8k, 3).
-
-    The first level evaluates each chosen cell's 2 x 2 x 2 children. Further levels evaluate, for
-    each parent ``parents`` (the cells x came from, 8 rows each) with a chosen child, its whole
-    4 x 4 x 4 grid of grandchildren, separably (``evaluate_subgrids``: ~2x cheaper per cell though
-    up to 8x the cells), and pick the chosen cells' children from it. parents None: the first way.
-    Under vmap every block is evaluated (``lax.cond`` becomes a select): the grandchildren of all
-    ``parents`` slots are then 4x the children of all ``idx`` slots, 1.7x the time on CPU (4 FAUST
-    objects, m = 1000), so batched callers pass parents=None (``_cells(separable=False)``)."""
-    k = idx.shape[0]
-    if parents is None:  # (separable 2 x 2 x 2 grids were no faster)
-        return evaluate_on_grid(svdd, children, block, count=8 * jnp.sum(chosen))
-    slot, octant = idx // 8, idx % 8
-    used = jnp.zeros(parents.shape[:1], bool).at[slot].max(chosen)
-    rank = jnp.cumsum(used) - 1
-    which = jnp.nonzero(used, size=parents.shape[0], fill_value=0)[0]
-    f4, grad4 = evaluate_subgrids(svdd, parents[which] - h, h / 2, 4, 2 * block, count=jnp.sum(used))
-    bit = jnp.array([4, 2, 1])
-    o = (octant[:, None] // bit) % 2  # (k, 3): the cell's octant in its parent
-    c = (jnp.arange(8)[:, None] // bit) % 2  # (8, 3): the child's octant in the cell
-    ijk = 2 * o[:, None, :] + c[None]  # (k, 8, 3) in the parent's 4 x 4 x 4 grid
-    sub = (ijk[..., 0] * 4 + ijk[..., 1]) * 4 + ijk[..., 2]
-    row = jnp.broadcast_to(rank[slot][:, None], (k, 8))
-    keep = jnp.repeat(chosen, 8)
-    f = jnp.where(keep, f4[row, sub].reshape(-1), 0.0)
-    grad = jnp.where(keep[:, None], grad4[row, sub].reshape(-1, 3), 0.0)
-    return f, grad
-
-
-def _volume_moments(svdd, resolution, block, refine, band, outside=True, extrapolate=True, separable=True):
+def _volume_moments(svdd, resolution, block, refine, band, outside=True, extrapolate=True):
     # outside=False: alpha's tangent vanishes where alpha = 0 (see _boundary_weights).
     # The cells and their weights are computed without derivatives; the derivative of the
     # weights (the boundary term) enters through _boundary_weights, which evaluates the tangent
     # of f only at the cells that the boundary cuts (module docs).
-    x, occ, fac, hc, h, unrefined = _cells(svdd, resolution, block, refine, band, extrapolate, separable)
+    x, occ, fac, hc, h, unrefined = _cells(svdd, resolution, block, refine, band, extrapolate)
     field = _Field(svdd.points, svdd.alpha, svdd.gamma, svdd.offset)
     w = _boundary_weights(occ * fac, field, x, hc, fac, int(block), bool(outside))  # in units of a coarse cell
     mom = moments_from_occupancy(x, w, h)
@@ -307,4 +278,4 @@ def _volume_moments(svdd, resolution, block, refine, band, outside=True, extrapo
 
 
 # the public call compiled (op by op it ran ~20x slower: 1.2 s at m = 200, issue 5)
-_volume_moments_jit = jax.jit(_volume_moments, static_argnums=(1, 2, 3, 4, 5, 6, 7))
+_volume_moments_jit = jax.jit(_volume_moments, static_argnums=(1, 2, 3, 4, 5, 6))

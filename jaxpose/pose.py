@@ -120,27 +120,27 @@ def prescale(points, mask=None):
 
 
 def _normalize(points, mask, gamma, nu, resolution, refine, band, tol, max_iter, check_every, kernel, block,
-               solver=None, separable=True):
+               solver=None):
     # issue 3: derivatives in (gamma, nu) alone come from forward-mode columns, also under jax.grad
     # (same values and derivatives; see jaxpose/_hyper.py); derivatives in points as before.
     impl = partial(_normalize_impl, resolution=resolution, refine=refine, band=band, tol=tol, max_iter=max_iter,
-                   check_every=check_every, kernel=kernel, block=block, solver=solver, separable=separable)
+                   check_every=check_every, kernel=kernel, block=block, solver=solver)
     return hyper_jvp(impl, (2, 3))(points, mask, gamma, nu)
 
 
 def _normalize_impl(points, mask, gamma, nu, resolution, refine, band, tol, max_iter, check_every, kernel, block,
-                    solver=None, separable=True):
+                    solver=None):
     y, to_world, size = prescale(points, mask)
     svdd = _fit(y, gamma, nu, mask, None, tol=tol, max_iter=max_iter, check_every=check_every, kernel=kernel, block=block,
                 solver=solver)
     # the implicit KKT derivative moves alpha only on the support: skip the alpha = 0 pass
-    return _pose_of(svdd, to_world, size, resolution, refine, band, block, outside=False, separable=separable)
+    return _pose_of(svdd, to_world, size, resolution, refine, band, block, outside=False)
 
 
-def _pose_of(svdd, to_world, size, resolution, refine, band, block, outside, separable=True):
+def _pose_of(svdd, to_world, size, resolution, refine, band, block, outside):
     """The pose (eqs. 4, 5) of an SVDD fitted to pre-scaled points, in world units.
     outside: see ``moments._boundary_weights`` (False when alpha's tangent vanishes where alpha = 0)."""
-    mom = _volume_moments(svdd, resolution, block, refine, band, outside=outside, separable=separable)
+    mom = _volume_moments(svdd, resolution, block, refine, band, outside=outside)
     center = to_world(mom.center)
     scale = jnp.where(size > 0, size, 1.0) * mom.mean_distance
     valid = (size > 0) & jnp.all(jnp.isfinite(center)) & jnp.isfinite(scale) & (scale > 0) & (mom.volume > 0)
@@ -301,8 +301,7 @@ def normalize_batch(list_of_points: Sequence, gamma=47.0, nu=0.5, *, pad_to=None
 
 
 def _batched_impl(points, mask, gamma, nu, strategy="vmap", **opts):
-    # under vmap the grid's lax.conds become selects: the per-cell refinement is then cheaper
-    fn = lambda p, mk, g, n: _normalize(p, mk, g, n, separable=strategy != "vmap", **opts)
+    fn = lambda p, mk, g, n: _normalize(p, mk, g, n, **opts)
     if strategy == "map":
         return jax.lax.map(lambda args: fn(*args), (points, mask, gamma, nu))
     return jax.vmap(fn)(points, mask, gamma, nu)

@@ -275,17 +275,101 @@ def test_grid_layout_matches_cell_centers(x64, resolution):
     np.testing.assert_allclose(np.asarray(g), np.asarray(g0), atol=1e-11)
 
 
-def test_refinement_paths_agree(x64):
-    """Levels >= 2 by grandchildren grids (the default) or per chosen child (``separable=False``,
-    what normalize_batch uses under vmap): the same moments, on a shape with 3 refinement levels."""
-    from jaxpose.moments import _volume_moments
+def _segment_svdd():
+    """An SVDD along a segment 4 long (far chunks skipped per block; cutoff ~0.9 in float64)."""
+    rng = np.random.default_rng(2)
+    t = rng.uniform(0.0, 4.0, 1200)
+    return fit_svdd(np.c_[t, 0.05 * rng.normal(size=1200), 0.05 * rng.normal(size=1200)], 47.0, 0.5), rng
+
+
+def _lattice_cells(rng, lo, h, n, k):
+    """k distinct cells of a lattice lo + (i + 1/2) h, i < n / 2 per axis, in Z-order: 3/4 of them
+    within 0.15 of the segment's axis (where the boundary is), the rest anywhere."""
+    from jaxpose.grid import morton_codes
+
+    ijk = np.stack(np.unravel_index(np.arange((n // 2) ** 3), (n // 2,) * 3), -1)
+    x = lo + (ijk + 0.5) * h
+    near = np.flatnonzero(np.max(np.abs(x[:, 1:]), axis=1) < 0.15)
+    i = rng.choice(near, size=3 * k // 4, replace=False)
+    i = np.r_[i, rng.choice(np.setdiff1d(np.arange(len(x)), i), size=k - len(i), replace=False)]
+    cells = jnp.asarray(x[i])
+    return cells[np.argsort(np.asarray(morton_codes(cells, lo, lo + h * n / 2)))]
+
+
+def test_children_from_tables_equal_direct_evaluation(x64, monkeypatch):
+    """evaluate_children (per-axis factor tables on the children's lattice, no exponential per child)
+    gives f and grad f of the direct sums at every child, in ``_CHILDREN`` order; count in cells; the
+    direct fallback when the tables would be too big gives the same."""
+    import jax
+
+    from jaxpose import grid
+    from jaxpose.moments import _CHILDREN
+
+    svdd, rng = _segment_svdd()
+    lo, hi = domain(svdd)
+    n = 64  # children per axis: cells of 32 per axis
+    h = (hi - lo) / (n // 2)
+    cells = _lattice_cells(rng, np.asarray(lo), np.asarray(h), n, 700)
+    f, g = grid.evaluate_children(svdd, lo, h, cells, n, block=64)
+    assert f.shape == (700, 8) and g.shape == (700, 8, 3)
+    x = (cells[:, None, :] + _CHILDREN * h).reshape(-1, 3)
+    np.testing.assert_allclose(np.asarray(f).reshape(-1), np.asarray(decision_function(svdd, x)), atol=1e-13)
+    g_ad = jax.vmap(jax.grad(lambda p: decision_function(svdd, p[None])[0]))(x)
+    np.testing.assert_allclose(np.asarray(g).reshape(-1, 3), np.asarray(g_ad), atol=1e-11)
+    assert np.mean(np.asarray(f) > 0) > 0.05 and np.mean(np.asarray(f) < 0) > 0.5  # inside and outside
+    f2, _ = grid.evaluate_children(svdd, lo, h, cells, n, block=64, count=jnp.asarray(100))  # blocks of 64 cells
+    np.testing.assert_array_equal(np.asarray(f2)[:128], np.asarray(f)[:128])
+    assert np.all(np.asarray(f2)[128:] == 0)
+    monkeypatch.setattr(grid, "TABLE_BYTES", 0)
+    f3, g3 = grid.evaluate_children(svdd, lo, h, cells, n, block=64)
+    np.testing.assert_allclose(np.asarray(f3), np.asarray(f), atol=1e-13)
+    np.testing.assert_allclose(np.asarray(g3), np.asarray(g), atol=1e-11)
+
+
+def test_children_from_tables_are_accurate_in_float32():
+    """In float32 the tables take each per-axis difference x_a - p_a directly, where the direct sums
+    expand |x - p|^2 = |x|^2 + |p|^2 - 2 x.p and lose digits: f within a few roundings of its float64
+    value on the segment (3.1e-8, mu = 0.078), 50x closer than the direct sums (1.5e-6)."""
+    import jax
+
+    from jaxpose import grid
+    from jaxpose.moments import _CHILDREN
+
+    with jax.enable_x64(True):
+        svdd64, rng = _segment_svdd()
+        lo, hi = domain(svdd64)
+        h = (hi - lo) / 32
+        cells = _lattice_cells(rng, np.asarray(lo), np.asarray(h), 64, 700)
+        x = (cells[:, None, :] + _CHILDREN * h).reshape(-1, 3)
+        exact = np.asarray(decision_function(svdd64, x))
+    svdd = jax.tree_util.tree_map(lambda a: jnp.asarray(a, jnp.float32) if jnp.issubdtype(a.dtype, jnp.floating) else jnp.asarray(a),
+                                  svdd64)
+    c32, lo32, h32 = (jnp.asarray(np.asarray(a), jnp.float32) for a in (cells, lo, h))
+    f, _ = grid.evaluate_children(svdd, lo32, h32, c32, 64, block=64)
+    direct, _ = evaluate_on_grid(svdd, (c32[:, None, :] + _CHILDREN * h32).reshape(-1, 3))
+    err_tables = np.max(np.abs(np.asarray(f, np.float64).reshape(-1) - exact))
+    err_direct = np.max(np.abs(np.asarray(direct, np.float64) - exact))
+    mu = float(svdd64.offset)  # f = 2 k^T alpha - mu: its rounding is eps * mu
+    assert err_tables <= 8 * np.finfo(np.float32).eps * mu, (err_tables, mu)  # measured 3.3 eps mu
+    assert err_tables < err_direct / 10, (err_tables, err_direct)  # measured 50x
+
+
+def test_refinement_with_tables_equals_direct_children(x64, monkeypatch):
+    """Three refinement levels, children from factor tables (the default) or evaluated directly
+    (``TABLE_BYTES`` 0): the same moments; also under vmap (normalize_batch's path)."""
+    import jax
+
+    from jaxpose import grid
 
     svdd = fit_svdd(sphere_with_arm(500), 47.0, 0.5)
     a = _volume_moments(svdd, 16, 512, 8, 8192)
-    b = _volume_moments(svdd, 16, 512, 8, 8192, separable=False)
+    batched = jax.vmap(lambda s: _volume_moments(s, 16, 512, 8, 8192))(jax.tree_util.tree_map(lambda v: v[None], svdd))
+    monkeypatch.setattr(grid, "TABLE_BYTES", 0)
+    b = _volume_moments(svdd, 16, 512, 8, 8192)
     assert int(a.unrefined) == int(b.unrefined) == 0
-    for u, v in zip(a, b):
+    for u, v, w in zip(a, b, batched):
         np.testing.assert_allclose(np.asarray(u), np.asarray(v), rtol=1e-12, atol=1e-14)
+        np.testing.assert_allclose(np.asarray(w)[0], np.asarray(u), rtol=1e-12, atol=1e-14)
 
 
 def test_last_level_band_holds_every_cut_cell(x64):

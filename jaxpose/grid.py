@@ -236,11 +236,14 @@ def evaluate_subgrids(svdd, corners, h, n, block=2048, count=None):
 # bytes of the per-axis factor tables of ``evaluate_children`` beyond which it evaluates directly
 TABLE_BYTES = 1 << 28
 
+# the 8 children of a cell, offsets from its center in units of its size; child 4 a + 2 b + c
+CHILD_OFFSETS = np.stack(np.meshgrid(*[np.array([-0.25, 0.25])] * 3, indexing="ij"), axis=-1).reshape(8, 3)
+
 
 def evaluate_children(svdd, lo, h, cells, n, block=512, count=None):
     """f and grad f at the 8 children of cells : (k, 3), centers of cells of size h : (3,) on the
     lattice lo + (i + 1/2) h (i integer), on a box of n / 2 of them per axis (n static).
-    -> f (k, 8), grad (k, 8, 3); child 4 a + 2 b + c is at the cell's center + ((a, b, c) - 1/2) h / 2.
+    -> f (k, 8), grad (k, 8, 3); child i is at the cell's center + CHILD_OFFSETS[i] h.
 
     The children lie on a lattice of n points per axis, where exp(-gamma |x - p|^2) factors per
     axis: the factors of every lattice line and support point are tabulated once (3 n m
@@ -252,8 +255,7 @@ def evaluate_children(svdd, lo, h, cells, n, block=512, count=None):
     svdd = jax.lax.stop_gradient(svdd)
     dtype = svdd.points.dtype
     if 3 * n * svdd.points.shape[0] * jnp.dtype(dtype).itemsize > TABLE_BYTES:
-        offsets = (np.stack(np.unravel_index(np.arange(8), (2, 2, 2)), -1) - 0.5) / 2
-        x = (cells[:, None, :] + jnp.asarray(offsets, dtype) * h).reshape(-1, 3)
+        x = (cells[:, None, :] + jnp.asarray(CHILD_OFFSETS, dtype) * h).reshape(-1, 3)
         c8 = None if count is None else 8 * count
         f, grad = evaluate_on_grid(svdd, x, 4 * block, c8)
         return f.reshape(-1, 8), grad.reshape(-1, 8, 3)

@@ -62,7 +62,7 @@ import jax
 import jax.numpy as jnp
 
 from . import _validate
-from .grid import domain, evaluate_children, evaluate_grid, evaluate_on_grid, morton_codes
+from .grid import CHILD_OFFSETS, domain, evaluate_children, evaluate_grid, evaluate_on_grid, morton_codes
 
 __all__ = ["Moments", "volume_moments", "occupancy", "moments_from_occupancy"]
 
@@ -140,7 +140,7 @@ def volume_moments(svdd, resolution=64, refine=2, band=16384, block=2048, extrap
     return _volume_moments_jit(svdd, resolution, int(block), refine, band, True, bool(extrapolate))
 
 
-_CHILDREN = jnp.stack(jnp.meshgrid(*[jnp.array([-0.25, 0.25])] * 3, indexing="ij"), axis=-1).reshape(8, 3)
+_CHILDREN = CHILD_OFFSETS
 
 
 class _Field(NamedTuple):
@@ -226,8 +226,9 @@ def _cells(svdd, resolution, block, refine, band, extrapolate=True):
         unrefined = unrefined + jnp.sum(partial_) - jnp.sum(partial_[idx] & chosen)
         before = fac[-1]
         fac[-1] = fac[-1].at[idx].multiply(1.0 - chosen.astype(x.dtype))  # replaced by their children
-        children = (x[idx][:, None, :] + _CHILDREN.astype(x.dtype) * h).reshape(-1, 3)
-        f, grad = evaluate_children(svdd, lo, h, x[idx], 2 * per_axis, max(1, block // 4), jnp.sum(chosen))
+        cells = x[idx]
+        children = (cells[:, None, :] + _CHILDREN.astype(x.dtype) * h).reshape(-1, 3)
+        f, grad = evaluate_children(svdd, lo, h, cells, 2 * per_axis, max(1, block // 4), jnp.sum(chosen))
         f, grad = f.reshape(-1), grad.reshape(-1, 3)
         x, per_axis = children, 2 * per_axis
         h, vol, refine, k = h / 2, vol / 8, refine // 2, 2 * k

@@ -1,5 +1,6 @@
-"""jaxpose: consistent translation and scale normalization of 3D shapes with one-class SVMs."""
+"""jaxpose: consistent canonical position and size of 3D shapes, with one-class SVMs, in JAX."""
 from ._validate import ConvergenceError, InvalidInputError, JaxposeError
+from .config import GridConfig, PoseConfig, SolverConfig
 from .moments import Moments, volume_moments
 from .pose import Pose, normalize, normalize_batch
 from .svdd import SVDD, decision_function, fit_svdd
@@ -19,10 +20,15 @@ __all__ = [
     "normalize_mesh",
     "pose_sensitivity",
     "baselines",
+    "SolverConfig",
+    "GridConfig",
+    "PoseConfig",
     "JaxposeError",
     "InvalidInputError",
     "ConvergenceError",
 ]
+
+_LAZY_MODULES = ("baselines", "sensitivity", "datasets", "evaluation", "tuning", "plot", "mesh")
 
 
 def __getattr__(name):
@@ -35,7 +41,7 @@ def __getattr__(name):
         from .sensitivity import pose_sensitivity
 
         return pose_sensitivity
-    if name in ("baselines", "sensitivity", "datasets", "evaluation", "tuning", "bench", "plot", "mesh"):
+    if name in _LAZY_MODULES:
         import importlib
 
         return importlib.import_module(f".{name}", __name__)

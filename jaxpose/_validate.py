@@ -5,8 +5,6 @@ Every public entry point calls these first, so that bad input gets a readable
 """
 from __future__ import annotations
 
-import numbers
-
 import numpy as np
 
 __all__ = [
@@ -16,11 +14,8 @@ __all__ = [
     "check_points",
     "check_gamma",
     "check_nu",
-    "check_resolution",
     "check_array",
-    "check_options",
     "compute_dtype",
-    "frame64",
     "is_traced",
 ]
 
@@ -87,31 +82,6 @@ def check_points(points, name: str = "points", min_points: int = MIN_POINTS):
     return points
 
 
-CHOICES = {"kernel": ("auto", "dense", "blocked"), "solver": (None, "auto", "smo", "pg")}
-
-
-def check_choices(**values):
-    """String options of fit_svdd and normalize (``CHOICES``)."""
-    for name, value in values.items():
-        if value not in CHOICES[name]:
-            valid = ", ".join(repr(c) for c in CHOICES[name])
-            raise InvalidInputError(f"{name} must be one of {valid}, got {value!r}")
-
-
-def check_options(tol, max_iter, check_every, block):
-    """Solver options shared by fit_svdd and normalize (check_every = 0 would loop forever)."""
-    try:
-        ok = float(tol) > 0 and np.isfinite(float(tol))
-        ints = [int(v) == v and not isinstance(v, bool) for v in (max_iter, check_every, block)]
-    except (TypeError, ValueError):
-        ok, ints = False, [False]
-    if not ok or not all(ints) or int(max_iter) < 1 or int(check_every) < 1 or int(block) < 1:
-        raise InvalidInputError(
-            f"tol must be finite and > 0, max_iter, check_every and block ints >= 1; "
-            f"got tol={tol!r}, max_iter={max_iter!r}, check_every={check_every!r}, block={block!r}"
-        )
-
-
 def compute_dtype(points):
     """The floating dtype JAX computes concrete points in: at least float32 (float16 and
     integers are promoted), float64 only when x64 is enabled."""
@@ -119,29 +89,6 @@ def compute_dtype(points):
 
     dtype = np.result_type(np.asarray(points).dtype, np.float32)
     return np.dtype(dtypes.canonicalize_dtype(dtype if np.issubdtype(dtype, np.floating) else np.float32))
-
-
-def frame64(points, name: str = "points"):
-    """Mean (3,) and RMS distance () of concrete points, in float64 without overflow.
-
-    Used to center and scale points in NumPy before they become float32, so coordinates far
-    from the origin or of extreme magnitude (1e6 offsets, 1e-30 or 1e30 units) keep their shape.
-    Raises if the frame cannot be represented in the compute dtype.
-    """
-    arr = np.asarray(points, dtype=np.float64)
-    big = float(np.max(np.abs(arr)))
-    unit = big if big > 0 else 1.0
-    mean = np.mean(arr / unit, axis=0) * unit
-    d = arr - mean
-    spread = float(np.max(np.abs(d)))
-    rms = spread * float(np.sqrt(np.mean(np.sum((d / spread) ** 2, axis=1)))) if spread > 0 else 0.0
-    finfo = np.finfo(compute_dtype(points))
-    if not (np.all(np.isfinite(mean)) and np.isfinite(rms)) or big > float(finfo.max) or not rms > float(finfo.tiny):
-        raise InvalidInputError(
-            f"{name} span {rms:.3g} at coordinates up to {big:.3g}: outside the range of {finfo.dtype} "
-            f"(rescale the input, or enable jax_enable_x64 for float64)"
-        )
-    return mean, rms
 
 
 def _scalar(value, name):
@@ -168,11 +115,3 @@ def check_nu(nu):
     if v is not None and not 0.0 <= v <= 1.0:
         raise InvalidInputError(f"nu must be in [0, 1], got {v}")
     return nu
-
-
-def check_resolution(resolution, minimum: int = 8):
-    if not isinstance(resolution, numbers.Integral) or isinstance(resolution, bool):
-        raise InvalidInputError(f"resolution must be an int, got {resolution!r}")
-    if resolution < minimum:
-        raise InvalidInputError(f"resolution must be >= {minimum}, got {resolution}")
-    return int(resolution)

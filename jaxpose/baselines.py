@@ -30,6 +30,8 @@ __all__ = [
     "mean_distance",
     "unit_cube",
     "unit_sphere",
+    "split_geometry",
+    "triangle_areas",
 ]
 
 CENTERS = ("surface_centroid", "vertex_mean", "bbox_center", "min_ball")
@@ -43,7 +45,7 @@ _CHUNK_NODES = 1 << 22  # quadrature nodes per block (bounds memory)
 
 
 # --------------------------------------------------------------------------- coercion
-def _geometry(mesh_or_points):
+def split_geometry(mesh_or_points):
     """Split the input into vertices and faces.
 
     Returns
@@ -66,12 +68,12 @@ def _geometry(mesh_or_points):
             raise InvalidInputError(f"faces must have shape (f, 3), got {faces.shape}")
         if faces.min() < 0 or faces.max() >= len(vertices):
             raise InvalidInputError("faces index vertices that do not exist")
-        if _areas(vertices[faces]).sum() <= 0.0:
+        if triangle_areas(vertices[faces]).sum() <= 0.0:
             faces = None  # degenerate surface: use the points
     return vertices, faces
 
 
-def _areas(triangles):
+def triangle_areas(triangles):
     """triangles : (f, 3, 3) float -> areas : (f,) float"""
     cross = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
     return 0.5 * np.linalg.norm(cross, axis=1)
@@ -96,23 +98,23 @@ def surface_centroid(mesh_or_points):
     -------
     center : (3,) float64
     """
-    vertices, faces = _geometry(mesh_or_points)
+    vertices, faces = split_geometry(mesh_or_points)
     if faces is None:
         return vertices.mean(axis=0)
     triangles = vertices[faces]
-    areas = _areas(triangles)
+    areas = triangle_areas(triangles)
     return (areas[:, None] * triangles.mean(axis=1)).sum(axis=0) / areas.sum()
 
 
 def vertex_mean(mesh_or_points):
     """Mean of the vertices (or points).  Returns center : (3,) float64."""
-    vertices, _ = _geometry(mesh_or_points)
+    vertices, _ = split_geometry(mesh_or_points)
     return vertices.mean(axis=0)
 
 
 def bbox_center(mesh_or_points):
     """Center of the axis-aligned bounding box.  Returns center : (3,) float64."""
-    vertices, _ = _geometry(mesh_or_points)
+    vertices, _ = split_geometry(mesh_or_points)
     return 0.5 * (vertices.min(axis=0) + vertices.max(axis=0))
 
 
@@ -128,7 +130,7 @@ def min_ball(mesh_or_points):
     center : (3,) float64
     radius : float
     """
-    vertices, _ = _geometry(mesh_or_points)
+    vertices, _ = split_geometry(mesh_or_points)
     points = _hull_vertices(vertices)
     points = points[np.random.default_rng(0).permutation(len(points))]
     c, r2 = _welzl(points, len(points), [])
@@ -201,7 +203,7 @@ def mean_distance(mesh_or_points, center=None):
     center : (3,) float or None (surface centroid)
     Returns distance : float
     """
-    vertices, faces = _geometry(mesh_or_points)
+    vertices, faces = split_geometry(mesh_or_points)
     c = _coerce_center(mesh_or_points, center)
     if faces is None:
         return float(np.mean(np.linalg.norm(vertices - c, axis=1)))
@@ -211,7 +213,7 @@ def mean_distance(mesh_or_points, center=None):
     with np.errstate(divide="ignore", invalid="ignore"):
         needed = np.where(distance > 0, edge / (_RELATIVE_STEP * distance), np.inf)
     levels = np.searchsorted(_SUBDIVISIONS, np.minimum(needed, _SUBDIVISIONS[-1]))
-    areas = _areas(triangles)
+    areas = triangle_areas(triangles)
     total = 0.0
     for level in np.unique(levels):
         mask = levels == level
@@ -250,7 +252,7 @@ def unit_cube(mesh_or_points):
 
     Returns extent : float
     """
-    vertices, _ = _geometry(mesh_or_points)
+    vertices, _ = split_geometry(mesh_or_points)
     return float(np.max(vertices.max(axis=0) - vertices.min(axis=0)))
 
 
@@ -260,7 +262,7 @@ def unit_sphere(mesh_or_points, center=None):
     center : (3,) float or None (surface centroid)
     Returns radius : float
     """
-    vertices, _ = _geometry(mesh_or_points)
+    vertices, _ = split_geometry(mesh_or_points)
     c = _coerce_center(mesh_or_points, center)
     return float(np.max(np.linalg.norm(vertices - c, axis=1)))
 

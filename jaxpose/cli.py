@@ -67,7 +67,7 @@ def _add_evaluate(sub):
     p.set_defaults(handler=_cmd_evaluate)
 
 
-# ---- tune and bench: registered here, implemented in jaxpose.tuning / jaxpose.bench,
+# ---- tune and bench: registered here, implemented in jaxpose.tuning / benchmarks/,
 # which receive every argument after the command name (see _delegate).
 _DELEGATED = ("tune", "bench")
 
@@ -78,7 +78,7 @@ def _add_tune(sub):
 
 
 def _add_bench(sub):
-    p = sub.add_parser("bench", add_help=False, help="timings against scikit-learn (arguments go to jaxpose.bench)")
+    p = sub.add_parser("bench", add_help=False, help="timings against scikit-learn, from a source checkout (arguments go to benchmarks/)")
     p.set_defaults(handler=_cmd_bench)
 
 
@@ -233,18 +233,22 @@ def _cmd_tune(args):
 
 
 def _cmd_bench(args):
-    return _delegate("bench", args.extra)
+    """The benchmarks live beside the package in a source checkout (``benchmarks/``)."""
+    import importlib
+    import sys as _sys
+
+    root = Path(__file__).resolve().parents[1]
+    if not (root / "benchmarks" / "__init__.py").is_file():
+        return _fail(f"the benchmarks are not installed with the package; run them from a source checkout "
+                     f"(no {root / 'benchmarks'})")
+    if str(root) not in _sys.path:
+        _sys.path.insert(0, str(root))
+    return importlib.import_module("benchmarks").cli(list(args.extra))
 
 
 def _delegate(module_name, argv):
     """Hand the remaining arguments to ``jaxpose.<module>.cli(argv) -> int``."""
     import importlib
 
-    try:
-        module = importlib.import_module(f"jaxpose.{module_name}")
-    except ImportError as exc:
-        return _fail(f"'{module_name}' is not available: {exc}")
-    entry = getattr(module, "cli", None)
-    if entry is None:
-        return _fail(f"jaxpose.{module_name} has no command-line entry point (cli)")
-    return entry(list(argv))
+    module = importlib.import_module(f"jaxpose.{module_name}")
+    return module.cli(list(argv))

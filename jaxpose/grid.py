@@ -8,10 +8,9 @@ bounding box of the support vectors grown by r on every side.
 That box moves continuously with gamma and nu (r depends on both), and with it every
 cell of the grid: the discretization error would then vary with gamma at the scale of a
 cell shift, and derivatives that hold the grid fixed would not be the derivatives of the
-computed moments (6-33 % off at resolution 16, issue 3). ``domain`` therefore snaps the box
-outwards to a lattice of spacing q = 2^floor(log2 extent) / 64 (at most 1/64 of the extent):
-the grid is piecewise constant in (gamma, nu), moving only when a face crosses a lattice
-line (once per 4-6 % change of gamma at m = 400 [measured]), and the moments are
+computed moments. ``domain`` therefore snaps the box outwards to a lattice of spacing
+q = 2^floor(log2 extent) / 64 (at most 1/64 of the extent): the grid is piecewise constant in
+(gamma, nu), moving only when a face crosses a lattice line, and the moments are
 differentiable with the grid held fixed in between. The lattice is symmetric about the origin, so the box is
 equivariant under the axis flips and permutations of the principal frame.
 """
@@ -171,8 +170,8 @@ def evaluate_on_grid(svdd, x, block=2048, count=None, support=None):
     others' terms are dropped, with their tangents (``moments`` adds those separately).
 
     grad f = -4 gamma sum_i alpha_i k(x, x_i) (x - x_i). Distances come from one
-    matrix product (about 10x faster than explicit differences); both sides are
-    shifted by the points' mean first so the expansion loses no accuracy.
+    matrix product, |x|^2 + |p|^2 - 2 x.p; both sides are shifted by the points' mean first so
+    the expansion loses little accuracy.
     The support is taken in chunks of nearby points (Z-order). A chunk is skipped (``lax.cond``)
     when it holds no support point, or when its bounding box lies so far from the block's that
     its terms sum to less than eps * mu / 16 (``_cutoff``; Sum a = 1): below f's rounding, in
@@ -186,7 +185,7 @@ def evaluate_on_grid(svdd, x, block=2048, count=None, support=None):
         xn = jnp.sum(xb * xb, axis=-1)[:, None]
         xs = jax.lax.stop_gradient(xb)
 
-        def terms(pc, wc):  # one (n, chunk) @ (chunk, 4) product: 30 % faster than sum and e @ pc
+        def terms(pc, wc):  # one (n, chunk) @ (chunk, 4) product gives f and grad f
             d2 = jnp.maximum(xn + jnp.sum(pc * pc, axis=-1)[None, :] - 2.0 * xb @ pc.T, 0.0)
             return jnp.exp(-g * d2) @ wc
 
@@ -204,8 +203,7 @@ def evaluate_subgrids(svdd, corners, h, n, block=2048, count=None):
 
     Separable (the grids are tensor products): exp(-gamma |x - p|^2) is the product of one
     factor per axis, so each box and support point costs 3 n exponentials and a batched matrix
-    product instead of n^3 exponentials (2.7x faster at n = 4, 8x for a whole 32^3 grid,
-    measured on 2 CPU cores; n = 2 gains nothing). Same chunks, cutoff and ``count`` as
+    product instead of n^3 exponentials. Same chunks, cutoff and ``count`` as
     ``evaluate_on_grid``; no derivatives (used under ``stop_gradient``).
     """
     svdd = jax.lax.stop_gradient(svdd)
@@ -248,8 +246,9 @@ def evaluate_children(svdd, lo, h, cells, n, block=512, count=None):
     The children lie on a lattice of n points per axis, where exp(-gamma |x - p|^2) factors per
     axis: the factors of every lattice line and support point are tabulated once (3 n m
     exponentials), and each cell's 8 children cost 12 products and a (8, chunk) @ (chunk, 4)
-    product per chunk, no exponential (2x faster than ``evaluate_on_grid`` on FAUST meshes,
-    float32). Same chunks, cutoff and ``count`` (in cells) as ``evaluate_on_grid``; no derivatives.
+    product per chunk, no exponential; products of tabulated factors also keep more digits in
+    float32 than the expanded distances. Same chunks, cutoff and ``count`` (in cells) as
+    ``evaluate_on_grid``; no derivatives.
     Tables over ``TABLE_BYTES`` (n m > ~2e7 in float32): the children are evaluated directly.
     """
     svdd = jax.lax.stop_gradient(svdd)

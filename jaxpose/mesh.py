@@ -133,12 +133,12 @@ def sample_surface(mesh, count, seed=0, method="even"):
     if method not in SAMPLING:
         raise InvalidInputError(f"unknown sampling {method!r}; valid: {', '.join(SAMPLING)}")
     rng = np.random.default_rng(seed)
-    vertices, faces = baselines._geometry(load(mesh))
+    vertices, faces = baselines.split_geometry(load(mesh))
     if faces is None:
         index = rng.choice(len(vertices), size=count, replace=len(vertices) < count)
         return vertices[index].copy()
     triangles = vertices[faces]  # (f, 3, 3)
-    areas = baselines._areas(triangles)
+    areas = baselines.triangle_areas(triangles)
     if method == "random":
         face = rng.choice(len(faces), size=count, p=areas / areas.sum())
     else:

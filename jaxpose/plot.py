@@ -94,7 +94,7 @@ def region_slices(svdd_or_points, gamma=47.0, nu=0.5, *, center=None, planes=("x
 
     svdd_or_points : an :class:`jaxpose.SVDD` (drawn in its own units) or (m, 3) surface
         samples, fitted here like :func:`jaxpose.normalize` does: pre-scaled by
-        :func:`jaxpose.pose.reference_frame`, ``gamma`` dimensionless; drawn in the units of
+        :func:`jaxpose.frame.reference_frame`, ``gamma`` dimensionless; drawn in the units of
         the points
     center : (3,) where the slices cut; default the region's centroid c_m (eq. 4): for points,
         ``jaxpose.normalize(points, gamma, nu, **normalize_options).center`` (its compilation is
@@ -107,7 +107,8 @@ def region_slices(svdd_or_points, gamma=47.0, nu=0.5, *, center=None, planes=("x
     import jax.numpy as jnp
 
     from jaxpose.moments import volume_moments
-    from jaxpose.pose import normalize, reference_frame
+    from jaxpose.frame import reference_frame
+    from jaxpose.pose import normalize
     from jaxpose.svdd import SVDD, decision_function, fit_svdd
 
     if isinstance(svdd_or_points, SVDD):

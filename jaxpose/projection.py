@@ -18,8 +18,7 @@ __all__ = ["projection_capped_simplex"]
 def _find_tau(y, cap, max_steps):
     """tau with sum(clip(y - tau, 0, cap)) = 1: Newton steps on that piecewise-linear, decreasing
     sum, kept in a bracket [lo, hi] (bisection when a step would leave it), until the sum is 1 to
-    rounding or tau stops moving, at most max_steps. Issue 5: at m = 2000, float32, 8 us against 48 us
-    for the 40 bisection steps it replaced (2-7 steps), and the pg fit on FAUST meshes 28-30 ms against 39-41."""
+    rounding or tau stops moving, at most max_steps (typically 2-7 steps). () float."""
     dtype = y.dtype
     lo = jnp.min(y) - jnp.max(cap)  # sum(clip(y - lo, 0, C)) = sum(C) >= 1
     hi = jnp.max(y)  # sum = 0

@@ -1,4 +1,4 @@
-"""Gradient-based tuning of (gamma, nu) for consistent centers (issue 3).
+"""Gradient-based tuning of (gamma, nu) for consistent centers.
 
 Objective: the average over classes of the within-class dispersion of the center,
 
@@ -12,8 +12,8 @@ implicit derivative, d/dnu the secant slope over nu (1 +- 1.5 %) (see
 ``jaxpose.sensitivity``).
 
 Every object of a class is sampled with the same point count, so a class is one
-stacked (n, m, 3) array and the pose is ``jax.vmap`` of ``sensitivity._pose``
-with static options: the objective and its gradient are compiled once per class
+stacked (n, m, 3) array and the pose is ``jax.vmap`` of ``pose.pose_pipeline``
+with a static config: the objective and its gradient are compiled once per class
 shape and never re-traced inside the loop.
 """
 from __future__ import annotations
@@ -31,8 +31,9 @@ import jax.numpy as jnp
 import numpy as np
 
 from . import _validate
-from .pose import DEFAULTS, _options
-from .sensitivity import NU_DELTA, _pose
+from .config import PoseConfig
+from .pose import pose_pipeline
+from .sensitivity import NU_DELTA
 
 __all__ = ["tune", "objective", "cli"]
 
@@ -56,9 +57,9 @@ def _start_theta(gamma0, nu0):
     return jnp.asarray([math.log(gamma0), _logit(u)])
 
 
-def _class_stats(points, gamma, nu, opts, nu_delta):
+def _class_stats(points, gamma, nu, config):
     """points (n, m, 3) -> (sigma_tr, cv of scale, all valid) for one class."""
-    fn = lambda p: _pose(p, gamma, nu, **opts, nu_delta=nu_delta)
+    fn = lambda p: pose_pipeline(p, None, gamma, nu, config)
     pose = jax.vmap(fn)(points)
     c = pose.center
     d = c - jnp.mean(c, axis=0)
@@ -68,11 +69,11 @@ def _class_stats(points, gamma, nu, opts, nu_delta):
     return sigma, cv, jnp.all(pose.valid)
 
 
-def _make_loss(opts, nu_delta, scale_weight):
+def _make_loss(config, scale_weight):
     @jax.jit
     def class_loss(theta, points):
         gamma, nu = _from_theta(theta)
-        sigma, cv, ok = _class_stats(points, gamma, nu, opts, nu_delta)
+        sigma, cv, ok = _class_stats(points, gamma, nu, config)
         return sigma + scale_weight * cv, (sigma, cv, ok)
 
     def value_and_grad(theta, points):
@@ -143,10 +144,7 @@ def tune(classes, gamma0=47.0, nu0=0.5, steps=20, lr=0.05, scale_weight=0.0, hol
     """
     import optax
 
-    unknown = set(normalize_options) - set(DEFAULTS)
-    if unknown:
-        raise _validate.InvalidInputError(f"unknown options {sorted(unknown)}; valid: {sorted(DEFAULTS)}")
-    opts = _options(**{**DEFAULTS, **normalize_options})
+    config = PoseConfig.create(**{**normalize_options, "derivative": "secant", "nu_delta": nu_delta})
     _validate.check_gamma(gamma0)
     _validate.check_nu(nu0)
     if int(steps) < 0:
@@ -154,7 +152,7 @@ def tune(classes, gamma0=47.0, nu0=0.5, steps=20, lr=0.05, scale_weight=0.0, hol
     train, test = _split(dict(classes), float(holdout), int(seed))
     train_s = _stack(train, "classes")
     test_s = _stack(test, "classes") if test else {}
-    class_loss, class_vg = _make_loss(opts, float(nu_delta), float(scale_weight))
+    class_loss, class_vg = _make_loss(config, float(scale_weight))
     say = progress or (lambda _msg: None)
 
     theta = _start_theta(float(gamma0), float(nu0))
@@ -202,7 +200,7 @@ def tune(classes, gamma0=47.0, nu0=0.5, steps=20, lr=0.05, scale_weight=0.0, hol
         holdout=None,
         trajectory=trajectory,
         steps=int(steps), lr=float(lr), scale_weight=float(scale_weight), seed=int(seed),
-        options={k: v for k, v in opts.items()}, nu_delta=float(nu_delta),
+        options=config.flat(), nu_delta=float(nu_delta),
         seconds=elapsed,
     )
     if test_s:

@@ -2,12 +2,16 @@
 from __future__ import annotations
 
 import pathlib
+import sys
 
 import jax
 import numpy as np
 import pytest
 
-SHARED = pathlib.Path(__file__).resolve().parents[1].parent / "shared"
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:  # benchmarks/ is importable from a source checkout
+    sys.path.insert(0, str(ROOT))
+SHARED = ROOT.parent / "shared"
 FAUST = SHARED / "data" / "faust-dev"
 
 

@@ -31,8 +31,7 @@ def fake_normalize(monkeypatch):
         calls.append(options)
         return SimpleNamespace(center=gamma * np.asarray(points).mean(axis=0), scale=1.0 + nu, converged=True)
 
-    monkeypatch.setattr(jaxpose, "normalize", normalize, raising=False)
-    monkeypatch.delattr(jaxpose, "normalize_batch", raising=False)
+    monkeypatch.setattr(jaxpose.pose, "normalize", normalize)
     return calls
 
 
@@ -208,7 +207,7 @@ def test_sweep_with_fake_normalize(fake_normalize):
 
 
 def test_evaluate_with_sweep_flag(fake_normalize, monkeypatch):
-    monkeypatch.setattr(evaluation, "SWEEP_VALUES", {"gamma": (1.0, 2.0), "nu": (0.1,)})
+    monkeypatch.setattr(evaluation.consistency, "SWEEP_VALUES", {"gamma": (1.0, 2.0), "nu": (0.1,)})
     result = evaluate({"boxes": _boxes()}, methods=["surface_centroid"], count=100, sweep=True)
     assert set(result["sweeps"]) == {"gamma", "nu"}
     assert result["sweeps"]["gamma"]["values"] == [1.0, 2.0]
@@ -227,7 +226,6 @@ def test_format_table():
 
 
 # ------------------------------------------------------------------ end to end
-@pytest.mark.skipif(not hasattr(jaxpose, "normalize"), reason="jaxpose.normalize not available yet")
 def test_evaluate_end_to_end_small():
     from jaxpose.datasets import make_dataset
 

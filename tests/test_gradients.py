@@ -44,11 +44,14 @@ def _vec(p):
 
 
 def _fn(points, **opts):
-    """(gamma, nu) -> [center, scale] of the production pipeline (``pose._normalize``)."""
-    from jaxpose.pose import _normalize
+    """(gamma, nu) -> [center, scale] of the production pipeline (``pose.pose_pipeline``)."""
+    from jaxpose.config import PoseConfig
+    from jaxpose.pose import pose_pipeline
+
+    config = PoseConfig.create(**opts)
 
     def f(g, n):
-        p = _normalize(points, None, jnp.asarray(g, points.dtype), jnp.asarray(n, points.dtype), **{**jaxpose.pose.DEFAULTS, **opts})
+        p = pose_pipeline(points, None, jnp.asarray(g, points.dtype), jnp.asarray(n, points.dtype), config)
         return jnp.concatenate([p.center, p.scale[None]])
 
     return f
@@ -70,17 +73,17 @@ def _structure(points, **opts):
     """jitted (gamma, nu) -> the discrete state the production function branches on: solver
     iterations, SVDD status of each point (0 zero, 1 free, 2 at the cap), the cells (centers
     and constant factors: box and refinement) and each cell's occupancy class (0, ramp, 1)."""
-    from jaxpose.pose import DEFAULTS, prescale
-    from jaxpose.svdd import _fit
+    from jaxpose.config import PoseConfig
+    from jaxpose.frame import prescale
+    from jaxpose.svdd import solve_svdd
 
-    o = {**DEFAULTS, **opts}
+    config = PoseConfig.create(**opts)
 
     @jax.jit
     def state(g, n):
         y, _, _ = prescale(points)
-        s = _fit(y, g, n, None, None, tol=o["tol"], max_iter=o["max_iter"], check_every=o["check_every"],
-                 kernel=o["kernel"], block=o["block"])
-        x, occ, fac, _, _, _ = moments._cells(s, o["resolution"], o["block"], o["refine"], o["band"])
+        s = solve_svdd(y, g, n, None, None, config.svdd)
+        x, occ, fac, _, _, _ = moments.discretize(s, config.grid)
         status = (s.alpha > 0).astype(int) + (s.alpha >= s.cap).astype(int)
         return dict(iterations=s.iterations, status=status, x=x, fac=fac,
                     ramp=(occ > 0).astype(int) + (occ >= 1).astype(int))
@@ -167,11 +170,7 @@ def test_forward_reverse_jit_vmap_agree(small_points):
     # vmap over point sets (forward mode inside; reverse mode of the core under vmap is
     # covered by jax.grad in test_core_normalize_differentiable_in_gamma and tuning's jacfwd(vmap))
     P = jnp.stack([shape_points, shape_points + 1.0])
-    from jaxpose.pose import DEFAULTS
-    from jaxpose.sensitivity import _pose
-
-    o = {**DEFAULTS, **opts}
-    gs = jax.vmap(lambda p: jax.jacfwd(lambda t: _pose(p, t[0], t[1], **o).scale)(t))(P)
+    gs = jax.vmap(lambda p: jax.jacfwd(lambda t: pose(p, t[0], t[1], **opts).scale)(t))(P)
     np.testing.assert_allclose(gs[0], Jf[3], rtol=1e-6, atol=1e-10)
     np.testing.assert_allclose(gs[1], Jf[3], rtol=1e-5, atol=1e-9)  # translation invariance
 
@@ -282,8 +281,9 @@ def sweep(m=400, opts=OPTS, report=print):
     largest certified step (``gamma_check``), with the switches found at the larger steps;
     d/dnu (secant) vs production FD at 1 % and 2 % steps, and the number of points changing
     status over +-2 % of nu."""
-    from jaxpose.pose import reference_frame
-    from jaxpose.svdd import _fit
+    from jaxpose.config import SolverConfig
+    from jaxpose.frame import reference_frame
+    from jaxpose.svdd import solve_svdd
 
     rows = []
     for name, mesh in _sweep_shapes().items():
@@ -302,7 +302,7 @@ def sweep(m=400, opts=OPTS, report=print):
             y = (pts - mean) / size
             st = []
             for nn in (n * 0.98, n * 1.02):
-                s = _fit(y, g, nn, None, None, tol=1e-7, max_iter=200_000, check_every=10, kernel="auto", block=2048)
+                s = solve_svdd(y, g, nn, None, None, SolverConfig(tol=1e-7, max_iter=200_000))
                 st.append(np.asarray((s.alpha > 0).astype(int) + (s.alpha >= s.cap).astype(int)))
             row = dict(shape=name, gamma=g, nu=n, gamma_rel=r["rel"], gamma_ok=r["ok"], gamma_step=r["step"],
                        gamma_certified=r["certified"], gamma_per_step=r["per_step"],

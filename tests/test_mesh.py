@@ -1,8 +1,6 @@
 """Mesh I/O, surface sampling, normalize_mesh and atomic export."""
 import hashlib
 import sys
-import types
-from typing import NamedTuple
 
 import numpy as np
 import pytest
@@ -13,56 +11,6 @@ from jaxpose._validate import InvalidInputError
 
 
 # --------------------------------------------------------------------------- helpers
-class _StandInPose(NamedTuple):
-    """Used only while jaxpose.pose (the lead's module) lacks Pose.from_center_scale."""
-
-    center: np.ndarray
-    scale: float
-    matrix: np.ndarray
-
-    @classmethod
-    def from_center_scale(cls, center, scale):
-        center = np.asarray(center, float)
-        matrix = np.eye(4)
-        matrix[:3, :3] /= scale
-        matrix[:3, 3] = -center / scale
-        return cls(center, float(scale), matrix)
-
-    def apply(self, x):
-        return (np.asarray(x) - self.center) / self.scale
-
-
-def _real_pose_module():
-    try:
-        from jaxpose import pose
-    except ImportError:
-        return None
-    return pose if hasattr(getattr(pose, "Pose", None), "from_center_scale") else None
-
-
-@pytest.fixture
-def pose_api(monkeypatch):
-    """jaxpose.pose, or a stand-in with Pose.from_center_scale while it does not exist."""
-    real = _real_pose_module()
-    if real is not None:
-        return real
-    fake = types.ModuleType("jaxpose.pose")
-    fake.Pose = _StandInPose
-
-    def normalize(*args, **kwargs):  # pragma: no cover - ocsvm tests skip without the real one
-        raise ImportError("jaxpose.pose.normalize is not written yet")
-
-    fake.normalize = normalize
-    monkeypatch.setitem(sys.modules, "jaxpose.pose", fake)
-    return fake
-
-
-needs_real_pose = pytest.mark.skipif(
-    _real_pose_module() is None or not hasattr(_real_pose_module(), "normalize"),
-    reason="jaxpose.pose.normalize not available yet",
-)
-
-
 def digest(path):
     with open(path, "rb") as handle:
         return hashlib.sha256(handle.read()).hexdigest()
@@ -215,7 +163,7 @@ def test_sample_surface_validation(kwargs, message):
 
 
 # --------------------------------------------------------------------------- normalize_mesh
-def test_normalize_mesh_surface_centroid(pose_api, tmp_path):
+def test_normalize_mesh_surface_centroid(tmp_path):
     shape = lumpy()
     shape.apply_translation([3.0, -1.0, 2.0])
     shape.apply_scale(2.0)
@@ -245,14 +193,14 @@ def test_normalize_mesh_surface_centroid(pose_api, tmp_path):
         ("min_ball", lambda m: abs(baselines.min_ball(m)[1] - 1.0) + np.linalg.norm(baselines.min_ball(m)[0])),
     ],
 )
-def test_normalize_mesh_baselines(pose_api, method, check):
+def test_normalize_mesh_baselines(method, check):
     shape = lumpy()
     shape.apply_translation([0.5, 0.25, -4.0])
     normalized, _ = mesh.normalize_mesh(shape, method=method)
     assert check(normalized) < 1e-6  # float32 poses unless JAX x64 is on
 
 
-def test_normalize_point_cloud(pose_api):
+def test_normalize_point_cloud():
     points = np.random.default_rng(0).normal(size=(300, 3)) + 5.0
     normalized, _ = mesh.normalize_mesh(trimesh.PointCloud(points), method="surface_centroid")
     assert isinstance(normalized, trimesh.PointCloud)
@@ -268,12 +216,11 @@ def test_normalize_point_cloud(pose_api):
         ({"method": "bbox", "resolution": 32}, "options"),
     ],
 )
-def test_normalize_mesh_validation(pose_api, kwargs, message):
+def test_normalize_mesh_validation(kwargs, message):
     with pytest.raises(InvalidInputError, match=message):
         mesh.normalize_mesh(lumpy(), **kwargs)
 
 
-@needs_real_pose
 def test_normalize_mesh_ocsvm():
     shape = mesh.example_shape()
     shape.apply_translation([1.0, 2.0, 3.0])

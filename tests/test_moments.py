@@ -4,7 +4,9 @@ import numpy as np
 import pytest
 
 from jaxpose.grid import cell_centers, domain, evaluate_on_grid
-from jaxpose.moments import moments_from_occupancy, occupancy, volume_moments, _volume_moments
+from jaxpose.config import GridConfig
+from jaxpose.grid import CHILD_OFFSETS
+from jaxpose.moments import discretize, moments_from_occupancy, occupancy, region_moments, volume_moments
 from jaxpose.svdd import SVDD, decision_function, fit_svdd
 from conftest import box_surface, clusters, sphere_with_arm
 
@@ -95,7 +97,7 @@ def test_grid_gradient_matches_autodiff(x64):
 
 def test_band_refinement_matches_fine_grid(x64):
     svdd = fit_svdd(sphere_with_arm(600), 47.0, 0.5)
-    fine = _volume_moments(svdd, 128, 4096, refine=1, band=0)
+    fine = region_moments(svdd, GridConfig(resolution=128, block=4096, refine=1, band=0))
     banded = volume_moments(svdd, resolution=32, refine=4, band=32**3, extrapolate=False)
     assert int(banded.unrefined) == 0
     # both are the same O(h^2) estimate (errors of a few 1e-4 here): refining only the band loses nothing
@@ -143,24 +145,23 @@ def test_domain_is_snapped_and_piecewise_constant(x64):
 
 
 def test_boundary_tangent_equals_tangent_through_all_cells(x64):
-    """_volume_moments differentiates f only at the cells cut by the boundary; the same
+    """region_moments differentiates f only at the cells cut by the boundary; the same
     moments differentiated through every cell, with f written out densely (no skipped chunks),
     give the same JVP and VJP. The alpha tangent is nonzero at points with alpha = 0 too (as
     the secant nu-slope is, where points enter the support): their terms must not be skipped."""
     import jax
 
     from jaxpose.grid import SV_CHUNK
-    from jaxpose.moments import _cells
 
     m = 600
     svdd = fit_svdd(sphere_with_arm(m), 47.0, 0.5, tol=1e-6)
     assert int(jnp.sum(svdd.alpha == 0)) >= m % SV_CHUNK  # a whole chunk of alpha = 0 exists
     args = (svdd.alpha, svdd.gamma, svdd.offset, svdd.points)
-    x, occ, fac, hc, h, _ = jax.jit(_cells, static_argnums=(1, 2, 3, 4))(svdd, 8, 512, 4, 256)
+    x, occ, fac, hc, h, _ = jax.jit(discretize, static_argnums=(1,))(svdd, GridConfig(resolution=8, block=512, refine=4, band=256))
     assert 0 < int(jnp.sum((occ > 0) & (occ < 1) & (fac > 0))) < x.shape[0] // 2
 
     def fast(a, g, o, p):
-        m = _volume_moments(svdd._replace(alpha=a, gamma=g, offset=o, points=p), 8, 512, 4, 256)
+        m = region_moments(svdd._replace(alpha=a, gamma=g, offset=o, points=p), GridConfig(resolution=8, block=512, refine=4, band=256))
         return jnp.concatenate([m.center, m.mean_distance[None], m.volume[None]])
 
     def dense(a, g, o, p):  # every cell differentiated (the grid is piecewise constant: same cells)
@@ -186,7 +187,7 @@ def test_boundary_tangent_equals_tangent_through_all_cells(x64):
     t_in = (jnp.where(svdd.alpha != 0, tangents[0], 0.0),) + tangents[1:]
 
     def fast_in(a, g, o, p):
-        m = _volume_moments(svdd._replace(alpha=a, gamma=g, offset=o, points=p), 8, 512, 4, 256, outside=False)
+        m = region_moments(svdd._replace(alpha=a, gamma=g, offset=o, points=p), GridConfig(resolution=8, block=512, refine=4, band=256), outside=False)
         return jnp.concatenate([m.center, m.mean_distance[None], m.volume[None]])
 
     _, t3 = jax.jit(lambda a, t: jax.jvp(fast_in, a, t))(args, t_in)
@@ -298,12 +299,11 @@ def _lattice_cells(rng, lo, h, n, k):
 
 def test_children_from_tables_equal_direct_evaluation(x64, monkeypatch):
     """evaluate_children (per-axis factor tables on the children's lattice, no exponential per child)
-    gives f and grad f of the direct sums at every child, in ``_CHILDREN`` order; count in cells; the
+    gives f and grad f of the direct sums at every child, in ``CHILD_OFFSETS`` order; count in cells; the
     direct fallback when the tables would be too big gives the same."""
     import jax
 
     from jaxpose import grid
-    from jaxpose.moments import _CHILDREN
 
     svdd, rng = _segment_svdd()
     lo, hi = domain(svdd)
@@ -312,7 +312,7 @@ def test_children_from_tables_equal_direct_evaluation(x64, monkeypatch):
     cells = _lattice_cells(rng, np.asarray(lo), np.asarray(h), n, 700)
     f, g = grid.evaluate_children(svdd, lo, h, cells, n, block=64)
     assert f.shape == (700, 8) and g.shape == (700, 8, 3)
-    x = (cells[:, None, :] + _CHILDREN * h).reshape(-1, 3)
+    x = (cells[:, None, :] + CHILD_OFFSETS * h).reshape(-1, 3)
     np.testing.assert_allclose(np.asarray(f).reshape(-1), np.asarray(decision_function(svdd, x)), atol=1e-13)
     g_ad = jax.vmap(jax.grad(lambda p: decision_function(svdd, p[None])[0]))(x)
     np.testing.assert_allclose(np.asarray(g).reshape(-1, 3), np.asarray(g_ad), atol=1e-11)
@@ -333,20 +333,19 @@ def test_children_from_tables_are_accurate_in_float32():
     import jax
 
     from jaxpose import grid
-    from jaxpose.moments import _CHILDREN
 
     with jax.enable_x64(True):
         svdd64, rng = _segment_svdd()
         lo, hi = domain(svdd64)
         h = (hi - lo) / 32
         cells = _lattice_cells(rng, np.asarray(lo), np.asarray(h), 64, 700)
-        x = (cells[:, None, :] + _CHILDREN * h).reshape(-1, 3)
+        x = (cells[:, None, :] + CHILD_OFFSETS * h).reshape(-1, 3)
         exact = np.asarray(decision_function(svdd64, x))
     svdd = jax.tree_util.tree_map(lambda a: jnp.asarray(a, jnp.float32) if jnp.issubdtype(a.dtype, jnp.floating) else jnp.asarray(a),
                                   svdd64)
     c32, lo32, h32 = (jnp.asarray(np.asarray(a), jnp.float32) for a in (cells, lo, h))
     f, _ = grid.evaluate_children(svdd, lo32, h32, c32, 64, block=64)
-    direct, _ = evaluate_on_grid(svdd, (c32[:, None, :] + _CHILDREN * h32).reshape(-1, 3))
+    direct, _ = evaluate_on_grid(svdd, (c32[:, None, :] + CHILD_OFFSETS * h32).reshape(-1, 3))
     err_tables = np.max(np.abs(np.asarray(f, np.float64).reshape(-1) - exact))
     err_direct = np.max(np.abs(np.asarray(direct, np.float64) - exact))
     mu = float(svdd64.offset)  # f = 2 k^T alpha - mu: its rounding is eps * mu
@@ -362,10 +361,10 @@ def test_refinement_with_tables_equals_direct_children(x64, monkeypatch):
     from jaxpose import grid
 
     svdd = fit_svdd(sphere_with_arm(500), 47.0, 0.5)
-    a = _volume_moments(svdd, 16, 512, 8, 8192)
-    batched = jax.vmap(lambda s: _volume_moments(s, 16, 512, 8, 8192))(jax.tree_util.tree_map(lambda v: v[None], svdd))
+    a = region_moments(svdd, GridConfig(resolution=16, block=512, refine=8, band=8192))
+    batched = jax.vmap(lambda s: region_moments(s, GridConfig(resolution=16, block=512, refine=8, band=8192)))(jax.tree_util.tree_map(lambda v: v[None], svdd))
     monkeypatch.setattr(grid, "TABLE_BYTES", 0)
-    b = _volume_moments(svdd, 16, 512, 8, 8192)
+    b = region_moments(svdd, GridConfig(resolution=16, block=512, refine=8, band=8192))
     assert int(a.unrefined) == int(b.unrefined) == 0
     for u, v, w in zip(a, b, batched):
         np.testing.assert_allclose(np.asarray(u), np.asarray(v), rtol=1e-12, atol=1e-14)
@@ -384,17 +383,17 @@ def test_last_level_band_holds_every_cut_cell(x64):
     x, h, f, g = grid.evaluate_grid(svdd, lo, hi, 32)
     occ = occupancy(f, g, h)
     cut_linear = (occ > 0) & (occ < 1)
-    band = np.asarray(cut_linear | (moments._band_score(f, g, h, svdd.gamma, svdd.offset) < 1))
-    last = np.asarray(cut_linear | (moments._band_score(f, g, h, svdd.gamma, svdd.offset, *moments.LAST_BAND) < 1))
+    band = np.asarray(cut_linear | (moments.band_score(f, g, h, svdd.gamma, svdd.offset) < 1))
+    last = np.asarray(cut_linear | (moments.band_score(f, g, h, svdd.gamma, svdd.offset, *moments.LAST_BAND) < 1))
     idx = np.nonzero(band)[0]
-    children = (x[idx][:, None, :] + moments._CHILDREN * h).reshape(-1, 3)
+    children = (x[idx][:, None, :] + CHILD_OFFSETS * h).reshape(-1, 3)
     oc = np.asarray(occupancy(*evaluate_on_grid(svdd, children), h / 2)).reshape(-1, 8)
     cut = np.any((oc > 0) & (oc < 1), axis=1) | (np.any(oc > 0, axis=1) & np.any(oc < 1, axis=1))
     assert cut.sum() > 500
     assert not np.any(cut & ~last[idx]), int(np.sum(cut & ~last[idx]))
     assert last.sum() < 0.7 * band.sum()  # and it is narrower than the full band
     # without the curvature allowance cut cells are missed here: the check can fail
-    linear_only = np.asarray(cut_linear | (moments._band_score(f, g, h, svdd.gamma, svdd.offset, 0.5, 0.0) < 1))
+    linear_only = np.asarray(cut_linear | (moments.band_score(f, g, h, svdd.gamma, svdd.offset, 0.5, 0.0) < 1))
     assert np.any(cut & ~linear_only[idx])
 
 
@@ -412,7 +411,7 @@ def test_select_fits_by_index_or_overflows_by_score(n_want):
     score[want] = rng.uniform(-1.5, 0.99, n_want)
     x = jnp.asarray(rng.uniform(size=(n, 3)))
     lo, hi = jnp.zeros(3), jnp.ones(3)
-    idx, chosen = moments._select(jnp.asarray(score), k, x, lo, hi)
+    idx, chosen = moments.select_cells(jnp.asarray(score), k, x, lo, hi)
     idx, chosen = np.asarray(idx), np.asarray(chosen)
     assert idx.shape == chosen.shape == (k,)
     assert np.all(chosen[: chosen.sum()])  # a prefix

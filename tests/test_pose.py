@@ -5,8 +5,9 @@ import numpy as np
 import pytest
 
 import jaxpose
-from jaxpose.moments import _volume_moments, volume_moments
-from jaxpose.pose import Pose, normalize, reference_frame
+from jaxpose.moments import volume_moments
+from jaxpose.frame import reference_frame
+from jaxpose.pose import Pose, normalize
 from jaxpose.svdd import fit_svdd
 from conftest import box_surface, clusters, faust_points, sphere_with_arm
 

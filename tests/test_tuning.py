@@ -80,9 +80,10 @@ def test_tune_zero_steps_and_validation():
 
 def test_gradient_matches_finite_difference_of_objective():
     classes = {"box": _classes(count=200, n=3)["box"]}
-    opts = {**jaxpose.pose.DEFAULTS, **dict(resolution=10, refine=2, band=512, tol=1e-6, max_iter=100_000)}
+    config = jaxpose.PoseConfig.create(resolution=10, refine=2, band=512, tol=1e-6, max_iter=100_000,
+                                       derivative="secant")
     stacked = tuning._stack(classes, "classes")
-    class_loss, class_vg = tuning._make_loss(opts, 0.015, 0.0)
+    class_loss, class_vg = tuning._make_loss(config, 0.0)
     theta = tuning._start_theta(47.0, 0.5)
     (_, _), grad = class_vg(theta, stacked["box"])
     e = 0.01

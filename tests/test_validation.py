@@ -146,7 +146,7 @@ def test_normalize_batch_bad_input():
         jaxpose.normalize_batch([])
     with pytest.raises(InvalidInputError, match="pad_to"):
         jaxpose.normalize_batch([P], pad_to=10)
-    with pytest.raises(InvalidInputError, match="unknown options"):
+    with pytest.raises(InvalidInputError, match="unknown option foo"):
         jaxpose.normalize_batch([P], foo=1)
     with pytest.raises(InvalidInputError, match="concrete"):
         jax.jit(lambda p: jaxpose.normalize_batch([p]).scale)(jnp.asarray(P))

@@ -1,4 +1,4 @@
-r"""Consistency of centers and scales within classes (paper, section 4.2).
+r"""Consistency of centers and scales within classes (paper, section 4.2): ``evaluate`` and ``sweep``.
 
 Every object of a class shares the pose of its rigid core (no similarity transform was applied
 to them), so a good translation/scale normalization gives the same center and scale to all of
@@ -32,10 +32,12 @@ import time
 
 import numpy as np
 
-from jaxpose import baselines
-from jaxpose._validate import InvalidInputError
+from .. import baselines
+from .._validate import InvalidInputError
+from . import alignment
+from .measures import scale_spread, spread
 
-__all__ = ["METHODS", "spread", "scale_spread", "evaluate", "sweep", "align_core", "format_table"]
+__all__ = ["METHODS", "evaluate", "sweep", "format_table", "SWEEP_VALUES", "SWEEP_FIXED"]
 
 METHODS = ("ocsvm", "surface_centroid", "vertex_mean", "bbox", "min_ball")
 _BASELINES = {  # method -> (baselines center, baselines scale)
@@ -49,95 +51,10 @@ SWEEP_VALUES = {"gamma": (1.0, 2.0, 5.0, 10.0, 20.0, 30.0, 40.0, 47.0, 50.0),
 SWEEP_FIXED = {"gamma": {"nu": 0.0}, "nu": {"gamma": 47.0}}  # the paper's Fig. 5 (a), (b)
 
 
-# ------------------------------------------------------------------ measures
-def spread(centers) -> dict:
-    """``{"sigma_tr", "sigma_tr_axis"}`` of an (n, 3) array of one class's centers (module doc)."""
-    c = np.asarray(centers, dtype=np.float64)
-    if c.ndim != 2 or c.shape[1] != 3 or len(c) == 0:
-        raise InvalidInputError(f"centers must have shape (n, 3) with n >= 1, got {c.shape}")
-    if not np.all(np.isfinite(c)):
-        raise InvalidInputError("centers must be finite")
-    d = c - c.mean(axis=0)
-    return {"sigma_tr": float(np.sqrt(np.mean(np.sum(d * d, axis=1)))),
-            "sigma_tr_axis": float(np.mean(np.std(c, axis=0)))}
-
-
-def scale_spread(scales) -> dict:
-    """``{"sigma_scale", "cv_scale"}`` of the (n,) scales of one class (module doc)."""
-    s = np.asarray(scales, dtype=np.float64)
-    if s.ndim != 1 or len(s) == 0 or not np.all(np.isfinite(s)) or np.any(s <= 0):
-        raise InvalidInputError(f"scales must be an (n,) array of positive finite values, got {s!r}")
-    sigma = float(np.std(s))
-    return {"sigma_scale": sigma, "cv_scale": sigma / float(np.mean(s))}
-
-
-# ------------------------------------------------------------------ rigid-core alignment
-def _kabsch(x, y):
-    """Rotation r (3, 3) and translation t (3,) minimising sum |r x_i + t - y_i|^2."""
-    mx, my = x.mean(axis=0), y.mean(axis=0)
-    u, _, vt = np.linalg.svd((x - mx).T @ (y - my))
-    d = np.sign(np.linalg.det(vt.T @ u.T)) or 1.0
-    r = vt.T @ np.diag([1.0, 1.0, d]) @ u.T
-    return r, my - r @ mx
-
-
-def align_core(meshes, keep: float = 0.3, iterations: int = 5):
-    """Rigidly align meshes sharing a vertex order onto the first one, on their stable part.
-
-    Each mesh is Kabsch-aligned (rotation + translation, no scale) to the first on all vertices;
-    then, ``iterations`` times, the ``keep`` fraction of vertices closest to the class's mean
-    aligned shape (smallest RMS residual over the meshes) is kept and every mesh re-aligned on
-    those only. The first mesh is returned unchanged; the 4x4 transform applied to each mesh is
-    in ``metadata["core_transform"]``.
-
-    meshes : sequence of Trimesh (or (n, 3) arrays) with the same n
-    Returns list of Trimesh (new objects, ``process=False``)
-    """
-    import trimesh
-
-    meshes = list(meshes)
-    if len(meshes) == 0:
-        raise InvalidInputError("align_core needs at least one mesh")
-    if not 0.0 < keep <= 1.0:
-        raise InvalidInputError(f"keep must be in (0, 1], got {keep}")
-    if int(iterations) != iterations or iterations < 0:
-        raise InvalidInputError(f"iterations must be an integer >= 0, got {iterations}")
-    vs = [np.asarray(getattr(m, "vertices", m), dtype=np.float64) for m in meshes]
-    counts = {v.shape for v in vs}
-    if len(counts) != 1 or vs[0].ndim != 2 or vs[0].shape[1] != 3:
-        raise InvalidInputError(f"align_core needs meshes with the same vertex count, got shapes {sorted(counts)}")
-    n = len(vs[0])
-    target, subset = vs[0], np.arange(n)
-    transforms = [(np.eye(3), np.zeros(3))] * len(vs)
-    for _ in range(int(iterations) + 1):  # the first pass uses every vertex
-        transforms = [_kabsch(v[subset], target[subset]) for v in vs]
-        aligned = np.stack([v @ r.T + t for v, (r, t) in zip(vs, transforms)])
-        residual = np.sqrt(np.mean(np.sum((aligned - aligned.mean(axis=0)) ** 2, axis=2), axis=0))
-        subset = np.argsort(residual, kind="stable")[: max(3, int(np.ceil(keep * n)))]
-    out = []
-    for k, (m, v, (r, t)) in enumerate(zip(meshes, vs, transforms)):
-        if k == 0:
-            r, t = np.eye(3), np.zeros(3)
-        matrix = np.eye(4)
-        matrix[:3, :3], matrix[:3, 3] = r, t
-        faces = getattr(m, "faces", None)
-        new = trimesh.Trimesh(v @ r.T + t, faces if faces is not None else np.zeros((0, 3), int), process=False)
-        new.metadata.update(getattr(m, "metadata", {}))
-        new.metadata["core_transform"] = matrix
-        out.append(new)
-    return out
-
-
-# ------------------------------------------------------------------ computing centers and scales
 def _sample(mesh, count, seed):
-    import jaxpose
+    from ..mesh import sample_surface
 
-    fn = getattr(jaxpose, "sample_surface", None)
-    if fn is None:
-        from jaxpose import mesh as _mesh
-
-        fn = _mesh.sample_surface
-    return np.asarray(fn(mesh, count, seed), dtype=np.float64)
+    return np.asarray(sample_surface(mesh, count, seed), dtype=np.float64)
 
 
 def _ocsvm(points_list, gamma, nu, options):
@@ -147,9 +64,9 @@ def _ocsvm(points_list, gamma, nu, options):
     than ``normalize_batch``, whose vmapped loops run every object as long as the slowest
     and cannot skip work per object.
     """
-    import jaxpose
+    from ..pose import normalize
 
-    poses = [jaxpose.normalize(p, gamma=gamma, nu=nu, **options) for p in points_list]
+    poses = [normalize(p, gamma=gamma, nu=nu, **options) for p in points_list]
     centers = np.stack([np.asarray(p.center, dtype=np.float64).reshape(3) for p in poses])
     scales = np.array([float(np.asarray(p.scale)) for p in poses])
     converged = [bool(np.asarray(p.converged)) for p in poses]
@@ -198,7 +115,7 @@ def evaluate(classes, gamma=47.0, nu=0.5, methods=None, count=2000, seed=0, alig
     gamma, nu, **normalize_options : passed to :func:`jaxpose.normalize` (or ``normalize_batch``)
     methods : subset of :data:`METHODS` (default all)
     count, seed : surface samples per mesh for ``ocsvm`` (the same seed for every mesh)
-    align_core : first rigidly align each class with :func:`align_core` (meshes of a class must
+    align_core : first rigidly align each class with :func:`jaxpose.evaluation.align_core` (meshes of a class must
         share their vertex order, as registrations do)
     progress : callable(str) or None, told when each class/method starts
     sweep : also run :func:`sweep` over gamma and nu (paper, Fig. 5) into ``result["sweeps"]``
@@ -213,7 +130,7 @@ def evaluate(classes, gamma=47.0, nu=0.5, methods=None, count=2000, seed=0, alig
     _check_classes(classes)
     methods = _check_methods(methods)
     if align_core:
-        classes = {name: globals()["align_core"](meshes) for name, meshes in classes.items()}
+        classes = {name: alignment.align_core(meshes) for name, meshes in classes.items()}
     per_class, seconds = {}, dict.fromkeys(methods, 0.0)
     for name, meshes in classes.items():
         per_class[name] = {}
@@ -239,9 +156,12 @@ def evaluate(classes, gamma=47.0, nu=0.5, methods=None, count=2000, seed=0, alig
               "normalize_options": {k: _jsonable(v) for k, v in normalize_options.items()}}
     result = {"params": params, "summary": summary, "per_class": per_class}
     if sweep:
-        result["sweeps"] = {p: globals()["sweep"](classes, p, count=count, seed=seed, progress=progress,
-                                                   **normalize_options) for p in ("gamma", "nu")}
+        result["sweeps"] = _both_sweeps(classes, count, seed, progress, normalize_options)
     return result
+
+
+def _both_sweeps(classes, count, seed, progress, options):
+    return {p: sweep(classes, p, count=count, seed=seed, progress=progress, **options) for p in ("gamma", "nu")}
 
 
 def _jsonable(value):

@@ -3,23 +3,23 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import _common
-from ._common import GAMMA, NU, UNAVAILABLE, _faust_dir, _grid_opts, _interleaved, _now, _ratio, load_points, prescale
-from ._sklearn import _feasibility, _sk_alpha, _sk_fit, dual_objective, sklearn_pipeline
+from . import common
+from .common import GAMMA, NU, UNAVAILABLE, faust_dir, grid_opts, interleaved, now, ratio, load_points, prescale
+from .sklearn_pipeline import feasibility, sk_alpha, sk_fit, dual_objective, sklearn_pipeline
 
 
 def bench_solver(points, gamma=GAMMA, nu=NU, repeats=5, tol=1e-3, use_sklearn=True):
     """Fit alone, both sides, interleaved; dual objectives and their relative difference."""
-    from ..svdd import fit_svdd
+    from jaxpose.svdd import fit_svdd
 
     y, _, _ = prescale(points)
     m = y.shape[0]
     cases = {"jaxpose": lambda: fit_svdd(y, gamma, nu, tol=tol, solver="pg"),  # the default up to 2500 points
              "jaxpose_auto": lambda: fit_svdd(y, gamma, nu, tol=tol, solver="auto")}  # SMO (then PG if needed)
-    sk = use_sklearn and _common.sklearn_available()
+    sk = use_sklearn and common.sklearn_available()
     if sk:
-        cases["sklearn"] = lambda: _sk_fit(y, gamma, nu)
-    times, last = _interleaved(cases, repeats)
+        cases["sklearn"] = lambda: sk_fit(y, gamma, nu)
+    times, last = interleaved(cases, repeats)
     ours = last["jaxpose"]
     a = np.asarray(ours.alpha, np.float64)
     cap = 1.0 / (nu * m)
@@ -28,7 +28,7 @@ def bench_solver(points, gamma=GAMMA, nu=NU, repeats=5, tol=1e-3, use_sklearn=Tr
         "jaxpose": {**times["jaxpose"], "iterations": int(ours.iterations),
                     "kkt_violation": float(ours.kkt_violation), "converged": bool(ours.converged),
                     "n_support": int(np.sum(a > 0)), "objective": dual_objective(y, a, gamma),
-                    "feasibility": _feasibility(a, cap)},
+                    "feasibility": feasibility(a, cap)},
     }
     pg = last["jaxpose_auto"]
     out["jaxpose_auto"] = {**times["jaxpose_auto"], "iterations": int(pg.iterations),
@@ -36,14 +36,14 @@ def bench_solver(points, gamma=GAMMA, nu=NU, repeats=5, tol=1e-3, use_sklearn=Tr
                          "objective": dual_objective(y, np.asarray(pg.alpha, np.float64), gamma)}
     if sk:
         oc = last["sklearn"]
-        b = _sk_alpha(oc, m, nu)
+        b = sk_alpha(oc, m, nu)
         out["sklearn"] = {**times["sklearn"], "iterations": int(np.ravel(oc.n_iter_)[0]),
                           "n_support": int(len(oc.support_)), "objective": dual_objective(y, b, gamma),
-                          "feasibility": _feasibility(b, cap)}
+                          "feasibility": feasibility(b, cap)}
         o, s = out["jaxpose"]["objective"], out["sklearn"]["objective"]
         out["objective_rel_diff"] = (o - s) / s
-        out["ratio"] = _ratio(out["jaxpose"], out["sklearn"])
-        out["ratio_auto"] = _ratio(out["jaxpose_auto"], out["sklearn"])
+        out["ratio"] = ratio(out["jaxpose"], out["sklearn"])
+        out["ratio_auto"] = ratio(out["jaxpose_auto"], out["sklearn"])
         out["objective_rel_diff_auto"] = (out["jaxpose_auto"]["objective"] - s) / s
     else:
         out["sklearn"] = UNAVAILABLE
@@ -55,18 +55,18 @@ def _reference(points, gamma, nu, resolution, refine, tol, max_iter):
     """High-resolution center/scale: tight fit, every boundary cell refined."""
     import jax.numpy as jnp
 
-    from ..moments import volume_moments
-    from ..svdd import fit_svdd
+    from jaxpose.moments import volume_moments
+    from jaxpose.svdd import fit_svdd
 
     y, mean, size = prescale(points)
-    t = _now()
+    t = now()
     svdd = fit_svdd(jnp.asarray(y), gamma, nu, tol=tol, max_iter=max_iter)
     mom = volume_moments(svdd, resolution=resolution, refine=refine, band=min(resolution**3, 65_536))
     center = mean + size * np.asarray(mom.center, np.float64)
     return {"center": center, "scale": size * float(mom.mean_distance), "fit_tol": tol,
             "resolution": resolution, "refine": refine, "boundary_resolution": resolution * refine,
             "converged": bool(svdd.converged), "kkt_violation": float(svdd.kkt_violation),
-            "unrefined": int(mom.unrefined), "time_s": _now() - t}
+            "unrefined": int(mom.unrefined), "time_s": now() - t}
 
 
 def _accuracy(center, scale, ref):
@@ -80,18 +80,18 @@ def bench_end2end(points, gamma=GAMMA, nu=NU, repeats=5, resolution=None, refine
                   ref_resolution=64, ref_refine=4, ref_tol=1e-4, ref_max_iter=20_000, use_sklearn=True, fit=None):
     """normalize vs the scikit-learn pipeline, per object; centers against a reference.
     resolution / refine: None = the defaults of ``normalize``."""
-    from ..pose import normalize
-    from ..svdd import pick_solver
+    from jaxpose.pose import normalize
+    from jaxpose.svdd import pick_solver
 
     m = len(points)
-    opts = _grid_opts(resolution, refine)
+    opts = grid_opts(resolution, refine)
     resolution, refine = opts["resolution"], opts["refine"]
     opts = {**opts, **(fit or {})}  # solver options of the jaxpose side
     cases = {"jaxpose": lambda: normalize(points, gamma, nu, **opts)}
-    sk = use_sklearn and _common.sklearn_available()
+    sk = use_sklearn and common.sklearn_available()
     if sk:
         cases["sklearn"] = lambda: sklearn_pipeline(points, gamma, nu, sk_resolution)
-    times, last = _interleaved(cases, repeats)
+    times, last = interleaved(cases, repeats)
     ref = _reference(points, gamma, nu, ref_resolution, ref_refine, ref_tol, ref_max_iter)
     pose = last["jaxpose"]
     center = np.asarray(pose.center, np.float64)
@@ -109,7 +109,7 @@ def bench_end2end(points, gamma=GAMMA, nu=NU, repeats=5, resolution=None, refine
         out["sklearn"] = {**times["sklearn"], "resolution": sk_resolution, "fit_s_last": res["fit_s"],
                           "grid_s_last": res["grid_s"], "n_support": res["n_support"],
                           **_accuracy(res["center"], res["scale"], ref)}
-        out["ratio"] = _ratio(out["jaxpose"], out["sklearn"])
+        out["ratio"] = ratio(out["jaxpose"], out["sklearn"])
     else:
         out["sklearn"] = UNAVAILABLE
         out["ratio"] = None
@@ -121,7 +121,7 @@ def _batch_objects(n, m, seed=0):
     sets, names = [], []
     for i in range(n):
         mi = max(8, int(round(m * (1.0 - 0.05 * (i % 4)))))
-        p, name = load_points(mi, seed=seed + i, index=i if _faust_dir() is not None else 0)
+        p, name = load_points(mi, seed=seed + i, index=i if faust_dir() is not None else 0)
         sets.append(p)
         names.append(name)
     return sets, names
@@ -130,18 +130,18 @@ def _batch_objects(n, m, seed=0):
 def bench_batch(n_objects=8, m=1000, gamma=GAMMA, nu=NU, repeats=3, resolution=None, refine=None, sk_resolution=64,
                 use_sklearn=True, fit=None):
     """Objects per second: normalize_batch vs a loop of normalize vs a loop of the sklearn pipeline."""
-    from ..pose import normalize, normalize_batch
+    from jaxpose.pose import normalize, normalize_batch
 
     sets, names = _batch_objects(n_objects, m)
-    opts = {**_grid_opts(resolution, refine), **(fit or {})}
+    opts = {**grid_opts(resolution, refine), **(fit or {})}
     cases = {
         "jaxpose_batch": lambda: normalize_batch(sets, gamma, nu, **opts),
         "jaxpose_loop": lambda: [normalize(p, gamma, nu, **opts) for p in sets],
     }
-    sk = use_sklearn and _common.sklearn_available()
+    sk = use_sklearn and common.sklearn_available()
     if sk:
         cases["sklearn_loop"] = lambda: [sklearn_pipeline(p, gamma, nu, sk_resolution) for p in sets]
-    times, last = _interleaved(cases, repeats)
+    times, last = interleaved(cases, repeats)
     bc = np.asarray(last["jaxpose_batch"].center, np.float64)
     lc = np.stack([np.asarray(p.center, np.float64) for p in last["jaxpose_loop"]])
     out = {"n_objects": n_objects, "m": [len(p) for p in sets], **opts, "sources": sorted(set(names)),
@@ -150,9 +150,9 @@ def bench_batch(n_objects=8, m=1000, gamma=GAMMA, nu=NU, repeats=3, resolution=N
         out[k] = {**v, "objects_per_s": n_objects / v["median_s"]}
     if not sk:
         out["sklearn_loop"] = UNAVAILABLE
-    out["ratio_batch_vs_sklearn"] = _ratio(out["jaxpose_batch"], out.get("sklearn_loop"))
-    out["ratio_loop_vs_sklearn"] = _ratio(out["jaxpose_loop"], out.get("sklearn_loop"))
-    out["ratio_batch_vs_loop"] = _ratio(out["jaxpose_batch"], out["jaxpose_loop"])
+    out["ratio_batch_vs_sklearn"] = ratio(out["jaxpose_batch"], out.get("sklearn_loop"))
+    out["ratio_loop_vs_sklearn"] = ratio(out["jaxpose_loop"], out.get("sklearn_loop"))
+    out["ratio_batch_vs_loop"] = ratio(out["jaxpose_batch"], out["jaxpose_loop"])
     return out
 
 
@@ -166,11 +166,11 @@ def bench_accuracy(n_objects=20, m=2000, gamma=GAMMA, nu=NU, resolution=None, re
     are within ``ACCURACY_BAR``. Objects: FAUST tr_reg_000.. when present, else samplings of the example shape
     with seeds 0.. . Answers which scikit-learn grid is as accurate as ``normalize`` (one mesh can
     mislead: the indicator's error jumps with the grid's offset)."""
-    from ..pose import normalize
+    from jaxpose.pose import normalize
 
-    faust = _faust_dir() is not None
-    grid = _grid_opts(resolution, refine)
-    sk = use_sklearn and _common.sklearn_available()
+    faust = faust_dir() is not None
+    grid = grid_opts(resolution, refine)
+    sk = use_sklearn and common.sklearn_available()
     sk_resolutions = tuple(int(r) for r in sk_resolutions) if sk else ()
     names, rows = [], []
     for i in range(int(n_objects)):

@@ -5,22 +5,24 @@ from __future__ import annotations
 import json
 import os
 import subprocess
+from pathlib import Path
 import sys
 
 import numpy as np
 
-from . import _common
-from ._common import GAMMA, MARKER, NU, UNAVAILABLE, _block, _interleaved, _ratio, load_points, prescale
-from ._sklearn import _sk_fit, _sk_grid
+from . import common
+from .common import GAMMA, MARKER, NU, UNAVAILABLE, block, interleaved, ratio, load_points, prescale
+from .sklearn_pipeline import sk_fit, sk_grid
 
 
-def _run_child(spec, timeout):
-    """Run one case in a fresh interpreter (``python -m jaxpose.bench._child``); its JSON result."""
-    cmd = [sys.executable, "-m", "jaxpose.bench._child", json.dumps(spec)]
+def run_child(spec, timeout):
+    """Run one case in a fresh interpreter (``python -m benchmarks.child``); its JSON result."""
+    cmd = [sys.executable, "-m", "benchmarks.child", json.dumps(spec)]
     env = dict(os.environ)
     env.setdefault("PYTHONWARNINGS", "ignore")
     try:
-        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env)
+        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env,
+                              cwd=str(Path(__file__).resolve().parents[1]))
     except subprocess.TimeoutExpired:
         return {"kind": spec["kind"], "m": spec["m"], "error": f"timed out after {timeout} s"}
     for line in proc.stdout.splitlines()[::-1]:
@@ -41,39 +43,39 @@ def _scaling_in_m(ms, gamma, nu, repeats, sk, sk_max_m, timeout, x64, resolution
         # beyond the dense limit one fit takes minutes: one cold run only (compile not separated)
         spec = {"m": int(m), "repeats": repeats if m <= warm_max_m else 0, "max_iter": max_iter, "gamma": gamma,
                 "nu": nu, "resolution": resolution, "sk_resolution": resolution, "fit": dict(fit or {})}
-        row = {"m": int(m), "jaxpose": _run_child({**spec, "kind": "jaxpose", "x64": x64}, timeout)}
+        row = {"m": int(m), "jaxpose": run_child({**spec, "kind": "jaxpose", "x64": x64}, timeout)}
         if not sk:
             row["sklearn"] = UNAVAILABLE
         elif m > sk_max_m:
             row["sklearn"] = f"skipped: m > {sk_max_m} (fit is superquadratic and the grid is single-threaded)"
         else:
-            row["sklearn"] = _run_child({**spec, "kind": "sklearn"}, timeout)
-        row["ratio"] = _ratio(_timing(row["jaxpose"]), _timing(row["sklearn"]))
+            row["sklearn"] = run_child({**spec, "kind": "sklearn"}, timeout)
+        row["ratio"] = ratio(_timing(row["jaxpose"]), _timing(row["sklearn"]))
         rows.append(row)
     return rows
 
 
 def _scaling_in_resolution(resolutions, m_grid, gamma, nu, repeats, sk, sk_max_grid_points):
     """Moments alone (refine=1, plain grid) vs decision_function on the grid."""
-    from ..moments import volume_moments
-    from ..svdd import fit_svdd
+    from jaxpose.moments import volume_moments
+    from jaxpose.svdd import fit_svdd
 
     points, _ = load_points(m_grid)
     y = prescale(points)[0]
-    svdd = _block(fit_svdd(y, gamma, nu))
-    oc = _sk_fit(y, gamma, nu) if sk else None
+    svdd = block(fit_svdd(y, gamma, nu))
+    oc = sk_fit(y, gamma, nu) if sk else None
     rows = []
     for r in resolutions:
         cases = {"jaxpose": lambda r=r: volume_moments(svdd, resolution=int(r), refine=1)}
         extrapolated = False
         if sk:
-            x = _sk_grid(oc, y, gamma, nu, r)
+            x = sk_grid(oc, y, gamma, nu, r)
             n = x.shape[0]
             if n > sk_max_grid_points:  # decision_function is linear in the number of points
                 extrapolated = True
                 x = x[np.random.default_rng(0).choice(n, sk_max_grid_points, replace=False)]
             cases["sklearn"] = lambda x=x: oc.decision_function(x)
-        times, _ = _interleaved(cases, repeats)
+        times, _ = interleaved(cases, repeats)
         row = {"resolution": int(r), "grid_points": int(r) ** 3, "jaxpose": times["jaxpose"]}
         if sk:
             s = dict(times["sklearn"])
@@ -84,7 +86,7 @@ def _scaling_in_resolution(resolutions, m_grid, gamma, nu, repeats, sk, sk_max_g
             s.pop("first_s", None)
             s.pop("compile_s", None)
             row["sklearn"] = s
-            row["ratio"] = _ratio(row["jaxpose"], s)
+            row["ratio"] = ratio(row["jaxpose"], s)
         else:
             row["sklearn"], row["ratio"] = UNAVAILABLE, None
         rows.append(row)
@@ -98,7 +100,7 @@ def bench_scaling(ms=(1000, 2000, 4000, 8000, 16000), resolutions=(32, 64, 128),
 
     max_iter: cap the solver (memory only depends on shapes, so a capped run measures peak memory
     of large m in a fraction of the time; timings are then per capped run and marked)."""
-    sk = use_sklearn and _common.sklearn_available()
+    sk = use_sklearn and common.sklearn_available()
     in_m = _scaling_in_m(ms, gamma, nu, repeats, sk, sk_max_m, timeout, x64, resolution, warm_max_m, max_iter, fit)
     in_res = _scaling_in_resolution(resolutions, m_grid, gamma, nu, repeats, sk, sk_max_grid_points)
     return {"in_m": in_m, "in_m_resolution": resolution, "in_resolution": {"m": m_grid, "refine": 1, "rows": in_res},

@@ -10,16 +10,16 @@ import math
 
 import numpy as np
 
-from ._common import GAMMA, NU, _now, prescale
+from .common import GAMMA, NU, now, prescale
 
 
-def _sk_fit(y, gamma, nu):
+def sk_fit(y, gamma, nu):
     from sklearn.svm import OneClassSVM
 
     return OneClassSVM(kernel="rbf", gamma=gamma, nu=nu).fit(y)
 
 
-def _sk_alpha(oc, m, nu):
+def sk_alpha(oc, m, nu):
     """libsvm's solution in our scaling: a = dual_coef / (nu m), (m,) float64."""
     a = np.zeros(m)
     a[oc.support_] = oc.dual_coef_[0] / (nu * m)
@@ -41,7 +41,7 @@ def _grid(lo, hi, n):
     return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3), h
 
 
-def _sk_grid(oc, y, gamma, nu, resolution):
+def sk_grid(oc, y, gamma, nu, resolution):
     """(resolution^3, 3) cell centers over the box that covers libsvm's region."""
     lo, hi = _sk_domain(oc, y, gamma, nu)
     return _grid(lo, hi, int(resolution))[0]
@@ -52,10 +52,10 @@ def sklearn_pipeline(points, gamma=GAMMA, nu=NU, resolution=32):
 
     Returns dict(center (3,), scale, fit_s, grid_s, n_support)."""
     y, mean, size = prescale(points)
-    t0 = _now()
-    oc = _sk_fit(y, gamma, nu)
-    t1 = _now()
-    x = _sk_grid(oc, y, gamma, nu, resolution)
+    t0 = now()
+    oc = sk_fit(y, gamma, nu)
+    t1 = now()
+    x = sk_grid(oc, y, gamma, nu, resolution)
     inside = oc.decision_function(x) >= 0
     xin = x[inside]
     if len(xin):
@@ -63,7 +63,7 @@ def sklearn_pipeline(points, gamma=GAMMA, nu=NU, resolution=32):
         md = float(np.mean(np.linalg.norm(xin - c, axis=1)))
     else:
         c, md = np.full(3, np.nan), float("nan")
-    t2 = _now()
+    t2 = now()
     return {"center": mean + size * c, "scale": size * md, "fit_s": t1 - t0, "grid_s": t2 - t1,
             "n_support": int(len(oc.support_))}
 
@@ -82,6 +82,6 @@ def dual_objective(y, a, gamma, block=2048):
     return total
 
 
-def _feasibility(a, cap):
+def feasibility(a, cap):
     a = np.asarray(a, np.float64)
     return {"sum_minus_1": float(a.sum() - 1.0), "min": float(a.min()), "max_over_cap": float(a.max() / cap - 1.0)}

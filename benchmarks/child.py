@@ -1,18 +1,18 @@
 """One case of the ``scaling`` section, run in a fresh interpreter so that its peak memory is its own.
 
-``python -m jaxpose.bench._child SPEC_JSON`` prints one line ``JAXPOSE_BENCH {json}``
-(see ``scaling._run_child``). Not imported by the package, so ``-m`` runs it cleanly.
+``python -m benchmarks.child SPEC_JSON`` prints one line ``JAXPOSE_BENCH {json}``
+(see ``scaling.run_child``). Not imported by the package, so ``-m`` runs it cleanly.
 """
 from __future__ import annotations
 
 import json
 import sys
 
-from ._common import GAMMA, MARKER, NU, _grid_opts, _maxrss_mb, _summary, _timed, load_points, prescale
-from ._sklearn import sklearn_pipeline
+from .common import GAMMA, MARKER, NU, grid_opts, maxrss_mb, summary, timed, load_points, prescale
+from .sklearn_pipeline import sklearn_pipeline
 
 
-def _child_main(spec_json):
+def child_main(spec_json):
     """Run one case (called in a fresh interpreter); prints one JSON line."""
     spec = json.loads(spec_json)
     if spec.get("x64"):
@@ -23,33 +23,33 @@ def _child_main(spec_json):
     points, _ = load_points(m)
     gamma, nu = float(spec.get("gamma", GAMMA)), float(spec.get("nu", NU))
     if kind == "jaxpose":
-        from ..moments import volume_moments
-        from ..svdd import fit_svdd
+        from jaxpose.moments import volume_moments
+        from jaxpose.svdd import fit_svdd
 
         y = prescale(points)[0]
-        base = _maxrss_mb()
+        base = maxrss_mb()
 
         fit_opts = {"max_iter": int(spec["max_iter"])} if spec.get("max_iter") else {}
         fit_opts.update(spec.get("fit") or {})  # solver, tol
 
         def fn():
             svdd = fit_svdd(y, gamma, nu, **fit_opts)
-            mom = volume_moments(svdd, **_grid_opts(spec.get("resolution"), spec.get("refine")))
+            mom = volume_moments(svdd, **grid_opts(spec.get("resolution"), spec.get("refine")))
             return svdd, mom
     else:
-        base = _maxrss_mb()
+        base = maxrss_mb()
         import sklearn.svm  # noqa: F401
 
         def fn():
             return sklearn_pipeline(points, gamma, nu, int(spec.get("sk_resolution", 32)))
 
-    first, res = _timed(fn)
+    first, res = timed(fn)
     runs = []
     for _ in range(repeats):
-        t, res = _timed(fn)
+        t, res = timed(fn)
         runs.append(t)
-    out = {"kind": kind, "m": m, **_summary(first if kind == "jaxpose" else None, runs),
-           "peak_rss_mb": _maxrss_mb(), "baseline_rss_mb": base}
+    out = {"kind": kind, "m": m, **summary(first if kind == "jaxpose" else None, runs),
+           "peak_rss_mb": maxrss_mb(), "baseline_rss_mb": base}
     if kind == "jaxpose":
         out["iterations"] = int(res[0].iterations)
         out["converged"] = bool(res[0].converged)
@@ -62,4 +62,4 @@ def _child_main(spec_json):
 
 
 if __name__ == "__main__":
-    _child_main(sys.argv[1])
+    child_main(sys.argv[1])

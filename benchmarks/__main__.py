@@ -1,4 +1,4 @@
-"""``python -m jaxpose.bench ...``: the same as ``jaxpose bench ...``."""
+"""``python -m benchmarks ...``: the same as ``jaxpose bench ...``."""
 import sys
 
 from .report import cli

@@ -1,9 +1,10 @@
-"""jaxpose bench: runs in quick mode on tiny sizes and writes the JSON schema. No timing assertions."""
+"""benchmarks/ (``jaxpose bench``): runs in quick mode on tiny sizes and writes the JSON schema. No timing assertions."""
 import json
 
 import pytest
 
-from jaxpose import bench, cli
+import benchmarks as bench
+from jaxpose import cli
 
 pytestmark = pytest.mark.filterwarnings("ignore::UserWarning")
 
@@ -105,8 +106,8 @@ def test_bench_quick_json(tmp_path, monkeypatch, capsys):
 
 def test_bench_without_sklearn(monkeypatch):
     _tiny(monkeypatch)
-    # every section asks jaxpose.bench._common.sklearn_available (the package re-exports it)
-    monkeypatch.setattr(bench._common, "sklearn_available", lambda: False)
+    # every section asks jaxpose.bench.common.sklearn_available (the package re-exports it)
+    monkeypatch.setattr(bench.common, "sklearn_available", lambda: False)
     r = bench.run(("solver", "end2end", "batch", "accuracy"), quick=True)
     assert r["sklearn"] == bench.UNAVAILABLE
     assert r["sections"]["solver"]["sklearn"] == bench.UNAVAILABLE
@@ -135,8 +136,8 @@ def test_sklearn_mapping_objective():
 
     points, _ = bench.load_points(150)
     y = bench.prescale(points)[0]
-    oc = bench._sk_fit(y, 47.0, 0.5)
-    a = bench._sk_alpha(oc, len(y), 0.5)
+    oc = bench.sk_fit(y, 47.0, 0.5)
+    a = bench.sk_alpha(oc, len(y), 0.5)
     assert abs(a.sum() - 1.0) < 1e-9
     assert a.min() >= 0 and a.max() <= 1.0 / (0.5 * len(y)) * (1 + 1e-9)
     assert bench.dual_objective(y, a, 47.0) > 0
@@ -156,7 +157,7 @@ def test_accuracy_section_objects(monkeypatch):
     """--objects reaches the accuracy section, which measures distinct objects (FAUST meshes, or
     samplings of the example shape with distinct seeds), and the table shows it."""
     _tiny(monkeypatch)
-    monkeypatch.setattr(bench._common, "sklearn_available", lambda: False)
+    monkeypatch.setattr(bench.common, "sklearn_available", lambda: False)
     r = bench.run(("accuracy",), quick=True, objects=3)
     acc = r["sections"]["accuracy"]
     assert acc["n_objects"] == 3 and len(set(acc["objects"])) == 3
@@ -167,12 +168,12 @@ def test_accuracy_section_objects(monkeypatch):
 def test_resolution_reaches_normalize(monkeypatch):
     """--resolution sets normalize's coarse grid in end2end and accuracy (default: normalize's, 64)."""
     _tiny(monkeypatch)
-    monkeypatch.setattr(bench._common, "sklearn_available", lambda: False)
+    monkeypatch.setattr(bench.common, "sklearn_available", lambda: False)
     r = bench.run(("end2end", "accuracy"), quick=True, resolution=12, objects=1)
     assert r["sections"]["end2end"]["jaxpose"]["resolution"] == 12
     assert r["sections"]["accuracy"]["resolution"] == 12
     monkeypatch.setitem(bench.QUICK, "resolution", None)
-    from jaxpose.pose import DEFAULTS
+    from jaxpose.config import GridConfig
 
     r = bench.run(("end2end",), quick=True)
-    assert r["sections"]["end2end"]["jaxpose"]["resolution"] == DEFAULTS["resolution"] == 64
+    assert r["sections"]["end2end"]["jaxpose"]["resolution"] == GridConfig().resolution == 64

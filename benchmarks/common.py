@@ -18,7 +18,7 @@ GAMMA, NU = 47.0, 0.5
 
 
 # --------------------------------------------------------------------------- inputs
-def _faust_dir():
+def faust_dir():
     env = os.environ.get("JAXPOSE_FAUST")
     for d in ([Path(env)] if env else []) + [FAUST, Path.cwd().parent / "shared" / "data" / "faust-dev"]:
         if (d / "tr_reg_000.ply").exists():
@@ -26,11 +26,11 @@ def _faust_dir():
     return None
 
 
-def _geometry(index=0):
+def geometry(index=0):
     """(mesh, name): FAUST tr_reg_{index:03d} when present, else the built-in example shape."""
-    from .. import mesh
+    from jaxpose import mesh
 
-    d = _faust_dir()
+    d = faust_dir()
     if d is not None and (d / f"tr_reg_{index:03d}.ply").exists():
         return mesh.load(d / f"tr_reg_{index:03d}.ply"), f"faust/tr_reg_{index:03d}"
     return mesh.example_shape(), "example_shape"
@@ -38,9 +38,9 @@ def _geometry(index=0):
 
 def load_points(m, seed=0, index=0):
     """(m, 3) float64 surface samples scaled into the unit cube, and the source's name."""
-    from .. import mesh
+    from jaxpose import mesh
 
-    geom, name = _geometry(index)
+    geom, name = geometry(index)
     p = mesh.sample_surface(geom, int(m), seed=int(seed), method="even")
     lo, hi = p.min(axis=0), p.max(axis=0)
     return (p - lo) / float(np.max(hi - lo)), name
@@ -48,7 +48,7 @@ def load_points(m, seed=0, index=0):
 
 def prescale(points):
     """y = (x - mean) / s_ref exactly as ``normalize`` does (float64 numpy); -> y, mean, size."""
-    from ..pose import REFERENCE_RMS
+    from jaxpose.frame import REFERENCE_RMS
 
     x = np.asarray(points, np.float64)
     mean = x.mean(axis=0)
@@ -59,7 +59,7 @@ def prescale(points):
 
 def sklearn_available():
     """Whether scikit-learn can be imported. Every section asks through this one function
-    (``_common.sklearn_available``), so patching it here switches the scikit-learn side off."""
+    (``common.sklearn_available``), so patching it here switches the scikit-learn side off."""
     try:
         import sklearn.svm  # noqa: F401
     except ImportError:
@@ -67,32 +67,32 @@ def sklearn_available():
     return True
 
 
-def _grid_opts(resolution, refine):
+def grid_opts(resolution, refine):
     """Grid options of ``normalize``; None = its defaults."""
-    from ..pose import DEFAULTS
+    from jaxpose.config import GridConfig
 
-    return {"resolution": int(resolution or DEFAULTS["resolution"]), "refine": int(refine or DEFAULTS["refine"])}
+    return {"resolution": int(resolution or GridConfig().resolution), "refine": int(refine or GridConfig().refine)}
 
 
 # --------------------------------------------------------------------------- timing
-def _now():
+def now():
     return time.perf_counter()
 
 
-def _block(x):
+def block(x):
     import jax
 
     return jax.block_until_ready(x)
 
 
-def _timed(fn):
+def timed(fn):
     """(seconds, result) of one call of fn, waiting for JAX's asynchronous results."""
-    t = _now()
-    out = _block(fn())
-    return _now() - t, out
+    t = now()
+    out = block(fn())
+    return now() - t, out
 
 
-def _summary(first, warm):
+def summary(first, warm):
     warm = [float(t) for t in warm]
     if not warm:  # a single cold run: compile time and run time are not separated
         return {"median_s": float(first), "runs_s": [], "first_s": float(first), "cold_only": True}
@@ -104,30 +104,30 @@ def _summary(first, warm):
     return out
 
 
-def _interleaved(cases, repeats):
+def interleaved(cases, repeats):
     """cases: {name: callable}. One first call each (compile / warm-up), then ``repeats``
     rounds in which every case runs once, the order rotating each round.
     Returns {name: {"first_s", "runs_s", "median_s", "compile_s"}} and {name: last result}."""
     names = list(cases)
     first, last = {}, {}
     for n in names:
-        first[n], last[n] = _timed(cases[n])
+        first[n], last[n] = timed(cases[n])
     runs = {n: [] for n in names}
     for r in range(int(repeats)):
         k = r % len(names)
         for n in names[k:] + names[:k]:
-            t, last[n] = _timed(cases[n])
+            t, last[n] = timed(cases[n])
             runs[n].append(t)
-    return {n: _summary(first[n], runs[n]) for n in names}, last
+    return {n: summary(first[n], runs[n]) for n in names}, last
 
 
-def _ratio(a, b):
+def ratio(a, b):
     if not isinstance(a, dict) or not isinstance(b, dict):
         return None
     return a["median_s"] / b["median_s"] if b["median_s"] > 0 else None
 
 
-def _maxrss_mb():
+def maxrss_mb():
     """Peak resident memory of this process in MB: VmHWM (Linux; unlike ru_maxrss it is not
     inherited from the parent across fork + exec), else ru_maxrss."""
     try:

@@ -10,8 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
-from . import _common
-from ._common import GAMMA, NU, UNAVAILABLE, load_points
+from . import common
+from .common import GAMMA, NU, UNAVAILABLE, load_points
 from .scaling import bench_scaling
 from .sections import bench_accuracy, bench_batch, bench_end2end, bench_solver
 
@@ -79,7 +79,7 @@ def run(sections=SECTIONS, quick=False, m=None, repeats=None, scaling_m=None, re
     points, source = load_points(cfg["m"])
     result = {"schema_version": SCHEMA_VERSION, "quick": bool(quick), "source": source, "gamma": GAMMA, "nu": NU,
               "repeats": cfg["repeats"], "environment": _environment(), "solver": solver, "solver_tol": solver_tol,
-              "sklearn": ("available" if _common.sklearn_available() else UNAVAILABLE) if use_sklearn else "disabled",
+              "sklearn": ("available" if common.sklearn_available() else UNAVAILABLE) if use_sklearn else "disabled",
               "sections": {}}
     sk = use_sklearn
     fit = {"solver": solver, **({"tol": float(solver_tol)} if solver_tol is not None else {})}
@@ -319,7 +319,7 @@ def cli(argv=None) -> int:
                  sk_resolution=args.sk_resolution, objects=args.objects, progress=lambda s: print(f"jaxpose bench: {s}", file=sys.stderr, flush=True))
     print(format_table(result))
     if args.json:
-        from ..mesh import write_atomic
+        from jaxpose.mesh import write_atomic
 
         write_atomic(args.json, json.dumps(result, indent=2, default=_jsonable) + "\n", force=args.force)
         print(f"wrote {args.json}")

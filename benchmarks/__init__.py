@@ -1,4 +1,4 @@
-"""``jaxpose bench``: timings of jaxpose against the scikit-learn pipeline, on the same points.
+"""Benchmarks (``jaxpose bench`` or ``python -m benchmarks`` from a source checkout): timings of jaxpose against the scikit-learn pipeline, on the same points.
 
 The scikit-learn pipeline is what a user would write without jaxpose:
 ``OneClassSVM(kernel="rbf", gamma, nu).fit(y)``, ``decision_function`` on an N^3 grid of
@@ -32,13 +32,13 @@ asserted anywhere: the machine this runs on decides the numbers.
 """
 from __future__ import annotations
 
-# Layout: _common (constants, input points, timing helpers), _sklearn (the scikit-learn
-# pipeline and the dual objective), sections (solver, end2end, batch, accuracy), scaling (+ _child, the
-# subprocess that runs one scaling case: ``python -m jaxpose.bench._child``), report (run,
+# Layout: common (constants, input points, timing helpers), sklearn_pipeline (the scikit-learn
+# pipeline and the dual objective), sections (solver, end2end, batch, accuracy), scaling (+ child, the
+# subprocess that runs one scaling case: ``python -m benchmarks.child``), report (run,
 # format_table, cli). To switch the scikit-learn side off in a test, patch
-# ``jaxpose.bench._common.sklearn_available``: every section asks through it.
-from ._common import FAUST, GAMMA, NU, UNAVAILABLE, load_points, prescale, sklearn_available
-from ._sklearn import _sk_alpha, _sk_fit, dual_objective, sklearn_pipeline
+# ``benchmarks.common.sklearn_available``: every section asks through it.
+from .common import FAUST, GAMMA, NU, UNAVAILABLE, load_points, prescale, sklearn_available
+from .sklearn_pipeline import sk_alpha, sk_fit, dual_objective, sklearn_pipeline
 from .report import FULL, QUICK, SCHEMA_VERSION, SECTIONS, cli, format_table, run
 from .scaling import bench_scaling
 from .sections import bench_accuracy, bench_batch, bench_end2end, bench_solver

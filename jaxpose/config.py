@@ -1,0 +1,182 @@
+"""Option objects: frozen, hashable (static under ``jit``), validated once; the one source of defaults.
+
+Three objects cover every option of the OCSVM pipeline:
+
+* :class:`SolverConfig` -- how the SVDD dual (eq. 2) is solved and when it stops;
+* :class:`GridConfig` -- how the volume integrals of eqs. 4-5 are discretized;
+* :class:`PoseConfig` -- both, plus how derivatives in (gamma, nu) are taken.
+
+Public functions accept either a config object or the same options as flat keywords
+(``normalize(points, resolution=32, tol=1e-4)``); :meth:`PoseConfig.create` maps the flat
+names onto the right object and rejects unknown ones by name.
+
+Example::
+
+    >>> from jaxpose.config import PoseConfig
+    >>> cfg = PoseConfig.create(resolution=32, tol=1e-4)
+    >>> cfg.grid.resolution, cfg.svdd.tol
+    (32, 0.0001)
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import numbers
+
+from ._validate import InvalidInputError
+
+__all__ = ["SolverConfig", "GridConfig", "PoseConfig", "BLOCK", "KERNELS", "SOLVERS", "DERIVATIVES"]
+
+BLOCK = 2048  # rows per block: kernel products and grid cells (memory O(BLOCK * m))
+KERNELS = ("auto", "dense", "blocked")
+SOLVERS = (None, "auto", "smo", "pg")
+DERIVATIVES = ("exact", "secant")
+
+
+def _int(value, name, minimum):
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise InvalidInputError(f"{name} must be an int, got {value!r}")
+    if int(value) < minimum:
+        raise InvalidInputError(f"{name} must be >= {minimum}, got {value!r}")
+    return int(value)
+
+
+def _choice(value, name, choices):
+    if value not in choices:
+        raise InvalidInputError(f"{name} must be one of {', '.join(repr(c) for c in choices)}, got {value!r}")
+    return value
+
+
+def _set(obj, **values):
+    for key, value in values.items():
+        object.__setattr__(obj, key, value)
+
+
+@dataclasses.dataclass(frozen=True)
+class SolverConfig:
+    """How the SVDD dual is solved (see :func:`jaxpose.fit_svdd`).
+
+    Attributes:
+      tol: stop when the relative KKT violation is at most ``tol`` (> 0, finite).
+      max_iter: iteration cap (>= 1); ``SVDD.converged`` is False when it is hit.
+      check_every: projected-gradient steps between two checks of the stopping rule (>= 1).
+      kernel: ``"auto"`` (dense up to 12,000 points), ``"dense"`` or ``"blocked"``
+        (memory O(m * block), the kernel matrix is never stored).
+      block: kernel rows per block of the blocked products (>= 1).
+      solver: ``None`` (``"pg"`` up to 2,500 points, ``"auto"`` above, on CPU), ``"pg"``,
+        ``"smo"`` or ``"auto"`` (SMO, then projected gradient if it has not converged).
+    """
+
+    tol: float = 1e-3
+    max_iter: int = 20_000
+    check_every: int = 10
+    kernel: str = "auto"
+    block: int = BLOCK
+    solver: str | None = None
+
+    def __post_init__(self):
+        try:
+            tol = float(self.tol)
+        except (TypeError, ValueError):
+            tol = math.nan
+        if not (math.isfinite(tol) and tol > 0) or isinstance(self.tol, bool):
+            raise InvalidInputError(f"tol must be finite and > 0, got {self.tol!r}")
+        _set(self, tol=tol, max_iter=_int(self.max_iter, "max_iter", 1),
+             check_every=_int(self.check_every, "check_every", 1),
+             kernel=_choice(self.kernel, "kernel", KERNELS), block=_int(self.block, "block", 1),
+             solver=_choice(self.solver, "solver", SOLVERS))
+
+
+@dataclasses.dataclass(frozen=True)
+class GridConfig:
+    """How the volume integrals over {f >= 0} are discretized (see :func:`jaxpose.volume_moments`).
+
+    Attributes:
+      resolution: coarse cells per axis (>= 8) on a box that provably covers the region.
+      refine: a power of 2: cells near the boundary are split in 2 x 2 x 2, log2(refine) times.
+      band: cells refined at the first level (>= 0), doubled at each further level.
+      block: cells per block of the evaluation of f (>= 1).
+      extrapolate: Richardson-combine the two finest levels (error O(h^4) instead of O(h^2)).
+    """
+
+    resolution: int = 64
+    refine: int = 2
+    band: int = 16384
+    block: int = BLOCK
+    extrapolate: bool = True
+
+    def __post_init__(self):
+        refine = _int(self.refine, "refine", 1)
+        if refine & (refine - 1):
+            raise InvalidInputError(f"refine must be a power of 2, got {self.refine!r}")
+        if not isinstance(self.extrapolate, (bool, type(True))):
+            raise InvalidInputError(f"extrapolate must be a bool, got {self.extrapolate!r}")
+        _set(self, resolution=_int(self.resolution, "resolution", 8), refine=refine,
+             band=_int(self.band, "band", 0), block=_int(self.block, "block", 1), extrapolate=bool(self.extrapolate))
+
+
+_SOLVER_FIELDS = tuple(f.name for f in dataclasses.fields(SolverConfig))
+_GRID_FIELDS = tuple(f.name for f in dataclasses.fields(GridConfig))
+
+
+@dataclasses.dataclass(frozen=True)
+class PoseConfig:
+    """Every static option of :func:`jaxpose.normalize`.
+
+    Attributes:
+      svdd: :class:`SolverConfig`.
+      grid: :class:`GridConfig`.
+      derivative: how derivatives in nu are taken: ``"exact"`` (the implicit KKT derivative
+        of the computed solution) or ``"secant"`` (the slope of the solution over
+        nu (1 +- nu_delta), see ``docs/design.md``). Derivatives in gamma are implicit in both.
+      nu_delta: relative half-width of the secant interval, in (0, 0.5).
+      nu_tol: solver tolerance of the two secant solves (None: min(tol, 1e-6 in float64,
+        1e-5 in float32)).
+    """
+
+    svdd: SolverConfig = SolverConfig()
+    grid: GridConfig = GridConfig()
+    derivative: str = "exact"
+    nu_delta: float = 0.015
+    nu_tol: float | None = None
+
+    FLAT = tuple(dict.fromkeys(_SOLVER_FIELDS + _GRID_FIELDS + ("derivative", "nu_delta", "nu_tol")))
+
+    def __post_init__(self):
+        if not isinstance(self.svdd, SolverConfig) or not isinstance(self.grid, GridConfig):
+            raise InvalidInputError("PoseConfig needs a SolverConfig (svdd) and a GridConfig (grid)")
+        _choice(self.derivative, "derivative", DERIVATIVES)
+        delta = float(self.nu_delta)
+        if not 0.0 < delta < 0.5:
+            raise InvalidInputError(f"nu_delta must be in (0, 0.5), got {self.nu_delta!r}")
+        nu_tol = None if self.nu_tol is None else SolverConfig(tol=self.nu_tol).tol
+        _set(self, nu_delta=delta, nu_tol=nu_tol)
+
+    @classmethod
+    def create(cls, config: "PoseConfig | None" = None, **options) -> "PoseConfig":
+        """``config`` (default: the defaults) with the flat keyword ``options`` replaced.
+
+        Solver names (``tol``, ``max_iter``, ``check_every``, ``kernel``, ``solver``) go to
+        :class:`SolverConfig`, grid names (``resolution``, ``refine``, ``band``, ``extrapolate``)
+        to :class:`GridConfig`; ``block`` sets both. Raises InvalidInputError naming any unknown
+        option or bad value.
+        """
+        base = cls() if config is None else config
+        if not isinstance(base, cls):
+            raise InvalidInputError(f"config must be a PoseConfig, got {type(base).__name__}")
+        unknown = sorted(set(options) - set(cls.FLAT))
+        if unknown:
+            raise InvalidInputError(f"unknown option{'s' if len(unknown) > 1 else ''} {', '.join(unknown)}; "
+                                    f"valid: {', '.join(sorted(cls.FLAT))}")
+        if not options:
+            return base
+        svdd = {k: v for k, v in options.items() if k in _SOLVER_FIELDS}
+        grid = {k: v for k, v in options.items() if k in _GRID_FIELDS}
+        rest = {k: v for k, v in options.items() if k not in _SOLVER_FIELDS + _GRID_FIELDS}
+        return dataclasses.replace(base, svdd=dataclasses.replace(base.svdd, **svdd),
+                                   grid=dataclasses.replace(base.grid, **grid), **rest)
+
+    def flat(self) -> dict:
+        """The options as flat keywords (JSON-able), the inverse of :meth:`create`."""
+        return {**dataclasses.asdict(self.svdd), **dataclasses.asdict(self.grid), "derivative": self.derivative,
+                "nu_delta": self.nu_delta, "nu_tol": self.nu_tol}

@@ -50,9 +50,8 @@ def run(sections=SECTIONS, quick=False, m=None, repeats=None, scaling_m=None, re
     solver, solver_tol: jaxpose's solver options in end2end, batch and scaling (the solver
     section always times both solvers at ``tol``); solver_tol None: normalize's default.
     resolution, refine: normalize's grid in end2end, batch and accuracy (None: its defaults); resolution
-    is also the m-scaling's grid (None there: 32, the issue's scaling setup).
-    sk_resolution: the scikit-learn pipeline's grid in end2end and batch (None: 64^3, the issue's
-    text, and the coarsest whose center is within 1e-3 on most FAUST meshes: 18 of 20, against 10
+    is also the m-scaling's grid (None there: 32).
+    sk_resolution: the scikit-learn pipeline's grid in end2end and batch (None: 64^3, the coarsest whose center is within 1e-3 on most FAUST meshes: 18 of 20, against 10
     at 48^3 and 5 at 32^3; the ``accuracy`` section measures it).
     objects: how many objects the accuracy section takes (None: 20; quick 2)."""
     cfg = dict(QUICK if quick else FULL)

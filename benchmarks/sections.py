@@ -156,7 +156,7 @@ def bench_batch(n_objects=8, m=1000, gamma=GAMMA, nu=NU, repeats=3, resolution=N
     return out
 
 
-ACCURACY_BAR = 1e-3  # issue 5: the center within 1e-3 of the reference (units of the unit-cube points)
+ACCURACY_BAR = 1e-3  # the center within 1e-3 of the reference (units of the unit-cube points)
 
 
 def bench_accuracy(n_objects=20, m=2000, gamma=GAMMA, nu=NU, resolution=None, refine=None, sk_resolutions=(32, 48, 64),

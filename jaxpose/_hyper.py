@@ -1,10 +1,9 @@
-"""Reverse mode in a few scalar hyperparameters, computed by forward mode (issue 3).
+"""Reverse mode in a few scalar hyperparameters, computed by forward mode.
 
 The pose depends on two scalars (gamma, nu) through a pipeline whose reverse mode is
 expensive: JAX's transpose of the grid evaluation stores or replays a (cells x points)
-kernel matrix per block, 9-15x a forward pass at m = 2000, while forward mode carries the
-tangents along with the values at ~1.5-3x. With k <= 2 inputs, the Jacobian's columns by
-forward mode are cheaper than one reverse pass.
+kernel matrix per block, while forward mode carries the tangents along with the values. With
+k <= 2 inputs, the Jacobian's columns by forward mode are cheaper than one reverse pass.
 
 ``hyper_jvp(fn, hyper)`` returns a function with the same values and the same derivatives
 as ``fn`` (a custom_jvp with symbolic zeros). When only arguments listed in ``hyper`` are

@@ -264,7 +264,7 @@ def write_atomic(path, data, force=False):
         data = data.encode("utf-8")
     fd, tmp = tempfile.mkstemp(dir=directory, prefix=f".{path.name}.", suffix=".tmp")
     try:
-        # issue 6: mkstemp makes 0600 files; give the usual mode (the old file's, else 0666 & ~umask)
+        # mkstemp makes 0600 files; give the usual mode (the old file's, else 0666 & ~umask)
         umask = os.umask(0)
         os.umask(umask)
         os.chmod(fd, (path.stat().st_mode & 0o777) if path.exists() else 0o666 & ~umask)

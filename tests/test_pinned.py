@@ -22,16 +22,17 @@ import jaxpose  # noqa: E402
 
 PINNED = Path(__file__).resolve().parent / "data" / "pinned.json"
 RTOL64, RTOL32 = 1e-9, 2e-5
+M = 400
 
 
 def _inputs():
     from jaxpose.mesh import example_shape, sample_surface
 
-    return {
-        "sphere_arm": sphere_with_arm(400, seed=1),
-        "clusters": clusters(300, seed=2) * 3.0 + 5.0,
-        "box": box_surface(500, seed=3),
-        "example": sample_surface(example_shape(), 600, seed=4),
+    return {  # one point count: one compilation per option set
+        "sphere_arm": sphere_with_arm(M, seed=1),
+        "clusters": clusters(M, seed=2) * 3.0 + 5.0,
+        "box": box_surface(M, seed=3),
+        "example": sample_surface(example_shape(), M, seed=4),
     }
 
 
@@ -49,12 +50,13 @@ def compute(x64: bool) -> dict:
         inputs = _inputs()
         for name, pts in inputs.items():
             out[f"{name}/normalize"] = _vec(jaxpose.normalize(pts))
-            out[f"{name}/normalize_g20_n0.3_r32"] = _vec(jaxpose.normalize(pts, 20.0, 0.3, resolution=32))
+        for name in ("sphere_arm", "box"):
+            out[f"{name}/normalize_g20_n0.3_r32"] = _vec(jaxpose.normalize(inputs[name], 20.0, 0.3, resolution=32))
         pts = inputs["sphere_arm"]
         out["sphere_arm/smo"] = _vec(jaxpose.normalize(pts, solver="smo"))
         out["sphere_arm/auto"] = _vec(jaxpose.normalize(pts, solver="auto"))
         out["sphere_arm/refine4"] = _vec(jaxpose.normalize(pts, resolution=32, refine=4))
-        batch = jaxpose.normalize_batch([inputs["sphere_arm"], inputs["box"][:350]])
+        batch = jaxpose.normalize_batch([inputs["sphere_arm"], inputs["box"][:350]], resolution=32)
         out["batch"] = _vec(batch)
         svdd = jaxpose.fit_svdd(inputs["clusters"], 0.5, 0.3)
         out["fit_svdd/clusters"] = [float(svdd.objective), float(svdd.offset), float(jnp.sum(svdd.alpha)),
@@ -70,7 +72,7 @@ def compute(x64: bool) -> dict:
             mesh = example_shape()
             for method in ("surface_centroid", "vertex_mean", "bbox", "min_ball"):
                 out[f"mesh/{method}"] = _vec(normalize_mesh(mesh, method=method)[1])
-            out["mesh/ocsvm"] = _vec(normalize_mesh(mesh, count=500)[1])
+            out["mesh/ocsvm"] = _vec(normalize_mesh(mesh, count=M)[1])
             p = inputs["sphere_arm"]
             jac = jax.jacfwd(lambda g, n: jnp.concatenate(
                 [(q := jaxpose.normalize(p, g, n, resolution=16, tol=1e-6)).center, q.scale[None]]),

@@ -1,6 +1,5 @@
 """Mesh I/O, surface sampling, normalize_mesh and atomic export."""
 import hashlib
-import sys
 
 import numpy as np
 import pytest

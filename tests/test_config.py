@@ -1,0 +1,63 @@
+"""Option objects: validated once, hashable (static under jit), one default per option."""
+import dataclasses
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from jaxpose import GridConfig, InvalidInputError, PoseConfig, SolverConfig
+
+
+def test_defaults_live_in_one_place():
+    cfg = PoseConfig()
+    assert cfg.svdd == SolverConfig() and cfg.grid == GridConfig()
+    assert (cfg.grid.resolution, cfg.grid.refine, cfg.grid.band) == (64, 2, 16384)
+    assert (cfg.svdd.tol, cfg.svdd.max_iter, cfg.svdd.solver) == (1e-3, 20_000, None)
+    assert cfg.svdd.block == cfg.grid.block  # one block default
+
+
+def test_configs_are_frozen_and_hashable():
+    cfg = PoseConfig.create(resolution=32, tol=1e-4)
+    assert hash(cfg) == hash(PoseConfig.create(resolution=32, tol=1e-4))
+    assert cfg != PoseConfig()
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        cfg.grid.resolution = 16  # type: ignore[misc]
+
+    @jax.jit
+    def f(x, config):
+        return x * config.grid.resolution
+
+    f = jax.jit(lambda x, config: x * config.grid.resolution, static_argnames=("config",))
+    assert float(f(jnp.asarray(2.0), config=cfg)) == 64.0
+
+
+def test_flat_options_reach_the_right_object():
+    cfg = PoseConfig.create(resolution=32, refine=4, tol=1e-5, solver="smo", block=512, derivative="secant")
+    assert (cfg.grid.resolution, cfg.grid.refine, cfg.svdd.tol, cfg.svdd.solver) == (32, 4, 1e-5, "smo")
+    assert cfg.grid.block == cfg.svdd.block == 512 and cfg.derivative == "secant"
+    assert PoseConfig.create(**cfg.flat()) == cfg  # flat() inverts create()
+    base = PoseConfig.create(resolution=16)
+    assert PoseConfig.create(base, tol=1e-4).grid.resolution == 16  # options replace fields of a given config
+
+
+@pytest.mark.parametrize("options,fragment", [
+    (dict(resolution=4), "resolution must be >= 8"), (dict(resolution=8.0), "resolution must be an int"),
+    (dict(refine=3), "power of 2"), (dict(band=-1), "band"), (dict(tol=0.0), "tol"), (dict(tol=np.nan), "tol"),
+    (dict(max_iter=0), "max_iter"), (dict(check_every=0), "check_every"), (dict(block=True), "block"),
+    (dict(kernel="x"), "kernel must be one of"), (dict(solver="newton"), "solver must be one of"),
+    (dict(derivative="fd"), "derivative"), (dict(nu_delta=0.7), "nu_delta"), (dict(foo=1), "unknown option foo"),
+])
+def test_bad_options_name_the_option(options, fragment):
+    with pytest.raises(InvalidInputError, match=fragment):
+        PoseConfig.create(**options)
+
+
+def test_config_or_options_not_both():
+    import jaxpose
+
+    pts = np.random.default_rng(0).normal(size=(20, 3))
+    with pytest.raises(InvalidInputError, match="either config or options"):
+        jaxpose.fit_svdd(pts, 1.0, 0.5, config=SolverConfig(), tol=1e-4)
+    with pytest.raises(InvalidInputError, match="config must be a PoseConfig"):
+        jaxpose.normalize(pts, config=GridConfig())

@@ -252,7 +252,7 @@ def _sweep_panel(a, sweep, curve, reference, metric, title):
         a.axhline(reference, color=SURFACE_COLOR, label="surface centroid")
     fixed = ", ".join(f"{_GREEK.get(k, k)}={v:g}" for k, v in sweep.get("fixed", {}).items())
     a.set_xlabel(_GREEK.get(p, p))
-    a.set_ylabel(f"σ_tr" if metric == "sigma_tr" else "σ_scale")
+    a.set_ylabel("σ_tr" if metric == "sigma_tr" else "σ_scale")
     a.set_title(f"{title} ({fixed})" if fixed else title, fontsize=8)
     a.grid(alpha=0.3)
 

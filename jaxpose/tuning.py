@@ -23,7 +23,6 @@ import json
 import math
 import sys
 import time
-from functools import partial
 from pathlib import Path
 
 import jax

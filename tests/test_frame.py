@@ -56,7 +56,10 @@ def test_host_frame_keeps_digits_far_from_the_origin(offset):
     mean0, rms0 = host_frame(pts)
     represented = 4 * offset * np.finfo(np.float64).eps  # what pts + offset can hold of pts
     assert abs(rms - rms0) <= 1e-12 * rms0 + represented
-    np.testing.assert_allclose(mean - offset, mean0, atol=1e-12 + represented)
+    # the shift is only a translation: the centered points keep their shape to what the input holds
+    d = (pts + offset - mean) - (pts - mean0)
+    np.testing.assert_allclose(d - d.mean(axis=0), 0.0, atol=1e-12 + represented)
+    np.testing.assert_allclose(mean - offset, mean0, rtol=0, atol=1e-9 * max(1.0, offset * 1e-6))
 
 
 def test_host_frame_refuses_what_the_dtype_cannot_hold():

@@ -152,17 +152,20 @@ def test_boundary_tangent_equals_tangent_through_all_cells(x64):
 
 
 def test_refinement_with_tables_equals_direct_children(x64, monkeypatch):
-    """Three refinement levels, children from factor tables (the default) or evaluated directly
-    (``TABLE_BYTES`` 0): the same moments; also under vmap (normalize_batch's path)."""
+    """Two refinement levels (children of children lie on the finer lattice), children from factor
+    tables (the default) or evaluated directly (``TABLE_BYTES`` 0): the same moments; also under vmap
+    (normalize_batch's path)."""
     import jax
 
     from jaxpose import grid
 
     svdd = fit_svdd(sphere_with_arm(500), 47.0, 0.5)
-    a = region_moments(svdd, GridConfig(resolution=16, block=512, refine=8, band=8192))
-    batched = jax.vmap(lambda s: region_moments(s, GridConfig(resolution=16, block=512, refine=8, band=8192)))(jax.tree_util.tree_map(lambda v: v[None], svdd))
+    cfg = GridConfig(resolution=16, block=512, refine=4, band=4096)
+    a = region_moments(svdd, cfg)
+    batched = jax.vmap(lambda s: region_moments(s, cfg))(jax.tree_util.tree_map(lambda v: v[None], svdd))
     monkeypatch.setattr(grid, "TABLE_BYTES", 0)
-    b = region_moments(svdd, GridConfig(resolution=16, block=512, refine=8, band=8192))
+    jax.clear_caches()  # TABLE_BYTES is read at trace time
+    b = region_moments(svdd, cfg)
     assert int(a.unrefined) == int(b.unrefined) == 0
     for u, v, w in zip(a, b, batched):
         np.testing.assert_allclose(np.asarray(u), np.asarray(v), rtol=1e-12, atol=1e-14)

@@ -11,6 +11,7 @@ __all__ = [
     "JaxposeError",
     "InvalidInputError",
     "ConvergenceError",
+    "OpenMeshWarning",
     "check_points",
     "check_gamma",
     "check_nu",
@@ -32,6 +33,10 @@ class InvalidInputError(JaxposeError, ValueError):
 
 class ConvergenceError(JaxposeError, RuntimeError):
     """A solver stopped at its iteration cap (raised only when asked)."""
+
+
+class OpenMeshWarning(UserWarning):
+    """A closed-surface quantity (solid volume, centroid) was computed on a mesh that is not closed."""
 
 
 def is_traced(x) -> bool:

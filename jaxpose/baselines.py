@@ -8,15 +8,22 @@ points of a point cloud (or of a mesh without faces).
 These are the references the OCSVM normalization is compared against (paper,
 section 2); they are plain NumPy and are not differentiated.
 
-Centers : ``surface_centroid``, ``vertex_mean``, ``bbox_center``, ``min_ball``.
-Scales  : ``mean_distance``, ``unit_cube``, ``unit_sphere``.
+Centers : ``surface_centroid``, ``vertex_mean``, ``bbox_center``, ``min_ball``,
+          ``solid_centroid`` (closed form, closed meshes), ``depth_weighted_solid`` (voxels).
+Scales  : ``mean_distance``, ``unit_cube``, ``unit_sphere``, ``gyration_radius`` (closed form,
+          closed meshes), ``sqrt_area`` (meshes).
 Dispatch: ``center(mesh, method)``, ``scale(mesh, method, center=None)``.
+
+The solid quantities need a closed surface: on an open mesh they warn (:class:`OpenMeshWarning`)
+and, with ``strict=True``, raise; on a point cloud they raise.
 """
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
-from ._validate import InvalidInputError, check_points
+from ._validate import InvalidInputError, OpenMeshWarning, check_points
 
 __all__ = [
     "CENTERS",
@@ -30,12 +37,19 @@ __all__ = [
     "mean_distance",
     "unit_cube",
     "unit_sphere",
+    "solid_moments",
+    "solid_centroid",
+    "gyration_radius",
+    "sqrt_area",
+    "depth_weighted_solid",
+    "filled_voxels",
+    "is_closed",
     "split_geometry",
     "triangle_areas",
 ]
 
-CENTERS = ("surface_centroid", "vertex_mean", "bbox_center", "min_ball")
-SCALES = ("mean_distance", "unit_cube", "unit_sphere")
+CENTERS = ("surface_centroid", "vertex_mean", "bbox_center", "min_ball", "solid_centroid", "depth_weighted_solid")
+SCALES = ("mean_distance", "unit_cube", "unit_sphere", "gyration_radius", "sqrt_area")
 
 # mean_distance splits each triangle into k*k congruent sub-triangles (k from
 # _SUBDIVISIONS) whose centroids, weighted by area, form a deterministic quadrature.
@@ -267,6 +281,142 @@ def unit_sphere(mesh_or_points, center=None):
     return float(np.max(np.linalg.norm(vertices - c, axis=1)))
 
 
+# --------------------------------------------------------------------------- solids
+def is_closed(faces):
+    """Whether every edge of the faces (f, 3) is shared by exactly two faces (no boundary, no
+    non-manifold edge): the surface bounds a volume."""
+    faces = np.asarray(faces, dtype=np.int64)
+    e = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
+    _, counts = np.unique(e, axis=0, return_counts=True)
+    return bool(np.all(counts == 2))
+
+
+def _faces_or_raise(mesh, what):
+    vertices, faces = split_geometry(mesh)
+    if faces is None:
+        raise InvalidInputError(f"{what} needs a mesh with faces (a surface); got points only")
+    return vertices, faces
+
+
+def _closed_or_warn(faces, what, strict):
+    if is_closed(faces):
+        return
+    message = (f"{what}: the mesh is not closed (it has boundary or non-manifold edges); the closed-form "
+               "solid of an open surface is not its volume")
+    if strict:
+        raise InvalidInputError(message + " (strict=True)")
+    warnings.warn(message, OpenMeshWarning, stacklevel=3)
+
+
+def solid_moments(mesh, strict=False):
+    """Volume, centroid and second moment of the solid a closed mesh bounds, in closed form.
+
+    Each face (a, b, c) and a reference point o span a signed tetrahedron of volume
+    V_t = (a - o).((b - o) x (c - o)) / 6; by the divergence theorem V = sum V_t,
+    V c = sum V_t (o + a + b + c) / 4 and int (x - o)(x - o)^T dV = sum V_t / 20 (A A^T + B B^T +
+    C C^T + S S^T) with A = a - o, ..., S = A + B + C (o: the vertex mean, for accuracy).
+    Outward faces give V > 0; inverted meshes are turned over (V < 0 -> -V, same centroid).
+
+    Args:
+      mesh: Trimesh (or anything with vertices and faces); strict: raise on an open mesh.
+
+    Returns:
+      volume () float, centroid (3,) float64, second (3, 3) float64 = (1/V) int (x - c)(x - c)^T dV.
+
+    Raises:
+      InvalidInputError: points only, zero volume, or (strict) an open mesh. Warns
+      :class:`OpenMeshWarning` on an open mesh otherwise.
+    """
+    vertices, faces = _faces_or_raise(mesh, "a solid")
+    _closed_or_warn(faces, "solid moments", strict)
+    o = vertices.mean(axis=0)
+    t = vertices[faces] - o  # (f, 3, 3): A, B, C
+    vt = np.einsum("fi,fi->f", t[:, 0], np.cross(t[:, 1], t[:, 2])) / 6.0
+    volume = float(vt.sum())
+    if not abs(volume) > 0:
+        raise InvalidInputError("the mesh encloses no volume")
+    s = t.sum(axis=1)
+    first = (vt @ s) / 4.0 / volume
+    m2 = np.einsum("f,fki,fkj->ij", vt, t, t) + np.einsum("f,fi,fj->ij", vt, s, s)
+    second = m2 / 20.0 / volume - np.outer(first, first)
+    return abs(volume), o + first, second
+
+
+def solid_centroid(mesh_or_points, strict=False):
+    """Closed-form centroid of the solid a closed mesh bounds (:func:`solid_moments`).
+
+    The same as ``trimesh.triangles.mass_properties(mesh.triangles)["center_mass"]``.
+    Returns center : (3,) float64. Raises on points; warns (or raises, strict) on an open mesh.
+    """
+    return solid_moments(mesh_or_points, strict)[1]
+
+
+def gyration_radius(mesh_or_points, center=None, strict=False):
+    """Radius of gyration of the solid: sqrt((1/V) int |x - center|^2 dV) (closed form).
+
+    center : (3,) or None (the solid centroid). Returns radius : float.
+    Raises on points; warns (or raises, strict) on an open mesh.
+    """
+    _, c, second = solid_moments(mesh_or_points, strict)
+    shift = 0.0 if center is None else float(np.sum((_coerce_center(mesh_or_points, center) - c) ** 2))
+    return float(np.sqrt(np.trace(second) + shift))
+
+
+def sqrt_area(mesh_or_points):
+    """sqrt of the surface area (nearly invariant under articulation, which preserves area).
+
+    Returns scale : float. Raises InvalidInputError on points (they have no area) and on a mesh
+    of zero area.
+    """
+    vertices, faces = _faces_or_raise(mesh_or_points, "sqrt_area")
+    area = float(triangle_areas(vertices[faces]).sum())
+    return float(np.sqrt(area))
+
+
+DEPTH_VOXELS = 96  # depth_weighted_solid: voxels along the largest extent
+
+
+def depth_weighted_solid(mesh_or_points, power=2.0, voxels=DEPTH_VOXELS, strict=False):
+    """Centroid of the voxelized, filled solid, each voxel weighted by its depth to the power p.
+
+    The mesh is voxelized at pitch = largest extent / ``voxels`` and filled
+    (``mesh.voxelized(pitch).fill()``, trimesh); each voxel's depth is its Euclidean distance to the
+    outside (``scipy.ndimage.distance_transform_edt``); c = sum d^p x / sum d^p. The deep part of a
+    body (the torso) moves least when it articulates. The fill needs a closed surface: with holes it
+    leaks (the solid is then the surface shell only).
+
+    Args:
+      power: p >= 0; voxels: int >= 8; strict: raise on an open mesh (warns otherwise).
+
+    Returns:
+      center : (3,) float64.
+    """
+    if not (np.isfinite(power) and power >= 0):
+        raise InvalidInputError(f"power must be finite and >= 0, got {power!r}")
+    x, d = filled_voxels(mesh_or_points, voxels, strict)
+    w = d ** float(power)
+    return np.asarray((w @ x) / w.sum(), dtype=np.float64)
+
+
+def filled_voxels(mesh_or_points, voxels=DEPTH_VOXELS, strict=False):
+    """The voxel centers (n, 3) of ``mesh.voxelized(extent / voxels).fill()`` and their depths (n,)
+    in voxels (Euclidean distance to the nearest outside voxel), as :func:`depth_weighted_solid`
+    uses them."""
+    from scipy import ndimage
+    import trimesh
+
+    vertices, faces = _faces_or_raise(mesh_or_points, "depth_weighted_solid")
+    if isinstance(voxels, bool) or int(voxels) != voxels or voxels < 8:
+        raise InvalidInputError(f"voxels must be an int >= 8, got {voxels!r}")
+    _closed_or_warn(faces, "depth_weighted_solid", strict)
+    mesh = trimesh.Trimesh(vertices, faces, process=False)
+    grid = mesh.voxelized(float(np.max(vertices.max(0) - vertices.min(0))) / int(voxels)).fill()
+    occupied = np.asarray(grid.matrix, bool)
+    edt = ndimage.distance_transform_edt(np.pad(occupied, 1))[1:-1, 1:-1, 1:-1]
+    idx = np.argwhere(occupied)
+    return np.asarray(grid.indices_to_points(idx), np.float64), edt[tuple(idx.T)]
+
+
 # --------------------------------------------------------------------------- dispatch
 def center(mesh_or_points, method="surface_centroid"):
     """Center by name, one of :data:`CENTERS`.  Returns center : (3,) float64."""
@@ -274,7 +424,7 @@ def center(mesh_or_points, method="surface_centroid"):
         raise InvalidInputError(f"unknown center method {method!r}; valid: {', '.join(CENTERS)}")
     if method == "min_ball":
         return min_ball(mesh_or_points)[0]
-    return globals()[method](mesh_or_points)
+    return globals()[method](mesh_or_points)  # solid ones: defaults (warn on open meshes)
 
 
 def scale(mesh_or_points, method="mean_distance", center=None):
@@ -285,6 +435,6 @@ def scale(mesh_or_points, method="mean_distance", center=None):
     """
     if method not in SCALES:
         raise InvalidInputError(f"unknown scale method {method!r}; valid: {', '.join(SCALES)}")
-    if method == "unit_cube":
-        return unit_cube(mesh_or_points)
+    if method in ("unit_cube", "sqrt_area"):
+        return globals()[method](mesh_or_points)
     return globals()[method](mesh_or_points, center)

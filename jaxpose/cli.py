@@ -40,14 +40,19 @@ def _add_svm_options(p, count=2000):
 
 
 def _add_normalize(sub):
-    from .mesh import METHODS, SAMPLING
+    from .estimators import CENTERS, DEFAULT_METHOD, METHODS, SCALES
+    from .mesh import SAMPLING
 
     p = sub.add_parser("normalize", help="normalize the translation and scale of one mesh or point cloud")
     p.add_argument("input", nargs="?", help="mesh file (OBJ, PLY, OFF, STL, GLB, ...) or 'example'")
     p.add_argument("-o", "--output", help="normalized mesh to write (format from the extension)")
     p.add_argument("--example", action="store_true", help="use the built-in example shape as input")
     _add_svm_options(p)
-    p.add_argument("--method", choices=METHODS, default="ocsvm", help="center/scale method (default ocsvm)")
+    p.add_argument("--method", choices=tuple(METHODS), default=None,
+                   help=f"center/scale method (default {DEFAULT_METHOD}; ocsvm is the paper's)")
+    p.add_argument("--center", choices=CENTERS, default=None, help="center estimator (overrides --method's)")
+    p.add_argument("--scale", choices=SCALES, default=None, help="scale estimator (overrides --method's)")
+    p.add_argument("--strict", action="store_true", help="closed-surface estimators refuse open meshes")
     p.add_argument("--sampling", choices=SAMPLING, default="even", help="surface sampling (default even)")
     p.add_argument("--resolution", type=int, default=None, help="grid resolution of the volume moments")
     p.add_argument("--transform", help="where to write the transform JSON (default: OUTPUT.transform.json)")
@@ -56,11 +61,14 @@ def _add_normalize(sub):
 
 
 def _add_evaluate(sub):
-    p = sub.add_parser("evaluate", help="consistency of centers and scales per class (paper, section 4)")
+    p = sub.add_parser("evaluate", help="consistency of centers and scales per class, per input variant")
     p.add_argument("--data", help="folder of classes (one subfolder of meshes per class); default: procedural dataset")
     p.add_argument("--align-core", action="store_true", help="align the rigid core of each class before measuring")
-    _add_svm_options(p, count=1000)
-    p.add_argument("--sweep", action="store_true", help="also sweep gamma and nu")
+    _add_svm_options(p, count=2000)
+    p.add_argument("--methods", help="comma-separated methods, name or name:power (default: all)")
+    p.add_argument("--variants", default="plain",
+                   help="comma-separated input variants: plain,outliers,big_outliers,points,holes (default plain)")
+    p.add_argument("--sweep", action="store_true", help="also sweep gamma and nu of the ocsvm method")
     p.add_argument("--json", help="write the full result as JSON here")
     p.add_argument("--plots", help="write figures into this folder")
     p.add_argument("--force", action="store_true", help="overwrite an existing --json file")
@@ -131,8 +139,9 @@ def _cmd_normalize(args):
     for path in outputs:  # refuse before any work is done
         if path.exists() and not args.force:
             return _fail(f"{path} exists (use --force to overwrite)")
-    use_resolution = args.resolution is not None and args.method == "ocsvm"  # baselines have no grid
-    options = {"resolution": args.resolution} if use_resolution else {}
+    from .estimators import DEFAULT_METHOD, resolve
+
+    center_name, scale_name = resolve(args.method, args.center, args.scale)
     geometry = mesh.example_shape() if use_example else source
     normalized, pose = mesh.normalize_mesh(
         geometry,
@@ -142,11 +151,16 @@ def _cmd_normalize(args):
         seed=args.seed,
         sampling=args.sampling,
         method=args.method,
-        **options,
+        center=args.center,
+        scale=args.scale,
+        strict=args.strict,
+        resolution=args.resolution,
     )
     record = {
         "input": EXAMPLE if use_example else str(Path(source).resolve()),
-        "method": args.method,
+        "method": args.method or DEFAULT_METHOD,
+        "center_method": center_name,
+        "scale_method": scale_name,
         "gamma": args.gamma,
         "nu": args.nu,
         "count": args.count,
@@ -175,7 +189,9 @@ def _flat(x):
 
 def _print_transform(record, output, json_path):
     c = record["center"]
-    print(f"method  {record['method']}  (gamma={record['gamma']:g}, nu={record['nu']:g})")
+    uses_ocsvm = "ocsvm" in (record["center_method"], record["scale_method"])
+    detail = f"  (gamma={record['gamma']:g}, nu={record['nu']:g})" if uses_ocsvm else ""
+    print(f"method  center {record['center_method']}, scale {record['scale_method']}{detail}")
     print(f"center  [{c[0]: .6f} {c[1]: .6f} {c[2]: .6f}]")
     print(f"scale   {record['scale']:.6f}")
     print("matrix")
@@ -189,26 +205,29 @@ def _print_transform(record, output, json_path):
 
 # --------------------------------------------------------------------------- evaluate
 def _cmd_evaluate(args):
-    try:
-        from . import datasets, evaluation
-    except ImportError as exc:
-        return _fail(f"evaluation not available: {exc}")
+    from . import datasets, evaluation
+
     if args.json and Path(args.json).exists() and not args.force:
         return _fail(f"{args.json} exists (use --force to overwrite)")
+    methods = [m for m in args.methods.split(",") if m] if args.methods else None
+    variants = [v for v in args.variants.split(",") if v]
     if args.data:
         classes = datasets.load_folder(args.data)
     else:
         classes = datasets.make_dataset(seed=args.seed)
-    result = evaluation.evaluate(
-        classes,
-        gamma=args.gamma,
-        nu=args.nu,
-        count=args.count,
-        seed=args.seed,
-        align_core=args.align_core,
-        progress=_progress,
-        sweep=args.sweep,
-    )
+    with _ProgressBar() as progress:
+        result = evaluation.evaluate(
+            classes,
+            gamma=args.gamma,
+            nu=args.nu,
+            count=args.count,
+            seed=args.seed,
+            align_core=args.align_core,
+            progress=progress,
+            sweep=args.sweep,
+            methods=methods,
+            variants=variants,
+        )
     print(evaluation.format_table(result))
     if args.json:
         from .mesh import write_atomic
@@ -223,8 +242,27 @@ def _cmd_evaluate(args):
     return 0
 
 
-def _progress(message):
-    print(message, file=sys.stderr, flush=True)
+class _ProgressBar:
+    """progress(done, total, message) as a tqdm bar on a terminal (rate and ETA), silent otherwise."""
+
+    def __enter__(self):
+        self.bar = None
+        return self
+
+    def __call__(self, done, total, message):
+        from tqdm import tqdm
+
+        if total is None:
+            return
+        if self.bar is None:
+            self.bar = tqdm(total=total, unit="class", file=sys.stderr, disable=None, dynamic_ncols=True)
+        self.bar.set_description_str(message)
+        self.bar.update(done - self.bar.n)
+
+    def __exit__(self, *exc):
+        if self.bar is not None:
+            self.bar.close()
+        return False
 
 
 # --------------------------------------------------------------------------- tune / bench

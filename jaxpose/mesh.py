@@ -15,10 +15,9 @@ import numpy as np
 import trimesh
 
 from . import baselines
-from ._validate import InvalidInputError, JaxposeError, check_gamma, check_nu, check_points
+from ._validate import InvalidInputError, check_gamma, check_nu, check_points
 
 __all__ = [
-    "METHODS",
     "SAMPLING",
     "load",
     "sample_surface",
@@ -30,16 +29,6 @@ __all__ = [
 ]
 
 SAMPLING = ("even", "random")
-# method -> (center, scale) for the classical baselines; "ocsvm" is the paper's method
-_BASELINE_POSES = {
-    "surface_centroid": ("surface_centroid", "mean_distance"),
-    "vertex_mean": ("vertex_mean", "mean_distance"),
-    "bbox": ("bbox_center", "unit_cube"),
-    "min_ball": ("min_ball", "unit_sphere"),
-}
-METHODS = ("ocsvm",) + tuple(_BASELINE_POSES)
-
-
 # --------------------------------------------------------------------------- load
 def load(path_or_mesh):
     """Read a mesh or point cloud from anything trimesh reads (OBJ, PLY, OFF, STL, GLB, ...).
@@ -170,45 +159,63 @@ def normalize_mesh(
     count=2000,
     seed=0,
     sampling="even",
-    method="ocsvm",
+    method=None,
+    *,
+    center=None,
+    scale=None,
+    strict=False,
+    power=None,
+    resolution=None,
     **options,
 ):
-    """Normalize translation and scale of a mesh (or point cloud); the input is untouched.
+    """Normalize the position and size of a mesh or point cloud; the input is untouched.
 
-    method "ocsvm": `count` surface samples -> :func:`jaxpose.pose.normalize` (center 0,
-    mean distance 1 of the OCSVM volume); `options` go to it.
-    Baselines (exact, on the whole mesh): "surface_centroid" and "vertex_mean" with the
-    mean surface distance, "bbox" (bounding-box center, largest extent: fits the unit
-    cube), "min_ball" (center and radius of the minimum enclosing ball: unit sphere).
+    Args:
+      mesh_or_path: a path (anything trimesh reads), Trimesh, PointCloud or (n, 3) points.
+      method: one of :data:`jaxpose.estimators.METHODS`; default ``"robust"``, the depth^4-weighted
+        centroid of a robust solid and its volume's cube root (works on closed meshes, meshes with
+        holes or stray parts, and point clouds; the most consistent under articulation, see
+        ``docs/estimators.md``). ``"ocsvm"`` is the paper's method: ``count`` surface samples
+        (``seed``, ``sampling``) -> :func:`jaxpose.normalize` (``gamma``, ``nu``, ``options``).
+      center, scale: choose either part independently (``center="solid_centroid",
+        scale="sqrt_area"``; names in :data:`jaxpose.estimators.CENTERS` / ``SCALES``).
+      strict: closed-surface estimators raise on an open mesh instead of warning.
+      power: depth exponent (robust_depth: 4; depth_weighted_solid: 2).
+      resolution: for the robust solid, voxels along the body's largest extent (96); for
+        ``ocsvm``, the grid resolution of :func:`jaxpose.normalize`.
 
-    Returns
-    -------
-    normalized : Trimesh | PointCloud (a transformed copy)
-    pose : jaxpose.pose.Pose
+    Returns:
+      normalized: a transformed copy (Trimesh or PointCloud), pose: :class:`jaxpose.Pose`.
+
+    Example::
+
+        >>> mesh, pose = jaxpose.normalize_mesh("body.ply")              # robust default
+        >>> mesh, pose = jaxpose.normalize_mesh("body.ply", method="ocsvm")
     """
     check_gamma(gamma)
     check_nu(nu)
-    if method not in METHODS:
-        raise InvalidInputError(f"unknown method {method!r}; valid: {', '.join(METHODS)}")
+    from . import estimators
+
+    c_name, s_name = estimators.resolve(method, center, scale)
+    uses_ocsvm = "ocsvm" in (c_name, s_name)
+    if options and not uses_ocsvm:
+        raise InvalidInputError(f"options {sorted(options)} apply to the ocsvm estimator only")
+    extra = {}
+    if power is not None:
+        if c_name not in ("robust_depth", "depth_weighted_solid"):
+            raise InvalidInputError(f"power applies to the robust_depth and depth_weighted_solid centers, not {c_name}")
+        extra["power"] = power
+    if resolution is not None:
+        if uses_ocsvm:
+            options = {**options, "resolution": resolution}
+        elif "robust_depth" in (c_name,) or s_name == "robust_volume":
+            extra["resolution"] = resolution
+        else:
+            raise InvalidInputError(f"resolution applies to the robust and ocsvm estimators (options), "
+                                    f"not {c_name} / {s_name}")
     geometry = load(mesh_or_path)
-    if method == "ocsvm":
-        points = sample_surface(geometry, count, seed=seed, method=sampling)
-        from .pose import normalize  # lazy: keeps `import jaxpose.mesh` free of JAX
-
-        pose = normalize(points, gamma, nu, **options)
-    else:
-        if options:
-            raise InvalidInputError(f"method {method!r} takes no options, got {sorted(options)}")
-        from .pose import Pose
-
-        center_name, scale_name = _BASELINE_POSES[method]
-        c = baselines.center(geometry, center_name)
-        pose = Pose.from_center_scale(c, baselines.scale(geometry, scale_name, center=c))
-    if not bool(np.all(np.asarray(getattr(pose, "valid", True)))):
-        raise JaxposeError(
-            f"{method} normalization gave no valid pose (center {np.asarray(pose.center)}, "
-            f"scale {np.asarray(pose.scale)}); try other gamma / nu"
-        )
+    pose = estimators.estimate(geometry, method, center=center, scale=scale, strict=strict, gamma=gamma, nu=nu,
+                               count=count, seed=seed, sampling=sampling, ocsvm=options, **extra)
     normalized = geometry.copy()
     normalized.apply_transform(pose_matrix(pose))
     return normalized, pose

@@ -56,11 +56,16 @@ class Pose(NamedTuple):
 
     @classmethod
     def from_center_scale(cls, center, scale) -> "Pose":
-        """A Pose from a given center (3,) and scale (); valid when both are finite and scale > 0."""
-        center = jnp.asarray(center)
-        scale = jnp.asarray(scale, center.dtype)
-        valid = jnp.all(jnp.isfinite(center)) & jnp.isfinite(scale) & (scale > 0)
-        return cls(center, scale, jnp.asarray(True), valid, jnp.asarray(0))
+        """A Pose from a given center (3,) and scale (); valid when both are finite and scale > 0.
+
+        Concrete values stay NumPy float64 (every digit of a center far from the origin is kept);
+        traced values stay JAX arrays.
+        """
+        xp = jnp if _validate.is_traced(center) or _validate.is_traced(scale) else np
+        center = xp.asarray(center, dtype=None if xp is jnp else np.float64)
+        scale = xp.asarray(scale, center.dtype)
+        valid = xp.all(xp.isfinite(center)) & xp.isfinite(scale) & (scale > 0)
+        return cls(center, scale, xp.asarray(True), valid, xp.asarray(0))
 
     @property
     def matrix(self):

@@ -155,13 +155,17 @@ def test_usage_errors_exit_2(args, capsys):
     assert "Traceback" not in capsys.readouterr().err
 
 
-def test_normalize_default_ocsvm(tmp_path):
+@pytest.mark.parametrize("method", [None, "ocsvm"])
+def test_normalize_default_and_ocsvm(tmp_path, method):
     source = tmp_path / "in.off"
     shape().export(source)
     output = tmp_path / "out.off"
-    assert cli.main(["normalize", str(source), "-o", str(output), "--count", "500"]) == 0
+    extra = ["--method", method] if method else []
+    assert cli.main(["normalize", str(source), "-o", str(output), "--count", "500", *extra]) == 0
     record = json.loads((tmp_path / "out.transform.json").read_text())
-    assert record["method"] == "ocsvm" and record["gamma"] == 47.0 and record["nu"] == 0.5
+    assert record["method"] == (method or "robust") and record["gamma"] == 47.0 and record["nu"] == 0.5
+    names = ("ocsvm", "ocsvm") if method else ("robust_depth", "robust_volume")
+    assert (record["center_method"], record["scale_method"]) == names
     matrix = np.array(record["matrix"])
     np.testing.assert_allclose(matrix[:3, :3] @ np.array(record["center"]) + matrix[:3, 3], 0.0, atol=1e-6)
     expected = mesh.load(source).vertices @ matrix[:3, :3].T + matrix[:3, 3]
@@ -177,7 +181,8 @@ def fake_evaluation(monkeypatch):
 
     def evaluate(classes, **kwargs):
         calls["classes"], calls["kwargs"] = classes, kwargs
-        kwargs["progress"]("working")
+        kwargs["progress"](0, 1, "working")
+        kwargs["progress"](1, 1, "done")
         return {"summary": [{"method": "ocsvm", "sigma_tr": 0.1}], "params": {"gamma": kwargs["gamma"]}}
 
     monkeypatch.setattr(evaluation, "evaluate", evaluate)
@@ -192,15 +197,19 @@ def test_evaluate_wiring(tmp_path, capsys, fake_evaluation):
     code = cli.main(["evaluate", "--gamma", "30", "--nu", "0.2", "--seed", "3", "--align-core", "--json", str(out)])
     assert code == 0
     captured = capsys.readouterr()
-    assert "TABLE" in captured.out and "working" in captured.err
+    assert "TABLE" in captured.out
     assert fake_evaluation["classes"] == {"made": 3}
     kwargs = fake_evaluation["kwargs"]
     assert (kwargs["gamma"], kwargs["nu"], kwargs["seed"], kwargs["align_core"], kwargs["sweep"]) == (
         30.0, 0.2, 3, True, False)
+    assert kwargs["variants"] == ["plain"] and kwargs["methods"] is None
     assert json.loads(out.read_text())["params"] == {"gamma": 30.0}
     assert_clean_failure(cli.main(["evaluate", "--json", str(out)]), capsys, "exists")
-    assert cli.main(["evaluate", "--data", str(tmp_path), "--sweep", "--json", str(out), "--force"]) == 0
+    assert cli.main(["evaluate", "--data", str(tmp_path), "--sweep", "--json", str(out), "--force",
+                     "--variants", "plain,holes", "--methods", "robust,depth_weighted_solid:4"]) == 0
     assert fake_evaluation["classes"] == {"folder": str(tmp_path)}
+    assert fake_evaluation["kwargs"]["variants"] == ["plain", "holes"]
+    assert fake_evaluation["kwargs"]["methods"] == ["robust", "depth_weighted_solid:4"]
     assert fake_evaluation["kwargs"]["sweep"] is True
 
 

@@ -175,10 +175,10 @@ def test_evaluate_align_core_and_progress(fake_normalize):
     messages = []
     plain = evaluate({"box": [box, moved]}, methods=["surface_centroid"])
     aligned = evaluate({"box": [box, moved]}, methods=["surface_centroid"], align_core=True,
-                       progress=messages.append)
+                       progress=lambda done, total, message: messages.append((done, total, message)))
     assert plain["per_class"]["box"]["surface_centroid"]["sigma_tr"] > 0.1
     assert aligned["per_class"]["box"]["surface_centroid"]["sigma_tr"] < 1e-10
-    assert messages and all(isinstance(m, str) for m in messages)
+    assert messages[0] == (0, 1, "plain: box (2 objects)") and messages[-1][:2] == (1, 1)
 
 
 @pytest.mark.parametrize("kwargs", [{"methods": ["ocsvm", "median"]}, {"methods": []}])
@@ -213,16 +213,36 @@ def test_evaluate_with_sweep_flag(fake_normalize, monkeypatch):
     assert result["sweeps"]["gamma"]["values"] == [1.0, 2.0]
 
 
-def test_format_table():
-    row = {"sigma_tr_axis": 0.02, "cv_scale": 0.1, "seconds": 1.5}
-    result = {"params": {"gamma": 47.0, "nu": 0.5, "count": 2000, "align_core": False},
-              "per_class": {"a": {}},
-              "summary": [{"method": "ocsvm", "sigma_tr": 0.0361, "sigma_scale": 0.01425, **row},
-                          {"method": "surface_centroid", "sigma_tr": 0.0475, "sigma_scale": 0.01699, **row}]}
+def test_format_table_per_variant():
+    rows = lambda ref: [{"method": "robust", "sigma_tr": 0.0361, "sigma_scale": 0.01425, "cv_scale": 0.1,
+                         "seconds": 1.5, "sigma_tr_vs_reference": 0.0361 / 0.0475 - 1},
+                        {"method": ref, "sigma_tr": 0.0475, "sigma_scale": 0.01699, "cv_scale": 0.2,
+                         "seconds": 1.0, "sigma_tr_vs_reference": 0.0},
+                        {"method": "solid", "sigma_tr": None, "sigma_scale": None, "cv_scale": None,
+                         "seconds": 0.0, "error": "points only"}]
+    result = {"params": {"gamma": 47.0, "nu": 0.5, "count": 2000, "align_core": False}, "per_class": {"a": {}},
+              "variants": {"plain": {"summary": rows("surface_centroid")}, "points": {"summary": rows("vertex_mean")}}}
     text = format_table(result)
-    assert "ocsvm" in text and "surface_centroid" in text and "sigma_tr_axis" in text
-    assert "0.03610" in text and "0.04750" in text
-    assert "sigma_tr +24.0%" in text and "sigma_scale +16.1%" in text
+    assert "variant plain" in text and "variant points" in text and "vs vertex_mean" in text
+    assert "0.03610" in text and "-24.0%" in text and "n/a" in text
+
+
+def test_evaluate_variants_and_inapplicable_methods():
+    import json
+
+    classes = {"boxes": [trimesh.creation.box(extents=(1.0, 2.0, 3.0)) for _ in range(2)]}
+    result = evaluate(classes, methods=["robust", "solid", "surface_centroid", "vertex_mean"],
+                      variants=["plain", "points", "outliers"])
+    assert list(result["variants"]) == ["plain", "points", "outliers"]
+    points = {r["method"]: r for r in result["variants"]["points"]["summary"]}
+    assert points["solid"]["sigma_tr"] is None and "points only" in points["solid"]["error"]
+    assert points["robust"]["reference"] == "vertex_mean"
+    plain = {r["method"]: r for r in result["variants"]["plain"]["summary"]}
+    assert plain["solid"]["sigma_tr"] == pytest.approx(0.0, abs=1e-12)  # identical boxes
+    out = result["variants"]["outliers"]["per_class"]["boxes"]
+    assert out["solid"]["sigma_tr"] > 0.01  # the stray part moves the solid centroid ...
+    assert out["robust"]["sigma_tr"] < 1e-9  # ... and not the robust center
+    json.dumps(result)
 
 
 # ------------------------------------------------------------------ end to end
@@ -240,7 +260,7 @@ def test_evaluate_end_to_end_small():
         for c, m in zip(centers, meshes):
             assert np.all(c > m.bounds[0] - 1e-6) and np.all(c < m.bounds[1] + 1e-6)
         assert 0.0 <= cell["sigma_tr"] < 0.2
-    assert "reduction" in format_table(result)
+    assert "vs surface_centroid" in format_table(result)
 
 
 @pytest.mark.shared

@@ -209,10 +209,12 @@ def test_normalize_point_cloud():
 @pytest.mark.parametrize(
     "kwargs, message",
     [
-        ({"method": "centroid"}, "ocsvm"),
+        ({"method": "centroid"}, "unknown method"),
+        ({"center": "middle"}, "unknown center"),
+        ({"method": "surface_centroid", "power": 2}, "power applies"),
         ({"gamma": -1.0}, "gamma"),
         ({"nu": 1.5}, "nu"),
-        ({"method": "bbox", "resolution": 32}, "options"),
+        ({"method": "bbox", "resolution": 32}, "resolution applies"),
     ],
 )
 def test_normalize_mesh_validation(kwargs, message):
@@ -223,7 +225,7 @@ def test_normalize_mesh_validation(kwargs, message):
 def test_normalize_mesh_ocsvm():
     shape = mesh.example_shape()
     shape.apply_translation([1.0, 2.0, 3.0])
-    normalized, pose = mesh.normalize_mesh(shape, count=500)
+    normalized, pose = mesh.normalize_mesh(shape, count=500, method="ocsvm")
     matrix = mesh.pose_matrix(pose)
     center = np.asarray(pose.center, float)
     np.testing.assert_allclose(matrix[:3, :3] @ center + matrix[:3, 3], 0.0, atol=1e-12)

@@ -72,7 +72,7 @@ def compute(x64: bool) -> dict:
             mesh = example_shape()
             for method in ("surface_centroid", "vertex_mean", "bbox", "min_ball"):
                 out[f"mesh/{method}"] = _vec(normalize_mesh(mesh, method=method)[1])
-            out["mesh/ocsvm"] = _vec(normalize_mesh(mesh, count=M)[1])
+            out["mesh/ocsvm"] = _vec(normalize_mesh(mesh, count=M, method="ocsvm")[1])
             p = inputs["sphere_arm"]
             jac = jax.jacfwd(lambda g, n: jnp.concatenate(
                 [(q := jaxpose.normalize(p, g, n, resolution=16, tol=1e-6)).center, q.scale[None]]),

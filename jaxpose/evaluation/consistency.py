@@ -16,39 +16,31 @@ them. For one class and one method with centers :math:`c_1..c_n` (3-vectors) and
 All are in the units of the meshes (the procedural dataset has largest extent ~1 per object).
 A summary value is the plain average of the per-class values over classes.
 
-Methods (:data:`METHODS`), each a center and a scale about it:
-
-* ``ocsvm``: :func:`jaxpose.normalize` on ``count`` area-weighted surface samples
-  (``Pose.center``, ``Pose.scale``);
-* ``surface_centroid``: area-weighted surface centroid, area-weighted mean distance of the
-  surface from it;
-* ``vertex_mean``: mean of the vertices, area-weighted mean distance of the surface from it;
-* ``bbox``: bounding-box center, largest extent (the unit-cube scale);
-* ``min_ball``: center and radius of the minimum enclosing ball of the vertices.
+Methods: the named estimators of :mod:`jaxpose.estimators` (the robust default, the paper's
+``ocsvm``, the surface centroid, vertex mean, bounding box, minimum ball, the closed-form solid with
+its gyration radius or sqrt(area), the depth-weighted voxel solid), each on every input variant of
+:mod:`jaxpose.evaluation.variants` (plain, outliers, big_outliers, points, holes).
 """
 from __future__ import annotations
 
-import time
+import warnings
 
 import numpy as np
 
 from .. import baselines
-from .._validate import InvalidInputError
+from .._validate import InvalidInputError, OpenMeshWarning
 from . import alignment
 from .measures import scale_spread, spread
+from .variants import VARIANTS, make_class
 
 __all__ = ["METHODS", "evaluate", "sweep", "format_table", "SWEEP_VALUES", "SWEEP_FIXED"]
 
-METHODS = ("ocsvm", "surface_centroid", "vertex_mean", "bbox", "min_ball")
-_BASELINES = {  # method -> (baselines center, baselines scale)
-    "surface_centroid": ("surface_centroid", "mean_distance"),
-    "vertex_mean": ("vertex_mean", "mean_distance"),
-    "bbox": ("bbox_center", "unit_cube"),
-    "min_ball": ("min_ball", "unit_sphere"),
-}
+METHODS = ("robust", "ocsvm", "surface_centroid", "vertex_mean", "bbox", "min_ball", "solid", "solid_sqrt_area",
+           "depth_weighted_solid:2", "depth_weighted_solid:4")
 SWEEP_VALUES = {"gamma": (1.0, 2.0, 5.0, 10.0, 20.0, 30.0, 40.0, 47.0, 50.0),
                 "nu": (0.1, 0.2, 0.3, 0.4, 0.5, 0.6)}
 SWEEP_FIXED = {"gamma": {"nu": 0.0}, "nu": {"gamma": 47.0}}  # the paper's Fig. 5 (a), (b)
+KEYS = ("sigma_tr", "sigma_tr_axis", "sigma_scale", "cv_scale")
 
 
 def _sample(mesh, count, seed):
@@ -58,12 +50,8 @@ def _sample(mesh, count, seed):
 
 
 def _ocsvm(points_list, gamma, nu, options):
-    """Centers (n, 3), scales (n,) and solver convergence flags of jaxpose.normalize per point set.
-
-    A loop over ``normalize`` (one compilation for equal point counts): on CPU it is faster
-    than ``normalize_batch``, whose vmapped loops run every object as long as the slowest
-    and cannot skip work per object.
-    """
+    """Centers (n, 3), scales (n,) and solver convergence flags of jaxpose.normalize per point set
+    (a loop: one compilation for equal point counts)."""
     from ..pose import normalize
 
     poses = [normalize(p, gamma=gamma, nu=nu, **options) for p in points_list]
@@ -71,13 +59,6 @@ def _ocsvm(points_list, gamma, nu, options):
     scales = np.array([float(np.asarray(p.scale)) for p in poses])
     converged = [bool(np.asarray(p.converged)) for p in poses]
     return centers, scales, converged
-
-
-def _baseline(meshes, method):
-    center_name, scale_name = _BASELINES[method]
-    centers = np.stack([baselines.center(m, center_name) for m in meshes])
-    scales = np.array([baselines.scale(m, scale_name, c) for m, c in zip(meshes, centers)])
-    return centers, scales
 
 
 def _check_classes(classes):
@@ -89,11 +70,29 @@ def _check_classes(classes):
 
 
 def _check_methods(methods):
+    from ..estimators import METHODS as NAMED
+
     methods = METHODS if methods is None else tuple(methods)
-    unknown = [m for m in methods if m not in METHODS]
-    if unknown or not methods:
-        raise InvalidInputError(f"unknown methods {unknown}; valid: {', '.join(METHODS)}")
+    if not methods:
+        raise InvalidInputError("methods must not be empty")
+    for spec in methods:
+        name, _, power = str(spec).partition(":")
+        if name not in NAMED:
+            raise InvalidInputError(f"unknown method {spec!r}; valid: {', '.join(NAMED)} (optionally name:power)")
+        if power:
+            try:
+                float(power)
+            except ValueError:
+                raise InvalidInputError(f"method {spec!r}: the power after ':' must be a number") from None
     return methods
+
+
+def _check_variants(variants):
+    variants = tuple(variants)
+    unknown = [v for v in variants if v not in VARIANTS]
+    if unknown or not variants:
+        raise InvalidInputError(f"unknown variants {unknown}; valid: {', '.join(VARIANTS)}")
+    return variants
 
 
 def _measure(centers, scales):
@@ -101,60 +100,110 @@ def _measure(centers, scales):
             "centers": centers.tolist(), "scales": scales.tolist()}
 
 
-def _notify(progress, message):
-    if progress is not None:
-        progress(message)
+def reference_method(variant):
+    """The baseline a variant's spreads are compared with: the vertex mean for point clouds,
+    the surface centroid otherwise."""
+    return "vertex_mean" if variant == "points" else "surface_centroid"
+
+
+def _evaluate_class(meshes, methods, options, seconds):
+    """{method: cell} for one class (one variant): the spreads, or the error a method raised."""
+    from ..estimators import estimate_many
+
+    poses = {m: [] for m in methods}
+    opened = 0
+    for mesh in meshes:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", OpenMeshWarning)
+            for method, (pose, sec) in estimate_many(mesh, methods, timings=True, **options).items():
+                poses[method].append(pose)
+                seconds[method] += sec
+        opened += any(issubclass(w.category, OpenMeshWarning) for w in caught)
+    cells = {}
+    for method, found in poses.items():
+        errors = [p for p in found if isinstance(p, Exception)]
+        if errors:
+            cells[method] = {"error": str(errors[0]), "failed": len(errors)}
+            continue
+        centers = np.stack([np.asarray(p.center, np.float64).reshape(3) for p in found])
+        scales = np.array([float(np.asarray(p.scale)) for p in found])
+        cells[method] = _measure(centers, scales)
+        if method == "ocsvm":
+            cells[method]["converged"] = [bool(np.asarray(p.converged)) for p in found]
+    cells["open_meshes"] = opened
+    return cells
+
+
+def _summary(per_class, methods, seconds, variant):
+    rows = []
+    for method in methods:
+        cells = [per_class[c][method] for c in per_class]
+        row = {"method": method, "seconds": seconds[method]}
+        if any("error" in c for c in cells):
+            row.update({k: None for k in KEYS}, error=next(c["error"] for c in cells if "error" in c))
+        else:
+            row.update({k: float(np.mean([c[k] for c in cells])) for k in KEYS})
+        rows.append(row)
+    ref = {r["method"]: r for r in rows}.get(reference_method(variant))
+    for row in rows:
+        ok = ref is not None and ref["sigma_tr"] and row["sigma_tr"] is not None
+        row["sigma_tr_vs_reference"] = (row["sigma_tr"] / ref["sigma_tr"] - 1.0) if ok else None
+        row["reference"] = reference_method(variant)
+    return rows
 
 
 def evaluate(classes, gamma=47.0, nu=0.5, methods=None, count=2000, seed=0, align_core=False,
-             progress=None, sweep=False, **normalize_options) -> dict:
-    """Within-class spread of centers and scales for each method (paper, sec. 4.2).
+             progress=None, sweep=False, variants=("plain",), **normalize_options) -> dict:
+    """Within-class spread of centers and scales for each method and input variant (paper, sec. 4.2).
 
-    classes : {class name: [Trimesh, ...]} (at least 2 per class), e.g.
-        :func:`jaxpose.datasets.make_dataset` or :func:`jaxpose.datasets.load_folder`
-    gamma, nu, **normalize_options : passed to :func:`jaxpose.normalize` (or ``normalize_batch``)
-    methods : subset of :data:`METHODS` (default all)
-    count, seed : surface samples per mesh for ``ocsvm`` (the same seed for every mesh)
-    align_core : first rigidly align each class with :func:`jaxpose.evaluation.align_core` (meshes of a class must
-        share their vertex order, as registrations do)
-    progress : callable(str) or None, told when each class/method starts
-    sweep : also run :func:`sweep` over gamma and nu (paper, Fig. 5) into ``result["sweeps"]``
+    Args:
+      classes: {class name: [Trimesh, ...]} (at least 2 per class), e.g.
+        :func:`jaxpose.datasets.make_dataset` or :func:`jaxpose.datasets.load_folder`.
+      gamma, nu, normalize_options: for ``ocsvm`` (:func:`jaxpose.normalize`).
+      methods: names of :data:`jaxpose.estimators.METHODS`, optionally ``"name:power"`` for the
+        depth exponent (default :data:`METHODS`: every estimator, the depth-weighted solid at
+        powers 2 and 4).
+      count, seed: surface samples per mesh for ``ocsvm``; ``seed`` also seeds the variants.
+      align_core: first rigidly align each class with :func:`jaxpose.evaluation.align_core` (the
+        meshes of a class must share their vertex order, as registrations do).
+      progress: optional callable(done, total, message), told as each (variant, class) starts.
+      sweep: also run :func:`sweep` over gamma and nu (paper, Fig. 5) into ``result["sweeps"]``.
+      variants: names of :data:`jaxpose.evaluation.variants.VARIANTS`, each made from the aligned
+        meshes (:func:`jaxpose.evaluation.variants.make_class`).
 
-    Returns a JSON-able dict: ``{"params": {...}, "summary": [{"method", "sigma_tr",
-    "sigma_tr_axis", "sigma_scale", "cv_scale", "seconds"}, ...], "per_class": {class: {method:
-    {"sigma_tr", "sigma_tr_axis", "sigma_scale", "cv_scale", "centers", "scales"}}}}`` (``ocsvm``
-    cells also hold ``"converged"``, the solver's flag per object); summary
-    values are averages over classes, ``seconds`` the total time of the method (for ``ocsvm``,
-    sampling included; compilation is included in the first class).
+    Returns:
+      A JSON-able dict ``{"params", "variants": {variant: {"summary": [row, ...], "per_class":
+      {class: {method: cell}}}}, "summary", "per_class"}`` (the last two: the first variant's). A row
+      holds ``method``, the averages over classes of ``sigma_tr``, ``sigma_tr_axis``,
+      ``sigma_scale``, ``cv_scale`` (None, with ``error``, where the method does not apply, e.g.
+      surface estimators on points), ``sigma_tr_vs_reference`` (sigma_tr / the reference's - 1; the
+      reference is the surface centroid, or the vertex mean for points) and ``seconds``. A cell holds
+      the spreads and the ``centers`` and ``scales`` per object, or ``error``.
     """
     _check_classes(classes)
     methods = _check_methods(methods)
+    variants = _check_variants(variants)
     if align_core:
         classes = {name: alignment.align_core(meshes) for name, meshes in classes.items()}
-    per_class, seconds = {}, dict.fromkeys(methods, 0.0)
-    for name, meshes in classes.items():
-        per_class[name] = {}
-        for method in methods:
-            _notify(progress, f"{name}: {method} ({len(meshes)} objects)")
-            start = time.perf_counter()
-            if method == "ocsvm":
-                points = [_sample(m, count, seed) for m in meshes]
-                centers, scales, converged = _ocsvm(points, gamma, nu, normalize_options)
-            else:
-                (centers, scales), converged = _baseline(meshes, method), None
-            seconds[method] += time.perf_counter() - start
-            per_class[name][method] = _measure(centers, scales)
-            if converged is not None:
-                per_class[name][method]["converged"] = converged
-    keys = ("sigma_tr", "sigma_tr_axis", "sigma_scale", "cv_scale")
-    summary = [{"method": method,
-                **{k: float(np.mean([per_class[c][method][k] for c in per_class])) for k in keys},
-                "seconds": seconds[method]} for method in methods]
+    options = {"gamma": gamma, "nu": nu, "count": count, "seed": seed, "ocsvm": normalize_options}
+    total, done, out = len(variants) * len(classes), 0, {}
+    for variant in variants:
+        per_class, seconds = {}, dict.fromkeys(methods, 0.0)
+        for k, (name, meshes) in enumerate(classes.items()):
+            if progress is not None:
+                progress(done, total, f"{variant}: {name} ({len(meshes)} objects)")
+            done += 1
+            shapes = make_class(meshes, variant, seed, k)
+            per_class[name] = _evaluate_class(shapes, methods, options, seconds)
+        out[variant] = {"summary": _summary(per_class, methods, seconds, variant), "per_class": per_class}
+    if progress is not None:
+        progress(total, total, "done")
     params = {"gamma": float(gamma), "nu": float(nu), "count": int(count), "seed": int(seed),
-              "align_core": bool(align_core), "methods": list(methods), "classes": list(classes),
-              "objects": {c: len(m) for c, m in classes.items()},
+              "align_core": bool(align_core), "methods": list(methods), "variants": list(variants),
+              "classes": list(classes), "objects": {c: len(m) for c, m in classes.items()},
               "normalize_options": {k: _jsonable(v) for k, v in normalize_options.items()}}
-    result = {"params": params, "summary": summary, "per_class": per_class}
+    first = out[variants[0]]
+    result = {"params": params, "variants": out, "summary": first["summary"], "per_class": first["per_class"]}
     if sweep:
         result["sweeps"] = _both_sweeps(classes, count, seed, progress, normalize_options)
     return result
@@ -198,13 +247,15 @@ def sweep(classes, param="gamma", values=None, fixed=None, count=2000, seed=0, p
     for value in values:
         args = {**fixed, param: value}
         for name in classes:
-            _notify(progress, f"sweep {param}={value:g}: {name}")
+            if progress is not None:
+                progress(None, None, f"sweep {param}={value:g}: {name}")
             centers, scales, _ = _ocsvm(points[name], args["gamma"], args["nu"], normalize_options)
             per_class[name]["sigma_tr"].append(spread(centers)["sigma_tr"])
             per_class[name]["sigma_scale"].append(scale_spread(scales)["sigma_scale"])
     reference = {}
     for name, meshes in classes.items():
-        centers, scales = _baseline(meshes, "surface_centroid")
+        centers = np.stack([baselines.surface_centroid(m) for m in meshes])
+        scales = np.array([baselines.mean_distance(m, c) for m, c in zip(meshes, centers)])
         reference[name] = {"sigma_tr": spread(centers)["sigma_tr"],
                            "sigma_scale": scale_spread(scales)["sigma_scale"]}
     average = {k: np.mean([per_class[c][k] for c in classes], axis=0).tolist() for k in ("sigma_tr", "sigma_scale")}
@@ -216,21 +267,26 @@ def sweep(classes, param="gamma", values=None, fixed=None, count=2000, seed=0, p
 
 # ------------------------------------------------------------------ report
 def format_table(result) -> str:
-    """The summary of :func:`evaluate` as a terminal table, with OCSVM's relative reduction."""
+    """The summaries of :func:`evaluate` as terminal tables, one per variant.
+
+    Columns: sigma_tr, its change against the variant's reference (the surface centroid; the
+    vertex mean for point clouds), sigma_scale, cv_scale, seconds; n/a where a method does not apply.
+    """
     p = result.get("params", {})
-    head = (f"{len(result.get('per_class', {}))} classes, gamma={p.get('gamma')}, nu={p.get('nu')}, "
-            f"count={p.get('count')}, align_core={p.get('align_core')}")
-    columns = ("sigma_tr", "sigma_tr_axis", "sigma_scale", "cv_scale", "seconds")
-    rows = [f"{'method':<18}" + "".join(f"{c:>15}" for c in columns)]
-    rows.append("-" * len(rows[0]))
-    for row in result["summary"]:
-        rows.append(f"{row['method']:<18}" + "".join(
-            f"{row[c]:>15.2f}" if c == "seconds" else f"{row[c]:>15.5f}" for c in columns))
-    by = {row["method"]: row for row in result["summary"]}
-    lines = [head, *rows]
-    if "ocsvm" in by and "surface_centroid" in by:
-        o, s = by["ocsvm"], by["surface_centroid"]
-        change = [f"{k} {100.0 * (s[k] - o[k]) / s[k]:+.1f}%" for k in columns[:4] if s[k] > 0]
-        lines.append("reduction of ocsvm vs surface_centroid (positive = ocsvm more consistent): "
-                     + ", ".join(change))
+    per_variant = result.get("variants") or {"plain": {"summary": result["summary"], "per_class": result["per_class"]}}
+    lines = [f"{len(result.get('per_class', {}))} classes, gamma={p.get('gamma')}, nu={p.get('nu')}, "
+             f"count={p.get('count')}, seed={p.get('seed')}, align_core={p.get('align_core')}"]
+    for variant, block in per_variant.items():
+        ref = reference_method(variant)
+        head = (f"{'method':<24}{'sigma_tr':>11}{'vs ' + ref:>22}{'sigma_scale':>13}{'cv_scale':>11}"
+                f"{'seconds':>9}")
+        lines += ["", f"variant {variant}", head, "-" * len(head)]
+        for row in block["summary"]:
+            if row["sigma_tr"] is None:
+                lines.append(f"{row['method']:<24}{'n/a':>11}{'':>22}{'n/a':>13}{'n/a':>11}{row['seconds']:>9.1f}")
+                continue
+            rel = row.get("sigma_tr_vs_reference")
+            rel = "" if rel is None else f"{100.0 * rel:+.1f}%"
+            lines.append(f"{row['method']:<24}{row['sigma_tr']:>11.5f}{rel:>22}{row['sigma_scale']:>13.5f}"
+                         f"{row['cv_scale']:>11.5f}{row['seconds']:>9.1f}")
     return "\n".join(lines)

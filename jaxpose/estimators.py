@@ -1,0 +1,239 @@
+"""Named estimators of a shape's center and scale, for meshes and point clouds, one interface.
+
+A method is a (center, scale) pair; the two can also be chosen independently
+(``estimate(mesh, center="solid_centroid", scale="sqrt_area")``).
+
+The default, ``"robust"``, is the depth^4-weighted centroid of a robust solid and the cube root of
+that solid's volume (:mod:`jaxpose.solid`): the solid is found with or without a closed surface
+(holes are capped and voted over by rays along 3 axes; point clouds are closed morphologically),
+stray parts separated from the body are dropped, and each voxel weighs its depth to the outside to
+the power 4, so the deep part of the shape (a body's torso), which moves least under articulation,
+sets the center. The volume is nearly invariant under articulation of soft bodies. See
+``docs/estimators.md`` for the measurements behind the choice.
+
+``"ocsvm"`` is the paper's method (:func:`jaxpose.normalize` on ``count`` surface samples), the
+only one differentiable in (gamma, nu). The others are the classical baselines of
+:mod:`jaxpose.baselines`.
+"""
+from __future__ import annotations
+
+import numbers
+
+import numpy as np
+
+from . import baselines, solid
+from ._validate import InvalidInputError, JaxposeError
+
+__all__ = ["METHODS", "CENTERS", "SCALES", "DEFAULT_METHOD", "ROBUST_POWER", "resolve", "estimate",
+           "estimate_many", "robust_center_scale", "depth_centroid"]
+
+METHODS = {
+    "robust": ("robust_depth", "robust_volume"),
+    "ocsvm": ("ocsvm", "ocsvm"),
+    "surface_centroid": ("surface_centroid", "mean_distance"),
+    "vertex_mean": ("vertex_mean", "mean_distance"),
+    "bbox": ("bbox_center", "unit_cube"),
+    "min_ball": ("min_ball", "unit_sphere"),
+    "solid": ("solid_centroid", "gyration_radius"),
+    "solid_sqrt_area": ("solid_centroid", "sqrt_area"),
+    "depth_weighted_solid": ("depth_weighted_solid", "sqrt_area"),
+}
+DEFAULT_METHOD = "robust"
+CENTERS = ("robust_depth", "ocsvm") + baselines.CENTERS
+SCALES = ("robust_volume", "ocsvm") + baselines.SCALES
+ROBUST_POWER = 4.0  # depth exponent of the robust center
+_OCSVM_KEYS = ("gamma", "nu", "count", "seed", "sampling")
+
+
+def resolve(method=None, center=None, scale=None):
+    """The (center, scale) names of a method and/or explicit choices; validated.
+
+    ``method`` (default ``"robust"``) gives both; ``center`` / ``scale`` replace either. Raises
+    InvalidInputError naming an unknown name.
+    """
+    if method is not None and method not in METHODS:
+        raise InvalidInputError(f"unknown method {method!r}; valid: {', '.join(METHODS)}")
+    c, s = METHODS[method or DEFAULT_METHOD]
+    c, s = center or c, scale or s
+    if c not in CENTERS:
+        raise InvalidInputError(f"unknown center {c!r}; valid: {', '.join(CENTERS)}")
+    if s not in SCALES:
+        raise InvalidInputError(f"unknown scale {s!r}; valid: {', '.join(SCALES)}")
+    return c, s
+
+
+def robust_center_scale(geometry, power=ROBUST_POWER, resolution=solid.RESOLUTION):
+    """The robust center and scale (module docs) of a mesh or point cloud.
+
+    Args:
+      geometry: Trimesh, PointCloud or (n, 3) points.
+      power: depth exponent p >= 0 of the center's weights.
+      resolution: voxels along the main body's largest extent (>= 8).
+
+    Returns:
+      center (3,) float64 = sum_v d_v^p x_v / sum_v d_v^p over the kept voxels, scale () =
+      V^(1/3), both in the input's units, and the :class:`jaxpose.solid.Solid`.
+
+    Raises:
+      JaxposeError: the shape encloses no volume (a flat or open sheet, a one-sided scan).
+    """
+    sol = _robust_solid(geometry, resolution)
+    return depth_centroid(sol, power), sol.volume() ** (1.0 / 3.0), sol
+
+
+def _robust_solid(geometry, resolution):
+    if isinstance(resolution, bool) or not isinstance(resolution, numbers.Integral) or resolution < 8:
+        raise InvalidInputError(f"resolution must be an int >= 8, got {resolution!r}")
+    vertices, faces = baselines.split_geometry(geometry)
+    sol = solid.robust_solid(vertices, faces, resolution=int(resolution))
+    if not sol.inside.any():
+        raise JaxposeError("the shape encloses no volume (a flat or open sheet, or a scan of one side): "
+                           "the robust solid is empty; use method='surface_centroid' or 'ocsvm'")
+    return sol
+
+
+def depth_centroid(sol, power=ROBUST_POWER):
+    """sum_v d_v^p x_v / sum_v d_v^p over the kept voxels of a :class:`jaxpose.solid.Solid`. (3,)"""
+    if not (isinstance(power, numbers.Real) and np.isfinite(power) and power >= 0):
+        raise InvalidInputError(f"power must be a finite number >= 0, got {power!r}")
+    d = sol.depth[sol.inside]
+    w = (d / d.max()) ** float(power) if d.max() > 0 else np.ones_like(d)
+    return (w @ sol.centers()) / w.sum()
+
+
+class _Shape:
+    """One input with the intermediate results that several estimators share, computed once."""
+
+    def __init__(self, geometry, options):
+        self.geometry = geometry
+        self.options = options
+        self._robust_solid = None
+        self._ocsvm = None
+        self._voxels = None
+
+    def robust_solid(self):
+        if self._robust_solid is None:
+            self._robust_solid = _robust_solid(self.geometry, self.options.get("resolution", solid.RESOLUTION))
+        return self._robust_solid
+
+    def ocsvm(self):
+        if self._ocsvm is None:
+            from .mesh import sample_surface
+            from .pose import normalize
+
+            o = self.options
+            points = sample_surface(self.geometry, o.get("count", 2000), seed=o.get("seed", 0),
+                                    method=o.get("sampling", "even"))
+            self._ocsvm = normalize(points, o.get("gamma", 47.0), o.get("nu", 0.5), **o.get("ocsvm", {}))
+        return self._ocsvm
+
+    def center(self, name, strict):
+        if name == "robust_depth":
+            return depth_centroid(self.robust_solid(), self.options.get("power", ROBUST_POWER))
+        if name == "ocsvm":
+            return np.asarray(self.ocsvm().center, np.float64)
+        if name == "solid_centroid":
+            return baselines.solid_centroid(self.geometry, strict=strict)
+        if name == "depth_weighted_solid":
+            if self._voxels is None:
+                self._voxels = baselines.filled_voxels(self.geometry, strict=strict)
+            x, d = self._voxels
+            w = d ** float(self.options.get("power", 2.0))
+            return (w @ x) / w.sum()
+        return baselines.center(self.geometry, name)
+
+    def scale(self, name, center, strict):
+        if name == "robust_volume":
+            return self.robust_solid().volume() ** (1.0 / 3.0)
+        if name == "ocsvm":
+            return float(np.asarray(self.ocsvm().scale))
+        if name == "gyration_radius":
+            return baselines.gyration_radius(self.geometry, center, strict=strict)
+        return baselines.scale(self.geometry, name, center=center)
+
+
+def estimate(geometry, method=None, *, center=None, scale=None, strict=False, **options):
+    """Center and scale of a mesh or point cloud by name, as a :class:`jaxpose.Pose`.
+
+    Args:
+      geometry: Trimesh, PointCloud or (n, 3) points (already loaded).
+      method: one of :data:`METHODS` (default ``"robust"``).
+      center, scale: override either part (names in :data:`CENTERS`, :data:`SCALES`).
+      strict: closed-surface estimators (``solid_centroid``, ``gyration_radius``,
+        ``depth_weighted_solid``) raise on an open mesh instead of warning.
+      options: ``power`` (depth exponent: robust_depth 4, depth_weighted_solid 2), ``resolution``
+        (robust solid voxels, 96); for ``ocsvm``: ``gamma``, ``nu``, ``count``, ``seed``,
+        ``sampling`` and ``ocsvm`` (a dict of :func:`jaxpose.normalize` options).
+
+    Returns:
+      Pose (center (3,), scale ()), in the input's units: the scales of different methods are
+      different sizes (a mean distance, a volume's cube root, an extent), consistent within a method.
+
+    Raises:
+      InvalidInputError: unknown names or options; a surface estimator on points.
+      JaxposeError: no valid pose (e.g. a shape that encloses no volume for ``robust``).
+    """
+    c_name, s_name = resolve(method, center, scale)
+    _check_options(options)
+    return _pose(_Shape(geometry, options), c_name, s_name, strict)
+
+
+def _check_options(options):
+    unknown = sorted(set(options) - {"power", "resolution", "ocsvm", *_OCSVM_KEYS})
+    if unknown:
+        raise InvalidInputError(f"unknown option{'s' if len(unknown) > 1 else ''} {', '.join(unknown)}")
+
+
+def _pose(shape, c_name, s_name, strict):
+    from .pose import Pose
+
+    c = np.asarray(shape.center(c_name, strict), np.float64)
+    s = float(shape.scale(s_name, c, strict))
+    if c_name == s_name == "ocsvm":
+        pose = shape.ocsvm()
+    else:
+        pose = Pose.from_center_scale(c, s)
+    if not bool(np.all(np.asarray(getattr(pose, "valid", True)))):
+        raise JaxposeError(f"{c_name} / {s_name} gave no valid pose (center {c}, scale {s})")
+    return pose
+
+
+def estimate_many(geometry, methods, strict=False, timings=False, **options):
+    """Several methods on one input, sharing what they have in common (the robust solid, the
+    voxels of the depth-weighted solid, the OCSVM fit).
+
+    Args:
+      geometry: as :func:`estimate`; methods: names of :data:`METHODS`, each optionally with a depth
+        power as ``"name:p"`` (``"depth_weighted_solid:4"``); strict, options: as :func:`estimate`.
+
+      timings: also return each method's seconds (shared work counted where first done).
+
+    Returns:
+      {method: Pose, or the JaxposeError it raised (e.g. a surface estimator on points)}, with
+      ``timings`` {method: (that, seconds)}.
+    """
+    import time
+
+    _check_options(options)
+    shapes, out = {}, {}
+    for spec in methods:
+        name, _, power = str(spec).partition(":")
+        c_name, s_name = resolve(name)
+        key = float(power) if power else None
+        if key not in shapes:  # one shared input per power (the solids do not depend on it)
+            base = next(iter(shapes.values()), None)
+            shapes[key] = shape = _Shape(geometry, options if key is None else {**options, "power": key})
+            if base is not None:
+                shape._robust_solid, shape._ocsvm, shape._voxels = base._robust_solid, base._ocsvm, base._voxels
+        start = time.perf_counter()
+        try:
+            out[spec] = _pose(shapes[key], c_name, s_name, strict)
+        except JaxposeError as exc:
+            out[spec] = exc
+        if timings:
+            out[spec] = (out[spec], time.perf_counter() - start)
+        for other in shapes.values():  # share what was computed
+            for attr in ("_robust_solid", "_ocsvm", "_voxels"):
+                if getattr(other, attr) is None:
+                    setattr(other, attr, getattr(shapes[key], attr))
+    return out

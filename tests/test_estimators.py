@@ -1,0 +1,142 @@
+"""Named estimators: closed forms against trimesh and analytic solids, the robust default,
+independent center/scale choices, and clear errors where an estimator does not apply."""
+import warnings
+
+import numpy as np
+import pytest
+import trimesh
+
+from jaxpose import InvalidInputError, JaxposeError, baselines, estimators
+from jaxpose._validate import OpenMeshWarning
+
+
+def _box(extents=(2.0, 1.0, 0.5), at=(0.3, -0.2, 0.1)):
+    box = trimesh.creation.box(extents)
+    box.apply_translation(at)
+    return box
+
+
+def _holed(mesh, fraction=0.05):
+    keep = mesh.triangles_center[:, 2] < mesh.bounds[1, 2] - fraction * np.ptp(mesh.bounds[:, 2])
+    return trimesh.Trimesh(mesh.vertices, mesh.faces[keep], process=False)
+
+
+def test_solid_moments_match_trimesh_and_analytic():
+    mesh = trimesh.creation.capsule(height=1.5, radius=0.4, count=[24, 24])
+    mesh.apply_translation([0.5, 2.0, -3.0])
+    props = trimesh.triangles.mass_properties(mesh.triangles)
+    volume, center, _ = baselines.solid_moments(mesh)
+    assert volume == pytest.approx(props["volume"], rel=1e-10)
+    np.testing.assert_allclose(center, props["center_mass"], atol=1e-12)
+    gyr = np.sqrt(np.trace(props["inertia"]) / (2.0 * props["mass"]))
+    assert baselines.gyration_radius(mesh) == pytest.approx(gyr, rel=1e-10)
+    far = mesh.copy()  # moments about the vertex mean: no digits lost far from the origin
+    far.apply_translation([1e6, 0.0, 0.0])
+    assert baselines.gyration_radius(far) == pytest.approx(gyr, rel=1e-9)
+    np.testing.assert_allclose(baselines.solid_centroid(far) - [1e6, 0, 0], center, atol=1e-8)
+    box = _box()
+    np.testing.assert_allclose(baselines.solid_centroid(box), [0.3, -0.2, 0.1], atol=1e-12)
+    assert baselines.gyration_radius(box) == pytest.approx(np.sqrt((4 + 1 + 0.25) / 12), rel=1e-12)
+    about = np.array([0.3, -0.2, 1.1])  # one unit off the centroid
+    assert baselines.gyration_radius(box, about) == pytest.approx(np.sqrt((4 + 1 + 0.25) / 12 + 1.0), rel=1e-12)
+    assert baselines.sqrt_area(box) == pytest.approx(np.sqrt(2 * (2 + 1 + 0.5)), rel=1e-12)
+
+
+def test_closed_surface_estimators_warn_or_refuse_open_meshes_and_points():
+    holed = _holed(trimesh.creation.icosphere(subdivisions=3))
+    with pytest.warns(OpenMeshWarning, match="not closed"):
+        baselines.solid_centroid(holed)
+    with pytest.raises(InvalidInputError, match="strict"):
+        baselines.solid_centroid(holed, strict=True)
+    with pytest.raises(InvalidInputError, match="strict"):
+        estimators.estimate(holed, "solid", strict=True)
+    cloud = trimesh.PointCloud(np.random.default_rng(0).normal(size=(100, 3)))
+    for name in ("sqrt_area", "gyration_radius"):
+        with pytest.raises(InvalidInputError, match="points only"):
+            estimators.estimate(cloud, center="vertex_mean", scale=name)
+    with pytest.raises(InvalidInputError, match="points only"):
+        estimators.estimate(cloud, "solid")
+
+
+def test_robust_default_on_analytic_solids():
+    sphere = trimesh.creation.icosphere(subdivisions=4, radius=1.0)
+    sphere.apply_translation([5.0, -2.0, 1.0])
+    pose = estimators.estimate(sphere)
+    np.testing.assert_allclose(pose.center, [5.0, -2.0, 1.0], atol=0.01)
+    assert float(pose.scale) == pytest.approx(sphere.volume ** (1 / 3), rel=0.01)
+    box = _box()
+    pose = estimators.estimate(box)
+    np.testing.assert_allclose(pose.center, [0.3, -0.2, 0.1], atol=0.02)
+    assert float(pose.scale) == pytest.approx(1.0, rel=0.02)  # V = 1
+
+
+def test_robust_is_similarity_equivariant_and_ignores_a_stray_part():
+    body = trimesh.creation.capsule(height=2.0, radius=0.5)
+    arm = trimesh.creation.cylinder(radius=0.15, height=1.2)
+    arm.apply_translation([0.6, 0.0, 0.5])
+    shape = trimesh.util.concatenate([body, arm])
+    p0 = estimators.estimate(shape)
+    moved = shape.copy()
+    moved.apply_scale(3.0)
+    moved.apply_translation([10.0, -5.0, 2.0])
+    p1 = estimators.estimate(moved)
+    np.testing.assert_allclose(p1.center, 3.0 * np.asarray(p0.center) + [10, -5, 2], atol=0.03)
+    assert float(p1.scale) == pytest.approx(3.0 * float(p0.scale), rel=2e-3)
+    stray = trimesh.creation.icosphere(radius=0.2)
+    stray.apply_translation([3.0, 0.0, 0.0])
+    p2 = estimators.estimate(trimesh.util.concatenate([shape, stray]))
+    np.testing.assert_allclose(p2.center, p0.center, atol=1e-9)
+    assert float(p2.scale) == pytest.approx(float(p0.scale), rel=1e-9)
+    # the deep part weighs most: the arm pulls the robust center less than the solid centroid
+    assert np.linalg.norm(p0.center) < np.linalg.norm(baselines.solid_centroid(shape))
+
+
+def test_robust_handles_holes_and_point_clouds():
+    sphere = trimesh.creation.icosphere(subdivisions=4, radius=1.0)
+    keep = np.ones(len(sphere.faces), bool)
+    keep[np.random.default_rng(1).choice(len(sphere.faces), 200, replace=False)] = False
+    pose = estimators.estimate(trimesh.Trimesh(sphere.vertices, sphere.faces[keep], process=False))
+    np.testing.assert_allclose(pose.center, 0.0, atol=0.02)
+    assert float(pose.scale) == pytest.approx(sphere.volume ** (1 / 3), rel=0.02)
+    points, _ = trimesh.sample.sample_surface(sphere, 20000, seed=0)
+    pose = estimators.estimate(trimesh.PointCloud(points))
+    np.testing.assert_allclose(pose.center, 0.0, atol=0.02)
+    assert float(pose.scale) == pytest.approx(sphere.volume ** (1 / 3), rel=0.03)
+
+
+def test_flat_sheet_is_a_clear_error():
+    sheet = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]], [[0, 1, 2], [1, 3, 2]], process=False)
+    with pytest.raises(JaxposeError, match="encloses no volume"):
+        estimators.estimate(sheet)
+
+
+def test_center_and_scale_are_chosen_independently():
+    box = _box()
+    pose = estimators.estimate(box, center="solid_centroid", scale="sqrt_area")
+    np.testing.assert_allclose(pose.center, [0.3, -0.2, 0.1], atol=1e-12)
+    assert float(pose.scale) == pytest.approx(baselines.sqrt_area(box), rel=1e-12)
+    assert estimators.resolve("solid", scale="robust_volume") == ("solid_centroid", "robust_volume")
+    with pytest.raises(InvalidInputError, match="unknown method"):
+        estimators.resolve("median")
+    with pytest.raises(InvalidInputError, match="unknown scale"):
+        estimators.resolve(scale="height")
+    with pytest.raises(InvalidInputError, match="unknown option"):
+        estimators.estimate(box, gamma2=1.0)
+
+
+def test_depth_weighted_solid_and_estimate_many_agree():
+    mesh = trimesh.creation.capsule(height=2.0, radius=0.5)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        many = estimators.estimate_many(mesh, ["robust", "robust:8", "depth_weighted_solid",
+                                               "depth_weighted_solid:4", "solid"])
+    np.testing.assert_allclose(many["depth_weighted_solid"].center, baselines.depth_weighted_solid(mesh, 2.0),
+                               atol=1e-12)
+    np.testing.assert_allclose(many["depth_weighted_solid:4"].center, baselines.depth_weighted_solid(mesh, 4.0),
+                               atol=1e-12)
+    np.testing.assert_allclose(many["robust"].center, estimators.estimate(mesh).center, atol=1e-12)
+    np.testing.assert_allclose(many["robust:8"].center, estimators.estimate(mesh, power=8.0).center, atol=1e-12)
+    np.testing.assert_allclose(many["solid"].center, 0.0, atol=1e-9)
+    cloud = trimesh.PointCloud(np.asarray(mesh.vertices))
+    out = estimators.estimate_many(cloud, ["solid", "vertex_mean"])
+    assert isinstance(out["solid"], InvalidInputError) and not isinstance(out["vertex_mean"], Exception)

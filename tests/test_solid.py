@@ -1,0 +1,95 @@
+"""The robust voxel solid: analytic volumes, holes, stray parts, unions, point clouds, frames."""
+import numpy as np
+import pytest
+import trimesh
+
+from jaxpose import InvalidInputError
+from jaxpose.solid import cap_holes, exterior_fill, keep_main, robust_solid
+
+
+def _solid(mesh, **kw):
+    return robust_solid(np.asarray(mesh.vertices), np.asarray(mesh.faces), **kw)
+
+
+def test_sphere_volume_and_depth():
+    sphere = trimesh.creation.icosphere(subdivisions=4, radius=1.0)
+    s = _solid(sphere)
+    assert s.volume() == pytest.approx(sphere.volume, rel=0.01)
+    assert float(s.depth.max()) == pytest.approx(1.0, abs=1.5 * s.pitch)  # the center is 1 deep
+    np.testing.assert_allclose(s.centers().mean(axis=0), 0.0, atol=0.01)
+    assert s.components == 1 and s.dropped == 0 and s.occupied is None
+
+
+def test_holes_are_voted_over_and_capped():
+    sphere = trimesh.creation.icosphere(subdivisions=4, radius=1.0)
+    keep = np.abs(sphere.triangles_center[:, 0]) < 0.9  # two polar holes of radius ~0.44
+    holed = trimesh.Trimesh(sphere.vertices, sphere.faces[keep], process=False)
+    assert not holed.is_watertight
+    s = _solid(holed)
+    caps = np.pi * 0.1 ** 2 * (3 - 0.1) / 3  # the two domes beyond the cap planes are undetermined
+    assert s.volume() == pytest.approx(sphere.volume - 2 * caps, rel=0.02)
+    v, c = cap_holes(np.asarray(holed.vertices), np.asarray(holed.faces))
+    assert len(v) == len(holed.vertices) + 2 and trimesh.Trimesh(v, np.vstack([holed.faces, c])).is_watertight
+
+
+def test_union_kept_separate_small_part_dropped():
+    a = trimesh.creation.box([2, 1, 1])
+    b = trimesh.creation.box([1, 2, 1])
+    b.apply_translation([0.5, 0.5, 0])  # overlaps a: the union counts once
+    small = trimesh.creation.icosphere(radius=0.3)
+    small.apply_translation([4, 0, 0])
+    s = _solid(trimesh.util.concatenate([a, b, small]))
+    assert s.volume() == pytest.approx(3.0, rel=0.03)  # the first pass left the far part out of the grid
+    main = _solid(trimesh.util.concatenate([a, b]))
+    np.testing.assert_allclose(s.centers().mean(0), main.centers().mean(0), atol=1e-9)  # the stray part is gone
+
+
+def test_two_equal_parts_are_both_kept():
+    a, b = trimesh.creation.box([1, 1, 1]), trimesh.creation.box([1, 1, 1])
+    b.apply_translation([3, 0, 0])
+    s = _solid(trimesh.util.concatenate([a, b]))
+    assert s.dropped == 0 and s.components == 2
+    assert s.centers().mean(0)[0] == pytest.approx(1.5, abs=0.02)
+
+
+def test_inverted_mesh_is_the_same_solid():
+    sphere = trimesh.creation.icosphere(subdivisions=3)
+    inverted = sphere.copy()
+    inverted.invert()
+    assert _solid(inverted).volume() == pytest.approx(_solid(sphere).volume(), rel=1e-12)
+
+
+def test_point_cloud_solid():
+    sphere = trimesh.creation.icosphere(subdivisions=4, radius=1.0)
+    points, _ = trimesh.sample.sample_surface(sphere, 20000, seed=0)
+    s = robust_solid(points)
+    assert s.occupied is not None
+    assert s.volume() == pytest.approx(sphere.volume, rel=0.05)
+    np.testing.assert_allclose(s.centers().mean(0), 0.0, atol=0.02)
+
+
+def test_frame_rotates_the_grid():
+    capsule = trimesh.creation.capsule(height=2.0, radius=0.5)
+    q, _ = np.linalg.qr(np.random.default_rng(0).normal(size=(3, 3)))
+    q *= np.sign(np.linalg.det(q))
+    turned = capsule.copy()
+    turned.apply_transform(np.block([[q, np.zeros((3, 1))], [np.zeros((1, 3)), np.ones((1, 1))]]))
+    a, b = _solid(capsule), _solid(turned, frame=q.T)  # the grid turned with the shape
+    assert b.volume() == pytest.approx(a.volume(), rel=1e-9)
+    np.testing.assert_allclose(np.sort(b.centers() @ q, axis=0), np.sort(a.centers(), axis=0), atol=1e-9)
+
+
+def test_fill_and_components_helpers():
+    shell = np.zeros((7, 7, 7), bool)
+    shell[1:6, 1:6, 1:6] = True
+    shell[2:5, 2:5, 2:5] = False  # a closed cavity
+    assert exterior_fill(shell)[3, 3, 3] and exterior_fill(shell).sum() == 125
+    two = np.zeros((9, 3, 3), bool)
+    two[0:4], two[6:7] = True, True
+    kept, n, dropped = keep_main(two)
+    assert n == 2 and dropped == 1 and kept[:4].all() and not kept[6:].any()
+
+
+def test_degenerate_input():
+    with pytest.raises(InvalidInputError, match="no extent"):
+        robust_solid(np.ones((10, 3)))

@@ -1,0 +1,59 @@
+"""The evaluation's input variants, exactly as documented: stray parts, points, holes; seeded."""
+import numpy as np
+import pytest
+import trimesh
+
+from jaxpose import InvalidInputError
+from jaxpose.evaluation.variants import VARIANTS, make_class, make_variant, stray_mask, up_axis
+
+
+def _body():
+    return trimesh.creation.capsule(height=1.6, radius=0.3, count=[32, 32])
+
+
+@pytest.mark.parametrize("variant,low,high", [("outliers", 0.02, 0.05), ("big_outliers", 0.08, 0.15)])
+def test_stray_part_area_and_separation(variant, low, high):
+    body = _body()
+    for seed in range(5):
+        out = make_variant(body, variant, np.random.default_rng([seed, 0, 0]), up=up_axis(body))
+        extra = out.area - body.area
+        assert low * body.area <= extra <= high * body.area
+        part = np.asarray(out.vertices)[len(body.vertices):]
+        lo, hi = body.bounds
+        horiz = [k for k in range(3) if k != up_axis(body)]
+        gap = np.maximum(np.maximum(lo[horiz] - part[:, horiz], part[:, horiz] - hi[horiz]), 0).max(axis=1)
+        assert gap.min() > 0  # outside the bounding box, never touching the body
+        assert out.metadata["stray"]["fraction"] == pytest.approx(extra / body.area, rel=1e-9)
+
+
+def test_half_of_a_class_gets_the_stray_part_reproducibly():
+    meshes = [_body() for _ in range(6)]
+    a = make_class(meshes, "outliers", seed=3, class_index=1)
+    b = make_class(meshes, "outliers", seed=3, class_index=1)
+    grown = [len(m.faces) > len(meshes[0].faces) for m in a]
+    assert sum(grown) == 3 and grown == list(stray_mask(6, 3, 1))
+    assert all(np.array_equal(x.vertices, y.vertices) for x, y in zip(a, b))  # seeded
+    c = make_class(meshes, "outliers", seed=4, class_index=1)
+    assert any(not np.array_equal(x.vertices, y.vertices) for x, y in zip(a, c))
+
+
+def test_holes_remove_ten_percent_in_five_patches():
+    body = _body()
+    out = make_variant(body, "holes", np.random.default_rng([0, 0, 0]))
+    removed = len(body.faces) - len(out.faces)
+    assert removed == pytest.approx(0.10 * len(body.faces), abs=5)
+    assert out.metadata["holes"]["removed_faces"] == removed
+    boundary = out.edges_sorted[trimesh.grouping.group_rows(out.edges_sorted, require_count=1)]
+    loops = trimesh.graph.connected_components(boundary)
+    assert 1 <= len(loops) <= 5  # five patches (two may merge)
+
+
+def test_points_and_plain():
+    body = _body()
+    pts = make_variant(body, "points", np.random.default_rng(0))
+    assert isinstance(pts, trimesh.PointCloud) and np.array_equal(pts.vertices, body.vertices)
+    plain = make_variant(body, "plain", np.random.default_rng(0))
+    assert plain is not body and np.array_equal(plain.vertices, body.vertices)
+    with pytest.raises(InvalidInputError, match="unknown variant"):
+        make_variant(body, "noise", np.random.default_rng(0))
+    assert VARIANTS == ("plain", "outliers", "big_outliers", "points", "holes")

@@ -286,8 +286,10 @@ def is_closed(faces):
     """Whether every edge of the faces (f, 3) is shared by exactly two faces (no boundary, no
     non-manifold edge): the surface bounds a volume."""
     faces = np.asarray(faces, dtype=np.int64)
-    e = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
-    _, counts = np.unique(e, axis=0, return_counts=True)
+    e = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    n = int(faces.max()) + 1
+    key = np.sort(np.minimum(e[:, 0], e[:, 1]) * n + np.maximum(e[:, 0], e[:, 1]))
+    _, counts = np.unique(key, return_counts=True)
     return bool(np.all(counts == 2))
 
 

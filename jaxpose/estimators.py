@@ -101,6 +101,9 @@ def depth_centroid(sol, power=ROBUST_POWER):
     return (w @ sol.centers()) / w.sum()
 
 
+_SHARED = ("_robust_solid", "_ocsvm", "_voxels", "_moments")  # what does not depend on the power
+
+
 class _Shape:
     """One input with the intermediate results that several estimators share, computed once."""
 
@@ -110,6 +113,12 @@ class _Shape:
         self._robust_solid = None
         self._ocsvm = None
         self._voxels = None
+        self._moments = None
+
+    def solid_moments(self, strict):
+        if self._moments is None:
+            self._moments = baselines.solid_moments(self.geometry, strict)
+        return self._moments
 
     def robust_solid(self):
         if self._robust_solid is None:
@@ -133,7 +142,7 @@ class _Shape:
         if name == "ocsvm":
             return np.asarray(self.ocsvm().center, np.float64)
         if name == "solid_centroid":
-            return baselines.solid_centroid(self.geometry, strict=strict)
+            return self.solid_moments(strict)[1]
         if name == "depth_weighted_solid":
             if self._voxels is None:
                 self._voxels = baselines.filled_voxels(self.geometry, strict=strict)
@@ -148,7 +157,8 @@ class _Shape:
         if name == "ocsvm":
             return float(np.asarray(self.ocsvm().scale))
         if name == "gyration_radius":
-            return baselines.gyration_radius(self.geometry, center, strict=strict)
+            _, c, second = self.solid_moments(strict)
+            return float(np.sqrt(np.trace(second) + np.sum((np.asarray(center) - c) ** 2)))
         return baselines.scale(self.geometry, name, center=center)
 
 
@@ -224,7 +234,8 @@ def estimate_many(geometry, methods, strict=False, timings=False, **options):
             base = next(iter(shapes.values()), None)
             shapes[key] = shape = _Shape(geometry, options if key is None else {**options, "power": key})
             if base is not None:
-                shape._robust_solid, shape._ocsvm, shape._voxels = base._robust_solid, base._ocsvm, base._voxels
+                for attr in _SHARED:
+                    setattr(shape, attr, getattr(base, attr))
         start = time.perf_counter()
         try:
             out[spec] = _pose(shapes[key], c_name, s_name, strict)
@@ -233,7 +244,7 @@ def estimate_many(geometry, methods, strict=False, timings=False, **options):
         if timings:
             out[spec] = (out[spec], time.perf_counter() - start)
         for other in shapes.values():  # share what was computed
-            for attr in ("_robust_solid", "_ocsvm", "_voxels"):
+            for attr in _SHARED:
                 if getattr(other, attr) is None:
                     setattr(other, attr, getattr(shapes[key], attr))
     return out

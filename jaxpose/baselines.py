@@ -381,9 +381,10 @@ DEPTH_VOXELS = 96  # depth_weighted_solid: voxels along the largest extent
 def depth_weighted_solid(mesh_or_points, power=2.0, voxels=DEPTH_VOXELS, strict=False):
     """Centroid of the voxelized, filled solid, each voxel weighted by its depth to the power p.
 
-    The mesh is voxelized at pitch = largest extent / ``voxels`` and filled
-    (``mesh.voxelized(pitch).fill()``, trimesh); each voxel's depth is its Euclidean distance to the
-    outside (``scipy.ndimage.distance_transform_edt``); c = sum d^p x / sum d^p. The deep part of a
+    The mesh is voxelized at pitch = largest extent / ``voxels`` and filled (the construction of
+    trimesh's ``mesh.voxelized(pitch).fill()``, :func:`filled_voxels`); each voxel's depth is its
+    Euclidean distance to the outside (``scipy.ndimage.distance_transform_edt``);
+    c = sum d^p x / sum d^p. The deep part of a
     body (the torso) moves least when it articulates. The fill needs a closed surface: with holes it
     leaks (the solid is then the surface shell only).
 
@@ -401,22 +402,49 @@ def depth_weighted_solid(mesh_or_points, power=2.0, voxels=DEPTH_VOXELS, strict=
 
 
 def filled_voxels(mesh_or_points, voxels=DEPTH_VOXELS, strict=False):
-    """The voxel centers (n, 3) of ``mesh.voxelized(extent / voxels).fill()`` and their depths (n,)
-    in voxels (Euclidean distance to the nearest outside voxel), as :func:`depth_weighted_solid`
-    uses them."""
+    """The voxels of the filled mesh and their depths, as :func:`depth_weighted_solid` uses them.
+
+    The construction of ``mesh.voxelized(pitch).fill()``: the voxels (pitch = largest extent /
+    ``voxels``) that the surface passes through are marked from a lattice of points on every
+    triangle at most half a pitch apart, then every voxel enclosed by them is filled
+    (``scipy.ndimage.binary_fill_holes``).
+
+    Returns:
+      centers (n, 3) float64 of the filled voxels and their depths (n,) in voxels (the Euclidean
+      distance to the nearest outside voxel).
+    """
     from scipy import ndimage
-    import trimesh
 
     vertices, faces = _faces_or_raise(mesh_or_points, "depth_weighted_solid")
     if isinstance(voxels, bool) or int(voxels) != voxels or voxels < 8:
         raise InvalidInputError(f"voxels must be an int >= 8, got {voxels!r}")
     _closed_or_warn(faces, "depth_weighted_solid", strict)
-    mesh = trimesh.Trimesh(vertices, faces, process=False)
-    grid = mesh.voxelized(float(np.max(vertices.max(0) - vertices.min(0))) / int(voxels)).fill()
-    occupied = np.asarray(grid.matrix, bool)
-    edt = ndimage.distance_transform_edt(np.pad(occupied, 1))[1:-1, 1:-1, 1:-1]
-    idx = np.argwhere(occupied)
-    return np.asarray(grid.indices_to_points(idx), np.float64), edt[tuple(idx.T)]
+    lo = vertices.min(axis=0)
+    pitch = float(np.max(vertices.max(axis=0) - lo)) / int(voxels)
+    shape = np.floor((vertices.max(axis=0) - lo) / pitch).astype(int) + 3
+    occupied = np.zeros(shape, bool)
+    for points in _surface_lattice(vertices[faces], 0.5 * pitch):
+        idx = np.floor((points - lo) / pitch).astype(np.int64) + 1
+        occupied[idx[:, 0], idx[:, 1], idx[:, 2]] = True
+    filled = ndimage.binary_fill_holes(occupied)
+    edt = ndimage.distance_transform_edt(filled)
+    idx = np.argwhere(filled)
+    return lo + (idx - 1 + 0.5) * pitch, edt[tuple(idx.T)]
+
+
+def _surface_lattice(triangles, step, chunk=1 << 21):
+    """Points on every triangle (f, 3, 3) of a barycentric lattice with k subdivisions, k = the
+    smallest with edges / k <= step; yields (n, 3) blocks."""
+    edge = np.linalg.norm(triangles - np.roll(triangles, 1, axis=1), axis=2).max(axis=1)
+    k = np.maximum(1, np.ceil(edge / step)).astype(np.int64)
+    for level in np.unique(k):
+        i, j = np.meshgrid(np.arange(level + 1), np.arange(level + 1), indexing="ij")
+        keep = i + j <= level
+        bary = np.column_stack([level - i[keep] - j[keep], i[keep], j[keep]]) / level
+        tri = triangles[k == level]
+        per = max(1, chunk // len(bary))
+        for start in range(0, len(tri), per):
+            yield np.einsum("kj,bjd->bkd", bary, tri[start:start + per]).reshape(-1, 3)
 
 
 # --------------------------------------------------------------------------- dispatch

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["region_slices", "mesh_3d", "centers_plot", "sweep_curves", "scale_bars",
+__all__ = ["region_slices", "mesh_3d", "centers_plot", "sweep_curves", "scale_bars", "variant_bars",
            "overlay_pairs", "evaluation_figures"]
 
 OCSVM_COLOR = "tab:blue"  # the paper's blue curve
@@ -34,6 +34,8 @@ CENTER_STYLES = {  # name -> (label, color, marker)
     "vertex_mean": ("vertex mean", "tab:green", "s"),
     "bbox_center": ("bounding-box center", "tab:purple", "^"),
     "min_ball": ("min. ball center", "tab:brown", "D"),
+    "solid_centroid": ("solid centroid", "tab:olive", "v"),
+    "robust_depth": ("robust (default)", "k", "P"),
 }
 _PLANES = {"xy": (0, 1), "xz": (0, 2), "yz": (1, 2)}
 
@@ -190,10 +192,10 @@ def mesh_3d(mesh_or_points, ax=None, *, color="0.7", alpha=0.5, edgecolor=None, 
     return _finish(fig, path)
 
 
-def centers_plot(mesh_or_points, pose=None, gamma=47.0, nu=0.5, *, methods=("surface_centroid", "vertex_mean",
-                 "bbox_center", "min_ball"), count=1000, seed=0, plane="xz", ax=None, path=None, title=None,
+def centers_plot(mesh_or_points, pose=None, gamma=47.0, nu=0.5, *, methods=("robust_depth", "surface_centroid",
+                 "vertex_mean", "bbox_center", "min_ball"), count=1000, seed=0, plane="xz", ax=None, path=None, title=None,
                  **normalize_options):
-    """A shape with the baseline centers and the OCSVM center marked.
+    """A shape with the OCSVM center and other centers (names of ``jaxpose.estimators.CENTERS``) marked.
 
     pose : the OCSVM :class:`jaxpose.Pose` (or (center, scale)); default ``jaxpose.normalize``
         of ``count`` surface samples with (gamma, nu, normalize_options)
@@ -202,14 +204,15 @@ def centers_plot(mesh_or_points, pose=None, gamma=47.0, nu=0.5, *, methods=("sur
     The OCSVM scale is drawn as a circle (sphere outline) of radius ``pose.scale`` about its center.
     """
     import jaxpose
-    from jaxpose import baselines
+    from jaxpose import estimators
 
     v, f = _vertices_faces(mesh_or_points)
     samples = np.asarray(jaxpose.sample_surface(mesh_or_points, count, seed)) if f is not None else v
     if pose is None:
         pose = jaxpose.normalize(samples, gamma, nu, **normalize_options)
     c, s = _center_scale(pose)
-    centers = {"ocsvm": c, **{m: np.asarray(baselines.center(mesh_or_points, m), float) for m in methods}}
+    centers = {"ocsvm": c, **{m: np.asarray(estimators.estimate(mesh_or_points, center=m, scale="unit_cube").center,
+                                            float) for m in methods}}
     if plane is None:
         fig = mesh_3d(mesh_or_points, ax, alpha=0.25, title=title)
         a = fig.axes[0] if ax is None else ax
@@ -298,7 +301,7 @@ def scale_bars(result, *, metric="sigma_scale", methods=("ocsvm", "surface_centr
     :func:`jaxpose.evaluation.evaluate` result, the average over classes last."""
     per_class = result["per_class"]
     classes = list(per_class)
-    methods = [m for m in methods if all(m in per_class[c] for c in classes)]
+    methods = [m for m in methods if all(metric in per_class[c].get(m, {}) for c in classes)]
     if not methods:
         raise ValueError("none of the methods is in the result")
     labels = classes + ["average"]
@@ -315,6 +318,27 @@ def scale_bars(result, *, metric="sigma_scale", methods=("ocsvm", "surface_centr
     a.set_ylabel({"sigma_scale": "σ_scale", "sigma_tr": "σ_tr", "cv_scale": "σ_scale / mean scale"}.get(metric, metric))
     a.set_title(f"{metric} per class (lower is more consistent)", fontsize=9)
     a.legend(fontsize=7)
+    a.grid(axis="y", alpha=0.3)
+    return _finish(fig, path)
+
+
+def variant_bars(result, *, metric="sigma_tr", ax=None, path=None):
+    """Bars of ``metric`` per input variant and method of an :func:`jaxpose.evaluation.evaluate`
+    result (averages over classes; methods that do not apply to a variant are left out)."""
+    variants = result["variants"]
+    methods = list(result["params"]["methods"])
+    fig, (a,) = _figure(ax, size=(min(12.0, 1.6 * len(variants) + 3.0), 3.4))
+    width = 0.8 / len(methods)
+    x = np.arange(len(variants))
+    for n, m in enumerate(methods):
+        rows = [{r["method"]: r for r in block["summary"]}[m] for block in variants.values()]
+        vals = [np.nan if r[metric] is None else r[metric] for r in rows]
+        a.bar(x + (n - (len(methods) - 1) / 2) * width, vals, width, label=m.replace("_", " "),
+              color=OCSVM_COLOR if m == "ocsvm" else SURFACE_COLOR if m == "surface_centroid" else f"C{n + 2}")
+    a.set_xticks(x, list(variants), fontsize=8)
+    a.set_ylabel(metric)
+    a.set_title(f"{metric} per input variant (lower is more consistent)", fontsize=9)
+    a.legend(fontsize=6, ncol=2)
     a.grid(axis="y", alpha=0.3)
     return _finish(fig, path)
 
@@ -374,8 +398,14 @@ def evaluation_figures(result, out_dir) -> list:
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    methods = list(result.get("params", {}).get("methods") or next(iter(result["per_class"].values())))
+    methods = list(result.get("params", {}).get("methods")
+                   or [k for k, v in next(iter(result["per_class"].values())).items() if isinstance(v, dict)])
     written = []
+    if len(result.get("variants") or {}) > 1:
+        for metric in ("sigma_tr", "cv_scale"):
+            p = out / f"variants_{metric}.png"
+            variant_bars(result, metric=metric, path=p)
+            written.append(p)
     for metric, ms in (("sigma_tr", methods), ("sigma_scale", ("ocsvm", "surface_centroid")), ("cv_scale", methods)):
         if not any(m in methods for m in ms):
             continue

@@ -1,8 +1,7 @@
 """Write the notebooks of this folder (without outputs): ``python notebooks/_build.py``.
 
-Every notebook starts with a parameter cell: ``SMALL`` comes from the environment variable
-``JAXPOSE_NOTEBOOK_SMALL`` (tests/test_notebooks.py sets it) and shrinks the workload; every
-cell still runs.
+Every notebook starts with a parameter cell (sizes); the tests run every notebook as written, at
+that size, so each stays within a few minutes on 2 CPU cores.
 """
 from __future__ import annotations
 
@@ -13,10 +12,8 @@ from nbformat.v4 import new_code_cell, new_markdown_cell, new_notebook
 
 HERE = Path(__file__).resolve().parent
 
-PARAMS = '''import os
-SMALL = os.environ.get("JAXPOSE_NOTEBOOK_SMALL", "0") == "1"  # the tests run the notebooks small
-COUNT = 300 if SMALL else 1500        # surface samples per object
-RESOLUTION = 24 if SMALL else 32      # grid resolution of the volume integrals'''
+PARAMS = '''COUNT = 1500        # surface samples per object (OCSVM)
+RESOLUTION = 32     # grid resolution of the OCSVM volume integrals'''
 
 SETUP = '''%matplotlib inline
 import numpy as np
@@ -26,44 +23,43 @@ from jaxpose import plot'''
 
 QUICKSTART = [
     new_markdown_cell("# jaxpose quickstart\n\n"
-                      "Translation and scale normalization of a 3D shape with a one-class SVM: the center is the "
-                      "centroid of the *volume* the OCSVM encloses (eq. 4), the scale the mean distance of that "
-                      "volume from it (eq. 5). γ is dimensionless (points are pre-scaled to the size of a unit "
-                      "cube), ν the fraction of samples allowed outside."),
+                      "A canonical position and size for a 3D shape. The default estimator (`robust`) weighs a robust "
+                      "solid of the shape by its depth: the deep part, which moves least when a body articulates, sets "
+                      "the center, and the solid's volume sets the scale; it works on closed meshes, meshes with holes "
+                      "or stray parts, and point clouds. The paper's one-class SVM method is `method=\"ocsvm\"`: the "
+                      "centroid of the *volume* the OCSVM encloses (eq. 4) and its mean distance (eq. 5)."),
     new_code_cell(PARAMS),
     new_code_cell(SETUP),
     new_markdown_cell("## A shape with an outlying arm\n\nA capsule body with a thin arm and a ball at its end: "
-                      "the kind of part that drags surface centroids away from the body."),
+                      "the kind of part that drags centroids away from the body."),
     new_code_cell('''from jaxpose.mesh import example_shape
 shape = example_shape()
-points = np.asarray(jaxpose.sample_surface(shape, COUNT, seed=0))
-pose = jaxpose.normalize(points, gamma=47.0, nu=0.5, resolution=RESOLUTION)
-print("center", np.asarray(pose.center), "scale", float(pose.scale), "converged", bool(pose.converged))'''),
-    new_markdown_cell("## Before and after\n\n`pose.apply` maps the shape to the normalized frame: center at the "
-                      "origin, mean distance of the region 1."),
-    new_code_cell('''import trimesh
-normalized = trimesh.Trimesh(np.asarray(pose.apply(shape.vertices)), shape.faces, process=False)
-fig, axes = plt.subplots(1, 2, figsize=(9, 4.5), subplot_kw={"projection": "3d"})
+normalized, pose = jaxpose.normalize_mesh(shape)                 # the robust default
+_, paper = jaxpose.normalize_mesh(shape, method="ocsvm", count=COUNT, resolution=RESOLUTION)
+print("robust center", np.round(pose.center, 4), "scale", round(float(pose.scale), 4))
+print("ocsvm  center", np.round(np.asarray(paper.center), 4), "scale", round(float(paper.scale), 4))'''),
+    new_markdown_cell("## Before and after\n\n`normalize_mesh` returns the transformed copy: center at the origin, "
+                      "volume 1 for the robust scale."),
+    new_code_cell('''fig, axes = plt.subplots(1, 2, figsize=(9, 4.5), subplot_kw={"projection": "3d"})
 plot.mesh_3d(shape, axes[0], title="input")
-plot.mesh_3d(normalized, axes[1], color="tab:blue", title="normalized (center at origin, scale 1)")
+plot.mesh_3d(normalized, axes[1], color="tab:blue", title="normalized (robust)")
 axes[1].scatter([0], [0], [0], c="k", marker="+", s=60)
 fig'''),
     new_markdown_cell("## The OCSVM region for two settings (the paper's Fig. 3)\n\n"
                       "Slices of the decision function through the region's center; orange: f ≥ 0, black "
                       "dots: samples near the slice. A small γ gives a smooth, sphere-like region; a large ν "
                       "lets the region drop a large share of the samples."),
-    new_code_cell('''fig, axes = plt.subplots(2, 3, figsize=(12, 7), layout="constrained")
-PIXELS = 60 if SMALL else 120  # per side of a slice
-plot.region_slices(points, 15.0, 0.02, ax=axes[0], pixels=PIXELS, resolution=RESOLUTION)
-plot.region_slices(points, 45.0, 0.8, ax=axes[1], pixels=PIXELS, resolution=RESOLUTION)
+    new_code_cell('''points = np.asarray(jaxpose.sample_surface(shape, COUNT, seed=0))
+fig, axes = plt.subplots(2, 3, figsize=(12, 7), layout="constrained")
+plot.region_slices(points, 15.0, 0.02, ax=axes[0], pixels=100, resolution=RESOLUTION)
+plot.region_slices(points, 45.0, 0.8, ax=axes[1], pixels=100, resolution=RESOLUTION)
 fig'''),
-    new_markdown_cell("## OCSVM center against the classical ones\n\n"
-                      "The dashed circle has the OCSVM scale as its radius."),
-    new_code_cell('''plot.centers_plot(shape, pose, count=COUNT)'''),
-    new_code_cell('''from jaxpose import baselines
-for method in ("surface_centroid", "vertex_mean", "bbox_center", "min_ball"):
-    print(f"{method:18s}", np.round(baselines.center(shape, method), 4))
-print(f"{'ocsvm':18s}", np.round(np.asarray(pose.center), 4))'''),
+    new_markdown_cell("## Every center at once\n\nThe dashed circle has the OCSVM scale as its radius."),
+    new_code_cell('''plot.centers_plot(shape, paper, count=COUNT)'''),
+    new_code_cell('''from jaxpose import estimators
+for method in ("robust", "ocsvm", "surface_centroid", "solid", "bbox", "min_ball"):
+    p = estimators.estimate(shape, method, count=COUNT, ocsvm={"resolution": RESOLUTION})
+    print(f"{method:18s}", np.round(np.asarray(p.center, float), 4), round(float(p.scale), 4))'''),
 ]
 
 GRADIENTS = [
@@ -72,6 +68,7 @@ GRADIENTS = [
                       "with respect to the parameters, and the parameters tuned by gradient descent on the "
                       "within-class spread of the centers."),
     new_code_cell(PARAMS + '''
+SMALL = True                         # the sizes below the notebook runs at
 CLASSES = 2 if SMALL else 4           # classes of the built-in dataset used below
 INSTANCES = 3 if SMALL else 6         # objects per class
 STEPS = 2 if SMALL else 15            # tuning steps'''),
@@ -143,40 +140,41 @@ fig'''),
 ]
 
 EVALUATION = [
-    new_markdown_cell("# Evaluation on the built-in dataset (the paper's sec. 4)\n\n"
-                      "Twelve procedural classes; inside a class every object shares the pose of its rigid "
-                      "core, so a consistent normalization gives them all the same center and scale. Lower "
-                      "σ_tr (spread of the centers) and σ_scale (spread of the scales) is better."),
+    new_markdown_cell("# Consistency on the built-in dataset (the paper's sec. 4)\n\n"
+                      "Procedural classes; inside a class every object shares the pose of its rigid core, so a "
+                      "consistent normalization gives them all the same center and scale. Lower σ_tr (spread of the "
+                      "centers) and cv_scale (relative spread of the scales) is better. Every method runs on the "
+                      "meshes as given and on seeded variants: with a stray part, with holes, and as point clouds."),
     new_code_cell(PARAMS + '''
-CLASSES = 4 if SMALL else 12
-INSTANCES = 5 if SMALL else 10'''),
+CLASSES = 4                          # of the 12 procedural classes
+INSTANCES = 5                        # objects per class
+METHODS = ["robust", "ocsvm", "surface_centroid", "solid", "solid_sqrt_area", "depth_weighted_solid:4"]
+VARIANTS = ["plain", "big_outliers", "holes", "points"]'''),
     new_code_cell(SETUP + '''
 from jaxpose import datasets, evaluation'''),
     new_code_cell('''data = datasets.make_dataset(seed=0, instances=INSTANCES, classes=datasets.CLASSES[:CLASSES])
-result = evaluation.evaluate(data, gamma=47.0, nu=0.5, count=COUNT, resolution=RESOLUTION)
+result = evaluation.evaluate(data, methods=METHODS, variants=VARIANTS, count=COUNT, resolution=RESOLUTION)
 print(evaluation.format_table(result))'''),
-    new_markdown_cell("## Per class: σ_tr of every method, and σ_scale of OCSVM against the surface (Fig. 7)"),
-    new_code_cell('''plot.scale_bars(result, metric="sigma_tr", methods=evaluation.METHODS)'''),
-    new_code_cell('''plot.scale_bars(result, metric="sigma_scale")'''),
-    new_markdown_cell("## Sweeps (Fig. 5 and 6)\n\nIn small mode on two classes and a few values only."),
-    new_code_cell('''subset = dict(list(data.items())[:2]) if SMALL else data
-small_values = {"gamma": [5.0, 47.0], "nu": [0.1, 0.5]}
-result["sweeps"] = {p: evaluation.sweep(subset, p, values=small_values[p] if SMALL else None,
-                                        count=COUNT, resolution=RESOLUTION) for p in ("gamma", "nu")}
-plot.sweep_curves(result["sweeps"])'''),
-    new_code_cell('''plot.sweep_curves(result["sweeps"], param="nu", per_class=True)'''),
+    new_markdown_cell("## Per variant: σ_tr and cv_scale of every method"),
+    new_code_cell('''plot.variant_bars(result, metric="sigma_tr")'''),
+    new_code_cell('''plot.variant_bars(result, metric="cv_scale")'''),
+    new_markdown_cell("## Per class on the plain meshes (Fig. 7)"),
+    new_code_cell('''plot.scale_bars(result, metric="sigma_tr", methods=METHODS)'''),
+    new_markdown_cell("## The OCSVM's parameters (Fig. 5)\n\nσ_tr of the `ocsvm` center as γ varies (ν = 0, as in "
+                      "the paper), on two classes; the red line is the surface centroid."),
+    new_code_cell('''subset = dict(list(data.items())[:2])
+sweeps = {"gamma": evaluation.sweep(subset, "gamma", values=[5.0, 20.0, 47.0], count=COUNT, resolution=RESOLUTION)}
+plot.sweep_curves(sweeps)'''),
     new_markdown_cell("## Pairs of normalized objects overlaid (Fig. 8)\n\nThe reference object of a class and a "
-                      "deformed instance, each normalized on its own; top OCSVM, bottom surface centroid and mean "
-                      "distance."),
-    new_code_cell('''from jaxpose import baselines
+                      "deformed instance, each normalized on its own; top the robust default, bottom the surface "
+                      "centroid and mean distance."),
+    new_code_cell('''from jaxpose import estimators
 names = list(data)[:3]
 pairs = [(data[c][0], data[c][-1]) for c in names]
-ocsvm = [[jaxpose.normalize(np.asarray(jaxpose.sample_surface(m, COUNT, 0)), resolution=RESOLUTION) for m in p]
-         for p in pairs]
-surface = [[(baselines.center(m, "surface_centroid"),
-             baselines.scale(m, "mean_distance", baselines.center(m, "surface_centroid"))) for m in p] for p in pairs]
-plot.overlay_pairs(pairs, {"OCSVM": ocsvm, "surface": surface}, labels=names)'''),
-    new_markdown_cell("## All figures to files\n\nWhat `jaxpose evaluate --sweep --plots DIR` writes:"),
+robust = [[estimators.estimate(m) for m in p] for p in pairs]
+surface = [[estimators.estimate(m, "surface_centroid") for m in p] for p in pairs]
+plot.overlay_pairs(pairs, {"robust": robust, "surface": surface}, labels=names)'''),
+    new_markdown_cell("## All figures to files\n\nWhat `jaxpose evaluate --variants ... --plots DIR` writes:"),
     new_code_cell('''import tempfile
 out = tempfile.mkdtemp()
 for p in plot.evaluation_figures(result, out):

@@ -1,7 +1,7 @@
 """Canonical axes of a shape: a rotation that holds under articulation, its sign rule and its ambiguity.
 
 A frame is a proper rotation R (3, 3) whose rows are the shape's canonical axes in world
-coordinates (det R = +1); canonical coordinates are R (x - c) / s. Two frames are built here:
+coordinates (det R = +1); canonical coordinates are R (x - c) / s. Two frames are built here.
 
 ``core`` (meshes and point clouds, :func:`core_frame`), on the robust voxel solid of
 :mod:`jaxpose.solid`:
@@ -21,7 +21,14 @@ coordinates (det R = +1); canonical coordinates are R (x - c) / s. Two frames ar
 4. Signs of the other two axes: each points to where the far mass of the (unweighted) solid lies,
    the sign of its third moment E[z^3] / r^3 (z along the axis about the solid's centroid, r the
    solid's RMS radius, so margins are comparable between axes and with the share of the volume a
-   moving limb carries).
+   moving limb carries). On a person the first axis points to the feet (the legs are the far mass).
+5. Feet. The third moment cannot orient a body front to back: nothing heavy sits in front of or
+   behind the trunk. When it leaves the minor non-mirror axis undetermined, that axis points to
+   where the feet point (:func:`feet_offset`: the slab of the solid at the legs' end of the first
+   axis, each part of it against the solid just above it), if that slab is thin enough to be feet.
+6. Cross-check. The deep core (depth^4 centroid) lies toward the head's end of the first axis's
+   extent (a person's legs are longer than head and neck); where it does not agree with the third
+   moment's sign, the first axis is called undetermined.
 
 ``ocsvm`` (point samples, traced JAX, :func:`region_frame`): the eigenvectors of the OCSVM
 region's second moment (computed with its centroid by the grid integral of
@@ -29,14 +36,19 @@ region's second moment (computed with its centroid by the grid integral of
 (the two largest in magnitude; the third axis from det = +1). Equivariant because the grid turns
 with the points' principal frame.
 
-Ambiguity. A frame is determined when its eigenvalues are apart, its sign statistics are away from
+Ambiguity. A frame is determined when its eigenvalues are apart, its sign cues are away from
 zero and (``core``) its mirror plane stands out. With the relative eigen-gaps g1 = (l1 - l2) / l1,
-g2 = (l2 - l3) / l2, the smaller used sign margin m and the symmetry contrast k (best mirror score
-minus the next), ``ambiguity = clip(1 - min(g1 / GAP_MIN, g2 / GAP_MIN, m / SIGN_MIN,
-k / SYMMETRY_MIN), 0, 1)``: 0 when every cue clears its threshold, 1 when one of them is zero;
-``flag = ambiguity > 0``. The thresholds are set a priori (module constants), not fitted: a gap of
-10 % (near-equal moments swap under small deformations), a third moment of 0.02 r^3 (what moving
-about 2 % of the volume across the body changes it by) and a symmetry contrast of 0.05.
+g2 = (l2 - l3) / l2, the weakest used sign cue m as a multiple of its threshold and the symmetry
+contrast k (best mirror score minus the next), ``ambiguity = clip(1 - min(g1 / GAP_MIN,
+g2 / GAP_MIN, m, k / SYMMETRY_MIN), 0, 1)``: 0 when every cue clears its threshold, 1 when one of
+them is zero; ``flag = ambiguity > 0``. The thresholds are set a priori (module constants), not
+fitted: a gap of 10 % (near-equal moments swap under small deformations), a third moment of
+0.02 r^3 (what moving about 2 % of the volume across the body changes it by), a feet offset of
+1 % of the length (about one voxel) and a symmetry contrast of 0.05.
+
+Equivariance holds up to float rounding for inputs whose pre-frame third moments are not zero; an
+exactly mirror-symmetric input leaves the sign of its pre-frame's mirror axis to rounding, and its
+grid may then come out mirrored (voxel-level differences).
 """
 from __future__ import annotations
 
@@ -44,17 +56,17 @@ from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["Frame", "ROTATIONS", "DEFAULT_ROTATION", "GAP_MIN", "SIGN_MIN", "SYMMETRY_MIN", "AXES_POWER",
-           "SYMMETRY_POWER", "FOOT", "FOOT_MIN", "pre_frame", "feet_offset", "frame_solid", "core_frame", "symmetry_scores", "ambiguity",
-           "complete_signs", "frame_of", "region_frame", "proper"]
+__all__ = ["Frame", "ROTATIONS", "DEFAULT_ROTATION", "GAP_MIN", "SIGN_MIN", "SYMMETRY_MIN", "FOOT", "FEET_DEPTH",
+           "FOOT_MIN", "AXES_POWER", "SYMMETRY_POWER", "pre_frame", "frame_solid", "core_frame", "feet_offset",
+           "symmetry_scores", "ambiguity", "complete_signs", "frame_of", "region_frame", "proper"]
 
 ROTATIONS = ("core", "ocsvm", "pca_vertices", "pca_surface", "inertia")
 DEFAULT_ROTATION = "core"
 GAP_MIN = 0.10  # relative eigen-gap below which two axes are called interchangeable
 SIGN_MIN = 0.02  # third moment E[z^3] / r^3 below which a sign is called undetermined
 SYMMETRY_MIN = 0.05  # mirror-score contrast below which the mirror axis is called undetermined
-FOOT = 0.05  # the feet: this share of the length at the legs' end (the ankles lie at about 4 % of a person's height)
-FEET_DEPTH = 0.5  # feet are thinner than half the trunk (ankle ~4 cm, head ~9 cm, trunk ~11 cm deep)
+FOOT = 0.05  # the feet: this share of the length at the legs' end (ankles at about 4 % of a person's height)
+FEET_DEPTH = 0.5  # feet are thinner than half the trunk's depth (ankle ~4 cm, head ~9 cm, trunk ~11 cm)
 FOOT_MIN = 0.01  # feet offset (in lengths) below which it is called undetermined: about one voxel
 AXES_POWER = 4.0  # depth exponent of the axes' weights
 SYMMETRY_POWER = 2.0  # depth exponent of the mirror test's weights
@@ -231,7 +243,8 @@ def feet_offset(sol, axes, up=0, forward=2):
     ends the body there); each part is compared with the solid just above it (within ``FOOT`` of L
     above the slab and ``2 FOOT`` of L sideways from the part's centroid): s = sum_parts n_p
     (f_part - f_above) / (L sum_p n_p), f the coordinate along ``forward``. Feet reach forward of
-    the ankles (the foot centroid lies about 3 % of a person's height ahead of the ankle).
+    the ankles (the foot centroid lies about 3 % of a person's height ahead of the ankle). A slab
+    deeper than ``FEET_DEPTH`` of the solid's depth somewhere is not feet (a head, a trunk): no cue.
 
     Args:
       sol: Solid; axes: (3, 3) rows in grid coordinates (oriented: ``up`` toward the legs).

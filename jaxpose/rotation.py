@@ -15,9 +15,10 @@ coordinates (det R = +1); canonical coordinates are R (x - c) / s. Two frames ar
    part's thickness, so limbs, which are thin and move, hardly count and the axes are those of
    the trunk.
 3. Mirror axis. Bodies that articulate (people, animals) are bilaterally symmetric: any signed
-   statistic along the left-right axis is noise of the pose. The mirror axis is the axis whose
-   plane (through the depth^2 centroid) maps the depth^2-weighted solid best onto itself
-   (:func:`symmetry_scores`); its sign comes from det R = +1.
+   statistic along the left-right axis is noise of the pose. Their long axis lies in the mirror
+   plane, so the mirror axis is the one of the two minor axes whose plane (through the depth^2
+   centroid) maps the depth^2-weighted solid better onto itself (:func:`symmetry_scores`); its
+   sign comes from det R = +1.
 4. Signs of the other two axes: each points to where the far mass of the (unweighted) solid lies,
    the sign of its third moment E[z^3] / r^3 (z along the axis about the solid's centroid, r the
    solid's RMS radius, so margins are comparable between axes and with the share of the volume a
@@ -26,6 +27,9 @@ coordinates (det R = +1); canonical coordinates are R (x - c) / s. Two frames ar
    behind the trunk. When it leaves the minor non-mirror axis undetermined, that axis points to
    where the feet point (:func:`feet_offset`: the slab of the solid at the legs' end of the first
    axis, each part of it against the solid just above it), if that slab is thin enough to be feet.
+   Feet point forward, not sideways: when the mirror test of step 3 is undetermined (an
+   asymmetric pose), the minor axis the feet point along more is the forward one and the other
+   the mirror axis.
 6. Cross-check. The deep core (depth^4 centroid) lies toward the head's end of the first axis's
    extent (a person's legs are longer than head and neck); where it does not agree with the third
    moment's sign, the first axis is called undetermined.
@@ -38,8 +42,9 @@ with the points' principal frame.
 
 Ambiguity. A frame is determined when its eigenvalues are apart, its sign cues are away from
 zero and (``core``) its mirror plane stands out. With the relative eigen-gaps g1 = (l1 - l2) / l1,
-g2 = (l2 - l3) / l2, the weakest used sign cue m as a multiple of its threshold and the symmetry
-contrast k (best mirror score minus the next), ``ambiguity = clip(1 - min(g1 / GAP_MIN,
+g2 = (l2 - l3) / l2, the weakest used sign cue m as a multiple of its threshold and the mirror
+contrast k (the difference of the two minor axes' mirror scores, or of the feet offsets along them
+in units of their threshold where the feet chose), ``ambiguity = clip(1 - min(g1 / GAP_MIN,
 g2 / GAP_MIN, m, k / SYMMETRY_MIN), 0, 1)``: 0 when every cue clears its threshold, 1 when one of
 them is zero; ``flag = ambiguity > 0``. The thresholds are set a priori (module constants), not
 fitted: a gap of 10 % (near-equal moments swap under small deformations), a third moment of
@@ -286,7 +291,7 @@ def core_frame(sol, power=AXES_POWER, feet=True, cross_check=True) -> Frame:
       sol: :class:`jaxpose.solid.Solid` (any grid frame; equivariant when laid out by :func:`pre_frame`).
       power: depth exponent of the axes' weights.
       feet: when the third moment leaves the sign of the minor non-mirror axis undetermined, take
-        it from :func:`feet_offset` (step 5).
+        it from :func:`feet_offset`; when the mirror test is undetermined, the feet choose (step 5).
       cross_check: call the first axis's sign undetermined when the deep core's side (step 6)
         disagrees with its third moment.
 
@@ -307,22 +312,26 @@ def core_frame(sol, power=AXES_POWER, feet=True, cross_check=True) -> Frame:
     conf = np.abs(stat)
     w2 = _weights(d, SYMMETRY_POWER)
     sym = symmetry_scores(sol, axes, (w2 @ y) / w2.sum())
-    k = int(np.argmax(sym))
-    contrast = float(sym[k] - np.max(np.delete(sym, k)))
+    k = 1 if sym[1] >= sym[2] else 2  # the long axis lies in the mirror plane
+    mirror_ratio = abs(sym[1] - sym[2]) / SYMMETRY_MIN
     h = zc[:, 0]
     if cross_check and (0.5 * (h.max() + h.min()) - (w @ h) / w.sum()) * stat[0] <= 0:
         conf[0] = 0.0
-    if feet and k != 0:
+    if feet:
+        oriented = axes.copy()
+        oriented[0] *= 1.0 if stat[0] >= 0 else -1.0
+        offset = {a: feet_offset(sol, oriented, 0, a) / FOOT_MIN for a in (1, 2)}
+        split = abs(offset[1]) - abs(offset[2])  # the feet point along the forward axis, not the mirror axis
+        if mirror_ratio < 1.0 and abs(split) > mirror_ratio:
+            k, mirror_ratio = (2 if split > 0 else 1), abs(split)
         minor = 3 - k
         if conf[minor] < 1.0:
-            oriented = axes.copy()
-            oriented[0] *= 1.0 if stat[0] >= 0 else -1.0
-            stat[minor] = feet_offset(sol, oriented, 0, minor) / FOOT_MIN
-            conf[minor] = abs(stat[minor])
+            stat[minor] = offset[minor]
+            conf[minor] = abs(offset[minor])
     rot, _, k = complete_signs(axes, stat, completed=k, to_world=sol.frame)
     conf[k] = 0.0
     gaps = _gaps(lam)
-    amb = ambiguity(gaps, np.min(np.delete(conf, k)), contrast)
+    amb = ambiguity(gaps, np.min(np.delete(conf, k)), SYMMETRY_MIN * mirror_ratio)
     return Frame(rot, amb, lam, gaps, conf, k, sym)
 
 

@@ -34,9 +34,11 @@ ROTATION_KEYS = ("raw_mean", "raw_max", "sign_free_mean", "sign_free_max", "flag
 
 
 def angle(a, b):
-    """Geodesic angle in degrees between rotations a, b (3, 3): arccos((trace(a b^T) - 1) / 2)."""
-    c = (np.trace(np.asarray(a) @ np.asarray(b).T) - 1.0) / 2.0
-    return float(np.degrees(np.arccos(np.clip(c, -1.0, 1.0))))
+    """Geodesic angle in degrees between rotations a, b (3, 3) of m = a b^T: atan2(sin, cos) with
+    cos = (trace m - 1) / 2 and sin = |vee(m - m^T)| / 2 (accurate at small angles too)."""
+    m = np.asarray(a, np.float64) @ np.asarray(b, np.float64).T
+    w = np.array([m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1]])
+    return float(np.degrees(np.arctan2(0.5 * np.linalg.norm(w), 0.5 * (np.trace(m) - 1.0))))
 
 
 def chordal_mean(rotations):
@@ -117,7 +119,8 @@ def evaluate_rotation(classes, methods=None, variants=("plain",), align_core=Fal
       cell}}}}}``. A row holds ``method``, the class averages of ``raw_mean``, ``raw_max``,
       ``sign_free_mean``, ``sign_free_max`` (degrees), ``flagged`` (share of instances),
       ``unflagged_mean`` / ``unflagged_max`` (raw, unflagged instances), ``flagged_over_30`` (share
-      of the instances above 30 degrees that are flagged) and ``seconds`` (per instance); None
+      of the instances above 30 degrees that are flagged), ``raw_worst`` (the largest raw angle of
+      any instance) and ``seconds`` (per instance); None
       where a method does not apply (with ``error``). A cell holds the per-instance ``raw``,
       ``sign_free`` angles and ``ambiguity``.
     """
@@ -171,9 +174,11 @@ def evaluate_rotation(classes, methods=None, variants=("plain",), align_core=Fal
             cells = [per_class[c][method] for c in per_class]
             row = {"method": method, "seconds": seconds[method] / max(count, 1)}
             if any("error" in c for c in cells):
-                row.update(dict.fromkeys(ROTATION_KEYS), error=next(c["error"] for c in cells if "error" in c))
+                row.update(dict.fromkeys(ROTATION_KEYS), raw_worst=None,
+                           error=next(c["error"] for c in cells if "error" in c))
             else:
                 row.update({key: _mean_or_none([c[key] for c in cells]) for key in ROTATION_KEYS})
+                row["raw_worst"] = float(max(c["raw_max"] for c in cells))
             rows.append(row)
         out[variant] = {"summary": rows, "per_class": per_class}
     if progress is not None:

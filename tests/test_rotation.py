@@ -164,6 +164,9 @@ def test_evaluate_rotation_and_cli(tmp_path, capsys, body_frame):
     assert rows["core"]["flagged"] == 0.0 and rows["inertia"]["flagged"] is None
     assert "error" in {r["method"]: r for r in res["variants"]["points"]["summary"]}["inertia"]
     assert "variant points" in format_rotation_table(res)
+    from benchmarks.rotation import markdown, verdict
+
+    assert "| core |" in markdown(res) and verdict(res)["plain_every_instance<=30"]
     for name, meshes in classes.items():
         (tmp_path / "data" / name).mkdir(parents=True)
         for k, x in enumerate(meshes):

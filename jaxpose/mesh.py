@@ -241,10 +241,8 @@ def _rotation_name(rotation):
     """None (no rotation), or the frame method a ``rotation=`` argument names."""
     from .rotation import DEFAULT_ROTATION, ROTATIONS
 
-    if rotation is False or rotation is None:
-        return None
-    if rotation is True:
-        return DEFAULT_ROTATION
+    if rotation is None or isinstance(rotation, (bool, np.bool_)):
+        return DEFAULT_ROTATION if rotation else None
     if isinstance(rotation, str) and rotation in ROTATIONS:
         return rotation
     raise InvalidInputError(f"rotation must be True, False or one of {', '.join(ROTATIONS)}; got {rotation!r}")

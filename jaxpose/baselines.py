@@ -12,7 +12,9 @@ Centers : ``surface_centroid``, ``vertex_mean``, ``bbox_center``, ``min_ball``,
           ``solid_centroid`` (closed form, closed meshes), ``depth_weighted_solid`` (voxels).
 Scales  : ``mean_distance``, ``unit_cube``, ``unit_sphere``, ``gyration_radius`` (closed form,
           closed meshes), ``sqrt_area`` (meshes).
-Dispatch: ``center(mesh, method)``, ``scale(mesh, method, center=None)``.
+Frames  : ``pca_vertices``, ``pca_surface``, ``inertia`` (trimesh's principal axes): the usual
+          canonical orientations, as :class:`jaxpose.rotation.Frame` (see :func:`frame`).
+Dispatch: ``center(mesh, method)``, ``scale(mesh, method, center=None)``, ``frame(mesh, method)``.
 
 The solid quantities need a closed surface: on an open mesh they warn (:class:`OpenMeshWarning`)
 and, with ``strict=True``, raise; on a point cloud they raise.
@@ -28,8 +30,13 @@ from ._validate import InvalidInputError, OpenMeshWarning, check_points
 __all__ = [
     "CENTERS",
     "SCALES",
+    "FRAMES",
     "center",
     "scale",
+    "frame",
+    "pca_vertices_frame",
+    "pca_surface_frame",
+    "inertia_frame",
     "surface_centroid",
     "vertex_mean",
     "bbox_center",
@@ -50,6 +57,8 @@ __all__ = [
 
 CENTERS = ("surface_centroid", "vertex_mean", "bbox_center", "min_ball", "solid_centroid", "depth_weighted_solid")
 SCALES = ("mean_distance", "unit_cube", "unit_sphere", "gyration_radius", "sqrt_area")
+FRAMES = ("pca_vertices", "pca_surface", "inertia")
+FRAME_SAMPLES = 20000  # pca_surface: even surface samples (seed 0)
 
 # mean_distance splits each triangle into k*k congruent sub-triangles (k from
 # _SUBDIVISIONS) whose centroids, weighted by area, form a deterministic quadrature.
@@ -468,3 +477,67 @@ def scale(mesh_or_points, method="mean_distance", center=None):
     if method in ("unit_cube", "sqrt_area"):
         return globals()[method](mesh_or_points)
     return globals()[method](mesh_or_points, center)
+
+
+# --------------------------------------------------------------------------- frames
+def _skew_frame(x):
+    """PCA frame of points x (n, 3): covariance eigenvectors (largest first), each pointing to its
+    positive third moment on the two most skewed axes, the least skewed completed by det = +1."""
+    from .rotation import SIGN_MIN, Frame, ambiguity, complete_signs
+
+    d = x - x.mean(axis=0)
+    lam, vec = np.linalg.eigh(d.T @ d / len(x))
+    lam, axes = lam[::-1], vec[:, ::-1].T
+    z = d @ axes.T
+    r = np.sqrt(np.mean(np.sum(z * z, axis=1)))
+    stat = np.mean(z ** 3, axis=0) / r ** 3 / SIGN_MIN
+    rot, margins, k = complete_signs(axes, stat)
+    gaps = np.array([(lam[0] - lam[1]) / lam[0], (lam[1] - lam[2]) / max(lam[1], 1e-300)])
+    return Frame(rot, ambiguity(gaps, np.min(np.delete(margins, k))), lam, gaps, margins, k, np.full(3, np.nan))
+
+
+def pca_vertices_frame(mesh_or_points):
+    """PCA of the vertices, signs by third moments (two most skewed axes; the third by det = +1).
+
+    Returns :class:`jaxpose.rotation.Frame`.
+    """
+    vertices, _ = split_geometry(mesh_or_points)
+    return _skew_frame(vertices)
+
+
+def pca_surface_frame(mesh_or_points, count=FRAME_SAMPLES):
+    """PCA of ``count`` even area-weighted surface samples (seed 0: a rotated copy gets the rotated
+    samples), signs as :func:`pca_vertices_frame`. Point clouds: their points.
+
+    Returns :class:`jaxpose.rotation.Frame`.
+    """
+    vertices, faces = split_geometry(mesh_or_points)
+    if faces is None:
+        return _skew_frame(vertices)
+    from .mesh import sample_surface
+
+    return _skew_frame(np.asarray(sample_surface(mesh_or_points, count, seed=0), np.float64))
+
+
+def inertia_frame(mesh_or_points):
+    """trimesh's principal inertia axes (``principal_inertia_transform``; smallest moment of inertia
+    first, trimesh's signs, the last row negated if needed for det = +1). Meshes only.
+
+    Returns :class:`jaxpose.rotation.Frame` (no ambiguity measure: NaN).
+    """
+    import trimesh
+
+    from .rotation import Frame, proper
+
+    vertices, faces = _faces_or_raise(mesh_or_points, "inertia")
+    mesh = trimesh.Trimesh(vertices, faces, process=False)
+    rot = proper(np.asarray(mesh.principal_inertia_transform[:3, :3], np.float64))
+    mom = np.asarray(mesh.principal_inertia_components, np.float64)
+    return Frame(rot, float("nan"), mom, np.full(2, np.nan), np.full(3, np.nan), -1, np.full(3, np.nan))
+
+
+def frame(mesh_or_points, method="pca_surface"):
+    """Frame by name, one of :data:`FRAMES`.  Returns :class:`jaxpose.rotation.Frame`."""
+    if method not in FRAMES:
+        raise InvalidInputError(f"unknown frame method {method!r}; valid: {', '.join(FRAMES)}")
+    return globals()[method + "_frame"](mesh_or_points)

@@ -21,7 +21,7 @@ EXAMPLE = "example"
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="jaxpose",
-        description="Consistent translation and scale normalization of 3D shapes with one-class SVMs.",
+        description="Consistent translation and scale (and orientation) normalization of 3D shapes with one-class SVMs.",
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
@@ -42,6 +42,7 @@ def _add_svm_options(p, count=2000):
 def _add_normalize(sub):
     from .estimators import CENTERS, DEFAULT_METHOD, METHODS, SCALES
     from .mesh import SAMPLING
+    from .rotation import ROTATIONS
 
     p = sub.add_parser("normalize", help="normalize the translation and scale of one mesh or point cloud")
     p.add_argument("input", nargs="?", help="mesh file (OBJ, PLY, OFF, STL, GLB, ...) or 'example'")
@@ -56,6 +57,9 @@ def _add_normalize(sub):
     p.add_argument("--sampling", choices=SAMPLING, default="even", help="surface sampling (default even)")
     p.add_argument("--resolution", type=int, default=None, help="grid resolution of the volume moments")
     p.add_argument("--transform", help="where to write the transform JSON (default: OUTPUT.transform.json)")
+    p.add_argument("--rotation", nargs="?", const="core", default=None, metavar="METHOD",
+                   choices=ROTATIONS, help="also the canonical orientation (default method core; "
+                                           f"{', '.join(ROTATIONS)}); off by default")
     p.add_argument("--force", action="store_true", help="overwrite existing outputs")
     p.set_defaults(handler=_cmd_normalize)
 
@@ -69,6 +73,9 @@ def _add_evaluate(sub):
     p.add_argument("--variants", default="plain",
                    help="comma-separated input variants: plain,outliers,big_outliers,points,holes (default plain)")
     p.add_argument("--sweep", action="store_true", help="also sweep gamma and nu of the ocsvm method")
+    p.add_argument("--rotation", nargs="?", const="all", default=None, metavar="METHODS",
+                   help="measure canonical frames instead: angle to each class's mean frame per rotation "
+                        "method (comma-separated, default all: core,ocsvm,pca_vertices,pca_surface,inertia)")
     p.add_argument("--json", help="write the full result as JSON here")
     p.add_argument("--plots", help="write figures into this folder")
     p.add_argument("--force", action="store_true", help="overwrite an existing --json file")
@@ -155,6 +162,7 @@ def _cmd_normalize(args):
         scale=args.scale,
         strict=args.strict,
         resolution=args.resolution,
+        rotation=args.rotation or False,
     )
     record = {
         "input": EXAMPLE if use_example else str(Path(source).resolve()),
@@ -171,6 +179,9 @@ def _cmd_normalize(args):
         "matrix": mesh.pose_matrix(pose).tolist(),
         "converged": bool(getattr(pose, "converged", True)),
     }
+    if args.rotation:
+        record.update(rotation_method=args.rotation, rotation=_flat(pose.rotation).reshape(3, 3).tolist(),
+                      ambiguity=float(_flat(pose.ambiguity)[0]), rotation_flagged=bool(_flat(pose.ambiguity)[0] > 0))
     if args.output:
         mesh.export(normalized, args.output, force=args.force)
     if json_path is not None:
@@ -194,6 +205,11 @@ def _print_transform(record, output, json_path):
     print(f"method  center {record['center_method']}, scale {record['scale_method']}{detail}")
     print(f"center  [{c[0]: .6f} {c[1]: .6f} {c[2]: .6f}]")
     print(f"scale   {record['scale']:.6f}")
+    if "rotation" in record:
+        flag = "  FLAGGED: not well determined" if record["rotation_flagged"] else ""
+        print(f"rotation {record['rotation_method']}, ambiguity {record['ambiguity']:.2f}{flag}")
+        for row in record["rotation"]:
+            print("  " + " ".join(f"{v: .6f}" for v in row))
     print("matrix")
     for row in record["matrix"]:
         print("  " + " ".join(f"{v: .6f}" for v in row))
@@ -215,6 +231,8 @@ def _cmd_evaluate(args):
         classes = datasets.load_folder(args.data)
     else:
         classes = datasets.make_dataset(seed=args.seed)
+    if args.rotation:
+        return _evaluate_rotation(args, classes, variants)
     with _ProgressBar() as progress:
         result = evaluation.evaluate(
             classes,
@@ -238,6 +256,28 @@ def _cmd_evaluate(args):
         from . import plot
 
         plot.evaluation_figures(result, args.plots)
+        print(f"wrote figures to {args.plots}")
+    return 0
+
+
+def _evaluate_rotation(args, classes, variants):
+    from . import evaluation
+
+    methods = None if args.rotation == "all" else [m for m in args.rotation.split(",") if m]
+    with _ProgressBar() as progress:
+        result = evaluation.evaluate_rotation(classes, methods=methods, variants=variants, align_core=args.align_core,
+                                              seed=args.seed, progress=progress, frames=True,
+                                              ocsvm={"gamma": args.gamma, "nu": args.nu, "count": args.count})
+    print(evaluation.format_rotation_table(result))
+    if args.json:
+        from .mesh import write_atomic
+
+        write_atomic(args.json, json.dumps(result, indent=2) + "\n", force=args.force)
+        print(f"wrote {args.json}")
+    if args.plots:
+        from . import plot
+
+        plot.rotation_figures(result, args.plots)
         print(f"wrote figures to {args.plots}")
     return 0
 

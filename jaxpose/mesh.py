@@ -166,9 +166,10 @@ def normalize_mesh(
     strict=False,
     power=None,
     resolution=None,
+    rotation=False,
     **options,
 ):
-    """Normalize the position and size of a mesh or point cloud; the input is untouched.
+    """Normalize the position and size (and orientation) of a mesh or point cloud; the input is untouched.
 
     Args:
       mesh_or_path: a path (anything trimesh reads), Trimesh, PointCloud or (n, 3) points.
@@ -183,6 +184,12 @@ def normalize_mesh(
       power: depth exponent (robust_depth: 4; depth_weighted_solid: 2).
       resolution: for the robust solid, voxels along the body's largest extent (96); for
         ``ocsvm``, the grid resolution of :func:`jaxpose.normalize`.
+      rotation: False (default: translation and scale only, exactly as without the option), True
+        (the ``core`` frame of :mod:`jaxpose.rotation`: axes of the depth^4-weighted robust solid,
+        meshes and point clouds) or a name of :data:`jaxpose.rotation.ROTATIONS` (``core``,
+        ``ocsvm``, ``pca_vertices``, ``pca_surface``, ``inertia``). Sets ``Pose.rotation`` (rows =
+        canonical axes, det +1) and ``Pose.ambiguity`` / ``Pose.flagged``; the center and scale
+        are the same as without it.
 
     Returns:
       normalized: a transformed copy (Trimesh or PointCloud), pose: :class:`jaxpose.Pose`.
@@ -213,16 +220,36 @@ def normalize_mesh(
         else:
             raise InvalidInputError(f"resolution applies to the robust and ocsvm estimators (options), "
                                     f"not {c_name} / {s_name}")
+    frame_name = _rotation_name(rotation)
     geometry = load(mesh_or_path)
     pose = estimators.estimate(geometry, method, center=center, scale=scale, strict=strict, gamma=gamma, nu=nu,
                                count=count, seed=seed, sampling=sampling, ocsvm=options, **extra)
+    if frame_name is not None:
+        from .rotation import frame_of
+
+        found = frame_of(geometry, frame_name, resolution=extra.get("resolution"),
+                         ocsvm={"gamma": gamma, "nu": nu, "count": count, "seed": seed, "sampling": sampling,
+                                "options": options})
+        pose = pose._replace(ambiguity=np.asarray(found.ambiguity, np.float64),
+                             rotation=np.asarray(found.rotation, np.float64))
     normalized = geometry.copy()
     normalized.apply_transform(pose_matrix(pose))
     return normalized, pose
 
 
+def _rotation_name(rotation):
+    """None (no rotation), or the frame method a ``rotation=`` argument names."""
+    from .rotation import DEFAULT_ROTATION, ROTATIONS
+
+    if rotation is None or isinstance(rotation, (bool, np.bool_)):
+        return DEFAULT_ROTATION if rotation else None
+    if isinstance(rotation, str) and rotation in ROTATIONS:
+        return rotation
+    raise InvalidInputError(f"rotation must be True, False or one of {', '.join(ROTATIONS)}; got {rotation!r}")
+
+
 def pose_matrix(pose):
-    """The 4 x 4 matrix of x -> (x - pose.center) / pose.scale in float64.
+    """The 4 x 4 matrix of x -> R (x - pose.center) / pose.scale in float64 (R = pose.rotation, or I).
 
     (``pose.matrix`` follows JAX's default precision, float32 unless x64 is on; meshes
     are transformed, and transforms reported, with this float64 one.)
@@ -232,8 +259,11 @@ def pose_matrix(pose):
     center = np.asarray(pose.center, dtype=np.float64).reshape(3)
     scale = float(np.asarray(pose.scale, dtype=np.float64))
     matrix = np.eye(4)
+    rotation = getattr(pose, "rotation", None)
+    if rotation is not None:
+        matrix[:3, :3] = np.asarray(rotation, dtype=np.float64).reshape(3, 3)
     matrix[:3, :3] /= scale
-    matrix[:3, 3] = -center / scale
+    matrix[:3, 3] = -(matrix[:3, :3] @ center) if rotation is not None else -center / scale
     return matrix
 
 

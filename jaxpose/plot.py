@@ -13,7 +13,10 @@ draws several panels) or into a new :class:`matplotlib.figure.Figure`, saves it 
   class (Fig. 6), with the surface centroid's value as a red line;
 * :func:`scale_bars`      per-class sigma_scale, OCSVM against the surface's mean distance (Fig. 7);
 * :func:`overlay_pairs`   pairs of normalized objects of one class overlaid (Fig. 8);
-* :func:`evaluation_figures`  all figures of an :func:`jaxpose.evaluation.evaluate` result.
+* :func:`evaluation_figures`  all figures of an :func:`jaxpose.evaluation.evaluate` result;
+* :func:`rotation_angles` per-instance angles to the class frame, per rotation method;
+* :func:`rotation_overlay` the instances of one class in their canonical frames, overlaid;
+* :func:`rotation_figures`    all figures of an :func:`jaxpose.evaluation.evaluate_rotation` result.
 """
 from __future__ import annotations
 
@@ -23,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["region_slices", "mesh_3d", "centers_plot", "sweep_curves", "scale_bars", "variant_bars",
-           "overlay_pairs", "evaluation_figures"]
+           "overlay_pairs", "evaluation_figures", "rotation_angles", "rotation_overlay", "rotation_figures"]
 
 OCSVM_COLOR = "tab:blue"  # the paper's blue curve
 SURFACE_COLOR = "tab:red"  # and red line
@@ -421,4 +424,69 @@ def evaluation_figures(result, out_dir) -> list:
             p = out / f"sweep_per_class_{param}.png"
             sweep_curves(sweeps, param=param, per_class=True, path=p)
             written.append(p)
+    return written
+
+
+# --------------------------------------------------------------------------- rotation
+def rotation_angles(result, variant=None, *, ax=None, path=None):
+    """Per-instance angles to the class frame (degrees), one column per rotation method, from an
+    :func:`jaxpose.evaluation.evaluate_rotation` result: raw (filled; red when flagged) and
+    sign-free (hollow), every class of ``variant`` (default the first) pooled; 30 degrees dashed."""
+    block = result["variants"][variant or next(iter(result["variants"]))]
+    methods = [row["method"] for row in block["summary"]]
+    fig, (a,) = _figure(ax, size=(1.2 * len(methods) + 2.0, 3.5))
+    rng = np.random.default_rng(0)
+    for i, method in enumerate(methods):
+        cells = [c[method] for c in block["per_class"].values() if "raw" in c.get(method, {})]
+        if not cells:
+            continue
+        raw = np.concatenate([c["raw"] for c in cells])
+        free = np.concatenate([c["sign_free"] for c in cells])
+        amb = np.concatenate([c["ambiguity"] for c in cells])
+        x = i + rng.uniform(-0.18, 0.18, len(raw))
+        color = np.where(np.nan_to_num(amb, nan=0.0) > 0, "tab:red", "tab:blue")
+        a.scatter(x - 0.2, raw, s=12, c=list(color), label="raw" if i == 0 else None)
+        a.scatter(x + 0.2, free, s=12, facecolors="none", edgecolors="0.3", label="sign-free" if i == 0 else None)
+    a.axhline(30, color="0.5", ls="--", lw=0.8)
+    a.set_xticks(range(len(methods)), methods, fontsize=8)
+    a.set_ylabel("angle to class frame (deg)")
+    a.set_ylim(0, 180)
+    a.set_title(f"variant {variant or next(iter(result['variants']))} (red: flagged)", fontsize=9)
+    a.legend(fontsize=7, loc="upper right")
+    return _finish(fig, path)
+
+
+def rotation_overlay(meshes, poses, *, max_points=3000, ax=None, path=None, title=None):
+    """The instances of one class, each normalized by its Pose (center, scale and rotation), overlaid
+    as points in the canonical planes (axes 1-0 and 2-0): a frame that holds makes them coincide."""
+    fig, axes = _figure(ax, 1, 2, size=(3.2, 3.6))
+    rng = np.random.default_rng(0)
+    colors = [f"C{k % 10}" for k in range(len(meshes))]
+    for m, pose, col in zip(meshes, poses, colors):
+        v, _ = _vertices_faces(m)
+        if len(v) > max_points:
+            v = v[rng.choice(len(v), max_points, replace=False)]
+        y = np.asarray(pose.apply(v), np.float64)
+        for a, (h, k) in zip(axes, ((1, 0), (2, 0))):
+            a.scatter(y[:, h], y[:, k], s=0.3, c=col, alpha=0.4, linewidths=0)
+    for a, (h, k) in zip(axes, ((1, 0), (2, 0))):
+        a.set_aspect("equal")
+        a.set_xlabel(f"axis {h}")
+        a.set_ylabel(f"axis {k}")
+        a.invert_yaxis()
+    if title:
+        fig.suptitle(title, fontsize=9)
+    return _finish(fig, path)
+
+
+def rotation_figures(result, out_dir) -> list:
+    """Write ``rotation_angles_<variant>.png`` for every variant of an
+    :func:`jaxpose.evaluation.evaluate_rotation` result into ``out_dir``; returns the paths."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    written = []
+    for variant in result["variants"]:
+        p = out / f"rotation_angles_{variant}.png"
+        rotation_angles(result, variant, path=p)
+        written.append(p)
     return written

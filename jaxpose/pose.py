@@ -36,7 +36,7 @@ __all__ = ["Pose", "normalize", "normalize_batch", "pose_pipeline", "pose_from_s
 
 
 class Pose(NamedTuple):
-    """A similarity x -> (x - center) / scale, with the diagnostics of how it was found. A pytree.
+    """A similarity x -> R (x - center) / scale, with the diagnostics of how it was found. A pytree.
 
     Attributes:
       center: (3,) in the units of the input.
@@ -44,6 +44,10 @@ class Pose(NamedTuple):
       converged: () bool, the SVDD solver reached its tolerance.
       valid: () bool, finite center, positive finite scale, non-empty region, parameters in range.
       iterations: () solver iterations.
+      ambiguity: None, or () in [0, 1]: how poorly the rotation is determined (0: every cue of
+        :mod:`jaxpose.rotation` clears its threshold); see ``flagged``.
+      rotation: None (no rotation: R = I), or (3, 3) a proper rotation whose rows are the canonical
+        axes in the input's coordinates (``rotation=True`` of :func:`normalize` and friends).
 
     Poses from :func:`normalize_batch` carry a leading batch axis on every field.
     """
@@ -53,10 +57,13 @@ class Pose(NamedTuple):
     converged: jax.Array = True
     valid: jax.Array = True
     iterations: jax.Array = 0
+    ambiguity: jax.Array | None = None
+    rotation: jax.Array | None = None
 
     @classmethod
-    def from_center_scale(cls, center, scale) -> "Pose":
-        """A Pose from a given center (3,) and scale (); valid when both are finite and scale > 0.
+    def from_center_scale(cls, center, scale, rotation=None, ambiguity=None) -> "Pose":
+        """A Pose from a given center (3,) and scale () (and optionally rotation (3, 3), ambiguity ());
+        valid when center and scale are finite and scale > 0.
 
         Concrete values stay NumPy float64 (every digit of a center far from the origin is kept);
         traced values stay JAX arrays.
@@ -65,46 +72,83 @@ class Pose(NamedTuple):
         center = xp.asarray(center, dtype=None if xp is jnp else np.float64)
         scale = xp.asarray(scale, center.dtype)
         valid = xp.all(xp.isfinite(center)) & xp.isfinite(scale) & (scale > 0)
-        return cls(center, scale, xp.asarray(True), valid, xp.asarray(0))
+        if rotation is not None:
+            rotation = xp.asarray(rotation, center.dtype)
+            ambiguity = xp.asarray(0.0 if ambiguity is None else ambiguity, center.dtype)
+        return cls(center, scale, xp.asarray(True), valid, xp.asarray(0), ambiguity, rotation)
+
+    @property
+    def flagged(self):
+        """() bool (or None without a rotation): the rotation is not well determined (ambiguity > 0)."""
+        return None if self.ambiguity is None else jnp.asarray(self.ambiguity) > 0
+
+    def _rotation(self, dtype):
+        if self.rotation is None:
+            return jnp.broadcast_to(jnp.eye(3, dtype=dtype), jnp.shape(self.center)[:-1] + (3, 3))
+        return jnp.asarray(self.rotation, dtype)
 
     @property
     def matrix(self):
-        """(..., 4, 4) homogeneous matrix of x -> (x - center) / scale."""
+        """(..., 4, 4) homogeneous matrix of x -> R (x - center) / scale."""
         c, s = jnp.asarray(self.center), jnp.asarray(self.scale)
-        eye = jnp.broadcast_to(jnp.eye(3, dtype=c.dtype), c.shape[:-1] + (3, 3))
-        top = jnp.concatenate([eye / s[..., None, None], (-c / s[..., None])[..., None]], axis=-1)
+        if self.rotation is None:
+            eye = jnp.broadcast_to(jnp.eye(3, dtype=c.dtype), c.shape[:-1] + (3, 3))
+            top = jnp.concatenate([eye / s[..., None, None], (-c / s[..., None])[..., None]], axis=-1)
+        else:
+            r = self._rotation(c.dtype) / s[..., None, None]
+            top = jnp.concatenate([r, -jnp.einsum("...ij,...j->...i", r, c)[..., None]], axis=-1)
         bottom = jnp.broadcast_to(jnp.asarray([0, 0, 0, 1], c.dtype), c.shape[:-1] + (1, 4))
         return jnp.concatenate([top, bottom], axis=-2)
 
     def apply(self, x):
         """Normalize points x : (n, 3) -> (n, 3)."""
-        return (jnp.asarray(x) - self.center) / self.scale
+        y = (jnp.asarray(x) - self.center) / self.scale
+        if self.rotation is None:
+            return y
+        return y @ jnp.asarray(self.rotation, y.dtype).T
 
     def inverse(self) -> "Pose":
-        """The inverse similarity y -> scale y + center, as a Pose."""
-        return self._replace(center=-self.center / self.scale, scale=1.0 / self.scale)
+        """The inverse similarity y -> scale R^T y + center, as a Pose (rotation R^T, center
+        -R center / scale, scale 1 / scale)."""
+        if self.rotation is None:
+            return self._replace(center=-self.center / self.scale, scale=1.0 / self.scale)
+        xp = np if isinstance(self.rotation, np.ndarray) and isinstance(self.center, np.ndarray) else jnp
+        r = xp.asarray(self.rotation)
+        center = -xp.einsum("...ij,...j->...i", r, self.center) / xp.asarray(self.scale)[..., None]
+        return self._replace(center=center, scale=1.0 / self.scale, rotation=xp.swapaxes(r, -1, -2))
 
 
-def pose_from_svdd(svdd, to_world, size, grid, outside):
+def pose_from_svdd(svdd, to_world, size, grid, outside, rotation=False, y=None, mask=None):
     """The pose (eqs. 4, 5) of an SVDD fitted to pre-scaled points, in world units.
 
     Args:
       svdd: SVDD in the reference frame; to_world, size: from :func:`jaxpose.frame.prescale`;
       grid: GridConfig; outside: see :func:`jaxpose.moments.region_moments`.
+      rotation: also the region's frame (:func:`jaxpose.rotation.region_frame`), from the
+        pre-scaled points ``y`` (m, 3) and their ``mask``.
     """
     mom = region_moments(svdd, grid, outside)
     center = to_world(mom.center)
     scale = jnp.where(size > 0, size, 1.0) * mom.mean_distance
     valid = (size > 0) & jnp.all(jnp.isfinite(center)) & jnp.isfinite(scale) & (scale > 0) & (mom.volume > 0)
-    return Pose(center, scale, svdd.converged, valid, svdd.iterations)
+    if not rotation:
+        return Pose(center, scale, svdd.converged, valid, svdd.iterations)
+    from .rotation import region_frame
+
+    origin = to_world(jnp.zeros(3, center.dtype))
+    axes = jax.vmap(to_world)(jnp.eye(3, dtype=center.dtype)) - origin  # rows: size * axes[:, k]
+    axes = (axes / jnp.linalg.norm(axes, axis=1, keepdims=True)).T
+    rot, amb = region_frame(mom.second_moment, mom.center, y, mask, axes)
+    return Pose(center, scale, svdd.converged, valid, svdd.iterations, amb, rot)
 
 
-def _pipeline(points, mask, gamma, nu, config):
+def _pipeline(points, mask, gamma, nu, config, rotation=False):
     y, to_world, size = prescale(points, mask)
+    extra = {"rotation": True, "y": y, "mask": mask} if rotation else {}
     if config.derivative == "exact":
         svdd = solve_svdd(y, gamma, nu, mask, None, config.svdd)
         # the implicit KKT derivative moves alpha only on the support: skip the alpha = 0 pass
-        return pose_from_svdd(svdd, to_world, size, config.grid, outside=False)
+        return pose_from_svdd(svdd, to_world, size, config.grid, outside=False, **extra)
     dtype = y.dtype
     gamma, nu = jnp.asarray(gamma, dtype), jnp.asarray(nu, dtype)
     svdd = solve_svdd(y, gamma, jax.lax.stop_gradient(nu), mask, None, config.svdd)
@@ -112,27 +156,30 @@ def _pipeline(points, mask, gamma, nu, config):
     if tol is None:
         tol = min(config.svdd.tol, 1e-6 if dtype == jnp.float64 else 1e-5)
     svdd = with_nu_secant(svdd, nu, config.svdd, config.nu_delta, tol)
-    return pose_from_svdd(svdd, to_world, size, config.grid, outside=True)  # the secant moves alpha = 0 points
+    return pose_from_svdd(svdd, to_world, size, config.grid, outside=True, **extra)  # the secant moves alpha = 0 points
 
 
-def pose_pipeline(points, mask, gamma, nu, config: PoseConfig) -> Pose:
+def pose_pipeline(points, mask, gamma, nu, config: PoseConfig, rotation: bool = False) -> Pose:
     """The one pipeline from points to a Pose (module docs); pure JAX, no input checks.
 
     Args:
       points: (m, 3) float; mask: (m,) bool or None (False rows are padding);
-      gamma, nu: () traced; config: :class:`jaxpose.config.PoseConfig` (static).
+      gamma, nu: () traced; config: :class:`jaxpose.config.PoseConfig` (static);
+      rotation: (static) also the region's canonical frame (``Pose.rotation``, ``Pose.ambiguity``;
+        not differentiated).
 
     Returns:
       Pose in the units of ``points``. Derivatives in (gamma, nu) come from forward-mode
       columns, also under jax.grad / jacrev; derivatives in the points by plain autodiff.
     """
-    return hyper_jvp(partial(_pipeline, config=config), (2, 3))(points, mask, gamma, nu)
+    return hyper_jvp(partial(_pipeline, config=config, rotation=bool(rotation)), (2, 3))(points, mask, gamma, nu)
 
 
-_pipeline_jit = jax.jit(pose_pipeline, static_argnames=("config",))
+_pipeline_jit = jax.jit(pose_pipeline, static_argnames=("config", "rotation"))
 
 
-def normalize(points, gamma=47.0, nu=0.5, *, config: PoseConfig | None = None, throw=False, **options) -> Pose:
+def normalize(points, gamma=47.0, nu=0.5, *, config: PoseConfig | None = None, throw=False, rotation=False,
+              **options) -> Pose:
     """The OCSVM pose (center c_m, scale d_m) of surface samples.
 
     Args:
@@ -146,6 +193,9 @@ def normalize(points, gamma=47.0, nu=0.5, *, config: PoseConfig | None = None, t
         ``nu_delta``, ``nu_tol``.
       throw: concrete calls only: raise ConvergenceError if the solver hit max_iter,
         JaxposeError if the pose is not valid (otherwise see ``Pose.converged`` / ``Pose.valid``).
+      rotation: also the canonical frame of the OCSVM region (``Pose.rotation``, rows = axes,
+        det +1; ``Pose.ambiguity``, ``Pose.flagged``; :func:`jaxpose.rotation.region_frame`); off
+        by default, and off changes nothing. Not differentiated.
 
     Returns:
       :class:`Pose`. The default grid resolves the boundary like a 128^3 grid, extrapolated with
@@ -177,8 +227,14 @@ def normalize(points, gamma=47.0, nu=0.5, *, config: PoseConfig | None = None, t
         dtype = _validate.compute_dtype(points)
         shift, size = host_frame(points)
         points = jnp.asarray((np.asarray(points, np.float64) - shift) / size, dtype)
-    pose = _pipeline_jit(points, None, gamma, nu, config)
+    pose = _pipeline_jit(points, None, gamma, nu, config, _check_rotation(rotation))
     return _finish(pose, shift, size, gamma, nu, throw, config.svdd.tol)
+
+
+def _check_rotation(rotation):
+    if not isinstance(rotation, (bool, np.bool_)):
+        raise _validate.InvalidInputError(f"rotation must be True or False, got {rotation!r}")
+    return bool(rotation)
 
 
 def _finish(pose, shift, size, gamma, nu, throw, tol):
@@ -207,7 +263,7 @@ def _finish(pose, shift, size, gamma, nu, throw, tol):
 
 
 def normalize_batch(list_of_points: Sequence, gamma=47.0, nu=0.5, *, pad_to=None, throw=False, strategy="auto",
-                    config: PoseConfig | None = None, **options) -> Pose:
+                    config: PoseConfig | None = None, rotation=False, **options) -> Pose:
     """Normalize many objects with one compilation (padding and masks).
 
     Args:
@@ -219,7 +275,7 @@ def normalize_batch(list_of_points: Sequence, gamma=47.0, nu=0.5, *, pad_to=None
       strategy: "vmap" (all objects in lock-step: fills wide accelerators, but every object runs
         as many solver iterations as the slowest), "map" (``lax.map``, one object after another
         inside the compiled call: faster on CPU) or "auto" ("map" on CPU, "vmap" elsewhere).
-      config, options, throw: as :func:`normalize`.
+      config, options, throw, rotation: as :func:`normalize`.
 
     Returns:
       :class:`Pose` whose fields have a leading axis of len(list_of_points).
@@ -254,13 +310,14 @@ def normalize_batch(list_of_points: Sequence, gamma=47.0, nu=0.5, *, pad_to=None
     pts = jnp.asarray(pts)  # float64 becomes float32 unless x64 is on
     gamma = jnp.broadcast_to(jnp.asarray(gamma, pts.dtype), (len(arrays),))
     nu = jnp.broadcast_to(jnp.asarray(nu, pts.dtype), (len(arrays),))
-    pose = _batched(pts, jnp.asarray(mask), gamma, nu, config=config, strategy=strategy)
+    pose = _batched(pts, jnp.asarray(mask), gamma, nu, config=config, strategy=strategy,
+                    rotation=_check_rotation(rotation))
     return _finish(pose, shift, size, gamma, nu, throw, config.svdd.tol)
 
 
-@partial(jax.jit, static_argnames=("config", "strategy"))
-def _batched(points, mask, gamma, nu, config, strategy):
-    fn = lambda p, mk, g, n: pose_pipeline(p, mk, g, n, config)
+@partial(jax.jit, static_argnames=("config", "strategy", "rotation"))
+def _batched(points, mask, gamma, nu, config, strategy, rotation=False):
+    fn = lambda p, mk, g, n: pose_pipeline(p, mk, g, n, config, rotation)
     if strategy == "map":
         return jax.lax.map(lambda args: fn(*args), (points, mask, gamma, nu))
     return jax.vmap(fn)(points, mask, gamma, nu)

@@ -1,0 +1,211 @@
+r"""Consistency of canonical frames within classes: ``evaluate_rotation`` and its measures.
+
+Every object of a class shares the pose of its rigid core (after :func:`align_core`), so a frame
+that holds under articulation gives every instance the same rotation. For one class with frames
+R_1..R_n (proper rotations, rows = axes):
+
+* the class frame :math:`\bar R` is the chordal L2 mean, the projection of
+  :math:`\frac1n\sum_k R_k` onto SO(3) (:func:`chordal_mean`);
+* ``raw``: the geodesic angle :math:`\theta_k = \lvert\log(R_k \bar R^T)\rvert` of each instance
+  to it, in degrees (:func:`angle`); a class's figures are the mean and the max over instances;
+* ``sign_free``: the same after each instance may take the proper sign flip of its axes
+  (identity or two axes negated) that brings it closest to the mean of the flipped frames
+  (:func:`sign_free_angles`): what is left when every sign is right, the error of the axes alone.
+
+A dataset's figure is the plain average of its classes' figures. Instances flagged as ambiguous
+(``Frame.flag``) are counted, and the raw figures of the unflagged ones reported beside.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from .._validate import InvalidInputError, JaxposeError
+from . import alignment
+from .variants import VARIANTS, make_class
+
+__all__ = ["PROPER_FLIPS", "angle", "chordal_mean", "class_angles", "sign_free_angles", "evaluate_rotation",
+           "format_rotation_table", "ROTATION_KEYS"]
+
+PROPER_FLIPS = np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]], dtype=np.float64)
+ROTATION_KEYS = ("raw_mean", "raw_max", "sign_free_mean", "sign_free_max", "flagged", "unflagged_mean",
+                 "unflagged_max", "flagged_over_30")
+
+
+def angle(a, b):
+    """Geodesic angle in degrees between rotations a, b (3, 3) of m = a b^T: atan2(sin, cos) with
+    cos = (trace m - 1) / 2 and sin = |vee(m - m^T)| / 2 (accurate at small angles too)."""
+    m = np.asarray(a, np.float64) @ np.asarray(b, np.float64).T
+    w = np.array([m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1]])
+    return float(np.degrees(np.arctan2(0.5 * np.linalg.norm(w), 0.5 * (np.trace(m) - 1.0))))
+
+
+def chordal_mean(rotations):
+    """The chordal L2 mean of rotations (n, 3, 3): the nearest rotation to their average (SVD)."""
+    u, _, vt = np.linalg.svd(np.mean(np.asarray(rotations, np.float64), axis=0))
+    return u @ np.diag([1.0, 1.0, np.sign(np.linalg.det(u @ vt)) or 1.0]) @ vt
+
+
+def class_angles(rotations):
+    """(n,) angles in degrees of each rotation (n, 3, 3) to their chordal mean."""
+    mean = chordal_mean(rotations)
+    return np.array([angle(r, mean) for r in rotations])
+
+
+def sign_free_angles(rotations, iterations=10):
+    """(n,) angles to the class frame when each instance may take its best proper sign flip.
+
+    Alternates the chordal mean of the flipped frames and each instance's best flip, from every
+    instance as a start; the start with the smallest mean angle wins. Returns (angles, flips (n, 3)).
+    """
+    rs = np.asarray(rotations, np.float64)
+    best = None
+    for start in range(len(rs)):
+        mean = rs[start]
+        for _ in range(iterations):
+            flipped = np.array([min((f[:, None] * r for f in PROPER_FLIPS), key=lambda x: angle(x, mean)) for r in rs])
+            new = chordal_mean(flipped)
+            done = np.allclose(new, mean)
+            mean = new
+            if done:
+                break
+        a = np.array([angle(x, mean) for x in flipped])
+        if best is None or a.mean() < best[0].mean():
+            best = (a, np.sign(np.sum(flipped * rs, axis=2)))
+    return best
+
+
+def _summary_of_class(frames):
+    rs = np.stack([f.rotation for f in frames])
+    raw = class_angles(rs)
+    free, _ = sign_free_angles(rs)
+    amb = np.array([f.ambiguity for f in frames], np.float64)
+    out = {"raw": raw.tolist(), "sign_free": free.tolist(), "ambiguity": amb.tolist(),
+           "raw_mean": float(raw.mean()), "raw_max": float(raw.max()),
+           "sign_free_mean": float(free.mean()), "sign_free_max": float(free.max()),
+           "flagged": None, "unflagged_mean": None, "unflagged_max": None, "flagged_over_30": None}
+    if np.all(np.isfinite(amb)):
+        flag = amb > 0
+        out["flagged"] = float(flag.mean())
+        if (~flag).any():
+            out["unflagged_mean"], out["unflagged_max"] = float(raw[~flag].mean()), float(raw[~flag].max())
+        if (raw > 30).any():
+            out["flagged_over_30"] = float(flag[raw > 30].mean())
+    return out
+
+
+def _mean_or_none(values):
+    values = [v for v in values if v is not None]
+    return float(np.mean(values)) if values else None
+
+
+def evaluate_rotation(classes, methods=None, variants=("plain",), align_core=False, seed=0, progress=None,
+                      frames=False, **options) -> dict:
+    """Within-class agreement of canonical frames for each rotation method and input variant.
+
+    Args:
+      classes: {class name: [Trimesh, ...]} (at least 2 per class).
+      methods: names of :data:`jaxpose.rotation.ROTATIONS` (default: all of them).
+      variants: names of :data:`jaxpose.evaluation.variants.VARIANTS`, made from the aligned meshes.
+      align_core: first rigidly align each class (:func:`jaxpose.evaluation.align_core`).
+      seed: seeds the variants (and the OCSVM samples).
+      progress: optional callable(done, total, message).
+      frames: also return each instance's rotation (``per_class[...][method]["rotations"]``).
+      options: for :func:`jaxpose.rotation.frame_of` (``resolution``; ``ocsvm`` dict).
+
+    Returns:
+      ``{"params", "variants": {variant: {"summary": [row, ...], "per_class": {class: {method:
+      cell}}}}}``. A row holds ``method``, the class averages of ``raw_mean``, ``raw_max``,
+      ``sign_free_mean``, ``sign_free_max`` (degrees), ``flagged`` (share of instances),
+      ``unflagged_mean`` / ``unflagged_max`` (raw, unflagged instances), ``flagged_over_30`` (share
+      of the instances above 30 degrees that are flagged), ``raw_worst`` (the largest raw angle of
+      any instance) and ``seconds`` (per instance); None
+      where a method does not apply (with ``error``). A cell holds the per-instance ``raw``,
+      ``sign_free`` angles and ``ambiguity``.
+    """
+    from ..rotation import ROTATIONS, frame_of, frame_solid
+    from .. import baselines
+
+    if not isinstance(classes, dict) or not classes or any(len(m) < 2 for m in classes.values()):
+        raise InvalidInputError("classes must be a non-empty dict {class name: [at least 2 meshes]}")
+    methods = tuple(ROTATIONS if methods is None else methods)
+    unknown = [m for m in methods if m not in ROTATIONS]
+    if unknown or not methods:
+        raise InvalidInputError(f"unknown rotation methods {unknown}; valid: {', '.join(ROTATIONS)}")
+    variants = tuple(variants)
+    if not variants or any(v not in VARIANTS for v in variants):
+        raise InvalidInputError(f"unknown variants {list(variants)}; valid: {', '.join(VARIANTS)}")
+    if align_core:
+        classes = {name: alignment.align_core(meshes) for name, meshes in classes.items()}
+    ocsvm = {"seed": seed, **options.pop("ocsvm", {})}
+    total, done, out = len(variants) * len(classes), 0, {}
+    for variant in variants:
+        per_class, seconds, count = {}, dict.fromkeys(methods, 0.0), 0
+        for k, (name, meshes) in enumerate(classes.items()):
+            if progress is not None:
+                progress(done, total, f"rotation {variant}: {name} ({len(meshes)} objects)")
+            done += 1
+            found = {m: [] for m in methods}
+            for shape in make_class(meshes, variant, seed, k):
+                count += 1
+                sol = None
+                for method in methods:
+                    start = time.perf_counter()
+                    try:
+                        if method == "core" and sol is None:
+                            sol = frame_solid(*baselines.split_geometry(shape), options.get("resolution"))
+                        found[method].append(frame_of(shape, method, sol=sol, ocsvm=ocsvm, **options))
+                    except (JaxposeError, ValueError) as exc:
+                        found[method].append(exc)
+                    seconds[method] += time.perf_counter() - start
+            cells = {}
+            for method, fs in found.items():
+                errors = [f for f in fs if isinstance(f, Exception)]
+                if errors:
+                    cells[method] = {"error": str(errors[0]), "failed": len(errors)}
+                    continue
+                cells[method] = _summary_of_class(fs)
+                if frames:
+                    cells[method]["rotations"] = [f.rotation.tolist() for f in fs]
+            per_class[name] = cells
+        rows = []
+        for method in methods:
+            cells = [per_class[c][method] for c in per_class]
+            row = {"method": method, "seconds": seconds[method] / max(count, 1)}
+            if any("error" in c for c in cells):
+                row.update(dict.fromkeys(ROTATION_KEYS), raw_worst=None,
+                           error=next(c["error"] for c in cells if "error" in c))
+            else:
+                row.update({key: _mean_or_none([c[key] for c in cells]) for key in ROTATION_KEYS})
+                row["raw_worst"] = float(max(c["raw_max"] for c in cells))
+            rows.append(row)
+        out[variant] = {"summary": rows, "per_class": per_class}
+    if progress is not None:
+        progress(total, total, "done")
+    params = {"align_core": bool(align_core), "seed": int(seed), "methods": list(methods),
+              "variants": list(variants), "classes": list(classes),
+              "objects": {c: len(m) for c, m in classes.items()}}
+    return {"params": params, "variants": out}
+
+
+def format_rotation_table(result) -> str:
+    """The summaries of :func:`evaluate_rotation` as terminal tables, one per variant (degrees)."""
+    lines = [f"{len(result['params']['classes'])} classes, align_core={result['params']['align_core']}, "
+             "angles to the class frame (chordal mean), degrees, mean / max over instances"]
+
+    def num(v, fmt="{:.1f}"):
+        return "n/a" if v is None else fmt.format(v)
+
+    for variant, block in result["variants"].items():
+        head = (f"{'method':<14}{'raw mean':>10}{'raw max':>10}{'free mean':>11}{'free max':>10}"
+                f"{'flagged':>9}{'unflagged':>15}{'s/shape':>9}")
+        lines += ["", f"variant {variant}", head, "-" * len(head)]
+        for row in block["summary"]:
+            unflagged = "" if row["unflagged_mean"] is None else \
+                f"{row['unflagged_mean']:.1f} / {row['unflagged_max']:.1f}"
+            flagged = "" if row["flagged"] is None else f"{100 * row['flagged']:.0f}%"
+            lines.append(f"{row['method']:<14}{num(row['raw_mean']):>10}{num(row['raw_max']):>10}"
+                         f"{num(row['sign_free_mean']):>11}{num(row['sign_free_max']):>10}{flagged:>9}"
+                         f"{unflagged:>15}{row['seconds']:>9.3f}")
+    return "\n".join(lines)

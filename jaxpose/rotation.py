@@ -1,0 +1,420 @@
+"""Canonical axes of a shape: a rotation that holds under articulation, its sign rule and its ambiguity.
+
+A frame is a proper rotation R (3, 3) whose rows are the shape's canonical axes in world
+coordinates (det R = +1); canonical coordinates are R (x - c) / s. Two frames are built here.
+
+``core`` (meshes and point clouds, :func:`core_frame`), on the robust voxel solid of
+:mod:`jaxpose.solid`:
+
+1. Pre-frame. The grid of the solid is laid out along the principal axes of the input's surface
+   (exact area moments of the triangles; the covariance of the points of a point cloud), their
+   signs fixed by the input's third moments (:func:`pre_frame`): rotating the input rotates the
+   grid with it, so the voxels, and everything computed from them, are the same.
+2. Axes. The eigenvectors (largest first) of the second moments of the solid, each voxel weighted
+   by its depth^4 (depth: distance to the outside): the weight falls with the fourth power of a
+   part's thickness, so limbs, which are thin and move, hardly count and the axes are those of
+   the trunk.
+3. Mirror axis. Bodies that articulate (people, animals) are bilaterally symmetric: any signed
+   statistic along the left-right axis is noise of the pose. Their long axis lies in the mirror
+   plane, so the mirror axis is the one of the two minor axes whose plane (through the depth^2
+   centroid) maps the depth^2-weighted solid better onto itself (:func:`symmetry_scores`); its
+   sign comes from det R = +1.
+4. Signs of the other two axes: each points to where the far mass of the (unweighted) solid lies,
+   the sign of its third moment E[z^3] / r^3 (z along the axis about the solid's centroid, r the
+   solid's RMS radius, so margins are comparable between axes and with the share of the volume a
+   moving limb carries). On a person the first axis points to the feet (the legs are the far mass).
+5. Feet. The third moment cannot orient a body front to back: nothing heavy sits in front of or
+   behind the trunk. When it leaves the minor non-mirror axis undetermined, that axis points to
+   where the feet point (:func:`feet_offset`: the slab of the solid at the legs' end of the first
+   axis, each part of it against the solid just above it), if that slab is thin enough to be feet.
+   Feet point forward, not sideways: when the mirror test of step 3 is undetermined (an
+   asymmetric pose), the minor axis the feet point along more is the forward one and the other
+   the mirror axis.
+6. Cross-check. The deep core (depth^4 centroid) lies toward the head's end of the first axis's
+   extent (a person's legs are longer than head and neck); where it does not agree with the third
+   moment's sign, the first axis is called undetermined.
+
+``ocsvm`` (point samples, traced JAX, :func:`region_frame`): the eigenvectors of the OCSVM
+region's second moment (computed with its centroid by the grid integral of
+:func:`jaxpose.moments.region_moments`), signs by the third moments of the samples along them
+(the two largest in magnitude; the third axis from det = +1). Equivariant because the grid turns
+with the points' principal frame.
+
+Ambiguity. A frame is determined when its eigenvalues are apart, its sign cues are away from
+zero and (``core``) its mirror plane stands out. With the relative eigen-gaps g1 = (l1 - l2) / l1,
+g2 = (l2 - l3) / l2, the weakest used sign cue m as a multiple of its threshold and the mirror
+contrast k (the difference of the two minor axes' mirror scores, or of the feet offsets along them
+in units of their threshold where the feet chose), ``ambiguity = clip(1 - min(g1 / GAP_MIN,
+g2 / GAP_MIN, m, k / SYMMETRY_MIN), 0, 1)``: 0 when every cue clears its threshold, 1 when one of
+them is zero; ``flag = ambiguity > 0``. The thresholds are set a priori (module constants), not
+fitted: a gap of 10 % (near-equal moments swap under small deformations), a third moment of
+0.02 r^3 (what moving about 2 % of the volume across the body changes it by), a feet offset of
+1 % of the length (about one voxel) and a symmetry contrast of 0.05.
+
+Equivariance holds up to float rounding for inputs whose pre-frame third moments are not zero; an
+exactly mirror-symmetric input leaves the sign of its pre-frame's mirror axis to rounding, and its
+grid may then come out mirrored (voxel-level differences).
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+__all__ = ["Frame", "ROTATIONS", "DEFAULT_ROTATION", "GAP_MIN", "SIGN_MIN", "SYMMETRY_MIN", "FOOT", "FEET_DEPTH",
+           "FOOT_MIN", "AXES_POWER", "SYMMETRY_POWER", "pre_frame", "frame_solid", "core_frame", "feet_offset",
+           "symmetry_scores", "ambiguity", "complete_signs", "frame_of", "region_frame", "proper"]
+
+ROTATIONS = ("core", "ocsvm", "pca_vertices", "pca_surface", "inertia")
+DEFAULT_ROTATION = "core"
+GAP_MIN = 0.10  # relative eigen-gap below which two axes are called interchangeable
+SIGN_MIN = 0.02  # third moment E[z^3] / r^3 below which a sign is called undetermined
+SYMMETRY_MIN = 0.05  # mirror-score contrast below which the mirror axis is called undetermined
+FOOT = 0.05  # the feet: this share of the length at the legs' end (ankles at about 4 % of a person's height)
+FEET_DEPTH = 0.5  # feet are thinner than half the trunk's depth (ankle ~4 cm, head ~9 cm, trunk ~11 cm)
+FOOT_MIN = 0.01  # feet offset (in lengths) below which it is called undetermined: about one voxel
+AXES_POWER = 4.0  # depth exponent of the axes' weights
+SYMMETRY_POWER = 2.0  # depth exponent of the mirror test's weights
+
+
+class Frame(NamedTuple):
+    """A canonical frame with its diagnostics (NumPy float64).
+
+    Attributes:
+      rotation: (3, 3) proper rotation, rows = canonical axes in world coordinates.
+      ambiguity: () in [0, 1]; 0 = every cue clears its threshold (module docs).
+      eigenvalues: (3,) the second moments along the axes, largest first (units^2).
+      gaps: (2,) relative eigen-gaps (l1 - l2) / l1, (l2 - l3) / l2.
+      margins: (3,) the sign statistic along each final axis (0 on the axis completed by det).
+      mirror: index of the axis completed by det (the mirror axis for ``core``).
+      symmetry: (3,) mirror scores in [0, 1] per axis (NaN where not computed).
+    """
+
+    rotation: np.ndarray
+    ambiguity: float
+    eigenvalues: np.ndarray
+    gaps: np.ndarray
+    margins: np.ndarray
+    mirror: int
+    symmetry: np.ndarray
+
+    @property
+    def flag(self) -> bool:
+        """The frame is not well determined (ambiguity > 0)."""
+        return bool(self.ambiguity > 0)
+
+
+# ------------------------------------------------------------------ small pieces
+def proper(r):
+    """r (3, 3) with its last row negated when det r < 0: a proper rotation from orthonormal rows."""
+    r = np.array(r, np.float64)
+    if np.linalg.det(r) < 0:
+        r[2] = -r[2]
+    return r
+
+
+def _descending_axes(cov):
+    """Eigenvalues (3,) descending and eigenvectors as rows (3, 3) of a symmetric (3, 3) matrix."""
+    lam, vec = np.linalg.eigh(np.asarray(cov, np.float64))
+    return lam[::-1], vec[:, ::-1].T
+
+
+def _gaps(lam):
+    lam = np.asarray(lam, np.float64)
+    return np.array([(lam[0] - lam[1]) / max(lam[0], 1e-300), (lam[1] - lam[2]) / max(lam[1], 1e-300)])
+
+
+def ambiguity(gaps, sign_ratio, contrast=None):
+    """clip(1 - min(g1 / GAP_MIN, g2 / GAP_MIN, sign_ratio[, k / SYMMETRY_MIN]), 0, 1) (module docs).
+
+    ``sign_ratio``: the weakest used sign margin as a multiple of its threshold (e.g. m / SIGN_MIN)."""
+    ratios = [gaps[0] / GAP_MIN, gaps[1] / GAP_MIN, abs(sign_ratio)]
+    if contrast is not None:
+        ratios.append(contrast / SYMMETRY_MIN)
+    return float(np.clip(1.0 - min(ratios), 0.0, 1.0))
+
+
+def complete_signs(axes, stat, completed=None, to_world=None):
+    """Orient the rows of ``axes`` (3, 3) by the signs of ``stat`` (3,), one axis completed by det.
+
+    Args:
+      axes: (3, 3) orthonormal rows (grid coordinates when ``to_world`` is given).
+      stat: (3,) signed statistics along the rows; each row is flipped where its stat is negative.
+      completed: the axis whose sign comes from det = +1 (default: the smallest |stat|).
+      to_world: optional (3, 3) rows of the grid axes in world coordinates (any determinant).
+
+    Returns:
+      rotation (3, 3) proper, in world coordinates; margins (3,) the stats after the flips
+      (0 on the completed axis); the completed axis.
+    """
+    stat = np.asarray(stat, np.float64)
+    k = int(np.argmin(np.abs(stat))) if completed is None else int(completed)
+    s = np.where(stat >= 0, 1.0, -1.0)
+    r = np.asarray(axes, np.float64) * s[:, None]
+    if to_world is not None:
+        r = r @ np.asarray(to_world, np.float64)
+    if np.linalg.det(r) < 0:
+        r[k] = -r[k]
+    margins = np.abs(stat)
+    margins[k] = 0.0
+    return r, margins, k
+
+
+# ------------------------------------------------------------------ the core frame
+def _third_moments(x, w=None):
+    """(3,) signs-only helper: sum w (x - mean)^3 per axis of x (n, 3)."""
+    w = np.ones(len(x)) if w is None else w
+    d = x - (w @ x) / w.sum()
+    return w @ (d ** 3)
+
+
+def pre_frame(vertices, faces=None):
+    """The grid frame of :func:`frame_solid`: principal axes of the input, signs by third moments.
+
+    Meshes: the exact second moments of the surface (area-weighted, closed form per triangle);
+    point clouds (``faces`` None): the covariance of the points. Each axis points to the positive
+    third moment of the vertices along it, so the frame of a rotated input is the rotated frame.
+
+    Args:
+      vertices: (n, 3) float; faces: (f, 3) int or None.
+
+    Returns:
+      (3, 3) orthonormal rows (largest second moment first; not necessarily proper).
+    """
+    v = np.asarray(vertices, np.float64)
+    if faces is not None and len(faces):
+        t = v[np.asarray(faces, np.int64)]
+        area = 0.5 * np.linalg.norm(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]), axis=1)
+        total = area.sum()
+        if total > 0:
+            c = (area @ t.sum(axis=1)) / (3.0 * total)
+            t0 = t - c
+            s0 = t0.sum(axis=1)
+            cov = (np.einsum("f,fki,fkj->ij", area, t0, t0) + np.einsum("f,fi,fj->ij", area, s0, s0)) / (12.0 * total)
+        else:
+            faces = None
+    if faces is None or not len(faces):
+        d = v - v.mean(axis=0)
+        cov = d.T @ d / len(v)
+    _, axes = _descending_axes(cov)
+    skew = _third_moments(v @ axes.T)
+    return axes * np.where(skew >= 0, 1.0, -1.0)[:, None]
+
+
+def frame_solid(vertices, faces=None, resolution=None):
+    """The robust solid (:func:`jaxpose.solid.robust_solid`) on a grid along :func:`pre_frame`."""
+    from . import solid
+
+    resolution = solid.RESOLUTION if resolution is None else int(resolution)
+    return solid.robust_solid(vertices, faces, resolution=resolution, frame=pre_frame(vertices, faces))
+
+
+def _grid_centers(sol):
+    """(n, 3) kept voxel centers in grid coordinates and their (n,) depths."""
+    idx = np.stack(np.nonzero(sol.inside), axis=1)
+    return sol.origin + sol.pitch * (idx + 0.5), sol.depth[sol.inside], idx
+
+
+def _weights(d, power):
+    top = d.max()
+    return (d / top) ** float(power) if top > 0 else np.ones_like(d)
+
+
+def symmetry_scores(sol, axes, center, power=SYMMETRY_POWER):
+    """Mirror self-overlap (3,) of the depth^p-weighted solid about the plane through ``center``
+    orthogonal to each row of ``axes`` (grid coordinates): s_a = sum min(w(x), w(M_a x)) / sum w(x),
+    M_a the reflection, w read at the voxel nearest M_a x (0 outside). 1 for a mirror-symmetric solid."""
+    y, d, _ = _grid_centers(sol)
+    w = _weights(d, power)
+    grid = np.zeros(sol.inside.shape)
+    grid[sol.inside] = w
+    shape = np.array(sol.inside.shape)
+    out = np.zeros(3)
+    for a, e in enumerate(np.asarray(axes, np.float64)):
+        ym = y - 2.0 * ((y - center) @ e)[:, None] * e
+        ir = np.floor((ym - sol.origin) / sol.pitch).astype(np.int64)
+        ok = np.all((ir >= 0) & (ir < shape), axis=1)
+        wr = np.zeros(len(y))
+        wr[ok] = grid[tuple(ir[ok].T)]
+        out[a] = np.minimum(w, wr).sum() / w.sum()
+    return out
+
+
+def feet_offset(sol, axes, up=0, forward=2):
+    """Where the feet point: the forward offset of each foot from its ankle, in units of the length.
+
+    The slab of the solid within ``FOOT`` of the length L at the end axis ``up`` points to (the
+    legs' end: it points to the far mass) is split into its connected parts (the feet, or whatever
+    ends the body there); each part is compared with the solid just above it (within ``FOOT`` of L
+    above the slab and ``2 FOOT`` of L sideways from the part's centroid): s = sum_parts n_p
+    (f_part - f_above) / (L sum_p n_p), f the coordinate along ``forward``. Feet reach forward of
+    the ankles (the foot centroid lies about 3 % of a person's height ahead of the ankle). A slab
+    deeper than ``FEET_DEPTH`` of the solid's depth somewhere is not feet (a head, a trunk): no cue.
+
+    Args:
+      sol: Solid; axes: (3, 3) rows in grid coordinates (oriented: ``up`` toward the legs).
+
+    Returns:
+      () the offset s (0 when no part is found).
+    """
+    from scipy import ndimage
+
+    y, d, idx = _grid_centers(sol)
+    z = (y - y.mean(axis=0)) @ np.asarray(axes, np.float64).T
+    h, f = z[:, up], z[:, forward]
+    side = z[:, 3 - up - forward]
+    length = h.max() - h.min()
+    slab = h >= h.max() - FOOT * length
+    if d[slab].max() > FEET_DEPTH * d.max():  # too thick for feet (a head, a trunk, knees): no cue
+        return 0.0
+    grid = np.zeros(sol.inside.shape, bool)
+    grid[tuple(idx[slab].T)] = True
+    labels, count = ndimage.label(grid, np.ones((3, 3, 3), bool))
+    part = labels[tuple(idx.T)]
+    total, mass = 0.0, 0
+    for p in range(1, count + 1):
+        mine = part == p
+        top = h[mine].min()
+        near = (h < top) & (h >= top - FOOT * length) & \
+            (np.hypot(f - f[mine].mean(), side - side[mine].mean()) < 2 * FOOT * length)
+        if near.sum() == 0:
+            continue
+        total += mine.sum() * (f[mine].mean() - f[near].mean())
+        mass += mine.sum()
+    return total / (mass * length) if mass else 0.0
+
+
+def core_frame(sol, power=AXES_POWER, feet=True, cross_check=True) -> Frame:
+    """The ``core`` frame (module docs, steps 2-6) of a solid from :func:`frame_solid`.
+
+    Args:
+      sol: :class:`jaxpose.solid.Solid` (any grid frame; equivariant when laid out by :func:`pre_frame`).
+      power: depth exponent of the axes' weights.
+      feet: when the third moment leaves the sign of the minor non-mirror axis undetermined, take
+        it from :func:`feet_offset`; when the mirror test is undetermined, the feet choose (step 5).
+      cross_check: call the first axis's sign undetermined when the deep core's side (step 6)
+        disagrees with its third moment.
+
+    Returns:
+      :class:`Frame`; ``mirror`` is the mirror axis; ``margins`` the sign cues' margins as
+      multiples of their thresholds (< 1: undetermined).
+    """
+    y, d, _ = _grid_centers(sol)
+    if len(y) < 4:
+        return _undetermined()
+    w = _weights(d, power)
+    c = (w @ y) / w.sum()
+    z = y - c
+    lam, axes = _descending_axes((z * w[:, None]).T @ z / w.sum())
+    zc = (y - y.mean(axis=0)) @ axes.T
+    r = np.sqrt(np.mean(np.sum(zc * zc, axis=1)))
+    stat = np.mean(zc ** 3, axis=0) / r ** 3 / SIGN_MIN  # signed, in multiples of the threshold
+    conf = np.abs(stat)
+    w2 = _weights(d, SYMMETRY_POWER)
+    sym = symmetry_scores(sol, axes, (w2 @ y) / w2.sum())
+    k = 1 if sym[1] >= sym[2] else 2  # the long axis lies in the mirror plane
+    mirror_ratio = abs(sym[1] - sym[2]) / SYMMETRY_MIN
+    h = zc[:, 0]
+    if cross_check and (0.5 * (h.max() + h.min()) - (w @ h) / w.sum()) * stat[0] <= 0:
+        conf[0] = 0.0
+    if feet:
+        oriented = axes.copy()
+        oriented[0] *= 1.0 if stat[0] >= 0 else -1.0
+        offset = {a: feet_offset(sol, oriented, 0, a) / FOOT_MIN for a in (1, 2)}
+        split = abs(offset[1]) - abs(offset[2])  # the feet point along the forward axis, not the mirror axis
+        if mirror_ratio < 1.0 and abs(split) > mirror_ratio:
+            k, mirror_ratio = (2 if split > 0 else 1), abs(split)
+        minor = 3 - k
+        if conf[minor] < 1.0:
+            stat[minor] = offset[minor]
+            conf[minor] = abs(offset[minor])
+    rot, _, k = complete_signs(axes, stat, completed=k, to_world=sol.frame)
+    conf[k] = 0.0
+    gaps = _gaps(lam)
+    amb = ambiguity(gaps, np.min(np.delete(conf, k)), SYMMETRY_MIN * mirror_ratio)
+    return Frame(rot, amb, lam, gaps, conf, k, sym)
+
+
+def _undetermined():
+    return Frame(np.eye(3), 1.0, np.zeros(3), np.zeros(2), np.zeros(3), 2, np.full(3, np.nan))
+
+
+# ------------------------------------------------------------------ dispatch (host)
+def frame_of(geometry, method=DEFAULT_ROTATION, *, resolution=None, sol=None, ocsvm=None) -> Frame:
+    """The canonical frame of a mesh or point cloud by name (one of :data:`ROTATIONS`).
+
+    Args:
+      geometry: Trimesh, PointCloud or (n, 3) points.
+      method: ``core`` (default), ``ocsvm`` or a baseline of :mod:`jaxpose.baselines`
+        (``pca_vertices``, ``pca_surface``, ``inertia``: meshes only).
+      resolution: voxels of the robust solid along the body's largest extent (``core``).
+      sol: a solid from :func:`frame_solid` to reuse (``core``).
+      ocsvm: for ``ocsvm``, a dict of ``gamma``, ``nu``, ``count``, ``seed``, ``sampling`` and
+        ``options`` (of :func:`jaxpose.normalize`).
+
+    Returns:
+      :class:`Frame` (rotation in the input's world coordinates).
+    """
+    from . import baselines
+    from ._validate import InvalidInputError, JaxposeError
+
+    if method not in ROTATIONS:
+        raise InvalidInputError(f"unknown rotation {method!r}; valid: {', '.join(ROTATIONS)}")
+    if method == "core":
+        if sol is None:
+            vertices, faces = baselines.split_geometry(geometry)
+            sol = frame_solid(vertices, faces, resolution)
+        if not sol.inside.any():
+            raise JaxposeError("the shape encloses no volume: the core frame is undefined; "
+                               "use rotation='pca_surface' or 'ocsvm'")
+        return core_frame(sol)
+    if method == "ocsvm":
+        from .mesh import sample_surface
+        from .pose import normalize
+
+        o = dict(ocsvm or {})
+        points = sample_surface(geometry, o.get("count", 2000), seed=o.get("seed", 0),
+                                method=o.get("sampling", "even"))
+        pose = normalize(points, o.get("gamma", 47.0), o.get("nu", 0.5), rotation=True, **o.get("options", {}))
+        return Frame(np.asarray(pose.rotation, np.float64), float(np.asarray(pose.ambiguity)),
+                     np.full(3, np.nan), np.full(2, np.nan), np.full(3, np.nan), -1, np.full(3, np.nan))
+    return baselines.frame(geometry, method)
+
+
+# ------------------------------------------------------------------ the OCSVM region frame (traced)
+def region_frame(second_moment, center, y, mask, axes):
+    """The ``ocsvm`` frame (module docs) of a region fitted to pre-scaled points; pure JAX.
+
+    Args:
+      second_moment: (3, 3) the region's second moment about its centroid (pre-scaled frame).
+      center: (3,) the region's centroid (pre-scaled frame).
+      y: (m, 3) the pre-scaled points; mask: (m,) bool or None.
+      axes: (3, 3) the pre-frame's axes as columns (a pre-scaled direction e is ``axes @ e`` in
+        the world).
+
+    Returns:
+      rotation (3, 3) proper (rows = canonical axes in world coordinates) and ambiguity (),
+      both without derivatives (the frame is piecewise constant where it is well determined, and
+      eigenvectors have no useful derivative where it is not).
+    """
+    import jax
+    import jax.numpy as jnp
+
+    second_moment, center, y, axes = (jax.lax.stop_gradient(a) for a in (second_moment, center, y, axes))
+    lam, vec = jnp.linalg.eigh(second_moment)
+    lam, e = lam[::-1], vec[:, ::-1].T  # rows, largest first
+    w = jnp.ones(y.shape[:1], y.dtype) if mask is None else jnp.asarray(mask, y.dtype)
+    z = (y - center) @ e.T
+    r = jnp.sqrt(jnp.sum(w * jnp.sum(z * z, axis=1)) / jnp.sum(w))
+    stat = (w @ (z ** 3)) / jnp.sum(w) / r ** 3
+    k = jnp.argmin(jnp.abs(stat))
+    s = jnp.where(stat >= 0, 1.0, -1.0).astype(y.dtype)
+    rot = (e * s[:, None]) @ axes.T
+    flip = jnp.where((jnp.arange(3) == k) & (jnp.linalg.det(rot) < 0), -1.0, 1.0).astype(y.dtype)
+    rot = rot * flip[:, None]
+    gaps = jnp.stack([(lam[0] - lam[1]) / lam[0], (lam[1] - lam[2]) / lam[1]])
+    used = jnp.min(jnp.where(jnp.arange(3) == k, jnp.inf, jnp.abs(stat)))
+    ratio = jnp.minimum(jnp.min(gaps) / GAP_MIN, used / SIGN_MIN)
+    amb = jnp.clip(1.0 - ratio, 0.0, 1.0)
+    ok = jnp.all(jnp.isfinite(rot)) & jnp.isfinite(amb)
+    return jnp.where(ok, rot, jnp.eye(3, dtype=y.dtype)), jnp.where(ok, amb, 1.0)

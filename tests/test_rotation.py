@@ -1,0 +1,198 @@
+"""Canonical frames: equivariance, sign flips, det +1, the ambiguity flag, Pose algebra, JSON round trip,
+rotation=False changes nothing, frame baselines, evaluate_rotation and the CLI."""
+import json
+
+import numpy as np
+import pytest
+import trimesh
+
+import jaxpose
+from jaxpose import baselines, cli, mesh, rotation
+from jaxpose.evaluation import evaluate_rotation, format_rotation_table
+from jaxpose.evaluation.rotation import angle, chordal_mean, sign_free_angles
+from jaxpose.pose import Pose
+from conftest import box_surface, clusters
+
+RAD = np.pi / 180.0
+
+
+def random_rotation(rng):
+    q, r = np.linalg.qr(rng.normal(size=(3, 3)))
+    q *= np.sign(np.diag(r))
+    return q if np.linalg.det(q) > 0 else -q
+
+
+def body():
+    """A toy person, nearly mirror-symmetric about y: trunk, head, two legs, feet pointing to +x. (An exactly
+    symmetric input leaves the sign of its pre-frame's mirror axis to rounding: its grid may come out mirrored.)"""
+    parts = [trimesh.creation.box(extents=(0.35, 0.6, 0.8)), trimesh.creation.icosphere(subdivisions=2, radius=0.15),
+             trimesh.creation.box(extents=(0.2, 0.4, 0.4))]
+    parts[0].apply_translation([0.0, 0.0, 0.4])
+    parts[1].apply_translation([0.0, 0.0, 0.95])
+    parts[2].apply_translation([0.2, 0.0, 0.35])  # a belly: the trunk is not symmetric front to back
+    for y in (-0.15, 0.16):
+        leg, foot = trimesh.creation.box(extents=(0.1, 0.1, 0.9)), trimesh.creation.box(extents=(0.3, 0.1, 0.08))
+        leg.apply_translation([0.0, y, -0.45])
+        foot.apply_translation([0.08, y, -0.86])
+        parts += [leg, foot]
+    return trimesh.util.concatenate(parts)
+
+
+def moved(m, q, t=(0.3, -2.0, 5.0)):
+    return trimesh.Trimesh(np.asarray(m.vertices) @ q.T + np.asarray(t), m.faces, process=False)
+
+
+@pytest.fixture(scope="module")
+def body_frame():
+    m = body()
+    return m, rotation.frame_of(m, resolution=48)
+
+
+def test_core_frame_is_proper_determined_and_equivariant(body_frame):
+    m, base = body_frame
+    r = base.rotation
+    np.testing.assert_allclose(r @ r.T, np.eye(3), atol=1e-12)
+    assert np.linalg.det(r) == pytest.approx(1.0)
+    assert not base.flag and base.mirror in (1, 2)
+    rng = np.random.default_rng(0)
+    flips = [np.diag(f) for f in ([1.0, -1.0, -1.0], [-1.0, 1.0, -1.0], [-1.0, -1.0, 1.0])]
+    for q in [random_rotation(rng) for _ in range(2)] + flips:
+        got = rotation.frame_of(moved(m, q), resolution=48)
+        assert angle(got.rotation, r @ q.T) * RAD < 1e-4
+        assert got.ambiguity == pytest.approx(base.ambiguity, abs=1e-9)
+
+
+@pytest.mark.parametrize("shape", [trimesh.creation.icosphere(subdivisions=3), trimesh.creation.box()])
+def test_symmetric_shapes_are_flagged(shape):
+    for method in ("core", "pca_vertices", "pca_surface"):
+        assert rotation.frame_of(shape, method, resolution=32).flag, method
+
+
+def test_baseline_frames_are_proper_and_pca_equivariant(body_frame):
+    m, _ = body_frame
+    q = random_rotation(np.random.default_rng(3))
+    for name in baselines.FRAMES:
+        f = baselines.frame(m, name)
+        assert np.linalg.det(f.rotation) == pytest.approx(1.0)
+        if name != "inertia":  # trimesh's eigenvector signs are arbitrary
+            assert angle(baselines.frame(moved(m, q), name).rotation, f.rotation @ q.T) * RAD < 1e-6
+    with pytest.raises(jaxpose.InvalidInputError):
+        baselines.frame(m, "nope")
+
+
+def test_pose_with_rotation_matrix_apply_inverse():
+    rng = np.random.default_rng(1)
+    r, c, s = random_rotation(rng), np.array([1.0, -2.0, 3.0]), 2.5
+    pose = Pose.from_center_scale(c, s, rotation=r, ambiguity=0.0)
+    x = rng.normal(size=(20, 3))
+    y = np.asarray(pose.apply(x))
+    np.testing.assert_allclose(y, (x - c) @ r.T / s, atol=1e-5)
+    m = mesh.pose_matrix(pose)
+    np.testing.assert_allclose(x @ m[:3, :3].T + m[:3, 3], (x - c) @ r.T / s, atol=1e-12)
+    np.testing.assert_allclose(np.asarray(pose.matrix), m, atol=1e-5)
+    back = pose.inverse()
+    np.testing.assert_allclose(np.asarray(back.apply(y)), x, atol=1e-5)
+    np.testing.assert_allclose(mesh.pose_matrix(back) @ m, np.eye(4), atol=1e-12)
+    twice = back.inverse()
+    np.testing.assert_allclose(twice.center, c, atol=1e-12)
+    np.testing.assert_allclose(twice.rotation, r, atol=1e-15)
+    assert not bool(pose.flagged)
+    plain = Pose.from_center_scale(c, s)
+    assert plain.rotation is None and plain.flagged is None
+    np.testing.assert_allclose(mesh.pose_matrix(plain)[:3, :3], np.eye(3) / s)
+
+
+def test_normalize_mesh_rotation_keeps_center_scale(body_frame):
+    m, base = body_frame
+    out0, p0 = mesh.normalize_mesh(m, resolution=48)
+    out1, p1 = mesh.normalize_mesh(m, resolution=48, rotation=True)
+    assert p0.rotation is None and p0.ambiguity is None
+    np.testing.assert_array_equal(p0.center, p1.center)
+    assert float(p0.scale) == float(p1.scale)
+    np.testing.assert_allclose(p1.rotation, base.rotation, atol=1e-12)
+    np.testing.assert_allclose(out1.vertices, out0.vertices @ base.rotation.T, atol=1e-9)
+    _, p2 = mesh.normalize_mesh(m, resolution=48, rotation="pca_vertices")
+    np.testing.assert_allclose(p2.rotation, baselines.pca_vertices_frame(m).rotation)
+    with pytest.raises(jaxpose.InvalidInputError):
+        mesh.normalize_mesh(m, rotation="sideways")
+
+
+def test_normalize_points_rotation_equivariant_and_flagged(x64):
+    pts = clusters(400, seed=2)
+    base = jaxpose.normalize(pts, resolution=32, rotation=True)
+    plain = jaxpose.normalize(pts, resolution=32)
+    assert plain.rotation is None and plain.ambiguity is None
+    np.testing.assert_allclose(np.asarray(base.center), np.asarray(plain.center), atol=1e-12)
+    r = np.asarray(base.rotation)
+    assert np.linalg.det(r) == pytest.approx(1.0) and not bool(base.flagged)
+    for q in (random_rotation(np.random.default_rng(2)), np.diag([1.0, -1.0, -1.0])):  # a rotation, a sign flip
+        got = jaxpose.normalize(pts @ q.T + 4.0, resolution=32, rotation=True)
+        assert angle(np.asarray(got.rotation), r @ q.T) * RAD < 1e-4
+    cube = jaxpose.normalize(box_surface(400, seed=3, extents=(1.0, 1.0, 1.0)), resolution=32, rotation=True)
+    assert bool(cube.flagged)
+    batch = jaxpose.normalize_batch([pts, pts[::-1]], resolution=32, rotation=True)
+    assert batch.rotation.shape == (2, 3, 3) and batch.ambiguity.shape == (2,)
+    np.testing.assert_allclose(np.asarray(batch.rotation[1]), r, atol=1e-6)
+    with pytest.raises(jaxpose.InvalidInputError):
+        jaxpose.normalize(pts, rotation="core")
+
+
+def test_measures():
+    rng = np.random.default_rng(4)
+    rs = np.stack([random_rotation(rng) for _ in range(2)])
+    assert angle(rs[0], rs[0]) == pytest.approx(0.0, abs=1e-5)
+    same = np.stack([rs[0]] * 3)
+    np.testing.assert_allclose(chordal_mean(same), rs[0], atol=1e-12)
+    flipped = np.stack([rs[0], np.diag([1.0, -1.0, -1.0]) @ rs[0]])
+    free, flips = sign_free_angles(flipped)
+    np.testing.assert_allclose(free, 0.0, atol=1e-5)
+    assert angle(flipped[0], flipped[1]) == pytest.approx(180.0)
+
+
+def _class(m, n=3, seed=5):
+    rng = np.random.default_rng(seed)
+    return [moved(m, random_rotation(rng), rng.normal(size=3)) for _ in range(n)]
+
+
+def test_evaluate_rotation_and_cli(tmp_path, capsys, body_frame):
+    m, _ = body_frame
+    classes = {"a": _class(m), "b": _class(m, seed=6)}
+    res = evaluate_rotation(classes, methods=("core", "pca_vertices", "inertia"), align_core=True,
+                            variants=("plain", "points"), resolution=48)
+    rows = {r["method"]: r for r in res["variants"]["plain"]["summary"]}
+    assert rows["core"]["raw_max"] < 1e-3 and rows["pca_vertices"]["raw_max"] < 1e-3
+    assert rows["core"]["flagged"] == 0.0 and rows["inertia"]["flagged"] is None
+    assert "error" in {r["method"]: r for r in res["variants"]["points"]["summary"]}["inertia"]
+    assert "variant points" in format_rotation_table(res)
+    from benchmarks.rotation import markdown, verdict
+
+    assert "| core |" in markdown(res) and verdict(res)["plain_every_instance<=30"]
+    for name, meshes in classes.items():
+        (tmp_path / "data" / name).mkdir(parents=True)
+        for k, x in enumerate(meshes):
+            x.export(tmp_path / "data" / name / f"{k}.ply")
+    out = tmp_path / "rot.json"
+    code = cli.main(["evaluate", "--data", str(tmp_path / "data"), "--align-core", "--rotation", "core,pca_surface",
+                     "--json", str(out), "--plots", str(tmp_path / "fig")])
+    assert code == 0 and "pca_surface" in capsys.readouterr().out
+    saved = json.loads(out.read_text())
+    assert saved["params"]["methods"] == ["core", "pca_surface"]
+    assert (tmp_path / "fig" / "rotation_angles_plain.png").exists()
+
+
+def test_cli_normalize_rotation_json_round_trip(tmp_path, capsys, body_frame):
+    m, _ = body_frame
+    src, dst = tmp_path / "in.ply", tmp_path / "out.ply"
+    moved(m, random_rotation(np.random.default_rng(7))).export(src)
+    assert cli.main(["normalize", str(src), "-o", str(dst), "--rotation", "--resolution", "48"]) == 0
+    assert "rotation core" in capsys.readouterr().out
+    record = json.loads((tmp_path / "out.transform.json").read_text())
+    matrix, r = np.asarray(record["matrix"]), np.asarray(record["rotation"])
+    assert np.linalg.det(r) == pytest.approx(1.0) and record["rotation_flagged"] is False
+    v_in = trimesh.load(src, process=False).vertices
+    v_out = trimesh.load(dst, process=False).vertices
+    np.testing.assert_allclose(v_in @ matrix[:3, :3].T + matrix[:3, 3], v_out, atol=1e-6)
+    pose = Pose.from_center_scale(record["center"], record["scale"], rotation=r, ambiguity=record["ambiguity"])
+    np.testing.assert_allclose(np.asarray(pose.inverse().apply(v_out), np.float64), v_in, atol=1e-4)
+    np.testing.assert_allclose(np.linalg.inv(matrix) @ np.c_[v_out, np.ones(len(v_out))].T,
+                               np.c_[v_in, np.ones(len(v_in))].T, atol=1e-9)

@@ -83,7 +83,7 @@ def robust_center_scale(geometry, power=ROBUST_POWER, resolution=solid.RESOLUTIO
 
 def _robust_solid(geometry, resolution):
     if isinstance(resolution, bool) or not isinstance(resolution, numbers.Integral) or resolution < 8:
-        raise InvalidInputError(f"resolution must be an int >= 8, got {resolution!r}")
+        raise InvalidInputError(f"resolution must be >= 8 (an int), got {resolution!r}")
     vertices, faces = baselines.split_geometry(geometry)
     sol = solid.robust_solid(vertices, faces, resolution=int(resolution))
     if not sol.inside.any():

@@ -201,6 +201,7 @@ def normalize_mesh(
     """
     check_gamma(gamma)
     check_nu(nu)
+    count = _check_int(count, "count", minimum=4)  # validated whatever the method
     from . import estimators
 
     c_name, s_name = estimators.resolve(method, center, scale)

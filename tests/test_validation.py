@@ -353,9 +353,13 @@ def test_cli_bad_and_degenerate_files(tmp_path, capsys):
     with pytest.raises(SystemExit) as exc:
         _run_cli(["normalize", tmp_path / "cloud.ply", "--bogus"], capsys)
     assert exc.value.code == 2
-    for name in ("cloud.ply", "flat.obj"):  # point cloud and flat mesh: fine
+    # a flat mesh encloses no volume: the robust default refuses it by name, before writing anything
+    got, out, err = _run_cli(["normalize", tmp_path / "flat.obj", "-o", tmp_path / "never.ply"], capsys)
+    assert got == 1 and "encloses no volume" in err and not (tmp_path / "never.ply").exists(), err
+    for name, method in (("cloud.ply", "robust"), ("flat.obj", "ocsvm")):  # the OCSVM region handles a sheet
         out_path = tmp_path / f"out_{name}.ply"
-        got, out, err = _run_cli(["normalize", tmp_path / name, "-o", out_path, "--count", str(M)], capsys)
+        got, out, err = _run_cli(["normalize", tmp_path / name, "-o", out_path, "--count", str(M),
+                                  "--method", method], capsys)
         assert got == 0, err
         assert out_path.exists() and (tmp_path / f"out_{name}.transform.json").exists()
         mode = stat.S_IMODE(out_path.stat().st_mode)

@@ -2,7 +2,13 @@
 before a restructuring and checked after it (float64 and float32).
 
 ``python tests/test_pinned.py --write`` records them again into ``tests/data/pinned.json``;
-do that only for a change that is meant to alter results, and say which in the commit.
+do that only for a change that is meant to alter results, and say which in the commit;
+``python tests/test_pinned.py`` prints, per key, whether this machine reproduces them bit for bit.
+
+On the recording machine the values are reproduced bit for bit. Another CPU vectorizes reductions
+differently, so the test compares in units of each value's own magnitude floor (the shape's scale
+for centers): float64 agrees to ~1e-12 there and float32 to ~1e-4; SMO's discrete working-set
+choices can diverge and stop elsewhere within its tolerance (5e-4 of the scale seen).
 """
 from __future__ import annotations
 
@@ -21,7 +27,9 @@ from conftest import box_surface, clusters, sphere_with_arm  # noqa: E402
 import jaxpose  # noqa: E402
 
 PINNED = Path(__file__).resolve().parent / "data" / "pinned.json"
-RTOL64, RTOL32 = 1e-9, 2e-5
+TOL = {"float64": 1e-9, "float32": 3e-4}  # of each value's own magnitude floor (_floors)
+TOL_SMO = 2e-3  # the SMO solver's paths (solver="smo" and "auto" at this size), both precisions
+ITERATIONS_RTOL = {"float64": 0.0, "float32": 0.2}  # solver iteration counts
 M = 400
 
 
@@ -88,14 +96,38 @@ def pinned():
     return json.loads(PINNED.read_text())
 
 
+def _floors(key, want):
+    """The magnitude each entry of a record is compared in: a pose's scale for its center and
+    scale; a volume's mean distance for its center; the largest value of a decision function or
+    a Jacobian; the value itself for the solver's objective, offset and sum."""
+    if key.startswith("fit_svdd"):
+        return np.abs(want[:3])
+    if key.startswith("volume_moments"):
+        return np.concatenate([np.full(3, abs(want[3])), np.abs(want[3:])])
+    if key.startswith(("decision_function", "jacfwd")):
+        return np.full(want.shape, np.max(np.abs(want)))
+    scale = np.min(np.abs(want[-2:])) if key == "batch" else abs(want[-1])
+    return np.full(want.shape, scale)
+
+
 @pytest.mark.parametrize("x64", [True, False], ids=["float64", "float32"])
 def test_results_are_pinned(pinned, x64):
     expected = pinned["float64" if x64 else "float32"]
     got = compute(x64)
     assert sorted(got) == sorted(expected)
-    rtol = RTOL64 if x64 else RTOL32
+    precision = "float64" if x64 else "float32"
+    failures = []
     for key in expected:
-        np.testing.assert_allclose(got[key], expected[key], rtol=rtol, atol=rtol * 1e-3, err_msg=key)
+        want, have = np.asarray(expected[key], np.float64), np.asarray(got[key], np.float64)
+        tol = TOL_SMO if key.endswith(("/smo", "/auto")) else TOL[precision]
+        if key.startswith("fit_svdd"):  # the iteration count separately
+            if abs(have[3] - want[3]) > ITERATIONS_RTOL[precision] * want[3]:
+                failures.append((key, "iterations", have[3], want[3]))
+            want, have = want[:3], have[:3]
+        err = np.abs(have - want) / _floors(key, want)
+        if not np.all(err <= tol):
+            failures.append((key, float(err.max()), have.tolist(), want.tolist()))
+    assert not failures, failures
 
 
 if __name__ == "__main__":

@@ -1,9 +1,9 @@
-"""jaxpose: consistent canonical position and size of 3D shapes, with one-class SVMs, in JAX."""
-from ._validate import ConvergenceError, InvalidInputError, JaxposeError
-from .config import GridConfig, PoseConfig, SolverConfig
-from .moments import Moments, volume_moments
-from .pose import Pose, normalize, normalize_batch
-from .svdd import SVDD, decision_function, fit_svdd
+"""jaxpose: consistent canonical position and size of 3D shapes, with one-class SVMs, in JAX.
+
+Importing the package is light: the JAX modules (and trimesh, SciPy) load on first use of a name
+that needs them, so the command line and the NumPy estimators start without compiling anything.
+"""
+from .errors import ConvergenceError, InvalidInputError, JaxposeError
 
 __version__ = "0.1.0"
 
@@ -18,6 +18,8 @@ __all__ = [
     "normalize_batch",
     "sample_surface",
     "normalize_mesh",
+    "normalize_files",
+    "read_transforms",
     "pose_sensitivity",
     "baselines",
     "SolverConfig",
@@ -28,21 +30,40 @@ __all__ = [
     "ConvergenceError",
 ]
 
-_LAZY_MODULES = ("baselines", "sensitivity", "datasets", "evaluation", "tuning", "plot", "mesh")
+# public name -> the module that defines it (imported on first access)
+_LAZY_NAMES = {
+    "SVDD": "svdd",
+    "fit_svdd": "svdd",
+    "decision_function": "svdd",
+    "Moments": "moments",
+    "volume_moments": "moments",
+    "Pose": "pose",
+    "normalize": "pose",
+    "normalize_batch": "pose",
+    "SolverConfig": "config",
+    "GridConfig": "config",
+    "PoseConfig": "config",
+    "sample_surface": "mesh",
+    "normalize_mesh": "mesh",
+    "normalize_files": "batch",
+    "read_transforms": "transforms",
+    "pose_sensitivity": "sensitivity",
+}
+_LAZY_MODULES = ("baselines", "sensitivity", "datasets", "evaluation", "tuning", "plot", "mesh", "batch",
+                 "transforms")
 
 
 def __getattr__(name):
-    # trimesh-dependent and optional pieces load on first use, keeping `import jaxpose` light
-    if name in ("sample_surface", "normalize_mesh"):
-        from . import mesh
+    import importlib
 
-        return getattr(mesh, name)
-    if name == "pose_sensitivity":
-        from .sensitivity import pose_sensitivity
-
-        return pose_sensitivity
+    if name in _LAZY_NAMES:
+        value = getattr(importlib.import_module(f".{_LAZY_NAMES[name]}", __name__), name)
+        globals()[name] = value  # later look-ups skip this function
+        return value
     if name in _LAZY_MODULES:
-        import importlib
-
         return importlib.import_module(f".{name}", __name__)
     raise AttributeError(f"module 'jaxpose' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))

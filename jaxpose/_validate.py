@@ -5,7 +5,11 @@ Every public entry point calls these first, so that bad input gets a readable
 """
 from __future__ import annotations
 
+import sys
+
 import numpy as np
+
+from .errors import ConvergenceError, InvalidInputError, JaxposeError, OpenMeshWarning
 
 __all__ = [
     "JaxposeError",
@@ -23,27 +27,13 @@ __all__ = [
 MIN_POINTS = 4
 
 
-class JaxposeError(Exception):
-    """Root of the library's exceptions."""
-
-
-class InvalidInputError(JaxposeError, ValueError):
-    """An argument has the wrong shape, dtype or value."""
-
-
-class ConvergenceError(JaxposeError, RuntimeError):
-    """A solver stopped at its iteration cap (raised only when asked)."""
-
-
-class OpenMeshWarning(UserWarning):
-    """A closed-surface quantity (solid volume, centroid) was computed on a mesh that is not closed."""
-
-
 def is_traced(x) -> bool:
-    """True for JAX tracers (inside jit/vmap/grad), where values cannot be checked."""
-    import jax
+    """True for JAX tracers (inside jit/vmap/grad), where values cannot be checked.
 
-    return isinstance(x, jax.core.Tracer)
+    Does not import JAX: before JAX is imported no tracer can exist, so NumPy-only paths stay light.
+    """
+    jax = sys.modules.get("jax")
+    return jax is not None and isinstance(x, jax.core.Tracer)
 
 
 def check_array(x, name: str = "x", min_rows: int = 0):

@@ -1,0 +1,22 @@
+"""The library's exceptions and warnings (no dependencies: importing them costs nothing).
+
+Re-exported by :mod:`jaxpose` and :mod:`jaxpose._validate`.
+"""
+
+__all__ = ["JaxposeError", "InvalidInputError", "ConvergenceError", "OpenMeshWarning"]
+
+
+class JaxposeError(Exception):
+    """Root of the library's exceptions."""
+
+
+class InvalidInputError(JaxposeError, ValueError):
+    """An argument has the wrong shape, dtype or value."""
+
+
+class ConvergenceError(JaxposeError, RuntimeError):
+    """A solver stopped at its iteration cap (raised only when asked)."""
+
+
+class OpenMeshWarning(UserWarning):
+    """A closed-surface quantity (solid volume, centroid) was computed on a mesh that is not closed."""

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import numbers
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +15,7 @@ import trimesh
 
 from . import baselines
 from ._validate import InvalidInputError, check_gamma, check_nu, check_points
+from .atomic import write_atomic
 
 __all__ = [
     "SAMPLING",
@@ -23,6 +23,11 @@ __all__ = [
     "sample_surface",
     "normalize_mesh",
     "pose_matrix",
+    "MESH_FORMATS",
+    "POINT_FORMATS",
+    "OUTPUT_FORMATS",
+    "output_format",
+    "encode",
     "export",
     "write_atomic",
     "example_shape",
@@ -269,53 +274,66 @@ def pose_matrix(pose):
 
 
 # --------------------------------------------------------------------------- export
-def export(mesh, path, force=False):
-    """Write `mesh` to `path` atomically, in the format named by its extension.
+MESH_FORMATS = ("ply", "obj", "off", "stl", "glb")  # hold triangles
+POINT_FORMATS = ("ply", "obj", "glb", "xyz")  # hold a point cloud
+OUTPUT_FORMATS = tuple(sorted(set(MESH_FORMATS) | set(POINT_FORMATS)))
 
-    Refuses an existing `path` unless `force`. Returns the path as a :class:`Path`.
+
+def output_format(path, geometry=None) -> str:
+    """The format a path's suffix names, checked against what it can hold; no I/O.
+
+    Args:
+      path: the output file (``out.ply``); the format is its lower-case suffix.
+      geometry: optionally the Trimesh / PointCloud to be written: a point cloud needs one of
+        :data:`POINT_FORMATS` (STL and OFF hold triangles only), a mesh one of :data:`MESH_FORMATS`.
+
+    Returns:
+      The format name (``"ply"``).
+
+    Raises:
+      InvalidInputError: no suffix, a format that cannot be written, or one that cannot hold
+        `geometry`.
     """
     path = Path(path)
     ext = path.suffix.lower().lstrip(".")
     if not ext:
-        raise InvalidInputError(f"{path}: no extension to choose an output format")
+        raise InvalidInputError(f"{path}: no extension to choose an output format; "
+                                f"writable: {', '.join(OUTPUT_FORMATS)}")
+    if ext not in OUTPUT_FORMATS:
+        raise InvalidInputError(f"{path}: cannot write {path.suffix!r} files; writable: {', '.join(OUTPUT_FORMATS)}")
+    if isinstance(geometry, trimesh.PointCloud) and ext not in POINT_FORMATS:
+        raise InvalidInputError(f"{path}: a point cloud cannot be written as {ext.upper()} (it holds triangles "
+                                f"only); use one of {', '.join('.' + e for e in POINT_FORMATS)}")
+    if isinstance(geometry, trimesh.Trimesh) and ext not in MESH_FORMATS:
+        raise InvalidInputError(f"{path}: a mesh cannot be written as {ext.upper()} (it holds points only); "
+                                f"use one of {', '.join('.' + e for e in MESH_FORMATS)}")
+    return ext
+
+
+def encode(geometry, file_type) -> bytes:
+    """The bytes of a Trimesh or PointCloud in a format of :data:`OUTPUT_FORMATS` (no I/O).
+
+    Raises:
+      InvalidInputError: the geometry cannot be written in that format.
+    """
+    output_format(f"geometry.{file_type}", geometry)
     try:
-        data = mesh.export(file_type=ext)
+        data = geometry.export(file_type=file_type)
     except Exception as exc:
-        raise InvalidInputError(f"{path}: cannot write {type(mesh).__name__} as {ext!r}: {exc}") from None
-    if isinstance(data, str):
-        data = data.encode("utf-8")
-    return write_atomic(path, data, force=force)
+        raise InvalidInputError(f"cannot write {type(geometry).__name__} as {file_type!r}: {exc}") from None
+    return data.encode("utf-8") if isinstance(data, str) else bytes(data)
 
 
-def write_atomic(path, data, force=False):
-    """Write bytes (or text, as UTF-8) to `path` via a temporary file and ``os.replace``.
+def export(mesh, path, force=False):
+    """Write `mesh` to `path` atomically, in the format named by its extension.
 
-    Refuses an existing `path` unless `force`; a failed write leaves nothing behind.
+    The format is checked against the geometry first (:func:`output_format`: a point cloud is
+    refused for STL or OFF). Refuses an existing `path` unless `force`. Returns the path as a
+    :class:`Path`.
     """
     path = Path(path)
-    if path.exists() and not force:
-        raise InvalidInputError(f"{path} exists (use force / --force to overwrite)")
-    directory = path.parent if str(path.parent) else Path(".")
-    if not directory.is_dir():
-        raise InvalidInputError(f"{path}: directory {directory} does not exist")
-    if isinstance(data, str):
-        data = data.encode("utf-8")
-    fd, tmp = tempfile.mkstemp(dir=directory, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        # mkstemp makes 0600 files; give the usual mode (the old file's, else 0666 & ~umask)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(fd, (path.stat().st_mode & 0o777) if path.exists() else 0o666 & ~umask)
-        with os.fdopen(fd, "wb") as handle:
-            handle.write(data)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    return path
+    data = encode(mesh, output_format(path, mesh))
+    return write_atomic(path, data, force=force)
 
 
 # --------------------------------------------------------------------------- example

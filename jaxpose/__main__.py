@@ -1,7 +1,5 @@
 """``python -m jaxpose``: the command line (see :mod:`jaxpose.cli`)."""
-import sys
-
-from .cli import main
+from .cli import console
 
 if __name__ == "__main__":
-    sys.exit(main())
+    console()

@@ -1,7 +1,8 @@
 """Command line: ``jaxpose normalize | evaluate | tune | bench`` (also ``python -m jaxpose``).
 
 Thin: parse arguments, call the library, print and write results. No math here.
-Exit codes: 0 success, 1 failure (message on stderr, no traceback), 2 usage error.
+Exit codes: 0 success, 1 failure (one line on stderr, no traceback), 2 usage error, 130 Ctrl-C,
+143 SIGTERM (:mod:`jaxpose.interrupts`; nothing partial or temporary is left).
 """
 from __future__ import annotations
 
@@ -10,11 +11,9 @@ import json
 import sys
 from pathlib import Path
 
-from ._validate import JaxposeError
+from .errors import JaxposeError
 
-__all__ = ["main", "build_parser"]
-
-EXAMPLE = "example"
+__all__ = ["main", "console", "build_parser"]
 
 
 # --------------------------------------------------------------------------- parser
@@ -37,31 +36,6 @@ def _add_svm_options(p, count=2000):
     p.add_argument("--nu", type=float, default=0.5, help="OCSVM slack in [0, 1] (default 0.5)")
     p.add_argument("--count", type=int, default=count, help=f"surface samples per object (default {count})")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-
-
-def _add_normalize(sub):
-    from .estimators import CENTERS, DEFAULT_METHOD, METHODS, SCALES
-    from .mesh import SAMPLING
-    from .rotation import ROTATIONS
-
-    p = sub.add_parser("normalize", help="normalize the translation and scale of one mesh or point cloud")
-    p.add_argument("input", nargs="?", help="mesh file (OBJ, PLY, OFF, STL, GLB, ...) or 'example'")
-    p.add_argument("-o", "--output", help="normalized mesh to write (format from the extension)")
-    p.add_argument("--example", action="store_true", help="use the built-in example shape as input")
-    _add_svm_options(p)
-    p.add_argument("--method", choices=tuple(METHODS), default=None,
-                   help=f"center/scale method (default {DEFAULT_METHOD}; ocsvm is the paper's)")
-    p.add_argument("--center", choices=CENTERS, default=None, help="center estimator (overrides --method's)")
-    p.add_argument("--scale", choices=SCALES, default=None, help="scale estimator (overrides --method's)")
-    p.add_argument("--strict", action="store_true", help="closed-surface estimators refuse open meshes")
-    p.add_argument("--sampling", choices=SAMPLING, default="even", help="surface sampling (default even)")
-    p.add_argument("--resolution", type=int, default=None, help="grid resolution of the volume moments")
-    p.add_argument("--transform", help="where to write the transform JSON (default: OUTPUT.transform.json)")
-    p.add_argument("--rotation", nargs="?", const="core", default=None, metavar="METHOD",
-                   choices=ROTATIONS, help="also the canonical orientation (default method core; "
-                                           f"{', '.join(ROTATIONS)}); off by default")
-    p.add_argument("--force", action="store_true", help="overwrite existing outputs")
-    p.set_defaults(handler=_cmd_normalize)
 
 
 def _add_evaluate(sub):
@@ -111,8 +85,38 @@ def main(argv=None) -> int:
         return _fail(str(exc))
     except (OSError, ValueError) as exc:  # file system and number trouble outside the library
         return _fail(f"{type(exc).__name__}: {exc}")
-    except KeyboardInterrupt:
-        return _fail("interrupted", code=130)
+    except KeyboardInterrupt as exc:
+        return _interrupted(exc)
+
+
+def _interrupted(exc):
+    from .interrupts import Terminated
+
+    if isinstance(exc, Terminated):
+        return _fail("terminated (SIGTERM); nothing partial was left", code=143)
+    return _fail("interrupted; nothing partial was left", code=130)
+
+
+def console():
+    """The ``jaxpose`` command (and ``python -m jaxpose``): :func:`main` under a signal guard.
+
+    Ends the process with ``os._exit`` (:func:`jaxpose.interrupts.leave`): the exit code of
+    :func:`main`, or 128 + the signal when Ctrl-C or SIGTERM came at any moment of the run.
+    """
+    from . import interrupts, workers
+
+    code = 1
+    with interrupts.SignalGuard() as guard:
+        try:
+            workers.configure_process()  # before anything imports NumPy or JAX
+            code = main()
+        except SystemExit as exc:  # argparse: --help (0), usage errors (2)
+            code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else _fail(exc.code))
+        except KeyboardInterrupt as exc:  # landed outside main's own handling
+            code = _interrupted(exc)
+        if guard.received is not None and code != guard.exit_code:
+            code = _fail("interrupted after the work was done", code=guard.exit_code)
+        interrupts.leave(code)
 
 
 def _fail(message, code=1):
@@ -122,101 +126,16 @@ def _fail(message, code=1):
 
 
 # --------------------------------------------------------------------------- normalize
-def transform_path(output) -> Path:
-    """``out.ply`` -> ``out.transform.json``."""
-    output = Path(output)
-    return output.with_name(output.stem + ".transform.json")
+def _add_normalize(sub):
+    from .cli_normalize import add_parser
+
+    add_parser(sub, _add_svm_options, _cmd_normalize)
 
 
 def _cmd_normalize(args):
-    from . import mesh
+    from .cli_normalize import run
 
-    source = args.input
-    if args.example:
-        if source is not None:
-            return _fail("give either INPUT or --example, not both", code=2)
-        source = EXAMPLE
-    if source is None:
-        return _fail("normalize needs an INPUT file (or --example)", code=2)
-    use_example = source == EXAMPLE and not Path(source).exists()
-    outputs = [Path(args.output)] if args.output else []
-    json_path = Path(args.transform) if args.transform else (transform_path(args.output) if args.output else None)
-    if json_path is not None:
-        outputs.append(json_path)
-    for path in outputs:  # refuse before any work is done
-        if path.exists() and not args.force:
-            return _fail(f"{path} exists (use --force to overwrite)")
-    from .estimators import DEFAULT_METHOD, resolve
-
-    center_name, scale_name = resolve(args.method, args.center, args.scale)
-    geometry = mesh.example_shape() if use_example else source
-    normalized, pose = mesh.normalize_mesh(
-        geometry,
-        gamma=args.gamma,
-        nu=args.nu,
-        count=args.count,
-        seed=args.seed,
-        sampling=args.sampling,
-        method=args.method,
-        center=args.center,
-        scale=args.scale,
-        strict=args.strict,
-        resolution=args.resolution,
-        rotation=args.rotation or False,
-    )
-    record = {
-        "input": EXAMPLE if use_example else str(Path(source).resolve()),
-        "method": args.method or DEFAULT_METHOD,
-        "center_method": center_name,
-        "scale_method": scale_name,
-        "gamma": args.gamma,
-        "nu": args.nu,
-        "count": args.count,
-        "seed": args.seed,
-        "sampling": args.sampling,
-        "center": [float(v) for v in _flat(pose.center)],
-        "scale": float(_flat(pose.scale)[0]),
-        "matrix": mesh.pose_matrix(pose).tolist(),
-        "converged": bool(getattr(pose, "converged", True)),
-    }
-    if args.rotation:
-        record.update(rotation_method=args.rotation, rotation=_flat(pose.rotation).reshape(3, 3).tolist(),
-                      ambiguity=float(_flat(pose.ambiguity)[0]), rotation_flagged=bool(_flat(pose.ambiguity)[0] > 0))
-    if args.output:
-        mesh.export(normalized, args.output, force=args.force)
-    if json_path is not None:
-        mesh.write_atomic(json_path, json.dumps(record, indent=2) + "\n", force=args.force)
-    _print_transform(record, args.output, json_path)
-    if not record["converged"]:
-        print("jaxpose: warning: the solver stopped at its iteration cap", file=sys.stderr)
-    return 0
-
-
-def _flat(x):
-    import numpy as np
-
-    return np.asarray(x, dtype=float).reshape(-1)
-
-
-def _print_transform(record, output, json_path):
-    c = record["center"]
-    uses_ocsvm = "ocsvm" in (record["center_method"], record["scale_method"])
-    detail = f"  (gamma={record['gamma']:g}, nu={record['nu']:g})" if uses_ocsvm else ""
-    print(f"method  center {record['center_method']}, scale {record['scale_method']}{detail}")
-    print(f"center  [{c[0]: .6f} {c[1]: .6f} {c[2]: .6f}]")
-    print(f"scale   {record['scale']:.6f}")
-    if "rotation" in record:
-        flag = "  FLAGGED: not well determined" if record["rotation_flagged"] else ""
-        print(f"rotation {record['rotation_method']}, ambiguity {record['ambiguity']:.2f}{flag}")
-        for row in record["rotation"]:
-            print("  " + " ".join(f"{v: .6f}" for v in row))
-    print("matrix")
-    for row in record["matrix"]:
-        print("  " + " ".join(f"{v: .6f}" for v in row))
-    if output:
-        print(f"wrote   {output}")
-    if json_path is not None:
-        print(f"wrote   {json_path}")
+    return run(args, _fail)
 
 
 # --------------------------------------------------------------------------- evaluate

@@ -1,0 +1,168 @@
+"""The inputs of a batch run: files, folders and manifests -> (input, output) pairs, checked.
+
+An INPUT is a mesh file, a folder (searched recursively for :data:`MESH_SUFFIXES`, hidden files
+and folders skipped, narrowed by a glob) or a manifest (:data:`MANIFEST_SUFFIXES`: one path per
+line, ``#`` comments; or a CSV whose ``path`` / ``input`` column, else first column, holds them;
+relative paths are relative to the manifest). Outputs mirror the inputs' tree: each input's path
+relative to the common folder of all INPUTs (a folder INPUT counts as its own root), under the
+output folder, with the input's format or the one asked for.
+"""
+from __future__ import annotations
+
+import csv
+import fnmatch
+import os
+from pathlib import Path
+from typing import NamedTuple
+
+from ._validate import InvalidInputError
+
+__all__ = ["MESH_SUFFIXES", "MANIFEST_SUFFIXES", "Item", "find_inputs", "plan_outputs", "is_batch_input"]
+
+MESH_SUFFIXES = (".ply", ".obj", ".off", ".stl", ".glb", ".gltf", ".xyz")
+MANIFEST_SUFFIXES = (".txt", ".csv", ".lst", ".list")
+
+
+class Item(NamedTuple):
+    """One input file and where its output goes.
+
+    Attributes:
+      source: the input file, absolute (it may be missing: a manifest's entry; it then fails).
+      output: the output file, absolute (None until :func:`plan_outputs`).
+    """
+
+    source: Path
+    output: Path | None = None
+
+
+def is_batch_input(path) -> bool:
+    """Whether a command-line INPUT is a folder or a manifest (not a single mesh file)."""
+    path = Path(path)
+    return path.is_dir() or path.suffix.lower() in MANIFEST_SUFFIXES
+
+
+def find_inputs(inputs, glob=None, exclude=()) -> tuple[list, Path]:
+    """The input files of files, folders and manifests, in a deterministic order, without repeats.
+
+    Args:
+      inputs: paths (str or Path) of files, folders and manifests.
+      glob: narrows folder searches (fnmatch): matched against the file name, or, when it contains
+        ``/``, against the path relative to the searched folder, where ``*`` also spans folders
+        (``"kid_*/pose_0?.ply"``).
+      exclude: folders never searched (the output folder, when it lies inside an input folder).
+
+    Returns:
+      (files, root): absolute input paths (sorted within each folder; manifest order kept) and the
+      common folder their outputs are mirrored from.
+
+    Raises:
+      InvalidInputError: an INPUT that does not exist, an unreadable manifest, nothing found.
+    """
+    inputs = [Path(p) for p in ([inputs] if isinstance(inputs, (str, os.PathLike)) else inputs)]
+    if not inputs:
+        raise InvalidInputError("no inputs given")
+    exclude = {os.path.realpath(e) for e in exclude}
+    files, roots = [], []
+    for given in inputs:
+        path = Path(os.path.abspath(given))
+        if path.is_dir():
+            roots.append(path)
+            files += _search(path, glob, exclude)
+        elif not path.exists():
+            raise InvalidInputError(f"no such file or folder: {given}")
+        elif path.suffix.lower() in MANIFEST_SUFFIXES:
+            listed = _read_manifest(path)
+            roots += [p.parent for p in listed]
+            files += listed
+        else:
+            roots.append(path.parent)
+            files.append(path)
+    seen, unique = set(), []
+    for path in files:
+        key = os.path.realpath(path)
+        if key not in seen:
+            seen.add(key)
+            unique.append(path)
+    if not unique:
+        hint = f" matching {glob!r}" if glob else f" ({', '.join(MESH_SUFFIXES)})"
+        raise InvalidInputError(f"no mesh files found in {', '.join(map(str, inputs))}{hint}")
+    return unique, Path(os.path.commonpath([str(r) for r in roots]))
+
+
+def _search(folder, glob, exclude):
+    found = []
+    for here, dirs, names in os.walk(folder):
+        dirs[:] = sorted(d for d in dirs if not d.startswith(".")
+                         and os.path.realpath(os.path.join(here, d)) not in exclude)
+        for name in sorted(names):
+            if name.startswith(".") or os.path.splitext(name)[1].lower() not in MESH_SUFFIXES:
+                continue
+            path = Path(here) / name
+            if glob is None or _matches(path.relative_to(folder), glob):
+                found.append(path)
+    return found
+
+
+def _matches(relative, glob):
+    return fnmatch.fnmatch(relative.as_posix() if "/" in glob else relative.name, glob)
+
+
+def _read_manifest(path):
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InvalidInputError(f"{path}: cannot read the manifest: {exc}") from None
+    if path.suffix.lower() == ".csv":
+        rows = [r for r in csv.reader(text.splitlines()) if r and r[0].strip()]
+        column = 0
+        if rows:
+            header = [c.strip().lower() for c in rows[0]]
+            named = [header.index(n) for n in ("path", "input") if n in header]
+            if named:
+                column, rows = named[0], rows[1:]
+        entries = [r[column].strip() if column < len(r) else "" for r in rows]
+    else:
+        entries = [line.strip() for line in text.splitlines()]
+    entries = [e for e in entries if e and not e.startswith("#")]
+    return [Path(os.path.abspath(path.parent / Path(e).expanduser())) for e in entries]
+
+
+def plan_outputs(files, root, output_dir, file_format=None, table=None) -> list:
+    """Pair each input with its output under `output_dir`, refusing every kind of aliasing.
+
+    Args:
+      files, root: from :func:`find_inputs`.
+      output_dir: the output folder.
+      file_format: an output format for all (``"ply"``), or None to keep each input's.
+      table: the transforms table's path, checked against inputs and outputs too.
+
+    Returns:
+      list of :class:`Item` with absolute outputs, in the order of `files`.
+
+    Raises:
+      InvalidInputError: two inputs with one output, an output that is an input, or a table that
+        is an input or an output (nothing has been written).
+    """
+    output_dir = Path(os.path.abspath(output_dir))
+    items, owner = [], {}
+    sources = {os.path.realpath(f): f for f in files}
+    for source in files:
+        relative = source.relative_to(root)
+        output = output_dir / relative
+        if file_format:
+            output = output.with_suffix("." + file_format)
+        key = os.path.realpath(output)
+        if key in owner:
+            raise InvalidInputError(f"{owner[key]} and {source} would both be written to {output}; "
+                                    "give them separate runs or output folders")
+        if key in sources:
+            raise InvalidInputError(f"{output} would overwrite its input; choose an output folder apart "
+                                    "from the inputs")
+        owner[key] = source
+        items.append(Item(source, output))
+    if table is not None:
+        key = os.path.realpath(os.path.abspath(table))
+        if key in sources or key in owner:
+            raise InvalidInputError(f"the table {table} would overwrite "
+                                    f"{'an input' if key in sources else 'an output'}; name another file")
+    return items

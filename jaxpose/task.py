@@ -1,0 +1,193 @@
+"""One file's work in a batch: read, normalize, encode, as a pure function of its arguments.
+
+:class:`NormalizeOptions` holds how each file is normalized (the arguments of
+:func:`jaxpose.normalize_mesh`), validated once before any I/O; :func:`normalize_file` does one
+file and returns its table columns and the encoded output without writing anything, so that it
+can run in any worker process or on a Dask cluster and the caller alone writes.
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+import numbers
+import os
+import time
+from pathlib import Path
+from typing import NamedTuple
+
+from ._validate import InvalidInputError, check_gamma, check_nu
+
+__all__ = ["NormalizeOptions", "FileResult", "normalize_file", "one_line"]
+
+
+# --------------------------------------------------------------------------- options
+def _integer(value, name, minimum):
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise InvalidInputError(f"{name} must be an int >= {minimum}, got {value!r}")
+    if value < minimum:
+        raise InvalidInputError(f"{name} must be >= {minimum}, got {value}")
+    return int(value)
+
+
+@dataclasses.dataclass(frozen=True)
+class NormalizeOptions:
+    """How each file is normalized: the arguments of :func:`jaxpose.normalize_mesh`, validated once.
+
+    Every value is checked when the object is made, before any file is read or anything compiled:
+    names (``method``, ``center``, ``scale``, ``sampling``, ``rotation``) against the known ones,
+    ``gamma`` > 0, ``nu`` in [0, 1], ``count`` >= 4, ``seed`` >= 0, ``resolution`` >= 8 and only
+    for the estimators that have one (robust, ocsvm).
+
+    Raises:
+      InvalidInputError: a value out of range or a name not known, with the allowed ones.
+    """
+
+    method: str | None = None
+    center: str | None = None
+    scale: str | None = None
+    gamma: float = 47.0
+    nu: float = 0.5
+    count: int = 2000
+    seed: int = 0
+    sampling: str = "even"
+    resolution: int | None = None
+    rotation: bool | str = False
+    strict: bool = False
+
+    def __post_init__(self):
+        from .estimators import resolve
+        from .mesh import SAMPLING
+        from .rotation import ROTATIONS
+
+        c_name, s_name = resolve(self.method, self.center, self.scale)
+        check_gamma(self.gamma)
+        check_nu(self.nu)
+        set_ = lambda **kw: [object.__setattr__(self, k, v) for k, v in kw.items()]  # noqa: E731
+        set_(gamma=float(self.gamma), nu=float(self.nu), count=_integer(self.count, "count", 4),
+             seed=_integer(self.seed, "seed", 0))
+        if self.sampling not in SAMPLING:
+            raise InvalidInputError(f"sampling must be one of {', '.join(SAMPLING)}; got {self.sampling!r}")
+        if self.resolution is not None:
+            set_(resolution=_integer(self.resolution, "resolution", 8))
+            if not {"robust_depth", "robust_volume", "ocsvm"} & {c_name, s_name}:
+                raise InvalidInputError(f"resolution applies to the robust and ocsvm estimators, not "
+                                        f"{c_name} / {s_name}")
+        if not (isinstance(self.rotation, bool) or self.rotation in ROTATIONS):
+            raise InvalidInputError(f"rotation must be True, False or one of {', '.join(ROTATIONS)}; "
+                                    f"got {self.rotation!r}")
+        if not isinstance(self.strict, bool):
+            raise InvalidInputError(f"strict must be True or False, got {self.strict!r}")
+
+    @property
+    def rotation_method(self) -> str | None:
+        """The rotation's frame method, or None without one."""
+        from .rotation import DEFAULT_ROTATION
+
+        return (DEFAULT_ROTATION if self.rotation is True else self.rotation) or None
+
+    def mesh_arguments(self) -> dict:
+        """The keyword arguments of :func:`jaxpose.normalize_mesh` these options stand for."""
+        return dict(method=self.method, center=self.center, scale=self.scale, gamma=self.gamma, nu=self.nu,
+                    count=self.count, seed=self.seed, sampling=self.sampling, strict=self.strict,
+                    resolution=self.resolution, rotation=self.rotation)
+
+    def columns(self) -> dict:
+        """The table columns these options fill (method names and parameters)."""
+        from .estimators import DEFAULT_METHOD, resolve
+
+        c_name, s_name = resolve(self.method, self.center, self.scale)
+        out = dict(method=self.method or DEFAULT_METHOD, center_method=c_name, scale_method=s_name,
+                   gamma=self.gamma, nu=self.nu, count=self.count, seed=self.seed, sampling=self.sampling,
+                   resolution=self.resolution)
+        if self.rotation_method:
+            out["rotation_method"] = self.rotation_method
+        return out
+
+    def fingerprint(self, file_format=None) -> str:
+        """A string equal for equal options (and output format): what a rerun compares."""
+        return json.dumps({**dataclasses.asdict(self), "format": file_format}, sort_keys=True)
+
+
+# --------------------------------------------------------------------------- one file
+class FileResult(NamedTuple):
+    """What :func:`normalize_file` returns.
+
+    Attributes:
+      record: table columns known to the worker (``status``, ``error``, ``kind``, ``vertices``,
+        ``faces``, ``center_x/_y/_z``, ``scale``, ``valid``, ``converged``, rotation columns,
+        ``seconds``, ``worker``, ``worker_peak_mb``) and ``matrix`` (4 x 4 nested lists, or None).
+      data: the encoded normalized file, or None when the input failed.
+    """
+
+    record: dict
+    data: bytes | None
+
+
+def normalize_file(source, options=None, file_type=None) -> FileResult:
+    """Read one mesh or point cloud, normalize it and encode the result; a pure function.
+
+    Nothing is written: the caller decides where the bytes go. Errors of the input (unreadable,
+    empty, NaN coordinates, a point cloud for a triangles-only format, no valid pose) come back as
+    ``record["status"] == "failed"`` with a one-line ``record["error"]``.
+
+    Args:
+      source: a path (anything :func:`jaxpose.mesh.load` reads) or a Trimesh / PointCloud.
+      options: :class:`NormalizeOptions` (default: the defaults).
+      file_type: output format (:data:`jaxpose.mesh.OUTPUT_FORMATS`); default the source's suffix.
+
+    Returns:
+      :class:`FileResult`.
+    """
+    import socket
+
+    start = time.perf_counter()
+    options = NormalizeOptions() if options is None else options
+    record = {"status": "failed", "error": "", "kind": "", "vertices": 0, "faces": 0, "matrix": None}
+    data = None
+    try:
+        from . import mesh
+
+        geometry = mesh.load(source)
+        record.update(kind="mesh" if hasattr(geometry, "faces") else "points",
+                      vertices=len(geometry.vertices), faces=len(getattr(geometry, "faces", ())))
+        ext = mesh.output_format(f"output.{file_type or Path(str(source)).suffix.lstrip('.')}", geometry)
+        normalized, pose = mesh.normalize_mesh(geometry, **options.mesh_arguments())
+        record.update(_pose_columns(pose, mesh.pose_matrix(pose)))
+        data = mesh.encode(normalized, ext)
+        record.update(status="ok")
+    except Exception as exc:  # every failure of one input is that input's record, not the run's end
+        record.update(error=one_line(exc))
+    record.update(seconds=time.perf_counter() - start, worker=f"{socket.gethostname()}:{os.getpid()}",
+                  worker_peak_mb=_peak_mb())
+    return FileResult(record, data)
+
+
+def _pose_columns(pose, matrix):
+    import numpy as np
+
+    center = np.asarray(pose.center, dtype=np.float64).reshape(3)
+    out = dict(center_x=float(center[0]), center_y=float(center[1]), center_z=float(center[2]),
+               scale=float(np.asarray(pose.scale, dtype=np.float64)), valid=bool(np.all(pose.valid)),
+               converged=bool(np.all(pose.converged)), matrix=matrix.tolist())
+    if getattr(pose, "rotation", None) is not None:
+        rotation = np.asarray(pose.rotation, dtype=np.float64).reshape(3, 3)
+        out.update({f"r{i}{j}": float(rotation[i, j]) for i in range(3) for j in range(3)})
+        out["ambiguity"] = float(np.asarray(pose.ambiguity, dtype=np.float64))
+    return out
+
+
+def one_line(exc) -> str:
+    """An exception as one line: its message (a JaxposeError's), else ``Type: message``."""
+    from ._validate import JaxposeError
+
+    text = " ".join(str(exc).split())
+    return text if isinstance(exc, JaxposeError) and text else f"{type(exc).__name__}: {text}".rstrip(": ")
+
+
+def _peak_mb():
+    try:
+        import resource
+    except ImportError:  # Windows
+        return None
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return peak / 2**20 if os.uname().sysname == "Darwin" else peak / 2**10

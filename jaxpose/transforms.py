@@ -1,0 +1,273 @@
+"""The transforms table: one row per input of a batch run, as Parquet or CSV.
+
+Each row says where an input went and by which similarity: ``x -> R (x - center) / scale``, with
+``R`` the identity unless the run asked for a rotation. Every number is stored in float64 without
+loss (Parquet natively; CSV with Python's shortest round-trip ``repr``), so
+:meth:`Transform.apply` reproduces the written output from the input to the last bit and
+:meth:`Transform.invert` maps it back. The columns, in order (:data:`COLUMNS`):
+
+=================  =======  ===============================================================
+column             type     meaning
+=================  =======  ===============================================================
+input              str      the input file (absolute path)
+output             str      the normalized file (absolute path); empty when the input failed
+status             str      ``ok`` or ``failed``
+error              str      why the input failed (one line); empty when ok
+center_x/_y/_z     float64  the center, in the input's units (NaN when failed)
+scale              float64  the scale, in the input's units (NaN when failed)
+valid              bool     the estimator's validity flag (:class:`jaxpose.Pose` ``valid``)
+converged          bool     the solver reached its tolerance (always true for NumPy estimators)
+kind               str      ``mesh`` or ``points`` (empty when the input could not be read)
+vertices, faces    int64    size of the input as read (0 when unread)
+method             str      the method asked for (``robust`` by default)
+center_method      str      the center estimator used
+scale_method       str      the scale estimator used
+gamma, nu          float64  OCSVM parameters (used by ``ocsvm`` only)
+count, seed        int64    OCSVM samples and seed (used by ``ocsvm`` only)
+sampling           str      OCSVM surface sampling (used by ``ocsvm`` only)
+resolution         int64    the grid/voxel resolution asked for; null for the estimator's default
+seconds            float64  seconds to read, normalize and encode this input in its worker
+worker             str      ``host:pid`` of the process that did it
+worker_peak_mb     float64  that process's peak resident memory so far, MiB
+input_size         int64    bytes of the input when it was read
+input_mtime_ns     int64    its modification time, ns since the epoch
+input_sha256       str      its SHA-256 (only with ``--check hash``; empty otherwise)
+=================  =======  ===============================================================
+
+With a rotation (``--rotation``), four more come after ``resolution``: ``rotation_method`` (str),
+``r00`` ... ``r22`` (float64, row-major; the rows of R are the canonical axes) and ``ambiguity``
+(float64 in [0, 1]).
+"""
+from __future__ import annotations
+
+import csv
+import importlib.util
+import io
+import math
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+
+from ._validate import InvalidInputError
+
+__all__ = ["COLUMNS", "ROTATION_COLUMNS", "Transform", "read_transforms", "write_transforms",
+           "table_format", "default_table_name", "has_parquet"]
+
+_BASE = (
+    ("input", "str"), ("output", "str"), ("status", "str"), ("error", "str"),
+    ("center_x", "float"), ("center_y", "float"), ("center_z", "float"), ("scale", "float"),
+    ("valid", "bool"), ("converged", "bool"), ("kind", "str"), ("vertices", "int"), ("faces", "int"),
+    ("method", "str"), ("center_method", "str"), ("scale_method", "str"), ("gamma", "float"),
+    ("nu", "float"), ("count", "int"), ("seed", "int"), ("sampling", "str"), ("resolution", "int"),
+)
+_ROTATION = (("rotation_method", "str"),) + tuple((f"r{i}{j}", "float") for i in range(3) for j in range(3)) + (
+    ("ambiguity", "float"),)
+_TAIL = (
+    ("seconds", "float"), ("worker", "str"), ("worker_peak_mb", "float"),
+    ("input_size", "int"), ("input_mtime_ns", "int"), ("input_sha256", "str"),
+)
+COLUMNS = tuple(name for name, _ in _BASE + _TAIL)
+ROTATION_COLUMNS = tuple(name for name, _ in _ROTATION)
+_TYPES = dict(_BASE + _ROTATION + _TAIL)
+_FIELDS = tuple(name for name, _ in _BASE + _ROTATION + _TAIL)
+
+
+class Transform(NamedTuple("_Row", [(name, object) for name in _FIELDS])):
+    """One row of the transforms table (fields: the columns; rotation fields None without one).
+
+    ``center`` (3,), ``rotation`` (3, 3) or None and ``matrix`` (4, 4) are float64 views of the
+    stored numbers; ``apply`` and ``invert`` map points of the input to the output and back.
+    """
+
+    __slots__ = ()
+
+    @classmethod
+    def from_record(cls, record: dict) -> "Transform":
+        """A row from a dict of columns (missing ones None; a failed row's center and scale NaN)."""
+        return cls(**{name: _clean(_cell(record, name), name) for name in _FIELDS})
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "ok"
+
+    @property
+    def center(self) -> np.ndarray:
+        return np.array([self.center_x, self.center_y, self.center_z], dtype=np.float64)
+
+    @property
+    def rotation(self):
+        if self.r00 is None:
+            return None
+        return np.array([[getattr(self, f"r{i}{j}") for j in range(3)] for i in range(3)], dtype=np.float64)
+
+    @property
+    def matrix(self) -> np.ndarray:
+        """The 4 x 4 float64 matrix of x -> R (x - center) / scale (the one the output was made with)."""
+        from .mesh import pose_matrix
+
+        self._require_ok()
+        return pose_matrix(self)
+
+    def apply(self, points) -> np.ndarray:
+        """Input coordinates (n, 3) -> output coordinates (n, 3), float64, bit-identical to the output."""
+        import trimesh
+
+        return trimesh.transformations.transform_points(np.asarray(points, dtype=np.float64), self.matrix)
+
+    def invert(self, points) -> np.ndarray:
+        """Output coordinates (n, 3) -> input coordinates (n, 3): x = scale R^T y + center, float64."""
+        self._require_ok()
+        y = np.asarray(points, dtype=np.float64)
+        rotation = self.rotation
+        if rotation is not None:
+            y = y @ rotation
+        return y * float(self.scale) + self.center
+
+    def _require_ok(self):
+        if not self.ok:
+            raise InvalidInputError(f"{self.input}: no transform (the input failed: {self.error})")
+
+
+def has_parquet() -> bool:
+    """Whether pyarrow is installed (Parquet tables); found without importing it."""
+    return importlib.util.find_spec("pyarrow") is not None
+
+
+def default_table_name() -> str:
+    """``transforms.parquet`` when pyarrow is installed, else ``transforms.csv``."""
+    return "transforms.parquet" if has_parquet() else "transforms.csv"
+
+
+def table_format(path) -> str:
+    """``"parquet"`` or ``"csv"`` from a table path's suffix; refuses others and Parquet without pyarrow."""
+    suffix = Path(path).suffix.lower()
+    if suffix == ".csv":
+        return "csv"
+    if suffix in (".parquet", ".pq"):
+        if not has_parquet():
+            raise InvalidInputError(f"{path}: a Parquet table needs pyarrow (pip install pyarrow); "
+                                    "or name a .csv table")
+        return "parquet"
+    raise InvalidInputError(f"{path}: a table must end in .parquet or .csv, got {suffix or '(no suffix)'!r}")
+
+
+def _columns(rotation):
+    return COLUMNS[:len(_BASE)] + (ROTATION_COLUMNS if rotation else ()) + COLUMNS[len(_BASE):]
+
+
+def _cell(row, name):
+    value = row.get(name) if isinstance(row, dict) else getattr(row, name)
+    if isinstance(value, str) and value == "" and _TYPES[name] != "str":
+        return None
+    kind = _TYPES[name]
+    if value is None:
+        return None
+    if kind == "float":
+        return float(value)
+    if kind == "int":
+        return int(value)
+    if kind == "bool":
+        return bool(value)
+    return str(value)
+
+
+def write_transforms(rows, path=None, rotation=None) -> bytes:
+    """The table of `rows` as bytes (Parquet or CSV, from `path`'s suffix); the caller writes them.
+
+    Args:
+      rows: dicts keyed by column name (missing keys are null) or :class:`Transform` rows.
+      path: the table's file name (only its suffix is used: ``.parquet`` or ``.csv``).
+      rotation: include the rotation columns; default: when any row has a ``rotation_method``.
+
+    Returns:
+      The encoded table.
+    """
+    rows = list(rows)
+    kind = table_format(path)
+    if rotation is None:
+        rotation = any(_cell(r, "rotation_method") for r in rows)
+    names = _columns(rotation)
+    data = {name: [_cell(r, name) for r in rows] for name in names}
+    if kind == "parquet":
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        types = {"str": pa.string(), "float": pa.float64(), "int": pa.int64(), "bool": pa.bool_()}
+        schema = pa.schema([(name, types[_TYPES[name]]) for name in names])
+        sink = io.BytesIO()
+        pq.write_table(pa.Table.from_pydict(data, schema=schema), sink)
+        return sink.getvalue()
+    text = io.StringIO()
+    writer = csv.writer(text, lineterminator="\n")
+    writer.writerow(names)
+    for i in range(len(rows)):
+        writer.writerow([_csv_text(data[name][i]) for name in names])
+    return text.getvalue().encode("utf-8")
+
+
+def _csv_text(value):
+    if value is None:
+        return ""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        return repr(value)  # shortest string that reads back to the same float64
+    return str(value)
+
+
+def _csv_value(text, kind):
+    if text == "":
+        return "" if kind == "str" else None
+    if kind == "float":
+        return float(text)
+    if kind == "int":
+        return int(text)
+    if kind == "bool":
+        return text == "true"
+    return text
+
+
+def read_transforms(path) -> list:
+    """Read a transforms table (Parquet or CSV, from the suffix) back as :class:`Transform` rows.
+
+    Args:
+      path: a table written by :func:`jaxpose.normalize_files` / ``jaxpose normalize ... -o OUTDIR``.
+
+    Returns:
+      list of :class:`Transform`, in the table's order (the order of the inputs).
+
+    Raises:
+      InvalidInputError: a missing file, an unknown suffix, or a file that is not such a table.
+
+    Example::
+
+        >>> rows = jaxpose.read_transforms("normalized/transforms.parquet")
+        >>> row = rows[0]; row.center, row.scale, row.matrix     # (3,), float, (4, 4)
+        >>> back = row.invert(trimesh.load(row.output).vertices)  # the input's coordinates
+    """
+    path = Path(path)
+    kind = table_format(path)
+    if not path.is_file():
+        raise InvalidInputError(f"no such table: {path}")
+    if kind == "parquet":
+        import pyarrow.parquet as pq
+
+        try:
+            records = pq.read_table(path).to_pylist()
+        except Exception as exc:
+            raise InvalidInputError(f"{path}: not a readable Parquet table: {exc}") from None
+    else:
+        with open(path, newline="", encoding="utf-8") as handle:
+            reader = csv.DictReader(handle)
+            records = [{k: _csv_value(v, _TYPES.get(k, "str")) for k, v in r.items()} for r in reader]
+    missing = [c for c in COLUMNS if records and c not in records[0]]
+    if missing:
+        raise InvalidInputError(f"{path}: not a transforms table (no column {', '.join(missing)})")
+    return [Transform.from_record(r) for r in records]
+
+
+def _clean(value, name):
+    if value is None and _TYPES[name] == "float" and name in ("center_x", "center_y", "center_z", "scale"):
+        return math.nan
+    return value

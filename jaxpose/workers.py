@@ -1,0 +1,171 @@
+"""Where batch tasks run: local worker processes, a thread of this process, or a Dask cluster.
+
+One small interface for all: ``submit(fn, *args) -> future``, ``wait(pending) -> done`` (wakes at
+least every half second, so the caller stays responsive to interrupts), ``result(future)``
+(raises :class:`WorkerLost` when the worker itself died) and ``close(kill)``. Tasks must be pure
+functions of their arguments; nothing is kept in a worker between tasks except what JAX caches
+(compiled programs), so each worker compiles once.
+"""
+from __future__ import annotations
+
+import concurrent.futures as cf
+import logging
+import os
+
+from .errors import InvalidInputError
+
+__all__ = ["WorkerLost", "LocalExecutor", "DaskExecutor", "default_workers", "process_environment",
+           "configure_process", "POLL_S"]
+
+POLL_S = 0.5
+# one BLAS thread per process: parallelism comes from the workers, and sums come out in the same
+# order in every process (bit-identical results locally and on Dask, which sets the same)
+_ONE_THREAD = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+
+
+class WorkerLost(Exception):
+    """The process running a task died (out of memory, a crash in a native library), or Dask gave up."""
+
+
+def default_workers() -> int:
+    """The number of cores this process may use."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # macOS, Windows
+        return os.cpu_count() or 1
+
+
+def process_environment() -> dict:
+    """The environment variables of a worker process: one BLAS thread, the compilation cache
+    (:mod:`jaxpose.cache`); variables already set are left to the user."""
+    from . import cache
+
+    return {k: v for k, v in {**_ONE_THREAD, **cache.environment()}.items() if k not in os.environ}
+
+
+def configure_process() -> bool:
+    """Apply :func:`process_environment` to this process if NumPy and JAX are not imported yet
+    (the command line does this first); returns whether it did."""
+    import sys
+
+    if "numpy" in sys.modules or "jax" in sys.modules:
+        return False
+    os.environ.update(process_environment())
+    return True
+
+
+def _init_worker(environment):
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group; the parent decides
+    for key, value in environment.items():  # before the first task imports NumPy or JAX
+        os.environ.setdefault(key, value)
+
+
+class LocalExecutor:
+    """``workers`` == 1: a thread of this process; more: spawned processes (fork is unsafe with JAX).
+
+    Worker processes ignore SIGINT (a terminal's Ctrl-C goes to the parent, which stops them) and
+    get the persistent compilation cache (:mod:`jaxpose.cache`).
+    """
+
+    def __init__(self, workers):
+        self.workers = workers
+        if workers == 1:
+            self._pool = cf.ThreadPoolExecutor(1, thread_name_prefix="jaxpose-worker")
+        else:
+            import multiprocessing
+
+            self._pool = cf.ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
+                                                initializer=_init_worker, initargs=(process_environment(),))
+
+    def submit(self, fn, *args):
+        return self._pool.submit(fn, *args)
+
+    def wait(self, pending):
+        return cf.wait(pending, timeout=POLL_S, return_when=cf.FIRST_COMPLETED)[0]
+
+    def result(self, future):
+        from concurrent.futures.process import BrokenProcessPool
+
+        try:
+            return future.result()
+        except BrokenProcessPool as exc:
+            raise WorkerLost(f"a worker process died while working on it (out of memory?): {exc}") from None
+
+    def restart(self):
+        """A fresh pool after a worker died (the old one refuses new work)."""
+        self.close(kill=True)
+        self.__init__(self.workers)
+
+    def close(self, kill=False):
+        """Stop; with `kill`, cancel queued tasks and kill running worker processes at once."""
+        if not kill:
+            self._pool.shutdown(wait=True)
+            return
+        kill_workers = getattr(self._pool, "kill_workers", None)  # Python >= 3.14
+        if kill_workers is not None:
+            kill_workers()
+        else:  # shutdown() forgets the processes: take them first
+            processes = list((getattr(self._pool, "_processes", None) or {}).values())
+            for process in processes:
+                process.kill()
+        self._pool.shutdown(wait=True, cancel_futures=True)  # quick: its processes are gone
+
+
+class DaskExecutor:
+    """Tasks on a dask.distributed cluster: a running one (`scheduler` address) or a new
+    ``LocalCluster`` of `local` single-threaded worker processes (closed with the executor).
+
+    Raises:
+      InvalidInputError: dask.distributed is not installed, or the scheduler cannot be reached.
+    """
+
+    def __init__(self, scheduler=None, local=None):
+        try:
+            from distributed import Client, LocalCluster
+        except ImportError:
+            raise InvalidInputError("Dask runs need dask.distributed: pip install 'jaxpose[dask]'") from None
+
+        self.cluster = None
+        if scheduler is not None:
+            try:
+                self.client = Client(scheduler, timeout="30s")
+            except (OSError, TimeoutError) as exc:
+                raise InvalidInputError(f"cannot reach the Dask scheduler {scheduler}: {exc}") from None
+        else:
+            self.cluster = LocalCluster(n_workers=local, threads_per_worker=1, processes=True,
+                                        dashboard_address=None, silence_logs=logging.ERROR,
+                                        env=process_environment())
+            self.client = Client(self.cluster)
+        threads = sum(w.get("nthreads", 1) for w in self.client.scheduler_info()["workers"].values())
+        self.workers = max(1, threads)
+
+    def submit(self, fn, *args):
+        return self.client.submit(fn, *args, pure=False, retries=1)
+
+    def wait(self, pending):
+        import asyncio
+
+        from distributed import wait
+
+        try:
+            return wait(list(pending), timeout=POLL_S, return_when="FIRST_COMPLETED").done
+        except (TimeoutError, asyncio.TimeoutError):
+            return set()
+
+    def result(self, future):
+        try:
+            return future.result()
+        except Exception as exc:  # KilledWorker and the like (a task's own errors are its result)
+            raise WorkerLost(f"the Dask task failed: {' '.join(str(exc).split()) or type(exc).__name__}") from None
+        finally:
+            future.release()
+
+    def restart(self):
+        """Nothing to do: Dask replaces lost workers itself."""
+
+    def close(self, kill=False):
+        self.client.close()
+        if self.cluster is not None:
+            self.cluster.close()

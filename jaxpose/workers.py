@@ -12,7 +12,7 @@ import concurrent.futures as cf
 import logging
 import os
 
-from .errors import InvalidInputError
+from .errors import InvalidInputError, JaxposeError
 
 __all__ = ["WorkerLost", "LocalExecutor", "DaskExecutor", "default_workers", "process_environment",
            "configure_process", "POLL_S"]
@@ -134,9 +134,12 @@ class DaskExecutor:
             except (OSError, TimeoutError) as exc:
                 raise InvalidInputError(f"cannot reach the Dask scheduler {scheduler}: {exc}") from None
         else:
-            self.cluster = LocalCluster(n_workers=local, threads_per_worker=1, processes=True,
-                                        dashboard_address=None, silence_logs=logging.ERROR,
-                                        env=process_environment())
+            try:
+                self.cluster = LocalCluster(n_workers=local, threads_per_worker=1, processes=True,
+                                            dashboard_address=None, silence_logs=logging.ERROR,
+                                            env=process_environment())
+            except Exception as exc:  # distributed's own errors (RuntimeError, ...)
+                raise JaxposeError(f"could not start a local Dask cluster of {local} workers: {exc}") from None
             self.client = Client(self.cluster)
         threads = sum(w.get("nthreads", 1) for w in self.client.scheduler_info()["workers"].values())
         self.workers = max(1, threads)

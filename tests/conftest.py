@@ -77,3 +77,32 @@ def faust_points(m, index=0, seed=0):
     pts = np.asarray(trimesh.sample.sample_surface(mesh, m, seed=seed)[0])
     lo, hi = pts.min(0), pts.max(0)
     return (pts - (lo + hi) / 2) / (hi - lo).max()
+
+
+def write_mesh_tree(root):
+    """A small dataset on disk: nested folders, a point cloud, a corrupt, an empty and a NaN file,
+    files that are not meshes, a hidden folder. Returns {"good": [...], "bad": [...]} (paths)."""
+    import trimesh
+
+    root = pathlib.Path(root)
+    (root / "a" / "b").mkdir(parents=True)
+    (root / ".hidden").mkdir()
+    capsule = trimesh.creation.capsule(height=1.0, radius=0.4, count=[8, 8])
+    capsule.apply_translation([3.0, -1.0, 2.0])
+    capsule.export(root / "a" / "capsule.ply")
+    box = trimesh.creation.box(extents=(1.0, 0.6, 0.3))
+    box.apply_translation([-2.0, 0.5, 0.0])
+    box.export(root / "a" / "b" / "box.obj")
+    trimesh.creation.icosphere(subdivisions=1, radius=2.0).export(root / "sphere.off")
+    rng = np.random.default_rng(0)
+    cloud = rng.normal(size=(200, 3)) * [1.0, 0.7, 0.5]
+    cloud = cloud / np.linalg.norm(cloud, axis=1, keepdims=True) * [1.0, 0.7, 0.5] + [0.5, 0.0, -1.0]
+    trimesh.PointCloud(cloud).export(root / "cloud.ply")
+    (root / "a" / "b" / "nan.obj").write_text("v 0 0 0\nv 1 0 0\nv nan 1 0\nv 0 0 1\nf 1 2 3\nf 1 3 4\nf 1 2 4\nf 2 3 4\n")
+    (root / "corrupt.ply").write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 99\n\x00\x01")
+    (root / "empty.stl").write_bytes(b"")
+    (root / "notes.md").write_text("not a mesh")
+    box.export(root / ".hidden" / "skip.ply")
+    good = [root / "a" / "capsule.ply", root / "a" / "b" / "box.obj", root / "sphere.off", root / "cloud.ply"]
+    bad = [root / "a" / "b" / "nan.obj", root / "corrupt.ply", root / "empty.stl"]
+    return {"good": good, "bad": bad}

@@ -34,10 +34,17 @@ def test_python_snippet_runs(tmp_path, monkeypatch):
 def test_command_line_snippets_run(tmp_path, monkeypatch, capsys):
     from jaxpose import cli
 
+    import trimesh
+
     monkeypatch.chdir(tmp_path)
+    (tmp_path / "scans" / "a").mkdir(parents=True)  # the dataset the batch commands name
+    trimesh.creation.capsule(height=1.0, radius=0.4, count=[8, 8]).export(tmp_path / "scans" / "a" / "capsule.ply")
+    trimesh.creation.box(extents=(1.0, 0.6, 0.3)).export(tmp_path / "scans" / "box.obj")
     commands = [line.split("#")[0].strip() for block in _blocks("bash")[2:] for line in block.splitlines()]
     commands = [c for c in commands if c]
     assert commands and all(c.startswith("jaxpose ") for c in commands)
     for command in commands:
         assert cli.main(shlex.split(command)[1:]) == 0, command
     assert (tmp_path / "normalized.ply").exists() and (tmp_path / "normalized.transform.json").exists()
+    for out in ("normalized", "normalized-dask"):
+        assert (tmp_path / out / "a" / "capsule.ply").exists() and (tmp_path / out / "box.obj").exists()

@@ -1,0 +1,255 @@
+"""Batch normalization on real files in temporary folders: trees, manifests, bad files, the
+transforms table, resuming, the output folder's lock, refusals before any work (in this process,
+one worker; processes and Dask in test_workers.py, signals in test_interrupts.py)."""
+import json
+import logging
+import os
+
+import numpy as np
+import pytest
+import trimesh
+
+import jaxpose
+from jaxpose import batch, cli, mesh
+from jaxpose.errors import InvalidInputError
+from jaxpose.journal import FolderBusyError, OutputFolder
+from jaxpose.task import NormalizeOptions
+
+from conftest import write_mesh_tree
+
+FAST = NormalizeOptions(resolution=16)  # the robust default on a coarse voxel grid: milliseconds a file
+TIMING = ("seconds", "worker", "worker_peak_mb")
+
+
+@pytest.fixture
+def tree(tmp_path):
+    return write_mesh_tree(tmp_path / "scans")
+
+
+def run(inputs, out, **kwargs):
+    kwargs.setdefault("workers", 1)
+    kwargs.setdefault("progress", False)
+    return batch.run_batch(inputs, out, kwargs.pop("options", FAST), **kwargs)
+
+
+def stable(rows):
+    return [{k: v for k, v in row._asdict().items() if k not in TIMING} for row in rows]
+
+
+def test_folder_tree_outputs_mirror_inputs_and_table_matches_single_files(tmp_path, tree, caplog):
+    root = tmp_path / "scans"
+    out = tmp_path / "out"
+    with caplog.at_level(logging.WARNING, logger="jaxpose.batch"):
+        result = run([root], out)
+    assert (result.written, result.skipped, result.failed, result.stopped) == (4, 0, 3, False)
+    rows = {os.path.relpath(r.input, root): r for r in result.rows}
+    assert sorted(rows) == sorted(os.path.relpath(p, root) for p in tree["good"] + tree["bad"])  # no .md, no hidden
+    for path in tree["good"]:
+        row = rows[os.path.relpath(path, root)]
+        assert row.ok and row.output == str(out / path.relative_to(root)) and row.error == ""
+        _, pose = jaxpose.normalize_mesh(path, resolution=16)  # the single-file API is the oracle
+        np.testing.assert_array_equal(row.center, np.asarray(pose.center))
+        assert row.scale == float(pose.scale) and row.valid and row.method == "robust"
+        assert row.kind == ("points" if path.name == "cloud.ply" else "mesh")
+        assert row.input_size == path.stat().st_size and row.resolution == 16
+    for path, fragment in zip(tree["bad"], ["NaN", "cannot read", "empty"]):
+        row = rows[os.path.relpath(path, root)]
+        assert row.status == "failed" and fragment in row.error and row.output == ""
+        assert np.isnan(row.scale) and fragment in caplog.text
+    written = sorted(str(p.relative_to(out)) for p in out.rglob("*") if p.is_file() and ".jaxpose" not in p.parts)
+    assert written == sorted([str(p.relative_to(root)) for p in tree["good"]] + ["transforms.parquet"])
+    assert stable(jaxpose.read_transforms(result.table)) == stable(result.rows)
+
+
+@pytest.mark.parametrize("suffix", [".parquet", ".csv"])
+def test_table_round_trip_is_exact(tmp_path, tree, suffix):
+    root, out = tmp_path / "scans", tmp_path / "out"
+    table = tmp_path / f"t{suffix}"
+    options = NormalizeOptions(resolution=16, rotation=True)
+    run([root / "a" / "capsule.ply", root / "cloud.ply"], out, options=options, table=table)
+    rows = jaxpose.read_transforms(table)
+    assert [r.rotation_method for r in rows] == ["core", "core"]
+    for row in rows:
+        original = mesh.load(row.input).vertices
+        written = mesh.load(row.output).vertices  # trimesh writes PLY coordinates as float32
+        np.testing.assert_array_equal(row.apply(original).astype(np.float32), written.astype(np.float32))
+        rounding = 2 * np.finfo(np.float32).eps * np.abs(written).max() * row.scale
+        np.testing.assert_allclose(row.invert(written), original, rtol=0, atol=rounding)
+        np.testing.assert_allclose(row.invert(row.apply(original)), original, rtol=0, atol=1e-13)
+        assert np.linalg.det(row.rotation) == pytest.approx(1.0) and 0.0 <= row.ambiguity <= 1.0
+        np.testing.assert_allclose(row.matrix @ np.r_[row.center, 1.0], [0, 0, 0, 1], atol=1e-12)
+
+
+def test_csv_and_parquet_hold_the_same_numbers(tmp_path, tree):
+    root = tmp_path / "scans"
+    a = run([root], tmp_path / "a", table=tmp_path / "a.csv").rows
+    b = run([root], tmp_path / "b", table=tmp_path / "b.parquet").rows
+    text = jaxpose.read_transforms(tmp_path / "a.csv")
+    for x, y in zip(text, jaxpose.read_transforms(tmp_path / "b.parquet")):
+        for name in ("center_x", "center_y", "center_z", "scale"):
+            assert repr(getattr(x, name)) == repr(getattr(y, name))  # bit for bit, NaN for failures
+    assert [r.status for r in a] == [r.status for r in b]
+
+
+def test_manifests_text_and_csv(tmp_path, tree):
+    root = tmp_path / "scans"
+    (tmp_path / "list.txt").write_text("# the meshes\nscans/a/capsule.ply\n\nscans/sphere.off\nscans/missing.ply\n")
+    (tmp_path / "list.csv").write_text("id,path\n1,scans/cloud.ply\n2,scans/a/capsule.ply\n")
+    result = run([tmp_path / "list.txt", tmp_path / "list.csv"], tmp_path / "out")
+    names = [os.path.relpath(r.input, root) for r in result.rows]
+    assert names == ["a/capsule.ply", "sphere.off", "missing.ply", "cloud.ply"]  # repeats once, in order
+    assert [r.status for r in result.rows] == ["ok", "ok", "failed", "ok"]
+    assert "no such file" in result.rows[2].error
+    assert (tmp_path / "out" / "a" / "capsule.ply").is_file()  # mirrored from the common folder
+
+
+def test_glob_and_format(tmp_path, tree):
+    root = tmp_path / "scans"
+    result = run([root], tmp_path / "out", glob="a/*", file_format="ply")
+    assert [os.path.relpath(r.input, root) for r in result.rows] == ["a/capsule.ply", "a/b/box.obj", "a/b/nan.obj"]
+    assert isinstance(mesh.load(tmp_path / "out" / "a" / "b" / "box.ply"), trimesh.Trimesh)
+    cloud = run([root / "cloud.ply"], tmp_path / "stl", file_format="stl").rows[0]
+    assert cloud.status == "failed" and "point cloud cannot be written as STL" in cloud.error
+    assert not (tmp_path / "stl" / "cloud.stl").exists()
+
+
+def test_rerun_skips_what_is_done_and_redoes_what_changed(tmp_path, tree):
+    root, out = tmp_path / "scans", tmp_path / "out"
+    first = run([root], out)
+    again = run([root], out)
+    assert (again.written, again.skipped, again.failed) == (0, 4, 3)  # failures are tried again
+    assert stable(again.rows) == stable(first.rows)
+    capsule = root / "a" / "capsule.ply"
+    os.utime(capsule, ns=(capsule.stat().st_atime_ns, capsule.stat().st_mtime_ns + 10**9))
+    assert run([root], out).written == 1  # a newer modification time: done again
+    hashed = run([root], out, check="hash")
+    assert hashed.written == 4  # no hash recorded yet
+    os.utime(capsule, ns=(capsule.stat().st_atime_ns, capsule.stat().st_mtime_ns + 10**9))
+    assert run([root], out, check="hash").written == 0  # same bytes
+    assert run([root], out, options=NormalizeOptions(method="bbox")).written == 4  # other options
+    assert run([root], out, options=NormalizeOptions(method="bbox"), force=True).written == 4
+    records = OutputFolder(out).records()
+    assert {r["method"] for r in records.values()} == {"bbox"}
+
+
+def test_second_run_on_one_folder_is_refused(tmp_path, tree):
+    out = tmp_path / "out"
+    with OutputFolder(out):
+        with pytest.raises(FolderBusyError, match=f"pid {os.getpid()}.*another output folder"):
+            run([tmp_path / "scans"], out)
+    assert run([tmp_path / "scans" / "sphere.off"], out).written == 1  # released
+
+
+def test_refusals_before_any_work(tmp_path, tree, monkeypatch):
+    root = tmp_path / "scans"
+    monkeypatch.setattr(batch, "normalize_file", lambda *a: pytest.fail("work started"))
+    (root / "a" / "capsule.obj").write_text((root / "a" / "b" / "box.obj").read_text())
+    (tmp_path / "list.csv").write_text("path\nscans/sphere.off\n")
+    cases = [
+        (dict(inputs=[root], out=tmp_path / "o", file_format="ply"), "would both be written"),
+        (dict(inputs=[root], out=root), "would overwrite its input"),
+        (dict(inputs=[tmp_path / "list.csv"], out=tmp_path / "o", table=tmp_path / "list.csv"),
+         "would overwrite an input"),
+        (dict(inputs=[tmp_path / "nothing"], out=tmp_path / "o"), "no such file or folder"),
+        (dict(inputs=[root], out=tmp_path / "o", glob="*.zzz"), "no mesh files found"),
+        (dict(inputs=[root], out=tmp_path / "o", workers=0), "workers must be an int >= 1"),
+        (dict(inputs=[root], out=tmp_path / "o", dask_local=2, scheduler="tcp://x:1"), "not both"),
+        (dict(inputs=[root], out=tmp_path / "o", table=tmp_path / "t.xlsx"), ".parquet or .csv"),
+        (dict(inputs=[root], out=tmp_path / "o", check="size"), "mtime, hash"),
+        (dict(inputs=[root], out=tmp_path / "o", file_format="vtk"), "format must be one of"),
+    ]
+    for kwargs, fragment in cases:
+        with pytest.raises(InvalidInputError, match=fragment):
+            run(kwargs.pop("inputs"), kwargs.pop("out"), **kwargs)
+    assert not (tmp_path / "o").exists() and not (root / ".jaxpose").exists()
+    (tmp_path / "mine").mkdir()
+    (tmp_path / "mine" / "keep.txt").write_text("mine")
+    with pytest.raises(InvalidInputError, match="did not write"):
+        run([root], tmp_path / "mine")
+
+
+@pytest.mark.parametrize("kwargs, fragment", [
+    (dict(count=3), "count must be >= 4"), (dict(gamma=-1.0), "gamma must be > 0"),
+    (dict(nu=2.0), r"nu must be in \[0, 1\]"), (dict(resolution=7), "resolution must be >= 8"),
+    (dict(method="bbox", resolution=32), "applies to the robust and ocsvm"),
+    (dict(method="nope"), "valid: robust, ocsvm"), (dict(sampling="grid"), "even, random"),
+    (dict(rotation="up"), "core"), (dict(seed=-1), "seed must be >= 0"),
+])
+def test_options_validated_with_their_range(kwargs, fragment):
+    with pytest.raises(InvalidInputError, match=fragment):
+        NormalizeOptions(**kwargs)
+
+
+def test_fail_fast_stops_at_the_first_failure(tmp_path, tree):
+    root = tmp_path / "scans"
+    inputs = [root / "corrupt.ply"] + tree["good"]
+    result = run(inputs, tmp_path / "out", fail_fast=True)
+    assert result.stopped and result.failed == 1 and len(result.rows) < len(inputs)
+    assert result.rows[0].status == "failed"
+
+
+def test_normalize_files_api(tmp_path, tree):
+    rows = jaxpose.normalize_files(tmp_path / "scans" / "a", tmp_path / "out", resolution=16, workers=1,
+                                   progress=False)
+    assert [r.ok for r in rows] == [True, True, False] and rows[0].resolution == 16
+    with pytest.raises(InvalidInputError, match="unknown argument colour"):
+        jaxpose.normalize_files(tmp_path / "scans", tmp_path / "o2", colour="red")
+    with pytest.raises(InvalidInputError, match="not both"):
+        jaxpose.normalize_files(tmp_path / "scans", tmp_path / "o2", FAST, method="bbox")
+
+
+# --------------------------------------------------------------------------- command line
+def test_cli_many_files(tmp_path, tree, capsys):
+    out = tmp_path / "out"
+    code = cli.main(["normalize", str(tmp_path / "scans"), "-o", str(out), "--workers", "1", "--resolution", "16",
+                     "--table", str(tmp_path / "t.csv")])
+    captured = capsys.readouterr()
+    assert code == 1
+    failed = [line for line in captured.err.splitlines() if line.startswith("jaxpose: failed:")]
+    assert len(failed) == 3 and "Traceback" not in captured.err
+    last = captured.err.splitlines()[-1]
+    assert last.startswith("jaxpose: error: 3 of 7 inputs failed") and "t.csv" in last
+    assert "normalized 4 files" in captured.out
+    assert len(jaxpose.read_transforms(tmp_path / "t.csv")) == 7
+    assert cli.main(["normalize", str(tmp_path / "scans" / "a" / "capsule.ply"), str(tmp_path / "scans" / "sphere.off"),
+                     "-o", str(out), "--workers", "1", "--resolution", "16", "--table", str(tmp_path / "t.csv")]) == 0
+    assert "0 files" in capsys.readouterr().out  # both done already
+
+
+@pytest.mark.parametrize("args, fragment", [
+    (["--transform", "t.json"], "--transform is for one INPUT"),
+    (["--example"], "'example' is one input"),
+])
+def test_cli_many_files_usage(tmp_path, tree, capsys, args, fragment):
+    code = cli.main(["normalize", str(tmp_path / "scans"), "-o", str(tmp_path / "out"), *args])
+    assert code == 2 and fragment in capsys.readouterr().err
+
+
+def test_cli_one_file_refusals_before_work(tmp_path, tree, capsys, monkeypatch):
+    cloud = tmp_path / "scans" / "cloud.ply"
+    monkeypatch.setattr(mesh, "normalize_mesh", lambda *a, **k: pytest.fail("work started"))
+    cases = [
+        (["-o", str(tmp_path / "c.stl")], "point cloud cannot be written as STL"),
+        (["-o", str(tmp_path / "c.ply"), "--transform", str(tmp_path / "c.ply")], "name the same file"),
+        (["-o", str(cloud)], "is the input file"),
+        (["-o", str(tmp_path / "missing" / "c.ply")], "does not exist"),
+        (["-o", str(tmp_path / "c.ply"), "--transform", str(tmp_path / "no" / "t.json")], "does not exist"),
+        (["-o", str(tmp_path / "c.vtk")], "cannot write '.vtk'"),
+        (["-o", str(tmp_path / "c.ply"), "--workers", "2"], "--workers apply to many files"),
+        (["--count", "2", "--method", "ocsvm"], "count must be >= 4"),
+    ]
+    for args, fragment in cases:
+        code = cli.main(["normalize", str(cloud), *args])
+        err = capsys.readouterr().err
+        assert code in (1, 2) and fragment in err and "Traceback" not in err, (args, err)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["scans"]
+    code = cli.main(["normalize", str(tmp_path / "nothing.ply"), "-o", str(tmp_path / "x.ply"), "--resolution", "3"])
+    assert code == 1 and "resolution must be >= 8" in capsys.readouterr().err  # before reading the input
+
+
+def test_cli_writes_a_point_cloud_in_a_points_format(tmp_path, tree):
+    code = cli.main(["normalize", str(tmp_path / "scans" / "cloud.ply"), "-o", str(tmp_path / "c.xyz"),
+                     "--resolution", "16"])
+    assert code == 0 and isinstance(mesh.load(tmp_path / "c.xyz"), trimesh.PointCloud)
+    record = json.loads((tmp_path / "c.transform.json").read_text())
+    assert record["method"] == "robust" and len(record["center"]) == 3

@@ -1,0 +1,150 @@
+"""Real subprocesses, real signals: SIGKILL in the middle of a run then a resume, Ctrl-C and
+SIGTERM (exit 130 / 143, one line, nothing partial, no temporary left)."""
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+import jaxpose
+from jaxpose import mesh
+from jaxpose.atomic import is_temporary
+from jaxpose.journal import OutputFolder
+
+ROOT = Path(__file__).resolve().parents[1]
+TIMING = ("seconds", "worker", "worker_peak_mb")
+
+
+def dataset(root, count=16):
+    """`count` small meshes in two folders (0.1-0.2 s each at the default resolution) and a corrupt file."""
+    rng = np.random.default_rng(1)
+    for i in range(count):
+        shape = trimesh.creation.capsule(height=1.0 + 0.1 * i, radius=0.4, count=[10, 10]) if i % 2 else \
+            trimesh.creation.box(extents=rng.uniform(0.5, 1.5, 3))
+        shape.apply_translation(rng.normal(size=3))
+        folder = root / ("odd" if i % 2 else "even")
+        folder.mkdir(parents=True, exist_ok=True)
+        shape.export(folder / f"shape_{i:02d}.ply")
+    (root / "even" / "shape_03_corrupt.ply").write_bytes(b"ply\nformat ascii 1.0\nelement vertex 3\nend_header\n1 2\n")
+    return root
+
+
+def start(args):
+    return subprocess.Popen([sys.executable, "-m", "jaxpose", "normalize", *map(str, args)], cwd=ROOT,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+
+
+def wait_for_lines(out, count, process, timeout=120):
+    journal = out / ".jaxpose" / "journal.jsonl"
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if journal.exists() and journal.read_bytes().count(b"\n") >= count:
+            return
+        assert process.poll() is None, process.communicate()
+        time.sleep(0.01)
+    pytest.fail("the run did not get going")
+
+
+def files_under(folder):
+    return [p for p in Path(folder).rglob("*") if p.is_file()]
+
+
+def assert_outputs_complete(out):
+    """Every output present is whole: it loads and is its input under the journal's transform."""
+    records = OutputFolder(out).records()
+    outputs = [p for p in files_under(out) if p.suffix == ".ply"]
+    by_output = {r["output"]: r for r in records.values() if r["status"] == "ok"}
+    for path in outputs:
+        assert str(path) in by_output, f"{path} has no record"
+        row = jaxpose.transforms.Transform.from_record(by_output[str(path)])
+        expected = row.apply(mesh.load(row.input).vertices).astype(np.float32)
+        np.testing.assert_array_equal(mesh.load(path).vertices.astype(np.float32), expected)
+    return records
+
+
+def stable(rows):
+    return [{k: v for k, v in row._asdict().items() if k not in TIMING} for row in rows]
+
+
+def test_sigkill_mid_run_then_resume(tmp_path):
+    scans = dataset(tmp_path / "scans")
+    out = tmp_path / "out"
+    process = start([scans, "-o", out, "--workers", "1"])
+    wait_for_lines(out, 3, process)
+    os.killpg(process.pid, signal.SIGKILL)
+    process.communicate()
+    assert process.returncode == -signal.SIGKILL
+    done_before = {k for k, r in assert_outputs_complete(out).items() if r["status"] == "ok"}
+    assert 0 < len(done_before) < 16
+    resumed = start([scans, "-o", out, "--workers", "1"])  # the same command again
+    _, err = resumed.communicate(timeout=120)
+    assert resumed.returncode == 1 and "1 of 17 inputs failed" in err  # the corrupt file, again
+    assert not [p for p in files_under(out) if is_temporary(p.name)]
+    lines = (out / ".jaxpose" / "journal.jsonl").read_text().splitlines()
+    assert len([line for line in lines if '"status":"ok"' in line]) == 16  # every good file once
+    assert_outputs_complete(out)
+    reference = start([scans, "-o", tmp_path / "reference", "--workers", "1"])
+    reference.communicate(timeout=120)
+    rows = jaxpose.read_transforms(out / "transforms.parquet")
+    expected = jaxpose.read_transforms(tmp_path / "reference" / "transforms.parquet")
+    assert stable(rows) == [{**r, "output": r["output"].replace("reference", "out")} for r in stable(expected)]
+
+
+@pytest.mark.parametrize("sig, code, word, workers", [(signal.SIGINT, 130, "interrupted", 2),
+                                                      (signal.SIGTERM, 143, "terminated", 1)])
+def test_interrupt_mid_run_leaves_nothing_partial(tmp_path, sig, code, word, workers):
+    scans = dataset(tmp_path / "scans")
+    out = tmp_path / "out"
+    process = start([scans, "-o", out, "--workers", workers])
+    wait_for_lines(out, 1, process)
+    os.killpg(process.pid, sig)  # as a terminal's Ctrl-C: the whole process group
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == code
+    lines = err.strip().splitlines()
+    assert lines[-1].startswith(f"jaxpose: error: {word}"), err  # one line, no traceback
+    assert all(line.startswith("jaxpose: failed: ") for line in lines[:-1]), err
+    assert not [p for p in files_under(out) if is_temporary(p.name)]
+    records = assert_outputs_complete(out)
+    rows = jaxpose.read_transforms(out / "transforms.parquet")  # written on the way out
+    assert sorted(r.input for r in rows) == sorted(records)
+
+
+# --------------------------------------------------------------------------- the guard, in this process
+def test_guard_turns_signals_into_exceptions_and_restores_handlers():
+    from jaxpose.interrupts import SignalGuard, Terminated, check
+
+    before = signal.getsignal(signal.SIGTERM)
+    with SignalGuard() as guard:
+        with pytest.raises(Terminated):
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(1)
+        assert guard.exit_code == 143
+        os.kill(os.getpid(), signal.SIGINT)  # a second signal does not interrupt the cleanup
+        with pytest.raises(Terminated):
+            check()  # a swallowed interrupt is raised again at the next checkpoint
+    assert signal.getsignal(signal.SIGTERM) is before
+    check()  # no guard: nothing pending
+
+
+def test_guard_silences_its_own_swallowed_interrupt(capsys):
+    import gc
+
+    from jaxpose.interrupts import SignalGuard
+
+    class Swallower:
+        def __del__(self):
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.5)  # the handler raises here, inside __del__: Python prints "Exception ignored"
+
+    with SignalGuard() as guard:
+        Swallower()
+        gc.collect()
+        assert guard.received == signal.SIGINT
+        with pytest.raises(KeyboardInterrupt):
+            guard.check()
+    assert "Exception ignored" not in capsys.readouterr().err

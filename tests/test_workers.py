@@ -1,0 +1,71 @@
+"""Worker processes and a real dask.distributed LocalCluster give the same table and files."""
+import filecmp
+import os
+
+import pytest
+
+import jaxpose
+from jaxpose import batch, cli
+from jaxpose.task import NormalizeOptions
+from jaxpose.workers import LocalExecutor, WorkerLost
+
+from conftest import write_mesh_tree
+
+distributed = pytest.importorskip("distributed")
+FAST = NormalizeOptions(resolution=16)
+TIMING = ("seconds", "worker", "worker_peak_mb")
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                                  silence_logs=50) as local:
+        yield local
+
+
+def stable(rows, root):
+    return [{k: (v.replace(str(root), "") if isinstance(v, str) else v) for k, v in row._asdict().items()
+             if k not in TIMING} for row in rows]
+
+
+def test_dask_and_local_processes_give_the_same_results(tmp_path, cluster):
+    tree = write_mesh_tree(tmp_path / "scans")
+    local = batch.run_batch([tmp_path / "scans"], tmp_path / "local", FAST, workers=2, progress=False)
+    dask = batch.run_batch([tmp_path / "scans"], tmp_path / "dask", FAST, scheduler=cluster.scheduler_address,
+                           progress=False)
+    assert stable(local.rows, tmp_path / "local") == stable(dask.rows, tmp_path / "dask")  # bit for bit
+    assert len({r.worker for r in local.rows}) == 2 and len(local.peak_mb) == 2
+    pids = {int(r.worker.rpartition(":")[2]) for r in dask.rows}
+    assert 1 <= len(pids) <= 2 and os.getpid() not in pids  # the cluster's worker processes did the work
+    for path in tree["good"]:
+        relative = path.relative_to(tmp_path / "scans")
+        assert filecmp.cmp(tmp_path / "local" / relative, tmp_path / "dask" / relative, shallow=False)
+    assert (local.failed, dask.failed) == (3, 3)
+
+
+def test_cli_on_a_dask_scheduler(tmp_path, cluster, capsys):
+    write_mesh_tree(tmp_path / "scans")
+    out = tmp_path / "out"
+    code = cli.main(["normalize", str(tmp_path / "scans" / "a"), "-o", str(out), "--scheduler",
+                     cluster.scheduler_address, "--resolution", "16", "--fail-fast", "--glob", "*.ply"])
+    assert code == 0, capsys.readouterr().err
+    assert [r.ok for r in jaxpose.read_transforms(out / "transforms.parquet")] == [True]
+    code = cli.main(["normalize", str(tmp_path / "scans"), "-o", str(out), "--scheduler", "tcp://127.0.0.1:1",
+                     "--workers", "2"])
+    assert code == 1 and "workers (--workers) is for local runs" in capsys.readouterr().err
+
+
+def test_a_dead_worker_process_fails_its_input_and_the_run_goes_on(tmp_path):
+    executor = LocalExecutor(2)
+    try:
+        future = executor.submit(_die)
+        with pytest.raises(WorkerLost, match="died"):
+            executor.result(future)
+        executor.restart()
+        assert executor.result(executor.submit(abs, -3)) == 3
+    finally:
+        executor.close(kill=True)
+
+
+def _die():
+    os._exit(9)

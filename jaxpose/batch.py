@@ -80,7 +80,8 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
     table = Path(os.path.abspath(table)) if table is not None else output_dir / transforms.default_table_name()
     transforms.table_format(table)
     files, root = find_inputs(inputs, glob=glob, exclude=[output_dir])
-    items = plan_outputs(files, root, output_dir, file_format=file_format, table=table)
+    given = [inputs] if isinstance(inputs, (str, os.PathLike)) else list(inputs)
+    items = plan_outputs(files, root, output_dir, file_format=file_format, table=table, given=given)
     fingerprint = options.fingerprint(file_format)
     fixed = options.columns()
     with OutputFolder(output_dir, force=force) as folder:
@@ -110,6 +111,9 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
 
 def normalize_files(inputs, output_dir, options=None, **kwargs) -> list:
     """Normalize every mesh of files, folders and manifests; outputs mirror the inputs' tree.
+
+    Options of :class:`NormalizeOptions` may also be given by name (``method="ocsvm"``), the
+    run's below; an unknown name raises :class:`InvalidInputError`.
 
     Args:
       inputs: a path or paths: mesh files, folders (searched recursively for
@@ -145,7 +149,19 @@ def normalize_files(inputs, output_dir, options=None, **kwargs) -> list:
         >>> rows = jaxpose.normalize_files("scans/", "normalized/", workers=4)
         >>> [r.input for r in rows if not r.ok]                  # what failed, with r.error
     """
-    return run_batch(inputs, output_dir, options, **kwargs).rows
+    import dataclasses
+    import inspect
+
+    fields = {f.name for f in dataclasses.fields(NormalizeOptions)}
+    runs = set(inspect.signature(run_batch).parameters) - {"inputs", "output_dir", "options"}
+    unknown = sorted(set(kwargs) - fields - runs)
+    if unknown:
+        raise InvalidInputError(f"unknown argument{'s' if len(unknown) > 1 else ''} {', '.join(unknown)}; "
+                                f"valid: {', '.join(sorted(fields | runs))}")
+    named = {k: kwargs.pop(k) for k in list(kwargs) if k in fields}
+    if named and options is not None:
+        raise InvalidInputError(f"give options either as NormalizeOptions or by name ({', '.join(named)}), not both")
+    return run_batch(inputs, output_dir, NormalizeOptions(**named) if named else options, **kwargs).rows
 
 
 def _count(value, name, minimum):

@@ -127,7 +127,7 @@ def _read_manifest(path):
     return [Path(os.path.abspath(path.parent / Path(e).expanduser())) for e in entries]
 
 
-def plan_outputs(files, root, output_dir, file_format=None, table=None) -> list:
+def plan_outputs(files, root, output_dir, file_format=None, table=None, given=()) -> list:
     """Pair each input with its output under `output_dir`, refusing every kind of aliasing.
 
     Args:
@@ -135,6 +135,7 @@ def plan_outputs(files, root, output_dir, file_format=None, table=None) -> list:
       output_dir: the output folder.
       file_format: an output format for all (``"ply"``), or None to keep each input's.
       table: the transforms table's path, checked against inputs and outputs too.
+      given: the INPUTs as given (manifests among them), which the table must not overwrite either.
 
     Returns:
       list of :class:`Item` with absolute outputs, in the order of `files`.
@@ -145,7 +146,7 @@ def plan_outputs(files, root, output_dir, file_format=None, table=None) -> list:
     """
     output_dir = Path(os.path.abspath(output_dir))
     items, owner = [], {}
-    sources = {os.path.realpath(f): f for f in files}
+    sources = {os.path.realpath(f): f for f in [*given, *files]}
     for source in files:
         relative = source.relative_to(root)
         output = output_dir / relative

@@ -133,7 +133,8 @@ def normalize_file(source, options=None, file_type=None) -> FileResult:
     Args:
       source: a path (anything :func:`jaxpose.mesh.load` reads) or a Trimesh / PointCloud.
       options: :class:`NormalizeOptions` (default: the defaults).
-      file_type: output format (:data:`jaxpose.mesh.OUTPUT_FORMATS`); default the source's suffix.
+      file_type: output format (:data:`jaxpose.mesh.OUTPUT_FORMATS`); default the source's suffix
+        (give it for a geometry object).
 
     Returns:
       :class:`FileResult`.

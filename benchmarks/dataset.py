@@ -1,0 +1,171 @@
+"""Dataset throughput of ``jaxpose normalize INPUT... -o OUTDIR`` (``python -m benchmarks.dataset``).
+
+Whole commands, timed from outside (start to exit, start-up included), in turn so that a drift of
+the machine's speed hits each alike, on the same 48 real meshes (20 FAUST + the first 28 KIDS):
+
+trimesh     the loop a user writes without jaxpose: ``trimesh.load`` + ``center_mass`` per file
+            (a fresh ``python -c``), the yardstick
+local       ``jaxpose normalize MANIFEST -o OUTDIR --workers W`` (a fresh OUTDIR each run)
+dask        the same with ``--dask-local W`` (a local dask.distributed cluster; skipped without it)
+single      one file, ``jaxpose normalize FILE -o OUT`` twice; the second run is the one reported
+            (the persistent compilation cache filled; the default estimator compiles nothing)
+single_ocsvm  the same with ``--method ocsvm`` and a fresh cache folder: the first run compiles,
+            the second loads the compiled program
+
+Printed: median wall seconds, meshes/s and CPU seconds (user + system, the workers included: on a
+busy machine the CPU time says more than the wall time) of each, dask/local per pair, the compute-only rate
+(files x workers / the workers' summed seconds, i.e. start-up excluded), each worker's peak memory
+(from the table's ``worker_peak_mb``) and whether the dask and local tables agree bit for bit.
+No figure is asserted: the machine decides them.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+TIMING = ("seconds", "worker", "worker_peak_mb")
+
+
+def meshes(data=DATA, faust=20, kids=28):
+    files = sorted((data / "faust-dev").glob("*.ply"))[:faust] + sorted((data / "kids-dev").glob("*/*.ply"))[:kids]
+    if len(files) < faust + kids:
+        raise SystemExit(f"need {faust} FAUST and {kids} KIDS meshes under {data}")
+    return files
+
+
+def wall(command, env=None, cpu=None):
+    """Wall seconds of a whole command; its CPU seconds (user + system, with the processes it
+    waited for: the workers) are appended to `cpu`."""
+    import resource
+
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    start = time.perf_counter()
+    run = subprocess.run(command, capture_output=True, text=True, env={**os.environ, **(env or {})})
+    seconds = time.perf_counter() - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if run.returncode != 0:
+        raise SystemExit(f"{' '.join(map(str, command))} failed ({run.returncode}):\n{run.stderr}")
+    if cpu is not None:
+        cpu.append(after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime)
+    return seconds
+
+
+def jaxpose_command():
+    return [sys.executable, "-m", "jaxpose", "normalize"]
+
+
+def trimesh_loop(manifest):
+    code = ("import sys, trimesh\n"
+            "for line in open(sys.argv[1]):\n"
+            "    mesh = trimesh.load(line.strip(), process=False)\n"
+            "    mesh.center_mass\n")
+    return [sys.executable, "-c", code, str(manifest)]
+
+
+def table_summary(table, workers):
+    import jaxpose
+
+    rows = jaxpose.read_transforms(table)
+    peaks = {}
+    for row in rows:
+        peaks[row.worker] = max(peaks.get(row.worker, 0.0), row.worker_peak_mb or 0.0)
+    busy = sum(row.seconds for row in rows)
+    return {"rows": len(rows), "failed": sum(not r.ok for r in rows), "peak_mb": sorted(peaks.values()),
+            "compute_rate": len(rows) * workers / busy if busy else None,
+            "stable": [{k: v for k, v in r._asdict().items() if k not in TIMING and k != "output"} for r in rows]}
+
+
+def run(repeats=3, workers=2, dask=True, data=DATA):
+    files = meshes(data)
+    work = Path(tempfile.mkdtemp(prefix="jaxpose-dataset-"))
+    try:
+        manifest = work / "meshes.txt"
+        manifest.write_text("".join(f"{f}\n" for f in files))
+        try:
+            import distributed  # noqa: F401
+        except ImportError:
+            dask = False
+        times = {"trimesh": [], "local": [], "dask": []}
+        cpus = {"trimesh": [], "local": [], "dask": []}
+        tables = {}
+        for i in range(repeats):
+            times["trimesh"].append(wall(trimesh_loop(manifest), cpu=cpus["trimesh"]))
+            out = work / f"local{i}"
+            times["local"].append(wall(jaxpose_command() + [manifest, "-o", out, "--workers", str(workers)],
+                                       cpu=cpus["local"]))
+            tables["local"] = table_summary(out / "transforms.parquet", workers)
+            if dask:
+                out = work / f"dask{i}"
+                times["dask"].append(wall(jaxpose_command() + [manifest, "-o", out, "--dask-local", str(workers)],
+                                          cpu=cpus["dask"]))
+                tables["dask"] = table_summary(out / "transforms.parquet", workers)
+        single = {}
+        for name, extra, env in (("single", [], {}), ("single_ocsvm", ["--method", "ocsvm"],
+                                                      {"JAXPOSE_CACHE_DIR": str(work / "cache")})):
+            cpu = []
+            runs = [wall(jaxpose_command() + [files[0], "-o", work / f"{name}{k}.ply"] + extra, env, cpu)
+                    for k in range(2)]
+            single[name] = {"first_s": runs[0], "second_s": runs[1], "second_cpu_s": cpu[1]}
+        n = len(files)
+        result = {"files": n, "workers": workers, "cores": os.cpu_count(), "repeats": repeats, "single": single}
+        for name, values in times.items():
+            if values:
+                result[name] = {"median_s": statistics.median(values), "runs_s": values,
+                                "per_s": n / statistics.median(values), "cpu_s": statistics.median(cpus[name])}
+        result["local"].update({k: tables["local"][k] for k in ("failed", "peak_mb", "compute_rate")})
+        if dask:
+            ratios = [d / l for d, l in zip(times["dask"], times["local"])]
+            result["dask"].update({k: tables["dask"][k] for k in ("failed", "peak_mb", "compute_rate")},
+                                  dask_over_local=statistics.median(ratios), ratios=ratios,
+                                  same_table=tables["dask"]["stable"] == tables["local"]["stable"])
+        return result
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+
+
+def format_result(r):
+    lines = [f"{r['files']} meshes, {r['workers']} workers, {r['cores']} cores, median of {r['repeats']} runs "
+             "(whole commands, start-up included)",
+             "| run | wall s (median) | meshes/s | CPU s (median) | compute-only meshes/s | peak MiB per worker |",
+             "|---|---|---|---|---|---|"]
+    for name in ("trimesh", "local", "dask"):
+        if name in r:
+            x = r[name]
+            rate = f"{x['compute_rate']:.1f}" if x.get("compute_rate") else ""
+            peak = ", ".join(f"{p:.0f}" for p in x.get("peak_mb", []))
+            lines.append(f"| {name} | {x['median_s']:.2f} | {x['per_s']:.2f} | {x['cpu_s']:.2f} | {rate} | {peak} |")
+    if "dask" in r:
+        lines.append(f"dask / local wall: {r['dask']['dask_over_local']:.3f} (pairs: "
+                     f"{', '.join(f'{v:.3f}' for v in r['dask']['ratios'])}); same table: {r['dask']['same_table']}")
+    for name, s in r["single"].items():
+        lines.append(f"{name}: first run {s['first_s']:.2f} s, second run {s['second_s']:.2f} s "
+                     f"({s['second_cpu_s']:.2f} s CPU)")
+    return "\n".join(lines)
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--no-dask", action="store_true")
+    parser.add_argument("--data", type=Path, default=DATA)
+    parser.add_argument("--json", help="write the result here")
+    args = parser.parse_args(argv)
+    result = run(args.repeats, args.workers, not args.no_dask, args.data)
+    print(format_result(result))
+    if args.json:
+        Path(args.json).write_text(json.dumps(result, indent=2) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -84,10 +84,12 @@ def table_summary(table, workers):
             "stable": [{k: v for k, v in r._asdict().items() if k not in TIMING and k != "output"} for r in rows]}
 
 
-def run(repeats=3, workers=2, dask=True, data=DATA):
+def run(repeats=3, workers=2, dask=True, data=DATA, copies=1, with_single=True):
     files = meshes(data)
     work = Path(tempfile.mkdtemp(prefix="jaxpose-dataset-"))
     try:
+        if copies > 1:  # a bigger dataset of the same meshes (copies, so each is a file of its own)
+            files = [_copy(f, work / "copies" / str(k) / f.parent.name / f.name) for k in range(copies) for f in files]
         manifest = work / "meshes.txt"
         manifest.write_text("".join(f"{f}\n" for f in files))
         try:
@@ -109,7 +111,7 @@ def run(repeats=3, workers=2, dask=True, data=DATA):
                                           cpu=cpus["dask"]))
                 tables["dask"] = table_summary(out / "transforms.parquet", workers)
         single = {}
-        for name, extra, env in (("single", [], {}), ("single_ocsvm", ["--method", "ocsvm"],
+        for name, extra, env in [] if not with_single else (("single", [], {}), ("single_ocsvm", ["--method", "ocsvm"],
                                                       {"JAXPOSE_CACHE_DIR": str(work / "cache")})):
             cpu = []
             runs = [wall(jaxpose_command() + [files[0], "-o", work / f"{name}{k}.ply"] + extra, env, cpu)
@@ -130,6 +132,12 @@ def run(repeats=3, workers=2, dask=True, data=DATA):
         return result
     finally:
         shutil.rmtree(work, ignore_errors=True)
+
+
+def _copy(source, target):
+    target.parent.mkdir(parents=True, exist_ok=True)
+    shutil.copyfile(source, target)
+    return target
 
 
 def format_result(r):
@@ -158,9 +166,11 @@ def main(argv=None):
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--no-dask", action="store_true")
     parser.add_argument("--data", type=Path, default=DATA)
+    parser.add_argument("--copies", type=int, default=1, help="each mesh this many times (a bigger dataset)")
+    parser.add_argument("--no-single", action="store_true", help="skip the single-file runs")
     parser.add_argument("--json", help="write the result here")
     args = parser.parse_args(argv)
-    result = run(args.repeats, args.workers, not args.no_dask, args.data)
+    result = run(args.repeats, args.workers, not args.no_dask, args.data, args.copies, not args.no_single)
     print(format_result(result))
     if args.json:
         Path(args.json).write_text(json.dumps(result, indent=2) + "\n")

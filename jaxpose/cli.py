@@ -108,7 +108,9 @@ def console():
     code = 1
     with interrupts.SignalGuard() as guard:
         try:
-            workers.configure_process()  # before anything imports NumPy or JAX
+            # before anything imports NumPy or JAX: the compilation cache; for normalize also one
+            # BLAS thread, as in its worker processes (the same bits whichever process computes)
+            workers.configure_process(one_thread=sys.argv[1:2] == ["normalize"])
             code = main()
         except SystemExit as exc:  # argparse: --help (0), usage errors (2)
             code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else _fail(exc.code))

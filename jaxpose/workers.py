@@ -35,22 +35,23 @@ def default_workers() -> int:
         return os.cpu_count() or 1
 
 
-def process_environment() -> dict:
-    """The environment variables of a worker process: one BLAS thread, the compilation cache
-    (:mod:`jaxpose.cache`); variables already set are left to the user."""
+def process_environment(one_thread=True) -> dict:
+    """The environment variables of a worker process: one BLAS thread (unless `one_thread` is
+    False), the compilation cache (:mod:`jaxpose.cache`); variables already set are left alone."""
     from . import cache
 
-    return {k: v for k, v in {**_ONE_THREAD, **cache.environment()}.items() if k not in os.environ}
+    wanted = {**(_ONE_THREAD if one_thread else {}), **cache.environment()}
+    return {k: v for k, v in wanted.items() if k not in os.environ}
 
 
-def configure_process() -> bool:
+def configure_process(one_thread=True) -> bool:
     """Apply :func:`process_environment` to this process if NumPy and JAX are not imported yet
     (the command line does this first); returns whether it did."""
     import sys
 
     if "numpy" in sys.modules or "jax" in sys.modules:
         return False
-    os.environ.update(process_environment())
+    os.environ.update(process_environment(one_thread))
     return True
 
 

@@ -69,3 +69,23 @@ def test_a_dead_worker_process_fails_its_input_and_the_run_goes_on(tmp_path):
 
 def _die():
     os._exit(9)
+
+
+def test_worker_environment_one_blas_thread_and_the_compilation_cache(tmp_path, monkeypatch):
+    from jaxpose import cache
+    from jaxpose.workers import process_environment
+
+    for name in ("JAX_COMPILATION_CACHE_DIR", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+        monkeypatch.delenv(name, raising=False)
+    monkeypatch.setenv("JAXPOSE_CACHE_DIR", str(tmp_path / "c"))
+    env = process_environment()
+    assert env["JAX_COMPILATION_CACHE_DIR"] == str(tmp_path / "c") and env["OPENBLAS_NUM_THREADS"] == "1"
+    assert "OMP_NUM_THREADS" not in process_environment(one_thread=False)
+    monkeypatch.setenv("JAXPOSE_CACHE_DIR", "")  # off
+    assert cache.cache_dir() is None and "JAX_COMPILATION_CACHE_DIR" not in process_environment()
+    monkeypatch.delenv("JAXPOSE_CACHE_DIR")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    if os.name == "posix" and os.uname().sysname == "Linux":
+        assert cache.cache_dir() == tmp_path / "xdg" / "jaxpose" / "jax"
+    monkeypatch.setenv("JAX_COMPILATION_CACHE_DIR", "/mine")  # the user's own setting wins
+    assert "JAX_COMPILATION_CACHE_DIR" not in process_environment()

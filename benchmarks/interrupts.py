@@ -6,7 +6,10 @@ terminal's Ctrl-C does; SIGTERM with ``--signal TERM``). A trial passes when the
 130 (143), stderr ends with one ``jaxpose: error:`` line (other lines only ``jaxpose: failed:``
 reports of bad inputs) and holds no traceback, no temporary file is left, and every output file
 present is complete (it loads and equals its input under the transform recorded for it). A run
-that ended before the signal is not a trial: it is repeated with another moment.
+that ended before the signal (or was exiting: exit 0, nothing on stderr) is not a trial: it is
+repeated with another moment. A signal in the first milliseconds, while Python itself starts and
+before jaxpose has run a line, ends the process by the signal itself (exit -2 / -15 here, which a
+shell reports as 130 / 143), with nothing written: such a trial is reported as it is.
 
 Modes: ``one`` (a 60k-vertex KIDS mesh, ``-o out.ply``, the single-file form) and ``many`` (the 20
 FAUST meshes, ``-o OUTDIR --workers 2``).
@@ -98,6 +101,10 @@ def run(mode="one", trials=20, seed=0, sig="INT"):
                 continue
             os.killpg(process.pid, number)
             _, err = process.communicate(timeout=120)
+            if process.returncode == 0 and not err.strip():  # it had ended, or was exiting: not a trial
+                late += 1
+                shutil.rmtree(out)
+                continue
             problems = check(out, process.returncode, expected, err)
             results.append({"delay_s": round(delay, 3), "exit": process.returncode, "problems": problems})
             shutil.rmtree(out)

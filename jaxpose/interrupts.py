@@ -95,11 +95,16 @@ def check():
 def leave(code: int):
     """Flush stdout and stderr, then end the process with `code` at once (``os._exit``).
 
+    SIGINT and SIGTERM are blocked first: a signal that comes after the run has ended changes
+    nothing (the exit code is the run's).
+
     A garbage collection first runs the finalizers of what the run dropped (multiprocessing's
     semaphores, which otherwise are reported as leaked).
     """
     import gc
 
+    if hasattr(signal, "pthread_sigmask"):  # the run is over: a late signal must not interrupt the exit
+        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
     gc.collect()
     for stream in (sys.stdout, sys.stderr):
         try:

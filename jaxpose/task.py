@@ -62,13 +62,12 @@ class NormalizeOptions:
         c_name, s_name = resolve(self.method, self.center, self.scale)
         check_gamma(self.gamma)
         check_nu(self.nu)
-        set_ = lambda **kw: [object.__setattr__(self, k, v) for k, v in kw.items()]  # noqa: E731
-        set_(gamma=float(self.gamma), nu=float(self.nu), count=_integer(self.count, "count", 4),
-             seed=_integer(self.seed, "seed", 0))
+        self._set(gamma=float(self.gamma), nu=float(self.nu), count=_integer(self.count, "count", 4),
+                  seed=_integer(self.seed, "seed", 0))
         if self.sampling not in SAMPLING:
             raise InvalidInputError(f"sampling must be one of {', '.join(SAMPLING)}; got {self.sampling!r}")
         if self.resolution is not None:
-            set_(resolution=_integer(self.resolution, "resolution", 8))
+            self._set(resolution=_integer(self.resolution, "resolution", 8))
             if not {"robust_depth", "robust_volume", "ocsvm"} & {c_name, s_name}:
                 raise InvalidInputError(f"resolution applies to the robust and ocsvm estimators, not "
                                         f"{c_name} / {s_name}")
@@ -77,6 +76,10 @@ class NormalizeOptions:
                                     f"got {self.rotation!r}")
         if not isinstance(self.strict, bool):
             raise InvalidInputError(f"strict must be True or False, got {self.strict!r}")
+
+    def _set(self, **values):  # normalized values on a frozen instance, once, at construction
+        for name, value in values.items():
+            object.__setattr__(self, name, value)
 
     @property
     def rotation_method(self) -> str | None:

@@ -1,9 +1,10 @@
 """jaxpose: consistent canonical position and size of 3D shapes, with one-class SVMs, in JAX."""
-from ._validate import ConvergenceError, InvalidInputError, JaxposeError
+from ._validate import ConvergenceError, InvalidInputError, InvalidPoseWarning, JaxposeError
 from .config import GridConfig, PoseConfig, SolverConfig
 from .moments import Moments, volume_moments
 from .pose import Pose, normalize, normalize_batch
 from .svdd import SVDD, decision_function, fit_svdd
+from .validity import Status
 
 __version__ = "0.1.0"
 
@@ -26,6 +27,8 @@ __all__ = [
     "JaxposeError",
     "InvalidInputError",
     "ConvergenceError",
+    "InvalidPoseWarning",
+    "Status",
 ]
 
 _LAZY_MODULES = ("baselines", "sensitivity", "datasets", "evaluation", "tuning", "plot", "mesh")

@@ -12,6 +12,7 @@ __all__ = [
     "InvalidInputError",
     "ConvergenceError",
     "OpenMeshWarning",
+    "InvalidPoseWarning",
     "check_points",
     "check_gamma",
     "check_nu",
@@ -37,6 +38,10 @@ class ConvergenceError(JaxposeError, RuntimeError):
 
 class OpenMeshWarning(UserWarning):
     """A closed-surface quantity (solid volume, centroid) was computed on a mesh that is not closed."""
+
+
+class InvalidPoseWarning(UserWarning):
+    """A concrete pose came out not valid (``Pose.valid`` False); the message says why."""
 
 
 def is_traced(x) -> bool:

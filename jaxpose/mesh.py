@@ -6,6 +6,7 @@ file; exporting is atomic (temporary file in the target directory, then
 """
 from __future__ import annotations
 
+import io
 import numbers
 import os
 import tempfile
@@ -19,7 +20,9 @@ from ._validate import InvalidInputError, check_gamma, check_nu, check_points
 
 __all__ = [
     "SAMPLING",
+    "TEXT_FORMATS",
     "load",
+    "sniff_format",
     "sample_surface",
     "normalize_mesh",
     "pose_matrix",
@@ -63,8 +66,59 @@ def load(path_or_mesh):
     if isinstance(geometry, trimesh.Trimesh) and len(geometry.faces) == 0:
         geometry = trimesh.PointCloud(np.asarray(geometry.vertices))
     if source != "input" and isinstance(geometry, trimesh.Trimesh):
-        geometry.merge_vertices()  # STL and friends store each triangle's corners apart
+        _merge_vertices(geometry)  # STL and friends store each triangle's corners apart
     return geometry
+
+
+def _merge_vertices(geometry):
+    """trimesh's ``merge_vertices`` (an absolute tolerance, 1e-8), done near the origin: far from
+    it, rounding every coordinate to 1e-8 overflows and merges distinct vertices. Moving by an
+    anchor vertex and back is exact (:func:`jaxpose.frame.anchor`)."""
+    from .frame import anchor
+
+    shift = anchor(geometry.vertices)
+    geometry.vertices = np.asarray(geometry.vertices, np.float64) - shift
+    geometry.merge_vertices()
+    geometry.vertices = np.asarray(geometry.vertices, np.float64) + shift
+
+
+TEXT_FORMATS = ("obj", "off", "xyz")  # text formats: decoded here (UTF-8, else Latin-1), any encoding reads
+_OFF_HEADERS = (b"OFF", b"COFF", b"NOFF", b"CNOFF", b"STOFF", b"4OFF")
+
+
+def sniff_format(data: bytes):
+    """The format a file's first bytes announce, or None: ``ply`` (``ply`` magic), ``glb``
+    (``glTF``), ``stl`` (binary: 84 + 50 n bytes for the n triangles of its header; ASCII:
+    ``solid``), ``off`` (an OFF header)."""
+    if data.startswith(b"ply"):
+        return "ply"
+    if data.startswith(b"glTF"):
+        return "glb"
+    if _binary_stl(data):
+        return "stl"
+    first = data.lstrip()[:16].split()
+    if first and first[0].lower() == b"solid":
+        return "stl"
+    if first and first[0] in _OFF_HEADERS:
+        return "off"
+    return None
+
+
+def _binary_stl(data: bytes):
+    """A binary STL: an 80-byte header, a triangle count n, then 50 bytes per triangle."""
+    return len(data) > 84 and 84 + 50 * int.from_bytes(data[80:84], "little") == len(data)
+
+
+def _as_text(data: bytes, path, ext):
+    """Text bytes re-encoded as UTF-8 (Latin-1 where they are not UTF-8: every byte is a character
+    there, and mesh data is ASCII); binary data is refused by name."""
+    if b"\x00" in data:
+        raise InvalidInputError(f"{path}: binary data, not a text {ext.upper()} file (does the extension match the content?)")
+    try:
+        data.decode("utf-8")
+        return data
+    except UnicodeDecodeError:
+        return data.decode("latin-1").encode("utf-8")
 
 
 def _read(path):
@@ -82,13 +136,30 @@ def _read(path):
             f"readable: {', '.join(sorted(known))}"
         )
     try:
-        with open(path, "rb") as handle:  # read-only: the file is never touched
-            return trimesh.load(handle, file_type=ext, process=False)
-    except PermissionError as exc:
+        data = path.read_bytes()  # read-only: the file is never touched
+    except OSError as exc:
         raise InvalidInputError(f"{path}: cannot read: {exc.strerror}") from None
+    found = sniff_format(data)
+    if found is not None and found != ext and ext in ("ply", "glb", "stl", "off", "obj", "xyz"):
+        raise InvalidInputError(f"{path}: the content is {found.upper()}, not {ext.upper()}: "
+                                f"rename it to .{found} (the extension chooses the reader)")
+    if ext in TEXT_FORMATS or (ext == "stl" and found == "stl" and not _binary_stl(data)):
+        data = _as_text(data, path, ext)
+    try:
+        geometry = trimesh.load(io.BytesIO(data), file_type=ext, process=False)
     except Exception as exc:  # every reader has its own errors for corrupt files
         detail = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise InvalidInputError(f"{path}: cannot read {ext.upper()} file: {detail}") from None
+    if not _has_vertices(geometry):
+        raise InvalidInputError(f"{path}: empty geometry: no vertices read as {ext.upper()} (the file is empty, "
+                                f"or its content is not {ext.upper()})")
+    return geometry
+
+
+def _has_vertices(geometry):
+    if isinstance(geometry, trimesh.Scene):
+        return any(len(getattr(g, "vertices", ())) for g in geometry.geometry.values())
+    return len(getattr(geometry, "vertices", ())) > 0
 
 
 def _flatten(scene, source):
@@ -192,35 +263,60 @@ def normalize_mesh(
         are the same as without it.
 
     Returns:
-      normalized: a transformed copy (Trimesh or PointCloud), pose: :class:`jaxpose.Pose`.
+      normalized: a transformed copy (Trimesh or PointCloud), pose: :class:`jaxpose.Pose` (its
+      center in float64, exact under translation: :func:`jaxpose.estimators.centered`).
+
+    Raises:
+      InvalidInputError: any bad argument (named, with its range), before the file is read; an
+        unreadable file; a mesh with no area.
+      JaxposeError: no valid pose (for ``ocsvm`` with the reason of :mod:`jaxpose.validity`; for
+        ``robust`` a shape that encloses no volume).
 
     Example::
 
         >>> mesh, pose = jaxpose.normalize_mesh("body.ply")              # robust default
         >>> mesh, pose = jaxpose.normalize_mesh("body.ply", method="ocsvm")
     """
+    # every argument is checked here, before the file is read or anything is compiled
     check_gamma(gamma)
     check_nu(nu)
     count = _check_int(count, "count", minimum=4)  # validated whatever the method
-    from . import estimators
+    seed = _check_int(seed, "seed", minimum=0)
+    if sampling not in SAMPLING:
+        raise InvalidInputError(f"unknown sampling {sampling!r}; valid: {', '.join(SAMPLING)}")
+    if not isinstance(strict, (bool, np.bool_)):
+        raise InvalidInputError(f"strict must be True or False, got {strict!r}")
+    from . import estimators, solid
+    from .config import PoseConfig
 
     c_name, s_name = estimators.resolve(method, center, scale)
     uses_ocsvm = "ocsvm" in (c_name, s_name)
+    unknown = sorted(set(options) - set(PoseConfig.FLAT))
+    if unknown:
+        raise InvalidInputError(
+            f"normalize_mesh got unknown argument{'s' if len(unknown) > 1 else ''} {', '.join(unknown)}; its own: "
+            f"gamma, nu, count, seed, sampling, method, center, scale, strict, power, resolution, rotation; "
+            f"ocsvm options: {', '.join(PoseConfig.FLAT)}"
+        )
     if options and not uses_ocsvm:
         raise InvalidInputError(f"options {sorted(options)} apply to the ocsvm estimator only")
     extra = {}
     if power is not None:
         if c_name not in ("robust_depth", "depth_weighted_solid"):
             raise InvalidInputError(f"power applies to the robust_depth and depth_weighted_solid centers, not {c_name}")
+        if isinstance(power, bool) or not (isinstance(power, numbers.Real) and np.isfinite(power) and power >= 0):
+            raise InvalidInputError(f"power must be a finite number >= 0, got {power!r}")
         extra["power"] = power
     if resolution is not None:
         if uses_ocsvm:
             options = {**options, "resolution": resolution}
         elif "robust_depth" in (c_name,) or s_name == "robust_volume":
-            extra["resolution"] = resolution
+            extra["resolution"] = solid.check_resolution(resolution)
         else:
             raise InvalidInputError(f"resolution applies to the robust and ocsvm estimators (options), "
                                     f"not {c_name} / {s_name}")
+    if uses_ocsvm:
+        PoseConfig.create(**options)  # every option's value and the grid's memory
     frame_name = _rotation_name(rotation)
     geometry = load(mesh_or_path)
     pose = estimators.estimate(geometry, method, center=center, scale=scale, strict=strict, gamma=gamma, nu=nu,
@@ -228,14 +324,24 @@ def normalize_mesh(
     if frame_name is not None:
         from .rotation import frame_of
 
-        found = frame_of(geometry, frame_name, resolution=extra.get("resolution"),
+        found = frame_of(estimators.centered(geometry)[0], frame_name, resolution=extra.get("resolution"),
                          ocsvm={"gamma": gamma, "nu": nu, "count": count, "seed": seed, "sampling": sampling,
                                 "options": options})
         pose = pose._replace(ambiguity=np.asarray(found.ambiguity, np.float64),
                              rotation=np.asarray(found.rotation, np.float64))
+    return _transformed(geometry, pose), pose
+
+
+def _transformed(geometry, pose):
+    """A copy of the geometry with vertices R (x - center) / scale, in float64: x - center first,
+    which is exact far from the origin (a 4 x 4 matrix would round x / scale first)."""
+    center = np.asarray(pose.center, np.float64).reshape(3)
+    y = (np.asarray(geometry.vertices, np.float64) - center) / float(np.asarray(pose.scale, np.float64))
+    if getattr(pose, "rotation", None) is not None:
+        y = y @ np.asarray(pose.rotation, np.float64).reshape(3, 3).T
     normalized = geometry.copy()
-    normalized.apply_transform(pose_matrix(pose))
-    return normalized, pose
+    normalized.vertices = y
+    return normalized
 
 
 def _rotation_name(rotation):

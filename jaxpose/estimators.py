@@ -169,8 +169,9 @@ class _Shape:
             with warnings.catch_warnings():  # an invalid pose is raised below, with its reason
                 warnings.simplefilter("ignore", InvalidPoseWarning)
                 pose = normalize(points, o.get("gamma", 47.0), o.get("nu", 0.5), **o.get("ocsvm", {}))
-            if not bool(np.asarray(pose.valid)):
-                raise JaxposeError(f"the ocsvm estimator gave no valid pose: {status_message(pose.status)}")
+            if not bool(np.asarray(getattr(pose, "valid", True))):
+                reason = status_message(pose.status) if hasattr(pose, "status") else "not valid"
+                raise JaxposeError(f"the ocsvm estimator gave no valid pose: {reason}")
             self._ocsvm = pose
         return self._ocsvm
 
@@ -235,7 +236,10 @@ def _check_options(options):
 
 def _shifted(pose, shift):
     """The pose of a geometry moved by -shift, for the geometry itself (float64 NumPy center)."""
-    return pose._replace(center=np.asarray(pose.center, np.float64) + shift)
+    center = np.asarray(pose.center, np.float64) + shift
+    if hasattr(pose, "_replace"):
+        return pose._replace(center=center)
+    return type(pose)(**{**vars(pose), "center": center})  # a pose-like object of a stand-in normalize
 
 
 def _pose(shape, c_name, s_name, strict):

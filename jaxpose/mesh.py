@@ -15,14 +15,12 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from . import baselines
+from . import baselines, formats
 from ._validate import InvalidInputError, check_gamma, check_nu, check_points
 
 __all__ = [
     "SAMPLING",
-    "TEXT_FORMATS",
     "load",
-    "sniff_format",
     "sample_surface",
     "normalize_mesh",
     "pose_matrix",
@@ -82,45 +80,6 @@ def _merge_vertices(geometry):
     geometry.vertices = np.asarray(geometry.vertices, np.float64) + shift
 
 
-TEXT_FORMATS = ("obj", "off", "xyz")  # text formats: decoded here (UTF-8, else Latin-1), any encoding reads
-_OFF_HEADERS = (b"OFF", b"COFF", b"NOFF", b"CNOFF", b"STOFF", b"4OFF")
-
-
-def sniff_format(data: bytes):
-    """The format a file's first bytes announce, or None: ``ply`` (``ply`` magic), ``glb``
-    (``glTF``), ``stl`` (binary: 84 + 50 n bytes for the n triangles of its header; ASCII:
-    ``solid``), ``off`` (an OFF header)."""
-    if data.startswith(b"ply"):
-        return "ply"
-    if data.startswith(b"glTF"):
-        return "glb"
-    if _binary_stl(data):
-        return "stl"
-    first = data.lstrip()[:16].split()
-    if first and first[0].lower() == b"solid":
-        return "stl"
-    if first and first[0] in _OFF_HEADERS:
-        return "off"
-    return None
-
-
-def _binary_stl(data: bytes):
-    """A binary STL: an 80-byte header, a triangle count n, then 50 bytes per triangle."""
-    return len(data) > 84 and 84 + 50 * int.from_bytes(data[80:84], "little") == len(data)
-
-
-def _as_text(data: bytes, path, ext):
-    """Text bytes re-encoded as UTF-8 (Latin-1 where they are not UTF-8: every byte is a character
-    there, and mesh data is ASCII); binary data is refused by name."""
-    if b"\x00" in data:
-        raise InvalidInputError(f"{path}: binary data, not a text {ext.upper()} file (does the extension match the content?)")
-    try:
-        data.decode("utf-8")
-        return data
-    except UnicodeDecodeError:
-        return data.decode("latin-1").encode("utf-8")
-
-
 def _read(path):
     if not path.exists():
         raise InvalidInputError(f"no such file: {path}")
@@ -139,12 +98,12 @@ def _read(path):
         data = path.read_bytes()  # read-only: the file is never touched
     except OSError as exc:
         raise InvalidInputError(f"{path}: cannot read: {exc.strerror}") from None
-    found = sniff_format(data)
+    found = formats.sniff_format(data)
     if found is not None and found != ext and ext in ("ply", "glb", "stl", "off", "obj", "xyz"):
         raise InvalidInputError(f"{path}: the content is {found.upper()}, not {ext.upper()}: "
                                 f"rename it to .{found} (the extension chooses the reader)")
-    if ext in TEXT_FORMATS or (ext == "stl" and found == "stl" and not _binary_stl(data)):
-        data = _as_text(data, path, ext)
+    if ext in formats.TEXT_FORMATS or (ext == "stl" and found == "stl" and not formats.binary_stl(data)):
+        data = formats.as_text(data, f"{path}", ext)
     try:
         geometry = trimesh.load(io.BytesIO(data), file_type=ext, process=False)
     except Exception as exc:  # every reader has its own errors for corrupt files

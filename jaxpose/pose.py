@@ -12,7 +12,7 @@ and the offset is added back at the end, so coordinates far from the origin keep
 
 Cost is bounded: above ``MAX_POINTS`` points a seeded uniform subset is used (``Pose.count`` says
 how many); concrete point sets are padded (and masked) to one of four sizes per octave
-(:func:`bucket`), so sets of many sizes share a few compilations. When a pose is valid is
+(:mod:`jaxpose.sizes`), so sets of many sizes share a few compilations. When a pose is valid is
 :mod:`jaxpose.validity`'s contract (``Pose.status``).
 
 Derivatives in gamma and nu flow through the SVDD solution (the implicit KKT derivative, or the
@@ -38,12 +38,10 @@ from .frame import host_frame, prescale
 from .moments import region_moments
 from .svdd import solve_svdd
 from .svdd.secant import with_nu_secant
+from .sizes import MAX_POINTS, bucket, pad, subsample_index
 from .validity import Status, pose_status
 
-__all__ = ["Pose", "normalize", "normalize_batch", "pose_pipeline", "pose_from_svdd", "MAX_POINTS", "bucket",
-           "subsample_index"]
-
-MAX_POINTS = 4096  # larger point sets are subsampled (seeded, uniform) to this many
+__all__ = ["Pose", "normalize", "normalize_batch", "pose_pipeline", "pose_from_svdd"]
 
 
 class Pose(NamedTuple):
@@ -219,7 +217,7 @@ def normalize(points, gamma=47.0, nu=0.5, *, config: PoseConfig | None = None, t
         det +1; ``Pose.ambiguity``, ``Pose.flagged``; :func:`jaxpose.rotation.region_frame`); off
         by default, and off changes nothing. Not differentiated.
       max_points: int >= 4 or None: above this many points, a uniform random subset of this size
-        (``seed``) is fitted (:func:`subsample_index`; ``Pose.count``); None fits every point.
+        (``seed``) is fitted (:func:`jaxpose.sizes.subsample_index`; ``Pose.count``); None fits every point.
       seed: int >= 0, the seed of that subset.
 
     Returns:
@@ -230,7 +228,7 @@ def normalize(points, gamma=47.0, nu=0.5, *, config: PoseConfig | None = None, t
     A pure JAX function of (points, gamma, nu): jittable (options static), vmappable,
     differentiable in gamma, nu and the points. Concrete points are centered and scaled in
     float64 NumPy first (float16 and integers are computed in float32), then padded to
-    :func:`bucket` rows (masked out), so that sets of many sizes share a few compilations.
+    :func:`jaxpose.sizes.bucket` rows (masked out), so that sets of many sizes share a few compilations.
 
     Raises:
       InvalidInputError: bad points, gamma, nu or option (unknown options are named).
@@ -256,40 +254,10 @@ def normalize(points, gamma=47.0, nu=0.5, *, config: PoseConfig | None = None, t
         arr = np.asarray(points) if index is None else np.asarray(points)[index]
         dtype = _validate.compute_dtype(arr)
         shift, size = host_frame(arr)
-        points, mask = _pad([(np.asarray(arr, np.float64) - shift) / size], bucket(len(arr)), dtype)
+        points, mask = pad([(np.asarray(arr, np.float64) - shift) / size], bucket(len(arr)), dtype)
         points, mask = points[0], mask[0]
     pose = _pipeline_jit(points, mask, gamma, nu, config, rotation)
     return _finish(pose, shift, size, gamma, nu, throw, config.svdd.tol)
-
-
-def bucket(m: int) -> int:
-    """The padded row count of m points: the smallest multiple of 2^(k-3) that is >= m, where
-    2^(k-1) < m <= 2^k (four sizes per octave, at most 25 % padding); m itself up to 8."""
-    m = int(m)
-    if m <= 8:
-        return m
-    step = 2 ** ((m - 1).bit_length() - 3)
-    return -(-m // step) * step
-
-
-def subsample_index(m: int, max_points: int | None, seed: int = 0):
-    """None when m <= max_points (or max_points is None); else the sorted indices (max_points,)
-    of a uniform random subset without replacement, from ``numpy.random.default_rng(seed)``.
-    Depends only on (m, max_points, seed), so traced and concrete calls take the same points."""
-    if max_points is None or m <= max_points:
-        return None
-    return np.sort(np.random.default_rng(seed).choice(m, size=max_points, replace=False))
-
-
-def _pad(sets, rows, dtype):
-    """(n, rows, 3) points of ``dtype`` and (n, rows) mask; padding repeats each set's first point."""
-    pts = np.empty((len(sets), rows, 3), dtype)
-    mask = np.zeros((len(sets), rows), bool)
-    for i, a in enumerate(sets):
-        pts[i, : len(a)] = a
-        pts[i, len(a):] = a[0]  # padding sits on a real point, masked out
-        mask[i, : len(a)] = True
-    return jnp.asarray(pts), jnp.asarray(mask)  # float64 becomes float32 unless x64 is on
 
 
 def _check_rotation(rotation):
@@ -351,7 +319,7 @@ def normalize_batch(list_of_points: Iterable, gamma=47.0, nu=0.5, *, pad_to=None
 
     Args:
       list_of_points: an iterable (list, tuple, generator, ...) of (m_i, 3) concrete arrays; rows
-        are padded to :func:`bucket` (max(m_i)) (or ``pad_to``) and masked out of every sum, so
+        are padded to :func:`jaxpose.sizes.bucket` (max(m_i)) (or ``pad_to``) and masked out of every sum, so
         results equal :func:`normalize` per object up to solver tolerance. Each set is centered
         and scaled in float64 first.
       gamma, nu: scalars, shared by all objects.
@@ -399,7 +367,7 @@ def normalize_batch(list_of_points: Iterable, gamma=47.0, nu=0.5, *, pad_to=None
     m = bucket(largest) if pad_to is None else int(pad_to)
     if m < largest:
         raise _validate.InvalidInputError(f"pad_to={m} is smaller than the largest point set ({largest} points)")
-    pts, mask = _pad(arrays, m, dtype)
+    pts, mask = pad(arrays, m, dtype)
     gamma = jnp.broadcast_to(jnp.asarray(gamma, pts.dtype), (len(arrays),))
     nu = jnp.broadcast_to(jnp.asarray(nu, pts.dtype), (len(arrays),))
     pose = _batched(pts, mask, gamma, nu, config=config, strategy=strategy, rotation=rotation)

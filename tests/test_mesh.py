@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from jaxpose import baselines, mesh
+from jaxpose import baselines, formats, mesh
 from jaxpose._validate import InvalidInputError
 
 
@@ -324,7 +324,7 @@ def test_text_files_in_any_encoding_load(tmp_path):
     np.testing.assert_array_equal(mesh.load(tmp_path / "latin1.obj").vertices, reference.vertices)
     assert len(mesh.load(tmp_path / "cp1252.off").faces) == len(sphere.faces)
     assert len(mesh.load(tmp_path / "latin1.stl").faces) == len(sphere.faces)
-    assert mesh.sniff_format(stl.encode()) == "stl" and mesh.sniff_format(b"ply\n") == "ply"
+    assert formats.sniff_format(stl.encode()) == "stl" and formats.sniff_format(b"ply\n") == "ply"
 
 
 def test_content_that_does_not_match_its_suffix_is_named(tmp_path):

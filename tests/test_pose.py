@@ -192,7 +192,7 @@ def test_float32_translation_at_1e5():
 # --------------------------------------------------------------------------- bounded cost
 def test_large_inputs_are_subsampled_with_the_count_reported():
     """Above max_points a seeded uniform subset is fitted: the same pose as fitting that subset."""
-    from jaxpose.pose import MAX_POINTS, subsample_index
+    from jaxpose.sizes import MAX_POINTS, subsample_index
 
     big = box_surface(3000, seed=5)
     pose = normalize(big, max_points=300, seed=7)
@@ -209,7 +209,7 @@ def test_point_counts_share_compilations():
     """Sets of 290..320 points are padded to 320 rows (masked): no new compilation after the first."""
     import jax.monitoring as monitoring
 
-    from jaxpose.pose import bucket
+    from jaxpose.sizes import bucket
 
     assert [bucket(m) for m in (5, 8, 9, 290, 300, 320, 321, 400, 2000, 4096)] == \
         [5, 8, 10, 320, 320, 320, 384, 448, 2048, 4096]

@@ -1,6 +1,5 @@
 """When a pose is valid: each status code on a synthetic shape made to trigger it, the helpers
 against scipy, and the messages that errors and warnings carry."""
-import jax
 import numpy as np
 import pytest
 import trimesh

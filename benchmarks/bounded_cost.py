@@ -72,7 +72,7 @@ def _fmt(r, key):
     if "timeout" in r:
         return f"> {r['timeout']:.0f} s"
     if "error" in r:
-        return "error"
+        return "-" if r["error"] == "-" else "error"
     return f"{r[key]:.2f} s"
 
 

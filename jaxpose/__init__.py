@@ -3,7 +3,7 @@
 Importing the package is light: the JAX modules (and trimesh, SciPy) load on first use of a name
 that needs them, so the command line and the NumPy estimators start without compiling anything.
 """
-from .errors import ConvergenceError, InvalidInputError, JaxposeError
+from .errors import ConvergenceError, InvalidInputError, InvalidPoseWarning, JaxposeError
 
 __version__ = "0.1.0"
 
@@ -28,6 +28,8 @@ __all__ = [
     "JaxposeError",
     "InvalidInputError",
     "ConvergenceError",
+    "InvalidPoseWarning",
+    "Status",
 ]
 
 # public name -> the module that defines it (imported on first access)
@@ -48,6 +50,7 @@ _LAZY_NAMES = {
     "normalize_files": "batch",
     "read_transforms": "transforms",
     "pose_sensitivity": "sensitivity",
+    "Status": "validity",
 }
 _LAZY_MODULES = ("baselines", "sensitivity", "datasets", "evaluation", "tuning", "plot", "mesh", "batch",
                  "transforms")

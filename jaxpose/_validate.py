@@ -9,13 +9,14 @@ import sys
 
 import numpy as np
 
-from .errors import ConvergenceError, InvalidInputError, JaxposeError, OpenMeshWarning
+from .errors import ConvergenceError, InvalidInputError, InvalidPoseWarning, JaxposeError, OpenMeshWarning
 
 __all__ = [
     "JaxposeError",
     "InvalidInputError",
     "ConvergenceError",
     "OpenMeshWarning",
+    "InvalidPoseWarning",
     "check_points",
     "check_gamma",
     "check_nu",

@@ -75,6 +75,9 @@ def split_geometry(mesh_or_points):
     -------
     vertices : (n, 3) float64
     faces : (f, 3) int or None   (None for point clouds and meshes without faces)
+
+    Raises InvalidInputError for bad vertices or faces, and for faces of zero total area
+    ("the mesh has no area": such a mesh is not silently taken as its points).
     """
     faces = None
     if hasattr(mesh_or_points, "vertices"):  # Trimesh, PointCloud
@@ -91,8 +94,11 @@ def split_geometry(mesh_or_points):
             raise InvalidInputError(f"faces must have shape (f, 3), got {faces.shape}")
         if faces.min() < 0 or faces.max() >= len(vertices):
             raise InvalidInputError("faces index vertices that do not exist")
-        if triangle_areas(vertices[faces]).sum() <= 0.0:
-            faces = None  # degenerate surface: use the points
+        if not triangle_areas(vertices[faces]).sum() > 0.0:  # no silent switch to the points
+            raise InvalidInputError(
+                f"the mesh has no area: all its {len(faces)} faces are degenerate (zero area); to use its "
+                "vertices as points, pass trimesh.PointCloud(mesh.vertices)"
+            )
     return vertices, faces
 
 

@@ -25,9 +25,12 @@ import numbers
 
 from ._validate import InvalidInputError
 
-__all__ = ["SolverConfig", "GridConfig", "PoseConfig", "BLOCK", "KERNELS", "SOLVERS", "DERIVATIVES"]
+__all__ = ["SolverConfig", "GridConfig", "PoseConfig", "BLOCK", "KERNELS", "SOLVERS", "DERIVATIVES", "MEMORY_BUDGET",
+           "CELL_BYTES"]
 
 BLOCK = 2048  # rows per block: kernel products and grid cells (memory O(BLOCK * m))
+MEMORY_BUDGET = 2 * 2**30  # bytes one grid may take at its peak (the OCSVM's cells, the robust solid's voxels)
+CELL_BYTES = 96  # peak bytes per cell of the OCSVM grid (measured 70-95, float32 and float64)
 KERNELS = ("auto", "dense", "blocked")
 SOLVERS = (None, "auto", "smo", "pg")
 DERIVATIVES = ("exact", "secant")
@@ -97,6 +100,9 @@ class GridConfig:
       band: cells refined at the first level (>= 0), doubled at each further level.
       block: cells per block of the evaluation of f (>= 1).
       extrapolate: Richardson-combine the two finest levels (error O(h^4) instead of O(h^2)).
+
+    The grid's peak memory, :attr:`memory` (``CELL_BYTES`` per cell: resolution^3 coarse cells and
+    8 children per refined cell), must fit ``MEMORY_BUDGET``; a larger grid is refused with the figure.
     """
 
     resolution: int = 64
@@ -113,6 +119,24 @@ class GridConfig:
             raise InvalidInputError(f"extrapolate must be a bool, got {self.extrapolate!r}")
         _set(self, resolution=_int(self.resolution, "resolution", 8), refine=refine,
              band=_int(self.band, "band", 0), block=_int(self.block, "block", 1), extrapolate=bool(self.extrapolate))
+        if self.memory > MEMORY_BUDGET:
+            largest = int((MEMORY_BUDGET / CELL_BYTES - self._children) ** (1.0 / 3.0)) if \
+                MEMORY_BUDGET / CELL_BYTES > self._children else 0
+            raise InvalidInputError(
+                f"resolution={self.resolution} (refine={self.refine}, band={self.band}) needs about "
+                f"{self.memory / 2**30:.2f} GiB for the grid ({self.memory / CELL_BYTES:.2g} cells at {CELL_BYTES} "
+                f"bytes); the limit is {MEMORY_BUDGET / 2**30:g} GiB: use a resolution in [8, {largest}]"
+                + ("" if largest >= 8 else " with a smaller band or refine"))
+
+    @property
+    def _children(self) -> int:
+        levels = self.refine.bit_length() - 1
+        return 8 * self.band * (2**levels - 1)
+
+    @property
+    def memory(self) -> int:
+        """Peak bytes of the grid (an upper bound: every refinement slot filled)."""
+        return CELL_BYTES * (self.resolution**3 + self._children)
 
 
 _SOLVER_FIELDS = tuple(f.name for f in dataclasses.fields(SolverConfig))

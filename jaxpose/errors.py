@@ -3,7 +3,7 @@
 Re-exported by :mod:`jaxpose` and :mod:`jaxpose._validate`.
 """
 
-__all__ = ["JaxposeError", "InvalidInputError", "ConvergenceError", "OpenMeshWarning"]
+__all__ = ["JaxposeError", "InvalidInputError", "ConvergenceError", "OpenMeshWarning", "InvalidPoseWarning"]
 
 
 class JaxposeError(Exception):
@@ -20,3 +20,7 @@ class ConvergenceError(JaxposeError, RuntimeError):
 
 class OpenMeshWarning(UserWarning):
     """A closed-surface quantity (solid volume, centroid) was computed on a mesh that is not closed."""
+
+
+class InvalidPoseWarning(UserWarning):
+    """A concrete pose came out not valid (``Pose.valid`` False); the message says why."""

@@ -14,10 +14,15 @@ sets the center. The volume is nearly invariant under articulation of soft bodie
 ``"ocsvm"`` is the paper's method (:func:`jaxpose.normalize` on ``count`` surface samples), the
 only one differentiable in (gamma, nu). The others are the classical baselines of
 :mod:`jaxpose.baselines`.
+
+Every estimator runs on a copy of the input moved by one of its own vertices (:func:`centered`):
+the move is exact in float64 (a difference of nearby floats), so results are equivariant under
+translation to the last digit the output can hold, wherever the shape sits.
 """
 from __future__ import annotations
 
 import numbers
+import warnings
 
 import numpy as np
 
@@ -25,7 +30,7 @@ from . import baselines, solid
 from ._validate import InvalidInputError, JaxposeError
 
 __all__ = ["METHODS", "CENTERS", "SCALES", "DEFAULT_METHOD", "ROBUST_POWER", "resolve", "estimate",
-           "estimate_many", "robust_center_scale", "depth_centroid"]
+           "estimate_many", "robust_center_scale", "depth_centroid", "centered"]
 
 METHODS = {
     "robust": ("robust_depth", "robust_volume"),
@@ -62,6 +67,33 @@ def resolve(method=None, center=None, scale=None):
     return c, s
 
 
+def centered(geometry):
+    """A copy of a mesh or point cloud translated so that its vertex nearest the middle of its
+    bounding box sits at the origin, and that vertex.
+
+    Args:
+      geometry: Trimesh, PointCloud or (n, 3) points.
+
+    Returns:
+      moved: Trimesh (same faces, ``process=False``) or PointCloud, in float64; shift (3,) float64
+      with ``moved.vertices == vertices - shift``. Far from the origin the subtraction is exact
+      (Sterbenz), so ``shift`` plus a result computed on ``moved`` keeps every digit.
+
+    Raises:
+      InvalidInputError: bad vertices or faces; a mesh whose faces have no area.
+    """
+    import trimesh
+
+    from .frame import anchor
+
+    vertices, faces = baselines.split_geometry(geometry)
+    shift = anchor(vertices)
+    moved = vertices - shift
+    if faces is None:
+        return trimesh.PointCloud(moved), shift
+    return trimesh.Trimesh(moved, faces, process=False), shift
+
+
 def robust_center_scale(geometry, power=ROBUST_POWER, resolution=solid.RESOLUTION):
     """The robust center and scale (module docs) of a mesh or point cloud.
 
@@ -82,10 +114,9 @@ def robust_center_scale(geometry, power=ROBUST_POWER, resolution=solid.RESOLUTIO
 
 
 def _robust_solid(geometry, resolution):
-    if isinstance(resolution, bool) or not isinstance(resolution, numbers.Integral) or resolution < 8:
-        raise InvalidInputError(f"resolution must be >= 8 (an int), got {resolution!r}")
+    resolution = solid.check_resolution(resolution)
     vertices, faces = baselines.split_geometry(geometry)
-    sol = solid.robust_solid(vertices, faces, resolution=int(resolution))
+    sol = solid.robust_solid(vertices, faces, resolution=resolution)
     if not sol.inside.any():
         raise JaxposeError("the shape encloses no volume (a flat or open sheet, or a scan of one side): "
                            "the robust solid is empty; use method='surface_centroid' or 'ocsvm'")
@@ -127,13 +158,21 @@ class _Shape:
 
     def ocsvm(self):
         if self._ocsvm is None:
+            from ._validate import InvalidPoseWarning
             from .mesh import sample_surface
             from .pose import normalize
+            from .validity import status_message
 
             o = self.options
             points = sample_surface(self.geometry, o.get("count", 2000), seed=o.get("seed", 0),
                                     method=o.get("sampling", "even"))
-            self._ocsvm = normalize(points, o.get("gamma", 47.0), o.get("nu", 0.5), **o.get("ocsvm", {}))
+            with warnings.catch_warnings():  # an invalid pose is raised below, with its reason
+                warnings.simplefilter("ignore", InvalidPoseWarning)
+                pose = normalize(points, o.get("gamma", 47.0), o.get("nu", 0.5), **o.get("ocsvm", {}))
+            if not bool(np.asarray(getattr(pose, "valid", True))):
+                reason = status_message(pose.status) if hasattr(pose, "status") else "not valid"
+                raise JaxposeError(f"the ocsvm estimator gave no valid pose: {reason}")
+            self._ocsvm = pose
         return self._ocsvm
 
     def center(self, name, strict):
@@ -185,13 +224,22 @@ def estimate(geometry, method=None, *, center=None, scale=None, strict=False, **
     """
     c_name, s_name = resolve(method, center, scale)
     _check_options(options)
-    return _pose(_Shape(geometry, options), c_name, s_name, strict)
+    moved, shift = centered(geometry)
+    return _shifted(_pose(_Shape(moved, options), c_name, s_name, strict), shift)
 
 
 def _check_options(options):
     unknown = sorted(set(options) - {"power", "resolution", "ocsvm", *_OCSVM_KEYS})
     if unknown:
         raise InvalidInputError(f"unknown option{'s' if len(unknown) > 1 else ''} {', '.join(unknown)}")
+
+
+def _shifted(pose, shift):
+    """The pose of a geometry moved by -shift, for the geometry itself (float64 NumPy center)."""
+    center = np.asarray(pose.center, np.float64) + shift
+    if hasattr(pose, "_replace"):
+        return pose._replace(center=center)
+    return type(pose)(**{**vars(pose), "center": center})  # a pose-like object of a stand-in normalize
 
 
 def _pose(shape, c_name, s_name, strict):
@@ -225,6 +273,7 @@ def estimate_many(geometry, methods, strict=False, timings=False, **options):
     import time
 
     _check_options(options)
+    geometry, shift = centered(geometry)
     shapes, out = {}, {}
     for spec in methods:
         name, _, power = str(spec).partition(":")
@@ -238,7 +287,7 @@ def estimate_many(geometry, methods, strict=False, timings=False, **options):
                     setattr(shape, attr, getattr(base, attr))
         start = time.perf_counter()
         try:
-            out[spec] = _pose(shapes[key], c_name, s_name, strict)
+            out[spec] = _shifted(_pose(shapes[key], c_name, s_name, strict), shift)
         except JaxposeError as exc:
             out[spec] = exc
         if timings:

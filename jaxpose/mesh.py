@@ -6,6 +6,7 @@ file; exporting is atomic (temporary file in the target directory, then
 """
 from __future__ import annotations
 
+import io
 import numbers
 import os
 from pathlib import Path
@@ -13,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from . import baselines
+from . import baselines, formats
 from ._validate import InvalidInputError, check_gamma, check_nu, check_points
 from .atomic import write_atomic
 
@@ -23,6 +24,7 @@ __all__ = [
     "sample_surface",
     "normalize_mesh",
     "pose_matrix",
+    "normalized_points",
     "MESH_FORMATS",
     "POINT_FORMATS",
     "OUTPUT_FORMATS",
@@ -68,8 +70,28 @@ def load(path_or_mesh):
     if isinstance(geometry, trimesh.Trimesh) and len(geometry.faces) == 0:
         geometry = trimesh.PointCloud(np.asarray(geometry.vertices))
     if source != "input" and isinstance(geometry, trimesh.Trimesh):
-        geometry.merge_vertices()  # STL and friends store each triangle's corners apart
+        _merge_vertices(geometry)  # STL and friends store each triangle's corners apart
     return geometry
+
+
+def _merge_vertices(geometry):
+    """trimesh's ``merge_vertices`` (an absolute tolerance, 1e-8), decided near the origin: far from
+    it, rounding every coordinate to 1e-8 overflows and merges distinct vertices. The merge runs on
+    a copy moved by an anchor vertex (:func:`jaxpose.frame.anchor`); the vertices kept are then
+    taken from the input as they are, so loading changes no coordinate, not even by rounding."""
+    from .frame import anchor
+
+    original = np.asarray(geometry.vertices, np.float64)
+    faces = np.asarray(geometry.faces, np.int64)
+    geometry.vertices = original - anchor(original)
+    geometry.merge_vertices()
+    inverse = np.full(len(original), -1, np.int64)  # original vertex -> merged vertex
+    inverse[faces.ravel()] = np.asarray(geometry.faces, np.int64).ravel()
+    referenced = np.nonzero(inverse >= 0)[0]
+    merged, first = np.unique(inverse[referenced], return_index=True)
+    if not np.array_equal(merged, np.arange(len(geometry.vertices))):  # not the documented merge
+        raise InvalidInputError("could not merge the mesh's duplicate vertices")
+    geometry.vertices = original[referenced[first]]
 
 
 def _read(path):
@@ -87,13 +109,30 @@ def _read(path):
             f"readable: {', '.join(sorted(known))}"
         )
     try:
-        with open(path, "rb") as handle:  # read-only: the file is never touched
-            return trimesh.load(handle, file_type=ext, process=False)
-    except PermissionError as exc:
+        data = path.read_bytes()  # read-only: the file is never touched
+    except OSError as exc:
         raise InvalidInputError(f"{path}: cannot read: {exc.strerror}") from None
+    found = formats.sniff_format(data)
+    if found is not None and found != ext and ext in ("ply", "glb", "stl", "off", "obj", "xyz"):
+        raise InvalidInputError(f"{path}: the content is {found.upper()}, not {ext.upper()}: "
+                                f"rename it to .{found} (the extension chooses the reader)")
+    if ext in formats.TEXT_FORMATS or (ext == "stl" and found == "stl" and not formats.binary_stl(data)):
+        data = formats.as_text(data, f"{path}", ext)
+    try:
+        geometry = trimesh.load(io.BytesIO(data), file_type=ext, process=False)
     except Exception as exc:  # every reader has its own errors for corrupt files
         detail = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise InvalidInputError(f"{path}: cannot read {ext.upper()} file: {detail}") from None
+    if not _has_vertices(geometry):
+        raise InvalidInputError(f"{path}: empty geometry: no vertices read as {ext.upper()} (the file is empty, "
+                                f"or its content is not {ext.upper()})")
+    return geometry
+
+
+def _has_vertices(geometry):
+    if isinstance(geometry, trimesh.Scene):
+        return any(len(getattr(g, "vertices", ())) for g in geometry.geometry.values())
+    return len(getattr(geometry, "vertices", ())) > 0
 
 
 def _flatten(scene, source):
@@ -197,35 +236,60 @@ def normalize_mesh(
         are the same as without it.
 
     Returns:
-      normalized: a transformed copy (Trimesh or PointCloud), pose: :class:`jaxpose.Pose`.
+      normalized: a transformed copy (Trimesh or PointCloud), pose: :class:`jaxpose.Pose` (its
+      center in float64, exact under translation: :func:`jaxpose.estimators.centered`).
+
+    Raises:
+      InvalidInputError: any bad argument (named, with its range), before the file is read; an
+        unreadable file; a mesh with no area.
+      JaxposeError: no valid pose (for ``ocsvm`` with the reason of :mod:`jaxpose.validity`; for
+        ``robust`` a shape that encloses no volume).
 
     Example::
 
         >>> mesh, pose = jaxpose.normalize_mesh("body.ply")              # robust default
         >>> mesh, pose = jaxpose.normalize_mesh("body.ply", method="ocsvm")
     """
+    # every argument is checked here, before the file is read or anything is compiled
     check_gamma(gamma)
     check_nu(nu)
     count = _check_int(count, "count", minimum=4)  # validated whatever the method
-    from . import estimators
+    seed = _check_int(seed, "seed", minimum=0)
+    if sampling not in SAMPLING:
+        raise InvalidInputError(f"unknown sampling {sampling!r}; valid: {', '.join(SAMPLING)}")
+    if not isinstance(strict, (bool, np.bool_)):
+        raise InvalidInputError(f"strict must be True or False, got {strict!r}")
+    from . import estimators, solid
+    from .config import PoseConfig
 
     c_name, s_name = estimators.resolve(method, center, scale)
     uses_ocsvm = "ocsvm" in (c_name, s_name)
+    unknown = sorted(set(options) - set(PoseConfig.FLAT))
+    if unknown:
+        raise InvalidInputError(
+            f"normalize_mesh got unknown argument{'s' if len(unknown) > 1 else ''} {', '.join(unknown)}; its own: "
+            f"gamma, nu, count, seed, sampling, method, center, scale, strict, power, resolution, rotation; "
+            f"ocsvm options: {', '.join(PoseConfig.FLAT)}"
+        )
     if options and not uses_ocsvm:
         raise InvalidInputError(f"options {sorted(options)} apply to the ocsvm estimator only")
     extra = {}
     if power is not None:
         if c_name not in ("robust_depth", "depth_weighted_solid"):
             raise InvalidInputError(f"power applies to the robust_depth and depth_weighted_solid centers, not {c_name}")
+        if isinstance(power, bool) or not (isinstance(power, numbers.Real) and np.isfinite(power) and power >= 0):
+            raise InvalidInputError(f"power must be a finite number >= 0, got {power!r}")
         extra["power"] = power
     if resolution is not None:
         if uses_ocsvm:
             options = {**options, "resolution": resolution}
         elif "robust_depth" in (c_name,) or s_name == "robust_volume":
-            extra["resolution"] = resolution
+            extra["resolution"] = solid.check_resolution(resolution)
         else:
             raise InvalidInputError(f"resolution applies to the robust and ocsvm estimators (options), "
                                     f"not {c_name} / {s_name}")
+    if uses_ocsvm:
+        PoseConfig.create(**options)  # every option's value and the grid's memory
     frame_name = _rotation_name(rotation)
     geometry = load(mesh_or_path)
     pose = estimators.estimate(geometry, method, center=center, scale=scale, strict=strict, gamma=gamma, nu=nu,
@@ -233,14 +297,30 @@ def normalize_mesh(
     if frame_name is not None:
         from .rotation import frame_of
 
-        found = frame_of(geometry, frame_name, resolution=extra.get("resolution"),
+        found = frame_of(estimators.centered(geometry)[0], frame_name, resolution=extra.get("resolution"),
                          ocsvm={"gamma": gamma, "nu": nu, "count": count, "seed": seed, "sampling": sampling,
                                 "options": options})
         pose = pose._replace(ambiguity=np.asarray(found.ambiguity, np.float64),
                              rotation=np.asarray(found.rotation, np.float64))
+    return _transformed(geometry, pose), pose
+
+
+def normalized_points(points, pose):
+    """R (x - center) / scale of points (n, 3), in float64, for a pose (anything with ``center``,
+    ``scale`` and optionally ``rotation``): x - center first, which is exact far from the origin
+    (a 4 x 4 matrix would round x / scale first). Returns (n, 3) float64."""
+    center = np.asarray(pose.center, np.float64).reshape(3)
+    y = (np.asarray(points, np.float64) - center) / float(np.asarray(pose.scale, np.float64))
+    if getattr(pose, "rotation", None) is not None:
+        y = y @ np.asarray(pose.rotation, np.float64).reshape(3, 3).T
+    return y
+
+
+def _transformed(geometry, pose):
+    """A copy of the geometry with vertices :func:`normalized_points`."""
     normalized = geometry.copy()
-    normalized.apply_transform(pose_matrix(pose))
-    return normalized, pose
+    normalized.vertices = normalized_points(geometry.vertices, pose)
+    return normalized
 
 
 def _rotation_name(rotation):

@@ -10,6 +10,11 @@ center = mean + s_ref axes c_m, scale = s_ref d_m.
 Concrete inputs are first centered and scaled on the host in float64 (:func:`jaxpose.frame.host_frame`)
 and the offset is added back at the end, so coordinates far from the origin keep their digits.
 
+Cost is bounded: above ``MAX_POINTS`` points a seeded uniform subset is used (``Pose.count`` says
+how many); concrete point sets are padded (and masked) to one of four sizes per octave
+(:mod:`jaxpose.sizes`), so sets of many sizes share a few compilations. When a pose is valid is
+:mod:`jaxpose.validity`'s contract (``Pose.status``).
+
 Derivatives in gamma and nu flow through the SVDD solution (the implicit KKT derivative, or the
 secant in nu, ``PoseConfig.derivative``) and the grid occupancy, whose derivative is the coarea
 boundary term. With only two hyperparameters, reverse mode in them is computed from forward-mode
@@ -18,7 +23,9 @@ columns (:func:`jaxpose._hyper.hyper_jvp`).
 from __future__ import annotations
 
 from functools import partial
-from typing import NamedTuple, Sequence
+import numbers
+import warnings
+from typing import Iterable, NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -31,6 +38,8 @@ from .frame import host_frame, prescale
 from .moments import region_moments
 from .svdd import solve_svdd
 from .svdd.secant import with_nu_secant
+from .sizes import MAX_POINTS, bucket, pad, subsample_index
+from .validity import Status, pose_status
 
 __all__ = ["Pose", "normalize", "normalize_batch", "pose_pipeline", "pose_from_svdd"]
 
@@ -42,12 +51,18 @@ class Pose(NamedTuple):
       center: (3,) in the units of the input.
       scale: () > 0, in the units of the input.
       converged: () bool, the SVDD solver reached its tolerance.
-      valid: () bool, finite center, positive finite scale, non-empty region, parameters in range.
+      valid: () bool, ``status == Status.OK``: parameters in range, samples dense enough for gamma,
+        a grid that resolves the kernel, a non-empty region that has not collapsed, a finite center
+        and a positive finite scale (:mod:`jaxpose.validity`). Convergence is apart (``converged``).
       iterations: () solver iterations.
       ambiguity: None, or () in [0, 1]: how poorly the rotation is determined (0: every cue of
         :mod:`jaxpose.rotation` clears its threshold); see ``flagged``.
       rotation: None (no rotation: R = I), or (3, 3) a proper rotation whose rows are the canonical
         axes in the input's coordinates (``rotation=True`` of :func:`normalize` and friends).
+      status: () int, a :class:`jaxpose.validity.Status` code: 0 when valid, else why not
+        (``Status(int(pose.status)).message``).
+      count: None, or () int: how many points the SVDD was fitted to (fewer than given above
+        ``MAX_POINTS``).
 
     Poses from :func:`normalize_batch` carry a leading batch axis on every field.
     """
@@ -59,6 +74,8 @@ class Pose(NamedTuple):
     iterations: jax.Array = 0
     ambiguity: jax.Array | None = None
     rotation: jax.Array | None = None
+    status: jax.Array = 0
+    count: jax.Array | None = None
 
     @classmethod
     def from_center_scale(cls, center, scale, rotation=None, ambiguity=None) -> "Pose":
@@ -75,7 +92,8 @@ class Pose(NamedTuple):
         if rotation is not None:
             rotation = xp.asarray(rotation, center.dtype)
             ambiguity = xp.asarray(0.0 if ambiguity is None else ambiguity, center.dtype)
-        return cls(center, scale, xp.asarray(True), valid, xp.asarray(0), ambiguity, rotation)
+        status = xp.where(valid, int(Status.OK), int(Status.NOT_FINITE)).astype(np.int32)
+        return cls(center, scale, xp.asarray(True), valid, xp.asarray(0), ambiguity, rotation, status)
 
     @property
     def flagged(self):
@@ -130,16 +148,17 @@ def pose_from_svdd(svdd, to_world, size, grid, outside, rotation=False, y=None, 
     mom = region_moments(svdd, grid, outside)
     center = to_world(mom.center)
     scale = jnp.where(size > 0, size, 1.0) * mom.mean_distance
-    valid = (size > 0) & jnp.all(jnp.isfinite(center)) & jnp.isfinite(scale) & (scale > 0) & (mom.volume > 0)
+    status = pose_status(svdd.points, svdd.mask, svdd.gamma, size, mom, grid.refine, center, scale)
+    valid, count = status == 0, jnp.sum(svdd.mask).astype(jnp.int32)
     if not rotation:
-        return Pose(center, scale, svdd.converged, valid, svdd.iterations)
+        return Pose(center, scale, svdd.converged, valid, svdd.iterations, status=status, count=count)
     from .rotation import region_frame
 
     origin = to_world(jnp.zeros(3, center.dtype))
     axes = jax.vmap(to_world)(jnp.eye(3, dtype=center.dtype)) - origin  # rows: size * axes[:, k]
     axes = (axes / jnp.linalg.norm(axes, axis=1, keepdims=True)).T
     rot, amb = region_frame(mom.second_moment, mom.center, y, mask, axes)
-    return Pose(center, scale, svdd.converged, valid, svdd.iterations, amb, rot)
+    return Pose(center, scale, svdd.converged, valid, svdd.iterations, amb, rot, status, count)
 
 
 def _pipeline(points, mask, gamma, nu, config, rotation=False):
@@ -179,7 +198,7 @@ _pipeline_jit = jax.jit(pose_pipeline, static_argnames=("config", "rotation"))
 
 
 def normalize(points, gamma=47.0, nu=0.5, *, config: PoseConfig | None = None, throw=False, rotation=False,
-              **options) -> Pose:
+              max_points=MAX_POINTS, seed=0, **options) -> Pose:
     """The OCSVM pose (center c_m, scale d_m) of surface samples.
 
     Args:
@@ -192,10 +211,14 @@ def normalize(points, gamma=47.0, nu=0.5, *, config: PoseConfig | None = None, t
         points, "auto" above, on CPU); ``block`` (both); ``derivative`` ("exact" | "secant"),
         ``nu_delta``, ``nu_tol``.
       throw: concrete calls only: raise ConvergenceError if the solver hit max_iter,
-        JaxposeError if the pose is not valid (otherwise see ``Pose.converged`` / ``Pose.valid``).
+        JaxposeError naming the reason if the pose is not valid (otherwise an invalid concrete
+        pose warns with :class:`jaxpose.InvalidPoseWarning`; see ``Pose.valid``, ``Pose.status``).
       rotation: also the canonical frame of the OCSVM region (``Pose.rotation``, rows = axes,
         det +1; ``Pose.ambiguity``, ``Pose.flagged``; :func:`jaxpose.rotation.region_frame`); off
         by default, and off changes nothing. Not differentiated.
+      max_points: int >= 4 or None: above this many points, a uniform random subset of this size
+        (``seed``) is fitted (:func:`jaxpose.sizes.subsample_index`; ``Pose.count``); None fits every point.
+      seed: int >= 0, the seed of that subset.
 
     Returns:
       :class:`Pose`. The default grid resolves the boundary like a 128^3 grid, extrapolated with
@@ -204,7 +227,8 @@ def normalize(points, gamma=47.0, nu=0.5, *, config: PoseConfig | None = None, t
 
     A pure JAX function of (points, gamma, nu): jittable (options static), vmappable,
     differentiable in gamma, nu and the points. Concrete points are centered and scaled in
-    float64 NumPy first (float16 and integers are computed in float32).
+    float64 NumPy first (float16 and integers are computed in float32), then padded to
+    :func:`jaxpose.sizes.bucket` rows (masked out), so that sets of many sizes share a few compilations.
 
     Raises:
       InvalidInputError: bad points, gamma, nu or option (unknown options are named).
@@ -218,16 +242,21 @@ def normalize(points, gamma=47.0, nu=0.5, *, config: PoseConfig | None = None, t
     _validate.check_points(points)
     _validate.check_gamma(gamma)
     _validate.check_nu(nu)
-    shift, size = None, None
+    rotation, max_points, seed = _check_rotation(rotation), _check_max_points(max_points), _check_seed(seed)
+    index = subsample_index(np.shape(points)[0], max_points, seed)
+    shift, size, mask = None, None, None
     if _validate.is_traced(points):  # pure-JAX path (jit, vmap, grad in points)
         points = jnp.asarray(points)
         if not jnp.issubdtype(points.dtype, jnp.floating):
             points = points.astype(jnp.result_type(float))
+        points = points if index is None else points[index]
     else:
-        dtype = _validate.compute_dtype(points)
-        shift, size = host_frame(points)
-        points = jnp.asarray((np.asarray(points, np.float64) - shift) / size, dtype)
-    pose = _pipeline_jit(points, None, gamma, nu, config, _check_rotation(rotation))
+        arr = np.asarray(points) if index is None else np.asarray(points)[index]
+        dtype = _validate.compute_dtype(arr)
+        shift, size = host_frame(arr)
+        points, mask = pad([(np.asarray(arr, np.float64) - shift) / size], bucket(len(arr)), dtype)
+        points, mask = points[0], mask[0]
+    pose = _pipeline_jit(points, mask, gamma, nu, config, rotation)
     return _finish(pose, shift, size, gamma, nu, throw, config.svdd.tol)
 
 
@@ -237,48 +266,76 @@ def _check_rotation(rotation):
     return bool(rotation)
 
 
+def _check_max_points(max_points):
+    if max_points is None:
+        return None
+    if isinstance(max_points, bool) or not isinstance(max_points, numbers.Integral) or max_points < 4:
+        raise _validate.InvalidInputError(f"max_points must be an int >= 4 or None, got {max_points!r}")
+    return int(max_points)
+
+
+def _check_seed(seed):
+    if isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0:
+        raise _validate.InvalidInputError(f"seed must be an int >= 0, got {seed!r}")
+    return int(seed)
+
+
 def _finish(pose, shift, size, gamma, nu, throw, tol):
     """Map a pose of host-prescaled points back, flag out-of-range traced gamma / nu as not
-    valid, and raise on request (concrete results only)."""
+    valid, and raise (``throw``) or warn on an invalid concrete result."""
+    status = jnp.asarray(pose.status)
     if shift is not None:
         dtype = pose.center.dtype
         center = jnp.asarray(shift, dtype) + jnp.asarray(size, dtype)[..., None] * pose.center
         scale = jnp.asarray(size, dtype) * pose.scale
         finite = jnp.all(jnp.isfinite(center), axis=-1) & jnp.isfinite(scale) & (scale > 0)
-        pose = pose._replace(center=center, scale=scale, valid=pose.valid & finite)
+        status = jnp.where((status == 0) & ~finite, int(Status.NOT_FINITE), status)
+        pose = pose._replace(center=center, scale=scale)
     g, n = jnp.asarray(gamma), jnp.asarray(nu)
     in_range = jnp.isfinite(g) & (g > 0) & jnp.isfinite(n) & (n >= 0) & (n <= 1)
-    pose = pose._replace(valid=pose.valid & in_range)
-    if throw and not _validate.is_traced(pose.valid):
-        if not bool(jnp.all(pose.converged)):
-            raise _validate.ConvergenceError(
-                f"SVDD solver hit its iteration cap ({np.asarray(pose.iterations)} iterations) before tol={tol}"
-            )
-        if not bool(jnp.all(pose.valid)):
-            raise _validate.JaxposeError(
-                f"no valid pose (center {np.asarray(pose.center)}, scale {np.asarray(pose.scale)}): "
-                "the region is empty or degenerate at this grid; try other gamma / nu / resolution"
-            )
+    status = jnp.where(in_range, status, int(Status.BAD_PARAMETERS)).astype(jnp.int32)
+    pose = pose._replace(valid=status == 0, status=status)
+    if _validate.is_traced(pose.valid):
+        return pose
+    if throw and not bool(jnp.all(pose.converged)):
+        raise _validate.ConvergenceError(
+            f"SVDD solver hit its iteration cap ({np.asarray(pose.iterations)} iterations) before tol={tol}"
+        )
+    if not bool(jnp.all(pose.valid)):
+        codes = np.asarray(status).reshape(-1)
+        bad = int(np.flatnonzero(codes)[0])
+        which = f"point set {bad}: " if np.ndim(status) else ""
+        message = f"no valid pose ({which}{Status(int(codes[bad])).message})"
+        if throw:
+            raise _validate.JaxposeError(message)
+        warnings.warn(message + "; see Pose.status", _validate.InvalidPoseWarning, stacklevel=3)
     return pose
 
 
-def normalize_batch(list_of_points: Sequence, gamma=47.0, nu=0.5, *, pad_to=None, throw=False, strategy="auto",
-                    config: PoseConfig | None = None, rotation=False, **options) -> Pose:
+def normalize_batch(list_of_points: Iterable, gamma=47.0, nu=0.5, *, pad_to=None, throw=False, strategy="auto",
+                    config: PoseConfig | None = None, rotation=False, max_points=MAX_POINTS, seed=0,
+                    **options) -> Pose:
     """Normalize many objects with one compilation (padding and masks).
 
     Args:
-      list_of_points: sequence of (m_i, 3) concrete arrays; rows are padded to max(m_i) (or
-        ``pad_to``) and masked out of every sum, so results equal :func:`normalize` per object
-        up to solver tolerance. Each set is centered and scaled in float64 first.
+      list_of_points: an iterable (list, tuple, generator, ...) of (m_i, 3) concrete arrays; rows
+        are padded to :func:`jaxpose.sizes.bucket` (max(m_i)) (or ``pad_to``) and masked out of every sum, so
+        results equal :func:`normalize` per object up to solver tolerance. Each set is centered
+        and scaled in float64 first.
       gamma, nu: scalars, shared by all objects.
       pad_to: optional row count (>= the largest set) to share one compilation across calls.
       strategy: "vmap" (all objects in lock-step: fills wide accelerators, but every object runs
         as many solver iterations as the slowest), "map" (``lax.map``, one object after another
         inside the compiled call: faster on CPU) or "auto" ("map" on CPU, "vmap" elsewhere).
-      config, options, throw, rotation: as :func:`normalize`.
+      config, options, throw, rotation, max_points, seed: as :func:`normalize` (each set above
+        ``max_points`` is subsampled).
 
     Returns:
       :class:`Pose` whose fields have a leading axis of len(list_of_points).
+
+    Raises:
+      InvalidInputError: not an iterable of point sets, an empty one, a bad set (named by its
+        index) or option.
 
     Under jit, use ``jax.vmap(normalize)`` instead (padding needs concrete arrays).
     """
@@ -287,31 +344,33 @@ def normalize_batch(list_of_points: Sequence, gamma=47.0, nu=0.5, *, pad_to=None
     if strategy == "auto":
         strategy = "map" if jax.default_backend() == "cpu" else "vmap"
     config = PoseConfig.create(config, **options)
-    if len(list_of_points) == 0:
-        raise _validate.InvalidInputError("normalize_batch needs at least one point set")
+    _validate.check_gamma(gamma)
+    _validate.check_nu(nu)
+    rotation, max_points, seed = _check_rotation(rotation), _check_max_points(max_points), _check_seed(seed)
+    if pad_to is not None and (isinstance(pad_to, bool) or not isinstance(pad_to, numbers.Integral)):
+        raise _validate.InvalidInputError(f"pad_to must be an int or None, got {pad_to!r}")
+    if isinstance(list_of_points, (str, bytes)) or not isinstance(list_of_points, Iterable):
+        raise _validate.InvalidInputError(
+            f"list_of_points must be an iterable of (m, 3) point sets, got {type(list_of_points).__name__}")
     arrays = [_validate.check_points(p, name=f"points[{i}]") for i, p in enumerate(list_of_points)]
+    if not arrays:
+        raise _validate.InvalidInputError("normalize_batch needs at least one point set")
     if any(_validate.is_traced(a) for a in arrays):
         raise _validate.InvalidInputError("normalize_batch needs concrete point sets; under jit, use jax.vmap(normalize)")
+    arrays = [np.asarray(a) if (k := subsample_index(len(a), max_points, seed)) is None else np.asarray(a)[k]
+              for a in arrays]
     dtype = np.result_type(*[_validate.compute_dtype(a) for a in arrays])
     frames = [host_frame(a, name=f"points[{i}]") for i, a in enumerate(arrays)]
     arrays = [(np.asarray(a, np.float64) - c) / r for a, (c, r) in zip(arrays, frames)]
     shift, size = np.stack([c for c, _ in frames]), np.asarray([r for _, r in frames])
-    _validate.check_gamma(gamma)
-    _validate.check_nu(nu)
-    m = max(a.shape[0] for a in arrays) if pad_to is None else int(pad_to)
-    if m < max(a.shape[0] for a in arrays):
-        raise _validate.InvalidInputError(f"pad_to={m} is smaller than the largest point set")
-    pts = np.empty((len(arrays), m, 3), dtype)
-    mask = np.zeros((len(arrays), m), bool)
-    for i, a in enumerate(arrays):
-        pts[i, : len(a)] = a
-        pts[i, len(a):] = a[0]  # padding sits on a real point, masked out
-        mask[i, : len(a)] = True
-    pts = jnp.asarray(pts)  # float64 becomes float32 unless x64 is on
+    largest = max(a.shape[0] for a in arrays)
+    m = bucket(largest) if pad_to is None else int(pad_to)
+    if m < largest:
+        raise _validate.InvalidInputError(f"pad_to={m} is smaller than the largest point set ({largest} points)")
+    pts, mask = pad(arrays, m, dtype)
     gamma = jnp.broadcast_to(jnp.asarray(gamma, pts.dtype), (len(arrays),))
     nu = jnp.broadcast_to(jnp.asarray(nu, pts.dtype), (len(arrays),))
-    pose = _batched(pts, jnp.asarray(mask), gamma, nu, config=config, strategy=strategy,
-                    rotation=_check_rotation(rotation))
+    pose = _batched(pts, mask, gamma, nu, config=config, strategy=strategy, rotation=rotation)
     return _finish(pose, shift, size, gamma, nu, throw, config.svdd.tol)
 
 

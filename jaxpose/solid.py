@@ -12,7 +12,8 @@ non-zero (ties inside: a false "outside" voxel deep inside would lower the depth
 neighbourhood, a false "inside" voxel next to the surface adds a shallow, low-weight voxel), or when
 the capped surface winds around it. The non-zero rule makes overlapping or inverted closed parts a
 union. Point clouds: a morphological closing of the voxels holding points (:func:`point_solid`),
-with a radius from the points' own spacing. Enclosed cavities are filled (:func:`exterior_fill`).
+with a radius from the points' own spacing (above ``SPACING_SAMPLES`` points, measured from a seeded
+uniform subset of them to all the others). Enclosed cavities are filled (:func:`exterior_fill`).
 
 Stray parts. 26-connected components of the solid are sized by their boundary voxels (a surface
 area proxy); the largest is the main body and another component is kept only when it is at least
@@ -20,12 +21,18 @@ area proxy); the largest is the main body and another component is kept only whe
 its component and are always kept. A first pass at ``coarse`` voxels over everything finds the main
 body, so that stray parts neither coarsen the grid nor enter it.
 
+Memory. A grid of ``resolution`` voxels along the largest extent holds at most about
+(resolution + 31)^3 voxels (a cube, with the widest margins) of ``VOXEL_BYTES`` each at the peak;
+:func:`check_resolution` refuses a resolution whose worst case exceeds
+:data:`jaxpose.config.MEMORY_BUDGET`.
+
 Depth. The Euclidean distance of each kept voxel to the outside (:func:`depth`), minus half a voxel
 for mesh solids (their outer voxel centers lie inside the surface) and one voxel for point solids
 (their outer voxels straddle it).
 """
 from __future__ import annotations
 
+import numbers
 from typing import NamedTuple
 
 import numpy as np
@@ -34,14 +41,19 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from ._validate import InvalidInputError
+from .config import MEMORY_BUDGET
 
 __all__ = ["Solid", "robust_solid", "cap_holes", "ray_vote_solid", "point_solid", "exterior_fill", "keep_main",
-           "depth", "make_grid", "closing_radius", "neighbour_distances", "RESOLUTION", "COARSE", "KEEP_RATIO"]
+           "depth", "make_grid", "closing_radius", "neighbour_distances", "check_resolution", "RESOLUTION", "COARSE",
+           "KEEP_RATIO", "SPACING_SAMPLES", "VOXEL_BYTES"]
 
 RESOLUTION = 96  # voxels along the main body's largest extent
 COARSE = 48  # the same for the first pass over everything
 KEEP_RATIO = 0.5  # a separate component is kept when at least this share of the main body's boundary
 MAX_CLOSING = 4  # point clouds: the pitch is coarsened so that the closing radius stays within this
+SPACING_SAMPLES = 10_000  # point clouds: the spacing is measured from at most this many of the points
+VOXEL_BYTES = 64  # peak memory per voxel of the fine grid (measured 50-58 bytes)
+_MAX_MARGIN = 3 * MAX_CLOSING + 3  # voxels around the box (point clouds; meshes: 3)
 _OFFSET = 1e-3 * np.sqrt(2.0)  # grid offset in pitches: grid lines miss the vertices of axis-aligned models
 _AXES = ((0, 1, 2), (1, 2, 0), (2, 0, 1))  # ray axis a, then (b, c) with (a, b, c) cyclic
 
@@ -219,12 +231,54 @@ def ray_vote_solid(vertices, faces, origin, pitch, shape, min_votes=3, caps=None
 
 
 # ------------------------------------------------------------------ point-cloud solid
-def neighbour_distances(points, k=4):
-    """(n, k) distances from each point to its k nearest other points (scipy's cKDTree)."""
+def neighbour_distances(points, k=4, samples=None, seed=0):
+    """Distances from points to their k nearest other points (scipy's cKDTree over all of them).
+
+    Args:
+      points: (n, 3) float; k: neighbours.
+      samples: None (every point), or at most this many points, a uniform random subset without
+        replacement (``numpy.random.default_rng(seed)``), queried against all the points.
+
+    Returns:
+      (q, k) float, q = n or min(n, samples), rows ascending.
+    """
     from scipy.spatial import cKDTree
 
-    dist, _ = cKDTree(points).query(points, k=k + 1, workers=1)
+    queries = points
+    if samples is not None and len(points) > samples:
+        queries = points[np.random.default_rng(seed).choice(len(points), size=int(samples), replace=False)]
+    tree = cKDTree(points, balanced_tree=False, compact_nodes=False)  # the faster build for one query
+    dist, _ = tree.query(queries, k=k + 1, workers=1)
     return dist[:, 1:]
+
+
+def check_resolution(resolution, budget=MEMORY_BUDGET):
+    """Validate a voxel resolution (an int >= 8 whose worst-case grid fits ``budget`` bytes).
+
+    The worst case is a cube: (resolution + 2 * margin + 1)^3 voxels of ``VOXEL_BYTES``.
+
+    Returns:
+      resolution as an int.
+
+    Raises:
+      InvalidInputError: naming the range, and the memory the grid would need.
+    """
+    if isinstance(resolution, bool) or not isinstance(resolution, numbers.Integral) or resolution < 8:
+        raise InvalidInputError(f"resolution must be >= 8 (an int), got {resolution!r}")
+    side = lambda r: r + 2 * _MAX_MARGIN + 1
+    largest = int(np.floor((budget / VOXEL_BYTES) ** (1.0 / 3.0))) - 2 * _MAX_MARGIN - 1
+    while VOXEL_BYTES * side(largest + 1) ** 3 <= budget:
+        largest += 1
+    while VOXEL_BYTES * side(largest) ** 3 > budget:
+        largest -= 1
+    need = VOXEL_BYTES * float(side(int(resolution))) ** 3
+    if need > budget:
+        raise InvalidInputError(
+            f"resolution={int(resolution)} needs up to {need / 2**30:.2f} GiB for the voxel grid "
+            f"({side(int(resolution)) ** 3:.2g} voxels at {VOXEL_BYTES} bytes); the limit is "
+            f"{budget / 2**30:g} GiB: use a resolution in [8, {largest}]"
+        )
+    return int(resolution)
 
 
 def closing_radius(r_k, pitch):
@@ -320,15 +374,17 @@ def robust_solid(vertices, faces=None, *, resolution=RESOLUTION, coarse=COARSE, 
       :class:`Solid`; its ``inside`` is empty when the shape encloses no volume (a flat or open
       sheet, a point cloud of one side).
     """
+    resolution, coarse = check_resolution(resolution), check_resolution(coarse)
     v = np.asarray(vertices, np.float64)
-    frame = np.eye(3) if frame is None else np.asarray(frame, np.float64)
-    v = v @ frame.T
+    frame = None if frame is None else np.asarray(frame, np.float64)
+    v = v if frame is None else v @ frame.T
+    frame = np.eye(3) if frame is None else frame
     n_input = len(v)
     lo, hi = v.min(0), v.max(0)
     if not float((hi - lo).max()) > 0:
         raise InvalidInputError("the shape has no extent: all its points coincide")
     if faces is None:
-        r_gap = neighbour_distances(v, 4)[:, 3]
+        r_gap = neighbour_distances(v, 4, samples=SPACING_SAMPLES)[:, 3]
         caps = None
     else:
         v, caps = cap_holes(v, np.asarray(faces, np.int64))

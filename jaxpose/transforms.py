@@ -110,10 +110,12 @@ class Transform(NamedTuple("_Row", [(name, object) for name in _FIELDS])):
         return pose_matrix(self)
 
     def apply(self, points) -> np.ndarray:
-        """Input coordinates (n, 3) -> output coordinates (n, 3), float64, bit-identical to the output."""
-        import trimesh
+        """Input coordinates (n, 3) -> output coordinates (n, 3): R (x - center) / scale in float64,
+        computed as the output was (:func:`jaxpose.mesh.normalized_points`), so bit-identical to it."""
+        from .mesh import normalized_points
 
-        return trimesh.transformations.transform_points(np.asarray(points, dtype=np.float64), self.matrix)
+        self._require_ok()
+        return normalized_points(points, self)
 
     def invert(self, points) -> np.ndarray:
         """Output coordinates (n, 3) -> input coordinates (n, 3): x = scale R^T y + center, float64."""

@@ -280,3 +280,48 @@ def test_python_m_jaxpose_normalize(tmp_path):
     assert run.returncode == 0, run.stderr
     assert (tmp_path / "o.ply").exists() and (tmp_path / "o.transform.json").exists()
     assert digest(source) == before
+
+
+# --------------------------------------------------------------------------- far from the origin, files, limits
+def test_cli_translation_is_exact_at_1e9(tmp_path):
+    """``jaxpose normalize`` (a real subprocess, the robust default) on a closed mesh written at 1e9
+    (an OBJ: trimesh writes PLY vertices in float32): the transform's center is the un-offset file's plus the offset, to 1e-6 of the
+    scale plus the float spacing at 1e9; the same scale to 1e-6; the output mesh at the origin."""
+    o = 1e9 * np.array([1.0, -0.7, 0.3])
+    body = trimesh.creation.capsule(height=1.0, radius=0.5, count=[12, 12])
+    far = trimesh.Trimesh(body.vertices + o, body.faces, process=False)
+    source = tmp_path / "far.obj"
+    far.export(source)
+    vertices = mesh.load(source).vertices  # what the file holds (merged, as the CLI reads it)
+    assert len(vertices) == len(body.vertices) and np.max(np.abs(vertices - o - body.vertices)) < 1e-6
+    run = subprocess.run([sys.executable, "-m", "jaxpose", "normalize", str(source), "-o", str(tmp_path / "out.ply")],
+                         capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert run.returncode == 0, run.stderr
+    record = json.loads((tmp_path / "out.transform.json").read_text())
+    near = trimesh.Trimesh(vertices - o, mesh.load(source).faces, process=False)  # exact: fl(v + o) - o
+    _, p0 = mesh.normalize_mesh(near)
+    c0, s0 = np.asarray(p0.center), float(p0.scale)
+    assert np.max(np.abs(np.array(record["center"]) - o - c0)) <= 1e-6 * s0 + np.spacing(1e9)
+    assert record["scale"] == pytest.approx(s0, rel=1e-6)
+    normalized = mesh.load(tmp_path / "out.ply").vertices
+    np.testing.assert_allclose(normalized, (vertices - o - c0) / s0, atol=1e-5)  # float32 output file
+
+
+def test_cli_reads_latin1_text_and_names_mismatched_content(tmp_path, capsys):
+    tetra = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"
+    (tmp_path / "latin1.obj").write_bytes(("# modèle créé\n" + tetra).encode("latin-1"))
+    assert cli.main(["normalize", str(tmp_path / "latin1.obj"), "--method", "surface_centroid"]) == 0
+    capsys.readouterr()
+    (tmp_path / "body.obj").write_bytes(trimesh.creation.icosphere(subdivisions=1).export(file_type="ply"))
+    assert_clean_failure(cli.main(["normalize", str(tmp_path / "body.obj")]), capsys,
+                         "the content is PLY, not OBJ: rename it to .ply")
+
+
+@pytest.mark.parametrize("method, limit", [("robust", 291), ("ocsvm", 281)])
+def test_cli_refuses_a_grid_beyond_the_memory_budget(tmp_path, capsys, method, limit):
+    source = tmp_path / "in.ply"
+    shape().export(source)
+    code = cli.main(["normalize", str(source), "-o", str(tmp_path / "o.ply"), "--method", method,
+                     "--resolution", "1000"])
+    assert_clean_failure(code, capsys, f"use a resolution in [8, {limit}]")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["in.ply"]

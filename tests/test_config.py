@@ -61,3 +61,18 @@ def test_config_or_options_not_both():
         jaxpose.fit_svdd(pts, 1.0, 0.5, config=SolverConfig(), tol=1e-4)
     with pytest.raises(InvalidInputError, match="config must be a PoseConfig"):
         jaxpose.normalize(pts, config=GridConfig())
+
+
+def test_grid_memory_is_bounded():
+    """A grid whose cells would not fit MEMORY_BUDGET is refused when the option is made, with the figure."""
+    from jaxpose.config import CELL_BYTES, MEMORY_BUDGET
+
+    assert GridConfig().memory == CELL_BYTES * (64**3 + 8 * 16384)
+    assert GridConfig(resolution=281).memory <= MEMORY_BUDGET
+    with pytest.raises(InvalidInputError, match=r"resolution=1000 \(refine=2, band=16384\) needs about 89\.4\d GiB"
+                                                r".*the limit is 2 GiB: use a resolution in \[8, 281\]"):
+        GridConfig(resolution=1000)
+    with pytest.raises(InvalidInputError, match="with a smaller band or refine"):
+        GridConfig(resolution=64, refine=1024, band=10**6)
+    with pytest.raises(InvalidInputError, match="resolution=1000"):
+        PoseConfig.create(resolution=1000)

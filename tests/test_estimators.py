@@ -140,3 +140,45 @@ def test_depth_weighted_solid_and_estimate_many_agree():
     cloud = trimesh.PointCloud(np.asarray(mesh.vertices))
     out = estimators.estimate_many(cloud, ["solid", "vertex_mean"])
     assert isinstance(out["solid"], InvalidInputError) and not isinstance(out["vertex_mean"], Exception)
+
+
+# --------------------------------------------------------------------------- far from the origin
+@pytest.mark.parametrize("offset", [1e6, 1e12])
+def test_every_method_is_exact_under_translation(offset):
+    """normalize_mesh, every method, at 1e6 and 1e12 (float64 vertices): the center within 1e-6
+    of the scale of the un-offset result (plus the float spacing at the offset, all the returned
+    center can hold), the scale within 1e-6. The un-offset mesh is the offset one moved back
+    exactly (fl(v + o) - o is exact), so the comparison measures the library, not the input's own
+    rounding (1.2e-4 at 1e12)."""
+    from jaxpose.mesh import normalize_mesh
+
+    o = offset * np.array([1.0, -0.7, 0.3])
+    base = trimesh.creation.capsule(height=1.0, radius=0.5, count=[12, 12])  # closed
+    far = trimesh.Trimesh(base.vertices + o, base.faces, process=False)
+    near = trimesh.Trimesh(far.vertices - o, base.faces, process=False)
+    for method in estimators.METHODS:
+        kw = dict(count=400, resolution=32) if method == "ocsvm" else {}  # the pinned results' compilation
+        p0 = normalize_mesh(near, method=method, **kw)[1]
+        normalized, p = normalize_mesh(far, method=method, **kw)
+        c, c0, s0 = np.asarray(p.center), np.asarray(p0.center), float(p0.scale)
+        assert np.max(np.abs(c - o - c0)) <= 1e-6 * s0 + np.spacing(offset), (method, c - o - c0)
+        assert float(p.scale) == pytest.approx(s0, rel=1e-6), method
+        # the normalized mesh keeps its digits too (x - center, then / scale): up to the center's own spacing
+        np.testing.assert_allclose(normalized.vertices, (near.vertices - c0) / s0, atol=1e-6 + np.spacing(offset) / s0)
+
+
+# --------------------------------------------------------------------------- no silent fallback
+def test_a_mesh_without_area_is_refused_by_name():
+    """Faces of zero area are not silently taken as points (nor the vertex mean as a centroid)."""
+    from jaxpose.mesh import normalize_mesh, sample_surface
+
+    line = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [2, 0, 0], [3, 0, 0.0]], [[0, 1, 2], [1, 2, 3]], process=False)
+    for method in (None, "surface_centroid", "ocsvm", "vertex_mean", "solid"):
+        with pytest.raises(InvalidInputError, match="the mesh has no area"):
+            normalize_mesh(line, method=method)
+    with pytest.raises(InvalidInputError, match="the mesh has no area"):
+        baselines.surface_centroid(line)
+    with pytest.raises(InvalidInputError, match="the mesh has no area"):
+        sample_surface(line, 100)
+    # its vertices, given as points, are points
+    np.testing.assert_allclose(baselines.surface_centroid(trimesh.PointCloud(line.vertices)), [1.5, 0, 0])

@@ -24,12 +24,14 @@ def _sample(mesh, count, seed):
 
 @pytest.fixture
 def fake_normalize(monkeypatch):
-    """jaxpose.normalize replaced by: center = gamma * mean of the points, scale = 1 + nu."""
+    """jaxpose.normalize replaced by: center = mean of the points + (gamma, 0, 0), scale = 1 + nu
+    (equivariant under translation, as the estimators expect: they run on a moved copy)."""
     calls = []
 
     def normalize(points, gamma=47.0, nu=0.5, **options):
         calls.append(options)
-        return SimpleNamespace(center=gamma * np.asarray(points).mean(axis=0), scale=1.0 + nu, converged=True)
+        center = np.asarray(points).mean(axis=0) + np.array([gamma, 0.0, 0.0])
+        return SimpleNamespace(center=center, scale=1.0 + nu, converged=True)
 
     monkeypatch.setattr(jaxpose.pose, "normalize", normalize)
     return calls
@@ -152,11 +154,11 @@ def test_evaluate_ocsvm_uses_samples_and_options(fake_normalize):
     result = evaluate({"boxes": boxes}, gamma=2.0, nu=0.25, methods=["ocsvm"], count=500, seed=3,
                       resolution=16)
     cell = result["per_class"]["boxes"]["ocsvm"]
-    expected = np.stack([2.0 * _sample(m, 500, 3).mean(axis=0) for m in boxes])
+    expected = np.stack([_sample(m, 500, 3).mean(axis=0) + [2.0, 0.0, 0.0] for m in boxes])
     np.testing.assert_allclose(cell["centers"], expected, rtol=1e-12, atol=1e-12)
     assert cell["scales"] == [1.25, 1.25] and cell["sigma_scale"] == 0.0
     assert cell["sigma_tr"] == pytest.approx(spread(expected)["sigma_tr"])
-    assert cell["sigma_tr"] == pytest.approx(2.0, rel=0.05)  # the box centers, doubled
+    assert cell["sigma_tr"] == pytest.approx(1.0, rel=0.05)  # the box centers, 2 apart
     assert fake_normalize == [{"resolution": 16}] * 2
     assert result["params"]["normalize_options"] == {"resolution": 16}
     assert result["params"]["gamma"] == 2.0 and result["params"]["count"] == 500
@@ -191,7 +193,10 @@ def test_evaluate_rejects(kwargs, fake_normalize):
         evaluate({})
 
 
-def test_sweep_with_fake_normalize(fake_normalize):
+def test_sweep_with_fake_normalize(fake_normalize, monkeypatch):
+    # sweep calls normalize on the samples themselves: a fake whose center is gamma * mean
+    monkeypatch.setattr(jaxpose.pose, "normalize", lambda points, gamma=47.0, nu=0.5, **options: SimpleNamespace(
+        center=gamma * np.asarray(points).mean(axis=0), scale=1.0 + nu, converged=True))
     classes = {"boxes": _boxes()}
     out = sweep(classes, "gamma", values=[1.0, 3.0], count=300)
     assert out["param"] == "gamma" and out["values"] == [1.0, 3.0] and out["fixed"] == {"nu": 0.0}

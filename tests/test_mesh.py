@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from jaxpose import baselines, mesh
+from jaxpose import baselines, formats, mesh
 from jaxpose._validate import InvalidInputError
 
 
@@ -304,3 +304,80 @@ if given is not None:
         assert np.all(points >= lo - 1e-9) and np.all(points <= hi + 1e-9)
 
     _LUMPY = lumpy()
+
+
+# --------------------------------------------------------------------------- encodings, content
+TETRA = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"
+
+
+def test_text_files_in_any_encoding_load(tmp_path):
+    """An OBJ with a Latin-1 comment, an OFF with cp1252 bytes, an ASCII STL whose name is Latin-1:
+    the same geometry as their UTF-8 versions (mesh data is ASCII; other bytes are comments)."""
+    (tmp_path / "utf8.obj").write_text("# café modèle\n" + TETRA, encoding="utf-8")
+    (tmp_path / "latin1.obj").write_bytes(("# café modèle\n" + TETRA).encode("latin-1"))
+    sphere = trimesh.creation.icosphere(subdivisions=1)
+    (tmp_path / "cp1252.off").write_bytes(sphere.export(file_type="off").replace("OFF\n", "OFF\n# \u201cquoted\u201d\n", 1)
+                                          .encode("cp1252"))
+    stl = sphere.export(file_type="stl_ascii")
+    (tmp_path / "latin1.stl").write_bytes(stl.replace("solid", "solid crème", 1).encode("latin-1"))
+    reference = mesh.load(tmp_path / "utf8.obj")
+    np.testing.assert_array_equal(mesh.load(tmp_path / "latin1.obj").vertices, reference.vertices)
+    assert len(mesh.load(tmp_path / "cp1252.off").faces) == len(sphere.faces)
+    assert len(mesh.load(tmp_path / "latin1.stl").faces) == len(sphere.faces)
+    assert formats.sniff_format(stl.encode()) == "stl" and formats.sniff_format(b"ply\n") == "ply"
+
+
+def test_content_that_does_not_match_its_suffix_is_named(tmp_path):
+    sphere = trimesh.creation.icosphere(subdivisions=1)
+    cases = {
+        "ply_as.obj": (sphere.export(file_type="ply"), "the content is PLY, not OBJ: rename it to .ply"),
+        "stl_as.ply": (sphere.export(file_type="stl"), "the content is STL, not PLY"),
+        "off_as.obj": (sphere.export(file_type="off").encode(), "the content is OFF, not OBJ"),
+        "binary.obj": (b"\x00\x01\x02junk" * 10, "binary data, not a text OBJ file"),
+        "words.stl": (b"hello, this is not a mesh\n", "no vertices read as STL"),
+    }
+    for name, (data, message) in cases.items():
+        (tmp_path / name).write_bytes(data)
+        before = digest(tmp_path / name)
+        with pytest.raises(InvalidInputError, match=message):
+            mesh.load(tmp_path / name)
+        assert digest(tmp_path / name) == before
+
+
+# --------------------------------------------------------------------------- early refusal
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(foo=1), "unknown argument foo"),
+    (dict(method="ocsvm", foo=1, bar=2), "unknown arguments bar, foo"),
+    (dict(seed=-1), "seed must be >= 0"),
+    (dict(sampling="bogus"), "unknown sampling"),
+    (dict(strict="yes"), "strict must be True or False"),
+    (dict(power=-1.0), "power must be a finite number >= 0"),
+    (dict(resolution=1000), r"resolution=1000 needs up to .* GiB .* use a resolution in \[8, 291\]"),
+    (dict(method="ocsvm", resolution=1000), r"resolution=1000 .* needs about .* GiB .* use a resolution in \[8, 281\]"),
+    (dict(method="ocsvm", tol=-1.0), "tol must be finite and > 0"),
+    (dict(count=3), "count must be >= 4"),
+])
+def test_every_argument_is_checked_before_the_file_is_read(kwargs, message):
+    """A bad argument is named (with its range) even when the file does not exist: nothing is read first."""
+    with pytest.raises(InvalidInputError, match=message):
+        mesh.normalize_mesh("/nonexistent/shape.ply", **kwargs)
+
+
+def test_vertices_far_from_the_origin_are_not_merged(tmp_path):
+    """trimesh's merge_vertices rounds coordinates to 1e-8 as int64, which overflows at 1e12 and
+    merges every vertex into one; load merges near the origin, exactly."""
+    body = trimesh.creation.icosphere(subdivisions=1)
+    o = np.array([1e12, -7e11, 3e11])
+    corners = body.triangles.reshape(-1, 3) + o  # each triangle's corners apart, as STL stores them
+    soup = trimesh.Trimesh(corners, np.arange(len(corners)).reshape(-1, 3), process=False)
+    soup.export(tmp_path / "far.obj")  # text, float64
+    loaded = mesh.load(tmp_path / "far.obj")
+    assert len(loaded.vertices) == len(body.vertices) and len(loaded.faces) == len(body.faces)
+    assert np.isclose(loaded.area, body.area, rtol=1e-3)  # the coordinates themselves are rounded to 1.2e-4
+
+
+def test_unknown_keywords_are_named():
+    box = trimesh.creation.box()
+    for kwargs in (dict(foo=1), dict(method="ocsvm", foo=1), dict(method="surface_centroid", foo=1)):
+        with pytest.raises(InvalidInputError, match="unknown argument foo"):
+            mesh.normalize_mesh(box, **kwargs)

@@ -132,3 +132,94 @@ def test_bad_points(bad):
 def test_bad_options(kw):
     with pytest.raises(jaxpose.InvalidInputError):
         normalize(clusters(50), **kw)
+
+
+# --------------------------------------------------------------------------- far from the origin
+OFFSETS = (1e3, 1e6, 1e9, 1e12)
+DIRECTION = np.array([1.0, -0.7, 0.3])
+
+
+def _shifted_back(points, offset):
+    """The points as they are at ``offset`` (rounded there), and those same values moved back
+    exactly: fl(x + o) - o is exact (Sterbenz), so a comparison with them measures the library's
+    error, not the input's own rounding (about 1.2e-4 at 1e12 in float64)."""
+    o = offset * DIRECTION
+    far = points + o
+    return far, far - o, o
+
+
+def _check_translated(pose, near, o, rtol=1e-6):
+    """center within rtol of the scale of the un-offset result, plus the spacing of the floats at
+    the offset (what the returned center itself can hold); scale within rtol, relative."""
+    c, s = np.asarray(pose.center, np.float64), float(pose.scale)
+    c0, s0 = np.asarray(near.center, np.float64), float(near.scale)
+    assert np.max(np.abs(c - o - c0)) <= rtol * s0 + np.max(np.spacing(np.abs(o))), (c - o - c0, s0)
+    assert abs(s / s0 - 1.0) <= rtol, (s, s0)
+
+
+def test_translation_is_exact_at_any_offset(x64):
+    """normalize and normalize_batch in float64, offsets up to 1e12 (resolution 32, 400 points:
+    the pinned results' compilations)."""
+    pts = sphere_with_arm(400, seed=1)
+    far_sets, near_sets = [], []
+    for offset in OFFSETS:
+        far, near, o = _shifted_back(pts, offset)
+        p_near, p_far = normalize(near, resolution=32), normalize(far, resolution=32)
+        assert bool(p_far.valid)
+        _check_translated(p_far, p_near, o)
+        far_sets.append(far), near_sets.append(p_near)
+    batch = jaxpose.normalize_batch(far_sets[2:], resolution=32)  # 1e9 and 1e12 in one call
+    for k, offset in enumerate(OFFSETS[2:]):
+        _check_translated(jax.tree_util.tree_map(lambda a: a[k], batch), near_sets[2 + k], offset * DIRECTION)
+
+
+def test_float32_translation_at_1e5():
+    """float32 input at 1e5 (quantized to 1/128 there): within 1e-2 of the scale of the same
+    float32 values moved back exactly; the center is float32, whose own spacing at 1e5 is 1/128."""
+    if jax.config.jax_enable_x64:
+        pytest.skip("float32 only")
+    pts = 2.0 * sphere_with_arm(400, seed=1)  # scale about 0.8
+    o = 1e5 * DIRECTION
+    p32 = (pts + o).astype(np.float32)
+    near = normalize(p32.astype(np.float64) - o, resolution=32)
+    far = normalize(p32, resolution=32)
+    assert far.center.dtype == jnp.float32 and bool(far.valid)
+    err = np.max(np.abs(np.asarray(far.center, np.float64) - o - np.asarray(near.center, np.float64)))
+    assert err <= 1e-2 * float(near.scale), err
+    np.testing.assert_allclose(float(far.scale), float(near.scale), rtol=1e-5)
+
+
+# --------------------------------------------------------------------------- bounded cost
+def test_large_inputs_are_subsampled_with_the_count_reported():
+    """Above max_points a seeded uniform subset is fitted: the same pose as fitting that subset."""
+    from jaxpose.sizes import MAX_POINTS, subsample_index
+
+    big = box_surface(3000, seed=5)
+    pose = normalize(big, max_points=300, seed=7)
+    index = subsample_index(3000, 300, 7)
+    assert int(pose.count) == 300 and len(np.unique(index)) == 300 and np.all(np.diff(index) > 0)
+    same = normalize(big[index])
+    np.testing.assert_array_equal(np.asarray(pose.center), np.asarray(same.center))
+    assert int(normalize(big[:300]).count) == 300 and MAX_POINTS >= 2000  # normalize_mesh's default count fits
+    with pytest.raises(jaxpose.InvalidInputError, match="max_points must be"):
+        normalize(big, max_points=2)
+
+
+def test_point_counts_share_compilations():
+    """Sets of 290..320 points are padded to 320 rows (masked): no new compilation after the first."""
+    import jax.monitoring as monitoring
+
+    from jaxpose.sizes import bucket
+
+    assert [bucket(m) for m in (5, 8, 9, 290, 300, 320, 321, 400, 2000, 4096)] == \
+        [5, 8, 10, 320, 320, 320, 384, 448, 2048, 4096]
+    pts = box_surface(320, seed=3)
+    normalize(pts[:300])  # this module's and the validation tests' compilation
+    compiles = []
+    listener = lambda name, *_, **__: compiles.append(name) if name.endswith("backend_compile_duration") else None
+    monitoring.register_event_duration_secs_listener(listener)
+    try:
+        poses = [normalize(pts[:m]) for m in (290, 305, 320)]
+    finally:
+        monitoring.unregister_event_duration_listener(listener)
+    assert compiles == [] and all(bool(p.valid) for p in poses)

@@ -93,3 +93,30 @@ def test_fill_and_components_helpers():
 def test_degenerate_input():
     with pytest.raises(InvalidInputError, match="no extent"):
         robust_solid(np.ones((10, 3)))
+
+
+def test_voxel_memory_is_bounded():
+    from jaxpose.solid import check_resolution
+
+    assert check_resolution(96) == 96 and check_resolution(291) == 291
+    with pytest.raises(InvalidInputError, match=r"resolution=1000 needs up to 65\.\d+ GiB .* use a resolution in \[8, 291\]"):
+        robust_solid(np.random.default_rng(0).normal(size=(50, 3)), resolution=1000)
+    with pytest.raises(InvalidInputError, match="resolution must be >= 8"):
+        check_resolution(7.5)
+
+
+def test_point_spacing_from_a_subset(monkeypatch):
+    """Above SPACING_SAMPLES points the spacing is measured from a seeded subset of them (to all
+    the others): the same closing radius and nearly the same solid as from every point."""
+    import jaxpose.solid as solid
+
+    sphere = trimesh.creation.icosphere(subdivisions=3)
+    points = trimesh.sample.sample_surface(sphere, 2000, seed=0)[0]
+    full = robust_solid(points)
+    monkeypatch.setattr(solid, "SPACING_SAMPLES", 400)
+    sub = robust_solid(points)
+    assert sub.pitch == pytest.approx(full.pitch, rel=0.05)
+    assert sub.volume() == pytest.approx(full.volume(), rel=0.02)
+    r_all = solid.neighbour_distances(points, 4)[:, 3]
+    r_sub = solid.neighbour_distances(points, 4, samples=400, seed=3)[:, 3]
+    assert len(r_sub) == 400 and set(np.round(r_sub, 12)) <= set(np.round(r_all, 12))

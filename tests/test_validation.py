@@ -150,6 +150,23 @@ def test_normalize_batch_bad_input():
         jaxpose.normalize_batch([P], foo=1)
     with pytest.raises(InvalidInputError, match="concrete"):
         jax.jit(lambda p: jaxpose.normalize_batch([p]).scale)(jnp.asarray(P))
+    for bad in (42, "points.ply", None):
+        with pytest.raises(InvalidInputError, match="list_of_points must be an iterable of"):
+            jaxpose.normalize_batch(bad)
+    with pytest.raises(InvalidInputError, match=r"points\[1\] must have shape"):
+        jaxpose.normalize_batch(p for p in (P, P[:, :2]))
+    with pytest.raises(InvalidInputError, match="pad_to must be an int"):
+        jaxpose.normalize_batch([P], pad_to=400.0)
+
+
+def test_normalize_batch_takes_any_iterable():
+    """A generator of point sets is a batch like a list (the pinned batch's compilation)."""
+    from conftest import sphere_with_arm
+
+    sets = [sphere_with_arm(400, seed=1), sphere_with_arm(350, seed=2)]
+    from_list = jaxpose.normalize_batch(sets, resolution=32)
+    from_generator = jaxpose.normalize_batch((s for s in sets), resolution=32)
+    np.testing.assert_array_equal(np.asarray(from_generator.center), np.asarray(from_list.center))
 
 
 def test_out_of_range_for_float32():
@@ -173,8 +190,9 @@ def test_iteration_cap_is_reported():
 
 
 def test_invalid_result_flagged_or_raised():
-    pose = normalize(P, gamma=1e6)  # kernel far narrower than a grid cell: empty region
-    assert not bool(pose.valid)
+    with pytest.warns(jaxpose.InvalidPoseWarning, match="too sparse for gamma"):
+        pose = normalize(P, gamma=1e6)  # kernel far narrower than the sample spacing and a grid cell
+    assert not bool(pose.valid) and int(pose.status) == jaxpose.Status.SPARSE_SAMPLES
     with pytest.raises(JaxposeError, match="no valid pose"):
         normalize(P, gamma=1e6, throw=True)
 
@@ -185,10 +203,14 @@ def test_validity_flag_under_jit():
     pts = jnp.asarray(P, jnp.float32)
     good = f(pts, 47.0, 0.5)
     assert bool(good.valid) and finite_pose(good)
-    assert not bool(f(jnp.ones((M, 3), jnp.float32), 47.0, 0.5).valid)  # all identical
-    assert not bool(f(pts.at[3, 1].set(jnp.nan), 47.0, 0.5).valid)
+    assert int(good.status) == jaxpose.Status.OK and int(good.count) == M
+    for bad in (jnp.ones((M, 3), jnp.float32), pts.at[3, 1].set(jnp.nan)):  # all identical; a NaN
+        pose = f(bad, 47.0, 0.5)
+        assert not bool(pose.valid) and int(pose.status) == jaxpose.Status.DEGENERATE_INPUT
     for g, n in [(-1.0, 0.5), (0.0, 0.5), (jnp.nan, 0.5), (47.0, 2.0), (47.0, -0.5), (47.0, jnp.nan)]:
-        assert not bool(f(pts, g, n).valid), (g, n)
+        pose = f(pts, g, n)
+        assert not bool(pose.valid) and int(pose.status) == jaxpose.Status.BAD_PARAMETERS, (g, n)
+    assert int(f(pts, 47.0, 1.0).status) == jaxpose.Status.COLLAPSED_REGION  # traced statuses
     # jit of a concrete-points closure (gamma traced) takes the float64 pre-scaling path
     scale = jax.jit(lambda g: normalize(P, g, 0.5).scale)(47.0)
     np.testing.assert_allclose(float(scale), float(good.scale), rtol=1e-3)
@@ -211,10 +233,11 @@ def test_degenerate_but_legal_shapes():
         lo, hi = pts.min(0), pts.max(0)
         assert np.all(np.asarray(pose.center) >= lo - 1e-3) and np.all(np.asarray(pose.center) <= hi + 1e-3), name
     # float32: the solver's solution on collinear points is asymmetric at its tol (1.9e-3 with the
-    # plain grid estimate, 2.8e-3 extrapolated, 2.3-2.5e-3 at finer grids: not the grid);
+    # plain grid estimate, 2.8e-3 extrapolated, 2.3-2.5e-3 at finer grids: not the grid; 3.0e-3
+    # with the rows padded to 320, where float32 sums round differently);
     # in float64 the center is exact (test_degenerate_shapes_are_symmetric_in_float64)
     pose = normalize(cases["collinear"])
-    np.testing.assert_allclose(np.asarray(pose.center), [4.0, 3.5, 3.0], atol=3e-3)
+    np.testing.assert_allclose(np.asarray(pose.center), [4.0, 3.5, 3.0], atol=4e-3)
     pose = normalize(cases["two points"])
     np.testing.assert_allclose(np.asarray(pose.center), [0.5, 0.5, 0.5], atol=2e-3)
 
@@ -254,11 +277,19 @@ def test_float32_far_offsets_and_extreme_units():
         np.testing.assert_allclose(float(pose.scale), 100 * s, rtol=2e-2)
 
 
-@pytest.mark.parametrize("gamma,nu", [(1e-3, 0.5), (200.0, 0.5), (47.0, 0.0), (47.0, 1.0), (47.0, 1e-3)])
+@pytest.mark.parametrize("gamma,nu", [(1e-3, 0.5), (200.0, 0.5), (47.0, 0.0), (47.0, 0.99), (47.0, 1e-3)])
 def test_edge_hyperparameters(gamma, nu):
     pose = normalize(P, gamma, nu)
     assert bool(pose.valid) and bool(pose.converged) and finite_pose(pose)
     assert float(pose.scale) > 0
+
+
+def test_nu_one_collapses_the_region():
+    """nu = 1 puts every sample at its bound: the region shrinks onto the densest samples
+    (mean distance 0.013 of the pre-scaled frame against 0.65 at nu = 0.5): not valid."""
+    with pytest.warns(jaxpose.InvalidPoseWarning, match="collapsed"):
+        pose = normalize(P, 47.0, 1.0)
+    assert not bool(pose.valid) and int(pose.status) == jaxpose.Status.COLLAPSED_REGION
 
 
 def test_edge_hyperparameters_fit_svdd():

@@ -38,7 +38,8 @@ def solve_pg(points, gamma, caps, mask, init_alpha, config, max_iter=None, resta
     dtype = points.dtype
     matvec = kernel_ops(points, gamma, config.kernel, config.block)[0]
     m = points.shape[0]
-    lam = power_iteration(matvec, m, dtype, iterations=10)
+    # padding rows (mask False) are left out, so a padded problem takes the steps of the unpadded one
+    lam = power_iteration(lambda v: jnp.where(mask, matvec(jnp.where(mask, v, 0.0)), 0.0), m, dtype, iterations=10)
     gersh = jnp.max(jnp.where(mask, matvec(mask.astype(dtype)), 0.0))
     step = 1.0 / (2.0 * jnp.minimum(1.04 * lam, gersh))
 

@@ -1,0 +1,68 @@
+"""Point counts: the subset a fit uses above ``MAX_POINTS``, and padded row counts that share compilations.
+
+A jitted function compiles once per input shape. :func:`bucket` rounds a point count up to one of
+four sizes per octave, and :func:`pad` fills the extra rows (masked out of every sum), so point
+sets of many sizes share a few compilations. Above ``MAX_POINTS`` points, :func:`subsample_index`
+picks a seeded uniform subset, so the cost of a fit is bounded whatever the input's size.
+"""
+from __future__ import annotations
+
+import jax.numpy as jnp
+import numpy as np
+
+__all__ = ["MAX_POINTS", "bucket", "subsample_index", "pad"]
+
+MAX_POINTS = 4096  # larger point sets are subsampled (seeded, uniform) to this many
+
+
+def bucket(m: int) -> int:
+    """The row count m points are padded to, so that point counts share compilations.
+
+    Args:
+      m: int >= 1, the number of points.
+
+    Returns:
+      int: m itself up to 8; else the smallest multiple of 2^(k-3) that is >= m, where
+      2^(k-1) < m <= 2^k (four sizes per octave, at most 25 % padding). ``bucket(400) == 448``.
+    """
+    m = int(m)
+    if m <= 8:
+        return m
+    step = 2 ** ((m - 1).bit_length() - 3)
+    return -(-m // step) * step
+
+
+def subsample_index(m: int, max_points: int | None, seed: int = 0):
+    """Which of m points a fit uses.
+
+    Args:
+      m: the number of points; max_points: int or None (no limit); seed: int >= 0.
+
+    Returns:
+      None when m <= max_points (or max_points is None: every point); else (max_points,) int,
+      the sorted indices of a uniform random subset without replacement
+      (``numpy.random.default_rng(seed)``). It depends on (m, max_points, seed) only, so traced
+      and concrete calls take the same points.
+    """
+    if max_points is None or m <= max_points:
+        return None
+    return np.sort(np.random.default_rng(seed).choice(m, size=max_points, replace=False))
+
+
+def pad(sets, rows, dtype):
+    """Point sets stacked and padded to ``rows`` rows.
+
+    Args:
+      sets: sequence of (m_i, 3) arrays, m_i <= rows; rows: int; dtype: the floating dtype.
+
+    Returns:
+      (n, rows, 3) JAX points of ``dtype`` (float64 becomes float32 unless x64 is on) and (n, rows)
+      bool mask, False on padding rows, which repeat each set's first point.
+    """
+    pts = np.empty((len(sets), rows, 3), dtype)
+    mask = np.zeros((len(sets), rows), bool)
+    for i, a in enumerate(sets):
+        pts[i, : len(a)] = a
+        pts[i, len(a):] = a[0]  # padding sits on a real point, masked out
+        mask[i, : len(a)] = True
+    return jnp.asarray(pts), jnp.asarray(mask)  # float64 becomes float32 unless x64 is on

@@ -1,0 +1,75 @@
+"""When a pose is valid: each status code on a synthetic shape made to trigger it, the helpers
+against scipy, and the messages that errors and warnings carry."""
+import numpy as np
+import pytest
+import trimesh
+
+import jaxpose
+from jaxpose import InvalidPoseWarning, JaxposeError, Status
+from jaxpose.validity import MAX_CELL, MAX_SPACING, median_distance, median_spacing, status_message
+from conftest import sphere_with_arm
+
+# test_gradients' small grid (its compilation): 8 coarse cells per axis, refined once
+SMALL = dict(resolution=8, refine=2, band=256, tol=1e-4)
+
+
+def test_helpers_match_scipy():
+    from scipy.spatial import cKDTree
+
+    rng = np.random.default_rng(0)
+    y = rng.normal(size=(301, 3))
+    mask = np.arange(301) < 250  # the last rows are padding
+    nn = cKDTree(y[:250]).query(y[:250], k=2)[0][:, 1]
+    assert float(median_spacing(y, mask, block=64)) == pytest.approx(np.sort(nn)[124], rel=1e-5)  # lower median
+    d = np.linalg.norm(y[:250] - 0.1, axis=1)
+    assert float(median_distance(y, np.full(3, 0.1), mask)) == pytest.approx(np.sort(d)[124], rel=1e-5)
+    assert float(median_spacing(np.r_[y, y])) == 0.0  # repeated points
+
+
+def test_status_codes_and_messages():
+    assert [int(s) for s in Status] == list(range(8)) and Status(0) is Status.OK
+    assert "too sparse" in status_message(np.int32(3)) and "does not resolve" in Status.UNRESOLVED_GRID.message
+    assert "collapsed" in Status.COLLAPSED_REGION.message and "no extent" in Status.DEGENERATE_INPUT.message
+    pose = jaxpose.Pose.from_center_scale(np.zeros(3), 1.0)
+    assert int(pose.status) == 0 and pose.count is None
+    assert int(jaxpose.Pose.from_center_scale(np.zeros(3), -1.0).status) == Status.NOT_FINITE
+
+
+def test_too_few_samples_are_not_a_plain_number():
+    """8 samples of a sphere: each sample's kernel is alone (spacing 7 kernel widths): not valid,
+    with a warning; an error through normalize_mesh."""
+    sphere = trimesh.creation.icosphere(subdivisions=2)
+    points = jaxpose.sample_surface(sphere, 8, seed=0)
+    with pytest.warns(InvalidPoseWarning, match="too sparse for gamma"):
+        pose = jaxpose.normalize(points)
+    assert not bool(pose.valid) and int(pose.status) == Status.SPARSE_SAMPLES and int(pose.count) == 8
+    with pytest.raises(JaxposeError, match="no valid pose .*too sparse"):
+        jaxpose.normalize(points, throw=True)
+    with pytest.raises(JaxposeError, match="ocsvm estimator gave no valid pose: the samples are too sparse"):
+        jaxpose.normalize_mesh(sphere, method="ocsvm", count=8)
+
+
+def test_a_grid_dependent_result_is_flagged(x64):
+    """gamma = 200 on a 8^3 grid refined once: cells of 3 kernel widths. The center then depends
+    on the grid (it moves by more than 1 % of the scale at 32^3, whose cells resolve the kernel):
+    UNRESOLVED_GRID, not valid."""
+    pts = sphere_with_arm(400, seed=1)
+    with pytest.warns(InvalidPoseWarning, match="does not resolve the kernel"):
+        coarse = jaxpose.normalize(pts, 200.0, 0.5, **SMALL)
+    assert int(coarse.status) == Status.UNRESOLVED_GRID and not bool(coarse.valid)
+    fine = jaxpose.normalize(pts, 200.0, 0.5, resolution=32)  # the pinned results' compilation
+    assert bool(fine.valid)
+    assert np.max(np.abs(np.asarray(coarse.center) - np.asarray(fine.center))) > 1e-2 * float(fine.scale)
+    assert MAX_CELL == MAX_SPACING == 2.0
+
+
+def test_status_per_object_of_a_batch():
+    """Each object of a batch carries its own status; an error names the first invalid one."""
+    pts = sphere_with_arm(400, seed=1)
+    few = jaxpose.sample_surface(trimesh.creation.icosphere(subdivisions=2), 8, seed=0)
+    with pytest.warns(InvalidPoseWarning, match=r"point set 1: the samples are too sparse"):
+        batch = jaxpose.normalize_batch([pts, few], resolution=32)  # the pinned batch's compilation
+    assert [int(s) for s in batch.status] == [Status.OK, Status.SPARSE_SAMPLES]
+    assert [int(c) for c in batch.count] == [400, 8] and list(np.asarray(batch.valid)) == [True, False]
+    with pytest.raises(JaxposeError, match=r"no valid pose \(point set 1: the samples are too sparse"):
+        jaxpose.normalize_batch([pts, few], resolution=32, throw=True)

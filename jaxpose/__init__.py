@@ -39,7 +39,7 @@ _LAZY_NAMES = {
     "decision_function": "svdd",
     "Moments": "moments",
     "volume_moments": "moments",
-    "Pose": "pose",
+    "Pose": "result",
     "normalize": "pose",
     "normalize_batch": "pose",
     "SolverConfig": "config",
@@ -50,7 +50,7 @@ _LAZY_NAMES = {
     "normalize_files": "batch",
     "read_transforms": "transforms",
     "pose_sensitivity": "sensitivity",
-    "Status": "validity",
+    "Status": "result",
 }
 _LAZY_MODULES = ("baselines", "sensitivity", "datasets", "evaluation", "tuning", "plot", "mesh", "batch",
                  "transforms")

@@ -84,7 +84,7 @@ def centered(geometry):
     """
     import trimesh
 
-    from .frame import anchor
+    from .host import anchor
 
     vertices, faces = baselines.split_geometry(geometry)
     shift = anchor(vertices)
@@ -243,7 +243,7 @@ def _shifted(pose, shift):
 
 
 def _pose(shape, c_name, s_name, strict):
-    from .pose import Pose
+    from .result import Pose
 
     c = np.asarray(shape.center(c_name, strict), np.float64)
     s = float(shape.scale(s_name, c, strict))

@@ -20,9 +20,8 @@ import math
 
 import jax
 import jax.numpy as jnp
-import numpy as np
 
-from ._validate import InvalidInputError, compute_dtype
+from .host import anchor, host_frame
 
 __all__ = ["REFERENCE_RMS", "reference_frame", "principal_axes", "prescale", "host_frame", "anchor"]
 
@@ -83,44 +82,3 @@ def prescale(points, mask=None):
     axes = principal_axes(points - mean, mask)
     y = ((points - mean) / safe) @ axes
     return y, (lambda c: mean + safe * (axes @ c)), size
-
-
-def host_frame(points, name: str = "points"):
-    """Mean and RMS distance of concrete points, in float64 NumPy, without overflow.
-
-    Args:
-      points: (m, 3) array-like of finite numbers.
-      name: how error messages call the points.
-
-    Returns:
-      mean (3,) float64 and rms () float. Dividing ``points - mean`` by ``rms`` gives
-      coordinates of order 1 that keep their shape in float32, whatever the offset or the units.
-
-    Raises:
-      InvalidInputError: if the frame cannot be represented in the compute dtype.
-    """
-    arr = np.asarray(points, dtype=np.float64)
-    big = float(np.max(np.abs(arr)))
-    unit = big if big > 0 else 1.0
-    mean = np.mean(arr / unit, axis=0) * unit
-    d = arr - mean
-    spread = float(np.max(np.abs(d)))
-    rms = spread * float(np.sqrt(np.mean(np.sum((d / spread) ** 2, axis=1)))) if spread > 0 else 0.0
-    finfo = np.finfo(compute_dtype(points))
-    if not (np.all(np.isfinite(mean)) and np.isfinite(rms)) or big > float(finfo.max) or not rms > float(finfo.tiny):
-        raise InvalidInputError(
-            f"{name} span {rms:.3g} at coordinates up to {big:.3g}: outside the range of {finfo.dtype} "
-            f"(rescale the input, or enable jax_enable_x64 for float64)"
-        )
-    return mean, rms
-
-
-def anchor(vertices):
-    """The vertex nearest the middle of the bounding box, (3,) float64.
-
-    Subtracting it is exact far from the origin (x - a for nearby floats, Sterbenz's lemma), and so
-    is adding it back to the difference: geometry moved by it loses no digit, wherever it sits.
-    """
-    v = np.asarray(vertices, np.float64)
-    middle = 0.5 * (v.min(axis=0) + v.max(axis=0))
-    return v[int(np.argmin(np.sum((v - middle) ** 2, axis=1)))].copy()

@@ -77,9 +77,9 @@ def load(path_or_mesh):
 def _merge_vertices(geometry):
     """trimesh's ``merge_vertices`` (an absolute tolerance, 1e-8), decided near the origin: far from
     it, rounding every coordinate to 1e-8 overflows and merges distinct vertices. The merge runs on
-    a copy moved by an anchor vertex (:func:`jaxpose.frame.anchor`); the vertices kept are then
+    a copy moved by an anchor vertex (:func:`jaxpose.host.anchor`); the vertices kept are then
     taken from the input as they are, so loading changes no coordinate, not even by rounding."""
-    from .frame import anchor
+    from .host import anchor
 
     original = np.asarray(geometry.vertices, np.float64)
     faces = np.asarray(geometry.faces, np.int64)

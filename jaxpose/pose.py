@@ -25,7 +25,7 @@ from __future__ import annotations
 from functools import partial
 import numbers
 import warnings
-from typing import Iterable, NamedTuple
+from typing import Iterable
 
 import jax
 import jax.numpy as jnp
@@ -39,101 +39,10 @@ from .moments import region_moments
 from .svdd import solve_svdd
 from .svdd.secant import with_nu_secant
 from .sizes import MAX_POINTS, bucket, pad, subsample_index
-from .validity import Status, pose_status
+from .result import Pose, Status
+from .validity import pose_status
 
 __all__ = ["Pose", "normalize", "normalize_batch", "pose_pipeline", "pose_from_svdd"]
-
-
-class Pose(NamedTuple):
-    """A similarity x -> R (x - center) / scale, with the diagnostics of how it was found. A pytree.
-
-    Attributes:
-      center: (3,) in the units of the input.
-      scale: () > 0, in the units of the input.
-      converged: () bool, the SVDD solver reached its tolerance.
-      valid: () bool, ``status == Status.OK``: parameters in range, samples dense enough for gamma,
-        a grid that resolves the kernel, a non-empty region that has not collapsed, a finite center
-        and a positive finite scale (:mod:`jaxpose.validity`). Convergence is apart (``converged``).
-      iterations: () solver iterations.
-      ambiguity: None, or () in [0, 1]: how poorly the rotation is determined (0: every cue of
-        :mod:`jaxpose.rotation` clears its threshold); see ``flagged``.
-      rotation: None (no rotation: R = I), or (3, 3) a proper rotation whose rows are the canonical
-        axes in the input's coordinates (``rotation=True`` of :func:`normalize` and friends).
-      status: () int, a :class:`jaxpose.validity.Status` code: 0 when valid, else why not
-        (``Status(int(pose.status)).message``).
-      count: None, or () int: how many points the SVDD was fitted to (fewer than given above
-        ``MAX_POINTS``).
-
-    Poses from :func:`normalize_batch` carry a leading batch axis on every field.
-    """
-
-    center: jax.Array
-    scale: jax.Array
-    converged: jax.Array = True
-    valid: jax.Array = True
-    iterations: jax.Array = 0
-    ambiguity: jax.Array | None = None
-    rotation: jax.Array | None = None
-    status: jax.Array = 0
-    count: jax.Array | None = None
-
-    @classmethod
-    def from_center_scale(cls, center, scale, rotation=None, ambiguity=None) -> "Pose":
-        """A Pose from a given center (3,) and scale () (and optionally rotation (3, 3), ambiguity ());
-        valid when center and scale are finite and scale > 0.
-
-        Concrete values stay NumPy float64 (every digit of a center far from the origin is kept);
-        traced values stay JAX arrays.
-        """
-        xp = jnp if _validate.is_traced(center) or _validate.is_traced(scale) else np
-        center = xp.asarray(center, dtype=None if xp is jnp else np.float64)
-        scale = xp.asarray(scale, center.dtype)
-        valid = xp.all(xp.isfinite(center)) & xp.isfinite(scale) & (scale > 0)
-        if rotation is not None:
-            rotation = xp.asarray(rotation, center.dtype)
-            ambiguity = xp.asarray(0.0 if ambiguity is None else ambiguity, center.dtype)
-        status = xp.where(valid, int(Status.OK), int(Status.NOT_FINITE)).astype(np.int32)
-        return cls(center, scale, xp.asarray(True), valid, xp.asarray(0), ambiguity, rotation, status)
-
-    @property
-    def flagged(self):
-        """() bool (or None without a rotation): the rotation is not well determined (ambiguity > 0)."""
-        return None if self.ambiguity is None else jnp.asarray(self.ambiguity) > 0
-
-    def _rotation(self, dtype):
-        if self.rotation is None:
-            return jnp.broadcast_to(jnp.eye(3, dtype=dtype), jnp.shape(self.center)[:-1] + (3, 3))
-        return jnp.asarray(self.rotation, dtype)
-
-    @property
-    def matrix(self):
-        """(..., 4, 4) homogeneous matrix of x -> R (x - center) / scale."""
-        c, s = jnp.asarray(self.center), jnp.asarray(self.scale)
-        if self.rotation is None:
-            eye = jnp.broadcast_to(jnp.eye(3, dtype=c.dtype), c.shape[:-1] + (3, 3))
-            top = jnp.concatenate([eye / s[..., None, None], (-c / s[..., None])[..., None]], axis=-1)
-        else:
-            r = self._rotation(c.dtype) / s[..., None, None]
-            top = jnp.concatenate([r, -jnp.einsum("...ij,...j->...i", r, c)[..., None]], axis=-1)
-        bottom = jnp.broadcast_to(jnp.asarray([0, 0, 0, 1], c.dtype), c.shape[:-1] + (1, 4))
-        return jnp.concatenate([top, bottom], axis=-2)
-
-    def apply(self, x):
-        """Normalize points x : (n, 3) -> (n, 3)."""
-        y = (jnp.asarray(x) - self.center) / self.scale
-        if self.rotation is None:
-            return y
-        return y @ jnp.asarray(self.rotation, y.dtype).T
-
-    def inverse(self) -> "Pose":
-        """The inverse similarity y -> scale R^T y + center, as a Pose (rotation R^T, center
-        -R center / scale, scale 1 / scale)."""
-        if self.rotation is None:
-            return self._replace(center=-self.center / self.scale, scale=1.0 / self.scale)
-        xp = np if isinstance(self.rotation, np.ndarray) and isinstance(self.center, np.ndarray) else jnp
-        r = xp.asarray(self.rotation)
-        center = -xp.einsum("...ij,...j->...i", r, self.center) / xp.asarray(self.scale)[..., None]
-        return self._replace(center=center, scale=1.0 / self.scale, rotation=xp.swapaxes(r, -1, -2))
 
 
 def pose_from_svdd(svdd, to_world, size, grid, outside, rotation=False, y=None, mask=None):

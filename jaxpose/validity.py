@@ -31,60 +31,15 @@ Example::
 """
 from __future__ import annotations
 
-import enum
-
 import jax
 import jax.numpy as jnp
 
 from .kernels import map_blocks
+from .result import MAX_CELL, MAX_SPACING, MIN_SPREAD, Status, status_message
 
 __all__ = ["Status", "MAX_SPACING", "MAX_CELL", "MIN_SPREAD", "status_message", "pose_status", "median_spacing",
            "median_distance"]
 
-MAX_SPACING = 2.0  # median nearest-neighbour distance of the samples, in kernel widths
-MAX_CELL = 2.0  # finest grid cell edge, in kernel widths
-MIN_SPREAD = 0.25  # region mean distance / samples' median distance from its centroid
-
-
-class Status(enum.IntEnum):
-    """Why a pose is not valid (``Pose.status``); ``OK`` (0) when it is. ``Status(code).message``
-    explains a code; when several apply, the first in this order is reported."""
-
-    OK = 0
-    BAD_PARAMETERS = 1
-    DEGENERATE_INPUT = 2
-    SPARSE_SAMPLES = 3
-    UNRESOLVED_GRID = 4
-    EMPTY_REGION = 5
-    COLLAPSED_REGION = 6
-    NOT_FINITE = 7
-
-    @property
-    def message(self) -> str:
-        """One sentence: what went wrong and what to change."""
-        return _MESSAGES[self]
-
-
-_MESSAGES = {
-    Status.OK: "valid",
-    Status.BAD_PARAMETERS: "gamma or nu is out of range (gamma finite and > 0, nu in [0, 1])",
-    Status.DEGENERATE_INPUT: "the points have no extent (all identical) or are not finite",
-    Status.SPARSE_SAMPLES: (f"the samples are too sparse for gamma: their median spacing exceeds {MAX_SPACING:g} "
-                            "kernel widths 1/sqrt(2 gamma), so the region is a cloud of separate balls; use more "
-                            "samples or a smaller gamma"),
-    Status.UNRESOLVED_GRID: (f"the grid does not resolve the kernel: its finest cell exceeds {MAX_CELL:g} kernel "
-                             "widths 1/sqrt(2 gamma), so the result depends on the grid; raise resolution or "
-                             "refine, or lower gamma"),
-    Status.EMPTY_REGION: "the region {f >= 0} is empty on this grid (no positive volume)",
-    Status.NOT_FINITE: "the center or the scale is not finite, or the scale is not positive",
-    Status.COLLAPSED_REGION: (f"the region collapsed: its mean distance is below {MIN_SPREAD:g} of the samples' "
-                              "median distance from its centroid (nu near 1, or too few samples)"),
-}
-
-
-def status_message(code) -> str:
-    """The message of a status code (an int, or a NumPy/JAX integer scalar)."""
-    return Status(int(code)).message
 
 
 def _masked_median(values, mask):

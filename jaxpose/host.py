@@ -1,0 +1,56 @@
+"""Host-side frames of concrete inputs (NumPy, float64): what is moved out before device work.
+
+Coordinates far from the origin (scanner or GIS units) lose their shape in float32, and even in
+float64 once they are squared or averaged naively. :func:`host_frame` gives the mean and RMS size of
+a point set without overflow, so that (x - mean) / size is of order 1; :func:`anchor` gives a vertex
+by which a mesh can be moved exactly. No JAX here: NumPy estimators use it without importing JAX.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ._validate import InvalidInputError, compute_dtype
+
+__all__ = ["host_frame", "anchor"]
+
+
+def host_frame(points, name: str = "points"):
+    """Mean and RMS distance of concrete points, in float64 NumPy, without overflow.
+
+    Args:
+      points: (m, 3) array-like of finite numbers.
+      name: how error messages call the points.
+
+    Returns:
+      mean (3,) float64 and rms () float. Dividing ``points - mean`` by ``rms`` gives
+      coordinates of order 1 that keep their shape in float32, whatever the offset or the units.
+
+    Raises:
+      InvalidInputError: if the frame cannot be represented in the compute dtype.
+    """
+    arr = np.asarray(points, dtype=np.float64)
+    big = float(np.max(np.abs(arr)))
+    unit = big if big > 0 else 1.0
+    mean = np.mean(arr / unit, axis=0) * unit
+    d = arr - mean
+    spread = float(np.max(np.abs(d)))
+    rms = spread * float(np.sqrt(np.mean(np.sum((d / spread) ** 2, axis=1)))) if spread > 0 else 0.0
+    finfo = np.finfo(compute_dtype(points))
+    if not (np.all(np.isfinite(mean)) and np.isfinite(rms)) or big > float(finfo.max) or not rms > float(finfo.tiny):
+        raise InvalidInputError(
+            f"{name} span {rms:.3g} at coordinates up to {big:.3g}: outside the range of {finfo.dtype} "
+            f"(rescale the input, or enable jax_enable_x64 for float64)"
+        )
+    return mean, rms
+
+
+def anchor(vertices):
+    """The vertex nearest the middle of the bounding box, (3,) float64.
+
+    Far from the origin (coordinates much larger than the shape's extent) x - a is exact
+    (Sterbenz's lemma: nearby floats), so geometry moved by it keeps every digit of its shape; near
+    the origin the difference rounds by at most half an ulp of the coordinate.
+    """
+    v = np.asarray(vertices, np.float64)
+    middle = 0.5 * (v.min(axis=0) + v.max(axis=0))
+    return v[int(np.argmin(np.sum((v - middle) ** 2, axis=1)))].copy()

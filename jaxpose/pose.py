@@ -30,7 +30,7 @@ from .config import PoseConfig
 from .frame import host_frame, prescale
 from .moments import region_moments
 from .svdd import solve_svdd
-from .svdd.secant import with_nu_secant
+from .svdd.secant import with_secants
 
 __all__ = ["Pose", "normalize", "normalize_batch", "pose_pipeline", "pose_from_svdd"]
 
@@ -143,7 +143,7 @@ def pose_from_svdd(svdd, to_world, size, grid, outside, rotation=False, y=None, 
 
 
 def _pipeline(points, mask, gamma, nu, config, rotation=False):
-    y, to_world, size = prescale(points, mask)
+    y, to_world, size = prescale(points)
     extra = {"rotation": True, "y": y, "mask": mask} if rotation else {}
     if config.derivative == "exact":
         svdd = solve_svdd(y, gamma, nu, mask, None, config.svdd)
@@ -151,11 +151,11 @@ def _pipeline(points, mask, gamma, nu, config, rotation=False):
         return pose_from_svdd(svdd, to_world, size, config.grid, outside=False, **extra)
     dtype = y.dtype
     gamma, nu = jnp.asarray(gamma, dtype), jnp.asarray(nu, dtype)
-    svdd = solve_svdd(y, gamma, jax.lax.stop_gradient(nu), mask, None, config.svdd)
-    tol = config.nu_tol
-    if tol is None:
-        tol = min(config.svdd.tol, 1e-6 if dtype == jnp.float64 else 1e-5)
-    svdd = with_nu_secant(svdd, nu, config.svdd, config.nu_delta, tol)
+    sg = jax.lax.stop_gradient
+    params = ("gamma", "nu") if config.derivative == "trend" else ("nu",)  # "secant": gamma implicit
+    svdd = solve_svdd(y, sg(gamma) if "gamma" in params else gamma, sg(nu), mask, None, config.svdd)
+    svdd = with_secants(svdd, gamma, nu, config.svdd, params, (config.gamma_delta, config.nu_delta),
+                        config.secant_tol(dtype), config.secant_iterations)
     return pose_from_svdd(svdd, to_world, size, config.grid, outside=True, **extra)  # the secant moves alpha = 0 points
 
 

@@ -170,11 +170,9 @@ class PoseConfig:
         iters = None if self.secant_iterations is None else _int(self.secant_iterations, "secant_iterations", 1)
         _set(self, nu_tol=nu_tol, secant_iterations=iters, **deltas)
 
-    def secant_tol(self, dtype) -> float:
+    def secant_tol(self) -> float:
         """Solver tolerance of the secant solves: ``nu_tol``, or min(tol, 1e-5) (measured: the
-        slopes at 1e-5 and 1e-6 agree to 3 digits, at 1e-4 to ~5 %). ``dtype`` is accepted for
-        callers that resolve it per precision; the rule is the same for both."""
-        del dtype
+        slopes at 1e-5 and 1e-6 agree to 3 digits, at 1e-4 to ~5 %)."""
         if self.nu_tol is not None:
             return self.nu_tol
         return min(self.svdd.tol, 1e-5)

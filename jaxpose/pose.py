@@ -10,9 +10,9 @@ center = mean + s_ref axes c_m, scale = s_ref d_m.
 Concrete inputs are first centered and scaled on the host in float64 (:func:`jaxpose.frame.host_frame`)
 and the offset is added back at the end, so coordinates far from the origin keep their digits.
 
-Derivatives in gamma and nu flow through the SVDD solution (the implicit KKT derivative, or the
-secant in nu, ``PoseConfig.derivative``) and the grid occupancy, whose derivative is the coarea
-boundary term. With only two hyperparameters, reverse mode in them is computed from forward-mode
+Derivatives in gamma and nu flow through the SVDD solution (by default its trend: secant slopes
+over gamma (1 +- 1 %) and nu (1 +- 1 %); or the implicit KKT derivative; ``PoseConfig.derivative``)
+and the grid occupancy, whose derivative is the coarea boundary term. With only two hyperparameters, reverse mode in them is computed from forward-mode
 columns (:func:`jaxpose._hyper.hyper_jvp`).
 """
 from __future__ import annotations
@@ -155,7 +155,7 @@ def _pipeline(points, mask, gamma, nu, config, rotation=False):
     params = ("gamma", "nu") if config.derivative == "trend" else ("nu",)  # "secant": gamma implicit
     svdd = solve_svdd(y, sg(gamma) if "gamma" in params else gamma, sg(nu), mask, None, config.svdd)
     svdd = with_secants(svdd, gamma, nu, config.svdd, params, (config.gamma_delta, config.nu_delta),
-                        config.secant_tol(dtype), config.secant_iterations)
+                        config.secant_tol(), config.secant_iterations)
     return pose_from_svdd(svdd, to_world, size, config.grid, outside=True, **extra)  # the secant moves alpha = 0 points
 
 
@@ -189,8 +189,8 @@ def normalize(points, gamma=47.0, nu=0.5, *, config: PoseConfig | None = None, t
       config: a :class:`jaxpose.config.PoseConfig`; or, as keywords, any of its flat options:
         grid ``resolution`` (64), ``refine`` (2), ``band`` (16384), ``extrapolate``; solver ``tol``
         (1e-3), ``max_iter``, ``check_every``, ``kernel``, ``solver`` (None: "pg" up to 2500
-        points, "auto" above, on CPU); ``block`` (both); ``derivative`` ("exact" | "secant"),
-        ``nu_delta``, ``nu_tol``.
+        points, "auto" above, on CPU); ``block`` (both); ``derivative`` ("trend" | "exact" |
+        "secant"), ``gamma_delta``, ``nu_delta``, ``secant_iterations``, ``nu_tol``.
       throw: concrete calls only: raise ConvergenceError if the solver hit max_iter,
         JaxposeError if the pose is not valid (otherwise see ``Pose.converged`` / ``Pose.valid``).
       rotation: also the canonical frame of the OCSVM region (``Pose.rotation``, rows = axes,
@@ -203,7 +203,10 @@ def normalize(points, gamma=47.0, nu=0.5, *, config: PoseConfig | None = None, t
       ``resolution=32, refine=8`` for thin shells.
 
     A pure JAX function of (points, gamma, nu): jittable (options static), vmappable,
-    differentiable in gamma, nu and the points. Concrete points are centered and scaled in
+    differentiable in gamma, nu and the points. By default the derivatives in gamma and nu follow
+    the trend of the pose over gamma (1 +- 1 %) and nu (1 +- 1 %) (two extra solves per parameter,
+    only when differentiated); ``derivative="exact"`` gives the local implicit derivative
+    (``docs/design.md``, "How gradients flow"). Concrete points are centered and scaled in
     float64 NumPy first (float16 and integers are computed in float32).
 
     Raises:

@@ -205,12 +205,15 @@ def _fd(points, g, n, param, eps, **opts):
 def test_default_derivative_follows_fd_at_one_percent(shape_points):
     """The default jacfwd (derivative="trend") of normalize's center and scale agrees with central
     differences of normalize at steps of 1 % of gamma and of nu, within 20 % (or 1e-6), at
-    (20, 0.3), where the exact derivative does not (its nu-column is the slope of one piece)."""
+    (20, 0.3). On the default grid: at 16^3-32^3 the grid's own switches (cells entering the band
+    or the occupancy ramp) move the center by as much as 1 % of gamma does, and the derivative
+    holds the grid fixed (measured here: 28 % at 32^3, 5 % at 64^3)."""
     g, n = 20.0, 0.3
-    J = np.asarray(jax.jacfwd(lambda t: jnp.asarray(_vec_j(jaxpose.normalize(shape_points, t[0], t[1], **OPTS))))(
+    opts = dict(tol=1e-7, max_iter=200_000)
+    J = np.asarray(jax.jacfwd(lambda t: jnp.asarray(_vec_j(jaxpose.normalize(shape_points, t[0], t[1], **opts))))(
         jnp.asarray([g, n])))
     for k, param in enumerate(("gamma", "nu")):
-        fd = _fd(shape_points, g, n, param, 0.01, **OPTS)
+        fd = _fd(shape_points, g, n, param, 0.01, **opts)
         assert _ok(J[:, k], fd, 0.20), (param, J[:, k], fd, _rel(J[:, k], fd))
 
 

@@ -39,7 +39,8 @@ def slopes(points, gamma, nu, mask, alpha0, config, delta, tol, param="nu", iter
     Args:
       points: (m, 3); gamma, nu: (); mask: (m,) bool or None; alpha0: (m,) warm start (the
         solution at (gamma, nu)); config: SolverConfig of the solves (its tol replaced by ``tol``);
-      delta: relative half-width; param: "gamma" or "nu".
+      delta: relative half-width; param: "gamma" or "nu"; iterations: None (each end solved to
+        ``tol``) or a number of projected-gradient steps both ends take from alpha0 in lock-step.
 
     Returns:
       (m,) and () slopes, without derivatives (non-finite slopes are 0).
@@ -104,7 +105,7 @@ def with_secants(svdd, gamma, nu, config, params=PARAMS, deltas=(0.015, 0.015), 
         may carry other derivatives: in the points, or the implicit one in a parameter not in
         ``params``); gamma, nu: () the traced parameters; config: SolverConfig (static);
       params: (static) a subset of ("gamma", "nu"); deltas: (static) relative half-widths
-        (gamma's, nu's); tol: (static) tolerance of the secant solves.
+        (gamma's, nu's); tol, iterations: (static) how the ends are solved (:func:`slopes`).
 
     Returns:
       SVDD with alpha and offset whose tangents along ``params`` are the secant slopes (module

@@ -143,7 +143,7 @@ def pose_from_svdd(svdd, to_world, size, grid, outside, rotation=False, y=None, 
 
 
 def _pipeline(points, mask, gamma, nu, config, rotation=False):
-    y, to_world, size = prescale(points)
+    y, to_world, size = prescale(points, mask)
     extra = {"rotation": True, "y": y, "mask": mask} if rotation else {}
     if config.derivative == "exact":
         svdd = solve_svdd(y, gamma, nu, mask, None, config.svdd)

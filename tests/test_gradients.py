@@ -170,7 +170,8 @@ def test_forward_reverse_jit_vmap_agree(small_points):
 
 
 def test_core_normalize_differentiable_in_gamma(small_points):
-    shape_points, opts = small_points, SMALL
+    """jax.grad and jax.jacfwd agree with derivative="exact" too (the trend: the test above)."""
+    shape_points, opts = small_points, {**SMALL, "derivative": "exact"}
     f = lambda g: jaxpose.normalize(shape_points, g, 0.5, **opts).scale
     a = jax.grad(f)(47.0)
     b = jax.jacfwd(f)(47.0)
@@ -183,8 +184,9 @@ def test_core_normalize_differentiable_in_gamma(small_points):
 
 def test_reverse_mode_in_points_still_works(small_points):
     """Gradients in the points bypass the forward-column rule (_hyper.hyper_jvp): plain reverse
-    mode, equal to the JVP along a random direction; and jointly with gamma."""
-    opts = SMALL
+    mode, equal to the JVP along a random direction; and jointly with gamma (exact mode: the
+    points' derivative is the implicit one in every mode)."""
+    opts = {**SMALL, "derivative": "exact"}
     f = lambda p, g: jaxpose.normalize(p, g, 0.5, **opts).scale
     gp, gg = jax.grad(f, argnums=(0, 1))(small_points, 47.0)
     v = jnp.asarray(np.random.default_rng(0).normal(size=small_points.shape))

@@ -54,6 +54,7 @@ def shapes(m):
 
 def agrees(j, fd):
     """Center (vector) and scale of a derivative j (4,) within RTOL of fd (4,), or within ATOL."""
+    j, fd = np.asarray(j, np.float64), np.asarray(fd, np.float64)
     ec, es = np.linalg.norm(j[:3] - fd[:3]), abs(j[3] - fd[3])
     rc, rs = ec / max(np.linalg.norm(fd[:3]), 1e-300), es / max(abs(fd[3]), 1e-300)
     return bool((rc <= RTOL or ec <= ATOL) and (rs <= RTOL or es <= ATOL)), float(rc), float(rs)

@@ -52,12 +52,14 @@ def kernel_matvec_blocked(points, v, gamma, block=1024):
     return map_blocks(lambda rows: gaussian_kernel(rows, points, gamma) @ v, points, block)
 
 
-def power_iteration(matvec, m, dtype, iterations=30):
+def power_iteration(matvec, m, dtype, iterations=30, start=None):
     """Largest eigenvalue of a symmetric PSD operator (Rayleigh quotient after `iterations`).
 
-    Starts from the ones vector, which overlaps the Perron vector of a positive kernel.
+    Starts from ``start`` (m,), by default the ones vector, which overlaps the Perron vector of
+    a positive kernel.
     """
-    v0 = jnp.ones((m,), dtype) / jnp.sqrt(jnp.asarray(m, dtype))
+    v0 = jnp.ones((m,), dtype) if start is None else jnp.asarray(start, dtype)
+    v0 = v0 / jnp.maximum(jnp.linalg.norm(v0), jnp.finfo(dtype).tiny)
 
     def body(_, v):
         w = matvec(v)

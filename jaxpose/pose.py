@@ -15,9 +15,9 @@ how many); concrete point sets are padded (and masked) to one of four sizes per 
 (:mod:`jaxpose.sizes`), so sets of many sizes share a few compilations. When a pose is valid is
 :mod:`jaxpose.validity`'s contract (``Pose.status``).
 
-Derivatives in gamma and nu flow through the SVDD solution (the implicit KKT derivative, or the
-secant in nu, ``PoseConfig.derivative``) and the grid occupancy, whose derivative is the coarea
-boundary term. With only two hyperparameters, reverse mode in them is computed from forward-mode
+Derivatives in gamma and nu flow through the SVDD solution (by default its trend: secant slopes
+over gamma (1 +- 1 %) and nu (1 +- 1 %); or the implicit KKT derivative; ``PoseConfig.derivative``)
+and the grid occupancy, whose derivative is the coarea boundary term. With only two hyperparameters, reverse mode in them is computed from forward-mode
 columns (:func:`jaxpose._hyper.hyper_jvp`).
 """
 from __future__ import annotations
@@ -37,7 +37,7 @@ from .config import PoseConfig
 from .frame import host_frame, prescale
 from .moments import region_moments
 from .svdd import solve_svdd
-from .svdd.secant import with_nu_secant
+from .svdd.secant import with_secants
 from .sizes import MAX_POINTS, bucket, pad, subsample_index
 from .result import Pose, Status
 from .validity import pose_status
@@ -79,11 +79,11 @@ def _pipeline(points, mask, gamma, nu, config, rotation=False):
         return pose_from_svdd(svdd, to_world, size, config.grid, outside=False, **extra)
     dtype = y.dtype
     gamma, nu = jnp.asarray(gamma, dtype), jnp.asarray(nu, dtype)
-    svdd = solve_svdd(y, gamma, jax.lax.stop_gradient(nu), mask, None, config.svdd)
-    tol = config.nu_tol
-    if tol is None:
-        tol = min(config.svdd.tol, 1e-6 if dtype == jnp.float64 else 1e-5)
-    svdd = with_nu_secant(svdd, nu, config.svdd, config.nu_delta, tol)
+    sg = jax.lax.stop_gradient
+    params = ("gamma", "nu") if config.derivative == "trend" else ("nu",)  # "secant": gamma implicit
+    svdd = solve_svdd(y, sg(gamma) if "gamma" in params else gamma, sg(nu), mask, None, config.svdd)
+    svdd = with_secants(svdd, gamma, nu, config.svdd, params, (config.gamma_delta, config.nu_delta),
+                        config.secant_tol(), config.secant_iterations)
     return pose_from_svdd(svdd, to_world, size, config.grid, outside=True, **extra)  # the secant moves alpha = 0 points
 
 
@@ -117,8 +117,8 @@ def normalize(points, gamma=47.0, nu=0.5, *, config: PoseConfig | None = None, t
       config: a :class:`jaxpose.config.PoseConfig`; or, as keywords, any of its flat options:
         grid ``resolution`` (64), ``refine`` (2), ``band`` (16384), ``extrapolate``; solver ``tol``
         (1e-3), ``max_iter``, ``check_every``, ``kernel``, ``solver`` (None: "pg" up to 2500
-        points, "auto" above, on CPU); ``block`` (both); ``derivative`` ("exact" | "secant"),
-        ``nu_delta``, ``nu_tol``.
+        points, "auto" above, on CPU); ``block`` (both); ``derivative`` ("trend" | "exact" |
+        "secant"), ``gamma_delta``, ``nu_delta``, ``secant_iterations``, ``nu_tol``.
       throw: concrete calls only: raise ConvergenceError if the solver hit max_iter,
         JaxposeError naming the reason if the pose is not valid (otherwise an invalid concrete
         pose warns with :class:`jaxpose.InvalidPoseWarning`; see ``Pose.valid``, ``Pose.status``).
@@ -135,7 +135,10 @@ def normalize(points, gamma=47.0, nu=0.5, *, config: PoseConfig | None = None, t
       ``resolution=32, refine=8`` for thin shells.
 
     A pure JAX function of (points, gamma, nu): jittable (options static), vmappable,
-    differentiable in gamma, nu and the points. Concrete points are centered and scaled in
+    differentiable in gamma, nu and the points. By default the derivatives in gamma and nu follow
+    the trend of the pose over gamma (1 +- 1 %) and nu (1 +- 1 %) (two extra solves per parameter,
+    only when differentiated); ``derivative="exact"`` gives the local implicit derivative
+    (``docs/design.md``, "How gradients flow"). Concrete points are centered and scaled in
     float64 NumPy first (float16 and integers are computed in float32), then padded to
     :func:`jaxpose.sizes.bucket` rows (masked out), so that sets of many sizes share a few compilations.
 

@@ -1,8 +1,9 @@
 """Derivatives of the OCSVM pose (center, scale) in gamma and nu, as NumPy values.
 
-``pose`` is :func:`jaxpose.normalize` with the secant nu-derivative (``derivative="secant"``, see
-:mod:`jaxpose.svdd.secant`); ``pose_sensitivity`` returns the four derivatives of the center and
-the scale at one (gamma, nu), computed with ``jax.jacfwd`` of it.
+``pose`` is :func:`jaxpose.normalize` (whose default derivatives in gamma and nu follow the trend
+of the pose over steps of 1 %, ``derivative="trend"``, see :mod:`jaxpose.svdd.secant`);
+``pose_sensitivity`` returns the four derivatives of the center and the scale at one (gamma, nu),
+computed with ``jax.jacfwd`` of it.
 """
 from __future__ import annotations
 
@@ -16,18 +17,18 @@ from .pose import Pose, normalize
 
 __all__ = ["pose", "pose_sensitivity", "NU_DELTA"]
 
-NU_DELTA = PoseConfig().nu_delta  # relative half-width of the nu interval of the secant derivative
+NU_DELTA = PoseConfig().nu_delta  # relative half-width of the nu interval of the trend derivative
 
 
 def pose(points, gamma=47.0, nu=0.5, **options) -> Pose:
-    """:func:`jaxpose.normalize` with the secant nu-derivative; the same values.
+    """:func:`jaxpose.normalize`: the same values and, by default, the same trend derivatives.
 
     Args:
       points: (m, 3); gamma, nu: () (traceable); options: as ``normalize``, including
-        ``nu_delta`` (relative half-width of the nu interval) and ``nu_tol`` (tolerance of the
-        two secant solves, default min(tol, 1e-6) in float64, min(tol, 1e-5) in float32).
+        ``derivative`` ("trend", "exact", "secant"), ``gamma_delta`` and ``nu_delta`` (relative
+        half-widths of the intervals) and ``secant_iterations``.
     """
-    return normalize(points, gamma, nu, **{"derivative": "secant", **options})
+    return normalize(points, gamma, nu, **options)
 
 
 def pose_sensitivity(points, gamma=47.0, nu=0.5, **options) -> dict:
@@ -38,8 +39,8 @@ def pose_sensitivity(points, gamma=47.0, nu=0.5, **options) -> dict:
 
     Returns:
       {"center" (3,), "scale" (), "dcenter_dgamma" (3,), "dcenter_dnu" (3,), "dscale_dgamma" (),
-      "dscale_dnu" ()} as float NumPy arrays in the units of ``points`` (d/dnu is the secant slope
-      over nu (1 +- nu_delta)), plus "converged" and "valid" (bools).
+      "dscale_dnu" ()} as float NumPy arrays in the units of ``points`` (by default the trend over
+      gamma (1 +- gamma_delta) and nu (1 +- nu_delta)), plus "converged" and "valid" (bools).
     """
     _validate.check_gamma(gamma)
     _validate.check_nu(nu)

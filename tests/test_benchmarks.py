@@ -177,3 +177,30 @@ def test_resolution_reaches_normalize(monkeypatch):
 
     r = bench.run(("end2end",), quick=True)
     assert r["sections"]["end2end"]["jaxpose"]["resolution"] == GridConfig().resolution == 64
+
+
+def test_gradients_benchmark_verdict_and_table():
+    """benchmarks/gradients.py: the 20 % / 1e-6 criterion and its markdown (no computation)."""
+    from benchmarks import gradients as g
+
+    fd = [1.0, 0.0, 0.0, 2.0]
+    assert g.agrees([1.1, 0.0, 0.0, 2.2], fd)[0]
+    assert not g.agrees([1.3, 0.0, 0.0, 2.0], fd)[0]
+    assert g.agrees([1e-7, 0.0, 0.0, 2.0], [5e-7, 0.0, 0.0, 2.0])[0]  # within 1e-6 absolute
+    cell = dict(ok=True, center=0.01, scale=0.02)
+    row = dict(shape="s", gamma=20.0, nu=0.3, **{f"{m}_{p}_{e:g}": cell for m in ("trend", "exact")
+                                                 for p in ("gamma", "nu") for e in g.STEPS})
+    text = g.markdown({"accuracy": [row], "timing": [dict(shape="s", m=10, dtype="float32", seconds={"forward": 1.0},
+                                                          ratio={"forward": 1.0})]})
+    assert "| s (20, 0.3) |" in text and "trend, steps of 1%: 1 of 1 cases" in text and "1.00x forward" in text
+
+
+def test_stop_rule_benchmark_table():
+    """benchmarks/stop_rule.py: the acceptance line takes the worst cell (no computation)."""
+    from benchmarks import stop_rule as s
+
+    rows = [dict(shape="a", gamma=g, nu=n, iterations=10, iterations_tight=20, converged_tight=True,
+                 center=2e-3 if (g, n) == (1.0, 0.0) else 1e-4, scale=1e-5) for n in s.NUS for g in s.GAMMAS]
+    text = s.markdown({"minimum_ball": [dict(seed=0, solver="pg", iterations=5, converged=True, distance=1e-4)],
+                       "tolerance": rows})
+    assert "worst |difference| / scale: 2.00e-03" in text and "| a | 0 |" in text

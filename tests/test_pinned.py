@@ -83,7 +83,8 @@ def compute(x64: bool) -> dict:
             out["mesh/ocsvm"] = _vec(normalize_mesh(mesh, count=M, method="ocsvm")[1])
             p = inputs["sphere_arm"]
             jac = jax.jacfwd(lambda g, n: jnp.concatenate(
-                [(q := jaxpose.normalize(p, g, n, resolution=16, tol=1e-6)).center, q.scale[None]]),
+                [(q := jaxpose.normalize(p, g, n, resolution=16, tol=1e-6, derivative="exact")).center,
+                 q.scale[None]]),
                 argnums=(0, 1))(20.0, 0.3)
             out["jacfwd_exact/sphere_arm"] = [float(v) for v in np.concatenate([np.asarray(j) for j in jac])]
         return out

@@ -184,3 +184,82 @@ def test_bad_hyperparameters(bad):
     args = dict(gamma=GAMMA, nu=0.5) | bad
     with pytest.raises(jaxpose.InvalidInputError):
         fit_svdd(clusters(50), **args)
+
+
+# --------------------------------------------------------------------------- stop rule across gamma
+def _unit_clusters(seed):
+    x = clusters(300, seed=seed)
+    return x / float(np.max(x.max(0) - x.min(0)))
+
+
+@pytest.mark.parametrize("solver", ["pg", "smo"])
+def test_small_gamma_nu_zero_is_the_minimum_enclosing_ball(x64, solver):
+    """As gamma -> 0 at nu = 0 the region is the minimum enclosing ball: its centroid is the
+    miniball center (independent oracle) at the default tol, and the solver did not stop at its
+    start (a violation relative to a^T K a ~ 1 stopped at iteration 0)."""
+    miniball = pytest.importorskip("miniball")
+    x = _unit_clusters(0)
+    center, _ = miniball.get_bounding_ball(x)
+    s = jaxpose.fit_svdd(x, gamma=1e-3, nu=0.0, solver=solver)
+    assert bool(s.converged) and int(s.iterations) > 0
+    mom = jaxpose.volume_moments(s, resolution=32)
+    assert np.linalg.norm(np.asarray(mom.center) - center) < 1e-2
+
+
+def test_stop_rule_is_scale_free_in_gamma(x64):
+    """The violation is measured in units of min(a^T K a, 1 - a^T K a): at small gamma the
+    differences of K a are O(gamma) and so is 1 - a^T K a, so the rule's value at a fixed
+    non-optimal alpha does not vanish with gamma (it did, relative to a^T K a -> 1)."""
+    from jaxpose.kernels import gaussian_kernel
+    from jaxpose.svdd import kkt_violation
+
+    x = jnp.asarray(_unit_clusters(1))
+    a = jnp.full((x.shape[0],), 1.0 / x.shape[0])
+    mask = jnp.ones(x.shape[0], bool)
+    caps = jnp.ones(x.shape[0])
+    v = [float(kkt_violation(a, gaussian_kernel(x, x, g) @ a, caps, mask)[0]) for g in (1e-2, 1e-3, 1e-4)]
+    np.testing.assert_allclose(v[1:], v[0], rtol=0.02)  # O(gamma) numerator over O(gamma) unit
+    assert v[0] > 0.1
+    # at large gamma a^T K a is the smaller unit: the rule is libsvm's gap relative to the objective
+    Ka = gaussian_kernel(x, x, 200.0) @ a
+    viol, obj = kkt_violation(a, Ka, caps, mask)
+    assert float(obj) < 0.5
+    np.testing.assert_allclose(float(viol), float((jnp.max(Ka) - jnp.min(Ka)) / obj), rtol=1e-12)
+
+
+@pytest.mark.parametrize("gamma", [1e-3, 0.1])
+def test_default_tol_is_close_to_a_tight_solution_at_small_gamma(x64, gamma):
+    """normalize at the default tol against tol 1e-9 on a sphere with an arm at nu = 0, where the
+    region is held by a few points (polishing solves their active set exactly)."""
+    pts = sphere_with_arm(300, seed=1)
+    a = jaxpose.normalize(pts, gamma, 0.0, resolution=16)
+    b = jaxpose.normalize(pts, gamma, 0.0, resolution=16, tol=1e-9, max_iter=100_000)
+    assert bool(b.converged)
+    scale = float(b.scale)
+    assert np.linalg.norm(np.asarray(a.center) - np.asarray(b.center)) <= 1e-3 * scale
+    assert abs(float(a.scale) - scale) <= 1e-3 * scale
+
+
+def test_polish_solves_the_active_set_exactly(x64):
+    """From a projected-gradient iterate stopped at tol 1e-3, the polished solution satisfies the
+    KKT conditions to rounding (libsvm at a tight tol as the oracle for the weights)."""
+    from jaxpose.kernels import gaussian_kernel
+    from jaxpose.svdd.pg import solve_pg
+    from jaxpose.svdd.polish import polish
+    from jaxpose.svdd.problem import caps as point_caps
+    from jaxpose.config import SolverConfig
+
+    x = jnp.asarray(_unit_clusters(2))
+    m, g = x.shape[0], 2.0
+    mask = jnp.ones(m, bool)
+    caps = point_caps(jnp.asarray(0.0), mask)
+    a, Ka, _, viol = solve_pg(x, jnp.asarray(g), caps, mask, jnp.full((m,), 1.0 / m), SolverConfig())
+    K = gaussian_kernel(x, x, g)
+    b, vb = polish(x, jnp.asarray(g), caps, mask, a, viol, lambda v: K @ v)
+    assert float(vb) < 1e-9 < float(viol)
+    np.testing.assert_allclose(float(jnp.sum(b)), 1.0, atol=1e-12)
+    sk = pytest.importorskip("sklearn.svm")
+    ref = sk.OneClassSVM(kernel="rbf", gamma=g, nu=1.0 / m, tol=1e-10).fit(np.asarray(x))
+    want = np.zeros(m)
+    want[ref.support_] = ref.dual_coef_[0] / ref.dual_coef_[0].sum()
+    np.testing.assert_allclose(np.asarray(b), want, atol=2e-4)

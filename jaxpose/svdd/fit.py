@@ -11,6 +11,7 @@ from .. import _validate
 from ..config import SolverConfig
 from .implicit import implicit_alpha
 from .pg import solve_pg
+from .polish import polish
 from .problem import SVDD, caps as point_caps, kernel_ops, offset, upper_bound
 from .smo import solve_smo
 
@@ -53,7 +54,9 @@ def fit_svdd(points, gamma, nu, *, mask=None, init_alpha=None, config: SolverCon
     Solvers: "pg" (accelerated projected gradient, one kernel product per step), "smo" (libsvm's
     pair updates), "auto" (SMO for at most min(SMO_BUDGET m, max_iter // 2) updates, then projected
     gradient from there); ``None`` picks by size (:func:`pick_solver`). Same problem, stopping
-    rule (:func:`jaxpose.svdd.kkt_violation` <= tol) and derivatives.
+    rule (:func:`jaxpose.svdd.kkt_violation` <= tol) and derivatives. Where at most
+    ``polish.MAX_FREE`` points are free at the end, the solution is then polished: solved exactly
+    on its active set, kept if that lowers the violation (:mod:`jaxpose.svdd.polish`).
 
     Differentiation: jittable (options static), vmappable over same-size point sets, and
     differentiable in points, gamma and nu by the implicit KKT derivative
@@ -128,6 +131,8 @@ def solve_svdd(points, gamma, nu, mask, init_alpha, config: SolverConfig) -> SVD
                 return r[0], it + r[2], r[3]
 
             a, it, viol = jax.lax.cond(viol > config.tol, finish, lambda a: (a, it, viol), a)
+    matvec = lambda v: kernel_ops(args[0], args[1], config.kernel, config.block)[0](v)  # built only if used
+    a, viol = polish(args[0], args[1], args[2], mask, a, viol, matvec)
     a = implicit_alpha(a, points, gamma, caps, mask)
     # recomputed with the differentiable alpha, so that offset and objective carry derivatives
     Ka = kernel_ops(points, gamma, config.kernel, config.block)[0](a)

@@ -97,16 +97,25 @@ def kernel_ops(points, gamma, kernel, block=BLOCK):
 
 
 def kkt_violation(alpha, Ka, caps, mask):
-    """The stopping rule: libsvm's maximal KKT violation relative to the objective.
+    """The stopping rule: libsvm's maximal KKT violation in units of the kernel's own spread.
 
     Args:
       alpha: (m,) feasible point; Ka: (m,) K alpha; caps: (m,) upper bounds; mask: (m,) bool.
 
     Returns:
       (violation, objective): violation = max_{a_j > 0} (Ka)_j - min_{a_i < C} (Ka)_i divided by
-      a^T K a (the a-weighted mean of Ka), >= 0 and scale-free; objective = a^T K a. At the
-      exact solution the violation is 0, and f at the training points is then within about
-      2 tol a^T K a of its exact value.
+      s = min(a^T K a, 1 - a^T K a), >= 0; objective = a^T K a.
+
+    Why that unit: the violation is a difference of values of Ka = <Phi(x_i), c>, and so are the
+    decision values f = 2 Ka - mu that place the region's boundary. Their spread is bounded by
+    a^T K a, the squared norm of the feature-space center c (the scale at large gamma, where K
+    tends to I and every value of Ka is small), and by 1 - a^T K a = sum_i a_i ||Phi(x_i) - c||^2,
+    the spread of the features around c (the scale at small gamma, where K = 1 1^T - gamma D +
+    O(gamma^2), Ka tends to 1 and the informative differences are O(gamma)). Relative to the
+    smaller of the two the rule is scale-free in gamma at both ends: as gamma -> 0 it becomes
+    (differences of squared distances to the weighted mean) / (2 weighted variance), the
+    minimum enclosing ball's own rule at nu = 0. At the exact solution the violation is 0, and
+    f at the training points is then within about 2 tol s of its exact value.
     """
     inf = jnp.asarray(jnp.inf, Ka.dtype)
     obj = jnp.vdot(alpha, Ka)
@@ -114,7 +123,8 @@ def kkt_violation(alpha, Ka, caps, mask):
     low = jnp.min(jnp.where(mask & (alpha < caps), Ka, inf))
     viol = jnp.maximum(up - low, 0.0)
     viol = jnp.where(jnp.isfinite(viol), viol, 0.0)
-    return viol / jnp.maximum(obj, jnp.finfo(Ka.dtype).tiny), obj
+    unit = jnp.minimum(obj, 1.0 - obj)
+    return viol / jnp.maximum(unit, jnp.finfo(Ka.dtype).tiny), obj
 
 
 def offset(alpha, Ka, caps, mask):

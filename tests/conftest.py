@@ -1,10 +1,20 @@
 """Shared fixtures: deterministic point sets and a float64 switch."""
 from __future__ import annotations
 
+import os
 import pathlib
 import sys
+import tempfile
 
-import jax
+# One persistent compilation cache for the whole run: pytest-xdist workers, command-line
+# subprocesses (JAXPOSE_CACHE_DIR, read by jaxpose.cache) and notebook kernels
+# (JAX_COMPILATION_CACHE_DIR) load what another process compiled instead of compiling it again.
+_CACHE = pathlib.Path(tempfile.gettempdir()) / f"jaxpose-tests-jax-cache-{os.getuid()}"
+os.environ.setdefault("JAXPOSE_CACHE_DIR", str(_CACHE))
+os.environ.setdefault("JAX_COMPILATION_CACHE_DIR", os.environ["JAXPOSE_CACHE_DIR"])
+os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "0.2")
+
+import jax  # noqa: E402
 import numpy as np
 import pytest
 

@@ -218,8 +218,11 @@ def test_point_counts_share_compilations():
     compiles = []
     listener = lambda name, *_, **__: compiles.append(name) if name.endswith("backend_compile_duration") else None
     monitoring.register_event_duration_secs_listener(listener)
+    cache = jax.config.jax_enable_compilation_cache
+    jax.config.update("jax_enable_compilation_cache", False)  # a new program must compile, not load
     try:
         poses = [normalize(pts[:m]) for m in (290, 305, 320)]
     finally:
+        jax.config.update("jax_enable_compilation_cache", cache)
         monitoring.unregister_event_duration_listener(listener)
     assert compiles == [] and all(bool(p.valid) for p in poses)

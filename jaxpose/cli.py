@@ -168,17 +168,7 @@ def _cmd_evaluate(args):
             variants=variants,
         )
     print(evaluation.format_table(result))
-    if args.json:
-        from .mesh import write_atomic
-
-        write_atomic(args.json, json.dumps(result, indent=2) + "\n", force=args.force)
-        print(f"wrote {args.json}")
-    if args.plots:
-        from . import plot
-
-        plot.evaluation_figures(result, args.plots)
-        print(f"wrote figures to {args.plots}")
-    return 0
+    return _write_result(args, result, "evaluation_figures")
 
 
 def _evaluate_rotation(args, classes, variants):
@@ -190,15 +180,20 @@ def _evaluate_rotation(args, classes, variants):
                                               seed=args.seed, progress=progress, frames=True,
                                               ocsvm={"gamma": args.gamma, "nu": args.nu, "count": args.count})
     print(evaluation.format_rotation_table(result))
+    return _write_result(args, result, "rotation_figures")
+
+
+def _write_result(args, result, figures):
+    """--json (atomic) and --plots (``jaxpose.plot.<figures>``) of an evaluation."""
     if args.json:
-        from .mesh import write_atomic
+        from .atomic import write_atomic
 
         write_atomic(args.json, json.dumps(result, indent=2) + "\n", force=args.force)
         print(f"wrote {args.json}")
     if args.plots:
         from . import plot
 
-        plot.rotation_figures(result, args.plots)
+        getattr(plot, figures)(result, args.plots)
         print(f"wrote figures to {args.plots}")
     return 0
 

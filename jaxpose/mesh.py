@@ -23,6 +23,7 @@ __all__ = [
     "load",
     "sample_surface",
     "normalize_mesh",
+    "check_arguments",
     "pose_matrix",
     "normalized_points",
     "MESH_FORMATS",
@@ -196,6 +197,62 @@ def _check_int(value, name, minimum):
 
 
 # --------------------------------------------------------------------------- normalize
+def check_arguments(gamma=47.0, nu=0.5, count=2000, seed=0, sampling="even", method=None, *, center=None,
+                    scale=None, strict=False, power=None, resolution=None, rotation=False, **options):
+    """Check every argument of :func:`normalize_mesh` (same names and defaults) without reading
+    anything or compiling: names against the known ones, ranges, which options apply to which
+    estimator, and the memory of the grid a resolution asks for.
+
+    Returns:
+      (center name, scale name, the robust/depth estimators' options (``power``, ``resolution``),
+      the ocsvm options, the rotation's frame method or None).
+
+    Raises:
+      InvalidInputError: the first bad argument, named, with its allowed range.
+    """
+    check_gamma(gamma)
+    check_nu(nu)
+    count = _check_int(count, "count", minimum=4)  # validated whatever the method
+    seed = _check_int(seed, "seed", minimum=0)
+    if sampling not in SAMPLING:
+        raise InvalidInputError(f"unknown sampling {sampling!r}; valid: {', '.join(SAMPLING)}")
+    if not isinstance(strict, (bool, np.bool_)):
+        raise InvalidInputError(f"strict must be True or False, got {strict!r}")
+    from . import estimators, solid
+    from .config import PoseConfig
+
+    c_name, s_name = estimators.resolve(method, center, scale)
+    uses_ocsvm = "ocsvm" in (c_name, s_name)
+    unknown = sorted(set(options) - set(PoseConfig.FLAT))
+    if unknown:
+        raise InvalidInputError(
+            f"normalize_mesh got unknown argument{'s' if len(unknown) > 1 else ''} {', '.join(unknown)}; its own: "
+            f"gamma, nu, count, seed, sampling, method, center, scale, strict, power, resolution, rotation; "
+            f"ocsvm options: {', '.join(PoseConfig.FLAT)}"
+        )
+    if options and not uses_ocsvm:
+        raise InvalidInputError(f"options {sorted(options)} apply to the ocsvm estimator only")
+    extra = {}
+    if power is not None:
+        if c_name not in ("robust_depth", "depth_weighted_solid"):
+            raise InvalidInputError(f"power applies to the robust_depth and depth_weighted_solid centers, not {c_name}")
+        if isinstance(power, bool) or not (isinstance(power, numbers.Real) and np.isfinite(power) and power >= 0):
+            raise InvalidInputError(f"power must be a finite number >= 0, got {power!r}")
+        extra["power"] = power
+    if resolution is not None:
+        if uses_ocsvm:
+            options = {**options, "resolution": resolution}
+        elif "robust_depth" in (c_name,) or s_name == "robust_volume":
+            extra["resolution"] = solid.check_resolution(resolution)
+        else:
+            raise InvalidInputError(f"resolution applies to the robust and ocsvm estimators (options), "
+                                    f"not {c_name} / {s_name}")
+    if uses_ocsvm:
+        PoseConfig.create(**options)  # every option's value and the grid's memory
+    frame_name = _rotation_name(rotation)
+    return c_name, s_name, extra, options, frame_name
+
+
 def normalize_mesh(
     mesh_or_path,
     gamma=47.0,
@@ -250,47 +307,11 @@ def normalize_mesh(
         >>> mesh, pose = jaxpose.normalize_mesh("body.ply")              # robust default
         >>> mesh, pose = jaxpose.normalize_mesh("body.ply", method="ocsvm")
     """
-    # every argument is checked here, before the file is read or anything is compiled
-    check_gamma(gamma)
-    check_nu(nu)
-    count = _check_int(count, "count", minimum=4)  # validated whatever the method
-    seed = _check_int(seed, "seed", minimum=0)
-    if sampling not in SAMPLING:
-        raise InvalidInputError(f"unknown sampling {sampling!r}; valid: {', '.join(SAMPLING)}")
-    if not isinstance(strict, (bool, np.bool_)):
-        raise InvalidInputError(f"strict must be True or False, got {strict!r}")
-    from . import estimators, solid
-    from .config import PoseConfig
+    c_name, s_name, extra, options, frame_name = check_arguments(
+        gamma, nu, count, seed, sampling, method, center=center, scale=scale, strict=strict, power=power,
+        resolution=resolution, rotation=rotation, **options)
+    from . import estimators
 
-    c_name, s_name = estimators.resolve(method, center, scale)
-    uses_ocsvm = "ocsvm" in (c_name, s_name)
-    unknown = sorted(set(options) - set(PoseConfig.FLAT))
-    if unknown:
-        raise InvalidInputError(
-            f"normalize_mesh got unknown argument{'s' if len(unknown) > 1 else ''} {', '.join(unknown)}; its own: "
-            f"gamma, nu, count, seed, sampling, method, center, scale, strict, power, resolution, rotation; "
-            f"ocsvm options: {', '.join(PoseConfig.FLAT)}"
-        )
-    if options and not uses_ocsvm:
-        raise InvalidInputError(f"options {sorted(options)} apply to the ocsvm estimator only")
-    extra = {}
-    if power is not None:
-        if c_name not in ("robust_depth", "depth_weighted_solid"):
-            raise InvalidInputError(f"power applies to the robust_depth and depth_weighted_solid centers, not {c_name}")
-        if isinstance(power, bool) or not (isinstance(power, numbers.Real) and np.isfinite(power) and power >= 0):
-            raise InvalidInputError(f"power must be a finite number >= 0, got {power!r}")
-        extra["power"] = power
-    if resolution is not None:
-        if uses_ocsvm:
-            options = {**options, "resolution": resolution}
-        elif "robust_depth" in (c_name,) or s_name == "robust_volume":
-            extra["resolution"] = solid.check_resolution(resolution)
-        else:
-            raise InvalidInputError(f"resolution applies to the robust and ocsvm estimators (options), "
-                                    f"not {c_name} / {s_name}")
-    if uses_ocsvm:
-        PoseConfig.create(**options)  # every option's value and the grid's memory
-    frame_name = _rotation_name(rotation)
     geometry = load(mesh_or_path)
     pose = estimators.estimate(geometry, method, center=center, scale=scale, strict=strict, gamma=gamma, nu=nu,
                                count=count, seed=seed, sampling=sampling, ocsvm=options, **extra)

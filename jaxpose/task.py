@@ -9,34 +9,28 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import numbers
 import os
 import time
 from pathlib import Path
 from typing import NamedTuple
 
-from ._validate import InvalidInputError, check_gamma, check_nu
+import numpy as np
+
+from ._validate import InvalidInputError
 
 __all__ = ["NormalizeOptions", "FileResult", "normalize_file", "one_line"]
 
 
 # --------------------------------------------------------------------------- options
-def _integer(value, name, minimum):
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-        raise InvalidInputError(f"{name} must be an int >= {minimum}, got {value!r}")
-    if value < minimum:
-        raise InvalidInputError(f"{name} must be >= {minimum}, got {value}")
-    return int(value)
-
-
 @dataclasses.dataclass(frozen=True)
 class NormalizeOptions:
     """How each file is normalized: the arguments of :func:`jaxpose.normalize_mesh`, validated once.
 
-    Every value is checked when the object is made, before any file is read or anything compiled:
+    Every value is checked when the object is made, before any file is read or anything compiled,
+    by the same function as :func:`jaxpose.normalize_mesh` (:func:`jaxpose.mesh.check_arguments`):
     names (``method``, ``center``, ``scale``, ``sampling``, ``rotation``) against the known ones,
-    ``gamma`` > 0, ``nu`` in [0, 1], ``count`` >= 4, ``seed`` >= 0, ``resolution`` >= 8 and only
-    for the estimators that have one (robust, ocsvm).
+    ``gamma`` > 0, ``nu`` in [0, 1], ``count`` >= 4, ``seed`` >= 0, ``resolution`` only for the
+    estimators that have one (robust, ocsvm) and within the memory budget of their grid.
 
     Raises:
       InvalidInputError: a value out of range or a name not known, with the allowed ones.
@@ -55,27 +49,13 @@ class NormalizeOptions:
     strict: bool = False
 
     def __post_init__(self):
-        from .estimators import resolve
-        from .mesh import SAMPLING
-        from .rotation import ROTATIONS
+        from .mesh import check_arguments
 
-        c_name, s_name = resolve(self.method, self.center, self.scale)
-        check_gamma(self.gamma)
-        check_nu(self.nu)
-        self._set(gamma=float(self.gamma), nu=float(self.nu), count=_integer(self.count, "count", 4),
-                  seed=_integer(self.seed, "seed", 0))
-        if self.sampling not in SAMPLING:
-            raise InvalidInputError(f"sampling must be one of {', '.join(SAMPLING)}; got {self.sampling!r}")
-        if self.resolution is not None:
-            self._set(resolution=_integer(self.resolution, "resolution", 8))
-            if not {"robust_depth", "robust_volume", "ocsvm"} & {c_name, s_name}:
-                raise InvalidInputError(f"resolution applies to the robust and ocsvm estimators, not "
-                                        f"{c_name} / {s_name}")
-        if not (isinstance(self.rotation, bool) or self.rotation in ROTATIONS):
-            raise InvalidInputError(f"rotation must be True, False or one of {', '.join(ROTATIONS)}; "
-                                    f"got {self.rotation!r}")
-        if not isinstance(self.strict, bool):
-            raise InvalidInputError(f"strict must be True or False, got {self.strict!r}")
+        check_arguments(**self.mesh_arguments())  # every value, the names, the grid's memory
+        self._set(gamma=float(self.gamma), nu=float(self.nu), count=int(self.count), seed=int(self.seed),
+                  resolution=None if self.resolution is None else int(self.resolution),
+                  rotation=bool(self.rotation) if isinstance(self.rotation, (bool, np.bool_)) else self.rotation,
+                  strict=bool(self.strict))
 
     def _set(self, **values):  # normalized values on a frozen instance, once, at construction
         for name, value in values.items():

@@ -16,7 +16,6 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ._validate import InvalidInputError
 
 __all__ = ["NormalizeOptions", "FileResult", "normalize_file", "one_line"]
 

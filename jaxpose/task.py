@@ -16,7 +16,6 @@ from typing import NamedTuple
 
 import numpy as np
 
-
 __all__ = ["NormalizeOptions", "FileResult", "normalize_file", "one_line"]
 
 

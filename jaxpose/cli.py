@@ -56,13 +56,13 @@ def _add_evaluate(sub):
     p.set_defaults(handler=_cmd_evaluate)
 
 
-# ---- tune and bench: registered here, implemented in jaxpose.tuning / benchmarks/,
-# which receive every argument after the command name (see _delegate).
+# ---- tune and bench: registered here, implemented in jaxpose.tuning_cli / benchmarks/,
+# which receive every argument after the command name (see _cmd_tune, _cmd_bench).
 _DELEGATED = ("tune", "bench")
 
 
 def _add_tune(sub):
-    p = sub.add_parser("tune", add_help=False, help="gradient-based tuning of gamma and nu (arguments go to jaxpose.tuning)")
+    p = sub.add_parser("tune", add_help=False, help="gradient-based tuning of gamma and nu (arguments go to jaxpose.tuning_cli)")
     p.set_defaults(handler=_cmd_tune)
 
 
@@ -223,7 +223,9 @@ class _ProgressBar:
 
 # --------------------------------------------------------------------------- tune / bench
 def _cmd_tune(args):
-    return _delegate("tuning", args.extra)
+    from .tuning_cli import run
+
+    return run(list(args.extra))
 
 
 def _cmd_bench(args):
@@ -238,11 +240,3 @@ def _cmd_bench(args):
     if str(root) not in _sys.path:
         _sys.path.insert(0, str(root))
     return importlib.import_module("benchmarks").cli(list(args.extra))
-
-
-def _delegate(module_name, argv):
-    """Hand the remaining arguments to ``jaxpose.<module>.cli(argv) -> int``."""
-    import importlib
-
-    module = importlib.import_module(f"jaxpose.{module_name}")
-    return module.cli(list(argv))

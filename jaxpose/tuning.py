@@ -39,7 +39,7 @@ from . import _validate
 from .config import PoseConfig
 from .pose import pose_pipeline
 
-__all__ = ["tune", "objective", "spread_of", "cli"]
+__all__ = ["tune", "objective", "spread_of"]
 
 _NU_MIN, _NU_MAX = 0.02, 0.98  # keep the secant interval inside (0, 1)
 
@@ -225,10 +225,3 @@ def tune(classes, gamma0=47.0, nu0=0.5, steps=12, lr=0.1, scale_weight=0.0, hold
                                                f"they do not transfer; keeping (gamma {gamma0:g}, nu {nu0:g})"))
     say(result["verdict"])
     return result
-
-
-def cli(argv) -> int:
-    """``jaxpose tune ...`` (see :mod:`jaxpose.tuning_cli`)."""
-    from .tuning_cli import run
-
-    return run(argv)

@@ -3,14 +3,12 @@ from __future__ import annotations
 
 import json
 
-import jax
 import numpy as np
 import pytest
 import trimesh
 
 import jaxpose
-from jaxpose import tuning
-from jaxpose.cli import main
+from jaxpose import tuning, tuning_cli
 from jaxpose.mesh import sample_surface
 
 FAST = dict(resolution=8, refine=2, band=256, tol=1e-5)  # one compilation shared by the tests (4 objects of 120 points)
@@ -158,14 +156,14 @@ def test_cli_tune_runs_on_the_runtime_dependencies(tmp_path):
 
 
 def test_cli_tune_usage_and_errors(tmp_path, capsys):
-    assert tuning.cli(["--steps", "x"]) == 2
-    assert tuning.cli(["--data", str(tmp_path / "missing"), "--steps", "0"]) == 1
-    assert tuning.cli(["--solver", "newton"]) == 2
-    assert tuning.cli(["--variants", "plain,bogus", "--steps", "0"]) == 1
+    assert tuning_cli.run(["--steps", "x"]) == 2
+    assert tuning_cli.run(["--data", str(tmp_path / "missing"), "--steps", "0"]) == 1
+    assert tuning_cli.run(["--solver", "newton"]) == 2
+    assert tuning_cli.run(["--variants", "plain,bogus", "--steps", "0"]) == 1
     # an existing --json is refused before any work (bench and evaluate do the same), kept intact
     out = tmp_path / "r.json"
     out.write_text("keep")
-    assert tuning.cli(["--data", str(tmp_path / "missing"), "--json", str(out)]) == 1
+    assert tuning_cli.run(["--data", str(tmp_path / "missing"), "--json", str(out)]) == 1
     assert "use --force" in capsys.readouterr().err
     assert out.read_text() == "keep"
 

@@ -24,10 +24,6 @@ def test_configs_are_frozen_and_hashable():
     with pytest.raises(dataclasses.FrozenInstanceError):
         cfg.grid.resolution = 16  # type: ignore[misc]
 
-    @jax.jit
-    def f(x, config):
-        return x * config.grid.resolution
-
     f = jax.jit(lambda x, config: x * config.grid.resolution, static_argnames=("config",))
     assert float(f(jnp.asarray(2.0), config=cfg)) == 64.0
 

@@ -1,12 +1,9 @@
 """Every snippet of the README runs as written: the Python block, and each command of the
 command-line block (in-process, in a temporary folder). The two fresh-machine commands are the
 install plus the main job and the install plus the tests: the second is what .ci/run runs."""
-import os
 import re
 import shlex
 from pathlib import Path
-
-import pytest
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 

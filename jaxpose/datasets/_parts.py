@@ -1,4 +1,4 @@
-"""Parts of the procedural objects: the ``_Part`` record, primitive meshes, the ``_Body`` builder.
+"""Parts of the procedural objects: the ``Part`` record, primitive meshes, the ``Body`` builder.
 
 A procedural object is a tree of named parts: a rigid *core* (``joint is None``, never moved)
 and movable parts hanging from joints. Primitives are trimesh meshes in reference coordinates.
@@ -12,7 +12,7 @@ import trimesh
 
 
 @dataclass(frozen=True)
-class _Part:
+class Part:
     name: str
     vertices: np.ndarray  # (n, 3) float, reference coordinates
     faces: np.ndarray  # (k, 3) int, local indices
@@ -37,49 +37,49 @@ def _segment_transform(a, b):
     return length, matrix
 
 
-def _seg(a, b, r):
+def seg_part(a, b, r):
     """Capsule from a to b."""
     length, matrix = _segment_transform(a, b)
     return trimesh.creation.capsule(height=length, radius=r, count=[10, 10], transform=matrix)
 
 
-def _rod(a, b, r):
+def rod_part(a, b, r):
     """Closed cylinder from a to b."""
     return trimesh.creation.cylinder(radius=r, segment=[a, b], sections=14)
 
 
-def _cone(base, tip, r):
+def cone_part(base, tip, r):
     length, matrix = _segment_transform(base, tip)
     matrix[:3, 3] = base
     return trimesh.creation.cone(radius=r, height=length, sections=14, transform=matrix)
 
 
-def _box(center, extents):
+def box_part(center, extents):
     return trimesh.creation.box(extents=extents, transform=trimesh.transformations.translation_matrix(center))
 
 
-def _ball(center, radii):
+def ball_part(center, radii):
     mesh = trimesh.creation.icosphere(subdivisions=2)
     mesh.vertices = mesh.vertices * np.broadcast_to(np.asarray(radii, float), (3,)) + np.asarray(center, float)
     return mesh
 
 
-def _revolve(profile, base=(0.0, 0.0, 0.0)):
+def revolve_part(profile, base=(0.0, 0.0, 0.0)):
     """Surface of revolution about +z of a (radius, height) profile."""
     mesh = trimesh.creation.revolve(np.asarray(profile, float), sections=24)
     mesh.vertices = mesh.vertices + np.asarray(base, float)
     return mesh
 
 
-class _Body:
+class Body:
     """Builder of a part list (core parts first)."""
 
     def __init__(self):
-        self.parts: list[_Part] = []
+        self.parts: list[Part] = []
 
     def add(self, name, *meshes, parent=None, joint=None, axis=None, angles=None, removable=False):
         mesh = trimesh.util.concatenate(list(meshes)) if len(meshes) > 1 else meshes[0]
-        self.parts.append(_Part(
+        self.parts.append(Part(
             name, np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64), parent,
             None if joint is None else np.asarray(joint, float),
             None if axis is None else np.asarray(axis, float) / np.linalg.norm(axis),

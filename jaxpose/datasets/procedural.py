@@ -30,7 +30,7 @@ import trimesh
 from jaxpose._validate import InvalidInputError
 from jaxpose.datasets._classes import BUILDERS as _BUILDERS
 from jaxpose.datasets._classes import CLASSES
-from jaxpose.datasets._parts import _ball, _Part
+from jaxpose.datasets._parts import ball_part, Part
 
 __all__ = ["CLASSES", "DEFORMATIONS", "make_object", "make_dataset"]
 
@@ -141,8 +141,8 @@ def _add_outlier(parts, rng):
     height = rng.uniform(0.0, 1.0)
     center = (lo + hi) / 2.0 + (reach + _OUTLIER_GAP) * u
     center[2] = lo[2] + height * (hi[2] - lo[2])
-    ball = _ball(center, _OUTLIER_RADIUS)
-    extra = _Part("outlier", np.asarray(ball.vertices, float), np.asarray(ball.faces, np.int64),
+    ball = ball_part(center, _OUTLIER_RADIUS)
+    extra = Part("outlier", np.asarray(ball.vertices, float), np.asarray(ball.faces, np.int64),
                   joint=center, removable=True)
     return [*parts, extra], "outlier added"
 

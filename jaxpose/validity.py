@@ -1,4 +1,6 @@
-"""When an OCSVM pose is valid: status codes, their messages, and the checks behind them.
+"""When an OCSVM pose is valid: the traced checks behind ``Pose.valid`` and ``Pose.status``.
+
+The codes, their messages and the thresholds live in :mod:`jaxpose.result` (no JAX needed).
 
 A pose is valid (``Pose.valid``, ``Pose.status == Status.OK``) when its number can be trusted as
 the centroid and mean distance of a region that the samples and the grid actually determine:
@@ -27,7 +29,7 @@ comparison (no Python branches on values), so poses under ``jit`` and ``vmap`` c
 Example::
 
     >>> pose = jaxpose.normalize(points, gamma=1e4)
-    >>> Status(int(pose.status)).message
+    >>> jaxpose.Status(int(pose.status)).message
 """
 from __future__ import annotations
 

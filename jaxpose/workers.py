@@ -14,7 +14,7 @@ import os
 
 from .errors import InvalidInputError, JaxposeError
 
-__all__ = ["WorkerLost", "LocalExecutor", "DaskExecutor", "default_workers", "process_environment",
+__all__ = ["WorkerLost", "LocalExecutor", "DaskExecutor", "local_cluster", "default_workers", "process_environment",
            "configure_process", "POLL_S"]
 
 POLL_S = 0.5
@@ -121,6 +121,36 @@ _DASK_LOCAL = {"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": Non
                "distributed.worker.profile.enabled": False}
 
 
+def local_cluster(workers):
+    """A new dask.distributed ``LocalCluster`` of `workers` single-threaded worker processes, set
+    up for this work: the workers' environment of :func:`process_environment`, no dashboard (its
+    scheduler's HTTP server on a free port, so that several can run at once), and
+    neither Dask's ``MALLOC_TRIM_THRESHOLD_`` nor its stack profiler. Close it when done (it is a
+    context manager). ``--dask-local N`` runs on one of these; start one yourself to keep its
+    workers warm across runs and pass its ``scheduler_address`` as ``--scheduler``.
+
+    Raises:
+      InvalidInputError: dask.distributed is not installed.
+      JaxposeError: the cluster could not start.
+
+    Example:
+      >>> with local_cluster(2) as cluster:  # doctest: +SKIP
+      ...     normalize_files(["meshes/"], "out/", scheduler=cluster.scheduler_address)
+    """
+    try:
+        import dask
+        from distributed import LocalCluster
+    except ImportError:
+        raise InvalidInputError("Dask runs need dask.distributed: pip install 'jaxpose[dask]'") from None
+    try:
+        with dask.config.set(_DASK_LOCAL):
+            return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                                scheduler_kwargs={"dashboard_address": ":0"},  # its metrics server: any free port
+                                silence_logs=logging.ERROR, env=process_environment())
+    except Exception as exc:  # distributed's own errors (RuntimeError, ...)
+        raise JaxposeError(f"could not start a local Dask cluster of {workers} workers: {exc}") from None
+
+
 class DaskExecutor:
     """Tasks on a dask.distributed cluster: a running one (`scheduler` address) or a new
     ``LocalCluster`` of `local` single-threaded worker processes (closed with the executor).
@@ -135,7 +165,7 @@ class DaskExecutor:
 
     def __init__(self, scheduler=None, local=None):
         try:
-            from distributed import Client, LocalCluster
+            from distributed import Client
         except ImportError:
             raise InvalidInputError("Dask runs need dask.distributed: pip install 'jaxpose[dask]'") from None
 
@@ -146,15 +176,7 @@ class DaskExecutor:
             except (OSError, TimeoutError) as exc:
                 raise InvalidInputError(f"cannot reach the Dask scheduler {scheduler}: {exc}") from None
         else:
-            import dask
-
-            try:
-                with dask.config.set(_DASK_LOCAL):
-                    self.cluster = LocalCluster(n_workers=local, threads_per_worker=1, processes=True,
-                                                dashboard_address=None, silence_logs=logging.ERROR,
-                                                env=process_environment())
-            except Exception as exc:  # distributed's own errors (RuntimeError, ...)
-                raise JaxposeError(f"could not start a local Dask cluster of {local} workers: {exc}") from None
+            self.cluster = local_cluster(local)
             self.client = Client(self.cluster)
         threads = sum(w.get("nthreads", 1) for w in self.client.scheduler_info()["workers"].values())
         self.workers = max(1, threads)

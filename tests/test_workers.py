@@ -7,7 +7,7 @@ import pytest
 import jaxpose
 from jaxpose import batch, cli
 from jaxpose.task import NormalizeOptions
-from jaxpose.workers import LocalExecutor, WorkerLost
+from jaxpose.workers import LocalExecutor, WorkerLost, local_cluster
 
 from conftest import write_mesh_tree
 
@@ -53,6 +53,23 @@ def test_cli_on_a_dask_scheduler(tmp_path, cluster, capsys):
     code = cli.main(["normalize", str(tmp_path / "scans"), "-o", str(out), "--scheduler", "tcp://127.0.0.1:1",
                      "--workers", "2"])
     assert code == 1 and "workers (--workers) is for local runs" in capsys.readouterr().err
+
+
+def worker_malloc_trim(scheduler_address):
+    with distributed.Client(scheduler_address) as client:
+        return sorted(client.run(lambda: os.environ.get("MALLOC_TRIM_THRESHOLD_")).values(), key=str)
+
+
+def test_dask_local_cluster_is_configured_and_gives_the_same_results(tmp_path, cluster):
+    assert worker_malloc_trim(cluster.scheduler_address) == ["65536", "65536"]  # Dask's own default
+    with local_cluster(1) as own:
+        assert worker_malloc_trim(own.scheduler_address) == [os.environ.get("MALLOC_TRIM_THRESHOLD_")]
+    write_mesh_tree(tmp_path / "scans")
+    new = batch.run_batch([tmp_path / "scans"], tmp_path / "new", FAST, dask_local=1, progress=False)
+    running = batch.run_batch([tmp_path / "scans"], tmp_path / "running", FAST,
+                              scheduler=cluster.scheduler_address, progress=False)
+    assert stable(new.rows, tmp_path / "new") == stable(running.rows, tmp_path / "running")
+    assert (new.written, new.failed) == (4, 3)
 
 
 def test_a_dead_worker_process_fails_its_input_and_the_run_goes_on(tmp_path):

@@ -163,10 +163,14 @@ def test_forward_reverse_jit_vmap_agree(small_points):
     assert np.all(np.isfinite(Jf)) and np.any(Jf[:, 1] != 0)
     # vmap over point sets (forward mode inside; reverse mode of the core under vmap is
     # covered by jax.grad in test_core_normalize_differentiable_in_gamma and tuning's jacfwd(vmap))
+    # On CPU the secant ends are solved by SMO, whose pair choices follow the rounding of the
+    # kernel products, and batched products round differently: under vmap the ends stop at
+    # other points within the tolerance (1e-5), and the slopes, differences of ends 2 % apart,
+    # agree to about tol / (2 delta) = 5e-4 (measured 2.6e-4).
     P = jnp.stack([shape_points, shape_points + 1.0])
     gs = jax.vmap(lambda p: jax.jacfwd(lambda t: pose(p, t[0], t[1], **opts).scale)(t))(P)
-    np.testing.assert_allclose(gs[0], Jf[3], rtol=1e-6, atol=1e-10)
-    np.testing.assert_allclose(gs[1], Jf[3], rtol=1e-5, atol=1e-9)  # translation invariance
+    np.testing.assert_allclose(gs[0], Jf[3], rtol=1e-3, atol=1e-10)
+    np.testing.assert_allclose(gs[1], Jf[3], rtol=1e-3, atol=1e-9)  # translation invariance
 
 
 def test_core_normalize_differentiable_in_gamma(small_points):

@@ -10,7 +10,9 @@ derivative is the slope of one tiny piece. The secant over theta (1 +- delta),
 
 and likewise for the offset mu, is the slope of the trend over the pieces it spans: what a change
 of theta by a few percent really does. Each parameter costs two solves at a tighter tolerance
-(so that the solver error is small against the change), warm-started from the solution.
+(so that the solver error is small against the change), warm-started from the solution. On CPU
+they run SMO first (:func:`end_solver`): from a warm start a few thousand pair updates of O(m)
+each reach the tolerance, where projected gradient needs about a thousand O(m^2) kernel products.
 
 :func:`with_secants` attaches these slopes as the tangents of (alpha, mu) through a custom JVP:
 the values are untouched and nothing is solved unless a derivative is taken. In gamma the kernel
@@ -27,9 +29,17 @@ import jax.numpy as jnp
 
 from .fit import solve_svdd
 
-__all__ = ["slopes", "nu_slopes", "with_secants", "with_nu_secant", "PARAMS"]
+__all__ = ["slopes", "nu_slopes", "with_secants", "with_nu_secant", "end_solver", "PARAMS"]
 
 PARAMS = ("gamma", "nu")
+
+
+def end_solver(config):
+    """The solver of the two end solves (static): ``"auto"`` on CPU (SMO from the warm start,
+    projected gradient after it if SMO has not converged within its budget, as in
+    :func:`jaxpose.svdd.pick_solver`), else ``config.solver`` (on accelerators kernel products
+    are cheap and thousands of sequential pair updates are not)."""
+    return "auto" if jax.default_backend() == "cpu" else config.solver
 
 
 def slopes(points, gamma, nu, mask, alpha0, config, delta, tol, param="nu", iterations=None):
@@ -40,7 +50,8 @@ def slopes(points, gamma, nu, mask, alpha0, config, delta, tol, param="nu", iter
       points: (m, 3); gamma, nu: (); mask: (m,) bool or None; alpha0: (m,) warm start (the
         solution at (gamma, nu)); config: SolverConfig of the solves (its tol replaced by ``tol``);
       delta: relative half-width; param: "gamma" or "nu"; iterations: None (each end solved to
-        ``tol``) or a number of projected-gradient steps both ends take from alpha0 in lock-step.
+        ``tol`` by :func:`end_solver`) or a number of projected-gradient steps both ends take
+        from alpha0 in lock-step.
 
     Returns:
       (m,) and () slopes, without derivatives (non-finite slopes are 0).
@@ -51,7 +62,7 @@ def slopes(points, gamma, nu, mask, alpha0, config, delta, tol, param="nu", iter
     lo = theta * (1.0 - delta)
     hi = theta * (1.0 + delta) if param == "gamma" else jnp.minimum(theta * (1.0 + delta), 1.0)
     if iterations is None:
-        tight = dataclasses.replace(config, tol=tol)
+        tight = dataclasses.replace(config, tol=tol, solver=end_solver(config))
     else:  # lock-step: both ends run the same projected-gradient steps from the same start
         tight = dataclasses.replace(config, tol=1e-300, max_iter=int(iterations), solver="pg")
 
@@ -60,7 +71,9 @@ def slopes(points, gamma, nu, mask, alpha0, config, delta, tol, param="nu", iter
         return s.alpha, s.offset
 
     ends = jnp.stack([hi, lo])
-    if param == "gamma":
+    if tight.solver != "pg":  # sequential updates: one end after the other (a vmap runs both to the slower's count)
+        a, mu = jax.lax.map(lambda t: solve(t, nu, alpha0) if param == "gamma" else solve(gamma, t, alpha0), ends)
+    elif param == "gamma":
         a, mu = jax.vmap(solve, in_axes=(0, None, None))(ends, nu, alpha0)
     else:  # one kernel matrix for both ends: each step is one product with two columns
         a, mu = jax.vmap(solve, in_axes=(None, 0, None))(gamma, ends, alpha0)

@@ -15,11 +15,12 @@ Noise. A class's sigma_tr depends on which surface points were drawn (about 10 %
 on articulated meshes), and a tuner that sees one draw fits it. Meshes are therefore sampled
 again at every step (seed ``seed + step``), so each step's gradient is that of a fresh draw; the
 result is the mean of the iterates over the second half of the steps (Polyak averaging), not the
-best step seen. The trend derivatives are taken in lock-step (``secant_iterations=150`` unless
-given): a step's gradient is as noisy as its draw anyway, and the tight secant solves would
-multiply the cost of a step. The result is then checked on a fresh draw of the held-out classes
-(whole classes kept out of the steps, and/or another dataset): if the tuned parameters do not
-lower their spread below the start's, the tuner says so and returns the start (``kept_defaults``).
+best step seen. The gradients are those a user gets from ``jax.grad`` of
+:func:`jaxpose.normalize` (ends of the secants solved to tolerance; pass ``secant_iterations``
+for the cheaper lock-step approximation). The result is then checked on a fresh draw of the
+held-out classes (whole classes kept out of the steps, and/or another dataset): if the tuned
+parameters do not lower their spread below the start's, the tuner says so and returns the start
+(``kept_defaults``).
 
 Every object of a class has the same point count, so a class is one stacked (n, m, 3) array and
 the pose is ``jax.lax.map`` of :func:`jaxpose.pose.pose_pipeline` with a static config: one
@@ -166,7 +167,7 @@ def tune(classes, gamma0=47.0, nu0=0.5, steps=12, lr=0.1, scale_weight=0.0, hold
     """
     import optax
 
-    config = PoseConfig.create(**{"secant_iterations": 150, **normalize_options})
+    config = PoseConfig.create(**normalize_options)
     _validate.check_gamma(gamma0)
     _validate.check_nu(nu0)
     if int(steps) < 0 or float(reg) < 0:

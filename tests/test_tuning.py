@@ -93,7 +93,7 @@ def test_tune_zero_steps_and_validation():
 
 def test_gradient_matches_finite_difference_of_objective():
     classes = {"box": _classes()["box"]}
-    config = jaxpose.PoseConfig.create(secant_iterations=150, **FAST)
+    config = jaxpose.PoseConfig.create(**FAST)
     stacked = {k: v(0) for k, v in tuning._sampler(classes, 0, "classes").items()}
     class_loss, class_vg = tuning._make_loss(config, 0.0)  # the same pair tune() builds
     theta = tuning._start_theta(47.0, 0.5)

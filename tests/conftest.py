@@ -6,15 +6,21 @@ import pathlib
 import sys
 import tempfile
 
-# One persistent compilation cache for the whole run: pytest-xdist workers, command-line
-# subprocesses (JAXPOSE_CACHE_DIR, read by jaxpose.cache) and notebook kernels
-# (JAX_COMPILATION_CACHE_DIR) load what another process compiled instead of compiling it again.
+# One persistent compilation cache is shared by the processes the tests start: command-line
+# subprocesses and their workers (JAXPOSE_CACHE_DIR, read by jaxpose.cache) and notebook kernels
+# (JAX_COMPILATION_CACHE_DIR) load what another compiled instead of compiling it again. The test
+# processes themselves (pytest-xdist workers inherit these variables) compile for themselves:
+# XLA:CPU's executable serialization, the cache's write, once crashed a worker with a
+# segmentation fault.
 _CACHE = pathlib.Path(tempfile.gettempdir()) / f"jaxpose-tests-jax-cache-{os.getuid()}"
 os.environ.setdefault("JAXPOSE_CACHE_DIR", str(_CACHE))
 os.environ.setdefault("JAX_COMPILATION_CACHE_DIR", os.environ["JAXPOSE_CACHE_DIR"])
 os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "0.2")
 
 import jax  # noqa: E402
+
+jax.config.update("jax_enable_compilation_cache", False)  # this process only (see above)
+
 import numpy as np
 import pytest
 

@@ -280,6 +280,12 @@ class _Run:
             bar.close()
 
     def _finish(self, item, key, result):
+        from .interrupts import deferred
+
+        with deferred():  # an output and its journal line, both or (on a signal before) neither
+            self._write_and_record(item, key, result)
+
+    def _write_and_record(self, item, key, result):
         from .atomic import write_atomic
 
         record = {k: v for k, v in result.record.items() if k != "matrix"}

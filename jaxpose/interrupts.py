@@ -7,20 +7,23 @@ batch table written (:mod:`jaxpose.batch`). Only the first signal raises; later 
 and do not interrupt the cleanup. A signal can land while Python runs a callback that swallows
 exceptions (a garbage-collection callback prints "Exception ignored" and goes on); the guard
 remembers it and :func:`check` raises it again at the next checkpoint, before anything is written.
+Inside a :func:`deferred` block a signal is held until the block ends.
 
 :func:`leave` ends the process with ``os._exit`` after flushing stdout and stderr: it skips the
 interpreter's teardown, where native threads (XLA's) may still be running and crash it.
 """
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import sys
 import threading
 
-__all__ = ["Terminated", "SignalGuard", "check", "leave"]
+__all__ = ["Terminated", "SignalGuard", "check", "deferred", "leave"]
 
 _ACTIVE = []  # the guards in force in this process (a stack; signals are per process)
+_DEFERRED = [0]  # depth of the deferred() blocks being run
 
 
 class Terminated(KeyboardInterrupt):
@@ -72,7 +75,8 @@ class SignalGuard:
         if self.received is not None:
             return  # the first one is being handled: let the cleanup finish
         self.received = number
-        self.check()
+        if not _DEFERRED[0]:  # else raised when the deferred() block ends
+            self.check()
 
     def check(self):
         """Raise the exception of a signal received (again, if it was swallowed)."""
@@ -92,11 +96,32 @@ def check():
         guard.check()
 
 
+@contextlib.contextmanager
+def deferred():
+    """A block that a signal does not cut in two: a SIGINT / SIGTERM that arrives inside is held
+    and raised when the block ends (unless the block raised). For statements that must happen
+    together, such as writing an output and appending its journal line.
+
+    Example::
+
+        >>> with deferred():
+        ...     write_atomic(path, data)
+        ...     journal.append(record)
+    """
+    _DEFERRED[0] += 1
+    try:
+        yield
+    finally:
+        _DEFERRED[0] -= 1
+    if not _DEFERRED[0]:
+        check()
+
+
 def leave(code: int):
     """Flush stdout and stderr, then end the process with `code` at once (``os._exit``).
 
-    SIGINT and SIGTERM are blocked first: a signal that comes after the run has ended changes
-    nothing (the exit code is the run's).
+    SIGINT and SIGTERM are blocked and ignored first: a signal that comes after the run has ended
+    changes nothing (the exit code is the run's).
 
     A garbage collection first runs the finalizers of what the run dropped (multiprocessing's
     semaphores, which otherwise are reported as leaked).
@@ -105,6 +130,11 @@ def leave(code: int):
 
     if hasattr(signal, "pthread_sigmask"):  # the run is over: a late signal must not interrupt the exit
         signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+    if threading.current_thread() is threading.main_thread():
+        # one delivered just before the mask may still be waiting for its Python handler: with the
+        # handlers ignored, Python drops it (it would raise inside the collection below)
+        for number in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(number, signal.SIG_IGN)
     gc.collect()
     for stream in (sys.stdout, sys.stderr):
         try:

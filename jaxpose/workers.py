@@ -111,6 +111,15 @@ class LocalExecutor:
             processes = list((getattr(self._pool, "_processes", None) or {}).values())
             for process in processes:
                 process.kill()
+            for process in processes:
+                process.join()  # gone, and with them their ends of the result pipe
+        # A worker killed while it sent a result leaves part of a message in the result pipe, and the
+        # pool's manager thread waits for the rest (shutdown() would wait for that thread forever).
+        # With this process's write end closed too, it reads end-of-file, counts the pool as
+        # broken and ends.
+        writer = getattr(getattr(self._pool, "_result_queue", None), "_writer", None)
+        if writer is not None:
+            writer.close()
         self._pool.shutdown(wait=True, cancel_futures=True)  # quick: its processes are gone
 
 

@@ -132,6 +132,30 @@ def test_guard_turns_signals_into_exceptions_and_restores_handlers():
     check()  # no guard: nothing pending
 
 
+def test_a_deferred_block_is_not_cut_by_a_signal():
+    """An output and its journal line are written in a deferred() block: a signal inside is held
+    until the block ends, then raised; an error of the block itself goes first."""
+    from jaxpose.interrupts import SignalGuard, Terminated, deferred
+
+    done = []
+    with SignalGuard() as guard:
+        with pytest.raises(Terminated):
+            with deferred():
+                os.kill(os.getpid(), signal.SIGTERM)
+                time.sleep(0.2)  # the handler has run: nothing raised here
+                done.append("output")
+                with deferred():  # nested: held until the outermost block ends
+                    done.append("journal line")
+                done.append("rest")
+        assert done == ["output", "journal line", "rest"] and guard.exit_code == 143
+    with SignalGuard():
+        with pytest.raises(ValueError):
+            with deferred():
+                os.kill(os.getpid(), signal.SIGINT)
+                time.sleep(0.2)
+                raise ValueError("the block's own error")
+
+
 def test_guard_silences_its_own_swallowed_interrupt(capsys):
     import gc
 

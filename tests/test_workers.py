@@ -72,6 +72,29 @@ def test_dask_local_cluster_is_configured_and_gives_the_same_results(tmp_path, c
     assert (new.written, new.failed) == (4, 3)
 
 
+def test_killing_the_workers_returns_with_a_partial_result_in_the_pipe():
+    """Ctrl-C kills the worker processes wherever they are, possibly in the middle of sending a
+    result: the pool's manager thread then waits for the rest of that message. close(kill=True)
+    must still return (it once hung forever in shutdown)."""
+    import struct
+    import threading
+    import time
+
+    executor = LocalExecutor(2)
+    futures = [executor.submit(time.sleep, 30) for _ in range(2)]
+    deadline = time.monotonic() + 60
+    while len(getattr(executor._pool, "_processes", None) or {}) < 2 and time.monotonic() < deadline:
+        time.sleep(0.05)
+    writer = executor._pool._result_queue._writer  # as a worker killed mid-send leaves it:
+    os.write(writer.fileno(), struct.pack("!i", 1 << 20) + b"part of a result")  # a header, then a cut
+    time.sleep(0.5)  # the manager thread reads the header and waits for the rest
+    closer = threading.Thread(target=executor.close, kwargs={"kill": True}, daemon=True)
+    closer.start()
+    closer.join(timeout=60)
+    assert not closer.is_alive(), "close(kill=True) hangs"
+    assert all(f.done() for f in futures)
+
+
 def test_a_dead_worker_process_fails_its_input_and_the_run_goes_on(tmp_path):
     executor = LocalExecutor(2)
     try:

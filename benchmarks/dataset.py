@@ -91,6 +91,7 @@ def table_summary(table, workers):
 def run(repeats=3, workers=2, dask=True, data=DATA, copies=1, with_single=True):
     files = meshes(data)
     work = Path(tempfile.mkdtemp(prefix="jaxpose-dataset-"))
+    cluster = None
     try:
         if copies > 1:  # a bigger dataset of the same meshes (copies, so each is a file of its own)
             files = [_copy(f, work / "copies" / str(k) / f.parent.name / f.name) for k in range(copies) for f in files]
@@ -104,7 +105,6 @@ def run(repeats=3, workers=2, dask=True, data=DATA, copies=1, with_single=True):
         times = {name: [] for name in names}
         cpus = {name: [] for name in names}
         tables = {}
-        cluster = None
         if dask:
             from jaxpose.workers import local_cluster
 
@@ -127,6 +127,7 @@ def run(repeats=3, workers=2, dask=True, data=DATA, copies=1, with_single=True):
                 tables["dask_running"] = table_summary(out / "transforms.parquet", workers)
         if cluster is not None:
             cluster.close()
+            cluster = None
         single = {}
         for name, extra, env in [] if not with_single else (("single", [], {}), ("single_ocsvm", ["--method", "ocsvm"],
                                                       {"JAXPOSE_CACHE_DIR": str(work / "cache")})):
@@ -148,6 +149,8 @@ def run(repeats=3, workers=2, dask=True, data=DATA, copies=1, with_single=True):
                                 same_table=tables[name]["stable"] == tables["local"]["stable"])
         return result
     finally:
+        if cluster is not None:  # a run failed (SystemExit) while it was up
+            cluster.close()
         shutil.rmtree(work, ignore_errors=True)
 
 

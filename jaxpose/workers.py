@@ -14,8 +14,8 @@ import os
 
 from .errors import InvalidInputError, JaxposeError
 
-__all__ = ["WorkerLost", "LocalExecutor", "DaskExecutor", "local_cluster", "default_workers", "process_environment",
-           "configure_process", "POLL_S"]
+__all__ = ["WorkerLost", "LocalExecutor", "DaskExecutor", "local_cluster", "default_workers",
+           "process_environment", "configure_process", "POLL_S"]
 
 POLL_S = 0.5
 # one BLAS thread per process: parallelism comes from the workers, and sums come out in the same

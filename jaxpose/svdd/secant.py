@@ -27,7 +27,7 @@ from functools import partial
 import jax
 import jax.numpy as jnp
 
-from .fit import solve_svdd
+from .fit import pick_solver, solve_svdd
 
 __all__ = ["slopes", "nu_slopes", "with_secants", "with_nu_secant", "end_solver", "PARAMS"]
 
@@ -70,13 +70,12 @@ def slopes(points, gamma, nu, mask, alpha0, config, delta, tol, param="nu", iter
         s = solve_svdd(points, g, n, mask, a0, tight)
         return s.alpha, s.offset
 
+    end = (lambda t: solve(t, nu, alpha0)) if param == "gamma" else (lambda t: solve(gamma, t, alpha0))
     ends = jnp.stack([hi, lo])
-    if tight.solver != "pg":  # sequential updates: one end after the other (a vmap runs both to the slower's count)
-        a, mu = jax.lax.map(lambda t: solve(t, nu, alpha0) if param == "gamma" else solve(gamma, t, alpha0), ends)
-    elif param == "gamma":
-        a, mu = jax.vmap(solve, in_axes=(0, None, None))(ends, nu, alpha0)
-    else:  # one kernel matrix for both ends: each step is one product with two columns
-        a, mu = jax.vmap(solve, in_axes=(None, 0, None))(gamma, ends, alpha0)
+    # SMO's sequential updates: one end after the other (a vmap would run both to the slower's
+    # count); projected gradient: both at once (in nu one kernel matrix, two columns per product)
+    sequential = pick_solver(tight.solver, points.shape[0]) != "pg"
+    a, mu = jax.lax.map(end, ends) if sequential else jax.vmap(end)(ends)
     slope, mu_slope = (a[0] - a[1]) / (hi - lo), (mu[0] - mu[1]) / (hi - lo)
     return jnp.where(jnp.isfinite(slope), slope, 0.0), jnp.where(jnp.isfinite(mu_slope), mu_slope, 0.0)
 

@@ -18,8 +18,10 @@ TIMING = ("seconds", "worker", "worker_peak_mb")
 
 @pytest.fixture(scope="module")
 def cluster():
+    # Dask's defaults but for ports: pytest-xdist may start this fixture in two processes at once, and
+    # the scheduler's HTTP server would warn (an error here) that port 8787 is already in use.
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
-                                  silence_logs=50) as local:
+                                  scheduler_kwargs={"dashboard_address": ":0"}, silence_logs=50) as local:
         yield local
 
 

@@ -22,15 +22,17 @@ import jax.numpy as jnp
 import numpy as np
 from jax.custom_derivatives import SymbolicZero
 
-__all__ = ["hyper_jvp"]
+__all__ = ["hyper_jvp", "is_zero", "instantiate"]
 
 
-def _is_zero(t):
+def is_zero(t):
+    """Whether a custom-JVP tangent is a symbolic zero."""
     return isinstance(t, SymbolicZero)
 
 
-def _instantiate(t):
-    if not _is_zero(t):
+def instantiate(t):
+    """A custom-JVP tangent as an array (zeros for a symbolic zero; float0 stays float0)."""
+    if not is_zero(t):
         return t
     if t.dtype == jax.dtypes.float0:
         return np.zeros(t.shape, jax.dtypes.float0)
@@ -49,13 +51,13 @@ def hyper_jvp(fn, hyper):
 
     def rule(primals, tangents):
         others = [t for i, a in enumerate(tangents) if i not in hyper
-                  for t in jax.tree_util.tree_leaves(a, is_leaf=_is_zero)]
-        if not all(_is_zero(t) for t in others):  # e.g. d/dpoints: the plain forward mode of fn
-            tangents = jax.tree_util.tree_map(_instantiate, tangents, is_leaf=_is_zero)
+                  for t in jax.tree_util.tree_leaves(a, is_leaf=is_zero)]
+        if not all(is_zero(t) for t in others):  # e.g. d/dpoints: the plain forward mode of fn
+            tangents = jax.tree_util.tree_map(instantiate, tangents, is_leaf=is_zero)
             return jax.jvp(fn, primals, tangents)
-        active = [i for i in hyper if not _is_zero(tangents[i])]
+        active = [i for i in hyper if not is_zero(tangents[i])]
         if not active:  # nothing perturbed (JAX normally skips the rule then)
-            tangents = jax.tree_util.tree_map(_instantiate, tangents, is_leaf=_is_zero)
+            tangents = jax.tree_util.tree_map(instantiate, tangents, is_leaf=is_zero)
             return jax.jvp(fn, primals, tangents)
         hp = [jnp.asarray(primals[i]) for i in active]
 

@@ -25,7 +25,7 @@ import numpy as np
 from .kernels import map_blocks
 
 __all__ = ["region_radius", "domain", "snap", "cell_centers", "morton_order", "morton_codes", "evaluate_on_grid",
-           "evaluate_subgrids", "evaluate_children", "evaluate_grid"]
+           "evaluate_on_grid_jvp", "evaluate_subgrids", "evaluate_children", "evaluate_grid"]
 
 
 def region_radius(svdd):
@@ -192,6 +192,46 @@ def evaluate_on_grid(svdd, x, block=2048, count=None, support=None):
         r = _sum_near(ch, jnp.min(xs, axis=0), jnp.max(xs, axis=0), terms, jnp.zeros((xb.shape[0], 4), xb.dtype))
         s, ep = r[:, 0], r[:, 1:]
         return 2.0 * s - mu, -4.0 * g * (xb * s[:, None] - ep)
+
+    return map_blocks(one_block, x, block, count=count)
+
+
+def evaluate_on_grid_jvp(svdd, tangent, x, block=2048, count=None, support=None):
+    """f, grad f at x : (n, 3) and their tangents along ``tangent`` = (dalpha (m,), dgamma (),
+    doffset ()), the points held fixed: -> f (n,), grad (n, 3), df (n,), dgrad (n, 3).
+
+    With e_i = exp(-gamma d_i^2), s = sum a_i e_i and u = x s - sum a_i e_i p_i
+    (f = 2 s - mu, grad f = -4 gamma u):
+
+        ds = sum da_i e_i - dgamma sum a_i d_i^2 e_i,   du = x ds - (the same sums with p_i),
+        df = 2 ds - dmu,   dgrad = -4 dgamma u - 4 gamma du,
+
+    the derivatives :func:`evaluate_on_grid` has, from one pass over the chunks: each kernel block
+    e is computed once and multiplied by (a, a p), (da, da p) and, as e * d^2, by (a, a p). Under
+    ``vmap`` over tangents only the (da, da p) product is batched. Same chunks, cutoff, ``count``
+    and ``support`` (the points whose terms are summed, with their tangents) as
+    :func:`evaluate_on_grid`.
+    """
+    dalpha, dgamma, doffset = tangent
+    ch = _chunks(svdd, support)
+    dw = _chunks(svdd._replace(alpha=dalpha), support).w  # the same order: it depends on points and support
+    g, mu = svdd.gamma, svdd.offset
+
+    def one_block(xb):
+        xb = xb - ch.shift
+        xn = jnp.sum(xb * xb, axis=-1)[:, None]
+
+        def terms(pc, wc, dwc):
+            d2 = jnp.maximum(xn + jnp.sum(pc * pc, axis=-1)[None, :] - 2.0 * xb @ pc.T, 0.0)
+            e = jnp.exp(-g * d2)
+            return e @ wc, e @ dwc, (e * d2) @ wc
+
+        zero = jnp.zeros((xb.shape[0], 4), xb.dtype)
+        r, dr, r2 = _sum_near(ch, jnp.min(xb, axis=0), jnp.max(xb, axis=0), terms, (zero, zero, zero), dw)
+        ds = dr - dgamma * r2  # (n, 4): ds and sum (da_i e_i - dgamma a_i d_i^2 e_i) p_i
+        u = xb * r[:, :1] - r[:, 1:]
+        du = xb * ds[:, :1] - ds[:, 1:]
+        return 2.0 * r[:, 0] - mu, -4.0 * g * u, 2.0 * ds[:, 0] - doffset, -4.0 * dgamma * u - 4.0 * g * du
 
     return map_blocks(one_block, x, block, count=count)
 

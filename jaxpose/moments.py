@@ -29,10 +29,12 @@ Derivatives. The cells, the refinement and the occupancies are computed without 
 (:func:`discretize`); the weights then pass through an identity with a custom JVP that evaluates
 the tangent of (f, grad f) only at the cells whose occupancy is strictly between 0 and 1 (the
 clipped occupancy has zero derivative elsewhere): the coarea boundary term
-d/dtheta int_{f >= 0} g dV = int g (df/dtheta) delta(f) dV, smeared over one cell. The grid box is
-snapped to a lattice, so it is piecewise constant in (gamma, nu): these are the derivatives of the
-computed moments wherever the discretization does not switch (a cell entering or leaving the
-band or the one-cell occupancy ramp).
+d/dtheta int_{f >= 0} g dV = int g (df/dtheta) delta(f) dV, smeared over one cell. With the
+points held fixed (derivatives in gamma and nu) that tangent comes from explicit sums, one pass
+per kernel block (:func:`jaxpose.grid.evaluate_on_grid_jvp`); otherwise from JAX's JVP of the
+direct sums. The grid box is snapped to a lattice, so it is piecewise constant in (gamma, nu):
+these are the derivatives of the computed moments wherever the discretization does not switch (a
+cell entering or leaving the band or the one-cell occupancy ramp).
 """
 from __future__ import annotations
 
@@ -42,9 +44,11 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 
+from ._hyper import instantiate, is_zero
 from ._validate import InvalidInputError
 from .config import GridConfig
-from .grid import CHILD_OFFSETS, domain, evaluate_children, evaluate_grid, evaluate_on_grid, morton_codes
+from .grid import (CHILD_OFFSETS, domain, evaluate_children, evaluate_grid, evaluate_on_grid, evaluate_on_grid_jvp,
+                   morton_codes)
 
 __all__ = ["Moments", "volume_moments", "region_moments", "discretize", "occupancy", "moments_from_occupancy",
            "band_score", "select_cells", "LAST_BAND"]
@@ -147,10 +151,10 @@ def _boundary_weights(w, field, x, h, fac, block, outside):
     return w
 
 
-@_boundary_weights.defjvp
+@partial(_boundary_weights.defjvp, symbolic_zeros=True)
 def _boundary_weights_jvp(block, outside, primals, tangents):
     w, field, x, h, fac = primals
-    dfield = tangents[1]
+    dfield = jax.tree_util.tree_map(instantiate, tangents[1], is_leaf=is_zero)
     occ = w / jnp.where(fac != 0, fac, 1.0)
     # the cells whose weight has a nonzero derivative (clip not saturated), compacted to the front
     part = jax.lax.stop_gradient((fac != 0) & (occ > 0) & (occ < 1))
@@ -158,28 +162,33 @@ def _boundary_weights_jvp(block, outside, primals, tangents):
     sel = jnp.nonzero(part, size=w.shape[0], fill_value=0)[0]
     xs, hs, fs = x[sel], h[sel], fac[sel]
     # f skips the points with alpha = 0, but their alpha may have a tangent (points entering the
-    # support along the secant nu-slope, or any user tangent): f is linear in alpha, so their
-    # terms are added separately, with value 0 and tangent 2 k(x)^T dalpha. The tangent is not
-    # inspected (under jax.grad it is not known when this runs); callers whose alpha tangent is
-    # zero off the support by construction (the implicit KKT derivative) pass outside=False and
-    # skip that pass.
+    # support along the secant slopes, or any user tangent): f is linear in alpha, so they are
+    # summed too, with value 0 and tangent 2 k(x)^T dalpha. The tangent is not inspected (under
+    # jax.grad it is not known when this runs); callers whose alpha tangent is zero off the
+    # support by construction (the implicit KKT derivative) pass outside=False and skip them.
     support = jax.lax.stop_gradient(field.alpha != 0)
+    cells = lambda t: jnp.where(jnp.arange(w.shape[0]) < count, t, 0.0)
+    if is_zero(tangents[1].points):  # the usual case: tangents in alpha, gamma, offset, in one pass
+        every = jnp.ones_like(support) if outside else support
+        f, grad, df, dgrad = evaluate_on_grid_jvp(field, (dfield.alpha, dfield.gamma, dfield.offset), xs, block,
+                                                  count, every)
+        _, dws = jax.jvp(lambda f_, g_: occupancy(f_, g_, hs) * fs, (f, grad), (df, dgrad))
+        return w, jnp.zeros_like(w).at[sel].add(cells(dws))
     if not outside:
         _, dws = jax.jvp(lambda fd: occupancy(*evaluate_on_grid(fd, xs, block, count, support), hs) * fs,
                          (field,), (dfield,))
-        dws = jnp.where(jnp.arange(w.shape[0]) < count, dws, 0.0)
-        return w, jnp.zeros_like(w).at[sel].add(dws)
-    outside = _Field(field.points, jnp.zeros_like(field.alpha), field.gamma, jnp.zeros_like(field.offset))
-    d_outside = dfield._replace(alpha=jnp.where(support, 0.0, dfield.alpha), offset=jnp.zeros_like(dfield.offset))
+        return w, jnp.zeros_like(w).at[sel].add(cells(dws))
+    off = _Field(field.points, jnp.zeros_like(field.alpha), field.gamma, jnp.zeros_like(field.offset))
+    d_off = dfield._replace(alpha=jnp.where(support, 0.0, dfield.alpha), offset=jnp.zeros_like(dfield.offset))
 
     def weights(fd, out):
         f, grad = evaluate_on_grid(fd, xs, block, count, support)
         f0, grad0 = evaluate_on_grid(out, xs, block, count, ~support)
         return occupancy(f + f0, grad + grad0, hs) * fs
 
-    _, dws = jax.jvp(weights, (field, outside), (dfield, d_outside))
-    dws = jnp.where(jnp.arange(w.shape[0]) < count, dws, 0.0)
-    return w, jnp.zeros_like(w).at[sel].add(dws)
+    _, dws = jax.jvp(weights, (field, off), (dfield, d_off))
+    return w, jnp.zeros_like(w).at[sel].add(cells(dws))
+
 
 
 def discretize(svdd, grid: GridConfig):

@@ -41,6 +41,28 @@ def test_grid_gradient_matches_autodiff(x64):
     np.testing.assert_allclose(np.asarray(g), np.asarray(g_ad), atol=1e-10)
 
 
+def test_grid_tangent_in_one_pass_matches_autodiff(x64):
+    """evaluate_on_grid_jvp: f, grad f and their tangents in (alpha, gamma, offset), against
+    jax.jvp of evaluate_on_grid, with the terms of every point or of the support only."""
+    import jax
+
+    from jaxpose.grid import evaluate_on_grid_jvp
+
+    svdd = fit_svdd(clusters(300), 47.0, 0.5)
+    rng = np.random.default_rng(1)
+    x = jnp.asarray(rng.uniform(-0.6, 0.6, size=(70, 3)))
+    da = jnp.asarray(rng.normal(size=300)) * 1e-2
+    for support in (jnp.ones(300, bool), svdd.alpha != 0):
+        da_s = jnp.where(support, da, 0.0)  # evaluate_on_grid drops the terms (and tangents) off the support
+        def f(a, g, o):
+            return evaluate_on_grid(svdd._replace(alpha=a, gamma=g, offset=o), x, 16, None, support)
+        ref_v, ref_t = jax.jvp(f, (svdd.alpha, svdd.gamma, svdd.offset), (da_s, jnp.asarray(0.7), jnp.asarray(-0.2)))
+        out = evaluate_on_grid_jvp(svdd, (da, jnp.asarray(0.7), jnp.asarray(-0.2)), x, 16, None, support)
+        for got, want in zip(out, ref_v + ref_t):
+            np.testing.assert_allclose(np.asarray(got), np.asarray(want), rtol=1e-10, atol=1e-12)
+        assert float(jnp.max(jnp.abs(out[2]))) > 1e-3  # a tangent that is not zero
+
+
 def test_domain_is_snapped_and_piecewise_constant(x64):
     # issue 3: the grid must not follow gamma continuously (derivatives hold it fixed)
     from jaxpose.grid import LATTICE, region_radius

@@ -149,6 +149,21 @@ def test_boundary_tangent_equals_tangent_through_all_cells(x64):
     _, t3 = jax.jit(lambda a, t: jax.jvp(fast_in, a, t))(args, t_in)
     _, t4 = jax.jit(lambda a, t: jax.jvp(dense, a, t))(args, t_in)
     np.testing.assert_allclose(np.asarray(t3), np.asarray(t4), rtol=1e-9, atol=1e-12)
+    # points held fixed (the tangents normalize's gamma and nu derivatives give): the one-pass
+    # formula of evaluate_on_grid_jvp, for two tangents at once under vmap, and reverse mode
+    for outside, moments, t_ in ((True, fast, tangents), (False, fast_in, t_in)):
+        held = lambda a, g, o: moments(a, g, o, svdd.points)
+        dense_held = lambda a, g, o: dense(a, g, o, svdd.points)
+        other = tangents[0][::-1] * 2.0 if outside else jnp.where(svdd.alpha != 0, tangents[0][::-1] * 2.0, 0.0)
+        cols = [t_[:3], (other, jnp.asarray(-0.5), jnp.asarray(0.0))]
+        batch = tuple(jnp.stack([c[i] for c in cols]) for i in range(3))
+        twice = lambda f: jax.jit(jax.vmap(lambda *t: jax.jvp(f, args[:3], t)[1]))(*batch)
+        np.testing.assert_allclose(np.asarray(twice(held)), np.asarray(twice(dense_held)), rtol=1e-9, atol=1e-12)
+        if outside:
+            g1 = jax.jit(jax.grad(lambda *a: held(*a)[0] + held(*a)[3], argnums=(0, 1, 2)))(*args[:3])
+            g2 = jax.jit(jax.grad(lambda *a: dense_held(*a)[0] + dense_held(*a)[3], argnums=(0, 1, 2)))(*args[:3])
+            for a, b in zip(g1, g2):
+                np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-9, atol=1e-12)
 
 
 def test_refinement_with_tables_equals_direct_children(x64, monkeypatch):

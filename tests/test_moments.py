@@ -151,19 +151,18 @@ def test_boundary_tangent_equals_tangent_through_all_cells(x64):
     np.testing.assert_allclose(np.asarray(t3), np.asarray(t4), rtol=1e-9, atol=1e-12)
     # points held fixed (the tangents normalize's gamma and nu derivatives give): the one-pass
     # formula of evaluate_on_grid_jvp, for two tangents at once under vmap, and reverse mode
+    held = lambda moments: (lambda a, g, o: moments(a, g, o, svdd.points))
+    columns = lambda f: jax.jit(jax.vmap(lambda *t: jax.jvp(f, args[:3], t)[1]))
+    dense_columns = columns(held(dense))  # compiled once, for both cases
     for outside, moments, t_ in ((True, fast, tangents), (False, fast_in, t_in)):
-        held = lambda a, g, o: moments(a, g, o, svdd.points)
-        dense_held = lambda a, g, o: dense(a, g, o, svdd.points)
         other = tangents[0][::-1] * 2.0 if outside else jnp.where(svdd.alpha != 0, tangents[0][::-1] * 2.0, 0.0)
-        cols = [t_[:3], (other, jnp.asarray(-0.5), jnp.asarray(0.0))]
-        batch = tuple(jnp.stack([c[i] for c in cols]) for i in range(3))
-        twice = lambda f: jax.jit(jax.vmap(lambda *t: jax.jvp(f, args[:3], t)[1]))(*batch)
-        np.testing.assert_allclose(np.asarray(twice(held)), np.asarray(twice(dense_held)), rtol=1e-9, atol=1e-12)
-        if outside:
-            g1 = jax.jit(jax.grad(lambda *a: held(*a)[0] + held(*a)[3], argnums=(0, 1, 2)))(*args[:3])
-            g2 = jax.jit(jax.grad(lambda *a: dense_held(*a)[0] + dense_held(*a)[3], argnums=(0, 1, 2)))(*args[:3])
-            for a, b in zip(g1, g2):
-                np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-9, atol=1e-12)
+        batch = tuple(jnp.stack([c[i] for c in (t_[:3], (other, jnp.asarray(-0.5), jnp.asarray(0.0)))])
+                      for i in range(3))
+        np.testing.assert_allclose(np.asarray(columns(held(moments))(*batch)), np.asarray(dense_columns(*batch)),
+                                   rtol=1e-9, atol=1e-12)
+    scalar = lambda f: jax.jit(jax.grad(lambda *a: (lambda v: v[0] + v[3])(f(*a)), argnums=(0, 1, 2)))
+    for a, b in zip(scalar(held(fast))(*args[:3]), scalar(held(dense))(*args[:3])):
+        np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-9, atol=1e-12)
 
 
 def test_refinement_with_tables_equals_direct_children(x64, monkeypatch):

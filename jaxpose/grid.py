@@ -120,9 +120,10 @@ class _Chunks(NamedTuple):
     lo: jax.Array  # (k, 3) bounding box of each chunk's support points (no derivatives)
     hi: jax.Array
     cut: jax.Array  # () squared distance beyond which a chunk's terms are dropped
+    dw: jax.Array | None = None  # (k, chunk, 4) (dalpha, dalpha p) in the same order, if asked for
 
 
-def _chunks(svdd, support=None):
+def _chunks(svdd, support=None, dalpha=None):
     shift = jax.lax.stop_gradient(jnp.mean(svdd.points, axis=0))
     m = svdd.points.shape[0]
     chunk = min(SV_CHUNK, m)
@@ -133,16 +134,20 @@ def _chunks(svdd, support=None):
     order = jnp.argsort(jnp.where(sup, code, jnp.iinfo(jnp.int32).max))
     p = jnp.concatenate([(svdd.points - shift)[order], jnp.zeros((pad, 3), svdd.points.dtype)])
     c = jnp.concatenate([sup[order], jnp.zeros((pad,), bool)])
-    # terms outside the support are dropped (value 0 where alpha = 0; their tangents too)
-    a = jnp.where(c, jnp.concatenate([svdd.alpha[order], jnp.zeros((pad,), svdd.alpha.dtype)]), 0.0)
-    p, a, c = p.reshape(-1, chunk, 3), a.reshape(-1, chunk), c.reshape(-1, chunk)
-    w = jnp.concatenate([a[..., None], a[..., None] * p], axis=-1)
+    p, c = p.reshape(-1, chunk, 3), c.reshape(-1, chunk)
+
+    def weights(alpha):  # (alpha, alpha p) per chunk; terms off the support are dropped (their tangents too)
+        a = jnp.concatenate([alpha[order], jnp.zeros((pad,), alpha.dtype)]).reshape(-1, chunk)
+        a = jnp.where(c, a, 0.0)
+        return jnp.concatenate([a[..., None], a[..., None] * p], axis=-1)
+
+    w, dw = weights(svdd.alpha), None if dalpha is None else weights(dalpha)
     ps = jax.lax.stop_gradient(p)
     inf = jnp.asarray(jnp.inf, p.dtype)
     lo = jnp.min(jnp.where(c[..., None], ps, inf), axis=1)
     hi = jnp.max(jnp.where(c[..., None], ps, -inf), axis=1)
     cut = jax.lax.stop_gradient(_cutoff(svdd.offset, p.dtype) / svdd.gamma)
-    return _Chunks(shift, p, w, c, lo, hi, cut)
+    return _Chunks(shift, p, w, c, lo, hi, cut, dw)
 
 
 def _sum_near(ch, blo, bhi, terms, init, table=None):
@@ -213,8 +218,7 @@ def evaluate_on_grid_jvp(svdd, tangent, x, block=2048, count=None, support=None)
     :func:`evaluate_on_grid`.
     """
     dalpha, dgamma, doffset = tangent
-    ch = _chunks(svdd, support)
-    dw = _chunks(svdd._replace(alpha=dalpha), support).w  # the same order: it depends on points and support
+    ch = _chunks(svdd, support, dalpha)
     g, mu = svdd.gamma, svdd.offset
 
     def one_block(xb):
@@ -227,7 +231,7 @@ def evaluate_on_grid_jvp(svdd, tangent, x, block=2048, count=None, support=None)
             return e @ wc, e @ dwc, (e * d2) @ wc
 
         zero = jnp.zeros((xb.shape[0], 4), xb.dtype)
-        r, dr, r2 = _sum_near(ch, jnp.min(xb, axis=0), jnp.max(xb, axis=0), terms, (zero, zero, zero), dw)
+        r, dr, r2 = _sum_near(ch, jnp.min(xb, axis=0), jnp.max(xb, axis=0), terms, (zero, zero, zero), ch.dw)
         ds = dr - dgamma * r2  # (n, 4): ds and sum (da_i e_i - dgamma a_i d_i^2 e_i) p_i
         u = xb * r[:, :1] - r[:, 1:]
         du = xb * ds[:, :1] - ds[:, 1:]

@@ -167,28 +167,16 @@ def _boundary_weights_jvp(block, outside, primals, tangents):
     # jax.grad it is not known when this runs); callers whose alpha tangent is zero off the
     # support by construction (the implicit KKT derivative) pass outside=False and skip them.
     support = jax.lax.stop_gradient(field.alpha != 0)
-    cells = lambda t: jnp.where(jnp.arange(w.shape[0]) < count, t, 0.0)
+    every = jnp.ones_like(support) if outside else support
     if is_zero(tangents[1].points):  # the usual case: tangents in alpha, gamma, offset, in one pass
-        every = jnp.ones_like(support) if outside else support
         f, grad, df, dgrad = evaluate_on_grid_jvp(field, (dfield.alpha, dfield.gamma, dfield.offset), xs, block,
                                                   count, every)
         _, dws = jax.jvp(lambda f_, g_: occupancy(f_, g_, hs) * fs, (f, grad), (df, dgrad))
-        return w, jnp.zeros_like(w).at[sel].add(cells(dws))
-    if not outside:
-        _, dws = jax.jvp(lambda fd: occupancy(*evaluate_on_grid(fd, xs, block, count, support), hs) * fs,
+    else:  # the points move too: JAX's JVP of the direct sums
+        _, dws = jax.jvp(lambda fd: occupancy(*evaluate_on_grid(fd, xs, block, count, every), hs) * fs,
                          (field,), (dfield,))
-        return w, jnp.zeros_like(w).at[sel].add(cells(dws))
-    off = _Field(field.points, jnp.zeros_like(field.alpha), field.gamma, jnp.zeros_like(field.offset))
-    d_off = dfield._replace(alpha=jnp.where(support, 0.0, dfield.alpha), offset=jnp.zeros_like(dfield.offset))
-
-    def weights(fd, out):
-        f, grad = evaluate_on_grid(fd, xs, block, count, support)
-        f0, grad0 = evaluate_on_grid(out, xs, block, count, ~support)
-        return occupancy(f + f0, grad + grad0, hs) * fs
-
-    _, dws = jax.jvp(weights, (field, off), (dfield, d_off))
-    return w, jnp.zeros_like(w).at[sel].add(cells(dws))
-
+    dws = jnp.where(jnp.arange(w.shape[0]) < count, dws, 0.0)
+    return w, jnp.zeros_like(w).at[sel].add(dws)
 
 
 def discretize(svdd, grid: GridConfig):

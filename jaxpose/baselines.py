@@ -26,6 +26,7 @@ import warnings
 import numpy as np
 
 from ._validate import InvalidInputError, OpenMeshWarning, check_points
+from .host import anchor
 
 __all__ = [
     "CENTERS",
@@ -50,6 +51,7 @@ __all__ = [
     "sqrt_area",
     "depth_weighted_solid",
     "filled_voxels",
+    "weighted_centroid",
     "is_closed",
     "split_geometry",
     "triangle_areas",
@@ -129,16 +131,18 @@ def surface_centroid(mesh_or_points):
     """
     vertices, faces = split_geometry(mesh_or_points)
     if faces is None:
-        return vertices.mean(axis=0)
-    triangles = vertices[faces]
+        return vertex_mean(vertices)
+    origin = anchor(vertices)  # sums about one of the mesh's own vertices: no digits lost far from the origin
+    triangles = vertices[faces] - origin
     areas = triangle_areas(triangles)
-    return (areas[:, None] * triangles.mean(axis=1)).sum(axis=0) / areas.sum()
+    return origin + (areas[:, None] * triangles.mean(axis=1)).sum(axis=0) / areas.sum()
 
 
 def vertex_mean(mesh_or_points):
-    """Mean of the vertices (or points).  Returns center : (3,) float64."""
+    """Mean of the vertices (or points), summed about one of them.  Returns center : (3,) float64."""
     vertices, _ = split_geometry(mesh_or_points)
-    return vertices.mean(axis=0)
+    origin = anchor(vertices)
+    return origin + (vertices - origin).mean(axis=0)
 
 
 def bbox_center(mesh_or_points):
@@ -391,6 +395,10 @@ def sqrt_area(mesh_or_points):
 
 
 DEPTH_VOXELS = 96  # depth_weighted_solid: voxels along the largest extent
+# The voxel grid starts this fraction of a pitch below the lowest vertex, an irrational fraction
+# ((sqrt 5 - 1) / 4), so the vertices of regular meshes (boxes, capsules: a whole number of pitches
+# apart) do not lie on voxel faces, where rounding would decide their voxel.
+GRID_SHIFT = 0.25 * (5.0 ** 0.5 - 1.0)
 
 
 def depth_weighted_solid(mesh_or_points, power=2.0, voxels=DEPTH_VOXELS, strict=False):
@@ -412,8 +420,19 @@ def depth_weighted_solid(mesh_or_points, power=2.0, voxels=DEPTH_VOXELS, strict=
     if not (np.isfinite(power) and power >= 0):
         raise InvalidInputError(f"power must be finite and >= 0, got {power!r}")
     x, d = filled_voxels(mesh_or_points, voxels, strict)
-    w = d ** float(power)
-    return np.asarray((w @ x) / w.sum(), dtype=np.float64)
+    return weighted_centroid(x, d ** float(power))
+
+
+def weighted_centroid(x, w):
+    """sum w x / sum w of points x (n, 3) with weights w (n,) >= 0, in float64, by two passes.
+
+    The second pass adds the weighted mean of the residuals x - c, so points far from the origin
+    (scanner coordinates) lose no digits to the first sum's rounding. Returns (3,) float64.
+    """
+    x, w = np.asarray(x, np.float64), np.asarray(w, np.float64)
+    total = w.sum()
+    c = (w @ x) / total
+    return c + (w @ (x - c)) / total
 
 
 def filled_voxels(mesh_or_points, voxels=DEPTH_VOXELS, strict=False):
@@ -422,7 +441,9 @@ def filled_voxels(mesh_or_points, voxels=DEPTH_VOXELS, strict=False):
     The construction of ``mesh.voxelized(pitch).fill()``: the voxels (pitch = largest extent /
     ``voxels``) that the surface passes through are marked from a lattice of points on every
     triangle at most half a pitch apart, then every voxel enclosed by them is filled
-    (``scipy.ndimage.binary_fill_holes``).
+    (``scipy.ndimage.binary_fill_holes``). The grid is laid out about the vertex nearest the
+    middle of the bounding box and starts ``GRID_SHIFT`` of a pitch below the lowest vertex, so a
+    translated mesh gives the same voxels, translated.
 
     Returns:
       centers (n, 3) float64 of the filled voxels and their depths (n,) in voxels (the Euclidean
@@ -434,8 +455,10 @@ def filled_voxels(mesh_or_points, voxels=DEPTH_VOXELS, strict=False):
     if isinstance(voxels, bool) or int(voxels) != voxels or voxels < 8:
         raise InvalidInputError(f"voxels must be an int >= 8, got {voxels!r}")
     _closed_or_warn(faces, "depth_weighted_solid", strict)
-    lo = vertices.min(axis=0)
-    pitch = float(np.max(vertices.max(axis=0) - lo)) / int(voxels)
+    origin = anchor(vertices)  # voxelize about one of the mesh's own vertices: exact far from the origin
+    vertices = vertices - origin
+    pitch = float(np.max(vertices.max(axis=0) - vertices.min(axis=0))) / int(voxels)
+    lo = vertices.min(axis=0) - GRID_SHIFT * pitch
     shape = np.floor((vertices.max(axis=0) - lo) / pitch).astype(int) + 3
     occupied = np.zeros(shape, bool)
     for points in _surface_lattice(vertices[faces], 0.5 * pitch):
@@ -444,7 +467,7 @@ def filled_voxels(mesh_or_points, voxels=DEPTH_VOXELS, strict=False):
     filled = ndimage.binary_fill_holes(occupied)
     edt = ndimage.distance_transform_edt(filled)
     idx = np.argwhere(filled)
-    return lo + (idx - 1 + 0.5) * pitch, edt[tuple(idx.T)]
+    return origin + (lo + (idx - 1 + 0.5) * pitch), edt[tuple(idx.T)]
 
 
 def _surface_lattice(triangles, step, chunk=1 << 21):

@@ -186,8 +186,7 @@ class _Shape:
             if self._voxels is None:
                 self._voxels = baselines.filled_voxels(self.geometry, strict=strict)
             x, d = self._voxels
-            w = d ** float(self.options.get("power", 2.0))
-            return (w @ x) / w.sum()
+            return baselines.weighted_centroid(x, d ** float(self.options.get("power", 2.0)))
         return baselines.center(self.geometry, name)
 
     def scale(self, name, center, strict):

@@ -176,6 +176,21 @@ def test_translation_equivariant_all_centers(method):
     assert baselines.scale(moved, "unit_cube") == pytest.approx(baselines.scale(mesh, "unit_cube"))
 
 
+@pytest.mark.parametrize("offset", [1e6, 1e12])
+@pytest.mark.parametrize("method", baselines.CENTERS)
+def test_centers_keep_their_digits_far_from_the_origin(method, offset):
+    """Every center called directly on a closed mesh at 1e6 and 1e12: within 1e-9 of the extent
+    (plus the float spacing at the offset) of the same mesh moved back exactly (fl(v + o) - o is
+    exact). The voxel baseline lays its grid out about one of the mesh's vertices, so the same
+    voxels come out."""
+    o = offset * np.array([1.0, -0.7, 0.3])
+    base = trimesh.creation.capsule(height=1.0, radius=0.5, count=[12, 12])
+    far = trimesh.Trimesh(base.vertices + o, base.faces, process=False)
+    near = trimesh.Trimesh(far.vertices - o, base.faces, process=False)
+    error = np.abs(baselines.center(far, method) - o - baselines.center(near, method)).max()
+    assert error <= 2e-9 + 2 * np.spacing(offset), (method, error)
+
+
 def test_scales_are_homogeneous():
     mesh = lumpy()
     big = mesh.copy()

@@ -8,6 +8,7 @@ import pytest
 import trimesh
 
 import jaxpose
+import jaxpose.pose  # the module the fixtures patch (not imported by "import jaxpose" alone)
 from jaxpose import evaluation
 from jaxpose._validate import InvalidInputError
 from jaxpose.evaluation import align_core, evaluate, format_table, scale_spread, spread, sweep

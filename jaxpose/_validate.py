@@ -5,6 +5,7 @@ Every public entry point calls these first, so that bad input gets a readable
 """
 from __future__ import annotations
 
+import numbers
 import sys
 
 import numpy as np
@@ -21,6 +22,7 @@ __all__ = [
     "check_gamma",
     "check_nu",
     "check_array",
+    "check_int",
     "compute_dtype",
     "is_traced",
 ]
@@ -111,3 +113,12 @@ def check_nu(nu):
     if v is not None and not 0.0 <= v <= 1.0:
         raise InvalidInputError(f"nu must be in [0, 1], got {v}")
     return nu
+
+
+def check_int(value, name, minimum):
+    """``value`` as an int >= ``minimum`` (bools refused); a clear error otherwise."""
+    if not isinstance(value, numbers.Integral) or isinstance(value, bool):
+        raise InvalidInputError(f"{name} must be an int, got {value!r}")
+    if value < minimum:
+        raise InvalidInputError(f"{name} must be >= {minimum}, got {value}")
+    return int(value)

@@ -25,8 +25,11 @@ import warnings
 
 import numpy as np
 
-from ._validate import InvalidInputError, OpenMeshWarning, check_points
+from . import sample
+from ._validate import InvalidInputError, OpenMeshWarning
+from .geometry import is_closed, split_geometry, triangle_areas
 from .host import anchor
+from .orientation import SIGN_MIN, Frame, ambiguity, complete_signs, proper, relative_gaps
 
 __all__ = [
     "CENTERS",
@@ -70,46 +73,6 @@ _CHUNK_NODES = 1 << 22  # quadrature nodes per block (bounds memory)
 
 
 # --------------------------------------------------------------------------- coercion
-def split_geometry(mesh_or_points):
-    """Split the input into vertices and faces.
-
-    Returns
-    -------
-    vertices : (n, 3) float64
-    faces : (f, 3) int or None   (None for point clouds and meshes without faces)
-
-    Raises InvalidInputError for bad vertices or faces, and for faces of zero total area
-    ("the mesh has no area": such a mesh is not silently taken as its points).
-    """
-    faces = None
-    if hasattr(mesh_or_points, "vertices"):  # Trimesh, PointCloud
-        vertices = np.asarray(mesh_or_points.vertices, dtype=np.float64)
-        f = getattr(mesh_or_points, "faces", None)
-        if f is not None and len(f) > 0:
-            faces = np.asarray(f, dtype=np.int64)
-    else:
-        vertices = np.asarray(mesh_or_points)
-    check_points(vertices, name="vertices", min_points=1)
-    vertices = np.asarray(vertices, dtype=np.float64)
-    if faces is not None:
-        if faces.ndim != 2 or faces.shape[1] != 3:
-            raise InvalidInputError(f"faces must have shape (f, 3), got {faces.shape}")
-        if faces.min() < 0 or faces.max() >= len(vertices):
-            raise InvalidInputError("faces index vertices that do not exist")
-        if not triangle_areas(vertices[faces]).sum() > 0.0:  # no silent switch to the points
-            raise InvalidInputError(
-                f"the mesh has no area: all its {len(faces)} faces are degenerate (zero area); to use its "
-                "vertices as points, pass trimesh.PointCloud(mesh.vertices)"
-            )
-    return vertices, faces
-
-
-def triangle_areas(triangles):
-    """triangles : (f, 3, 3) float -> areas : (f,) float"""
-    cross = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
-    return 0.5 * np.linalg.norm(cross, axis=1)
-
-
 def _coerce_center(mesh_or_points, center_point):
     if center_point is None:
         return surface_centroid(mesh_or_points)
@@ -301,17 +264,6 @@ def unit_sphere(mesh_or_points, center=None):
 
 
 # --------------------------------------------------------------------------- solids
-def is_closed(faces):
-    """Whether every edge of the faces (f, 3) is shared by exactly two faces (no boundary, no
-    non-manifold edge): the surface bounds a volume."""
-    faces = np.asarray(faces, dtype=np.int64)
-    e = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
-    n = int(faces.max()) + 1
-    key = np.sort(np.minimum(e[:, 0], e[:, 1]) * n + np.maximum(e[:, 0], e[:, 1]))
-    _, counts = np.unique(key, return_counts=True)
-    return bool(np.all(counts == 2))
-
-
 def _faces_or_raise(mesh, what):
     vertices, faces = split_geometry(mesh)
     if faces is None:
@@ -512,8 +464,6 @@ def scale(mesh_or_points, method="mean_distance", center=None):
 def _skew_frame(x):
     """PCA frame of points x (n, 3): covariance eigenvectors (largest first), each pointing to its
     positive third moment on the two most skewed axes, the least skewed completed by det = +1."""
-    from .rotation import SIGN_MIN, Frame, ambiguity, complete_signs
-
     d = x - x.mean(axis=0)
     lam, vec = np.linalg.eigh(d.T @ d / len(x))
     lam, axes = lam[::-1], vec[:, ::-1].T
@@ -521,7 +471,7 @@ def _skew_frame(x):
     r = np.sqrt(np.mean(np.sum(z * z, axis=1)))
     stat = np.mean(z ** 3, axis=0) / r ** 3 / SIGN_MIN
     rot, margins, k = complete_signs(axes, stat)
-    gaps = np.array([(lam[0] - lam[1]) / lam[0], (lam[1] - lam[2]) / max(lam[1], 1e-300)])
+    gaps = relative_gaps(lam)
     return Frame(rot, ambiguity(gaps, np.min(np.delete(margins, k))), lam, gaps, margins, k, np.full(3, np.nan))
 
 
@@ -543,9 +493,7 @@ def pca_surface_frame(mesh_or_points, count=FRAME_SAMPLES):
     vertices, faces = split_geometry(mesh_or_points)
     if faces is None:
         return _skew_frame(vertices)
-    from .mesh import sample_surface
-
-    return _skew_frame(np.asarray(sample_surface(mesh_or_points, count, seed=0), np.float64))
+    return _skew_frame(np.asarray(sample.sample_surface(mesh_or_points, count, seed=0), np.float64))
 
 
 def inertia_frame(mesh_or_points):
@@ -555,8 +503,6 @@ def inertia_frame(mesh_or_points):
     Returns :class:`jaxpose.rotation.Frame` (no ambiguity measure: NaN).
     """
     import trimesh
-
-    from .rotation import Frame, proper
 
     vertices, faces = _faces_or_raise(mesh_or_points, "inertia")
     mesh = trimesh.Trimesh(vertices, faces, process=False)

@@ -26,7 +26,7 @@ import warnings
 
 import numpy as np
 
-from . import baselines, solid
+from . import baselines, sample, solid
 from ._validate import InvalidInputError, JaxposeError
 
 __all__ = ["METHODS", "CENTERS", "SCALES", "DEFAULT_METHOD", "ROBUST_POWER", "resolve", "estimate",
@@ -159,12 +159,11 @@ class _Shape:
     def ocsvm(self):
         if self._ocsvm is None:
             from ._validate import InvalidPoseWarning
-            from .mesh import sample_surface
             from .pose import normalize
             from .validity import status_message
 
             o = self.options
-            points = sample_surface(self.geometry, o.get("count", 2000), seed=o.get("seed", 0),
+            points = sample.sample_surface(self.geometry, o.get("count", 2000), seed=o.get("seed", 0),
                                     method=o.get("sampling", "even"))
             with warnings.catch_warnings():  # an invalid pose is raised below, with its reason
                 warnings.simplefilter("ignore", InvalidPoseWarning)

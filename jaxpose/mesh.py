@@ -14,9 +14,10 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from . import baselines, formats
-from ._validate import InvalidInputError, check_gamma, check_nu, check_points
+from . import formats, sample
+from ._validate import InvalidInputError, check_gamma, check_int, check_nu, check_points
 from .atomic import write_atomic
+from .sample import SAMPLING
 
 __all__ = [
     "SAMPLING",
@@ -36,7 +37,6 @@ __all__ = [
     "example_shape",
 ]
 
-SAMPLING = ("even", "random")
 # --------------------------------------------------------------------------- load
 def load(path_or_mesh):
     """Read a mesh or point cloud from anything trimesh reads (OBJ, PLY, OFF, STL, GLB, ...).
@@ -150,50 +150,19 @@ def _flatten(scene, source):
 
 # --------------------------------------------------------------------------- sample
 def sample_surface(mesh, count, seed=0, method="even"):
-    """Area-weighted points on the surface, deterministic per seed.
+    """Area-weighted points on the surface of a mesh or a file, deterministic per seed.
 
-    method "random": each point picks a face with probability proportional to area.
-    method "even": stratified; face f gets floor or ceil of count * area_f / area
-    points (systematic rounding with one random offset), which removes the
-    multinomial noise in the per-face counts.
-    Point clouds (and meshes without faces): `count` of the points, drawn without
-    replacement when there are enough.
+    :func:`jaxpose.sample.sample_surface` of :func:`load` ``(mesh)``: method "even" (stratified
+    per-face counts) or "random"; point clouds give ``count`` of their points.
 
-    mesh : Trimesh | PointCloud | (n, 3) array, count : int >= 4, seed : int
+    mesh : path | Trimesh | PointCloud | (n, 3) array, count : int >= 4, seed : int
     Returns samples : (count, 3) float64
+
+    Example::
+
+        points = sample_surface("body.ply", 2000, seed=0)
     """
-    count = _check_int(count, "count", minimum=4)
-    seed = _check_int(seed, "seed", minimum=0)
-    if method not in SAMPLING:
-        raise InvalidInputError(f"unknown sampling {method!r}; valid: {', '.join(SAMPLING)}")
-    rng = np.random.default_rng(seed)
-    vertices, faces = baselines.split_geometry(load(mesh))
-    if faces is None:
-        index = rng.choice(len(vertices), size=count, replace=len(vertices) < count)
-        return vertices[index].copy()
-    triangles = vertices[faces]  # (f, 3, 3)
-    areas = baselines.triangle_areas(triangles)
-    if method == "random":
-        face = rng.choice(len(faces), size=count, p=areas / areas.sum())
-    else:
-        expected = np.minimum(np.cumsum(areas) * (count / areas.sum()), count)
-        expected[-1] = count  # exact total despite round-off
-        edges = np.floor(np.concatenate([[0.0], expected]) + rng.uniform())
-        per_face = np.diff(edges).astype(np.int64)  # sums to count exactly
-        face = np.repeat(np.arange(len(faces)), per_face)
-    uv = rng.uniform(size=(count, 2))
-    flip = uv.sum(axis=1) > 1.0
-    uv[flip] = 1.0 - uv[flip]
-    tri = triangles[face]
-    return tri[:, 0] + uv[:, :1] * (tri[:, 1] - tri[:, 0]) + uv[:, 1:] * (tri[:, 2] - tri[:, 0])
-
-
-def _check_int(value, name, minimum):
-    if not isinstance(value, numbers.Integral) or isinstance(value, bool):
-        raise InvalidInputError(f"{name} must be an int, got {value!r}")
-    if value < minimum:
-        raise InvalidInputError(f"{name} must be >= {minimum}, got {value}")
-    return int(value)
+    return sample.sample_surface(load(mesh), count, seed=seed, method=method)
 
 
 # --------------------------------------------------------------------------- normalize
@@ -212,8 +181,8 @@ def check_arguments(gamma=47.0, nu=0.5, count=2000, seed=0, sampling="even", met
     """
     check_gamma(gamma)
     check_nu(nu)
-    count = _check_int(count, "count", minimum=4)  # validated whatever the method
-    seed = _check_int(seed, "seed", minimum=0)
+    count = check_int(count, "count", minimum=4)  # validated whatever the method
+    seed = check_int(seed, "seed", minimum=0)
     if sampling not in SAMPLING:
         raise InvalidInputError(f"unknown sampling {sampling!r}; valid: {', '.join(SAMPLING)}")
     if not isinstance(strict, (bool, np.bool_)):

@@ -36,6 +36,7 @@ from ._hyper import hyper_jvp
 from .config import PoseConfig
 from .frame import host_frame, prescale
 from .moments import region_moments
+from .orientation import region_frame
 from .svdd import solve_svdd
 from .svdd.secant import with_secants
 from .sizes import MAX_POINTS, bucket, pad, subsample_index
@@ -51,7 +52,7 @@ def pose_from_svdd(svdd, to_world, size, grid, outside, rotation=False, y=None, 
     Args:
       svdd: SVDD in the reference frame; to_world, size: from :func:`jaxpose.frame.prescale`;
       grid: GridConfig; outside: see :func:`jaxpose.moments.region_moments`.
-      rotation: also the region's frame (:func:`jaxpose.rotation.region_frame`), from the
+      rotation: also the region's frame (:func:`jaxpose.orientation.region_frame`), from the
         pre-scaled points ``y`` (m, 3) and their ``mask``.
     """
     mom = region_moments(svdd, grid, outside)
@@ -61,8 +62,6 @@ def pose_from_svdd(svdd, to_world, size, grid, outside, rotation=False, y=None, 
     valid, count = status == 0, jnp.sum(svdd.mask).astype(jnp.int32)
     if not rotation:
         return Pose(center, scale, svdd.converged, valid, svdd.iterations, status=status, count=count)
-    from .rotation import region_frame
-
     origin = to_world(jnp.zeros(3, center.dtype))
     axes = jax.vmap(to_world)(jnp.eye(3, dtype=center.dtype)) - origin  # rows: size * axes[:, k]
     axes = (axes / jnp.linalg.norm(axes, axis=1, keepdims=True)).T
@@ -123,7 +122,7 @@ def normalize(points, gamma=47.0, nu=0.5, *, config: PoseConfig | None = None, t
         JaxposeError naming the reason if the pose is not valid (otherwise an invalid concrete
         pose warns with :class:`jaxpose.InvalidPoseWarning`; see ``Pose.valid``, ``Pose.status``).
       rotation: also the canonical frame of the OCSVM region (``Pose.rotation``, rows = axes,
-        det +1; ``Pose.ambiguity``, ``Pose.flagged``; :func:`jaxpose.rotation.region_frame`); off
+        det +1; ``Pose.ambiguity``, ``Pose.flagged``; :func:`jaxpose.orientation.region_frame`); off
         by default, and off changes nothing. Not differentiated.
       max_points: int >= 4 or None: above this many points, a uniform random subset of this size
         (``seed``) is fitted (:func:`jaxpose.sizes.subsample_index`; ``Pose.count``); None fits every point.

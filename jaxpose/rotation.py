@@ -1,7 +1,11 @@
-"""Canonical axes of a shape: a rotation that holds under articulation, its sign rule and its ambiguity.
+"""Canonical axes of a shape: a rotation that holds under articulation, and every frame by name.
 
-A frame is a proper rotation R (3, 3) whose rows are the shape's canonical axes in world
-coordinates (det R = +1); canonical coordinates are R (x - c) / s. Two frames are built here.
+A frame (:class:`jaxpose.orientation.Frame`) is a proper rotation R (3, 3) whose rows are the
+shape's canonical axes in world coordinates (det R = +1); canonical coordinates are
+R (x - c) / s. :func:`frame_of` gives any of :data:`ROTATIONS` by name: ``core`` (built here),
+``ocsvm`` (:func:`jaxpose.orientation.region_frame`, through :func:`jaxpose.normalize`) and the
+baselines of :mod:`jaxpose.baselines`. The sign rule's pieces, the ambiguity and its thresholds
+are in :mod:`jaxpose.orientation` (re-exported here).
 
 ``core`` (meshes and point clouds, :func:`core_frame`), on the robust voxel solid of
 :mod:`jaxpose.solid`:
@@ -34,32 +38,19 @@ coordinates (det R = +1); canonical coordinates are R (x - c) / s. Two frames ar
    extent (a person's legs are longer than head and neck); where it does not agree with the third
    moment's sign, the first axis is called undetermined.
 
-``ocsvm`` (point samples, traced JAX, :func:`region_frame`): the eigenvectors of the OCSVM
-region's second moment (computed with its centroid by the grid integral of
-:func:`jaxpose.moments.region_moments`), signs by the third moments of the samples along them
-(the two largest in magnitude; the third axis from det = +1). Equivariant because the grid turns
-with the points' principal frame.
-
-Ambiguity. A frame is determined when its eigenvalues are apart, its sign cues are away from
-zero and (``core``) its mirror plane stands out. With the relative eigen-gaps g1 = (l1 - l2) / l1,
-g2 = (l2 - l3) / l2, the weakest used sign cue m as a multiple of its threshold and the mirror
-contrast k (the difference of the two minor axes' mirror scores, or of the feet offsets along them
-in units of their threshold where the feet chose), ``ambiguity = clip(1 - min(g1 / GAP_MIN,
-g2 / GAP_MIN, m, k / SYMMETRY_MIN), 0, 1)``: 0 when every cue clears its threshold, 1 when one of
-them is zero; ``flag = ambiguity > 0``. The thresholds are set a priori (module constants), not
-fitted: a gap of 10 % (near-equal moments swap under small deformations), a third moment of
-0.02 r^3 (what moving about 2 % of the volume across the body changes it by), a feet offset of
-1 % of the length (about one voxel) and a symmetry contrast of 0.05.
-
 Equivariance holds up to float rounding for inputs whose pre-frame third moments are not zero; an
 exactly mirror-symmetric input leaves the sign of its pre-frame's mirror axis to rounding, and its
 grid may then come out mirrored (voxel-level differences).
 """
 from __future__ import annotations
 
-from typing import NamedTuple
-
 import numpy as np
+from scipy import ndimage
+
+from . import baselines, sample, solid
+from ._validate import InvalidInputError, JaxposeError
+from .orientation import (GAP_MIN, SIGN_MIN, SYMMETRY_MIN, Frame, ambiguity, complete_signs, descending_axes, proper,
+                          region_frame, relative_gaps)
 
 __all__ = ["Frame", "ROTATIONS", "DEFAULT_ROTATION", "GAP_MIN", "SIGN_MIN", "SYMMETRY_MIN", "FOOT", "FEET_DEPTH",
            "FOOT_MIN", "AXES_POWER", "SYMMETRY_POWER", "pre_frame", "frame_solid", "core_frame", "feet_offset",
@@ -67,97 +58,11 @@ __all__ = ["Frame", "ROTATIONS", "DEFAULT_ROTATION", "GAP_MIN", "SIGN_MIN", "SYM
 
 ROTATIONS = ("core", "ocsvm", "pca_vertices", "pca_surface", "inertia")
 DEFAULT_ROTATION = "core"
-GAP_MIN = 0.10  # relative eigen-gap below which two axes are called interchangeable
-SIGN_MIN = 0.02  # third moment E[z^3] / r^3 below which a sign is called undetermined
-SYMMETRY_MIN = 0.05  # mirror-score contrast below which the mirror axis is called undetermined
 FOOT = 0.05  # the feet: this share of the length at the legs' end (ankles at about 4 % of a person's height)
 FEET_DEPTH = 0.5  # feet are thinner than half the trunk's depth (ankle ~4 cm, head ~9 cm, trunk ~11 cm)
 FOOT_MIN = 0.01  # feet offset (in lengths) below which it is called undetermined: about one voxel
 AXES_POWER = 4.0  # depth exponent of the axes' weights
 SYMMETRY_POWER = 2.0  # depth exponent of the mirror test's weights
-
-
-class Frame(NamedTuple):
-    """A canonical frame with its diagnostics (NumPy float64).
-
-    Attributes:
-      rotation: (3, 3) proper rotation, rows = canonical axes in world coordinates.
-      ambiguity: () in [0, 1]; 0 = every cue clears its threshold (module docs).
-      eigenvalues: (3,) the second moments along the axes, largest first (units^2).
-      gaps: (2,) relative eigen-gaps (l1 - l2) / l1, (l2 - l3) / l2.
-      margins: (3,) the sign statistic along each final axis (0 on the axis completed by det).
-      mirror: index of the axis completed by det (the mirror axis for ``core``).
-      symmetry: (3,) mirror scores in [0, 1] per axis (NaN where not computed).
-    """
-
-    rotation: np.ndarray
-    ambiguity: float
-    eigenvalues: np.ndarray
-    gaps: np.ndarray
-    margins: np.ndarray
-    mirror: int
-    symmetry: np.ndarray
-
-    @property
-    def flag(self) -> bool:
-        """The frame is not well determined (ambiguity > 0)."""
-        return bool(self.ambiguity > 0)
-
-
-# ------------------------------------------------------------------ small pieces
-def proper(r):
-    """r (3, 3) with its last row negated when det r < 0: a proper rotation from orthonormal rows."""
-    r = np.array(r, np.float64)
-    if np.linalg.det(r) < 0:
-        r[2] = -r[2]
-    return r
-
-
-def _descending_axes(cov):
-    """Eigenvalues (3,) descending and eigenvectors as rows (3, 3) of a symmetric (3, 3) matrix."""
-    lam, vec = np.linalg.eigh(np.asarray(cov, np.float64))
-    return lam[::-1], vec[:, ::-1].T
-
-
-def _gaps(lam):
-    lam = np.asarray(lam, np.float64)
-    return np.array([(lam[0] - lam[1]) / max(lam[0], 1e-300), (lam[1] - lam[2]) / max(lam[1], 1e-300)])
-
-
-def ambiguity(gaps, sign_ratio, contrast=None):
-    """clip(1 - min(g1 / GAP_MIN, g2 / GAP_MIN, sign_ratio[, k / SYMMETRY_MIN]), 0, 1) (module docs).
-
-    ``sign_ratio``: the weakest used sign margin as a multiple of its threshold (e.g. m / SIGN_MIN)."""
-    ratios = [gaps[0] / GAP_MIN, gaps[1] / GAP_MIN, abs(sign_ratio)]
-    if contrast is not None:
-        ratios.append(contrast / SYMMETRY_MIN)
-    return float(np.clip(1.0 - min(ratios), 0.0, 1.0))
-
-
-def complete_signs(axes, stat, completed=None, to_world=None):
-    """Orient the rows of ``axes`` (3, 3) by the signs of ``stat`` (3,), one axis completed by det.
-
-    Args:
-      axes: (3, 3) orthonormal rows (grid coordinates when ``to_world`` is given).
-      stat: (3,) signed statistics along the rows; each row is flipped where its stat is negative.
-      completed: the axis whose sign comes from det = +1 (default: the smallest |stat|).
-      to_world: optional (3, 3) rows of the grid axes in world coordinates (any determinant).
-
-    Returns:
-      rotation (3, 3) proper, in world coordinates; margins (3,) the stats after the flips
-      (0 on the completed axis); the completed axis.
-    """
-    stat = np.asarray(stat, np.float64)
-    k = int(np.argmin(np.abs(stat))) if completed is None else int(completed)
-    s = np.where(stat >= 0, 1.0, -1.0)
-    r = np.asarray(axes, np.float64) * s[:, None]
-    if to_world is not None:
-        r = r @ np.asarray(to_world, np.float64)
-    if np.linalg.det(r) < 0:
-        r[k] = -r[k]
-    margins = np.abs(stat)
-    margins[k] = 0.0
-    return r, margins, k
 
 
 # ------------------------------------------------------------------ the core frame
@@ -196,15 +101,13 @@ def pre_frame(vertices, faces=None):
     if faces is None or not len(faces):
         d = v - v.mean(axis=0)
         cov = d.T @ d / len(v)
-    _, axes = _descending_axes(cov)
+    _, axes = descending_axes(cov)
     skew = _third_moments(v @ axes.T)
     return axes * np.where(skew >= 0, 1.0, -1.0)[:, None]
 
 
 def frame_solid(vertices, faces=None, resolution=None):
     """The robust solid (:func:`jaxpose.solid.robust_solid`) on a grid along :func:`pre_frame`."""
-    from . import solid
-
     resolution = solid.RESOLUTION if resolution is None else int(resolution)
     return solid.robust_solid(vertices, faces, resolution=resolution, frame=pre_frame(vertices, faces))
 
@@ -257,8 +160,6 @@ def feet_offset(sol, axes, up=0, forward=2):
     Returns:
       () the offset s (0 when no part is found).
     """
-    from scipy import ndimage
-
     y, d, idx = _grid_centers(sol)
     z = (y - y.mean(axis=0)) @ np.asarray(axes, np.float64).T
     h, f = z[:, up], z[:, forward]
@@ -305,7 +206,7 @@ def core_frame(sol, power=AXES_POWER, feet=True, cross_check=True) -> Frame:
     w = _weights(d, power)
     c = (w @ y) / w.sum()
     z = y - c
-    lam, axes = _descending_axes((z * w[:, None]).T @ z / w.sum())
+    lam, axes = descending_axes((z * w[:, None]).T @ z / w.sum())
     zc = (y - y.mean(axis=0)) @ axes.T
     r = np.sqrt(np.mean(np.sum(zc * zc, axis=1)))
     stat = np.mean(zc ** 3, axis=0) / r ** 3 / SIGN_MIN  # signed, in multiples of the threshold
@@ -330,7 +231,7 @@ def core_frame(sol, power=AXES_POWER, feet=True, cross_check=True) -> Frame:
             conf[minor] = abs(offset[minor])
     rot, _, k = complete_signs(axes, stat, completed=k, to_world=sol.frame)
     conf[k] = 0.0
-    gaps = _gaps(lam)
+    gaps = relative_gaps(lam)
     amb = ambiguity(gaps, np.min(np.delete(conf, k)), SYMMETRY_MIN * mirror_ratio)
     return Frame(rot, amb, lam, gaps, conf, k, sym)
 
@@ -355,9 +256,6 @@ def frame_of(geometry, method=DEFAULT_ROTATION, *, resolution=None, sol=None, oc
     Returns:
       :class:`Frame` (rotation in the input's world coordinates).
     """
-    from . import baselines
-    from ._validate import InvalidInputError, JaxposeError
-
     if method not in ROTATIONS:
         raise InvalidInputError(f"unknown rotation {method!r}; valid: {', '.join(ROTATIONS)}")
     if method == "core":
@@ -369,52 +267,12 @@ def frame_of(geometry, method=DEFAULT_ROTATION, *, resolution=None, sol=None, oc
                                "use rotation='pca_surface' or 'ocsvm'")
         return core_frame(sol)
     if method == "ocsvm":
-        from .mesh import sample_surface
-        from .pose import normalize
+        from .pose import normalize  # JAX only when asked for
 
         o = dict(ocsvm or {})
-        points = sample_surface(geometry, o.get("count", 2000), seed=o.get("seed", 0),
+        points = sample.sample_surface(geometry, o.get("count", 2000), seed=o.get("seed", 0),
                                 method=o.get("sampling", "even"))
         pose = normalize(points, o.get("gamma", 47.0), o.get("nu", 0.5), rotation=True, **o.get("options", {}))
         return Frame(np.asarray(pose.rotation, np.float64), float(np.asarray(pose.ambiguity)),
                      np.full(3, np.nan), np.full(2, np.nan), np.full(3, np.nan), -1, np.full(3, np.nan))
     return baselines.frame(geometry, method)
-
-
-# ------------------------------------------------------------------ the OCSVM region frame (traced)
-def region_frame(second_moment, center, y, mask, axes):
-    """The ``ocsvm`` frame (module docs) of a region fitted to pre-scaled points; pure JAX.
-
-    Args:
-      second_moment: (3, 3) the region's second moment about its centroid (pre-scaled frame).
-      center: (3,) the region's centroid (pre-scaled frame).
-      y: (m, 3) the pre-scaled points; mask: (m,) bool or None.
-      axes: (3, 3) the pre-frame's axes as columns (a pre-scaled direction e is ``axes @ e`` in
-        the world).
-
-    Returns:
-      rotation (3, 3) proper (rows = canonical axes in world coordinates) and ambiguity (),
-      both without derivatives (the frame is piecewise constant where it is well determined, and
-      eigenvectors have no useful derivative where it is not).
-    """
-    import jax
-    import jax.numpy as jnp
-
-    second_moment, center, y, axes = (jax.lax.stop_gradient(a) for a in (second_moment, center, y, axes))
-    lam, vec = jnp.linalg.eigh(second_moment)
-    lam, e = lam[::-1], vec[:, ::-1].T  # rows, largest first
-    w = jnp.ones(y.shape[:1], y.dtype) if mask is None else jnp.asarray(mask, y.dtype)
-    z = (y - center) @ e.T
-    r = jnp.sqrt(jnp.sum(w * jnp.sum(z * z, axis=1)) / jnp.sum(w))
-    stat = (w @ (z ** 3)) / jnp.sum(w) / r ** 3
-    k = jnp.argmin(jnp.abs(stat))
-    s = jnp.where(stat >= 0, 1.0, -1.0).astype(y.dtype)
-    rot = (e * s[:, None]) @ axes.T
-    flip = jnp.where((jnp.arange(3) == k) & (jnp.linalg.det(rot) < 0), -1.0, 1.0).astype(y.dtype)
-    rot = rot * flip[:, None]
-    gaps = jnp.stack([(lam[0] - lam[1]) / lam[0], (lam[1] - lam[2]) / lam[1]])
-    used = jnp.min(jnp.where(jnp.arange(3) == k, jnp.inf, jnp.abs(stat)))
-    ratio = jnp.minimum(jnp.min(gaps) / GAP_MIN, used / SIGN_MIN)
-    amb = jnp.clip(1.0 - ratio, 0.0, 1.0)
-    ok = jnp.all(jnp.isfinite(rot)) & jnp.isfinite(amb)
-    return jnp.where(ok, rot, jnp.eye(3, dtype=y.dtype)), jnp.where(ok, amb, 1.0)

@@ -146,18 +146,26 @@ def local_cluster(workers):
       >>> with local_cluster(2) as cluster:  # doctest: +SKIP
       ...     normalize_files(["meshes/"], "out/", scheduler=cluster.scheduler_address)
     """
-    try:
-        import dask
-        from distributed import LocalCluster
-    except ImportError:
-        raise InvalidInputError("Dask runs need dask.distributed: pip install 'jaxpose[dask]'") from None
+    distributed = _distributed()
+    import dask
+
     try:
         with dask.config.set(_DASK_LOCAL):
-            return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
-                                scheduler_kwargs={"dashboard_address": ":0"},  # its metrics server: any free port
-                                silence_logs=logging.ERROR, env=process_environment())
+            return distributed.LocalCluster(
+                n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                scheduler_kwargs={"dashboard_address": ":0"},  # its metrics server: any free port
+                silence_logs=logging.ERROR, env=process_environment())
     except Exception as exc:  # distributed's own errors (RuntimeError, ...)
         raise JaxposeError(f"could not start a local Dask cluster of {workers} workers: {exc}") from None
+
+
+def _distributed():
+    """The ``distributed`` package, or a clear error naming the extra that installs it."""
+    try:
+        import distributed
+    except ImportError:
+        raise InvalidInputError("Dask runs need dask.distributed: pip install 'jaxpose[dask]'") from None
+    return distributed
 
 
 class DaskExecutor:
@@ -173,10 +181,7 @@ class DaskExecutor:
     """
 
     def __init__(self, scheduler=None, local=None):
-        try:
-            from distributed import Client
-        except ImportError:
-            raise InvalidInputError("Dask runs need dask.distributed: pip install 'jaxpose[dask]'") from None
+        Client = _distributed().Client
 
         self.cluster = None
         if scheduler is not None:

@@ -7,7 +7,8 @@ import pytest
 import jaxpose
 from jaxpose import batch, cli
 from jaxpose.task import NormalizeOptions
-from jaxpose.workers import LocalExecutor, WorkerLost, local_cluster
+from jaxpose._validate import InvalidInputError
+from jaxpose.workers import DaskExecutor, LocalExecutor, WorkerLost, local_cluster
 
 from conftest import write_mesh_tree
 
@@ -131,3 +132,13 @@ def test_worker_environment_one_blas_thread_and_the_compilation_cache(tmp_path, 
         assert cache.cache_dir() == tmp_path / "xdg" / "jaxpose" / "jax"
     monkeypatch.setenv("JAX_COMPILATION_CACHE_DIR", "/mine")  # the user's own setting wins
     assert "JAX_COMPILATION_CACHE_DIR" not in process_environment()
+
+
+def test_without_dask_installed_the_error_names_the_extra(monkeypatch):
+    """No dask.distributed: a clear error naming the extra, from the cluster and the executor alike."""
+    import sys
+
+    monkeypatch.setitem(sys.modules, "distributed", None)  # import distributed -> ImportError
+    for start in (lambda: local_cluster(1), lambda: DaskExecutor(local=1), lambda: DaskExecutor("tcp://x:1")):
+        with pytest.raises(InvalidInputError, match=r"pip install 'jaxpose\[dask\]'"):
+            start()

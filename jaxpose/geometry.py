@@ -1,0 +1,63 @@
+"""What a geometry is: the vertices and faces of a mesh or point cloud, triangle areas, closedness.
+
+Plain NumPy on concrete inputs: a :class:`trimesh.Trimesh`, a :class:`trimesh.PointCloud` (or
+anything with ``vertices`` and optional ``faces``) or an ``(n, 3)`` array of points.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ._validate import InvalidInputError, check_points
+
+__all__ = ["split_geometry", "triangle_areas", "is_closed"]
+
+
+def split_geometry(mesh_or_points):
+    """Split the input into vertices and faces.
+
+    Returns
+    -------
+    vertices : (n, 3) float64
+    faces : (f, 3) int or None   (None for point clouds and meshes without faces)
+
+    Raises InvalidInputError for bad vertices or faces, and for faces of zero total area
+    ("the mesh has no area": such a mesh is not silently taken as its points).
+    """
+    faces = None
+    if hasattr(mesh_or_points, "vertices"):  # Trimesh, PointCloud
+        vertices = np.asarray(mesh_or_points.vertices, dtype=np.float64)
+        f = getattr(mesh_or_points, "faces", None)
+        if f is not None and len(f) > 0:
+            faces = np.asarray(f, dtype=np.int64)
+    else:
+        vertices = np.asarray(mesh_or_points)
+    check_points(vertices, name="vertices", min_points=1)
+    vertices = np.asarray(vertices, dtype=np.float64)
+    if faces is not None:
+        if faces.ndim != 2 or faces.shape[1] != 3:
+            raise InvalidInputError(f"faces must have shape (f, 3), got {faces.shape}")
+        if faces.min() < 0 or faces.max() >= len(vertices):
+            raise InvalidInputError("faces index vertices that do not exist")
+        if not triangle_areas(vertices[faces]).sum() > 0.0:  # no silent switch to the points
+            raise InvalidInputError(
+                f"the mesh has no area: all its {len(faces)} faces are degenerate (zero area); to use its "
+                "vertices as points, pass trimesh.PointCloud(mesh.vertices)"
+            )
+    return vertices, faces
+
+
+def triangle_areas(triangles):
+    """triangles : (f, 3, 3) float -> areas : (f,) float"""
+    cross = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
+    return 0.5 * np.linalg.norm(cross, axis=1)
+
+
+def is_closed(faces):
+    """Whether every edge of the faces (f, 3) is shared by exactly two faces (no boundary, no
+    non-manifold edge): the surface bounds a volume."""
+    faces = np.asarray(faces, dtype=np.int64)
+    e = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    n = int(faces.max()) + 1
+    key = np.sort(np.minimum(e[:, 0], e[:, 1]) * n + np.maximum(e[:, 0], e[:, 1]))
+    _, counts = np.unique(key, return_counts=True)
+    return bool(np.all(counts == 2))

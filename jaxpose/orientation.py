@@ -1,0 +1,159 @@
+"""A canonical frame as a result: its type, sign rule and ambiguity; the OCSVM region's frame.
+
+A frame is a proper rotation R (3, 3) whose rows are a shape's canonical axes in world
+coordinates (det R = +1); canonical coordinates are R (x - c) / s. The frames of
+:mod:`jaxpose.rotation` (``core``) and of :mod:`jaxpose.baselines` (``pca_*``, ``inertia``) are
+:class:`Frame` values built with the pieces here; :func:`region_frame` is the traced frame of
+:func:`jaxpose.normalize` (``rotation=True``).
+
+``ocsvm`` (point samples, traced JAX, :func:`region_frame`): the eigenvectors of the OCSVM
+region's second moment (computed with its centroid by the grid integral of
+:func:`jaxpose.moments.region_moments`), signs by the third moments of the samples along them
+(the two largest in magnitude; the third axis from det = +1). Equivariant because the grid turns
+with the points' principal frame.
+
+Ambiguity. A frame is determined when its eigenvalues are apart, its sign cues are away from
+zero and (``core``) its mirror plane stands out. With the relative eigen-gaps g1 = (l1 - l2) / l1,
+g2 = (l2 - l3) / l2, the weakest used sign cue m as a multiple of its threshold and the mirror
+contrast k (the difference of the two minor axes' mirror scores, or of the feet offsets along them
+in units of their threshold where the feet chose), ``ambiguity = clip(1 - min(g1 / GAP_MIN,
+g2 / GAP_MIN, m, k / SYMMETRY_MIN), 0, 1)``: 0 when every cue clears its threshold, 1 when one of
+them is zero; ``flag = ambiguity > 0``. The thresholds are set a priori (module constants), not
+fitted: a gap of 10 % (near-equal moments swap under small deformations), a third moment of
+0.02 r^3 (what moving about 2 % of the volume across the body changes it by), a feet offset of
+1 % of the length (about one voxel) and a symmetry contrast of 0.05.
+
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+__all__ = ["Frame", "GAP_MIN", "SIGN_MIN", "SYMMETRY_MIN", "proper", "descending_axes", "relative_gaps",
+           "ambiguity", "complete_signs", "region_frame"]
+
+GAP_MIN = 0.10  # relative eigen-gap below which two axes are called interchangeable
+SIGN_MIN = 0.02  # third moment E[z^3] / r^3 below which a sign is called undetermined
+SYMMETRY_MIN = 0.05  # mirror-score contrast below which the mirror axis is called undetermined
+
+
+class Frame(NamedTuple):
+    """A canonical frame with its diagnostics (NumPy float64).
+
+    Attributes:
+      rotation: (3, 3) proper rotation, rows = canonical axes in world coordinates.
+      ambiguity: () in [0, 1]; 0 = every cue clears its threshold (module docs).
+      eigenvalues: (3,) the second moments along the axes, largest first (units^2).
+      gaps: (2,) relative eigen-gaps (l1 - l2) / l1, (l2 - l3) / l2.
+      margins: (3,) the sign statistic along each final axis (0 on the axis completed by det).
+      mirror: index of the axis completed by det (the mirror axis for ``core``).
+      symmetry: (3,) mirror scores in [0, 1] per axis (NaN where not computed).
+    """
+
+    rotation: np.ndarray
+    ambiguity: float
+    eigenvalues: np.ndarray
+    gaps: np.ndarray
+    margins: np.ndarray
+    mirror: int
+    symmetry: np.ndarray
+
+    @property
+    def flag(self) -> bool:
+        """The frame is not well determined (ambiguity > 0)."""
+        return bool(self.ambiguity > 0)
+
+
+def proper(r):
+    """r (3, 3) with its last row negated when det r < 0: a proper rotation from orthonormal rows."""
+    r = np.array(r, np.float64)
+    if np.linalg.det(r) < 0:
+        r[2] = -r[2]
+    return r
+
+
+def descending_axes(cov):
+    """Eigenvalues (3,) descending and eigenvectors as rows (3, 3) of a symmetric (3, 3) matrix."""
+    lam, vec = np.linalg.eigh(np.asarray(cov, np.float64))
+    return lam[::-1], vec[:, ::-1].T
+
+
+def relative_gaps(lam):
+    """(2,) relative eigen-gaps (l1 - l2) / l1, (l2 - l3) / l2 of eigenvalues (3,) largest first."""
+    lam = np.asarray(lam, np.float64)
+    return np.array([(lam[0] - lam[1]) / max(lam[0], 1e-300), (lam[1] - lam[2]) / max(lam[1], 1e-300)])
+
+
+def ambiguity(gaps, sign_ratio, contrast=None):
+    """clip(1 - min(g1 / GAP_MIN, g2 / GAP_MIN, sign_ratio[, k / SYMMETRY_MIN]), 0, 1) (module docs).
+
+    ``sign_ratio``: the weakest used sign margin as a multiple of its threshold (e.g. m / SIGN_MIN)."""
+    ratios = [gaps[0] / GAP_MIN, gaps[1] / GAP_MIN, abs(sign_ratio)]
+    if contrast is not None:
+        ratios.append(contrast / SYMMETRY_MIN)
+    return float(np.clip(1.0 - min(ratios), 0.0, 1.0))
+
+
+def complete_signs(axes, stat, completed=None, to_world=None):
+    """Orient the rows of ``axes`` (3, 3) by the signs of ``stat`` (3,), one axis completed by det.
+
+    Args:
+      axes: (3, 3) orthonormal rows (grid coordinates when ``to_world`` is given).
+      stat: (3,) signed statistics along the rows; each row is flipped where its stat is negative.
+      completed: the axis whose sign comes from det = +1 (default: the smallest |stat|).
+      to_world: optional (3, 3) rows of the grid axes in world coordinates (any determinant).
+
+    Returns:
+      rotation (3, 3) proper, in world coordinates; margins (3,) the stats after the flips
+      (0 on the completed axis); the completed axis.
+    """
+    stat = np.asarray(stat, np.float64)
+    k = int(np.argmin(np.abs(stat))) if completed is None else int(completed)
+    s = np.where(stat >= 0, 1.0, -1.0)
+    r = np.asarray(axes, np.float64) * s[:, None]
+    if to_world is not None:
+        r = r @ np.asarray(to_world, np.float64)
+    if np.linalg.det(r) < 0:
+        r[k] = -r[k]
+    margins = np.abs(stat)
+    margins[k] = 0.0
+    return r, margins, k
+
+
+def region_frame(second_moment, center, y, mask, axes):
+    """The ``ocsvm`` frame (module docs) of a region fitted to pre-scaled points; pure JAX.
+
+    Args:
+      second_moment: (3, 3) the region's second moment about its centroid (pre-scaled frame).
+      center: (3,) the region's centroid (pre-scaled frame).
+      y: (m, 3) the pre-scaled points; mask: (m,) bool or None.
+      axes: (3, 3) the pre-frame's axes as columns (a pre-scaled direction e is ``axes @ e`` in
+        the world).
+
+    Returns:
+      rotation (3, 3) proper (rows = canonical axes in world coordinates) and ambiguity (),
+      both without derivatives (the frame is piecewise constant where it is well determined, and
+      eigenvectors have no useful derivative where it is not).
+    """
+    import jax
+    import jax.numpy as jnp
+
+    second_moment, center, y, axes = (jax.lax.stop_gradient(a) for a in (second_moment, center, y, axes))
+    lam, vec = jnp.linalg.eigh(second_moment)
+    lam, e = lam[::-1], vec[:, ::-1].T  # rows, largest first
+    w = jnp.ones(y.shape[:1], y.dtype) if mask is None else jnp.asarray(mask, y.dtype)
+    z = (y - center) @ e.T
+    r = jnp.sqrt(jnp.sum(w * jnp.sum(z * z, axis=1)) / jnp.sum(w))
+    stat = (w @ (z ** 3)) / jnp.sum(w) / r ** 3
+    k = jnp.argmin(jnp.abs(stat))
+    s = jnp.where(stat >= 0, 1.0, -1.0).astype(y.dtype)
+    rot = (e * s[:, None]) @ axes.T
+    flip = jnp.where((jnp.arange(3) == k) & (jnp.linalg.det(rot) < 0), -1.0, 1.0).astype(y.dtype)
+    rot = rot * flip[:, None]
+    gaps = jnp.stack([(lam[0] - lam[1]) / lam[0], (lam[1] - lam[2]) / lam[1]])
+    used = jnp.min(jnp.where(jnp.arange(3) == k, jnp.inf, jnp.abs(stat)))
+    ratio = jnp.minimum(jnp.min(gaps) / GAP_MIN, used / SIGN_MIN)
+    amb = jnp.clip(1.0 - ratio, 0.0, 1.0)
+    ok = jnp.all(jnp.isfinite(rot)) & jnp.isfinite(amb)
+    return jnp.where(ok, rot, jnp.eye(3, dtype=y.dtype)), jnp.where(ok, amb, 1.0)

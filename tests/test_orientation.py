@@ -1,0 +1,72 @@
+"""The frame's pieces: proper rotations, eigen-axes and gaps, the sign rule, the ambiguity, the traced frame."""
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from jaxpose import orientation
+
+
+def test_proper_negates_the_last_row_of_a_reflection():
+    q = Rotation.random(random_state=0).as_matrix()
+    np.testing.assert_array_equal(orientation.proper(q), q)
+    m = q * np.array([1.0, 1.0, -1.0])[:, None]
+    r = orientation.proper(m)
+    assert np.linalg.det(r) == pytest.approx(1.0)
+    np.testing.assert_allclose(r, q, atol=0)
+
+
+def test_descending_axes_and_relative_gaps_of_a_known_covariance():
+    q = Rotation.random(random_state=1).as_matrix()
+    lam, axes = orientation.descending_axes(q.T @ np.diag([9.0, 4.0, 1.0]) @ q)
+    np.testing.assert_allclose(lam, [9.0, 4.0, 1.0], rtol=1e-12)
+    np.testing.assert_allclose(np.abs(axes @ q.T), np.eye(3), atol=1e-12)  # rows = the rows of q, up to sign
+    np.testing.assert_allclose(orientation.relative_gaps(lam), [5.0 / 9.0, 3.0 / 4.0], rtol=1e-12)
+
+
+def test_complete_signs_follows_the_stats_and_completes_by_det():
+    axes = np.eye(3)
+    r, margins, k = orientation.complete_signs(axes, [-0.5, 0.3, 0.01])
+    assert k == 2 and np.linalg.det(r) == pytest.approx(1.0)
+    np.testing.assert_array_equal(r[0], [-1, 0, 0])  # flipped to its positive stat
+    np.testing.assert_array_equal(r[1], [0, 1, 0])
+    np.testing.assert_array_equal(r[2], [0, 0, -1])  # the weakest axis completes det = +1
+    np.testing.assert_array_equal(margins, [0.5, 0.3, 0.0])
+    # a chosen axis, and grid axes given in world coordinates
+    world = Rotation.random(random_state=2).as_matrix()
+    r2, _, k2 = orientation.complete_signs(axes, [-0.5, 0.3, 0.01], completed=1, to_world=world)
+    assert k2 == 1 and np.linalg.det(r2) == pytest.approx(1.0)
+    np.testing.assert_allclose(r2[0], -world[0], atol=1e-15)
+    np.testing.assert_allclose(r2[2], world[2], atol=1e-15)
+
+
+@pytest.mark.parametrize("gaps, sign, contrast, expected", [
+    ((0.5, 0.5), 3.0, None, 0.0),                      # every cue clears its threshold
+    ((0.05, 0.5), 3.0, None, 0.5),                     # half the eigen-gap threshold
+    ((0.5, 0.5), 0.25, None, 0.75),                    # a quarter of the sign threshold
+    ((0.5, 0.5), 3.0, 0.5 * orientation.SYMMETRY_MIN, 0.5),
+    ((0.0, 0.5), 3.0, None, 1.0),                      # equal eigenvalues: undetermined
+])
+def test_ambiguity_is_the_weakest_cue_against_its_threshold(gaps, sign, contrast, expected):
+    assert orientation.ambiguity(np.array(gaps), sign, contrast) == pytest.approx(expected)
+
+
+def test_region_frame_of_a_known_moment_and_skewed_points(x64):
+    """The traced frame: axes of the second moment, signs by the samples' third moments, det +1,
+    mapped to the world by the pre-frame's axes; a skew-free input is flagged."""
+    import jax.numpy as jnp
+
+    rng = np.random.default_rng(0)
+    y = rng.normal(size=(4000, 3)) * [3.0, 2.0, 1.0]
+    y[:, 0] = np.abs(y[:, 0]) - 1.0   # skewed along +x
+    y[:, 1] = -np.abs(y[:, 1]) + 1.0  # skewed along -y
+    second = np.diag([9.0, 4.0, 1.0])
+    world = Rotation.random(random_state=3).as_matrix()  # columns: pre-frame axes in the world
+    rot, amb = orientation.region_frame(jnp.asarray(second), jnp.zeros(3), jnp.asarray(y), None, jnp.asarray(world))
+    rot = np.asarray(rot)
+    assert np.linalg.det(rot) == pytest.approx(1.0)
+    np.testing.assert_allclose(rot[0], world[:, 0], atol=1e-12)
+    np.testing.assert_allclose(rot[1], -world[:, 1], atol=1e-12)
+    assert float(amb) == 0.0
+    sym = np.concatenate([y * [1, 1, 1], y * [-1, -1, 1]])  # point-symmetric in x, y: no skew
+    _, amb_sym = orientation.region_frame(jnp.asarray(second), jnp.zeros(3), jnp.asarray(sym), None, jnp.asarray(world))
+    assert float(amb_sym) > 0.0

@@ -1,0 +1,81 @@
+"""Surface samples: deterministic per seed, exact counts, on the surface, stratified or area-weighted."""
+import numpy as np
+import pytest
+import trimesh
+
+from jaxpose import sample
+from jaxpose._validate import InvalidInputError
+
+
+def lumpy():
+    body = trimesh.creation.capsule(height=1.0, radius=0.5)
+    arm = trimesh.creation.box(extents=(1.5, 0.2, 0.2))
+    arm.apply_translation([1.2, 0.0, 0.3])
+    return trimesh.util.concatenate([body, arm])
+
+
+@pytest.mark.parametrize("method", ["even", "random"])
+def test_sample_surface_shape_and_determinism(method):
+    shape = lumpy()
+    a = sample.sample_surface(shape, 1001, seed=7, method=method)
+    b = sample.sample_surface(shape, 1001, seed=7, method=method)
+    c = sample.sample_surface(shape, 1001, seed=8, method=method)
+    assert a.shape == (1001, 3) and a.dtype == np.float64
+    np.testing.assert_array_equal(a, b)
+    assert not np.allclose(a, c)
+
+
+@pytest.mark.parametrize("count", [4, 5, 7, 97, 2000])
+def test_even_sampling_returns_exact_count(count):
+    assert sample.sample_surface(lumpy(), count, seed=1).shape == (count, 3)
+
+
+@pytest.mark.parametrize("method", ["even", "random"])
+def test_samples_lie_on_the_surface(method):
+    box = trimesh.creation.box(extents=(1.0, 2.0, 3.0))
+    points = sample.sample_surface(box, 500, seed=0, method=method)
+    on_a_side = np.isclose(np.abs(points), [0.5, 1.0, 1.5]).any(axis=1)
+    assert on_a_side.all()
+    assert np.all(np.abs(points) <= np.array([0.5, 1.0, 1.5]) + 1e-12)
+
+
+def test_even_sampling_is_stratified_by_area():
+    box = trimesh.creation.box(extents=(1.0, 1.0, 1.0))
+    for seed in range(5):
+        points = sample.sample_surface(box, 600, seed=seed, method="even")
+        side = np.argmax(np.abs(points), axis=1) * 2 + (points[np.arange(600), np.argmax(np.abs(points), axis=1)] > 0)
+        counts = np.bincount(side, minlength=6)
+        assert np.all(np.abs(counts - 100) <= 2), counts  # two faces per side, each floor/ceil of 50
+
+
+def test_random_sampling_is_area_weighted():
+    slab = trimesh.creation.box(extents=(10.0, 1.0, 1.0))
+    points = sample.sample_surface(slab, 20000, seed=0, method="random")
+    on_end_caps = np.isclose(np.abs(points[:, 0]), 5.0).mean()
+    assert on_end_caps == pytest.approx(2.0 / 42.0, abs=0.006)
+
+
+def test_point_cloud_sampling():
+    points = np.random.default_rng(0).normal(size=(100, 3))
+    fewer = sample.sample_surface(points, 60, seed=0)
+    assert len(np.unique(fewer, axis=0)) == 60  # without replacement
+    assert all(any(np.array_equal(p, q) for q in points) for p in fewer)
+    more = sample.sample_surface(trimesh.PointCloud(points), 300, seed=0)
+    assert more.shape == (300, 3)
+    np.testing.assert_array_equal(more, sample.sample_surface(points, 300, seed=0))
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        ({"count": 3}, "count"),
+        ({"count": 10.0}, "count"),
+        ({"count": True}, "count"),
+        ({"count": 10, "seed": -1}, "seed"),
+        ({"count": 10, "seed": 1.5}, "seed"),
+        ({"count": 10, "method": "poisson"}, "sampling"),
+    ],
+)
+def test_sample_surface_validation(kwargs, message):
+    with pytest.raises(InvalidInputError, match=message):
+        sample.sample_surface(lumpy(), **kwargs)

@@ -21,8 +21,12 @@ g2 / GAP_MIN, m, k / SYMMETRY_MIN), 0, 1)``: 0 when every cue clears its thresho
 them is zero; ``flag = ambiguity > 0``. The thresholds are set a priori (module constants), not
 fitted: a gap of 10 % (near-equal moments swap under small deformations), a third moment of
 0.02 r^3 (what moving about 2 % of the volume across the body changes it by), a feet offset of
-1 % of the length (about one voxel) and a symmetry contrast of 0.05.
+1 % of the length (about one voxel; :data:`jaxpose.rotation.FOOT_MIN`) and a symmetry contrast of 0.05.
 
+Example::
+
+    rot, margins, k = complete_signs(np.eye(3), [-0.5, 0.3, 0.01])   # rows 0, 2 negated; det +1
+    ambiguity(relative_gaps([9.0, 4.0, 1.0]), 0.5)                   # 0.5: a sign cue at half its threshold
 """
 from __future__ import annotations
 

@@ -164,7 +164,7 @@ class _Shape:
 
             o = self.options
             points = sample.sample_surface(self.geometry, o.get("count", 2000), seed=o.get("seed", 0),
-                                    method=o.get("sampling", "even"))
+                                           method=o.get("sampling", "even"))
             with warnings.catch_warnings():  # an invalid pose is raised below, with its reason
                 warnings.simplefilter("ignore", InvalidPoseWarning)
                 pose = normalize(points, o.get("gamma", 47.0), o.get("nu", 0.5), **o.get("ocsvm", {}))

@@ -271,7 +271,7 @@ def frame_of(geometry, method=DEFAULT_ROTATION, *, resolution=None, sol=None, oc
 
         o = dict(ocsvm or {})
         points = sample.sample_surface(geometry, o.get("count", 2000), seed=o.get("seed", 0),
-                                method=o.get("sampling", "even"))
+                                       method=o.get("sampling", "even"))
         pose = normalize(points, o.get("gamma", 47.0), o.get("nu", 0.5), rotation=True, **o.get("options", {}))
         return Frame(np.asarray(pose.rotation, np.float64), float(np.asarray(pose.ambiguity)),
                      np.full(3, np.nan), np.full(2, np.nan), np.full(3, np.nan), -1, np.full(3, np.nan))

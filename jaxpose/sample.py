@@ -23,7 +23,11 @@ def sample_surface(geometry, count, seed=0, method="even"):
 
     geometry : Trimesh | PointCloud | (n, 3) array (loaded: for paths, :func:`jaxpose.mesh.sample_surface`),
     count : int >= 4, seed : int
-    Returns samples : (count, 3) float64
+    Returns samples : (count, 3) float64, in the units of the geometry
+
+    Example::
+
+        points = sample_surface(trimesh.creation.icosphere(), 2000, seed=0)   # (2000, 3) on the sphere
     """
     count = check_int(count, "count", minimum=4)
     seed = check_int(seed, "seed", minimum=0)

@@ -26,7 +26,7 @@ import warnings
 
 import numpy as np
 
-from . import baselines, sample, solid
+from . import baselines, sample, solid, voxels
 from ._validate import InvalidInputError, JaxposeError
 
 __all__ = ["METHODS", "CENTERS", "SCALES", "DEFAULT_METHOD", "ROBUST_POWER", "resolve", "estimate",
@@ -183,9 +183,9 @@ class _Shape:
             return self.solid_moments(strict)[1]
         if name == "depth_weighted_solid":
             if self._voxels is None:
-                self._voxels = baselines.filled_voxels(self.geometry, strict=strict)
+                self._voxels = voxels.filled_voxels(self.geometry, strict=strict)
             x, d = self._voxels
-            return baselines.weighted_centroid(x, d ** float(self.options.get("power", 2.0)))
+            return voxels.weighted_centroid(x, d ** float(self.options.get("power", 2.0)))
         return baselines.center(self.geometry, name)
 
     def scale(self, name, center, strict):

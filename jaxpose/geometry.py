@@ -1,15 +1,18 @@
-"""What a geometry is: the vertices and faces of a mesh or point cloud, triangle areas, closedness.
+"""What a geometry is: the vertices and faces of a mesh or point cloud, triangle areas, closedness,
+and the checks of functions that need faces or a closed surface.
 
 Plain NumPy on concrete inputs: a :class:`trimesh.Trimesh`, a :class:`trimesh.PointCloud` (or
 anything with ``vertices`` and optional ``faces``) or an ``(n, 3)`` array of points.
 """
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
-from ._validate import InvalidInputError, check_points
+from ._validate import InvalidInputError, OpenMeshWarning, check_points
 
-__all__ = ["split_geometry", "triangle_areas", "is_closed"]
+__all__ = ["split_geometry", "triangle_areas", "is_closed", "require_faces", "warn_if_open"]
 
 
 def split_geometry(mesh_or_points):
@@ -66,3 +69,23 @@ def is_closed(faces):
     key = np.sort(np.minimum(e[:, 0], e[:, 1]) * n + np.maximum(e[:, 0], e[:, 1]))
     _, counts = np.unique(key, return_counts=True)
     return bool(np.all(counts == 2))
+
+
+def require_faces(mesh_or_points, what):
+    """``(vertices, faces)`` of a mesh; raises InvalidInputError naming `what` on points only."""
+    vertices, faces = split_geometry(mesh_or_points)
+    if faces is None:
+        raise InvalidInputError(f"{what} needs a mesh with faces (a surface); got points only")
+    return vertices, faces
+
+
+def warn_if_open(faces, what, strict):
+    """Nothing on a closed surface; else an :class:`OpenMeshWarning` naming `what` (at the line
+    that called `what`), or with `strict` an InvalidInputError."""
+    if is_closed(faces):
+        return
+    message = (f"{what}: the mesh is not closed (it has boundary or non-manifold edges); the closed-form "
+               "solid of an open surface is not its volume")
+    if strict:
+        raise InvalidInputError(message + " (strict=True)")
+    warnings.warn(message, OpenMeshWarning, stacklevel=3)

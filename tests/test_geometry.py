@@ -4,7 +4,7 @@ import pytest
 import trimesh
 
 from jaxpose import geometry
-from jaxpose._validate import InvalidInputError
+from jaxpose.errors import InvalidInputError, OpenMeshWarning
 
 
 def test_split_geometry_of_meshes_clouds_and_arrays():
@@ -37,3 +37,23 @@ def test_triangle_areas_and_closedness():
     assert geometry.is_closed(box.faces)
     assert not geometry.is_closed(box.faces[:-1])  # one triangle off: a hole
     assert not geometry.is_closed(np.concatenate([box.faces, box.faces[:1]]))  # an edge shared three times
+
+
+def _solid_of(mesh, strict=False):
+    """A function that needs a closed mesh, as the baselines use the checks."""
+    vertices, faces = geometry.require_faces(mesh, "solid_of")
+    geometry.warn_if_open(faces, "solid_of", strict)
+    return len(vertices)
+
+
+def test_require_faces_and_warn_if_open():
+    box = trimesh.creation.box()
+    assert _solid_of(box) == 8  # closed: no warning (warnings are errors in this suite)
+    with pytest.raises(InvalidInputError, match="solid_of needs a mesh with faces"):
+        _solid_of(box.vertices)
+    holed = trimesh.Trimesh(box.vertices, box.faces[:-1], process=False)
+    with pytest.warns(OpenMeshWarning, match="solid_of: the mesh is not closed") as record:
+        _solid_of(holed)
+    assert record[0].filename == __file__  # reported at the caller's line, not inside jaxpose
+    with pytest.raises(InvalidInputError, match=r"not closed.*strict=True"):
+        _solid_of(holed, strict=True)

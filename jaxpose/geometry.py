@@ -80,8 +80,8 @@ def require_faces(mesh_or_points, what):
 
 
 def warn_if_open(faces, what, strict):
-    """Nothing on a closed surface; else an :class:`OpenMeshWarning` naming `what` (at the line
-    that called `what`), or with `strict` an InvalidInputError."""
+    """Nothing on a closed surface; else an :class:`OpenMeshWarning` naming `what`, reported at the
+    line that called the function calling this one, or with `strict` an InvalidInputError."""
     if is_closed(faces):
         return
     message = (f"{what}: the mesh is not closed (it has boundary or non-manifold edges); the closed-form "

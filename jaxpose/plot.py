@@ -3,7 +3,8 @@
 Every function draws into ``ax`` when given (an Axes, or a sequence of them where a function
 draws several panels) or into a new :class:`matplotlib.figure.Figure`, saves it as PNG when
 ``path`` is given, and returns the Figure. matplotlib is imported inside the functions so that
-``import jaxpose`` stays light.
+``import jaxpose`` stays light. Bad arguments raise :class:`jaxpose.errors.InvalidInputError` (a
+``ValueError``).
 
 * :func:`region_slices`   slices of the decision function f through the region's center, the
   f = 0 contour and the samples (paper, Fig. 3);
@@ -24,6 +25,8 @@ import math
 from pathlib import Path
 
 import numpy as np
+
+from .errors import InvalidInputError
 
 __all__ = ["region_slices", "mesh_3d", "centers_plot", "sweep_curves", "scale_bars", "variant_bars",
            "overlay_pairs", "evaluation_figures", "rotation_angles", "rotation_overlay", "rotation_figures"]
@@ -71,7 +74,7 @@ def _vertices_faces(mesh_or_points):
     f = getattr(mesh_or_points, "faces", None)
     f = np.asarray(f, dtype=np.int64) if f is not None and len(f) > 0 else None
     if v.ndim != 2 or v.shape[1] != 3 or len(v) == 0:
-        raise ValueError(f"expected a mesh or an (n, 3) array of points, got shape {v.shape}")
+        raise InvalidInputError(f"expected a mesh or an (n, 3) array of points, got shape {v.shape}")
     return v, f
 
 
@@ -138,7 +141,7 @@ def region_slices(svdd_or_points, gamma=47.0, nu=0.5, *, center=None, planes=("x
     lo, hi = lo - pad, hi + pad
     fig, axes = _figure(ax, 1, len(planes))
     if len(axes) != len(planes):
-        raise ValueError(f"got {len(axes)} axes for {len(planes)} planes")
+        raise InvalidInputError(f"got {len(axes)} axes for {len(planes)} planes")
     for a, plane in zip(axes, planes):
         i, j = _PLANES[plane]
         k = 3 - i - j
@@ -274,7 +277,7 @@ def sweep_curves(result_sweeps, *, param=None, per_class=False, metric="sigma_tr
     """
     sweeps = _sweeps(result_sweeps)
     if not sweeps:
-        raise ValueError("no sweeps to draw")
+        raise InvalidInputError("no sweeps to draw")
     ref_key = metric if metric in ("sigma_tr", "sigma_scale") else None
     if not per_class:
         names = [param] if param is not None else [p for p in ("gamma", "nu") if p in sweeps] or list(sweeps)
@@ -306,7 +309,7 @@ def scale_bars(result, *, metric="sigma_scale", methods=("ocsvm", "surface_centr
     classes = list(per_class)
     methods = [m for m in methods if all(metric in per_class[c].get(m, {}) for c in classes)]
     if not methods:
-        raise ValueError("none of the methods is in the result")
+        raise InvalidInputError("none of the methods is in the result")
     labels = classes + ["average"]
     fig, (a,) = _figure(ax, size=(min(12.0, max(4.0, 0.22 * len(labels) * len(methods) + 2.0)), 3.2))
     width = 0.8 / len(methods)
@@ -360,7 +363,7 @@ def overlay_pairs(meshes, poses, *, labels=None, colors=("tab:blue", "tab:orange
     meshes = list(meshes)
     for label, ps in rows.items():
         if len(ps) != len(meshes):
-            raise ValueError(f"{len(ps)} pose pairs for {len(meshes)} mesh pairs ({label})")
+            raise InvalidInputError(f"{len(ps)} pose pairs for {len(meshes)} mesh pairs ({label})")
     fig, axes = _figure(ax, len(rows), len(meshes), projection="3d", size=(3.0, 3.0))
     k = 0
     for r, (label, ps) in enumerate(rows.items()):

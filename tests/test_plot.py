@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from conftest import sphere_with_arm
+from jaxpose.errors import InvalidInputError
 
 plot = pytest.importorskip("jaxpose.plot")
 
@@ -74,7 +75,7 @@ def test_region_slices_into_given_axes():
     axes = fig.subplots(2, 3)
     pts = sphere_with_arm(60)
     assert plot.region_slices(pts, 10.0, 0.1, pixels=16, resolution=16, ax=axes[1]) is fig
-    with pytest.raises(ValueError):
+    with pytest.raises(InvalidInputError, match="2 axes for 3 planes"):
         plot.region_slices(pts, 10.0, 0.1, pixels=16, resolution=16, ax=axes[0][:2])
 
 
@@ -84,7 +85,7 @@ def test_mesh_3d_mesh_and_points(tmp_path, shape):
     _png(tmp_path / "m.png")
     plot.mesh_3d(sphere_with_arm(50), path=tmp_path / "p.png")
     _png(tmp_path / "p.png")
-    with pytest.raises(ValueError):
+    with pytest.raises(InvalidInputError, match=r"got shape \(4, 2\)"):
         plot.mesh_3d(np.zeros((4, 2)))
 
 

@@ -61,7 +61,7 @@ def median_spacing(y, mask=None, block=512):
     Returns:
       () float in the units of ``y`` (0 when points repeat). Not differentiated.
     """
-    y = jax.lax.stop_gradient(y)
+    y = jax.lax.stop_gradient(jnp.asarray(y))  # an array of the default float type, NumPy input too
     m = y.shape[0]
     mask = jnp.ones((m,), bool) if mask is None else jnp.asarray(mask, bool)
     idx = jnp.arange(m)
@@ -78,7 +78,7 @@ def median_spacing(y, mask=None, block=512):
 
 def median_distance(y, center, mask=None):
     """Median distance of the points y (m, 3) (over ``mask``) from center (3,). () float."""
-    y = jax.lax.stop_gradient(y)
+    y = jax.lax.stop_gradient(jnp.asarray(y))  # an array of the default float type, NumPy input too
     mask = jnp.ones(y.shape[:1], bool) if mask is None else jnp.asarray(mask, bool)
     return _masked_median(jnp.linalg.norm(y - jax.lax.stop_gradient(center), axis=-1), mask)
 

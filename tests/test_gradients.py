@@ -157,10 +157,17 @@ def test_forward_reverse_jit_vmap_agree(small_points):
         return jnp.concatenate([p.center, p.scale[None]])
 
     t = jnp.asarray([47.0, 0.5])
-    Jf = jax.jacfwd(cs)(t)
-    Jj = jax.jit(jax.jacrev(cs))(t)
-    np.testing.assert_allclose(Jf, Jj, rtol=1e-6, atol=1e-10)
+    Jf, Jr = jax.jacfwd(cs)(t), jax.jacrev(cs)(t)  # op by op
+    Jjf, Jjr = jax.jit(jax.jacfwd(cs))(t), jax.jit(jax.jacrev(cs))(t)  # compiled
+    np.testing.assert_allclose(Jf, Jr, rtol=1e-6, atol=1e-10)  # forward = reverse
+    np.testing.assert_allclose(Jjf, Jjr, rtol=1e-6, atol=1e-10)
     assert np.all(np.isfinite(Jf)) and np.any(Jf[:, 1] != 0)
+    # Op by op against compiled: the secant ends (SMO, below) see the kernel products rounded
+    # differently and may stop at other points within the tolerance, so each column agrees to about
+    # tol / (2 delta) = 5e-4 of its largest entry (identical with some XLA versions; measured up to
+    # 7e-4 with others): the bound of the vmap comparison below.
+    for k in range(2):
+        assert np.abs(Jf[:, k] - Jjr[:, k]).max() <= 1e-3 * np.abs(Jjr[:, k]).max(), (k, Jf, Jjr)
     # vmap over point sets (forward mode inside; reverse mode of the core under vmap is
     # covered by jax.grad in test_core_normalize_differentiable_in_gamma and tuning's jacfwd(vmap))
     # On CPU the secant ends are solved by SMO, whose pair choices follow the rounding of the

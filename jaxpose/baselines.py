@@ -94,7 +94,7 @@ def surface_centroid(mesh_or_points):
     """
     vertices, faces = split_geometry(mesh_or_points)
     if faces is None:
-        return vertex_mean(vertices)
+        return _mean_about_anchor(vertices)
     origin = anchor(vertices)  # sums about one of the mesh's own vertices: no digits lost far from the origin
     triangles = vertices[faces] - origin
     areas = triangle_areas(triangles)
@@ -103,7 +103,10 @@ def surface_centroid(mesh_or_points):
 
 def vertex_mean(mesh_or_points):
     """Mean of the vertices (or points), summed about one of them.  Returns center : (3,) float64."""
-    vertices, _ = split_geometry(mesh_or_points)
+    return _mean_about_anchor(split_geometry(mesh_or_points)[0])
+
+
+def _mean_about_anchor(vertices):
     origin = anchor(vertices)
     return origin + (vertices - origin).mean(axis=0)
 

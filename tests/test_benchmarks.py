@@ -239,16 +239,16 @@ def test_head_frame_merge_tree_of_a_dumbbell():
     pitch = 0.05
     sol = _voxel_solid([_ball((-1.2, 0, 0), 1.0), _ball((1.2, 0, 0), 0.7), _rod(-1.2, 1.2, 0.3)], pitch)
     tree = merge_tree(sol.inside, sol.depth)
-    (b0, d0, p0, s0), (b1, d1, p1, s1) = tree[:2]
+    (b0, d0, p0, s0, j0), (b1, d1, p1, s1, j1) = tree[:2]
     assert abs(b0 - 1.0) < 1.5 * pitch and d0 == 0.0 and s0 == -1
-    assert abs(b1 - 0.7) < 1.5 * pitch and abs(d1 - 0.3) < 1.5 * pitch
-    assert all(b - d < 2 * pitch for b, d, _, _ in tree[2:])
+    assert abs(b1 - 0.7) < 1.5 * pitch and abs(d1 - 0.3) < 1.5 * pitch and j0 == -1 and j1 == p0
+    assert all(b - d < 2 * pitch for b, d, *_ in tree[2:])
     centers = sol.origin + pitch * (np.array(np.unravel_index([p0, p1, s1], sol.inside.shape)).T + 0.5)
     np.testing.assert_allclose(centers[0], [-1.2, 0, 0], atol=2 * pitch)
     np.testing.assert_allclose(centers[1], [1.2, 0, 0], atol=2 * pitch)
     assert -0.2 - pitch <= centers[2][0] <= 0.5 + pitch and np.hypot(*centers[2][1:]) < 2 * pitch  # in the rod
-    trunk, head, neck, head_depth, persistence = head_and_trunk(sol)
-    assert abs(head_depth - 0.7) < 1.5 * pitch and abs(persistence - 0.4) < 3 * pitch
+    trunk, head, neck, head_depth, constriction = head_and_trunk(sol)
+    assert head_depth == b1 and constriction == b1 / d1
     np.testing.assert_allclose(neck, centers[2])
     hc = sol.origin + pitch * (np.stack(np.nonzero(head), 1) + 0.5)
     assert np.all(hc[:, 0] > 0.5 - pitch)  # the small ball's side of the rod
@@ -266,3 +266,23 @@ def test_head_frame_head_is_the_smaller_blob_even_when_deepest():
     hc = sol.origin + sol.pitch * (np.stack(np.nonzero(head), 1) + 0.5)
     np.testing.assert_allclose(hc.mean(axis=0), [1.7, 0, 0], atol=0.1)
     assert 0.4 <= neck[0] <= 1.0
+
+
+def test_head_frame_neck_is_the_most_constricted_saddle():
+    """A trunk of two balls (radius 1.0) joined at a waist (radius 0.6: persistence 0.4, birth / death
+    1.7) carrying a head (radius 0.6) on a neck (radius 0.3: persistence 0.3, birth / death 2.0): the
+    most persistent saddle is the waist, the most constricted the neck, and the head is found there."""
+    from benchmarks.head_frame import head_and_trunk, merge_tree, neck
+
+    pitch = 0.05
+    sol = _voxel_solid([_ball((-2.2, 0, 0), 1.0), _ball((-0.2, 0, 0), 1.0), _rod(-2.2, -0.2, 0.6),
+                        _ball((1.9, 0, 0), 0.6), _rod(0.7, 1.9, 0.3)], pitch, lo=(-3.4, -1.2, -1.2), hi=(2.7, 1.2, 1.2))
+    tree = merge_tree(sol.inside, sol.depth)
+    waist, chosen = tree[1], neck(tree)
+    assert abs(waist[1] - 0.6) < 1.5 * pitch and abs(chosen[0] - 0.6) < 1.5 * pitch and abs(chosen[1] - 0.3) < 1.5 * pitch
+    trunk, head, at, head_depth, _ = head_and_trunk(sol)
+    hc = sol.origin + pitch * (np.stack(np.nonzero(head), 1) + 0.5)
+    np.testing.assert_allclose(hc.mean(axis=0), [1.9, 0, 0], atol=0.1)
+    assert 0.7 - pitch <= at[0] <= 1.4 and head.sum() < trunk.sum()
+    with pytest.raises(ValueError, match="no saddle"):  # one ball: no neck
+        neck(merge_tree(*_voxel_solid([_ball((0, 0, 0), 1.0)], 0.1)[:2]))

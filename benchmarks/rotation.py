@@ -50,7 +50,7 @@ def _ablation(classes, variants, seed=0):
 
 
 def equivariance(classes, rotations=3, meshes=2):
-    """Max angle (radians) between frame(Q x) and frame(x) Q^T for the core and ocsvm frames, over
+    """Max angle (radians) between frame(Q x) and frame(x) Q^T for the core, head and ocsvm frames, over
     the first meshes of each class and random rotations Q: {method: {"unflagged": .., "all": ..}}."""
     import trimesh
 
@@ -58,7 +58,7 @@ def equivariance(classes, rotations=3, meshes=2):
     from jaxpose.rotation import frame_of
 
     rng = np.random.default_rng(0)
-    worst = {k: {"unflagged": 0.0, "all": 0.0} for k in ("core", "ocsvm")}
+    worst = {k: {"unflagged": 0.0, "all": 0.0} for k in ("core", "head", "ocsvm")}
     for ms in classes.values():
         for m in ms[:meshes]:
             base = {k: frame_of(m, k) for k in worst}
@@ -165,7 +165,8 @@ def main(argv=None):
             print("\nequivariance, max angle(frame(Q x), frame(x) Q^T) in radians over 2 meshes per class x 3 "
                   "random rotations (unflagged frames / all): "
                   + ", ".join(f"{k} {v['unflagged']:.1e} / {v['all']:.1e}" for k, v in eq.items()))
-            print("acceptance (core):", json.dumps(verdict(result)))
+            for method in ("core", "head"):
+                print(f"acceptance ({method}):", json.dumps(verdict(result, method)))
             if args.figures:
                 figures(name, classes, result, args.figures)
             result.update(seconds=seconds, equivariance=eq, ablation=ablation)

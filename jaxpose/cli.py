@@ -49,7 +49,7 @@ def _add_evaluate(sub):
     p.add_argument("--sweep", action="store_true", help="also sweep gamma and nu of the ocsvm method")
     p.add_argument("--rotation", nargs="?", const="all", default=None, metavar="METHODS",
                    help="measure canonical frames instead: angle to each class's mean frame per rotation "
-                        "method (comma-separated, default all: core,ocsvm,pca_vertices,pca_surface,inertia)")
+                        "method (comma-separated, default all: core,head,ocsvm,pca_vertices,pca_surface,inertia)")
     p.add_argument("--json", help="write the full result as JSON here")
     p.add_argument("--plots", help="write figures into this folder")
     p.add_argument("--force", action="store_true", help="overwrite an existing --json file")

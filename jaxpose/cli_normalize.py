@@ -21,7 +21,7 @@ def add_parser(sub, add_svm_options, handler):
     from .batch import CHECKS
     from .estimators import CENTERS, DEFAULT_METHOD, METHODS, SCALES
     from .mesh import OUTPUT_FORMATS, SAMPLING
-    from .rotation import ROTATIONS
+    from .rotation import DEFAULT_ROTATION, ROTATIONS
 
     p = sub.add_parser("normalize", help="normalize meshes or point clouds: one file, or folders and manifests")
     p.add_argument("inputs", nargs="*", metavar="INPUT",
@@ -39,8 +39,8 @@ def add_parser(sub, add_svm_options, handler):
     p.add_argument("--sampling", choices=SAMPLING, default="even", help="surface sampling (default even)")
     p.add_argument("--resolution", type=int, default=None, help="grid resolution of the volume moments (>= 8)")
     p.add_argument("--transform", help="one INPUT: where to write the transform JSON (default: OUTPUT.transform.json)")
-    p.add_argument("--rotation", nargs="?", const="core", default=None, metavar="METHOD",
-                   choices=ROTATIONS, help="also the canonical orientation (default method core; "
+    p.add_argument("--rotation", nargs="?", const=DEFAULT_ROTATION, default=None, metavar="METHOD",
+                   choices=ROTATIONS, help=f"also the canonical orientation (default method {DEFAULT_ROTATION}; "
                                            f"{', '.join(ROTATIONS)}); off by default")
     p.add_argument("--force", action="store_true", help="overwrite existing outputs (many: redo every input)")
     many = p.add_argument_group("many files (several INPUTs, folders or manifests, with -o OUTDIR)")

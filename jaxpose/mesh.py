@@ -255,9 +255,10 @@ def normalize_mesh(
       resolution: for the robust solid, voxels along the body's largest extent (96); for
         ``ocsvm``, the grid resolution of :func:`jaxpose.normalize`.
       rotation: False (default: translation and scale only, exactly as without the option), True
-        (the ``core`` frame of :mod:`jaxpose.rotation`: axes of the depth^4-weighted robust solid,
-        meshes and point clouds) or a name of :data:`jaxpose.rotation.ROTATIONS` (``core``,
-        ``ocsvm``, ``pca_vertices``, ``pca_surface``, ``inertia``). Sets ``Pose.rotation`` (rows =
+        (the ``head`` frame of :mod:`jaxpose.rotation`: the head and chest of the robust solid, or
+        its depth^4-weighted ``core`` frame where no neck is found; meshes and point clouds) or a
+        name of :data:`jaxpose.rotation.ROTATIONS` (``head``, ``core``, ``ocsvm``,
+        ``pca_vertices``, ``pca_surface``, ``inertia``). Sets ``Pose.rotation`` (rows =
         canonical axes, det +1) and ``Pose.ambiguity`` / ``Pose.flagged``; the center and scale
         are the same as without it.
 

@@ -68,7 +68,7 @@ def test_table_round_trip_is_exact(tmp_path, tree, suffix):
     options = NormalizeOptions(resolution=16, rotation=True)
     run([root / "a" / "capsule.ply", root / "cloud.ply"], out, options=options, table=table)
     rows = jaxpose.read_transforms(table)
-    assert [r.rotation_method for r in rows] == ["core", "core"]
+    assert [r.rotation_method for r in rows] == ["head", "head"]
     for row in rows:
         original = mesh.load(row.input).vertices
         written = mesh.load(row.output).vertices  # trimesh writes PLY coordinates as float32

@@ -1,7 +1,6 @@
 """benchmarks/ (``jaxpose bench``): runs in quick mode on tiny sizes and writes the JSON schema. No timing assertions."""
 import json
 
-import numpy as np
 import pytest
 
 import benchmarks as bench
@@ -206,83 +205,3 @@ def test_stop_rule_benchmark_table():
                        "tolerance": rows})
     assert "worst |difference| / scale: 2.00e-03" in text and "| a | 0 |" in text
 
-
-def _voxel_solid(parts, pitch=0.05, lo=(-3.0, -1.2, -1.2), hi=(3.0, 1.2, 1.2)):
-    """A Solid of the union of parts (functions of voxel centers (..., 3) -> bool), depth by the EDT."""
-    from scipy import ndimage
-
-    from jaxpose.solid import Solid
-
-    axes = [np.arange(a + 0.5 * pitch, b, pitch) for a, b in zip(lo, hi)]
-    x = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
-    inside = np.zeros(x.shape[:3], bool)
-    for part in parts:
-        inside |= part(x)
-    depth = ndimage.distance_transform_edt(inside) * pitch
-    return Solid(inside, depth, np.array(lo, float), pitch, None, np.eye(3), 1, 0)
-
-
-def _ball(c, r):
-    return lambda x: np.linalg.norm(x - np.array(c), axis=-1) <= r
-
-
-def _rod(x0, x1, r):  # a cylinder along the first axis
-    return lambda x: (x[..., 0] >= x0) & (x[..., 0] <= x1) & (np.hypot(x[..., 1], x[..., 2]) <= r)
-
-
-def test_head_frame_merge_tree_of_a_dumbbell():
-    """benchmarks/head_frame.py: two balls (radii 1.0, 0.7) joined by a rod (radius 0.3): the deepest
-    maximum is born at 1.0 and never dies, the other is born at 0.7 and dies at the rod's 0.3
-    (distance transform: within 1.5 voxels); nothing else persists beyond 2 voxels."""
-    from benchmarks.head_frame import head_and_trunk, merge_tree
-
-    pitch = 0.05
-    sol = _voxel_solid([_ball((-1.2, 0, 0), 1.0), _ball((1.2, 0, 0), 0.7), _rod(-1.2, 1.2, 0.3)], pitch)
-    tree = merge_tree(sol.inside, sol.depth)
-    (b0, d0, p0, s0, j0), (b1, d1, p1, s1, j1) = tree[:2]
-    assert abs(b0 - 1.0) < 1.5 * pitch and d0 == 0.0 and s0 == -1
-    assert abs(b1 - 0.7) < 1.5 * pitch and abs(d1 - 0.3) < 1.5 * pitch and j0 == -1 and j1 == p0
-    assert all(b - d < 2 * pitch for b, d, *_ in tree[2:])
-    centers = sol.origin + pitch * (np.array(np.unravel_index([p0, p1, s1], sol.inside.shape)).T + 0.5)
-    np.testing.assert_allclose(centers[0], [-1.2, 0, 0], atol=2 * pitch)
-    np.testing.assert_allclose(centers[1], [1.2, 0, 0], atol=2 * pitch)
-    assert -0.2 - pitch <= centers[2][0] <= 0.5 + pitch and np.hypot(*centers[2][1:]) < 2 * pitch  # in the rod
-    trunk, head, neck, head_depth, constriction = head_and_trunk(sol)
-    assert head_depth == b1 and constriction == b1 / d1
-    np.testing.assert_allclose(neck, centers[2])
-    hc = sol.origin + pitch * (np.stack(np.nonzero(head), 1) + 0.5)
-    assert np.all(hc[:, 0] > 0.5 - pitch)  # the small ball's side of the rod
-
-
-def test_head_frame_head_is_the_smaller_blob_even_when_deepest():
-    """A child's head is as thick as its trunk: a ball (radius 0.9) on a thinner but longer trunk
-    (a rod of radius 0.8 and length 3.2) is the deepest part, and still the head (the smaller blob)."""
-    from benchmarks.head_frame import head_and_trunk
-
-    sol = _voxel_solid([_rod(-2.8, 0.4, 0.8), _ball((1.7, 0, 0), 0.9), _rod(0.4, 1.7, 0.4)], 0.05,
-                       lo=(-3.0, -1.0, -1.0), hi=(2.8, 1.0, 1.0))
-    trunk, head, neck, head_depth, _ = head_and_trunk(sol)
-    assert abs(head_depth - 0.9) < 0.075 and head.sum() < trunk.sum()
-    hc = sol.origin + sol.pitch * (np.stack(np.nonzero(head), 1) + 0.5)
-    np.testing.assert_allclose(hc.mean(axis=0), [1.7, 0, 0], atol=0.1)
-    assert 0.4 <= neck[0] <= 1.0
-
-
-def test_head_frame_neck_is_the_most_constricted_saddle():
-    """A trunk of two balls (radius 1.0) joined at a waist (radius 0.6: persistence 0.4, birth / death
-    1.7) carrying a head (radius 0.6) on a neck (radius 0.3: persistence 0.3, birth / death 2.0): the
-    most persistent saddle is the waist, the most constricted the neck, and the head is found there."""
-    from benchmarks.head_frame import head_and_trunk, merge_tree, neck
-
-    pitch = 0.05
-    sol = _voxel_solid([_ball((-2.2, 0, 0), 1.0), _ball((-0.2, 0, 0), 1.0), _rod(-2.2, -0.2, 0.6),
-                        _ball((1.9, 0, 0), 0.6), _rod(0.7, 1.9, 0.3)], pitch, lo=(-3.4, -1.2, -1.2), hi=(2.7, 1.2, 1.2))
-    tree = merge_tree(sol.inside, sol.depth)
-    waist, chosen = tree[1], neck(tree)
-    assert abs(waist[1] - 0.6) < 1.5 * pitch and abs(chosen[0] - 0.6) < 1.5 * pitch and abs(chosen[1] - 0.3) < 1.5 * pitch
-    trunk, head, at, head_depth, _ = head_and_trunk(sol)
-    hc = sol.origin + pitch * (np.stack(np.nonzero(head), 1) + 0.5)
-    np.testing.assert_allclose(hc.mean(axis=0), [1.9, 0, 0], atol=0.1)
-    assert 0.7 - pitch <= at[0] <= 1.4 and head.sum() < trunk.sum()
-    with pytest.raises(ValueError, match="no saddle"):  # one ball: no neck
-        neck(merge_tree(*_voxel_solid([_ball((0, 0, 0), 1.0)], 0.1)[:2]))

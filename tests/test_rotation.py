@@ -38,6 +38,23 @@ def body():
     return trimesh.util.concatenate(parts)
 
 
+def person():
+    """A toy person with a head (radius 0.13) on a neck (radius 0.05) over a trunk (0.3 deep, 0.5
+    wide), the head 0.06 and the feet 0.12 ahead (+x): the head frame's up is +z tilted toward +x
+    (the head is ahead of the chest), its front-back +x, its cues unanimous."""
+    parts = [trimesh.creation.box(extents=(0.3, 0.5, 0.8)), trimesh.creation.icosphere(subdivisions=3, radius=0.13),
+             trimesh.creation.cylinder(radius=0.05, height=0.12)]
+    parts[0].apply_translation([0.0, 0.0, 0.4])
+    parts[1].apply_translation([0.06, 0.0, 0.98])
+    parts[2].apply_translation([0.0, 0.0, 0.84])
+    for y in (-0.13, 0.14):
+        leg, foot = trimesh.creation.box(extents=(0.12, 0.12, 0.9)), trimesh.creation.box(extents=(0.36, 0.1, 0.08))
+        leg.apply_translation([0.0, y, -0.45])
+        foot.apply_translation([0.12, y, -0.86])
+        parts += [leg, foot]
+    return trimesh.util.concatenate(parts)
+
+
 def moved(m, q, t=(0.3, -2.0, 5.0)):
     return trimesh.Trimesh(np.asarray(m.vertices) @ q.T + np.asarray(t), m.faces, process=False)
 
@@ -45,7 +62,7 @@ def moved(m, q, t=(0.3, -2.0, 5.0)):
 @pytest.fixture(scope="module")
 def body_frame():
     m = body()
-    return m, rotation.frame_of(m, resolution=48)
+    return m, rotation.frame_of(m, "core", resolution=48)
 
 
 def test_core_frame_is_proper_determined_and_equivariant(body_frame):
@@ -57,14 +74,45 @@ def test_core_frame_is_proper_determined_and_equivariant(body_frame):
     rng = np.random.default_rng(0)
     flips = [np.diag(f) for f in ([1.0, -1.0, -1.0], [-1.0, 1.0, -1.0], [-1.0, -1.0, 1.0])]
     for q in [random_rotation(rng) for _ in range(2)] + flips:
-        got = rotation.frame_of(moved(m, q), resolution=48)
+        got = rotation.frame_of(moved(m, q), "core", resolution=48)
         assert angle(got.rotation, r @ q.T) * RAD < 1e-4
         assert got.ambiguity == pytest.approx(base.ambiguity, abs=1e-9)
 
 
+@pytest.mark.parametrize("resolution", [40, 56])
+def test_head_frame_finds_the_head_and_is_equivariant(resolution):
+    """The head frame of the toy person: axis 0 toward the feet (within 20 degrees of -z: the
+    chest-to-head line leans forward), axis 2 (back to front) +x, unflagged (its neck is a cylinder, a plateau of the depth, so
+    where the saddle falls, and with it the jaw cue, depends on the grid: at 64 voxels the cues split
+    and the frame is flagged); rotating or flipping the input turns the frame with it (to 1e-4 rad),
+    with the same ambiguity."""
+    m = person()
+    base = rotation.frame_of(m, "head", resolution=resolution)
+    r = base.rotation
+    np.testing.assert_allclose(r @ r.T, np.eye(3), atol=1e-12)
+    assert np.linalg.det(r) == pytest.approx(1.0) and not base.flag and base.mirror == 1
+    assert -r[0, 2] > np.cos(20 * RAD) and r[2, 0] > np.cos(20 * RAD) and r[0, 0] < 0
+    assert base.gaps[0] > rotation.GAP_MIN and base.margins[2] == 1.0
+    rng = np.random.default_rng(1)
+    for q in [random_rotation(rng) for _ in range(2)] + [np.diag([1.0, -1.0, -1.0]), np.diag([-1.0, 1.0, -1.0])]:
+        got = rotation.frame_of(moved(m, q), "head", resolution=resolution)
+        assert angle(got.rotation, r @ q.T) * RAD < 1e-4
+        assert got.ambiguity == pytest.approx(base.ambiguity, abs=1e-9)
+
+
+def test_head_frame_without_a_head_is_the_core_frame(body_frame):
+    """The toy body's head is thinner than half its trunk: no neck, so the core frame, with its own
+    ambiguity (also the default of rotation=True)."""
+    m, core = body_frame
+    got = rotation.frame_of(m, "head", resolution=48)
+    np.testing.assert_array_equal(got.rotation, core.rotation)
+    assert got.ambiguity == core.ambiguity == 0.0 and np.isnan(got.symmetry).sum() == 0
+    assert rotation.DEFAULT_ROTATION == "head"
+
+
 @pytest.mark.parametrize("shape", [trimesh.creation.icosphere(subdivisions=3), trimesh.creation.box()])
 def test_symmetric_shapes_are_flagged(shape):
-    for method in ("core", "pca_vertices", "pca_surface"):
+    for method in ("core", "head", "pca_vertices", "pca_surface"):
         assert rotation.frame_of(shape, method, resolution=32).flag, method
 
 
@@ -113,6 +161,10 @@ def test_normalize_mesh_rotation_keeps_center_scale(body_frame):
     np.testing.assert_allclose(out1.vertices, out0.vertices @ base.rotation.T, atol=1e-9)
     _, p2 = mesh.normalize_mesh(m, resolution=48, rotation="pca_vertices")
     np.testing.assert_allclose(p2.rotation, baselines.pca_vertices_frame(m).rotation)
+    _, p3 = mesh.normalize_mesh(person(), resolution=48, rotation="head")
+    head = rotation.frame_of(person(), "head", resolution=48)
+    np.testing.assert_allclose(p3.rotation, head.rotation, atol=1e-12)
+    assert float(p3.ambiguity) == head.ambiguity == 0.0
     with pytest.raises(jaxpose.InvalidInputError):
         mesh.normalize_mesh(m, rotation="sideways")
 
@@ -185,7 +237,7 @@ def test_cli_normalize_rotation_json_round_trip(tmp_path, capsys, body_frame):
     src, dst = tmp_path / "in.ply", tmp_path / "out.ply"
     moved(m, random_rotation(np.random.default_rng(7))).export(src)
     assert cli.main(["normalize", str(src), "-o", str(dst), "--rotation", "--resolution", "48"]) == 0
-    assert "rotation core" in capsys.readouterr().out
+    assert "rotation head" in capsys.readouterr().out
     record = json.loads((tmp_path / "out.transform.json").read_text())
     matrix, r = np.asarray(record["matrix"]), np.asarray(record["rotation"])
     assert np.linalg.det(r) == pytest.approx(1.0) and record["rotation_flagged"] is False

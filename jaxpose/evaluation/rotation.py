@@ -153,7 +153,7 @@ def evaluate_rotation(classes, methods=None, variants=("plain",), align_core=Fal
                 for method in methods:
                     start = time.perf_counter()
                     try:
-                        if method == "core" and sol is None:
+                        if method in ("core", "head") and sol is None:  # one solid for both frames
                             sol = frame_solid(*baselines.split_geometry(shape), options.get("resolution"))
                         found[method].append(frame_of(shape, method, sol=sol, ocsvm=ocsvm, **options))
                     except (JaxposeError, ValueError) as exc:

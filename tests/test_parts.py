@@ -1,0 +1,101 @@
+"""jaxpose.parts: the merge tree of a depth field and the head, neck and trunk, on voxel solids of
+balls and rods whose depths are known in closed form (their radii, within the distance transform's
+voxel)."""
+import numpy as np
+import pytest
+from scipy import ndimage
+
+from jaxpose.parts import THICK, find_parts, merge_tree
+from jaxpose.solid import Solid
+
+
+def voxel_solid(parts, pitch=0.05, lo=(-3.0, -1.2, -1.2), hi=(3.0, 1.2, 1.2)):
+    """A Solid of the union of parts (functions of voxel centers (..., 3) -> bool), depth by the EDT."""
+    axes = [np.arange(a + 0.5 * pitch, b, pitch) for a, b in zip(lo, hi)]
+    x = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
+    inside = np.zeros(x.shape[:3], bool)
+    for part in parts:
+        inside |= part(x)
+    depth = ndimage.distance_transform_edt(inside) * pitch
+    return Solid(inside, depth, np.array(lo, float), pitch, None, np.eye(3), 1, 0)
+
+
+def ball(c, r):
+    return lambda x: np.linalg.norm(x - np.array(c), axis=-1) <= r
+
+
+def rod(x0, x1, r):  # a cylinder along the first axis
+    return lambda x: (x[..., 0] >= x0) & (x[..., 0] <= x1) & (np.hypot(x[..., 1], x[..., 2]) <= r)
+
+
+def center(sol, flat):
+    return sol.origin + sol.pitch * (np.array(np.unravel_index(int(flat), sol.inside.shape)) + 0.5)
+
+
+def test_merge_tree_of_a_dumbbell():
+    """Two balls (radii 1.0, 0.7) joined by a rod (radius 0.3): the deepest maximum is born at 1.0
+    and never dies, the other is born at 0.7 at the small ball's center and dies at the rod's 0.3
+    in the rod, joining the big ball's; nothing else persists beyond 2 voxels."""
+    pitch = 0.05
+    sol = voxel_solid([ball((-1.2, 0, 0), 1.0), ball((1.2, 0, 0), 0.7), rod(-1.2, 1.2, 0.3)], pitch)
+    tree = merge_tree(sol.inside, sol.depth)
+    assert tree.shape[1] == 5
+    (b0, d0, p0, s0, j0), (b1, d1, p1, s1, j1) = tree[:2]
+    assert abs(b0 - 1.0) < 1.5 * pitch and d0 == 0.0 and s0 == -1 and j0 == -1
+    assert abs(b1 - 0.7) < 1.5 * pitch and abs(d1 - 0.3) < 1.5 * pitch and j1 == p0
+    assert np.all(tree[2:, 0] - tree[2:, 1] < 2 * pitch)
+    assert sol.depth.ravel()[int(p0)] == b0 and sol.depth.ravel()[int(s1)] == d1
+    np.testing.assert_allclose(center(sol, p0), [-1.2, 0, 0], atol=2 * pitch)
+    np.testing.assert_allclose(center(sol, p1), [1.2, 0, 0], atol=2 * pitch)
+    saddle = center(sol, s1)
+    assert -0.2 - pitch <= saddle[0] <= 0.5 + pitch and np.hypot(*saddle[1:]) < 2 * pitch  # in the rod
+
+    found = find_parts(sol)
+    assert found.head_depth == b1 and found.neck_depth == d1 and found.constriction == b1 / d1
+    np.testing.assert_allclose(found.neck, saddle)
+    head = sol.origin + pitch * (np.stack(np.nonzero(found.head), 1) + 0.5)
+    assert np.all(head[:, 0] > 0.5 - pitch) and found.head.sum() < found.trunk.sum()
+    assert not (found.head & found.trunk).any()
+
+
+def test_head_is_the_smaller_part_even_when_deepest():
+    """A child's head is as thick as its trunk: a ball (radius 0.9) on a thinner but longer trunk
+    (a rod of radius 0.8 and length 3.2) is the deepest part, and still the head (the smaller)."""
+    sol = voxel_solid([rod(-2.8, 0.4, 0.8), ball((1.7, 0, 0), 0.9), rod(0.4, 1.7, 0.4)], 0.05,
+                      lo=(-3.0, -1.0, -1.0), hi=(2.8, 1.0, 1.0))
+    found = find_parts(sol)
+    assert abs(found.head_depth - 0.9) < 0.075 and found.head.sum() < found.trunk.sum()
+    head = sol.origin + sol.pitch * (np.stack(np.nonzero(found.head), 1) + 0.5)
+    np.testing.assert_allclose(head.mean(axis=0), [1.7, 0, 0], atol=0.1)
+    assert 0.4 <= found.neck[0] <= 1.0
+    assert abs(found.constriction - 0.8 / 0.4) < 0.4  # the trunk's birth over the neck's depth
+
+
+def test_neck_is_the_most_constricted_saddle():
+    """A trunk of two balls (radius 1.0) joined at a waist (radius 0.6: persistence 0.4, birth /
+    death 1.7) carrying a head (radius 0.6) on a neck (radius 0.3: persistence 0.3, birth / death
+    2.0): the most persistent saddle is the waist, the most constricted the neck, where the head is
+    found; the waist is the runner-up."""
+    pitch = 0.05
+    sol = voxel_solid([ball((-2.2, 0, 0), 1.0), ball((-0.2, 0, 0), 1.0), rod(-2.2, -0.2, 0.6),
+                       ball((1.9, 0, 0), 0.6), rod(0.7, 1.9, 0.3)], pitch, lo=(-3.4, -1.2, -1.2), hi=(2.7, 1.2, 1.2))
+    tree = merge_tree(sol.inside, sol.depth)
+    assert abs(tree[1, 1] - 0.6) < 1.5 * pitch  # the most persistent saddle: the waist
+    found = find_parts(sol)
+    assert abs(found.head_depth - 0.6) < 1.5 * pitch and abs(found.neck_depth - 0.3) < 1.5 * pitch
+    assert found.runner_up == pytest.approx(tree[1, 0] / tree[1, 1])
+    head = sol.origin + pitch * (np.stack(np.nonzero(found.head), 1) + 0.5)
+    np.testing.assert_allclose(head.mean(axis=0), [1.9, 0, 0], atol=0.1)
+    assert 0.7 - pitch <= found.neck[0] <= 1.4
+
+
+def test_no_head_without_a_thick_saddle():
+    """One ball, a box, a ball with a thin arm (a maximum shallower than THICK times the deepest),
+    an empty grid: nothing to call a head."""
+    assert find_parts(voxel_solid([ball((0, 0, 0), 1.0)], 0.1)) is None
+    box = voxel_solid([lambda x: np.all(np.abs(x) <= [1.0, 0.5, 0.3], axis=-1)], 0.05)
+    assert find_parts(box) is None
+    arm = voxel_solid([ball((-1.0, 0, 0), 1.0), ball((1.5, 0, 0), 0.2), rod(-1.0, 1.5, 0.1)], 0.05)
+    assert 0.2 < THICK * 1.0 and find_parts(arm) is None
+    empty = voxel_solid([lambda x: np.zeros(x.shape[:-1], bool)], 0.5)
+    assert merge_tree(empty.inside, empty.depth).shape == (0, 5) and find_parts(empty) is None

@@ -303,8 +303,9 @@ def head_frame(sol) -> Frame:
     fb = vec[:, 1]
     side = np.cross(fb, up)
     height, ahead = rel @ up, rel @ fb
-    jaw = (height > eps) & (height < JAW * hd + eps) & (np.abs(rel @ side) < hd + eps)
-    cues = np.array([(y[height > eps].mean(axis=0) - cc) @ fb,  # the head ahead of the chest
+    beyond = height > eps  # the whole head, beyond the neck
+    jaw = beyond & (height < JAW * hd + eps) & (np.abs(rel @ side) < hd + eps)
+    cues = np.array([(y[beyond].mean(axis=0) - cc) @ fb if beyond.any() else 0.0,  # the head ahead of the chest
                      (y.mean(axis=0) - cc) @ fb,  # the body (legs, arms) ahead of the chest
                      np.quantile(ahead[jaw], 0.98) + np.quantile(ahead[jaw], 0.02) if jaw.any() else 0.0])
     votes = float(np.sign(cues).sum())

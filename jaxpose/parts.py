@@ -7,7 +7,7 @@ its birth (its depth) and its death (the depth of the saddle where its component
 deeper maximum). A neck is a saddle much thinner than the part it carries: :func:`find_parts`
 takes the maximum with the largest birth / death among those at least :data:`THICK` times as
 deep as the deepest (hands and feet are thinner; a waist between chest and pelvis, or a knee,
-joins parts of nearly its own depth). The two components of {D > death} that meet there are the
+joins parts of nearly its own depth), and at least :data:`NECK` times as deep as its saddle. The two components of {D > death} that meet there are the
 head and the trunk; the smaller one is the head (a child's head is as deep as its trunk).
 
 Measured on the dev meshes (``python -m benchmarks.head_frame``): the neck found in all 52 poses
@@ -27,9 +27,10 @@ from typing import NamedTuple
 import numpy as np
 from scipy import ndimage
 
-__all__ = ["THICK", "Parts", "merge_tree", "find_parts"]
+__all__ = ["THICK", "NECK", "Parts", "merge_tree", "find_parts"]
 
 THICK = 0.5  # a head is at least half as deep as the deepest part of the body (its trunk)
+NECK = 1.1  # a neck is at least 10 % thinner than the shallower of the two parts it joins
 _NEIGHBOURS = np.array([(a, b, c) for a in (-1, 0, 1) for b in (-1, 0, 1) for c in (-1, 0, 1) if (a, b, c) != (0, 0, 0)])
 
 
@@ -109,8 +110,9 @@ def merge_tree(inside, depth):
 
 def find_parts(sol, thick=THICK):
     """The head, trunk and neck of a solid (module docs), or None when no saddle joins two parts
-    at least ``thick`` times as deep as the deepest (a ball, a box: nothing to call a head; voxels
-    of equal depth that meet on a plateau are no saddle).
+    at least ``thick`` times as deep as the deepest with a saddle at least :data:`NECK` times
+    thinner than the shallower of them (a ball, a box, a capsule: nothing to call a head; voxels
+    of nearly equal depth that meet on a plateau are no neck).
 
     Args:
       sol: :class:`jaxpose.solid.Solid` (``inside``, ``depth``, ``origin``, ``pitch``).
@@ -121,7 +123,7 @@ def find_parts(sol, thick=THICK):
     tree = merge_tree(sol.inside, sol.depth)
     if len(tree) < 2:
         return None
-    thick_joins = tree[(tree[:, 1] > 0) & (tree[:, 0] > tree[:, 1]) & (tree[:, 0] >= thick * tree[:, 0].max())]
+    thick_joins = tree[(tree[:, 1] > 0) & (tree[:, 0] >= NECK * tree[:, 1]) & (tree[:, 0] >= thick * tree[:, 0].max())]
     if len(thick_joins) == 0:
         return None
     ratio = thick_joins[:, 0] / thick_joins[:, 1]

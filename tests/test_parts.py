@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from jaxpose.parts import THICK, find_parts, merge_tree
+from jaxpose.parts import NECK, THICK, find_parts, merge_tree
 from jaxpose.solid import Solid
 
 
@@ -91,11 +91,14 @@ def test_neck_is_the_most_constricted_saddle():
 
 def test_no_head_without_a_thick_saddle():
     """One ball, a box, a ball with a thin arm (a maximum shallower than THICK times the deepest),
-    an empty grid: nothing to call a head."""
+    two balls barely apart (a saddle less than NECK times thinner), an empty grid: no head."""
     assert find_parts(voxel_solid([ball((0, 0, 0), 1.0)], 0.1)) is None
     box = voxel_solid([lambda x: np.all(np.abs(x) <= [1.0, 0.5, 0.3], axis=-1)], 0.05)
     assert find_parts(box) is None
     arm = voxel_solid([ball((-1.0, 0, 0), 1.0), ball((1.5, 0, 0), 0.2), rod(-1.0, 1.5, 0.1)], 0.05)
     assert 0.2 < THICK * 1.0 and find_parts(arm) is None
+    pair = voxel_solid([ball((-0.3, 0, 0), 1.0), ball((0.3, 0, 0), 1.0)], 0.05)
+    tree = merge_tree(pair.inside, pair.depth)
+    assert 1.0 < tree[1, 0] / tree[1, 1] < NECK and find_parts(pair) is None
     empty = voxel_solid([lambda x: np.zeros(x.shape[:-1], bool)], 0.5)
     assert merge_tree(empty.inside, empty.depth).shape == (0, 5) and find_parts(empty) is None

@@ -108,6 +108,8 @@ def test_head_frame_without_a_head_is_the_core_frame(body_frame):
     np.testing.assert_array_equal(got.rotation, core.rotation)
     assert got.ambiguity == core.ambiguity == 0.0 and np.isnan(got.symmetry).sum() == 0
     assert rotation.DEFAULT_ROTATION == "head"
+    example = mesh.example_shape()  # a capsule with an arm: no neck either
+    np.testing.assert_array_equal(rotation.frame_of(example, "head").rotation, rotation.frame_of(example, "core").rotation)
 
 
 @pytest.mark.parametrize("shape", [trimesh.creation.icosphere(subdivisions=3), trimesh.creation.box()])

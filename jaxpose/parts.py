@@ -7,12 +7,9 @@ its birth (its depth) and its death (the depth of the saddle where its component
 deeper maximum). A neck is a saddle much thinner than the part it carries: :func:`find_parts`
 takes the maximum with the largest birth / death among those at least :data:`THICK` times as
 deep as the deepest (hands and feet are thinner; a waist between chest and pelvis, or a knee,
-joins parts of nearly its own depth), and at least :data:`NECK` times as deep as its saddle. The two components of {D > death} that meet there are the
-head and the trunk; the smaller one is the head (a child's head is as deep as its trunk).
-
-Measured on the dev meshes (``python -m benchmarks.head_frame``): the neck found in all 52 poses
-of two adults and two children, birth / death 1.40-2.82 at the neck and at most 1.35 elsewhere
-(docs/rotation.md).
+joins parts of nearly its own depth) and at least :data:`NECK` times as deep as its saddle. The
+two components of {D > death} that meet there are the head and the trunk; the smaller one is the
+head (a child's head is as deep as its trunk). How it does on real bodies: docs/rotation.md.
 
 Example::
 

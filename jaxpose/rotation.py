@@ -60,10 +60,8 @@ limbs and waist.
    (constriction - runner-up) / constriction and the chest's gap across up, each against
    ``GAP_MIN``, and the vote, which clears only when unanimous (2 of 3: ambiguity 2/3).
 
-Measured on the dev meshes (docs/rotation.md): the axes hold where ``core``'s do not (sign-free
-8.8 / 6.5 degrees on the children of KIDS, 4.3 / 4.4 on FAUST), unflagged frames are within
-17 degrees in every input variant, but the vote flips front to back one or two flagged children
-per class and flagged point clouds and holed meshes of FAUST.
+How the ``head`` and ``core`` frames do on real bodies, and when to prefer which:
+docs/rotation.md.
 
 Equivariance holds up to float rounding for inputs whose pre-frame third moments are not zero; an
 exactly mirror-symmetric input leaves the sign of its pre-frame's mirror axis to rounding, and its

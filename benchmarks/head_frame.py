@@ -24,32 +24,23 @@ from benchmarks.consistency import DATASETS, SHARED, class_folder
 
 
 def cues(sol, frame, found):
-    """{cue name: signed offset along ``frame``'s front-back axis} for one solid (world units)."""
-    from jaxpose.rotation import CHEST, CHEST_POWER, JAW
-    from jaxpose.voxels import GRID_SHIFT
+    """{cue name: signed offset along ``frame``'s front-back axis} for one solid (units): the vote's
+    three (:func:`jaxpose.rotation.front_back_cues`) and the others tried."""
+    from jaxpose import rotation
 
-    x, dep = sol.centers(), sol.depth[sol.inside]
-    idx = np.stack(np.nonzero(sol.inside), axis=1)
-    down, side, fb = frame.rotation
-    up = -down
-    neck = found.neck @ sol.frame
-    hc = x[found.head[sol.inside]].mean(axis=0)
-    rel, eps, hd = x - neck, GRID_SHIFT * sol.pitch, found.head_depth
-    saddle = np.rint((found.neck - sol.origin) / sol.pitch - 0.5)
-    chest = (rel @ (hc - neck) / np.linalg.norm(hc - neck) < -eps) & \
-        (np.sum((idx - saddle) ** 2, axis=1) < ((CHEST * hd + eps) / sol.pitch) ** 2)
-    w = dep[chest] ** CHEST_POWER
-    cc = (w @ x[chest]) / w.sum()
-    height, ahead = rel @ up, rel @ fb
-    jaw = (height > eps) & (height < JAW * hd + eps) & (np.abs(rel @ side) < hd + eps)
-    below = (x - cc) @ up < -np.linalg.norm(hc - cc)  # farther from the head than the chest: hips, legs
+    geo = rotation.head_chest(sol, found)
+    fb = frame.rotation[2] @ sol.frame.T  # the frame's front-back axis in grid coordinates
+    x, dep, chest, cc = geo.centers, geo.depth, geo.chest, geo.chest_center
+    beyond = (x - geo.parts.neck) @ geo.up > geo.eps
+    below = (x - cc) @ geo.up < -np.linalg.norm(geo.head_center - cc)  # farther from the head than the chest
+    head, body, jaw = rotation.front_back_cues(geo, fb)
     return {
-        "the head beyond the neck ahead of the chest (vote)": (x[height > eps].mean(axis=0) - cc) @ fb,
-        "the body ahead of the chest (vote)": (x.mean(axis=0) - cc) @ fb,
-        "the jaw ahead of the neck (vote)": np.quantile(ahead[jaw], 0.98) + np.quantile(ahead[jaw], 0.02),
+        "the head beyond the neck ahead of the chest (vote)": head,
+        "the body ahead of the chest (vote)": body,
+        "the jaw ahead of the neck (vote)": jaw,
         "the legs ahead of the chest": (x[below].mean(axis=0) - cc) @ fb if below.any() else 0.0,
         "the chest's deepest voxel ahead of its centroid": (x[chest][np.argmax(dep[chest])] - cc) @ fb,
-        "the head beyond the neck ahead of the neck": (x[height > eps].mean(axis=0) - neck) @ fb,
+        "the head beyond the neck ahead of the neck": (x[beyond].mean(axis=0) - geo.parts.neck) @ fb,
     }
 
 

@@ -69,6 +69,8 @@ grid may then come out mirrored (voxel-level differences).
 """
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from scipy import ndimage
 
@@ -80,7 +82,7 @@ from .voxels import GRID_SHIFT
 
 __all__ = ["Frame", "ROTATIONS", "DEFAULT_ROTATION", "GAP_MIN", "SIGN_MIN", "SYMMETRY_MIN", "FOOT", "FEET_DEPTH",
            "FOOT_MIN", "AXES_POWER", "SYMMETRY_POWER", "CHEST", "CHEST_POWER", "JAW", "pre_frame", "frame_solid",
-           "core_frame", "head_frame", "feet_offset",
+           "core_frame", "HeadChest", "head_chest", "front_back_cues", "head_frame", "feet_offset",
            "symmetry_scores", "ambiguity", "complete_signs", "frame_of", "region_frame", "proper"]
 
 ROTATIONS = ("core", "head", "ocsvm", "pca_vertices", "pca_surface", "inertia")
@@ -266,6 +268,74 @@ def core_frame(sol, power=AXES_POWER, feet=True, cross_check=True) -> Frame:
     return Frame(rot, amb, lam, gaps, conf, k, sym)
 
 
+class HeadChest(NamedTuple):
+    """The geometry of the ``head`` frame on a solid's grid (grid coordinates; :func:`head_chest`).
+
+    Attributes:
+      parts: :class:`jaxpose.parts.Parts` (head, trunk, neck).
+      centers: (n, 3) the kept voxels' centers; depth: (n,) their depths; index: (n, 3) their voxels.
+      chest: (n,) bool, the chest (the solid on the trunk's side of the neck within ``CHEST`` head depths).
+      chest_center: (3,) its depth^``CHEST_POWER``-weighted centroid; cov: (3, 3) its second moment.
+      head_center: (3,) the head blob's centroid.
+      up: (3,) unit, from ``chest_center`` to ``head_center``.
+      front_back: (3,) unit, the thinner of the chest's second moments across ``up`` (sign unset).
+      spread: (2,) the chest's second moments across ``up``: front-back, left-right (units^2).
+      eps: the offset (``GRID_SHIFT`` of a pitch) that keeps planes and spheres off voxel centers.
+    """
+
+    parts: parts.Parts
+    centers: np.ndarray
+    depth: np.ndarray
+    index: np.ndarray
+    chest: np.ndarray
+    chest_center: np.ndarray
+    cov: np.ndarray
+    head_center: np.ndarray
+    up: np.ndarray
+    front_back: np.ndarray
+    spread: np.ndarray
+    eps: float
+
+
+def head_chest(sol, found):
+    """The head, chest and axes of the ``head`` frame (module docs, steps 2-3) on a solid from
+    :func:`frame_solid` and its :func:`jaxpose.parts.find_parts`; None where no chest lies below
+    the neck. Every plane and sphere is moved off the voxel centers by ``GRID_SHIFT`` of a pitch, so
+    that no voxel lies on one (where rounding, not the shape, would decide: lattice-aligned shapes)."""
+    y, d, idx = _grid_centers(sol)
+    hd, neck = found.head_depth, found.neck
+    hc = y[found.head[tuple(idx.T)]].mean(axis=0)
+    eps = GRID_SHIFT * sol.pitch
+    saddle = np.rint((neck - sol.origin) / sol.pitch - 0.5)
+    reach = (CHEST * hd + eps) / sol.pitch
+    toward = (hc - neck) / np.linalg.norm(hc - neck)
+    chest = ((y - neck) @ toward < -eps) & (np.sum((idx - saddle) ** 2, axis=1) < reach ** 2)
+    w = d[chest] ** CHEST_POWER
+    if chest.sum() < 4 or not w.sum() > 0:
+        return None
+    cc = (w @ y[chest]) / w.sum()
+    up = (hc - cc) / np.linalg.norm(hc - cc)
+    z = y[chest] - cc
+    cov = (z * w[:, None]).T @ z / w.sum()
+    across = np.eye(3) - np.outer(up, up)
+    lam, vec = np.linalg.eigh(across @ cov @ across)  # ascending: ~0 along up, front-back, left-right
+    return HeadChest(found, y, d, idx, chest, cc, cov, hc, up, vec[:, 1], lam[1:], eps)
+
+
+def front_back_cues(geo, front_back):
+    """(3,) the vote's offsets along ``front_back`` (module docs, step 5), in units: the whole head
+    beyond the neck ahead of the chest, the body's centroid ahead of the chest, and the jaw's
+    reach ahead of the neck (its 98th plus its 2nd percentile)."""
+    rel = geo.centers - geo.parts.neck
+    height, ahead = rel @ geo.up, rel @ front_back
+    hd, eps = geo.parts.head_depth, geo.eps
+    beyond = height > eps  # the whole head, beyond the neck
+    jaw = beyond & (height < JAW * hd + eps) & (np.abs(rel @ np.cross(front_back, geo.up)) < hd + eps)
+    return np.array([(geo.centers[beyond].mean(axis=0) - geo.chest_center) @ front_back if beyond.any() else 0.0,
+                     (geo.centers.mean(axis=0) - geo.chest_center) @ front_back,
+                     np.quantile(ahead[jaw], 0.98) + np.quantile(ahead[jaw], 0.02) if jaw.any() else 0.0])
+
+
 def head_frame(sol) -> Frame:
     """The ``head`` frame (module docs) of a solid from :func:`frame_solid`.
 
@@ -276,46 +346,20 @@ def head_frame(sol) -> Frame:
       1 (left-right, completed by det). A solid with no neck gets :func:`core_frame`.
     """
     found = parts.find_parts(sol)
-    y, d, idx = _grid_centers(sol)
-    if found is None or len(y) < 4:
+    geo = None if found is None else head_chest(sol, found)
+    if geo is None:  # no neck, or no chest below it: no frame of the head and chest
         return core_frame(sol)
-    hd, neck = found.head_depth, found.neck
-    hc = y[found.head[tuple(idx.T)]].mean(axis=0)
-    rel = y - neck
-    # Every plane and sphere below is moved off the voxel centers by GRID_SHIFT of a pitch, so that
-    # no voxel lies on one (where rounding, not the shape, would decide: lattice-aligned shapes).
-    eps = GRID_SHIFT * sol.pitch
-    saddle = np.rint((neck - sol.origin) / sol.pitch - 0.5)
-    reach = (CHEST * hd + eps) / sol.pitch
-    toward = (hc - neck) / np.linalg.norm(hc - neck)
-    chest = (rel @ toward < -eps) & (np.sum((idx - saddle) ** 2, axis=1) < reach ** 2)
-    w = d[chest] ** CHEST_POWER
-    if chest.sum() < 4 or not w.sum() > 0:  # no chest below the neck: no frame of the head and chest
-        return core_frame(sol)
-    cc = (w @ y[chest]) / w.sum()
-    up = (hc - cc) / np.linalg.norm(hc - cc)
-    z = y[chest] - cc
-    cov = (z * w[:, None]).T @ z / w.sum()
-    across = np.eye(3) - np.outer(up, up)
-    lam, vec = np.linalg.eigh(across @ cov @ across)  # ascending: ~0 along up, front-back, left-right
-    fb = vec[:, 1]
-    side = np.cross(fb, up)
-    height, ahead = rel @ up, rel @ fb
-    beyond = height > eps  # the whole head, beyond the neck
-    jaw = beyond & (height < JAW * hd + eps) & (np.abs(rel @ side) < hd + eps)
-    cues = np.array([(y[beyond].mean(axis=0) - cc) @ fb if beyond.any() else 0.0,  # the head ahead of the chest
-                     (y.mean(axis=0) - cc) @ fb,  # the body (legs, arms) ahead of the chest
-                     np.quantile(ahead[jaw], 0.98) + np.quantile(ahead[jaw], 0.02) if jaw.any() else 0.0])
-    votes = float(np.sign(cues).sum())
-    fb = fb if votes >= 0 else -fb
-    down, fb_w = -up @ sol.frame, fb @ sol.frame  # axis 0 points to the feet, as the core frame's
-    rot = np.stack([down, np.cross(fb_w, down), fb_w])
-    gaps = np.array([(found.constriction - found.runner_up) / found.constriction, (lam[2] - lam[1]) / max(lam[2], 1e-300)])
-    agree = abs(votes) / len(cues)
-    amb = ambiguity(gaps, agree)
-    axes_grid = np.stack([-up, np.cross(fb, -up), fb])
-    moments = np.einsum("ai,ij,aj->a", axes_grid, cov, axes_grid)
-    return Frame(rot, amb, moments, gaps, np.array([gaps[0] / GAP_MIN, 0.0, agree]), 1, np.full(3, np.nan))
+    votes = float(np.sign(front_back_cues(geo, geo.front_back)).sum())
+    fb = geo.front_back if votes >= 0 else -geo.front_back
+    axes = np.stack([-geo.up, np.cross(fb, -geo.up), fb])  # axis 0 points to the feet, as the core frame's
+    down, fb_w = -geo.up @ sol.frame, fb @ sol.frame
+    rot = np.stack([down, np.cross(fb_w, down), fb_w])  # det +1 also where the grid frame is improper
+    gaps = np.array([(found.constriction - found.runner_up) / found.constriction,
+                     (geo.spread[1] - geo.spread[0]) / max(geo.spread[1], 1e-300)])
+    agree = abs(votes) / 3.0
+    moments = np.einsum("ai,ij,aj->a", axes, geo.cov, axes)
+    return Frame(rot, ambiguity(gaps, agree), moments, gaps, np.array([gaps[0] / GAP_MIN, 0.0, agree]), 1,
+                 np.full(3, np.nan))
 
 
 def _undetermined():

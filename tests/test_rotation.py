@@ -22,6 +22,17 @@ def random_rotation(rng):
     return q if np.linalg.det(q) > 0 else -q
 
 
+def legs(feet_x, leg=(0.1, 0.1, 0.9), foot=(0.3, 0.1, 0.08), ys=(-0.15, 0.16)):
+    """Two legs standing on z = -0.9 with feet reaching ``feet_x`` ahead (+x) of them."""
+    out = []
+    for y in ys:
+        shin, sole = trimesh.creation.box(extents=leg), trimesh.creation.box(extents=foot)
+        shin.apply_translation([0.0, y, -0.45])
+        sole.apply_translation([feet_x, y, -0.86])
+        out += [shin, sole]
+    return out
+
+
 def body():
     """A toy person, nearly mirror-symmetric about y: trunk, head, two legs, feet pointing to +x. (An exactly
     symmetric input leaves the sign of its pre-frame's mirror axis to rounding: its grid may come out mirrored.)"""
@@ -30,12 +41,7 @@ def body():
     parts[0].apply_translation([0.0, 0.0, 0.4])
     parts[1].apply_translation([0.0, 0.0, 0.95])
     parts[2].apply_translation([0.2, 0.0, 0.35])  # a belly: the trunk is not symmetric front to back
-    for y in (-0.15, 0.16):
-        leg, foot = trimesh.creation.box(extents=(0.1, 0.1, 0.9)), trimesh.creation.box(extents=(0.3, 0.1, 0.08))
-        leg.apply_translation([0.0, y, -0.45])
-        foot.apply_translation([0.08, y, -0.86])
-        parts += [leg, foot]
-    return trimesh.util.concatenate(parts)
+    return trimesh.util.concatenate(parts + legs(0.08))
 
 
 def person():
@@ -47,12 +53,7 @@ def person():
     parts[0].apply_translation([0.0, 0.0, 0.4])
     parts[1].apply_translation([0.06, 0.0, 0.98])
     parts[2].apply_translation([0.0, 0.0, 0.84])
-    for y in (-0.13, 0.14):
-        leg, foot = trimesh.creation.box(extents=(0.12, 0.12, 0.9)), trimesh.creation.box(extents=(0.36, 0.1, 0.08))
-        leg.apply_translation([0.0, y, -0.45])
-        foot.apply_translation([0.12, y, -0.86])
-        parts += [leg, foot]
-    return trimesh.util.concatenate(parts)
+    return trimesh.util.concatenate(parts + legs(0.12, (0.12, 0.12, 0.9), (0.36, 0.1, 0.08), (-0.13, 0.14)))
 
 
 def moved(m, q, t=(0.3, -2.0, 5.0)):

@@ -1,15 +1,19 @@
 """The ``head`` frame's cues, one by one, on the dev meshes (the study behind its sign rule).
 
-``python -m benchmarks.head_frame [--datasets faust-dev,kids-dev]`` from a source checkout with
-../shared beside it. For every rigid-core aligned plain mesh (:func:`jaxpose.evaluation.align_core`)
-the ``head`` frame (:func:`jaxpose.rotation.head_frame`: head and trunk from
-:func:`jaxpose.parts.find_parts`, up from the chest to the head, left-right and front-back from the
-chest's second moments) and, along its front-back axis, every front-back cue measured: the three
-the frame's vote uses and the others tried. Per class it prints the sign-free angle to the class
-frame, the up axis's angle to the class's mean up, the share flagged and the raw angles of the
-unflagged, the neck's constriction, and per cue how often its sign agrees with the class's
-majority of best sign flips and the raw angles it would give alone. Asserts nothing. Every variant
-of the ``head`` frame beside the other methods: ``python -m benchmarks.rotation``.
+``python -m benchmarks.head_frame [--datasets faust-dev,kids-dev] [--variants plain,...]`` from a
+source checkout with ../shared beside it. For every rigid-core aligned mesh
+(:func:`jaxpose.evaluation.align_core`) of each input variant
+(:data:`jaxpose.evaluation.variants.VARIANTS`) the ``head`` frame
+(:func:`jaxpose.rotation.head_frame`) and, along its front-back axis, every front-back cue measured:
+the two the frame reads (the jaw below the skull's center, the surface's reach), the same jaw read
+with every point counted once (from the lattice points, and from the vertices alone: what a
+registered mesh's finer face adds), the whole head surface's centroid, the three solid cues of the
+former vote (head beyond the neck ahead of the chest, the body ahead of the chest, the solid just
+above the neck reaching forward) and the core frame's front. Per class it prints the sign-free
+angle to the class frame, the up axis's angle to the class's mean up, the share flagged and the raw
+angles of the unflagged, the neck's constriction, and per cue how often its sign agrees with the
+class's majority of best sign flips and the raw angles it would give alone. Asserts nothing.
+Every variant of the ``head`` frame beside the other methods: ``python -m benchmarks.rotation``.
 """
 from __future__ import annotations
 
@@ -22,25 +26,38 @@ import numpy as np
 
 from benchmarks.consistency import DATASETS, SHARED, class_folder
 
+SLAB = 0.5  # the former vote's jaw: the solid up to this many head depths above the neck
 
-def cues(sol, frame, found):
-    """{cue name: signed offset along ``frame``'s front-back axis} for one solid (units): the vote's
-    three (:func:`jaxpose.rotation.front_back_cues`) and the others tried."""
-    from jaxpose import rotation
 
-    geo = rotation.head_chest(sol, found)
+def cues(sol, frame, found, vertices, faces):
+    """{cue name: signed offset along ``frame``'s front-back axis} for one solid (units)."""
+    from jaxpose import rotation, sample
+
+    lattice = sample.lattice_points(vertices, faces, 0.5 * sol.pitch)
+    geo = rotation.head_chest(sol, found, lattice)
     fb = frame.rotation[2] @ sol.frame.T  # the frame's front-back axis in grid coordinates
-    x, dep, chest, cc = geo.centers, geo.depth, geo.chest, geo.chest_center
-    beyond = (x - geo.parts.neck) @ geo.up > geo.eps
-    below = (x - cc) @ geo.up < -np.linalg.norm(geo.head_center - cc)  # farther from the head than the chest
-    head, body, jaw = rotation.front_back_cues(geo, fb)
+    jaw, reach = rotation.front_back_cues(geo, fb)
+
+    def each_once(points):  # the jaw with every point counted once (no cells)
+        every = rotation.head_surface(points @ sol.frame.T, sol, found, geo.up, geo.eps, cell=None)
+        return rotation.front_back_cues(geo._replace(surface=every), fb)[0]
+
+    x, cc, up = geo.centers, geo.chest_center, geo.up
+    rel = x - found.neck
+    height = rel @ up
+    beyond = height > geo.eps  # the whole head, beyond the neck
+    slab = beyond & (height < SLAB * found.head_depth + geo.eps) & (np.abs(rel @ np.cross(fb, up)) < found.head_depth)
     return {
-        "the head beyond the neck ahead of the chest (vote)": head,
-        "the body ahead of the chest (vote)": body,
-        "the jaw ahead of the neck (vote)": jaw,
-        "the legs ahead of the chest": (x[below].mean(axis=0) - cc) @ fb if below.any() else 0.0,
-        "the chest's deepest voxel ahead of its centroid": (x[chest][np.argmax(dep[chest])] - cc) @ fb,
-        "the head beyond the neck ahead of the neck": (x[beyond].mean(axis=0) - geo.parts.neck) @ fb,
+        "the jaw ahead of the skull's center (the sign)": jaw,
+        "the surface's reach, ahead + behind (the check)": reach,
+        "the jaw, each lattice point once (no cells)": each_once(lattice),
+        "the jaw, each vertex once (no cells, no face points)": each_once(vertices),
+        "the whole head surface ahead of the skull's center": ((geo.surface - geo.skull) @ fb).mean(),
+        "the head beyond the neck ahead of the chest (former vote)": (x[beyond].mean(axis=0) - cc) @ fb,
+        "the body ahead of the chest (former vote)": (x.mean(axis=0) - cc) @ fb,
+        "the solid just above the neck reaching forward (former vote)":
+            np.quantile(rel[slab] @ fb, 0.98) + np.quantile(rel[slab] @ fb, 0.02) if slab.any() else 0.0,
+        "the core frame's front": frame.rotation[2] @ rotation.core_frame(sol).rotation[2],
     }
 
 
@@ -51,10 +68,10 @@ def measure(instances):
 
     rows, values, flags, constriction = [], [], [], []
     for m in instances:
-        sol = rotation.frame_solid(*baselines.split_geometry(m))
-        frame, found = rotation.head_frame(sol), parts.find_parts(sol)
-        c = cues(sol, frame, found)
-        c["the core frame's feet"] = frame.rotation[2] @ rotation.core_frame(sol).rotation[2]
+        vertices, faces = baselines.split_geometry(m)
+        sol = rotation.frame_solid(vertices, faces)
+        frame, found = rotation.head_frame(sol, vertices, faces), parts.find_parts(sol)
+        c = cues(sol, frame, found, vertices, faces)
         rows.append(frame.rotation)
         values.append(c)
         flags.append(frame.flag)
@@ -74,12 +91,27 @@ def measure(instances):
     return out
 
 
+def report(title, r, n):
+    """Print one class's figures of :func:`measure` as markdown."""
+    ok = ~r["flagged"]
+    print(f"\n### {title}\n")
+    print(f"raw {r['raw'].mean():.1f} / {r['raw'].max():.1f}, sign-free {r['sign_free'].mean():.1f} / "
+          f"{r['sign_free'].max():.1f}, up axis {r['up'].mean():.1f} / {r['up'].max():.1f} (mean / max "
+          f"degrees); flagged {int(r['flagged'].sum())}/{n}, unflagged raw "
+          + (f"{r['raw'][ok].mean():.1f} / {r['raw'][ok].max():.1f}" if ok.any() else "-")
+          + f"; the neck's birth / death {r['constriction'].min():.2f}-{r['constriction'].max():.2f}")
+    print("\n| front-back cue | agrees | raw mean / max by it alone |\n|---|---|---|")
+    for cue, (agree, raw) in r["cues"].items():
+        print(f"| {cue} | {100 * agree:.0f}% | {raw.mean():.1f} / {raw.max():.1f} |")
+
+
 def main(argv=None):
     from jaxpose import datasets
-    from jaxpose.evaluation import align_core
+    from jaxpose.evaluation import align_core, make_class
 
     p = argparse.ArgumentParser(prog="python -m benchmarks.head_frame")
     p.add_argument("--datasets", default=",".join(DATASETS))
+    p.add_argument("--variants", default="plain", help="comma-separated names of jaxpose.evaluation.VARIANTS")
     args = p.parse_args(argv)
     if not SHARED.is_dir():
         print(f"no {SHARED}: nothing to measure", file=sys.stderr)
@@ -87,18 +119,11 @@ def main(argv=None):
     with tempfile.TemporaryDirectory() as tmp:
         for name in args.datasets.split(","):
             start = time.perf_counter()
-            for cls, meshes in datasets.load_folder(class_folder(name, tmp)).items():
-                r, n = measure(align_core(meshes)), len(meshes)
-                ok = ~r["flagged"]
-                print(f"\n### {name} {cls} ({n} meshes, plain)\n")
-                print(f"raw {r['raw'].mean():.1f} / {r['raw'].max():.1f}, sign-free {r['sign_free'].mean():.1f} / "
-                      f"{r['sign_free'].max():.1f}, up axis {r['up'].mean():.1f} / {r['up'].max():.1f} (mean / max "
-                      f"degrees); flagged {int(r['flagged'].sum())}/{n}, unflagged raw "
-                      + (f"{r['raw'][ok].mean():.1f} / {r['raw'][ok].max():.1f}" if ok.any() else "-")
-                      + f"; the neck's birth / death {r['constriction'].min():.2f}-{r['constriction'].max():.2f}")
-                print("\n| front-back cue | agrees | raw mean / max by it alone |\n|---|---|---|")
-                for cue, (agree, raw) in r["cues"].items():
-                    print(f"| {cue} | {100 * agree:.0f}% | {raw.mean():.1f} / {raw.max():.1f} |")
+            for k, (cls, meshes) in enumerate(datasets.load_folder(class_folder(name, tmp)).items()):
+                aligned = align_core(meshes)
+                for variant in args.variants.split(","):
+                    report(f"{name} {cls} ({len(meshes)} meshes, {variant})",
+                           measure(make_class(aligned, variant, 0, k)), len(meshes))
             print(f"\n({name}: {time.perf_counter() - start:.0f} s)")
     return 0
 

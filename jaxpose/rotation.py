@@ -51,14 +51,25 @@ limbs and waist.
    deep, so the thinner direction is front-back; left-right completes det = +1.
 4. Rows. As the ``core`` frame's for a person: axis 0 from the head toward the feet (-up),
    axis 2 back to front, axis 1 = axis 2 x axis 0 (det +1).
-5. Front-back's sign. A majority vote of three offsets along it, each a habit of human bodies:
-   the whole head beyond the neck lies ahead of the chest-to-head line (face and jaw ahead of the
-   skull's deep core); the body's centroid lies ahead of the chest (legs and arms reach forward:
-   sitting, walking, holding); the jaw, the solid just above the neck (up to ``JAW`` head
-   depths), reaches farther forward than back.
+5. Front-back's sign: the face. The head's surface is the input's points above the neck within
+   ``FACE`` head depths of the head blob's balls (:func:`head_surface`; a mesh's vertices and
+   points on its faces every half pitch), pooled in cells of ``CELL`` pitches, each cell that
+   holds points one point at their mean: area at that scale, not the sampling density. The
+   skull's center is the head blob's depth^2-weighted centroid. The neck holds the skull from
+   behind and below, and the face hangs in front of it: the head's surface below the skull's
+   center (jaw, mouth, chin) lies ahead of that center. Axis 2 points to where that surface's
+   centroid lies (:func:`front_back_cues`). A pose cannot turn this around; the neck's
+   bend only tilts it. A second reading checks it: the surface reaches farther ahead of the
+   center than behind it (its 98th plus its 2nd percentile along the axis). Where the two
+   disagree, what was found may not be a head (a hand on it, holes in it): the frame is the
+   ``core`` frame, flagged (ambiguity 1).
 6. Ambiguity (the formula of :func:`jaxpose.orientation.ambiguity`): the neck's distinctness
    (constriction - runner-up) / constriction and the chest's gap across up, each against
-   ``GAP_MIN``, and the vote, which clears only when unanimous (2 of 3: ambiguity 2/3).
+   ``GAP_MIN``, and the jaw's offset in head depths against ``FACE_MIN``.
+
+The cells make the sign a property of the shape: with each vertex counted once instead,
+a registered mesh, meshed finer on the face than on the skull, reads a stronger cue that a
+uniformly sampled scan would not give (docs/rotation.md).
 
 How the ``head`` and ``core`` frames do on real bodies, and when to prefer which:
 docs/rotation.md.
@@ -81,9 +92,10 @@ from .orientation import (GAP_MIN, SIGN_MIN, SYMMETRY_MIN, Frame, ambiguity, com
 from .voxels import GRID_SHIFT
 
 __all__ = ["Frame", "ROTATIONS", "DEFAULT_ROTATION", "GAP_MIN", "SIGN_MIN", "SYMMETRY_MIN", "FOOT", "FEET_DEPTH",
-           "FOOT_MIN", "AXES_POWER", "SYMMETRY_POWER", "CHEST", "CHEST_POWER", "JAW", "pre_frame", "frame_solid",
-           "core_frame", "HeadChest", "head_chest", "front_back_cues", "head_frame", "feet_offset",
-           "symmetry_scores", "ambiguity", "complete_signs", "frame_of", "region_frame", "proper"]
+           "FOOT_MIN", "AXES_POWER", "SYMMETRY_POWER", "CHEST", "CHEST_POWER", "FACE", "CELL", "FACE_MIN",
+           "pre_frame", "frame_solid", "core_frame", "HeadChest", "head_chest", "head_surface", "front_back_cues",
+           "head_frame", "feet_offset", "symmetry_scores", "ambiguity", "complete_signs", "frame_of", "region_frame",
+           "proper"]
 
 ROTATIONS = ("core", "head", "ocsvm", "pca_vertices", "pca_surface", "inertia")
 DEFAULT_ROTATION = "head"  # rotation=True: the head frame, the core frame where no neck is found
@@ -93,7 +105,9 @@ FOOT_MIN = 0.01  # feet offset (in lengths) below which it is called undetermine
 AXES_POWER = 4.0  # depth exponent of the axes' weights
 CHEST = 2.0  # head: the chest is the solid on the trunk's side of the neck within this many head depths of it
 CHEST_POWER = 2.0  # head: depth exponent of the chest's weights
-JAW = 0.5  # head: the jaw is the solid on the head's side of the neck up to this many head depths above it
+FACE = 0.5  # head: its surface is the input's points within this many head depths of the head blob's balls
+CELL = 0.5  # head: the head's surface is read in cells of this many pitches, each holding points counted once
+FACE_MIN = 0.1  # head: the jaw's offset (head depths) below which front-back is called undetermined
 SYMMETRY_POWER = 2.0  # depth exponent of the mirror test's weights
 
 
@@ -280,6 +294,8 @@ class HeadChest(NamedTuple):
       up: (3,) unit, from ``chest_center`` to ``head_center``.
       front_back: (3,) unit, the thinner of the chest's second moments across ``up`` (sign unset).
       spread: (2,) the chest's second moments across ``up``: front-back, left-right (units^2).
+      skull: (3,) the head blob's depth^2-weighted centroid (the center of the skull).
+      surface: (k, 3) the head's surface, one point per cell holding input points (:func:`head_surface`).
       eps: the offset (``GRID_SHIFT`` of a pitch) that keeps planes and spheres off voxel centers.
     """
 
@@ -294,17 +310,58 @@ class HeadChest(NamedTuple):
     up: np.ndarray
     front_back: np.ndarray
     spread: np.ndarray
+    skull: np.ndarray
+    surface: np.ndarray
     eps: float
 
 
-def head_chest(sol, found):
-    """The head, chest and axes of the ``head`` frame (module docs, steps 2-3) on a solid from
-    :func:`frame_solid` and its :func:`jaxpose.parts.find_parts`; None where no chest lies below
-    the neck. Every plane and sphere is moved off the voxel centers by ``GRID_SHIFT`` of a pitch, so
-    that no voxel lies on one (where rounding, not the shape, would decide: lattice-aligned shapes)."""
+def head_surface(points, sol, found, up, eps, cell=CELL):
+    """The head's surface as points (module docs, step 5): each cell that holds input points, once.
+
+    A point belongs to the head when it lies above the plane through the neck across ``up`` and
+    within ``FACE`` head depths of one of the head blob's balls (the ball about each voxel of
+    ``found.head`` with that voxel's depth as radius: the blob grown back to the head's surface).
+    The points are first pooled in cells of ``cell`` pitches, each cell one point at their mean:
+    the result measures surface area at that scale, whatever the input's sampling density (a
+    registered mesh's face is meshed finer than its skull).
+
+    Args:
+      points: (m, 3) the input's points (a mesh's vertices) in the solid's grid coordinates.
+      sol: the solid; found: its :class:`jaxpose.parts.Parts`; up: (3,) unit; eps: plane offset.
+      cell: the cells' edge in pitches; None keeps every point (each counted once).
+
+    Returns:
+      (k, 3) grid coordinates (k = 0 where no point is on the head).
+    """
+    y, d, idx = _grid_centers(sol)
+    blob = found.head[tuple(idx.T)]
+    balls, radii = y[blob], d[blob]
+    reach = FACE * found.head_depth + eps
+    center = balls.mean(axis=0)
+    bound = np.max(np.linalg.norm(balls - center, axis=1) + radii) + reach
+    p = points[(np.linalg.norm(points - center, axis=1) < bound) & ((points - found.neck) @ up > eps)]
+    if cell is not None and len(p):
+        key = np.floor((p - sol.origin) / (cell * sol.pitch) + GRID_SHIFT).astype(np.int64)
+        key -= key.min(axis=0)
+        span = key.max(axis=0) + 1
+        _, inverse, counts = np.unique((key[:, 0] * span[1] + key[:, 1]) * span[2] + key[:, 2],
+                                       return_inverse=True, return_counts=True)
+        p = np.stack([np.bincount(inverse, weights=p[:, j]) for j in range(3)], axis=1) / counts[:, None]
+    q, b = p - center, balls - center  # |q - b| < radius + reach, as one matrix product
+    near = np.sum(q * q, axis=1)[:, None] - 2.0 * q @ b.T + np.sum(b * b, axis=1)[None] < ((radii + reach) ** 2)[None]
+    return p[near.any(axis=1)]
+
+
+def head_chest(sol, found, points):
+    """The head, chest, axes and head surface of the ``head`` frame (module docs, steps 2-5) on a
+    solid from :func:`frame_solid`, its :func:`jaxpose.parts.find_parts` and the input's (m, 3)
+    points (world coordinates); None where no chest lies below the neck. Every plane and sphere is
+    moved off the voxel centers by ``GRID_SHIFT`` of a pitch, so that no voxel lies on one (where
+    rounding, not the shape, would decide: lattice-aligned shapes)."""
     y, d, idx = _grid_centers(sol)
     hd, neck = found.head_depth, found.neck
-    hc = y[found.head[tuple(idx.T)]].mean(axis=0)
+    blob = found.head[tuple(idx.T)]
+    hc = y[blob].mean(axis=0)
     eps = GRID_SHIFT * sol.pitch
     saddle = np.rint((neck - sol.origin) / sol.pitch - 0.5)
     reach = (CHEST * hd + eps) / sol.pitch
@@ -319,46 +376,65 @@ def head_chest(sol, found):
     cov = (z * w[:, None]).T @ z / w.sum()
     across = np.eye(3) - np.outer(up, up)
     lam, vec = np.linalg.eigh(across @ cov @ across)  # ascending: ~0 along up, front-back, left-right
-    return HeadChest(found, y, d, idx, chest, cc, cov, hc, up, vec[:, 1], lam[1:], eps)
+    ws = d[blob] ** 2
+    skull = (ws @ y[blob]) / ws.sum()
+    surface = head_surface(np.asarray(points, np.float64) @ sol.frame.T, sol, found, up, eps)
+    return HeadChest(found, y, d, idx, chest, cc, cov, hc, up, vec[:, 1], lam[1:], skull, surface, eps)
 
 
 def front_back_cues(geo, front_back):
-    """(3,) the vote's offsets along ``front_back`` (module docs, step 5), in units: the whole head
-    beyond the neck ahead of the chest, the body's centroid ahead of the chest, and the jaw's
-    reach ahead of the neck (its 98th plus its 2nd percentile)."""
-    rel = geo.centers - geo.parts.neck
-    height, ahead = rel @ geo.up, rel @ front_back
-    hd, eps = geo.parts.head_depth, geo.eps
-    beyond = height > eps  # the whole head, beyond the neck
-    jaw = beyond & (height < JAW * hd + eps) & (np.abs(rel @ np.cross(front_back, geo.up)) < hd + eps)
-    return np.array([(geo.centers[beyond].mean(axis=0) - geo.chest_center) @ front_back if beyond.any() else 0.0,
-                     (geo.centers.mean(axis=0) - geo.chest_center) @ front_back,
-                     np.quantile(ahead[jaw], 0.98) + np.quantile(ahead[jaw], 0.02) if jaw.any() else 0.0])
+    """(2,) the face's offsets along ``front_back`` (module docs, step 5), in units: the centroid
+    of the head's surface below the skull's center (jaw, mouth, chin) ahead of that center, and
+    the whole surface's reach ahead of the center plus its reach behind it (its 98th plus its 2nd
+    percentile: nose and chin against the back of the skull); 0 where the head has no surface
+    points (below its center)."""
+    if not len(geo.surface):
+        return np.zeros(2)
+    rel = geo.surface - geo.skull
+    z, low = rel @ front_back, rel @ geo.up < 0
+    return np.array([z[low].mean() if low.any() else 0.0, np.quantile(z, 0.02) + np.quantile(z, 0.98)])
 
 
-def head_frame(sol) -> Frame:
-    """The ``head`` frame (module docs) of a solid from :func:`frame_solid`.
+def head_frame(sol, vertices, faces=None) -> Frame:
+    """The ``head`` frame (module docs) of a solid from :func:`frame_solid` and its input.
+
+    Args:
+      sol: the solid of :func:`frame_solid` of the input.
+      vertices: (n, 3) the input's vertices (a point cloud's points), world coordinates.
+      faces: (f, 3) int, a mesh's faces (None for a point cloud): the head's surface is read from
+        the vertices and from points on the faces every half pitch
+        (:func:`jaxpose.sample.lattice_points`).
 
     Returns:
       :class:`Frame`: ``eigenvalues`` the chest's second moments along the final axes (units^2);
       ``gaps`` the neck's distinctness (constriction - runner-up) / constriction and the chest's
-      relative gap across ``up``; ``margins`` (neck gap / GAP_MIN, 0, agreeing cues / 3); ``mirror``
-      1 (left-right, completed by det). A solid with no neck gets :func:`core_frame`.
+      relative gap across ``up``; ``margins`` (neck gap / GAP_MIN, 0, the jaw's offset in head
+      depths / FACE_MIN); ``mirror`` 1 (left-right, completed by det). A solid with no neck gets
+      :func:`core_frame`; one whose face's two readings disagree gets :func:`core_frame` flagged
+      (ambiguity 1).
+
+    Example:
+      >>> v, f = baselines.split_geometry(person)                     # doctest: +SKIP
+      >>> head_frame(frame_solid(v, f), v, f).rotation[2]  # back to front, world coordinates  # doctest: +SKIP
     """
     found = parts.find_parts(sol)
-    geo = None if found is None else head_chest(sol, found)
+    points = sample.lattice_points(vertices, faces, 0.5 * sol.pitch)
+    geo = None if found is None else head_chest(sol, found, points)
     if geo is None:  # no neck, or no chest below it: no frame of the head and chest
         return core_frame(sol)
-    votes = float(np.sign(front_back_cues(geo, geo.front_back)).sum())
-    fb = geo.front_back if votes >= 0 else -geo.front_back
+    jaw, reach = front_back_cues(geo, geo.front_back)
+    if jaw * reach <= 0:  # the face's readings disagree (what was found may not be a head): the core frame
+        core = core_frame(sol)
+        return core._replace(ambiguity=1.0)
+    fb = geo.front_back if jaw > 0 else -geo.front_back
     axes = np.stack([-geo.up, np.cross(fb, -geo.up), fb])  # axis 0 points to the feet, as the core frame's
     down, fb_w = -geo.up @ sol.frame, fb @ sol.frame
     rot = np.stack([down, np.cross(fb_w, down), fb_w])  # det +1 also where the grid frame is improper
     gaps = np.array([(found.constriction - found.runner_up) / found.constriction,
                      (geo.spread[1] - geo.spread[0]) / max(geo.spread[1], 1e-300)])
-    agree = abs(votes) / 3.0
+    sign = abs(jaw) / found.head_depth / FACE_MIN
     moments = np.einsum("ai,ij,aj->a", axes, geo.cov, axes)
-    return Frame(rot, ambiguity(gaps, agree), moments, gaps, np.array([gaps[0] / GAP_MIN, 0.0, agree]), 1,
+    return Frame(rot, ambiguity(gaps, sign), moments, gaps, np.array([gaps[0] / GAP_MIN, 0.0, sign]), 1,
                  np.full(3, np.nan))
 
 
@@ -392,7 +468,9 @@ def frame_of(geometry, method=DEFAULT_ROTATION, *, resolution=None, sol=None, oc
         if not sol.inside.any():
             raise JaxposeError(f"the shape encloses no volume: the {method} frame is undefined; "
                                "use rotation='pca_surface' or 'ocsvm'")
-        return core_frame(sol) if method == "core" else head_frame(sol)
+        if method == "core":
+            return core_frame(sol)
+        return head_frame(sol, *baselines.split_geometry(geometry))
     if method == "ocsvm":
         from .pose import normalize  # JAX only when asked for
 

@@ -7,10 +7,11 @@ import pytest
 import trimesh
 
 import jaxpose
-from jaxpose import baselines, cli, mesh, rotation
+from jaxpose import baselines, cli, mesh, parts, rotation, sample
 from jaxpose.evaluation import evaluate_rotation, format_rotation_table
 from jaxpose.evaluation.rotation import angle, chordal_mean, sign_free_angles
 from jaxpose.pose import Pose
+from jaxpose.voxels import GRID_SHIFT
 from conftest import box_surface, clusters
 
 RAD = np.pi / 180.0
@@ -36,24 +37,33 @@ def legs(feet_x, leg=(0.1, 0.1, 0.9), foot=(0.3, 0.1, 0.08), ys=(-0.15, 0.16)):
 def body():
     """A toy person, nearly mirror-symmetric about y: trunk, head, two legs, feet pointing to +x. (An exactly
     symmetric input leaves the sign of its pre-frame's mirror axis to rounding: its grid may come out mirrored.)"""
-    parts = [trimesh.creation.box(extents=(0.35, 0.6, 0.8)), trimesh.creation.icosphere(subdivisions=2, radius=0.15),
+    pieces = [trimesh.creation.box(extents=(0.35, 0.6, 0.8)), trimesh.creation.icosphere(subdivisions=2, radius=0.15),
              trimesh.creation.box(extents=(0.2, 0.4, 0.4))]
-    parts[0].apply_translation([0.0, 0.0, 0.4])
-    parts[1].apply_translation([0.0, 0.0, 0.95])
-    parts[2].apply_translation([0.2, 0.0, 0.35])  # a belly: the trunk is not symmetric front to back
-    return trimesh.util.concatenate(parts + legs(0.08))
+    pieces[0].apply_translation([0.0, 0.0, 0.4])
+    pieces[1].apply_translation([0.0, 0.0, 0.95])
+    pieces[2].apply_translation([0.2, 0.0, 0.35])  # a belly: the trunk is not symmetric front to back
+    return trimesh.util.concatenate(pieces + legs(0.08))
 
 
-def person():
+def person(jaw=True, dense_back=False):
     """A toy person with a head (radius 0.13) on a neck (radius 0.05) over a trunk (0.3 deep, 0.5
-    wide), the head 0.06 and the feet 0.12 ahead (+x): the head frame's up is +z tilted toward +x
-    (the head is ahead of the chest), its front-back +x, its cues unanimous."""
-    parts = [trimesh.creation.box(extents=(0.3, 0.5, 0.8)), trimesh.creation.icosphere(subdivisions=3, radius=0.13),
-             trimesh.creation.cylinder(radius=0.05, height=0.12)]
-    parts[0].apply_translation([0.0, 0.0, 0.4])
-    parts[1].apply_translation([0.06, 0.0, 0.98])
-    parts[2].apply_translation([0.0, 0.0, 0.84])
-    return trimesh.util.concatenate(parts + legs(0.12, (0.12, 0.12, 0.9), (0.36, 0.1, 0.08), (-0.13, 0.14)))
+    wide), the head 0.06 and the feet 0.12 ahead (+x), and a jaw: a box at the head's front and
+    bottom. The head frame's up is +z tilted toward +x (the head is ahead of the chest), its front
+    +x. ``dense_back``: the back half of the head's sphere subdivided 3 times (64 times the
+    vertices behind the face)."""
+    head = trimesh.creation.icosphere(subdivisions=3, radius=0.13)
+    for _ in range(3 if dense_back else 0):
+        back = np.nonzero(head.triangles_center[:, 0] < 0)[0]
+        v, f = trimesh.remesh.subdivide(head.vertices, head.faces, face_index=back)
+        head = trimesh.Trimesh(v, f, process=False)
+    pieces = [trimesh.creation.box(extents=(0.3, 0.5, 0.8)), head, trimesh.creation.cylinder(radius=0.05, height=0.12)]
+    pieces[0].apply_translation([0.0, 0.0, 0.4])
+    pieces[1].apply_translation([0.06, 0.0, 0.98])
+    pieces[2].apply_translation([0.0, 0.0, 0.84])
+    if jaw:
+        pieces.append(trimesh.creation.box(extents=(0.1, 0.14, 0.08)))
+        pieces[-1].apply_translation([0.15, 0.0, 0.92])
+    return trimesh.util.concatenate(pieces + legs(0.12, (0.12, 0.12, 0.9), (0.36, 0.1, 0.08), (-0.13, 0.14)))
 
 
 def moved(m, q, t=(0.3, -2.0, 5.0)):
@@ -83,22 +93,47 @@ def test_core_frame_is_proper_determined_and_equivariant(body_frame):
 @pytest.mark.parametrize("resolution", [40, 56])
 def test_head_frame_finds_the_head_and_is_equivariant(resolution):
     """The head frame of the toy person: axis 0 toward the feet (within 20 degrees of -z: the
-    chest-to-head line leans forward), axis 2 (back to front) +x, unflagged (its neck is a cylinder, a plateau of the depth, so
-    where the saddle falls, and with it the jaw cue, depends on the grid: at 64 voxels the cues split
-    and the frame is flagged); rotating or flipping the input turns the frame with it (to 1e-4 rad),
-    with the same ambiguity."""
+    chest-to-head line leans forward), axis 2 (back to front) +x, the side of the jaw, unflagged;
+    rotating or flipping the input turns the frame with it (to 1e-4 rad), with the same ambiguity."""
     m = person()
     base = rotation.frame_of(m, "head", resolution=resolution)
     r = base.rotation
     np.testing.assert_allclose(r @ r.T, np.eye(3), atol=1e-12)
     assert np.linalg.det(r) == pytest.approx(1.0) and not base.flag and base.mirror == 1
     assert -r[0, 2] > np.cos(20 * RAD) and r[2, 0] > np.cos(20 * RAD) and r[0, 0] < 0
-    assert base.gaps[0] > rotation.GAP_MIN and base.margins[2] == 1.0
+    assert base.gaps[0] > rotation.GAP_MIN and base.margins[2] > 1.0
     rng = np.random.default_rng(1)
     for q in [random_rotation(rng) for _ in range(2)] + [np.diag([1.0, -1.0, -1.0]), np.diag([-1.0, 1.0, -1.0])]:
         got = rotation.frame_of(moved(m, q), "head", resolution=resolution)
         assert angle(got.rotation, r @ q.T) * RAD < 1e-4
         assert got.ambiguity == pytest.approx(base.ambiguity, abs=1e-9)
+
+
+def test_the_face_is_read_from_area_not_from_vertex_density():
+    """64 times more vertices on the back of the head leave the frame as it is (the head's points
+    are pooled per cell of half a pitch, and the jaw's box, 8 vertices, is read from points on
+    its faces); counting each point once instead turns the jaw's reading backward."""
+    plain, dense = person(), person(dense_back=True)
+    assert len(dense.vertices) > 20 * len(plain.vertices)
+    a, b = (rotation.frame_of(m, "head", resolution=40) for m in (plain, dense))
+    assert not b.flag and angle(a.rotation, b.rotation) < 1.0 and b.rotation[2, 0] > np.cos(20 * RAD)
+    v, f = baselines.split_geometry(dense)
+    sol = rotation.frame_solid(v, f, 40)
+    found, grid = parts.find_parts(sol), sample.lattice_points(v, f, 0.5 * sol.pitch) @ sol.frame.T
+    geo = rotation.head_chest(sol, found, grid @ sol.frame)
+    front = b.rotation[2] @ sol.frame.T  # grid coordinates
+    assert np.all(rotation.front_back_cues(geo, front) > 0)
+    cells = np.floor((geo.surface - sol.origin) / (rotation.CELL * sol.pitch) + GRID_SHIFT)
+    assert len(np.unique(cells, axis=0)) == len(geo.surface)  # one point per cell
+    every = rotation.head_surface(grid, sol, found, geo.up, geo.eps, cell=None)
+    assert len(every) > 3 * len(geo.surface)
+    assert rotation.front_back_cues(geo._replace(surface=every), front)[0] < 0
+
+
+def test_a_head_without_a_face_is_flagged():
+    """A ball for a head: nothing tells front from back, and the frame says so."""
+    for resolution in (40, 56):
+        assert rotation.frame_of(person(jaw=False), "head", resolution=resolution).flag
 
 
 def test_head_frame_without_a_head_is_the_core_frame(body_frame):

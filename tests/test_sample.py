@@ -1,4 +1,5 @@
-"""Surface samples: deterministic per seed, exact counts, on the surface, stratified or area-weighted."""
+"""Surface samples: deterministic per seed, exact counts, on the surface, stratified or area-weighted;
+lattice points."""
 import numpy as np
 import pytest
 import trimesh
@@ -79,3 +80,21 @@ def test_point_cloud_sampling():
 def test_sample_surface_validation(kwargs, message):
     with pytest.raises(InvalidInputError, match=message):
         sample.sample_surface(lumpy(), **kwargs)
+
+
+def test_lattice_points_cover_the_faces_and_move_with_the_mesh():
+    """Every point of a box's surface lies within the spacing of a lattice point (the lattice's
+    cells are triangles of edge <= spacing); a moved box gives the same points, moved; small faces
+    add nothing."""
+    from scipy.spatial import cKDTree
+
+    box = trimesh.creation.box(extents=(1.0, 2.0, 0.5))
+    points = sample.lattice_points(box.vertices, box.faces, 0.3)
+    np.testing.assert_array_equal(points[:8], box.vertices)
+    probe = sample.sample_surface(box, 5000, seed=0, method="random")
+    assert cKDTree(points).query(probe)[0].max() <= 0.3
+    q, _ = np.linalg.qr(np.random.default_rng(0).normal(size=(3, 3)))
+    moved = sample.lattice_points(box.vertices @ q.T + 1.0, box.faces, 0.3)
+    np.testing.assert_allclose(moved, points @ q.T + 1.0, atol=1e-12)
+    np.testing.assert_array_equal(sample.lattice_points(box.vertices, box.faces, 10.0), box.vertices)
+    np.testing.assert_array_equal(sample.lattice_points(box.vertices, None, 0.3), box.vertices)

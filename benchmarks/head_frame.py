@@ -33,7 +33,7 @@ def cues(sol, frame, found, vertices, faces):
     """{cue name: signed offset along ``frame``'s front-back axis} for one solid (units)."""
     from jaxpose import rotation, sample
 
-    lattice = sample.lattice_points(vertices, faces, 0.5 * sol.pitch)
+    lattice = sample.lattice_points(vertices, faces, rotation.CELL * sol.pitch)
     geo = rotation.head_chest(sol, found, lattice)
     fb = frame.rotation[2] @ sol.frame.T  # the frame's front-back axis in grid coordinates
     jaw, reach = rotation.front_back_cues(geo, fb)

@@ -53,7 +53,7 @@ limbs and waist.
    axis 2 back to front, axis 1 = axis 2 x axis 0 (det +1).
 5. Front-back's sign: the face. The head's surface is the input's points above the neck within
    ``FACE`` head depths of the head blob's balls (:func:`head_surface`; a mesh's vertices and
-   points on its faces every half pitch), pooled in cells of ``CELL`` pitches, each cell that
+   points on its faces every ``CELL`` pitches), pooled in cells of ``CELL`` pitches, each cell that
    holds points one point at their mean: area at that scale, not the sampling density. The
    skull's center is the head blob's depth^2-weighted centroid. The neck holds the skull from
    behind and below, and the face hangs in front of it: the head's surface below the skull's
@@ -402,7 +402,7 @@ def head_frame(sol, vertices, faces=None) -> Frame:
       sol: the solid of :func:`frame_solid` of the input.
       vertices: (n, 3) the input's vertices (a point cloud's points), world coordinates.
       faces: (f, 3) int, a mesh's faces (None for a point cloud): the head's surface is read from
-        the vertices and from points on the faces every half pitch
+        the vertices and from points on the faces every ``CELL`` pitches
         (:func:`jaxpose.sample.lattice_points`).
 
     Returns:
@@ -418,14 +418,12 @@ def head_frame(sol, vertices, faces=None) -> Frame:
       >>> head_frame(frame_solid(v, f), v, f).rotation[2]  # back to front, world coordinates  # doctest: +SKIP
     """
     found = parts.find_parts(sol)
-    points = sample.lattice_points(vertices, faces, 0.5 * sol.pitch)
-    geo = None if found is None else head_chest(sol, found, points)
+    geo = None if found is None else head_chest(sol, found, sample.lattice_points(vertices, faces, CELL * sol.pitch))
     if geo is None:  # no neck, or no chest below it: no frame of the head and chest
         return core_frame(sol)
     jaw, reach = front_back_cues(geo, geo.front_back)
     if jaw * reach <= 0:  # the face's readings disagree (what was found may not be a head): the core frame
-        core = core_frame(sol)
-        return core._replace(ambiguity=1.0)
+        return core_frame(sol)._replace(ambiguity=1.0)
     fb = geo.front_back if jaw > 0 else -geo.front_back
     axes = np.stack([-geo.up, np.cross(fb, -geo.up), fb])  # axis 0 points to the feet, as the core frame's
     down, fb_w = -geo.up @ sol.frame, fb @ sol.frame

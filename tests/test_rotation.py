@@ -119,7 +119,7 @@ def test_the_face_is_read_from_area_not_from_vertex_density():
     assert not b.flag and angle(a.rotation, b.rotation) < 1.0 and b.rotation[2, 0] > np.cos(20 * RAD)
     v, f = baselines.split_geometry(dense)
     sol = rotation.frame_solid(v, f, 40)
-    found, grid = parts.find_parts(sol), sample.lattice_points(v, f, 0.5 * sol.pitch) @ sol.frame.T
+    found, grid = parts.find_parts(sol), sample.lattice_points(v, f, rotation.CELL * sol.pitch) @ sol.frame.T
     geo = rotation.head_chest(sol, found, grid @ sol.frame)
     front = b.rotation[2] @ sol.frame.T  # grid coordinates
     assert np.all(rotation.front_back_cues(geo, front) > 0)

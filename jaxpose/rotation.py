@@ -333,9 +333,8 @@ def head_surface(points, sol, found, up, eps, cell=CELL):
     Returns:
       (k, 3) grid coordinates (k = 0 where no point is on the head).
     """
-    y, d, idx = _grid_centers(sol)
-    blob = found.head[tuple(idx.T)]
-    balls, radii = y[blob], d[blob]
+    balls = sol.origin + sol.pitch * (np.argwhere(found.head) + 0.5)  # the head blob's voxel centers
+    radii = sol.depth[found.head]
     reach = FACE * found.head_depth + eps
     center = balls.mean(axis=0)
     bound = np.max(np.linalg.norm(balls - center, axis=1) + radii) + reach
@@ -460,15 +459,14 @@ def frame_of(geometry, method=DEFAULT_ROTATION, *, resolution=None, sol=None, oc
     if method not in ROTATIONS:
         raise InvalidInputError(f"unknown rotation {method!r}; valid: {', '.join(ROTATIONS)}")
     if method in ("core", "head"):
-        if sol is None:
+        if sol is None or method == "head":
             vertices, faces = baselines.split_geometry(geometry)
+        if sol is None:
             sol = frame_solid(vertices, faces, resolution)
         if not sol.inside.any():
             raise JaxposeError(f"the shape encloses no volume: the {method} frame is undefined; "
                                "use rotation='pca_surface' or 'ocsvm'")
-        if method == "core":
-            return core_frame(sol)
-        return head_frame(sol, *baselines.split_geometry(geometry))
+        return core_frame(sol) if method == "core" else head_frame(sol, vertices, faces)
     if method == "ocsvm":
         from .pose import normalize  # JAX only when asked for
 

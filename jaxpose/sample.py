@@ -65,7 +65,7 @@ def lattice_points(vertices, faces, spacing):
 
     Args:
       vertices: (n, 3) float; faces: (f, 3) int (None or empty: the vertices alone).
-      spacing: > 0, in the vertices' units.
+      spacing: > 0, in the vertices' units (else :class:`InvalidInputError`).
 
     Returns:
       (m, 3) float64, the vertices first.
@@ -75,6 +75,8 @@ def lattice_points(vertices, faces, spacing):
         box = trimesh.creation.box()                  # 8 vertices, 12 faces, edges 1 and sqrt(2)
         lattice_points(box.vertices, box.faces, 0.5)  # (8 + 12 * 7, 3): n = 3 on every face
     """
+    if not float(spacing) > 0:
+        raise InvalidInputError(f"spacing must be > 0, got {spacing!r}")
     v = np.asarray(vertices, np.float64)
     if faces is None or not len(faces):
         return v.copy()

@@ -98,3 +98,10 @@ def test_lattice_points_cover_the_faces_and_move_with_the_mesh():
     np.testing.assert_allclose(moved, points @ q.T + 1.0, atol=1e-12)
     np.testing.assert_array_equal(sample.lattice_points(box.vertices, box.faces, 10.0), box.vertices)
     np.testing.assert_array_equal(sample.lattice_points(box.vertices, None, 0.3), box.vertices)
+
+
+@pytest.mark.parametrize("spacing", [0.0, -1.0, float("nan")])
+def test_lattice_points_refuse_a_spacing_that_is_not_positive(spacing):
+    box = trimesh.creation.box()
+    with pytest.raises(InvalidInputError, match="spacing"):
+        sample.lattice_points(box.vertices, box.faces, spacing)

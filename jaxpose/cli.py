@@ -50,6 +50,8 @@ def _add_evaluate(sub):
     p.add_argument("--rotation", nargs="?", const="all", default=None, metavar="METHODS",
                    help="measure canonical frames instead: angle to each class's mean frame per rotation "
                         "method (comma-separated, default all: core,head,ocsvm,pca_vertices,pca_surface,inertia)")
+    p.add_argument("--per-class", action="store_true",
+                   help="also print a table per class, every method side by side (an average can hide a class that loses)")
     p.add_argument("--json", help="write the full result as JSON here")
     p.add_argument("--plots", help="write figures into this folder")
     p.add_argument("--force", action="store_true", help="overwrite an existing --json file")
@@ -168,6 +170,8 @@ def _cmd_evaluate(args):
             variants=variants,
         )
     print(evaluation.format_table(result))
+    if args.per_class:
+        print(evaluation.format_per_class(result))
     return _write_result(args, result, "evaluation_figures")
 
 
@@ -180,6 +184,8 @@ def _evaluate_rotation(args, classes, variants):
                                               seed=args.seed, progress=progress, frames=True,
                                               ocsvm={"gamma": args.gamma, "nu": args.nu, "count": args.count})
     print(evaluation.format_rotation_table(result))
+    if args.per_class:
+        print(evaluation.format_rotation_per_class(result))
     return _write_result(args, result, "rotation_figures")
 
 

@@ -187,6 +187,7 @@ def fake_evaluation(monkeypatch):
 
     monkeypatch.setattr(evaluation, "evaluate", evaluate)
     monkeypatch.setattr(evaluation, "format_table", lambda result: "TABLE")
+    monkeypatch.setattr(evaluation, "format_per_class", lambda result: "PER CLASS")
     monkeypatch.setattr(datasets, "make_dataset", lambda seed=0: {"made": seed})
     monkeypatch.setattr(datasets, "load_folder", lambda path: {"folder": str(path)})
     return calls
@@ -197,7 +198,7 @@ def test_evaluate_wiring(tmp_path, capsys, fake_evaluation):
     code = cli.main(["evaluate", "--gamma", "30", "--nu", "0.2", "--seed", "3", "--align-core", "--json", str(out)])
     assert code == 0
     captured = capsys.readouterr()
-    assert "TABLE" in captured.out
+    assert "TABLE" in captured.out and "PER CLASS" not in captured.out
     assert fake_evaluation["classes"] == {"made": 3}
     kwargs = fake_evaluation["kwargs"]
     assert (kwargs["gamma"], kwargs["nu"], kwargs["seed"], kwargs["align_core"], kwargs["sweep"]) == (
@@ -211,6 +212,8 @@ def test_evaluate_wiring(tmp_path, capsys, fake_evaluation):
     assert fake_evaluation["kwargs"]["variants"] == ["plain", "holes"]
     assert fake_evaluation["kwargs"]["methods"] == ["robust", "depth_weighted_solid:4"]
     assert fake_evaluation["kwargs"]["sweep"] is True
+    assert cli.main(["evaluate", "--per-class"]) == 0
+    assert "TABLE" in (printed := capsys.readouterr().out) and "PER CLASS" in printed
 
 
 def test_evaluate_plots(tmp_path, capsys, fake_evaluation, monkeypatch):

@@ -11,7 +11,7 @@ import jaxpose
 import jaxpose.pose  # the module the fixtures patch (not imported by "import jaxpose" alone)
 from jaxpose import evaluation
 from jaxpose._validate import InvalidInputError
-from jaxpose.evaluation import align_core, evaluate, format_table, scale_spread, spread, sweep
+from jaxpose.evaluation import align_core, evaluate, format_per_class, format_table, scale_spread, spread, sweep
 
 SHARED = next((p for p in (Path(__file__).resolve().parents[1] / ".." / "shared", Path("/work/shared"))
                if (p / "data" / "faust-dev").is_dir()), None)
@@ -231,6 +231,27 @@ def test_format_table_per_variant():
     text = format_table(result)
     assert "variant plain" in text and "variant points" in text and "vs vertex_mean" in text
     assert "0.03610" in text and "-24.0%" in text and "n/a" in text
+
+
+def test_format_per_class_marks_each_class_lowest():
+    def cell(sigma, cv):
+        return {"sigma_tr": sigma, "cv_scale": cv}
+
+    per_class = {"plain": {"dog": {"robust": cell(0.30, 0.010), "solid": cell(0.20, 0.0102)},
+                           "man": {"robust": cell(0.10, 0.001), "solid": cell(0.40, 0.020)}},
+                 "points": {"dog": {"robust": cell(0.50, 0.030), "solid": {"error": "points only"}},
+                            "man": {"robust": cell(0.60, 0.040), "solid": {"error": "points only"}}}}
+    summary = [{"method": "robust"}, {"method": "solid"}]
+    result = {"params": {"objects": {"dog": 8, "man": 10}},
+              "variants": {v: {"summary": summary, "per_class": per_class[v]} for v in per_class}}
+    lines = format_per_class(result).splitlines()
+    dog, man = lines.index("class dog (8 objects)"), lines.index("class man (10 objects)")
+    row = lambda start, method: next(l for l in lines[start:] if l.startswith(method + " ")).split()
+    # the average would favour robust; per class the dog's centre is solid's
+    assert row(dog, "robust")[1:] == ["0.30000", "0.01000*", "0.50000*", "0.03000*"]
+    assert row(dog, "solid")[1:] == ["0.20000*", "0.01020~", "n/a", "n/a"]
+    assert row(man, "robust")[1:] == ["0.10000*", "0.00100*", "0.60000*", "0.04000*"]
+    assert row(man, "solid")[1:] == ["0.40000", "0.02000", "n/a", "n/a"]
 
 
 def test_evaluate_variants_and_inapplicable_methods():

@@ -8,7 +8,7 @@ import trimesh
 
 import jaxpose
 from jaxpose import baselines, cli, mesh, parts, rotation, sample
-from jaxpose.evaluation import evaluate_rotation, format_rotation_table
+from jaxpose.evaluation import evaluate_rotation, format_rotation_per_class, format_rotation_table
 from jaxpose.evaluation.rotation import angle, chordal_mean, sign_free_angles
 from jaxpose.pose import Pose
 from jaxpose.voxels import GRID_SHIFT
@@ -254,6 +254,11 @@ def test_evaluate_rotation_and_cli(tmp_path, capsys, body_frame):
     assert rows["core"]["flagged"] == 0.0 and rows["inertia"]["flagged"] is None
     assert "error" in {r["method"]: r for r in res["variants"]["points"]["summary"]}["inertia"]
     assert "variant points" in format_rotation_table(res)
+    per_class = format_rotation_per_class(res).splitlines()
+    core_a = next(line for line in per_class[per_class.index("class a (3 objects)"):] if line.startswith("core "))
+    assert f"{res['variants']['plain']['per_class']['a']['core']['raw_mean']:.1f}" in core_a and "n/a" not in core_a
+    inertia_a = next(line for line in per_class if line.startswith("inertia "))
+    assert "n/a" in inertia_a  # points: no mesh
     from benchmarks.rotation import markdown, verdict
 
     assert "| core |" in markdown(res) and verdict(res)["plain_every_instance<=30"]
@@ -263,8 +268,9 @@ def test_evaluate_rotation_and_cli(tmp_path, capsys, body_frame):
             x.export(tmp_path / "data" / name / f"{k}.ply")
     out = tmp_path / "rot.json"
     code = cli.main(["evaluate", "--data", str(tmp_path / "data"), "--align-core", "--rotation", "core,pca_surface",
-                     "--json", str(out), "--plots", str(tmp_path / "fig")])
-    assert code == 0 and "pca_surface" in capsys.readouterr().out
+                     "--json", str(out), "--plots", str(tmp_path / "fig"), "--per-class"])
+    printed = capsys.readouterr().out
+    assert code == 0 and "pca_surface" in printed and "class a (3 objects)" in printed and "class b" in printed
     saved = json.loads(out.read_text())
     assert saved["params"]["methods"] == ["core", "pca_surface"]
     assert (tmp_path / "fig" / "rotation_angles_plain.png").exists()

@@ -33,7 +33,7 @@ from . import alignment
 from .measures import scale_spread, spread
 from .variants import VARIANTS, make_class
 
-__all__ = ["METHODS", "evaluate", "sweep", "format_table", "SWEEP_VALUES", "SWEEP_FIXED"]
+__all__ = ["METHODS", "evaluate", "sweep", "format_table", "format_per_class", "SWEEP_VALUES", "SWEEP_FIXED"]
 
 METHODS = ("robust", "ocsvm", "surface_centroid", "vertex_mean", "bbox", "min_ball", "solid", "solid_sqrt_area",
            "depth_weighted_solid:2", "depth_weighted_solid:4")
@@ -289,4 +289,44 @@ def format_table(result) -> str:
             rel = "" if rel is None else f"{100.0 * rel:+.1f}%"
             lines.append(f"{row['method']:<24}{row['sigma_tr']:>11.5f}{rel:>22}{row['sigma_scale']:>13.5f}"
                          f"{row['cv_scale']:>11.5f}{row['seconds']:>9.1f}")
+    return "\n".join(lines)
+
+
+def format_per_class(result) -> str:
+    """The per-class cells of :func:`evaluate` as terminal tables, one per class, every method side by side.
+
+    Rows: methods; columns: ``sigma_tr`` and ``cv_scale`` in each variant. ``*`` marks the lowest
+    value of a column (ties included), ``~`` a value within 5 % of it; n/a where a method does not
+    apply. An average over classes (:func:`format_table`) can hide a class that loses; this cannot.
+    """
+    per_variant = result.get("variants") or {"plain": {"summary": result["summary"], "per_class": result["per_class"]}}
+    variants = list(per_variant)
+    first = per_variant[variants[0]]
+    methods = [row["method"] for row in first["summary"]]
+    objects = result.get("params", {}).get("objects", {})
+    width = max([len("method")] + [len(m) for m in methods]) + 2
+    lines = []
+    for name in first["per_class"]:
+        count = f" ({objects[name]} objects)" if name in objects else ""
+        top = f"{'':<{width}}" + "".join(f"{v:^24}" for v in variants)
+        head = f"{'method':<{width}}" + f"{'sigma_tr':>12}{'cv_scale':>12}" * len(variants)
+        lines += ["", f"class {name}{count}", top, head, "-" * len(head)]
+        columns = {}  # (variant, key) -> {method: value}
+        for v in variants:
+            cells = per_variant[v]["per_class"][name]
+            for key in ("sigma_tr", "cv_scale"):
+                columns[v, key] = {m: cells[m][key] for m in methods if m in cells and "error" not in cells[m]}
+        for m in methods:
+            text = f"{m:<{width}}"
+            for v in variants:
+                for key in ("sigma_tr", "cv_scale"):
+                    col = columns[v, key]
+                    if m not in col:
+                        text += f"{'n/a':>12}"
+                        continue
+                    low = min(col.values())
+                    mark = "*" if col[m] <= low else ("~" if col[m] <= 1.05 * low else " ")
+                    text += f"{col[m]:>11.5f}{mark}"
+            lines.append(text)
+    lines += ["", "* lowest of the column, ~ within 5 % of it"]
     return "\n".join(lines)

@@ -26,7 +26,7 @@ from . import alignment
 from .variants import VARIANTS, make_class
 
 __all__ = ["PROPER_FLIPS", "angle", "chordal_mean", "class_angles", "sign_free_angles", "evaluate_rotation",
-           "format_rotation_table", "ROTATION_KEYS"]
+           "format_rotation_table", "format_rotation_per_class", "ROTATION_KEYS"]
 
 PROPER_FLIPS = np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]], dtype=np.float64)
 ROTATION_KEYS = ("raw_mean", "raw_max", "sign_free_mean", "sign_free_max", "flagged", "unflagged_mean",
@@ -208,4 +208,42 @@ def format_rotation_table(result) -> str:
             lines.append(f"{row['method']:<14}{num(row['raw_mean']):>10}{num(row['raw_max']):>10}"
                          f"{num(row['sign_free_mean']):>11}{num(row['sign_free_max']):>10}{flagged:>9}"
                          f"{unflagged:>15}{row['seconds']:>9.3f}")
+    return "\n".join(lines)
+
+
+def format_rotation_per_class(result) -> str:
+    """The per-class cells of :func:`evaluate_rotation` as terminal tables, one per class.
+
+    Rows: methods; columns per variant: the raw mean / max angle to the class frame (degrees) and
+    the share of instances flagged. ``*`` marks the lowest raw mean of a column; n/a where a
+    method does not apply.
+    """
+    variants = list(result["variants"])
+    first = result["variants"][variants[0]]
+    methods = [row["method"] for row in first["summary"]]
+    objects = result.get("params", {}).get("objects", {})
+    width = max([len("method")] + [len(m) for m in methods]) + 2
+    lines = []
+    for name in first["per_class"]:
+        count = f" ({objects[name]} objects)" if name in objects else ""
+        top = f"{'':<{width}}" + "".join(f"{v:^22}" for v in variants)
+        head = f"{'method':<{width}}" + f"{'mean / max':>15}{'flag':>7}" * len(variants)
+        lines += ["", f"class {name}{count}", top, head, "-" * len(head)]
+        lows = {}
+        for v in variants:
+            cells = result["variants"][v]["per_class"][name]
+            means = [cells[m]["raw_mean"] for m in methods if "error" not in cells[m]]
+            lows[v] = min(means) if means else None
+        for m in methods:
+            text = f"{m:<{width}}"
+            for v in variants:
+                cell = result["variants"][v]["per_class"][name][m]
+                if "error" in cell:
+                    text += f"{'n/a':>15}{'':>7}"
+                    continue
+                mark = "*" if cell["raw_mean"] <= lows[v] else " "
+                flag = "" if cell["flagged"] is None else f"{100 * cell['flagged']:.0f}%"
+                text += f"{cell['raw_mean']:>7.1f} / {cell['raw_max']:>5.1f}{mark}{flag:>7}"
+            lines.append(text)
+    lines += ["", "angles in degrees to the class frame (chordal mean), raw; * lowest mean of the column"]
     return "\n".join(lines)

@@ -1,7 +1,8 @@
 """Consistency of every estimator on the dev meshes, in all five input variants.
 
 ``python -m benchmarks.consistency [--json OUT] [--datasets faust-dev,kids-dev] [--variants ...]``
-from a source checkout with ../shared beside it. FAUST's flat folder is split into its two
+from a source checkout, on the data folder of :mod:`benchmarks.data` (``$JAXPOSE_DATA``, else
+../shared/data; docs/data.md says how to get it): without it the run exits 1 and says so. FAUST's flat folder is split into its two
 people (tr_reg_000-009, 010-019) by symbolic links in a temporary folder; KIDS has one sub-folder
 per child. Each class is rigid-core aligned (``--align-core``), then every variant is made from the
 aligned meshes and every method run (``jaxpose.evaluation.evaluate``). Prints the tables of
@@ -12,12 +13,13 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 import tempfile
 import time
 from pathlib import Path
 
-SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
+from benchmarks.data import data_root, faust_classes, require
+
+SHARED = data_root()
 DATASETS = ("faust-dev", "kids-dev")
 
 
@@ -26,12 +28,7 @@ def class_folder(name, tmp):
     root = SHARED / name
     if name != "faust-dev":
         return root
-    out = Path(tmp) / name
-    for k, person in enumerate(("person_a", "person_b")):
-        (out / person).mkdir(parents=True)
-        for i in range(10 * k, 10 * k + 10):
-            (out / person / f"tr_reg_{i:03d}.ply").symlink_to(root / f"tr_reg_{i:03d}.ply")
-    return out
+    return faust_classes(root, Path(tmp) / name)
 
 
 def best_of(summary, default="robust"):
@@ -50,9 +47,7 @@ def main(argv=None):
     p.add_argument("--methods", default=None)
     p.add_argument("--json", default=None)
     args = p.parse_args(argv)
-    if not SHARED.is_dir():
-        print(f"no {SHARED}: nothing to measure", file=sys.stderr)
-        return 0
+    require(args.datasets.split(","), SHARED)  # nothing to measure: exit 1, saying where the data comes from
     out = {}
     with tempfile.TemporaryDirectory() as tmp:
         for name in args.datasets.split(","):

@@ -25,6 +25,7 @@ import time
 import numpy as np
 
 from benchmarks.consistency import DATASETS, SHARED, class_folder
+from benchmarks.data import require
 
 SLAB = 0.5  # the former vote's jaw: the solid up to this many head depths above the neck
 
@@ -113,9 +114,7 @@ def main(argv=None):
     p.add_argument("--datasets", default=",".join(DATASETS))
     p.add_argument("--variants", default="plain", help="comma-separated names of jaxpose.evaluation.VARIANTS")
     args = p.parse_args(argv)
-    if not SHARED.is_dir():
-        print(f"no {SHARED}: nothing to measure", file=sys.stderr)
-        return 0
+    require(args.datasets.split(","), SHARED)  # nothing to measure: exit 1, saying where the data comes from
     with tempfile.TemporaryDirectory() as tmp:
         for name in args.datasets.split(","):
             start = time.perf_counter()

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.consistency import DATASETS, SHARED, class_folder
+from benchmarks.data import require
 
 ABLATION = "core (moments only)"
 
@@ -143,9 +144,7 @@ def main(argv=None):
     p.add_argument("--figures", default=None)
     p.add_argument("--no-ablation", action="store_true")
     args = p.parse_args(argv)
-    if not SHARED.is_dir():
-        print(f"no {SHARED}: nothing to measure", file=sys.stderr)
-        return 0
+    require(args.datasets.split(","), SHARED)  # nothing to measure: exit 1, saying where the data comes from
     variants = args.variants.split(",")
     out = {}
     with tempfile.TemporaryDirectory() as tmp:

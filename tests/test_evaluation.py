@@ -160,14 +160,14 @@ def test_evaluate_ocsvm_uses_samples_and_options(fake_normalize):
     assert cell["scales"] == [1.25, 1.25] and cell["sigma_scale"] == 0.0
     assert cell["sigma_tr"] == pytest.approx(spread(expected)["sigma_tr"])
     assert cell["sigma_tr"] == pytest.approx(1.0, rel=0.05)  # the box centers, 2 apart
-    assert fake_normalize == [{"resolution": 16}] * 2
+    assert fake_normalize == [{"resolution": 16}] * 3  # a first call apart (compilation), then one per object
     assert result["params"]["normalize_options"] == {"resolution": 16}
     assert result["params"]["gamma"] == 2.0 and result["params"]["count"] == 500
 
 
 def test_evaluate_calls_normalize_once_per_object(fake_normalize):
     result = evaluate({"boxes": _boxes()}, methods=["ocsvm"], count=200)
-    assert len(fake_normalize) == 2
+    assert len(fake_normalize) == 1 + 2  # the first call, timed apart, then once per object
     assert result["per_class"]["boxes"]["ocsvm"]["converged"] == [True, True]
 
 
@@ -181,7 +181,7 @@ def test_evaluate_align_core_and_progress(fake_normalize):
                        progress=lambda done, total, message: messages.append((done, total, message)))
     assert plain["per_class"]["box"]["surface_centroid"]["sigma_tr"] > 0.1
     assert aligned["per_class"]["box"]["surface_centroid"]["sigma_tr"] < 1e-10
-    assert messages[0] == (0, 1, "plain: box (2 objects)") and messages[-1][:2] == (1, 1)
+    assert messages[1] == (0, 1, "plain: box (2 objects)") and messages[-1][:2] == (1, 1)
 
 
 @pytest.mark.parametrize("kwargs", [{"methods": ["ocsvm", "median"]}, {"methods": []}])
@@ -231,6 +231,33 @@ def test_format_table_per_variant():
     text = format_table(result)
     assert "variant plain" in text and "variant points" in text and "vs vertex_mean" in text
     assert "0.03610" in text and "-24.0%" in text and "n/a" in text
+
+
+def test_format_table_explains_itself_and_names_gamma_only_with_the_ocsvm():
+    row = {"method": "robust", "sigma_tr": 0.01, "sigma_scale": 0.002, "cv_scale": 0.02, "seconds": 2.0,
+           "seconds_per_object": 0.02, "first_call_seconds": 3.5, "sigma_tr_vs_reference": -0.5}
+    params = {"gamma": 47.0, "nu": 0.5, "count": 2000, "seed": 0, "align_core": False, "objects": {"a": 10}}
+    result = {"params": {**params, "methods": ["robust"]}, "per_class": {"a": {}},
+              "variants": {"plain": {"summary": [row]}}}
+    text = format_table(result)
+    header = text.splitlines()[0]
+    assert "gamma" not in header and "nu=" not in header and "1 classes x 10 objects" in header
+    for term in ("sigma_tr ", "sigma_scale ", "cv_scale ", "ms/object ", "lower is better", "compilation", "units"):
+        assert term in text, term
+    line = next(l for l in text.splitlines() if l.startswith("robust"))
+    assert line.split()[-2:] == ["20.0", "3.5"]  # ms per object after the first call; the first call's seconds
+    result["params"]["methods"] = ["robust", "ocsvm"]
+    assert "gamma=47.0" in format_table(result).splitlines()[0]
+
+
+def test_evaluate_times_the_first_call_apart():
+    boxes = [trimesh.creation.box(extents=(1.0, 2.0, 3.0)) for _ in range(3)]
+    seen = []
+    result = evaluate({"boxes": boxes}, methods=["robust", "solid"], progress=lambda d, t, m: seen.append(m))
+    assert seen[0] == "plain: first call of each method (compiles)" and seen[-1] == "done"
+    for row in result["summary"]:
+        assert row["first_call_seconds"] > 0.0 and row["seconds"] > 0.0
+        assert row["seconds_per_object"] == pytest.approx(row["seconds"] / 3)
 
 
 def test_format_per_class_marks_each_class_lowest():

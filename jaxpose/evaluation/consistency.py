@@ -33,7 +33,7 @@ from . import alignment
 from .measures import scale_spread, spread
 from .variants import VARIANTS, make_class
 
-__all__ = ["METHODS", "evaluate", "sweep", "format_table", "format_per_class", "SWEEP_VALUES", "SWEEP_FIXED"]
+__all__ = ["METHODS", "LEGEND", "evaluate", "sweep", "format_table", "format_per_class", "SWEEP_VALUES", "SWEEP_FIXED"]
 
 METHODS = ("robust", "ocsvm", "surface_centroid", "vertex_mean", "bbox", "min_ball", "solid", "solid_sqrt_area",
            "depth_weighted_solid:2", "depth_weighted_solid:4")
@@ -134,11 +134,24 @@ def _evaluate_class(meshes, methods, options, seconds):
     return cells
 
 
-def _summary(per_class, methods, seconds, variant):
+def _warm_up(mesh, methods, options, first):
+    """Each method once on one object, timed into `first` {method: seconds}: the first call, which
+    compiles what JAX compiles, kept apart from the run times."""
+    from ..estimators import estimate_many
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", OpenMeshWarning)
+        for method, (_, sec) in estimate_many(mesh, methods, timings=True, **options).items():
+            first[method] += sec
+
+
+def _summary(per_class, methods, seconds, variant, first=None, objects=0):
     rows = []
     for method in methods:
         cells = [per_class[c][method] for c in per_class]
-        row = {"method": method, "seconds": seconds[method]}
+        row = {"method": method, "seconds": seconds[method],
+               "seconds_per_object": seconds[method] / objects if objects else None,
+               "first_call_seconds": None if first is None else first[method]}
         if any("error" in c for c in cells):
             row.update({k: None for k in KEYS}, error=next(c["error"] for c in cells if "error" in c))
         else:
@@ -177,8 +190,10 @@ def evaluate(classes, gamma=47.0, nu=0.5, methods=None, count=2000, seed=0, alig
       holds ``method``, the averages over classes of ``sigma_tr``, ``sigma_tr_axis``,
       ``sigma_scale``, ``cv_scale`` (None, with ``error``, where the method does not apply, e.g.
       surface estimators on points), ``sigma_tr_vs_reference`` (sigma_tr / the reference's - 1; the
-      reference is the surface centroid, or the vertex mean for points) and ``seconds``. A cell holds
-      the spreads and the ``centers`` and ``scales`` per object, or ``error``.
+      reference is the surface centroid, or the vertex mean for points), ``seconds`` (all objects,
+      after a first call of each method on the variant's first object), ``seconds_per_object`` and
+      ``first_call_seconds`` (that first call: JIT compilation included). A cell holds the spreads
+      and the ``centers`` and ``scales`` per object, or ``error``.
     """
     _check_classes(classes)
     methods = _check_methods(methods)
@@ -188,14 +203,20 @@ def evaluate(classes, gamma=47.0, nu=0.5, methods=None, count=2000, seed=0, alig
     options = {"gamma": gamma, "nu": nu, "count": count, "seed": seed, "ocsvm": normalize_options}
     total, done, out = len(variants) * len(classes), 0, {}
     for variant in variants:
-        per_class, seconds = {}, dict.fromkeys(methods, 0.0)
+        per_class, seconds, first, objects = {}, dict.fromkeys(methods, 0.0), dict.fromkeys(methods, 0.0), 0
         for k, (name, meshes) in enumerate(classes.items()):
+            shapes = make_class(meshes, variant, seed, k)
+            if k == 0:  # compilation apart: every method once on the variant's first object, untimed below
+                if progress is not None:
+                    progress(done, total, f"{variant}: first call of each method (compiles)")
+                _warm_up(shapes[0], methods, options, first)
             if progress is not None:
                 progress(done, total, f"{variant}: {name} ({len(meshes)} objects)")
             done += 1
-            shapes = make_class(meshes, variant, seed, k)
             per_class[name] = _evaluate_class(shapes, methods, options, seconds)
-        out[variant] = {"summary": _summary(per_class, methods, seconds, variant), "per_class": per_class}
+            objects += len(shapes)
+        out[variant] = {"summary": _summary(per_class, methods, seconds, variant, first, objects),
+                        "per_class": per_class}
     if progress is not None:
         progress(total, total, "done")
     params = {"gamma": float(gamma), "nu": float(nu), "count": int(count), "seed": int(seed),
@@ -266,29 +287,61 @@ def sweep(classes, param="gamma", values=None, fixed=None, count=2000, seed=0, p
 
 
 # ------------------------------------------------------------------ report
+LEGEND = (
+    "sigma_tr      spread of a class's centers: RMS distance of the centers from their mean, in the meshes' units\n"
+    "              (the built-in objects are about 1 across), averaged over classes; lower is better",
+    "vs REFERENCE  sigma_tr relative to the reference method's (surface centroid; vertex mean for point clouds):\n"
+    "              -50 % halves the spread; lower is better",
+    "sigma_scale   standard deviation of a class's scales, in each method's own scale units (a volume's cube root,\n"
+    "              a mean distance, an extent): not comparable between methods",
+    "cv_scale      sigma_scale / mean scale, dimensionless: the scale's consistency, comparable between methods;\n"
+    "              lower is better",
+    "ms/object     run time per object after the first call; first s: that first call on one object, JIT\n"
+    "              compilation included",
+    "n/a           the method does not apply to this input (e.g. a closed-surface estimator on a point cloud)",
+)
+
+
+def _uses_ocsvm(result):
+    p = result.get("params", {})
+    methods = p.get("methods") or [r["method"] for r in result.get("summary", [])]
+    return "sweeps" in result or any(str(m).partition(":")[0] == "ocsvm" for m in methods)
+
+
 def format_table(result) -> str:
-    """The summaries of :func:`evaluate` as terminal tables, one per variant.
+    """The summaries of :func:`evaluate` as terminal tables, one per variant, with a legend.
 
     Columns: sigma_tr, its change against the variant's reference (the surface centroid; the
-    vertex mean for point clouds), sigma_scale, cv_scale, seconds; n/a where a method does not apply.
+    vertex mean for point clouds), sigma_scale, cv_scale, milliseconds per object after the first
+    call, and the first call's seconds (compilation included); n/a where a method does not apply.
+    The header names gamma, nu and count only when the OCSVM runs (nothing else uses them).
     """
     p = result.get("params", {})
     per_variant = result.get("variants") or {"plain": {"summary": result["summary"], "per_class": result["per_class"]}}
-    lines = [f"{len(result.get('per_class', {}))} classes, gamma={p.get('gamma')}, nu={p.get('nu')}, "
-             f"count={p.get('count')}, seed={p.get('seed')}, align_core={p.get('align_core')}"]
+    objects = p.get("objects") or {}
+    sizes = sorted(set(objects.values()))
+    size = (f" x {sizes[0]} objects" if len(sizes) == 1 else f", {sum(objects.values())} objects") if sizes else ""
+    ocsvm = f", ocsvm: gamma={p.get('gamma')}, nu={p.get('nu')}, count={p.get('count')}" if _uses_ocsvm(result) else ""
+    lines = [f"{len(result.get('per_class', {}))} classes{size}, seed={p.get('seed')}, "
+             f"align_core={p.get('align_core')}{ocsvm}"]
     for variant, block in per_variant.items():
         ref = reference_method(variant)
-        head = (f"{'method':<24}{'sigma_tr':>11}{'vs ' + ref:>22}{'sigma_scale':>13}{'cv_scale':>11}"
-                f"{'seconds':>9}")
+        head = (f"{'method':<24}{'sigma_tr':>10}{'vs ' + ref:>21}{'sigma_scale':>13}{'cv_scale':>10}"
+                f"{'ms/object':>11}{'first s':>9}")
         lines += ["", f"variant {variant}", head, "-" * len(head)]
         for row in block["summary"]:
+            per = row.get("seconds_per_object")
+            first = row.get("first_call_seconds")
+            timing = (f"{'' if per is None else f'{1e3 * per:.1f}':>11}"
+                      f"{'' if first is None else f'{first:.1f}':>9}")
             if row["sigma_tr"] is None:
-                lines.append(f"{row['method']:<24}{'n/a':>11}{'':>22}{'n/a':>13}{'n/a':>11}{row['seconds']:>9.1f}")
+                lines.append(f"{row['method']:<24}{'n/a':>10}{'':>21}{'n/a':>13}{'n/a':>10}{timing}")
                 continue
             rel = row.get("sigma_tr_vs_reference")
             rel = "" if rel is None else f"{100.0 * rel:+.1f}%"
-            lines.append(f"{row['method']:<24}{row['sigma_tr']:>11.5f}{rel:>22}{row['sigma_scale']:>13.5f}"
-                         f"{row['cv_scale']:>11.5f}{row['seconds']:>9.1f}")
+            lines.append(f"{row['method']:<24}{row['sigma_tr']:>10.5f}{rel:>21}{row['sigma_scale']:>13.5f}"
+                         f"{row['cv_scale']:>10.5f}{timing}")
+    lines += ["", *LEGEND]
     return "\n".join(lines)
 
 

@@ -12,19 +12,24 @@ size and modification time (or SHA-256 with ``check="hash"``) and the options; f
 tried again. A bad input is recorded (status ``failed``, its error) and logged, and the run goes
 on. Worker processes (:mod:`jaxpose.workers`) compile what JAX needs once each and reuse it for
 every file, with the persistent compilation cache (:mod:`jaxpose.cache`).
+
+The table is the record of how to invert every output in the folder: besides this run's inputs,
+it keeps the rows of earlier runs into the same folder whose outputs are still there. ``shard``
+takes the inputs of one of N shards (:func:`jaxpose.inputs.shard_index`), for N machines; their
+tables together are the unsharded table (:func:`jaxpose.read_transforms` reads several).
 """
 from __future__ import annotations
 
-import hashlib
 import logging
 import numbers
 import os
+import stat
 import time
 from pathlib import Path
 from typing import NamedTuple
 
 from .errors import InvalidInputError
-from .task import FileResult, NormalizeOptions, normalize_file, one_line
+from .task import FileResult, NormalizeOptions, normalize_file, one_line, sha256_file
 
 __all__ = ["CHECKS", "NormalizeOptions", "BatchResult", "normalize_files", "run_batch"]
 
@@ -57,38 +62,49 @@ class BatchResult(NamedTuple):
 
 def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, table=None, workers=None,
               scheduler=None, dask_local=None, check="mtime", fail_fast=False, force=False,
-              progress=None) -> BatchResult:
+              progress=None, shard=None, timeout=None) -> BatchResult:
     """Normalize files, folders and manifests into `output_dir`; see :func:`normalize_files`."""
     from . import transforms
     from .atomic import check_folder_writable, remove_temporaries, write_atomic
-    from .inputs import find_inputs, plan_outputs
-    from .journal import OutputFolder
+    from .inputs import check_shard, find_inputs, plan_outputs, shard_index
+    from .journal import OutputFolder, shard_name
     from .mesh import OUTPUT_FORMATS
 
     start = time.perf_counter()
     options = NormalizeOptions() if options is None else options
     if not isinstance(options, NormalizeOptions):
         raise InvalidInputError(f"options must be a NormalizeOptions, got {type(options).__name__}")
-    executor_args = _check_run(workers, scheduler, dask_local)
+    executor_args = _check_run(workers, scheduler, dask_local, timeout)
     if check not in CHECKS:
         raise InvalidInputError(f"check must be one of {', '.join(CHECKS)}; got {check!r}")
     if file_format is not None:
         file_format = str(file_format).lower().lstrip(".")
         if file_format not in OUTPUT_FORMATS:
             raise InvalidInputError(f"format must be one of {', '.join(OUTPUT_FORMATS)}; got {file_format!r}")
+    shard = check_shard(shard)
     output_dir = Path(os.path.abspath(output_dir))
-    table = Path(os.path.abspath(table)) if table is not None else output_dir / transforms.default_table_name()
+    if table is None:
+        name = transforms.default_table_name()
+        if shard is not None:
+            stem, _, suffix = name.rpartition(".")
+            name = f"{stem}.{shard_name(shard)}.{suffix}"
+        table = output_dir / name
+    table = Path(os.path.abspath(table))
     transforms.table_format(table)
-    files, root = find_inputs(inputs, glob=glob, exclude=[output_dir])
+    found = find_inputs(inputs, glob=glob, exclude=[output_dir])
     given = [inputs] if isinstance(inputs, (str, os.PathLike)) else list(inputs)
-    items = plan_outputs(files, root, output_dir, file_format=file_format, table=table, given=given)
+    items = plan_outputs(found.files, found.root, output_dir, file_format=file_format, table=table, given=given)
+    if shard is not None:  # after the checks of the whole plan: every shard refuses alike
+        items = [item for item in items if shard_index(item.source.relative_to(found.root), shard[1]) == shard[0]]
     fingerprint = options.fingerprint(file_format)
     fixed = options.columns()
-    with OutputFolder(output_dir, force=force) as folder:
+    with OutputFolder(output_dir, force=force, shard=shard) as folder:
         check_folder_writable(table.parent, what="table")
-        folder.remove_temporaries()
+        folder.remove_temporaries(None if shard is None else [item.output for item in items])
         remove_temporaries(table)
         records = folder.records()
+        if not force:
+            _refuse_overwriting_others(items, records)
         todo, skipped = [], 0
         for item in items:
             key = _input_key(item.source, check)
@@ -99,11 +115,17 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
                 todo.append((item, key))
         run = _Run(folder, fixed, fingerprint, fail_fast, progress, len(todo))
         try:
-            if todo:
-                run.execute(todo, executor_args, file_format, options)
+            work = []
+            for item, key in todo:  # what a folder search met that is not a file: failed unread
+                if item.source in found.irregular:
+                    run.finish(item, key, _not_regular(item.source, found.irregular[item.source]))
+                else:
+                    work.append((item, key))
+            if work and not run.stopped:
+                run.execute(work, executor_args, file_format, options, check)
         finally:  # also on KeyboardInterrupt: the table holds every finished input
-            rows = _rows(items, folder.records(), fingerprint)
-            write_atomic(table, transforms.write_transforms(rows, table, rotation=bool(options.rotation_method)),
+            rows = table_rows(items, folder.records())
+            write_atomic(table, transforms.write_transforms(rows, table, rotation=bool(options.rotation_method) or None),
                          force=True)
     return BatchResult([transforms.Transform.from_record(r) for r in rows], table, run.written, skipped, run.failed, run.stopped,
                        time.perf_counter() - start, run.peak_mb)
@@ -134,14 +156,24 @@ def normalize_files(inputs, output_dir, options=None, **kwargs) -> list:
       fail_fast: stop at the first failed input.
       force: redo every input, and write into a folder jaxpose did not make.
       progress: a progress bar on stderr (rate, ETA): True, False, or None (only on a terminal).
+      shard: (index, count): only the inputs of shard `index` of `count` (0 <= index < count), by
+        a stable hash of each input's path relative to the inputs' root, so that `count` machines
+        given the same arguments take every input once. The table defaults to
+        ``transforms.shard-I-of-N.parquet``; the shards' tables together are the whole table
+        (``jaxpose.read_transforms([...])`` or ``read_transforms(output_dir)``).
+      timeout: seconds an input may take in its worker (reading, normalizing, encoding); past
+        them the worker process is killed and replaced, and the input recorded as failed. The
+        work then runs in worker processes even with ``workers=1``; local runs only. The first
+        input of each worker includes compiling (seconds for ``ocsvm``): leave room for it.
 
     Returns:
       The transforms table: a list of :class:`jaxpose.transforms.Transform`, one per input, in order
-      (also written to ``table``; failed inputs have ``status == "failed"`` and their ``error``).
+      (also written to ``table``; failed inputs have ``status == "failed"`` and their ``error``),
+      then the rows of earlier runs into `output_dir` whose outputs are still there.
 
     Raises:
-      InvalidInputError: bad arguments, missing INPUTs, aliasing outputs, an unusable output folder
-        (all before any work).
+      InvalidInputError: bad arguments, missing INPUTs, aliasing outputs, an unusable output folder,
+        an output that an earlier run wrote from another input (unless `force`) (all before any work).
       jaxpose.journal.FolderBusyError: another run is writing to `output_dir`.
 
     Example::
@@ -170,9 +202,15 @@ def _count(value, name, minimum):
     return int(value)
 
 
-def _check_run(workers, scheduler, dask_local):
+def _check_run(workers, scheduler, dask_local, timeout=None):
     from .workers import default_workers
 
+    if timeout is not None:
+        if isinstance(timeout, bool) or not isinstance(timeout, numbers.Real) or not 0 < timeout < float("inf"):
+            raise InvalidInputError(f"timeout must be a number of seconds > 0, got {timeout!r}")
+        if scheduler is not None or dask_local is not None:
+            raise InvalidInputError("timeout (--timeout) is for local runs: Dask cannot stop a running task")
+        timeout = float(timeout)
     if scheduler is not None and dask_local is not None:
         raise InvalidInputError("give either scheduler (--scheduler) or dask_local (--dask-local), not both")
     if dask_local is not None:
@@ -183,22 +221,42 @@ def _check_run(workers, scheduler, dask_local):
         if scheduler is not None or dask_local is not None:
             raise InvalidInputError("workers (--workers) is for local runs; a Dask cluster brings its own")
         workers = _count(workers, "workers", 1)
-    return {"workers": workers or default_workers(), "scheduler": scheduler, "dask_local": dask_local}
+    return {"workers": workers or default_workers(), "scheduler": scheduler, "dask_local": dask_local,
+            "timeout": timeout}
 
 
 def _input_key(path, check):
+    """Size, modification time (and SHA-256) of a regular file now; None for others (never opened
+    here: a FIFO would block)."""
+    key = {"input_size": None, "input_mtime_ns": None, "input_sha256": ""}
     try:
-        stat = os.stat(path)
+        info = os.stat(path)
     except OSError:
-        return {"input_size": None, "input_mtime_ns": None, "input_sha256": ""}
-    key = {"input_size": stat.st_size, "input_mtime_ns": stat.st_mtime_ns, "input_sha256": ""}
-    if check == "hash":
-        digest = hashlib.sha256()
-        with open(path, "rb") as handle:
-            for block in iter(lambda: handle.read(1 << 20), b""):
-                digest.update(block)
-        key["input_sha256"] = digest.hexdigest()
+        return key
+    if stat.S_ISREG(info.st_mode):
+        key.update(input_size=info.st_size, input_mtime_ns=info.st_mtime_ns)
+        if check == "hash":
+            try:
+                key["input_sha256"] = sha256_file(path)
+            except OSError:
+                key["input_size"] = None  # unreadable: not done; its read says why
     return key
+
+
+def _not_regular(path, kind):
+    return _failed(f"{path}: {kind}, not a regular file: a folder search reads regular files only "
+                   "(name it as an INPUT to read it)")
+
+
+def _refuse_overwriting_others(items, records):
+    """Refuse (before any work) to replace an output that an earlier run wrote from another input."""
+    owners = {r["output"]: name for name, r in records.items() if r.get("status") == "ok" and r.get("output")}
+    for item in items:
+        owner = owners.get(str(item.output))
+        if owner is not None and owner != str(item.source) and item.output.exists():
+            raise InvalidInputError(f"{item.output} holds the output of {owner} (an earlier run into this folder), "
+                                    f"not of {item.source}; use another output folder, or --force / force=True "
+                                    "to replace it")
 
 
 def _is_done(record, key, fingerprint, output):
@@ -210,13 +268,39 @@ def _is_done(record, key, fingerprint, output):
     return all(record.get(f) == key[f] for f in fields)
 
 
-def _rows(items, records, fingerprint):
-    rows = []
+def table_rows(items, records) -> list:
+    """The table of a run: the records of its inputs (`items`, in order), then those of earlier
+    runs' inputs whose outputs are still there and still theirs (`records`: the journal's, last
+    record of each input, ordered by their last record).
+
+    An output an input of this run wrote or owns (an ok record) has its row; so has a failed input
+    of this run. Earlier inputs keep their rows while their output exists and no later record
+    names it, so that every output in the folder has the row that inverts it.
+    """
+    owner = {}
+    for name, record in reversed(records.items()):  # the latest record to name an output owns it
+        if record.get("status") == "ok" and record.get("output"):
+            owner.setdefault(record["output"], name)
+
+    def current(name, record):
+        return record.get("status") == "ok" and owner.get(record.get("output")) == name \
+            and os.path.exists(record["output"])
+
+    rows, mine = [], set()
     for item in items:
-        record = records.get(str(item.source))
-        if record and record.get("options") == fingerprint:
+        name = str(item.source)
+        record = records.get(name)
+        if record is not None and (record.get("status") != "ok" or current(name, record)):
             rows.append(record)
+            mine.add(name)
+    rows += [r for name, r in records.items() if name not in mine and current(name, r)]
     return rows
+
+
+def _failed(error):
+    from . import __version__
+
+    return FileResult({"status": "failed", "error": error, "version": __version__}, None)
 
 
 class _Run:
@@ -229,15 +313,15 @@ class _Run:
         self.stopped = False
         self.peak_mb = {}
 
-    def execute(self, todo, executor_args, file_format, options):
+    def execute(self, todo, executor_args, file_format, options, check):
         from tqdm import tqdm
 
-        from .workers import DaskExecutor, LocalExecutor
+        from .workers import DaskExecutor, LocalExecutor, TaskTimeout, WorkerLost
 
         if executor_args["scheduler"] is not None or executor_args["dask_local"] is not None:
             executor = DaskExecutor(executor_args["scheduler"], executor_args["dask_local"])
         else:
-            executor = LocalExecutor(min(executor_args["workers"], len(todo)))
+            executor = LocalExecutor(min(executor_args["workers"], len(todo)), timeout=executor_args["timeout"])
         bar = tqdm(total=len(todo), unit="file", desc="normalize", dynamic_ncols=True, smoothing=0.05,
                    disable=None if self.progress is None else not self.progress)
         queue, pending, retried = list(reversed(todo)), {}, set()
@@ -246,30 +330,28 @@ class _Run:
             while queue or pending:
                 while queue and len(pending) < window and not self.stopped:
                     item, key = queue.pop()
-                    pending[executor.submit(normalize_file, str(item.source), options, file_format)] = (item, key)
+                    future = executor.submit(normalize_file, str(item.source), options, file_format, check)
+                    pending[future] = (item, key)
                 if not pending:
                     break
-                lost = False
                 for future in executor.wait(pending):
                     item, key = pending.pop(future)
                     try:
                         result = executor.result(future)
-                    except Exception as exc:  # WorkerLost: retry once in a fresh pool, then record
+                    except WorkerLost as exc:  # its worker died (the others go on): once more, then record
                         if item.source not in retried:
                             retried.add(item.source)
                             queue.append((item, key))
-                            lost = True
                             continue
-                        result = FileResult({"status": "failed", "error": str(exc)}, None)
-                    self._finish(item, key, result)
+                        result = _failed(f"{exc}; tried twice")
+                    except TaskTimeout as exc:
+                        result = _failed(str(exc))
+                    except Exception as exc:  # the task itself broke (not the input): recorded as well
+                        result = _failed(one_line(exc))
+                    self.finish(item, key, result)
                     bar.update(1)
                     if self.failed:
                         bar.set_postfix_str(f"{self.failed} failed", refresh=False)
-                if lost:
-                    for future, entry in pending.items():  # they share the dead pool's fate
-                        queue.append(entry)
-                    pending.clear()
-                    executor.restart()
                 if self.stopped:
                     break
             executor.close(kill=self.stopped)
@@ -279,7 +361,8 @@ class _Run:
         finally:
             bar.close()
 
-    def _finish(self, item, key, result):
+    def finish(self, item, key, result):
+        """Write one input's output (when it has one) and append its record."""
         from .interrupts import deferred
 
         with deferred():  # an output and its journal line, both or (on a signal before) neither
@@ -288,8 +371,8 @@ class _Run:
     def _write_and_record(self, item, key, result):
         from .atomic import write_atomic
 
-        record = {k: v for k, v in result.record.items() if k != "matrix"}
-        record.update(self.fixed, input=str(item.source), output="", options=self.fingerprint, **key)
+        record = {**key, **{k: v for k, v in result.record.items() if k != "matrix"}}  # the worker's read wins
+        record.update(self.fixed, input=str(item.source), output="", options=self.fingerprint)
         if record["status"] == "ok":
             try:
                 item.output.parent.mkdir(parents=True, exist_ok=True)

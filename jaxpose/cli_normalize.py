@@ -56,10 +56,28 @@ def add_parser(sub, add_svm_options, handler):
                       help="how a rerun recognizes finished inputs: mtime (size and modification time, "
                            "default) or hash (SHA-256)")
     many.add_argument("--fail-fast", action="store_true", help="stop at the first input that fails")
+    many.add_argument("--shard", type=_shard, metavar="I/N",
+                      help="only shard I of N (0 <= I < N), by a stable hash of each input's relative path: N "
+                           "machines given the same arguments take every input once; the table is "
+                           "transforms.shard-I-of-N.parquet")
+    many.add_argument("--timeout", type=float, metavar="SECONDS",
+                      help="an input taking longer (reading, normalizing) is recorded as failed and its worker "
+                           "process replaced; local runs")
     p.set_defaults(handler=handler)
 
 
-_MANY_ONLY = ("glob", "format", "table", "workers", "scheduler", "dask_local", "check", "fail_fast")
+_MANY_ONLY = ("glob", "format", "table", "workers", "scheduler", "dask_local", "check", "fail_fast", "shard",
+              "timeout")
+
+
+def _shard(text):
+    import argparse
+
+    index, _, count = text.partition("/")
+    try:
+        return int(index), int(count)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected I/N such as 0/4, got {text!r}") from None
 
 
 def transform_path(output) -> Path:
@@ -161,7 +179,7 @@ def _normalize_many(args, options, fail):
         result = batch.run_batch(args.inputs, args.output, options, glob=args.glob, file_format=args.format,
                                  table=args.table, workers=args.workers, scheduler=args.scheduler,
                                  dask_local=args.dask_local, check=args.check or "mtime",
-                                 fail_fast=args.fail_fast, force=args.force)
+                                 fail_fast=args.fail_fast, force=args.force, shard=args.shard, timeout=args.timeout)
     done = result.written + result.skipped
     rate = result.written / result.seconds if result.seconds > 0 else 0.0
     peaks = sorted(result.peak_mb.values())

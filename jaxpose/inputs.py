@@ -6,18 +6,28 @@ line, ``#`` comments; or a CSV whose ``path`` / ``input`` column, else first col
 relative paths are relative to the manifest). Outputs mirror the inputs' tree: each input's path
 relative to the common folder of all INPUTs (a folder INPUT counts as its own root), under the
 output folder, with the input's format or the one asked for.
+
+A folder search takes regular files (and links to them); other files it meets (FIFOs, sockets,
+devices, links to them) are returned apart, to be recorded as failed without being opened, and
+links to folders are not followed (a link loop cannot trap it). A file named as an INPUT or in a
+manifest is read whatever it is (a FIFO delivers a stream; ``--timeout`` bounds the wait).
+
+:func:`shard_index` splits inputs among N machines by a stable hash of their relative path.
 """
 from __future__ import annotations
 
 import csv
 import fnmatch
+import hashlib
 import os
+import stat
 from pathlib import Path
 from typing import NamedTuple
 
 from ._validate import InvalidInputError
 
-__all__ = ["MESH_SUFFIXES", "MANIFEST_SUFFIXES", "Item", "find_inputs", "plan_outputs", "is_batch_input"]
+__all__ = ["MESH_SUFFIXES", "MANIFEST_SUFFIXES", "Item", "Found", "find_inputs", "plan_outputs", "is_batch_input",
+           "shard_index", "check_shard", "file_kind"]
 
 MESH_SUFFIXES = (".ply", ".obj", ".off", ".stl", ".glb", ".gltf", ".xyz")
 MANIFEST_SUFFIXES = (".txt", ".csv", ".lst", ".list")
@@ -35,13 +45,38 @@ class Item(NamedTuple):
     output: Path | None = None
 
 
+class Found(NamedTuple):
+    """What :func:`find_inputs` found.
+
+    Attributes:
+      files: absolute input paths (sorted within each folder; manifest order kept), no repeats.
+      root: the common folder their outputs are mirrored from.
+      irregular: {path: what it is ("a FIFO", ...)} for the files of `files` that a folder search
+        met and that are not regular files: they fail without being opened.
+    """
+
+    files: list
+    root: Path
+    irregular: dict
+
+
+def file_kind(mode) -> str:
+    """What a file mode stands for, in words: "a regular file", "a FIFO", "a socket", ..."""
+    for test, name in ((stat.S_ISREG, "a regular file"), (stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO"),
+                       (stat.S_ISSOCK, "a socket"), (stat.S_ISCHR, "a character device"),
+                       (stat.S_ISBLK, "a block device")):
+        if test(mode):
+            return name
+    return "not a regular file"
+
+
 def is_batch_input(path) -> bool:
     """Whether a command-line INPUT is a folder or a manifest (not a single mesh file)."""
     path = Path(path)
     return path.is_dir() or path.suffix.lower() in MANIFEST_SUFFIXES
 
 
-def find_inputs(inputs, glob=None, exclude=()) -> tuple[list, Path]:
+def find_inputs(inputs, glob=None, exclude=()) -> Found:
     """The input files of files, folders and manifests, in a deterministic order, without repeats.
 
     Args:
@@ -52,8 +87,7 @@ def find_inputs(inputs, glob=None, exclude=()) -> tuple[list, Path]:
       exclude: folders never searched (the output folder, when it lies inside an input folder).
 
     Returns:
-      (files, root): absolute input paths (sorted within each folder; manifest order kept) and the
-      common folder their outputs are mirrored from.
+      :class:`Found`: the files, their root and the irregular files met by folder searches.
 
     Raises:
       InvalidInputError: an INPUT that does not exist, an unreadable manifest, nothing found.
@@ -62,12 +96,12 @@ def find_inputs(inputs, glob=None, exclude=()) -> tuple[list, Path]:
     if not inputs:
         raise InvalidInputError("no inputs given")
     exclude = {os.path.realpath(e) for e in exclude}
-    files, roots = [], []
+    files, roots, irregular = [], [], {}
     for given in inputs:
         path = Path(os.path.abspath(given))
         if path.is_dir():
             roots.append(path)
-            files += _search(path, glob, exclude)
+            files += _search(path, glob, exclude, irregular)
         elif not path.exists():
             raise InvalidInputError(f"no such file or folder: {given}")
         elif path.suffix.lower() in MANIFEST_SUFFIXES:
@@ -86,12 +120,13 @@ def find_inputs(inputs, glob=None, exclude=()) -> tuple[list, Path]:
     if not unique:
         hint = f" matching {glob!r}" if glob else f" ({', '.join(MESH_SUFFIXES)})"
         raise InvalidInputError(f"no mesh files found in {', '.join(map(str, inputs))}{hint}")
-    return unique, Path(os.path.commonpath([str(r) for r in roots]))
+    root = Path(os.path.commonpath([str(r) for r in roots]))
+    return Found(unique, root, {p: irregular[p] for p in unique if p in irregular})
 
 
-def _search(folder, glob, exclude):
+def _search(folder, glob, exclude, irregular):
     found = []
-    for here, dirs, names in os.walk(folder):
+    for here, dirs, names in os.walk(folder):  # links to folders are listed in dirs, not followed
         dirs[:] = sorted(d for d in dirs if not d.startswith(".")
                          and os.path.realpath(os.path.join(here, d)) not in exclude)
         for name in sorted(names):
@@ -100,6 +135,12 @@ def _search(folder, glob, exclude):
             path = Path(here) / name
             if glob is None or _matches(path.relative_to(folder), glob):
                 found.append(path)
+                try:
+                    mode = os.stat(path).st_mode
+                except OSError:  # a dangling link: it fails when read, saying so
+                    continue
+                if not stat.S_ISREG(mode):
+                    irregular[path] = file_kind(mode)
     return found
 
 
@@ -167,3 +208,41 @@ def plan_outputs(files, root, output_dir, file_format=None, table=None, given=()
             raise InvalidInputError(f"the table {table} would overwrite "
                                     f"{'an input' if key in sources else 'an output'}; name another file")
     return items
+
+
+def check_shard(shard):
+    """`shard` as (index, count) of ints with 0 <= index < count; None stays None.
+
+    Raises:
+      InvalidInputError: anything else (with the expected form).
+    """
+    if shard is None:
+        return None
+    try:
+        index, count = shard
+        if any(isinstance(v, bool) or int(v) != v for v in (index, count)):
+            raise ValueError
+        index, count = int(index), int(count)
+    except (TypeError, ValueError):
+        raise InvalidInputError(f"shard must be (index, count), such as (0, 4); got {shard!r}") from None
+    if not 0 <= index < count:
+        raise InvalidInputError(f"shard must have 0 <= index < count (the shards of 4 are 0/4 ... 3/4); "
+                                f"got {index}/{count}")
+    return index, count
+
+
+def shard_index(relative, count) -> int:
+    """The shard (0 ... count - 1) of an input, from its path relative to the inputs' root.
+
+    A stable hash (the first 8 bytes of the SHA-256 of the path's bytes, ``/``-separated, as a
+    big-endian integer, modulo `count`), the same on every machine and Python process (unlike
+    ``hash``), so that N machines given the same INPUTs and ``--shard 0/N`` ... ``N-1/N`` take
+    every input exactly once.
+
+    Example::
+
+        >>> shard_index("kid_01/pose_03.ply", 4)
+        1
+    """
+    key = os.fsencode(Path(relative).as_posix())
+    return int.from_bytes(hashlib.sha256(key).digest()[:8], "big") % int(count)

@@ -5,6 +5,10 @@ same folder is refused while the first is alive; the kernel releases it when a p
 by SIGKILL) and ``journal.jsonl``, one JSON line per finished input, appended with a single
 ``write`` (a killed run leaves whole lines; a torn last line is ignored). The journal is what a
 rerun consults to skip finished inputs; the transforms table is rebuilt from it.
+
+A shard's run (``--shard I/N``, machines sharing one OUTDIR) has a journal and a lock of its own
+(``journal.shard-I-of-N.jsonl``, ``lock.shard-I-of-N``) and holds ``lock`` shared: shards run side
+by side, a second run of one shard is refused, and so is an unsharded run while shards run.
 """
 from __future__ import annotations
 
@@ -15,7 +19,7 @@ from pathlib import Path
 from ._validate import InvalidInputError, JaxposeError
 from .atomic import check_folder_writable, is_temporary
 
-__all__ = ["STATE_FOLDER", "OutputFolder", "FolderBusyError"]
+__all__ = ["STATE_FOLDER", "OutputFolder", "FolderBusyError", "shard_name"]
 
 STATE_FOLDER = ".jaxpose"
 
@@ -24,12 +28,18 @@ class FolderBusyError(JaxposeError):
     """Another run holds the output folder's lock."""
 
 
+def shard_name(shard) -> str:
+    """``"shard-I-of-N"`` for shard (I, N), ``""`` for None: the suffix of a shard's files."""
+    return "" if shard is None else f"shard-{shard[0]}-of-{shard[1]}"
+
+
 class OutputFolder:
     """An output folder opened for one run: locked, with its journal. A context manager.
 
     Args:
       root: the output folder; created (with parents) when missing.
       force: accept an existing, non-empty folder that no jaxpose run made.
+      shard: (index, count) for one shard's run (its own journal and lock), or None.
 
     Raises:
       FolderBusyError: another run holds the lock (message names its pid).
@@ -43,11 +53,15 @@ class OutputFolder:
         ...     folder.append({"input": "/data/a.ply", "status": "ok"})
     """
 
-    def __init__(self, root, force=False):
+    def __init__(self, root, force=False, shard=None):
         self.root = Path(root)
         self.state = self.root / STATE_FOLDER
         self.force = force
-        self._lock = None
+        self.shard = shard
+        suffix = f".{shard_name(shard)}" if shard is not None else ""
+        self.journal = self.state / f"journal{suffix}.jsonl"
+        self._shard_lock = self.state / f"lock{suffix}" if shard is not None else None
+        self._locks = []
         self._journal = None
 
     def __enter__(self):
@@ -61,9 +75,11 @@ class OutputFolder:
             raise InvalidInputError(f"output folder {self.root} holds files that jaxpose did not write; "
                                     "use an empty or new folder (or --force / force=True to write into it)")
         self.state.mkdir(exist_ok=True)
-        self._lock = _lock(self.state / "lock")
         try:
-            self._journal = os.open(self.state / "journal.jsonl", os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o666)
+            self._locks.append(_lock(self.state / "lock", shared=self.shard is not None))
+            if self._shard_lock is not None:
+                self._locks.append(_lock(self._shard_lock))
+            self._journal = os.open(self.journal, os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o666)
         except BaseException:
             self._release()
             raise
@@ -74,22 +90,24 @@ class OutputFolder:
         return False
 
     def _release(self):
-        for fd in (self._journal, self._lock):
+        for fd in (self._journal, *self._locks):
             if fd is not None:
-                os.close(fd)  # closing the lock file releases the lock
-        self._journal = self._lock = None
+                os.close(fd)  # closing a lock file releases its lock
+        self._journal, self._locks = None, []
 
     def records(self) -> dict:
-        """{input path: its last journal record} (dicts), torn or foreign lines skipped."""
+        """{input path: its last journal record} (dicts), torn or foreign lines skipped; ordered by
+        those last records (the latest last)."""
         out = {}
         try:
-            with open(self.state / "journal.jsonl", "rb") as handle:
+            with open(self.journal, "rb") as handle:
                 for line in handle:
                     try:
                         record = json.loads(line)
                     except ValueError:
                         continue  # a line torn by a crash
                     if isinstance(record, dict) and "input" in record:
+                        out.pop(record["input"], None)
                         out[record["input"]] = record
         except FileNotFoundError:
             pass
@@ -100,10 +118,19 @@ class OutputFolder:
         line = (json.dumps(record, separators=(",", ":"), allow_nan=True) + "\n").encode("utf-8")
         written = os.write(self._journal, line)
         if written != len(line):  # a full disk: leave no half line to the next record
-            raise OSError(f"{self.state / 'journal.jsonl'}: short write ({written} of {len(line)} bytes)")
+            raise OSError(f"{self.journal}: short write ({written} of {len(line)} bytes)")
 
-    def remove_temporaries(self) -> int:
-        """Remove the temporaries that killed runs left anywhere under the folder; returns how many."""
+    def remove_temporaries(self, targets=None) -> int:
+        """Remove the temporaries that killed runs left; returns how many.
+
+        Args:
+          targets: only those of these files (a shard's outputs: other shards may be writing
+            theirs); None: anywhere under the folder (this run holds it alone).
+        """
+        if targets is not None:
+            from .atomic import remove_temporaries
+
+            return sum(remove_temporaries(t) for t in targets)
         removed = 0
         for folder, dirs, files in os.walk(self.root):
             for name in files:
@@ -123,27 +150,29 @@ def _existing_parent(path):
     return path
 
 
-def _lock(path):
-    """An exclusive, non-blocking lock on `path` (held while the returned descriptor is open)."""
+def _lock(path, shared=False):
+    """A non-blocking lock on `path`, exclusive or `shared` (held while the returned descriptor is
+    open); an exclusive holder writes its pid in the file, for the message of the next one."""
     fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
     try:
-        _try_lock(fd)
+        _try_lock(fd, shared)
     except BlockingIOError:
         try:
             holder = os.pread(fd, 64, 0).decode("ascii", "replace").strip() or "unknown"
         finally:
             os.close(fd)
-        raise FolderBusyError(f"another jaxpose run (pid {holder}) is writing to {path.parent.parent}; "
-                              "wait for it to finish or use another output folder") from None
+        raise FolderBusyError(f"another jaxpose run (pid {holder}{', or shards' if path.name == 'lock' and not shared else ''}) is writing to "
+                              f"{path.parent.parent}; wait for it to finish or use another output folder") from None
     except BaseException:
         os.close(fd)
         raise
-    os.ftruncate(fd, 0)
-    os.pwrite(fd, f"{os.getpid()}\n".encode("ascii"), 0)
+    if not shared:
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"{os.getpid()}\n".encode("ascii"), 0)
     return fd
 
 
-def _try_lock(fd):
+def _try_lock(fd, shared):
     import fcntl  # POSIX (Linux, macOS)
 
-    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    fcntl.flock(fd, (fcntl.LOCK_SH if shared else fcntl.LOCK_EX) | fcntl.LOCK_NB)

@@ -98,7 +98,7 @@ def _merge_vertices(geometry):
 def _read(path):
     if not path.exists():
         raise InvalidInputError(f"no such file: {path}")
-    if not path.is_file():
+    if not (path.is_file() or path.is_fifo()):  # a named pipe delivers a stream: read it
         raise InvalidInputError(f"not a file: {path}")
     ext = "".join(path.suffixes[-2:]).lower().lstrip(".") if path.suffix else ""
     known = set(trimesh.available_formats())

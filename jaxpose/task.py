@@ -8,15 +8,17 @@ can run in any worker process or on a Dask cluster and the caller alone writes.
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import json
 import os
+import stat
 import time
 from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["NormalizeOptions", "FileResult", "normalize_file", "one_line"]
+__all__ = ["NormalizeOptions", "FileResult", "normalize_file", "one_line", "sha256_file"]
 
 
 # --------------------------------------------------------------------------- options
@@ -96,7 +98,8 @@ class FileResult(NamedTuple):
     Attributes:
       record: table columns known to the worker (``status``, ``error``, ``kind``, ``vertices``,
         ``faces``, ``center_x/_y/_z``, ``scale``, ``valid``, ``converged``, rotation columns,
-        ``seconds``, ``worker``, ``worker_peak_mb``) and ``matrix`` (4 x 4 nested lists, or None).
+        ``seconds``, ``worker``, ``worker_peak_mb``, ``version``, and for a path ``input_size``,
+        ``input_mtime_ns``, ``input_sha256``) and ``matrix`` (4 x 4 nested lists, or None).
       data: the encoded normalized file, or None when the input failed.
     """
 
@@ -104,18 +107,21 @@ class FileResult(NamedTuple):
     data: bytes | None
 
 
-def normalize_file(source, options=None, file_type=None) -> FileResult:
+def normalize_file(source, options=None, file_type=None, check="mtime") -> FileResult:
     """Read one mesh or point cloud, normalize it and encode the result; a pure function.
 
     Nothing is written: the caller decides where the bytes go. Errors of the input (unreadable,
-    empty, NaN coordinates, a point cloud for a triangles-only format, no valid pose) come back as
-    ``record["status"] == "failed"`` with a one-line ``record["error"]``.
+    empty, NaN coordinates, a point cloud for a triangles-only format, no valid pose, a file that
+    changed while it was read) come back as ``record["status"] == "failed"`` with a one-line
+    ``record["error"]``. The input's size and modification time (and SHA-256) are those of the
+    bytes read: taken just before reading and checked unchanged just after.
 
     Args:
       source: a path (anything :func:`jaxpose.mesh.load` reads) or a Trimesh / PointCloud.
       options: :class:`NormalizeOptions` (default: the defaults).
       file_type: output format (:data:`jaxpose.mesh.OUTPUT_FORMATS`); default the source's suffix
         (give it for a geometry object).
+      check: ``"hash"`` also records the SHA-256 of a regular file's bytes (``input_sha256``).
 
     Returns:
       :class:`FileResult`.
@@ -129,7 +135,11 @@ def normalize_file(source, options=None, file_type=None) -> FileResult:
     try:
         from . import mesh
 
+        before = _input_stat(source, check) if isinstance(source, (str, os.PathLike)) else {}
+        record.update({k: v for k, v in before.items() if k != "input_inode"})
         geometry = mesh.load(source)
+        if before.get("input_inode") is not None:
+            _check_unchanged(source, before)
         record.update(kind="mesh" if hasattr(geometry, "faces") else "points",
                       vertices=len(geometry.vertices), faces=len(getattr(geometry, "faces", ())))
         ext = mesh.output_format(f"output.{file_type or Path(str(source)).suffix.lstrip('.')}", geometry)
@@ -139,9 +149,49 @@ def normalize_file(source, options=None, file_type=None) -> FileResult:
         record.update(status="ok")
     except Exception as exc:  # every failure of one input is that input's record, not the run's end
         record.update(error=one_line(exc))
+    from . import __version__
+
     record.update(seconds=time.perf_counter() - start, worker=f"{socket.gethostname()}:{os.getpid()}",
-                  worker_peak_mb=_peak_mb())
+                  worker_peak_mb=_peak_mb(), version=__version__)
     return FileResult(record, data)
+
+
+def _input_stat(path, check):
+    """The input's table columns from ``os.stat`` (nothing for a file that cannot be stat'ed: the
+    read says why), with its SHA-256 for a regular file when `check` is ``"hash"``."""
+    out = {"input_size": None, "input_mtime_ns": None, "input_sha256": ""}
+    try:
+        info = os.stat(path)
+    except OSError:
+        return out
+    if not stat.S_ISREG(info.st_mode):  # a FIFO or device: no size, nothing to compare afterwards
+        return out
+    out.update(input_size=info.st_size, input_mtime_ns=info.st_mtime_ns, input_inode=(info.st_dev, info.st_ino))
+    if check == "hash":
+        out["input_sha256"] = sha256_file(path)
+    return out
+
+
+def _check_unchanged(path, before):
+    from ._validate import InvalidInputError
+
+    try:
+        info = os.stat(path)
+    except OSError as exc:
+        raise InvalidInputError(f"{path}: removed while it was read ({exc.strerror})") from None
+    after = (info.st_size, info.st_mtime_ns, (info.st_dev, info.st_ino))
+    if after != (before["input_size"], before["input_mtime_ns"], before["input_inode"]):
+        raise InvalidInputError(f"{path}: changed while it was read (size {before['input_size']} -> "
+                                f"{info.st_size} bytes); run again to read it whole")
+
+
+def sha256_file(path) -> str:
+    """The SHA-256 of a file's bytes, hex."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
 
 
 def _pose_columns(pose, matrix):

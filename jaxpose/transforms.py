@@ -32,7 +32,15 @@ worker_peak_mb     float64  that process's peak resident memory so far, MiB
 input_size         int64    bytes of the input when it was read
 input_mtime_ns     int64    its modification time, ns since the epoch
 input_sha256       str      its SHA-256 (only with ``--check hash``; empty otherwise)
+version            str      the jaxpose version of the worker that made the row
+options            str      every option of the run that made it, as JSON (``NormalizeOptions``
+                            fields and the output ``format``): what a rerun compares
 =================  =======  ===============================================================
+
+Size, modification time and SHA-256 are those of the bytes the worker read (checked unchanged
+during the read). Paths that are not valid UTF-8 (bytes names on Linux) are stored with their
+undecodable bytes written ``\\xNN``. Tables written before ``version`` and ``options`` existed
+read with those None.
 
 With a rotation (``--rotation``), four more come after ``resolution``: ``rotation_method`` (str),
 ``r00`` ... ``r22`` (float64, row-major; the rows of R are the canonical axes) and ``ambiguity``
@@ -44,6 +52,7 @@ import csv
 import importlib.util
 import io
 import math
+import os
 from pathlib import Path
 from typing import NamedTuple
 
@@ -51,7 +60,7 @@ import numpy as np
 
 from ._validate import InvalidInputError
 
-__all__ = ["COLUMNS", "ROTATION_COLUMNS", "Transform", "read_transforms", "write_transforms",
+__all__ = ["COLUMNS", "ROTATION_COLUMNS", "Transform", "read_transforms", "merge_transforms", "write_transforms",
            "table_format", "default_table_name", "has_parquet"]
 
 _BASE = (
@@ -65,8 +74,10 @@ _ROTATION = (("rotation_method", "str"),) + tuple((f"r{i}{j}", "float") for i in
     ("ambiguity", "float"),)
 _TAIL = (
     ("seconds", "float"), ("worker", "str"), ("worker_peak_mb", "float"),
-    ("input_size", "int"), ("input_mtime_ns", "int"), ("input_sha256", "str"),
+    ("input_size", "int"), ("input_mtime_ns", "int"), ("input_sha256", "str"), ("version", "str"),
+    ("options", "str"),
 )
+_OPTIONAL = ("version", "options")  # later additions: absent from older tables
 COLUMNS = tuple(name for name, _ in _BASE + _TAIL)
 ROTATION_COLUMNS = tuple(name for name, _ in _ROTATION)
 _TYPES = dict(_BASE + _ROTATION + _TAIL)
@@ -171,7 +182,16 @@ def _cell(row, name):
         return int(value)
     if kind == "bool":
         return bool(value)
-    return str(value)
+    return _storable(str(value))
+
+
+def _storable(text):
+    """`text` as valid UTF-8: a path's undecodable bytes (surrogate escapes) as ``\\xNN``."""
+    try:
+        text.encode("utf-8")
+        return text
+    except UnicodeEncodeError:
+        return os.fsencode(text).decode("utf-8", "backslashreplace")
 
 
 def write_transforms(rows, path=None, rotation=None) -> bytes:
@@ -231,23 +251,73 @@ def _csv_value(text, kind):
 
 
 def read_transforms(path) -> list:
-    """Read a transforms table (Parquet or CSV, from the suffix) back as :class:`Transform` rows.
+    """Read transforms tables (Parquet or CSV, from the suffix) back as :class:`Transform` rows.
 
     Args:
-      path: a table written by :func:`jaxpose.normalize_files` / ``jaxpose normalize ... -o OUTDIR``.
+      path: a table written by :func:`jaxpose.normalize_files` / ``jaxpose normalize ... -o OUTDIR``;
+        or a folder, meaning its tables (``transforms*.parquet``, ``transforms*.csv``: the default
+        names, shards' included), oldest first; or a list of tables and folders.
 
     Returns:
-      list of :class:`Transform`, in the table's order (the order of the inputs).
+      list of :class:`Transform`: one table's rows in its order (the order of the inputs); several
+      tables' rows merged by :func:`merge_transforms` (the tables of N shards: the rows of the
+      unsharded run).
 
     Raises:
-      InvalidInputError: a missing file, an unknown suffix, or a file that is not such a table.
+      InvalidInputError: a missing file, a folder without tables, an unknown suffix, or a file that
+        is not such a table.
 
     Example::
 
         >>> rows = jaxpose.read_transforms("normalized/transforms.parquet")
         >>> row = rows[0]; row.center, row.scale, row.matrix     # (3,), float, (4, 4)
         >>> back = row.invert(trimesh.load(row.output).vertices)  # the input's coordinates
+        >>> everything = jaxpose.read_transforms(["shard0/", "shard1/", "shard2/"])
     """
+    tables = _tables(path)
+    if len(tables) == 1 and isinstance(path, (str, os.PathLike)) and not Path(path).is_dir():
+        return _read_table(tables[0])
+    return merge_transforms([_read_table(t) for t in tables])
+
+
+def merge_transforms(tables) -> list:
+    """The rows of several tables as one table.
+
+    Rows are concatenated in order; a row whose input comes again later is dropped for the later
+    one (a later run redid it), and so is an ok row whose output a later ok row names (a later
+    run replaced that file). Shards' tables have neither: they concatenate.
+
+    Args:
+      tables: lists of :class:`Transform` (or dicts of columns).
+
+    Returns:
+      list of :class:`Transform`.
+    """
+    rows = [r if isinstance(r, Transform) else Transform.from_record(r) for table in tables for r in table]
+    last_input, last_output = {}, {}
+    for i, row in enumerate(rows):
+        last_input[row.input] = i
+        if row.ok and row.output:
+            last_output[row.output] = i
+    return [row for i, row in enumerate(rows) if last_input[row.input] == i
+            and not (row.ok and row.output and last_output[row.output] != i)]
+
+
+def _tables(path):
+    """The table files `path` names: itself, a folder's default-named tables, or a list's."""
+    if not isinstance(path, (str, os.PathLike)):
+        return [t for p in path for t in _tables(p)]
+    path = Path(path)
+    if not path.is_dir():
+        return [path]
+    found = [p for p in path.iterdir() if p.name.startswith("transforms") and p.is_file()
+             and p.suffix.lower() in (".parquet", ".pq", ".csv")]
+    if not found:
+        raise InvalidInputError(f"no transforms table (transforms*.parquet, transforms*.csv) in the folder {path}")
+    return sorted(found, key=lambda p: (p.stat().st_mtime_ns, p.name))
+
+
+def _read_table(path):
     path = Path(path)
     kind = table_format(path)
     if not path.is_file():
@@ -263,7 +333,7 @@ def read_transforms(path) -> list:
         with open(path, newline="", encoding="utf-8") as handle:
             reader = csv.DictReader(handle)
             records = [{k: _csv_value(v, _TYPES.get(k, "str")) for k, v in r.items()} for r in reader]
-    missing = [c for c in COLUMNS if records and c not in records[0]]
+    missing = [c for c in COLUMNS if records and c not in records[0] and c not in _OPTIONAL]
     if missing:
         raise InvalidInputError(f"{path}: not a transforms table (no column {', '.join(missing)})")
     return [Transform.from_record(r) for r in records]

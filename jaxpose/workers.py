@@ -2,7 +2,8 @@
 
 One small interface for all: ``submit(fn, *args) -> future``, ``wait(pending) -> done`` (wakes at
 least every half second, so the caller stays responsive to interrupts), ``result(future)``
-(raises :class:`WorkerLost` when the worker itself died) and ``close(kill)``. Tasks must be pure
+(raises :class:`WorkerLost` when the worker itself died, :class:`TaskTimeout` when a local task ran
+past its time limit) and ``close(kill)``. A lost or stopped worker costs its own task only. Tasks must be pure
 functions of their arguments; nothing is kept in a worker between tasks except what JAX caches
 (compiled programs), so each worker compiles once.
 """
@@ -13,18 +14,14 @@ import logging
 import os
 
 from .errors import InvalidInputError, JaxposeError
+from .pool import POLL_S, ProcessPool, TaskTimeout, WorkerLost
 
-__all__ = ["WorkerLost", "LocalExecutor", "DaskExecutor", "local_cluster", "default_workers",
+__all__ = ["WorkerLost", "TaskTimeout", "LocalExecutor", "DaskExecutor", "local_cluster", "default_workers",
            "process_environment", "configure_process", "POLL_S"]
 
-POLL_S = 0.5
 # one BLAS thread per process: parallelism comes from the workers, and sums come out in the same
 # order in every process (bit-identical results locally and on Dask, which sets the same)
 _ONE_THREAD = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
-
-
-class WorkerLost(Exception):
-    """The process running a task died (out of memory, a crash in a native library), or Dask gave up."""
 
 
 def default_workers() -> int:
@@ -55,72 +52,43 @@ def configure_process(one_thread=True) -> bool:
     return True
 
 
-def _init_worker(environment):
-    import signal
-
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the whole group; the parent decides
-    for key, value in environment.items():  # before the first task imports NumPy or JAX
-        os.environ.setdefault(key, value)
-
-
 class LocalExecutor:
-    """``workers`` == 1: a thread of this process; more: spawned processes (fork is unsafe with JAX).
+    """``workers`` == 1 without a time limit: a thread of this process; else worker processes
+    (:class:`jaxpose.pool.ProcessPool`: fresh interpreters, each stopped on its own when its task
+    runs past `timeout` or it dies, the others going on).
 
-    Worker processes ignore SIGINT (a terminal's Ctrl-C goes to the parent, which stops them) and
-    get the persistent compilation cache (:mod:`jaxpose.cache`).
+    Worker processes get :func:`process_environment` (one BLAS thread, the compilation cache).
     """
 
-    def __init__(self, workers):
+    def __init__(self, workers, timeout=None):
         self.workers = workers
-        if workers == 1:
+        self.timeout = timeout
+        if workers == 1 and timeout is None:
             self._pool = cf.ThreadPoolExecutor(1, thread_name_prefix="jaxpose-worker")
         else:
-            import multiprocessing
-
-            self._pool = cf.ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
-                                                initializer=_init_worker, initargs=(process_environment(),))
+            self._pool = ProcessPool(workers, environment=process_environment(), timeout=timeout)
 
     def submit(self, fn, *args):
         return self._pool.submit(fn, *args)
 
     def wait(self, pending):
+        if isinstance(self._pool, ProcessPool):
+            return self._pool.wait(pending)
         return cf.wait(pending, timeout=POLL_S, return_when=cf.FIRST_COMPLETED)[0]
 
     def result(self, future):
-        from concurrent.futures.process import BrokenProcessPool
-
-        try:
-            return future.result()
-        except BrokenProcessPool as exc:
-            raise WorkerLost(f"a worker process died while working on it (out of memory?): {exc}") from None
-
-    def restart(self):
-        """A fresh pool after a worker died (the old one refuses new work)."""
-        self.close(kill=True)
-        self.__init__(self.workers)
+        """The task's value; WorkerLost / TaskTimeout when its worker died or ran past the limit."""
+        if isinstance(self._pool, ProcessPool):
+            return self._pool.result(future)
+        return future.result()
 
     def close(self, kill=False):
-        """Stop; with `kill`, cancel queued tasks and kill running worker processes at once."""
-        if not kill:
-            self._pool.shutdown(wait=True)
-            return
-        kill_workers = getattr(self._pool, "kill_workers", None)  # Python >= 3.14
-        if kill_workers is not None:
-            kill_workers()
-        else:  # shutdown() forgets the processes: take them first
-            processes = list((getattr(self._pool, "_processes", None) or {}).values())
-            for process in processes:
-                process.kill()
-            for process in processes:
-                process.join()  # gone, and with them their ends of the result pipe
-        # A worker killed while it sent a result leaves part of a message in the result pipe, and the
-        # pool's manager thread waits for the rest (shutdown() would wait for that thread forever).
-        # With this process's write end closed too, it reads end-of-file, counts the pool as
-        # broken and ends.
-        writer = getattr(getattr(self._pool, "_result_queue", None), "_writer", None)
-        if writer is not None:
-            writer.close()
-        self._pool.shutdown(wait=True, cancel_futures=True)  # quick: its processes are gone
+        """Stop; with `kill`, drop queued tasks and kill running worker processes at once (a thread
+        cannot be killed: it finishes its task)."""
+        if isinstance(self._pool, ProcessPool):
+            self._pool.close(kill=kill)
+        else:
+            self._pool.shutdown(wait=True, cancel_futures=kill)
 
 
 # A local cluster for this work: no MALLOC_TRIM_THRESHOLD_ (Dask's default of 64 KiB turns every large
@@ -215,9 +183,6 @@ class DaskExecutor:
             raise WorkerLost(f"the Dask task failed: {' '.join(str(exc).split()) or type(exc).__name__}") from None
         finally:
             future.release()
-
-    def restart(self):
-        """Nothing to do: Dask replaces lost workers itself."""
 
     def close(self, kill=False):
         self.client.close()

@@ -1,6 +1,7 @@
 """Worker processes and a real dask.distributed LocalCluster give the same table and files."""
 import filecmp
 import os
+import time
 
 import pytest
 
@@ -8,7 +9,7 @@ import jaxpose
 from jaxpose import batch, cli
 from jaxpose.task import NormalizeOptions
 from jaxpose._validate import InvalidInputError
-from jaxpose.workers import DaskExecutor, LocalExecutor, WorkerLost, local_cluster
+from jaxpose.workers import DaskExecutor, LocalExecutor, TaskTimeout, WorkerLost, local_cluster
 
 from conftest import write_mesh_tree
 
@@ -75,37 +76,72 @@ def test_dask_local_cluster_is_configured_and_gives_the_same_results(tmp_path, c
     assert (new.written, new.failed) == (4, 3)
 
 
-def test_killing_the_workers_returns_with_a_partial_result_in_the_pipe():
-    """Ctrl-C kills the worker processes wherever they are, possibly in the middle of sending a
-    result: the pool's manager thread then waits for the rest of that message. close(kill=True)
-    must still return (it once hung forever in shutdown)."""
-    import struct
+def test_a_worker_dying_in_the_middle_of_sending_costs_its_task_only():
+    """A worker that dies halfway through sending a result (Ctrl-C kills, out of memory) leaves
+    part of a message on its pipe: that task is lost (WorkerLost), the next tasks run in a fresh
+    worker, and close(kill=True) returns."""
     import threading
-    import time
 
-    executor = LocalExecutor(2)
-    futures = [executor.submit(time.sleep, 30) for _ in range(2)]
-    deadline = time.monotonic() + 60
-    while len(getattr(executor._pool, "_processes", None) or {}) < 2 and time.monotonic() < deadline:
-        time.sleep(0.05)
-    writer = executor._pool._result_queue._writer  # as a worker killed mid-send leaves it:
-    os.write(writer.fileno(), struct.pack("!i", 1 << 20) + b"part of a result")  # a header, then a cut
-    time.sleep(0.5)  # the manager thread reads the header and waits for the rest
-    closer = threading.Thread(target=executor.close, kwargs={"kill": True}, daemon=True)
-    closer.start()
-    closer.join(timeout=60)
-    assert not closer.is_alive(), "close(kill=True) hangs"
-    assert all(f.done() for f in futures)
-
-
-def test_a_dead_worker_process_fails_its_input_and_the_run_goes_on(tmp_path):
     executor = LocalExecutor(2)
     try:
-        future = executor.submit(_die)
+        futures = [executor.submit(_send_half_then_die), executor.submit(abs, -3)]
+        done = set()
+        deadline = time.monotonic() + 120
+        while len(done) < 2 and time.monotonic() < deadline:
+            done |= executor.wait(set(futures) - done)
+        with pytest.raises(WorkerLost, match="died while working on it: exit status 9"):
+            executor.result(futures[0])
+        assert executor.result(futures[1]) == 3
+        again = executor.submit(abs, -4)
+        while not executor.wait({again}):
+            pass
+        assert executor.result(again) == 4
+        sleepers = [executor.submit(time.sleep, 60) for _ in range(2)]
+        executor.wait(set(sleepers))
+    finally:
+        closer = threading.Thread(target=executor.close, kwargs={"kill": True}, daemon=True)
+        closer.start()
+        closer.join(timeout=60)
+    assert not closer.is_alive(), "close(kill=True) hangs"
+
+
+def _send_half_then_die():
+    """In a worker: a message header on the result pipe, part of the body, then death."""
+    import struct
+    import sys
+
+    result_fd = int(sys.argv[3])  # the worker's command line: path, task pipe, result pipe, parent
+    os.write(result_fd, struct.pack("!i", 1 << 20) + b"part of a result")
+    os._exit(9)
+
+
+def test_a_dead_worker_process_fails_its_task_and_the_others_go_on(tmp_path):
+    executor = LocalExecutor(2)
+    try:
+        futures = [executor.submit(_die), executor.submit(time.sleep, 1.0), executor.submit(abs, -3)]
+        done = set()
+        while len(done) < 3:
+            done |= executor.wait(set(futures) - done)
         with pytest.raises(WorkerLost, match="died"):
-            executor.result(future)
-        executor.restart()
-        assert executor.result(executor.submit(abs, -3)) == 3
+            executor.result(futures[0])
+        assert executor.result(futures[1]) is None and executor.result(futures[2]) == 3
+    finally:
+        executor.close(kill=True)
+
+
+def test_a_task_past_the_time_limit_is_stopped_and_its_worker_replaced():
+    executor = LocalExecutor(1, timeout=1.0)  # one worker, a process: the limit needs one
+    try:
+        slow, quick = executor.submit(time.sleep, 60), executor.submit(abs, -5)
+        start = time.monotonic()
+        while not executor.wait({slow}):
+            pass
+        assert time.monotonic() - start < 30
+        with pytest.raises(TaskTimeout, match="time limit of 1 s"):
+            executor.result(slow)
+        while not executor.wait({quick}):
+            pass
+        assert executor.result(quick) == 5  # a fresh worker took it
     finally:
         executor.close(kill=True)
 
@@ -142,3 +178,25 @@ def test_without_dask_installed_the_error_names_the_extra(monkeypatch):
     for start in (lambda: local_cluster(1), lambda: DaskExecutor(local=1), lambda: DaskExecutor("tcp://x:1")):
         with pytest.raises(InvalidInputError, match=r"pip install 'jaxpose\[dask\]'"):
             start()
+
+
+def test_a_plain_script_without_a_main_guard_can_use_worker_processes(tmp_path):
+    """Worker processes are fresh interpreters that never import the caller's __main__: a script
+    calling normalize_files(..., workers=2) at its top level runs once and works."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    write_mesh_tree(tmp_path / "scans")
+    script = tmp_path / "script.py"
+    script.write_text("import jaxpose\n"
+                      "print('START', flush=True)\n"
+                      "rows = jaxpose.normalize_files('scans', 'out', workers=2, resolution=16, progress=False)\n"
+                      "print('ROWS', len(rows), sum(r.ok for r in rows), len({r.worker for r in rows}))\n")
+    root = Path(__file__).resolve().parents[1]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(root), os.environ.get("PYTHONPATH", "")])}
+    done = subprocess.run([sys.executable, str(script)], cwd=tmp_path, capture_output=True, text=True, timeout=300,
+                          env=env)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines() == ["START", "ROWS 7 4 2"]  # the script ran once; two workers did the work
+    assert "Error" not in done.stderr and "Traceback" not in done.stderr

@@ -1,0 +1,233 @@
+"""The dataset command's hostile inputs, each with real files, processes and signals: files that
+are not regular met in a folder, a folder link loop, two inputs for one output, names that are
+not UTF-8, a manifest of missing files, a worker killed from outside, an output folder that is a
+file, a file that changes between the listing and the read, a FIFO that never delivers (with
+``--timeout``). Each ends as a recorded, explained failure or a correct result; the rest of the
+run completes; nothing is overwritten; nothing hangs."""
+import os
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+import jaxpose
+from jaxpose import batch, mesh
+from jaxpose.errors import InvalidInputError
+from jaxpose.task import NormalizeOptions
+
+pytestmark = pytest.mark.skipif(sys.platform != "linux", reason="FIFOs, sockets, /proc and bytes names: Linux")
+
+ROOT = Path(__file__).resolve().parents[1]
+FAST = NormalizeOptions(resolution=16)
+
+
+def good_meshes(folder, count=3):
+    folder.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for i in range(count):
+        shape = trimesh.creation.box(extents=(1.0 + 0.2 * i, 0.6, 0.4))
+        shape.apply_translation([i, -1.0, 2.0])
+        paths.append(folder / f"good_{i}.ply")
+        shape.export(paths[-1])
+    return paths
+
+
+def cli(*args, timeout=180):
+    """`python -m jaxpose normalize ...` in a subprocess: (exit code, stdout, stderr)."""
+    process = subprocess.run([sys.executable, "-m", "jaxpose", "normalize", *map(str, args), "--resolution", "16"],
+                             cwd=ROOT, capture_output=True, text=True, timeout=timeout)
+    return process.returncode, process.stdout, process.stderr
+
+
+def by_name(rows):
+    return {Path(r.input).name: r for r in rows}
+
+
+def assert_normalized(row):
+    """The output on disk is the input under the row's transform (PLY stores float32)."""
+    expected = row.apply(mesh.load(row.input).vertices).astype(np.float32)
+    np.testing.assert_array_equal(mesh.load(row.output).vertices.astype(np.float32), expected)
+
+
+def test_files_that_are_not_regular_in_a_folder_fail_unread_and_a_link_loop_is_not_followed(tmp_path):
+    scans = tmp_path / "scans"
+    good = good_meshes(scans / "sub")
+    os.mkfifo(scans / "pipe.ply")  # opened, it would block the run forever
+    server = socket.socket(socket.AF_UNIX)
+    server.bind(str(scans / "sock.ply"))
+    os.symlink("/dev/null", scans / "null.ply")
+    os.symlink(scans, scans / "sub" / "loop")  # a folder link back to the root
+    try:
+        code, out, err = cli(scans, "-o", tmp_path / "out", "--workers", "1", timeout=120)
+    finally:
+        server.close()
+    assert code == 1 and "3 of 6 inputs failed" in err, err
+    rows = by_name(jaxpose.read_transforms(tmp_path / "out" / "transforms.parquet"))
+    assert sorted(rows) == sorted(["pipe.ply", "sock.ply", "null.ply"] + [p.name for p in good])  # once each
+    for name, kind in [("pipe.ply", "a FIFO"), ("sock.ply", "a socket"), ("null.ply", "a character device")]:
+        assert rows[name].status == "failed" and f"{kind}, not a regular file" in rows[name].error
+        assert f"{kind}, not a regular file" in err
+    for path in good:
+        assert rows[path.name].ok
+        assert_normalized(rows[path.name])
+    assert not (tmp_path / "out" / "sub" / "loop").exists()
+
+
+def test_two_inputs_for_one_output_are_refused_before_any_work(tmp_path):
+    scans = tmp_path / "scans"
+    good_meshes(scans)
+    trimesh.creation.icosphere(1).export(scans / "good_0.off")  # good_0.ply and good_0.off -> good_0.ply
+    code, _, err = cli(scans, "-o", tmp_path / "out", "--format", "ply", "--workers", "1")
+    assert code == 1 and "would both be written to" in err and "good_0.off" in err and "Traceback" not in err
+    assert not (tmp_path / "out").exists()
+
+
+def test_names_that_are_not_utf8(tmp_path):
+    scans = tmp_path / "scans"
+    good_meshes(scans, count=1)
+    raw = os.path.join(os.fsencode(scans), b"caf\xe9-\xff.ply")
+    trimesh.creation.box(extents=(2.0, 1.0, 0.5)).export(os.fsdecode(raw))
+    result = batch.run_batch([scans], tmp_path / "out", FAST, workers=1, progress=False)
+    assert (result.written, result.failed) == (2, 0)
+    output = os.path.join(os.fsencode(tmp_path / "out"), b"caf\xe9-\xff.ply")  # the same bytes name
+    assert os.path.isfile(output)
+    original = trimesh.load(os.fsdecode(raw), process=False).vertices
+    row = next(r for r in jaxpose.read_transforms(result.table) if "caf" in r.input)
+    assert row.ok and row.input.endswith("caf\\xe9-\\xff.ply")  # stored as valid UTF-8, bytes escaped
+    np.testing.assert_array_equal(mesh.load(os.fsdecode(output)).vertices.astype(np.float32),
+                                  row.apply(original).astype(np.float32))
+    again = batch.run_batch([scans], tmp_path / "out", FAST, workers=1, progress=False)
+    assert (again.written, again.skipped) == (0, 2)  # the journal knows the name exactly
+
+
+def test_a_manifest_of_missing_files(tmp_path):
+    good = good_meshes(tmp_path / "scans", count=2)
+    (tmp_path / "list.txt").write_text("scans/good_0.ply\nscans/gone.ply\nnowhere/else.obj\nscans/good_1.ply\n")
+    code, out, err = cli(tmp_path / "list.txt", "-o", tmp_path / "out", "--workers", "1")
+    assert code == 1 and "2 of 4 inputs failed" in err
+    rows = by_name(jaxpose.read_transforms(tmp_path / "out" / "transforms.parquet"))
+    for name in ("gone.ply", "else.obj"):
+        assert rows[name].status == "failed" and "no such file" in rows[name].error
+    assert all(rows[p.name].ok for p in good)
+
+
+def children_holding(path):
+    """Process ids of this process's children that have `path` open."""
+    found = []
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            with open(f"/proc/{entry}/stat") as handle:
+                ppid = int(handle.read().rpartition(")")[2].split()[1])
+            if ppid != os.getpid():
+                continue
+            fds = os.listdir(f"/proc/{entry}/fd")
+            if any(os.readlink(f"/proc/{entry}/fd/{fd}") == str(path) for fd in fds):
+                found.append(int(entry))
+        except OSError:
+            continue
+    return found
+
+
+def test_a_worker_killed_from_outside_fails_its_input_and_the_run_goes_on(tmp_path):
+    good = good_meshes(tmp_path / "scans", count=4)
+    fifo = tmp_path / "scans" / "stuck.ply"
+    os.mkfifo(fifo)  # named as an INPUT: read; it blocks its worker until killed
+    killed, stop = [], threading.Event()
+
+    def killer():
+        while not stop.is_set():
+            for pid in children_holding(fifo):
+                os.kill(pid, signal.SIGKILL)  # the worker, not this (parent) process
+                killed.append(pid)
+            time.sleep(0.1)
+
+    writer = os.open(fifo, os.O_RDWR)  # a writer that never writes: a reader's open returns, its read blocks
+    thread = threading.Thread(target=killer, daemon=True)
+    thread.start()
+    try:
+        result = batch.run_batch([fifo, *good], tmp_path / "out", FAST, workers=2, progress=False)
+    finally:
+        stop.set()
+        thread.join()
+        os.close(writer)
+    rows = by_name(result.rows)
+    assert len(set(killed)) == 2  # the first worker, then the one that tried it again
+    assert rows["stuck.ply"].status == "failed"
+    assert "killed by SIGKILL" in rows["stuck.ply"].error and "tried twice" in rows["stuck.ply"].error
+    assert (result.written, result.failed) == (4, 1)
+    for path in good:
+        assert_normalized(rows[path.name])
+
+
+def test_an_output_folder_that_is_a_file(tmp_path):
+    good = good_meshes(tmp_path / "scans" / "sub", count=2)
+    (tmp_path / "out.ply").write_text("mine")
+    code, _, err = cli(tmp_path / "scans", "-o", tmp_path / "out.ply", "--workers", "1")
+    assert code == 1 and "is a file" in err and "Traceback" not in err
+    assert (tmp_path / "out.ply").read_text() == "mine"
+    # a folder the outputs need is a file: those inputs fail, the file stays, the rest is done
+    good_meshes(tmp_path / "scans" / "other", count=1)
+    (tmp_path / "out").mkdir()
+    (tmp_path / "out" / "sub").write_text("mine too")
+    result = batch.run_batch([tmp_path / "scans"], tmp_path / "out", FAST, workers=1, force=True, progress=False)
+    rows = {os.path.relpath(r.input, tmp_path / "scans"): r for r in result.rows}
+    assert (tmp_path / "out" / "sub").read_text() == "mine too"
+    for path in good:
+        row = rows[f"sub/{path.name}"]
+        assert row.status == "failed" and "cannot write" in row.error
+    assert rows["other/good_0.ply"].ok
+
+
+def test_a_file_that_changes_between_the_listing_and_the_read(tmp_path):
+    """The listing is done and the run has started (its worker is reading a FIFO) when the file
+    is replaced: the row describes the bytes read (size, time, SHA-256) and the output is theirs."""
+    import hashlib
+
+    scans = tmp_path / "scans"
+    target = good_meshes(scans, count=1)[0]
+    fifo = scans / "first.ply"
+    os.mkfifo(fifo)
+    replacement = trimesh.creation.icosphere(subdivisions=2, radius=3.0)
+    replacement.apply_translation([5.0, 0.0, 0.0])
+
+    def writer():
+        with open(fifo, "wb") as pipe:  # blocks until the run's worker opens it to read
+            replacement.export(target)  # the file changes after the listing, before its read
+            pipe.write(trimesh.creation.box().export(file_type="ply"))
+
+    thread = threading.Thread(target=writer, daemon=True)
+    thread.start()
+    result = batch.run_batch([fifo, target], tmp_path / "out", FAST, workers=1, check="hash", progress=False)
+    thread.join(timeout=60)
+    rows = by_name(result.rows)
+    assert rows["first.ply"].ok and rows["first.ply"].input_size is None  # a FIFO has no size
+    row = rows[target.name]
+    assert row.ok and row.vertices == len(replacement.vertices)
+    assert row.input_size == target.stat().st_size and row.input_mtime_ns == target.stat().st_mtime_ns
+    assert row.input_sha256 == hashlib.sha256(target.read_bytes()).hexdigest()
+    assert_normalized(row)
+    again = batch.run_batch([target], tmp_path / "out", FAST, workers=1, check="hash", progress=False)
+    assert again.skipped == 1  # the record matches the file as it is
+
+
+def test_a_fifo_that_never_delivers_times_out_and_the_rest_completes(tmp_path):
+    good = good_meshes(tmp_path / "scans", count=3)
+    fifo = tmp_path / "scans" / "never.ply"
+    os.mkfifo(fifo)
+    start = time.monotonic()
+    code, out, err = cli(fifo, *good, "-o", tmp_path / "out", "--timeout", "5", "--workers", "2", timeout=300)
+    wall = time.monotonic() - start
+    assert code == 1 and "1 of 4 inputs failed" in err, err
+    rows = by_name(jaxpose.read_transforms(tmp_path / "out" / "transforms.parquet"))
+    assert rows["never.ply"].status == "failed" and "time limit of 5 s" in rows["never.ply"].error
+    assert all(rows[p.name].ok for p in good)
+    print(f"FIFO with --timeout 5: the run took {wall:.1f} s")

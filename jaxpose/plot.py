@@ -13,6 +13,8 @@ draws several panels) or into a new :class:`matplotlib.figure.Figure`, saves it 
 * :func:`sweep_curves`    sigma_tr (or sigma_scale) against gamma / nu, averaged (Fig. 5) or per
   class (Fig. 6), with the surface centroid's value as a red line;
 * :func:`scale_bars`      per-class sigma_scale, OCSVM against the surface's mean distance (Fig. 7);
+* :func:`class_bars`      which method is most consistent per class (sigma_tr and cv_scale);
+* :func:`variant_bars`, :func:`variants_figure`  each method across the input variants;
 * :func:`overlay_pairs`   pairs of normalized objects of one class overlaid (Fig. 8);
 * :func:`evaluation_figures`  all figures of an :func:`jaxpose.evaluation.evaluate` result;
 * :func:`rotation_angles` per-instance angles to the class frame, per rotation method;
@@ -28,7 +30,8 @@ import numpy as np
 
 from .errors import InvalidInputError
 
-__all__ = ["region_slices", "mesh_3d", "centers_plot", "sweep_curves", "scale_bars", "variant_bars",
+__all__ = ["region_slices", "mesh_3d", "centers_plot", "sweep_curves", "scale_bars", "variant_bars", "class_bars",
+           "variants_figure", "method_colors", "METHOD_COLORS",
            "overlay_pairs", "evaluation_figures", "rotation_angles", "rotation_overlay", "rotation_figures"]
 
 OCSVM_COLOR = "tab:blue"  # the paper's blue curve
@@ -302,50 +305,150 @@ def sweep_curves(result_sweeps, *, param=None, per_class=False, metric="sigma_tr
     return _finish(fig, path)
 
 
+METHOD_COLORS = {  # one colour per method of jaxpose.evaluation.METHODS, the paper's blue and red kept
+    "robust": "black",
+    "ocsvm": OCSVM_COLOR,
+    "surface_centroid": SURFACE_COLOR,
+    "vertex_mean": "tab:green",
+    "bbox": "tab:purple",
+    "min_ball": "tab:brown",
+    "solid": "tab:olive",
+    "solid_sqrt_area": "tab:cyan",
+    "depth_weighted_solid:2": "tab:orange",
+    "depth_weighted_solid:4": "tab:pink",
+    "depth_weighted_solid": "tab:gray",
+}
+METRIC_LABELS = {  # axis labels with units
+    "sigma_tr": "σ_tr: spread of the centers (mesh units)",
+    "sigma_tr_axis": "σ_tr per axis (mesh units)",
+    "sigma_scale": "σ_scale (the method's scale units)",
+    "cv_scale": "cv = σ_scale / mean scale (dimensionless)",
+}
+
+
+def method_colors(methods) -> dict:
+    """{method: colour}, distinct for every method given: :data:`METHOD_COLORS`, then unused
+    colours of matplotlib's tab20 for names it does not list."""
+    import matplotlib
+
+    out = {m: METHOD_COLORS[m] for m in methods if m in METHOD_COLORS}
+    spare = [c for c in matplotlib.colormaps["tab20"].colors
+             if all(not np.allclose(c, matplotlib.colors.to_rgb(v)) for v in out.values())]
+    for k, m in enumerate(m for m in methods if m not in out):
+        out[m] = spare[k % len(spare)]
+    return out
+
+
+def _grouped_bars(a, groups, values, methods, colors):
+    """Bars of values[method] (one per group; NaN: left out) side by side per group."""
+    width = 0.8 / len(methods)
+    x = np.arange(len(groups))
+    for n, m in enumerate(methods):
+        a.bar(x + (n - (len(methods) - 1) / 2) * width, values[m], width, label=m.replace("_", " "), color=colors[m])
+    a.set_xticks(x, [g.replace("_", "\n") for g in groups], fontsize=7)
+    a.grid(axis="y", alpha=0.3)
+
+
+def _legend_outside(fig, axes):
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside right upper", fontsize=7, title="method", title_fontsize=7)
+
+
 def scale_bars(result, *, metric="sigma_scale", methods=("ocsvm", "surface_centroid"), ax=None, path=None):
-    """Per-class bars of ``metric`` (default sigma_scale; Fig. 7) for ``methods`` of an
-    :func:`jaxpose.evaluation.evaluate` result, the average over classes last."""
+    """Per-class bars of ``metric`` (default sigma_scale; the paper's Fig. 7: OCSVM against the
+    surface's mean distance, two scales of the same kind) for ``methods`` of an
+    :func:`jaxpose.evaluation.evaluate` result, the average over classes last; the legend beside
+    the axes, the units on the y axis."""
     per_class = result["per_class"]
     classes = list(per_class)
     methods = [m for m in methods if all(metric in per_class[c].get(m, {}) for c in classes)]
     if not methods:
         raise InvalidInputError("none of the methods is in the result")
     labels = classes + ["average"]
-    fig, (a,) = _figure(ax, size=(min(12.0, max(4.0, 0.22 * len(labels) * len(methods) + 2.0)), 3.2))
-    width = 0.8 / len(methods)
-    x = np.arange(len(labels))
-    colors = {"ocsvm": OCSVM_COLOR, "surface_centroid": SURFACE_COLOR}
-    for n, m in enumerate(methods):
+    fig, axes = _figure(ax, size=(min(14.0, max(5.0, 0.2 * len(labels) * len(methods) + 3.0)), 3.4))
+    values = {}
+    for m in methods:
         vals = [per_class[c][m][metric] for c in classes]
-        vals.append(float(np.mean(vals)))
-        a.bar(x + (n - (len(methods) - 1) / 2) * width, vals, width, label=m.replace("_", " "),
-              color=colors.get(m, f"C{n + 2}"))
-    a.set_xticks(x, [lab.replace("_", "\n") for lab in labels], fontsize=7)
-    a.set_ylabel({"sigma_scale": "σ_scale", "sigma_tr": "σ_tr", "cv_scale": "σ_scale / mean scale"}.get(metric, metric))
-    a.set_title(f"{metric} per class (lower is more consistent)", fontsize=9)
-    a.legend(fontsize=7)
-    a.grid(axis="y", alpha=0.3)
+        values[m] = vals + [float(np.mean(vals))]
+    _grouped_bars(axes[0], labels, values, methods, method_colors(methods))
+    axes[0].set_ylabel(METRIC_LABELS.get(metric, metric), fontsize=8)
+    axes[0].set_title(f"{metric} per class (lower is more consistent)", fontsize=9)
+    if ax is None:
+        _legend_outside(fig, axes)
+    else:
+        axes[0].legend(fontsize=6)
+    return _finish(fig, path)
+
+
+def class_bars(result, variant=None, *, path=None):
+    """Which method is most consistent, per class: σ_tr (top) and cv_scale (bottom) per class and
+    their average, one colour per method, for one input variant (default the first) of an
+    :func:`jaxpose.evaluation.evaluate` result. Methods that do not apply to the variant are left
+    out (named in the title)."""
+    blocks = result.get("variants") or {"plain": {"summary": result["summary"], "per_class": result["per_class"]}}
+    variant = variant or next(iter(blocks))
+    per_class = blocks[variant]["per_class"]
+    classes = list(per_class)
+    every = [row["method"] for row in blocks[variant]["summary"]]
+    methods = [m for m in every if all("sigma_tr" in per_class[c].get(m, {}) for c in classes)]
+    if not methods:
+        raise InvalidInputError(f"no method applies to variant {variant!r}")
+    colors = method_colors(every)
+    labels = classes + ["average"]
+    fig, axes = _figure(None, 2, 1, size=(min(16.0, max(8.0, 0.12 * len(labels) * len(methods) + 3.0)), 2.8))
+    for a, metric in zip(axes, ("sigma_tr", "cv_scale")):
+        values = {}
+        for m in methods:
+            vals = [per_class[c][m][metric] for c in classes]
+            values[m] = vals + [float(np.mean(vals))]
+        _grouped_bars(a, labels, values, methods, colors)
+        a.set_ylabel(METRIC_LABELS[metric], fontsize=8)
+    skipped = [m for m in every if m not in methods]
+    note = f"; n/a here: {', '.join(skipped)}" if skipped else ""
+    fig.suptitle(f"Which method is most consistent per class?\nInput variant {variant!r}; lower is better{note}",
+                 fontsize=9)
+    _legend_outside(fig, axes)
     return _finish(fig, path)
 
 
 def variant_bars(result, *, metric="sigma_tr", ax=None, path=None):
     """Bars of ``metric`` per input variant and method of an :func:`jaxpose.evaluation.evaluate`
-    result (averages over classes; methods that do not apply to a variant are left out)."""
+    result (averages over classes; methods that do not apply to a variant are left out); one
+    colour per method, the legend beside the axes, the units on the y axis."""
     variants = result["variants"]
     methods = list(result["params"]["methods"])
-    fig, (a,) = _figure(ax, size=(min(12.0, 1.6 * len(variants) + 3.0), 3.4))
-    width = 0.8 / len(methods)
-    x = np.arange(len(variants))
-    for n, m in enumerate(methods):
+    fig, axes = _figure(ax, size=(min(14.0, 1.6 * len(variants) + 4.0), 3.4))
+    values = {}
+    for m in methods:
         rows = [{r["method"]: r for r in block["summary"]}[m] for block in variants.values()]
-        vals = [np.nan if r[metric] is None else r[metric] for r in rows]
-        a.bar(x + (n - (len(methods) - 1) / 2) * width, vals, width, label=m.replace("_", " "),
-              color=OCSVM_COLOR if m == "ocsvm" else SURFACE_COLOR if m == "surface_centroid" else f"C{n + 2}")
-    a.set_xticks(x, list(variants), fontsize=8)
-    a.set_ylabel(metric)
-    a.set_title(f"{metric} per input variant (lower is more consistent)", fontsize=9)
-    a.legend(fontsize=6, ncol=2)
-    a.grid(axis="y", alpha=0.3)
+        values[m] = [np.nan if r[metric] is None else r[metric] for r in rows]
+    _grouped_bars(axes[0], list(variants), values, methods, method_colors(methods))
+    axes[0].set_ylabel(METRIC_LABELS.get(metric, metric), fontsize=8)
+    axes[0].set_title(f"{metric} per input variant, averaged over classes (lower is more consistent)", fontsize=9)
+    if ax is None:
+        _legend_outside(fig, axes)
+    else:
+        axes[0].legend(fontsize=6, ncol=2)
+    return _finish(fig, path)
+
+
+def variants_figure(result, *, path=None):
+    """How each method holds up across input variants: σ_tr (top) and cv_scale (bottom),
+    averaged over classes, one colour per method; a method that does not apply to a variant has
+    no bar there."""
+    variants = result["variants"]
+    methods = list(result["params"]["methods"])
+    fig, axes = _figure(None, 2, 1, size=(min(14.0, 1.6 * len(variants) + 6.0), 2.8))
+    for a, metric in zip(axes, ("sigma_tr", "cv_scale")):
+        values = {}
+        for m in methods:
+            rows = [{r["method"]: r for r in block["summary"]}[m] for block in variants.values()]
+            values[m] = [np.nan if r[metric] is None else r[metric] for r in rows]
+        _grouped_bars(a, list(variants), values, methods, method_colors(methods))
+        a.set_ylabel(METRIC_LABELS[metric], fontsize=8)
+    fig.suptitle("How does each method hold up across input variants?\nAverages over classes; lower is better",
+                 fontsize=9)
+    _legend_outside(fig, axes)
     return _finish(fig, path)
 
 
@@ -394,29 +497,29 @@ class _Shape:
 
 # --------------------------------------------------------------------------- all of an evaluation
 def evaluation_figures(result, out_dir) -> list:
-    """Write the figures of an :func:`jaxpose.evaluation.evaluate` result into ``out_dir``.
+    """Write the figures of an :func:`jaxpose.evaluation.evaluate` result into ``out_dir``, one
+    per question:
 
-    Always ``sigma_tr_bars.png`` and ``cv_scale_bars.png`` over the methods present and
-    ``sigma_scale_bars.png`` (Fig. 7: OCSVM against the surface's mean distance, the two scales
-    measured the same way; the other methods' scales are extents or radii, compare them by cv_scale);
-    with ``result["sweeps"]`` also ``sweep_average.png`` (Fig. 5) and ``sweep_per_class_<param>.png``
-    (Fig. 6) for each swept parameter. Returns the list of written paths.
+    * ``consistency_<variant>.png`` for every variant: which method is most consistent per class
+      (:func:`class_bars`: σ_tr and cv_scale per class and on average);
+    * ``variants.png`` with more than one variant: how each method holds up across the input
+      variants (:func:`variants_figure`);
+    * with ``result["sweeps"]``: ``sweep_average.png`` (the paper's Fig. 5) and
+      ``sweep_per_class_<param>.png`` (Fig. 6): how γ and ν change the OCSVM's spread.
+
+    Returns the list of written paths.
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    methods = list(result.get("params", {}).get("methods")
-                   or [k for k, v in next(iter(result["per_class"].values())).items() if isinstance(v, dict)])
+    blocks = result.get("variants") or {"plain": {"summary": result["summary"], "per_class": result["per_class"]}}
     written = []
-    if len(result.get("variants") or {}) > 1:
-        for metric in ("sigma_tr", "cv_scale"):
-            p = out / f"variants_{metric}.png"
-            variant_bars(result, metric=metric, path=p)
-            written.append(p)
-    for metric, ms in (("sigma_tr", methods), ("sigma_scale", ("ocsvm", "surface_centroid")), ("cv_scale", methods)):
-        if not any(m in methods for m in ms):
-            continue
-        p = out / f"{metric}_bars.png"
-        scale_bars(result, metric=metric, methods=ms, path=p)
+    for variant in blocks:
+        p = out / f"consistency_{variant}.png"
+        class_bars(result, variant, path=p)
+        written.append(p)
+    if len(blocks) > 1:
+        p = out / "variants.png"
+        variants_figure(result, path=p)
         written.append(p)
     sweeps = result.get("sweeps") or {}
     if sweeps:
@@ -431,31 +534,46 @@ def evaluation_figures(result, out_dir) -> list:
 
 
 # --------------------------------------------------------------------------- rotation
+_CLASS_MARKERS = "osD^vP*Xph<>"
+
+
 def rotation_angles(result, variant=None, *, ax=None, path=None):
-    """Per-instance angles to the class frame (degrees), one column per rotation method, from an
-    :func:`jaxpose.evaluation.evaluate_rotation` result: raw (filled; red when flagged) and
-    sign-free (hollow), every class of ``variant`` (default the first) pooled; 30 degrees dashed."""
-    block = result["variants"][variant or next(iter(result["variants"]))]
+    """How far is each frame from its class frame: per-instance angles to the class's mean frame
+    (degrees), one column per rotation method, from an :func:`jaxpose.evaluation.evaluate_rotation`
+    result; each class its own colour and marker, raw angles filled (left), sign-free hollow
+    (right), flagged frames ringed in red; 30 degrees dashed."""
+    variant = variant or next(iter(result["variants"]))
+    block = result["variants"][variant]
     methods = [row["method"] for row in block["summary"]]
-    fig, (a,) = _figure(ax, size=(1.2 * len(methods) + 2.0, 3.5))
+    classes = list(block["per_class"])
+    fig, axes = _figure(ax, size=(1.2 * len(methods) + 3.0, 3.8))
+    a = axes[0]
     rng = np.random.default_rng(0)
-    for i, method in enumerate(methods):
-        cells = [c[method] for c in block["per_class"].values() if "raw" in c.get(method, {})]
-        if not cells:
-            continue
-        raw = np.concatenate([c["raw"] for c in cells])
-        free = np.concatenate([c["sign_free"] for c in cells])
-        amb = np.concatenate([c["ambiguity"] for c in cells])
-        x = i + rng.uniform(-0.18, 0.18, len(raw))
-        color = np.where(np.nan_to_num(amb, nan=0.0) > 0, "tab:red", "tab:blue")
-        a.scatter(x - 0.2, raw, s=12, c=list(color), label="raw" if i == 0 else None)
-        a.scatter(x + 0.2, free, s=12, facecolors="none", edgecolors="0.3", label="sign-free" if i == 0 else None)
+    for k, name in enumerate(classes):
+        color, marker = f"C{k % 10}", _CLASS_MARKERS[k % len(_CLASS_MARKERS)]
+        for i, method in enumerate(methods):
+            cell = block["per_class"][name].get(method, {})
+            if "raw" not in cell:
+                continue
+            raw, free = np.asarray(cell["raw"], float), np.asarray(cell["sign_free"], float)
+            flagged = np.nan_to_num(np.asarray(cell["ambiguity"], float), nan=0.0) > 0
+            x = i + rng.uniform(-0.12, 0.12, len(raw))
+            a.scatter(x - 0.2, raw, s=14, c=color, marker=marker, label=name if i == 0 else None)
+            a.scatter(x + 0.2, free, s=14, facecolors="none", edgecolors=color, marker=marker)
+            if flagged.any():
+                a.scatter(x[flagged] - 0.2, raw[flagged], s=60, facecolors="none", edgecolors="red", linewidths=1.0,
+                          label="flagged" if k == 0 and i == 0 else None)
     a.axhline(30, color="0.5", ls="--", lw=0.8)
-    a.set_xticks(range(len(methods)), methods, fontsize=8)
-    a.set_ylabel("angle to class frame (deg)")
+    a.set_xticks(range(len(methods)), [f"{m}\nraw | sign-free" for m in methods], fontsize=7)
+    a.set_ylabel("angle to the class's mean frame (degrees)", fontsize=8)
     a.set_ylim(0, 180)
-    a.set_title(f"variant {variant or next(iter(result['variants']))} (red: flagged)", fontsize=9)
-    a.legend(fontsize=7, loc="upper right")
+    (fig.suptitle if ax is None else a.set_title)(
+        f"How far is each frame from its class frame?\nVariant {variant!r}; lower is better", fontsize=9)
+    if ax is None:
+        handles, labels = a.get_legend_handles_labels()
+        fig.legend(handles, labels, loc="outside right upper", fontsize=7, title="class", title_fontsize=7)
+    else:
+        a.legend(fontsize=6)
     return _finish(fig, path)
 
 

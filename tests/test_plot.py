@@ -130,12 +130,53 @@ def test_overlay_pairs(tmp_path, shape):
 def test_evaluation_figures(tmp_path, fake_result):
     paths = plot.evaluation_figures(fake_result, tmp_path / "figs")
     names = sorted(p.name for p in paths)
-    assert names == sorted(["sigma_tr_bars.png", "sigma_scale_bars.png", "cv_scale_bars.png", "sweep_average.png",
-                            "sweep_per_class_gamma.png", "sweep_per_class_nu.png"])
+    assert names == sorted(["consistency_plain.png", "sweep_average.png", "sweep_per_class_gamma.png",
+                            "sweep_per_class_nu.png"])
     for p in paths:
         _png(p)
     no_sweeps = {k: v for k, v in fake_result.items() if k != "sweeps"}
-    assert len(plot.evaluation_figures(no_sweeps, tmp_path / "f2")) == 3
+    assert len(plot.evaluation_figures(no_sweeps, tmp_path / "f2")) == 1
+
+
+def test_figures_answer_one_question_each(tmp_path, fake_result):
+    """Distinct colours for every method of the evaluation, the legend outside the axes (not over a
+    bar), units on the axes, and one figure per variant plus one across variants."""
+    from jaxpose.evaluation import METHODS
+
+    colors = plot.method_colors([*METHODS, "depth_weighted_solid:3", "mystery"])
+    assert len(set(map(str, colors.values()))) == len(METHODS) + 2
+    import matplotlib.colors as mc
+
+    rgb = [mc.to_rgb(c) for c in colors.values()]
+    assert len({tuple(np.round(c, 3)) for c in rgb}) == len(rgb)
+    two = {**fake_result, "variants": {v: {"summary": fake_result["summary"], "per_class": fake_result["per_class"]}
+                                       for v in ("plain", "holes")}}
+    paths = plot.evaluation_figures(two, tmp_path / "v")
+    assert {"consistency_holes.png", "consistency_plain.png", "variants.png"} <= {p.name for p in paths}
+    fig = plot.class_bars(two, "holes")
+    top, bottom = fig.axes
+    assert "mesh units" in top.get_ylabel() and "dimensionless" in bottom.get_ylabel()
+    assert top.get_legend() is None and len(fig.legends) == 1  # the legend sits beside the axes
+    fig.draw_without_rendering()  # runs the constrained layout
+    legend = fig.legends[0].get_window_extent()
+    for a in fig.axes:
+        assert not legend.overlaps(a.bbox)
+    bars = [p for p in top.patches]
+    assert len({tuple(np.round(p.get_facecolor(), 3)) for p in bars}) == len(fake_result["params"]["methods"])
+
+
+def test_rotation_angles_tells_classes_apart(tmp_path):
+    cell = lambda k: {"raw": [10.0 * k, 40.0], "sign_free": [5.0, 20.0], "ambiguity": [0.0, 0.3]}
+    result = {"variants": {"plain": {"summary": [{"method": "core"}, {"method": "pca_surface"}],
+                                     "per_class": {"dog": {"core": cell(1), "pca_surface": cell(2)},
+                                                   "cat": {"core": cell(3), "pca_surface": cell(4)}}}}}
+    fig = plot.rotation_angles(result, path=tmp_path / "r.png")
+    _png(tmp_path / "r.png")
+    labels = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert {"dog", "cat", "flagged"} <= set(labels)
+    assert "degrees" in fig.axes[0].get_ylabel()
+    faces = {tuple(np.round(c.get_facecolor()[0], 3)) for c in fig.axes[0].collections if len(c.get_facecolor())}
+    assert len(faces) >= 2  # the classes in different colours
 
 
 def test_import_jaxpose_does_not_import_matplotlib():

@@ -17,6 +17,7 @@ import trimesh
 from . import formats, sample
 from ._validate import InvalidInputError, check_gamma, check_int, check_nu, check_points
 from .atomic import write_atomic
+from .io import readers
 from .sample import SAMPLING
 
 __all__ = [
@@ -52,6 +53,8 @@ def load(path_or_mesh):
     if isinstance(path_or_mesh, (str, os.PathLike)):
         geometry = _read(Path(path_or_mesh))
         source = str(path_or_mesh)
+        if isinstance(geometry, readers.Loaded):
+            return _from_loaded(geometry, source)
     else:
         geometry = path_or_mesh
         source = "input"
@@ -95,6 +98,62 @@ def _merge_vertices(geometry):
     geometry.vertices = original[referenced[first]]
 
 
+_MERGE_DIGITS = 8  # trimesh's tol.merge, 1e-8
+_HASH = np.array([0x9E3779B97F4A7C15, 0xC2B2AE3D27D4EB4F, 0x165667B19E3779F9], np.uint64)
+
+
+def _merged(vertices, faces):
+    """:func:`_merge_vertices` on arrays: (keep, inverse) such that ``vertices[keep]`` and
+    ``inverse[faces]`` are the merged mesh, or None where it cannot tell (then trimesh merges).
+
+    trimesh's keys (coordinates moved by the anchor, times 1e8, rounded to int64), its order (the
+    referenced vertices' first occurrences, in file order; unreferenced ones dropped); the duplicate
+    keys found by sorting a hash of each key and comparing the keys it groups. keep : (k,) int64,
+    inverse : (n,) int64."""
+    from .host import anchor
+
+    referenced = np.zeros(len(vertices), bool)
+    referenced[faces] = True
+    used = np.nonzero(referenced)[0]
+    keys = np.column_stack([(vertices - anchor(vertices)) * (10**_MERGE_DIGITS)]).round().astype(np.int64)[used]
+    with np.errstate(over="ignore"):
+        hashed = np.bitwise_xor.reduce(keys.view(np.uint64) * _HASH, axis=1)
+    order = np.argsort(hashed, kind="stable")  # equal hashes: first occurrence first
+    starts = np.ones(len(order), bool)
+    starts[1:] = hashed[order[1:]] != hashed[order[:-1]]
+    inverse = np.zeros(len(vertices), np.int64)
+    if np.all(starts):  # no duplicates
+        inverse[used] = np.arange(len(used))
+        return used, inverse
+    if np.any(~starts[1:] & np.any(keys[order[1:]] != keys[order[:-1]], axis=1)):
+        return None  # a hash shared by different keys
+    first = order[starts]
+    rank = np.empty(len(first), np.int64)
+    rank[np.argsort(first)] = np.arange(len(first))  # groups in order of first occurrence
+    group = np.empty(len(order), np.int64)
+    group[order] = np.cumsum(starts) - 1
+    inverse[used] = rank[group]
+    return used[np.sort(first)], inverse
+
+
+def _from_loaded(loaded, source):
+    """What :func:`load` makes of a fast reader's mesh, on arrays: its checks and vertex merge, then
+    one ``trimesh.Trimesh``. Normals from the file are dropped, as the merge drops them on trimesh's
+    path (moving the vertices clears trimesh's cache)."""
+    if not np.all(np.isfinite(loaded.vertices)):
+        raise InvalidInputError(f"{source}: vertices with NaN or inf coordinates")
+    extras = {k: v for k, v in loaded.extras.items() if k not in ("vertex_normals", "face_normals")}
+    merged = None if "visual" in extras else _merged(loaded.vertices, loaded.faces)  # UV: trimesh's merge
+    if merged is None:
+        geometry = trimesh.Trimesh(**loaded.kwargs(), process=False)
+        _merge_vertices(geometry)
+        return geometry
+    keep, inverse = merged
+    if "vertex_colors" in extras:
+        extras["vertex_colors"] = extras["vertex_colors"][keep]
+    return trimesh.Trimesh(vertices=loaded.vertices[keep], faces=inverse[loaded.faces], process=False, **extras)
+
+
 def _read(path):
     if not path.exists():
         raise InvalidInputError(f"no such file: {path}")
@@ -119,6 +178,11 @@ def _read(path):
                                 f"rename it to .{found} (the extension chooses the reader)")
     if ext in formats.TEXT_FORMATS or (ext == "stl" and found == "stl" and not formats.binary_stl(data)):
         data = formats.as_text(data, f"{path}", ext)
+    if ext in readers.READERS:
+        try:
+            return readers.read(data, ext)
+        except readers.Unsupported:  # trimesh reads it
+            pass
     try:
         geometry = trimesh.load(io.BytesIO(data), file_type=ext, process=False)
     except Exception as exc:  # every reader has its own errors for corrupt files

@@ -1,0 +1,393 @@
+"""The fast readers against trimesh's loaders on the same files: equal vertices, faces and extras."""
+from __future__ import annotations
+
+import io
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+from jaxpose.io import readers
+from jaxpose.io.readers import Unsupported
+
+SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
+
+
+def trimesh_load(data, file_type):
+    """What jaxpose read before the fast readers: trimesh.load(..., process=False), a scene as one mesh."""
+    loaded = trimesh.load(io.BytesIO(data), file_type=file_type, process=False)
+    if isinstance(loaded, trimesh.Scene):
+        meshes = loaded.dump()
+        assert len(meshes) == 1
+        loaded = meshes[0]
+    return loaded
+
+
+def check_same(data, file_type):
+    """The reader's mesh equals trimesh's: vertices, faces, and the Trimesh made from its arguments."""
+    if isinstance(data, str):
+        data = data.encode()
+    expected = trimesh_load(data, file_type)
+    got = readers.read(data, file_type)
+    assert got.vertices.dtype == np.float64 and got.faces.dtype == np.int64
+    np.testing.assert_array_equal(got.vertices, np.asarray(expected.vertices))
+    np.testing.assert_array_equal(got.faces, np.asarray(expected.faces))
+    made = trimesh.Trimesh(**got.kwargs(), process=False)
+    np.testing.assert_array_equal(made.vertices, expected.vertices)
+    np.testing.assert_array_equal(made.faces, expected.faces)
+    for name in ("vertex_normals", "face_normals"):
+        if name in expected._cache.cache:
+            np.testing.assert_array_equal(made._cache[name], expected._cache[name])
+    assert made.visual.kind == expected.visual.kind
+    if expected.visual.kind == "vertex":
+        np.testing.assert_array_equal(made.visual.vertex_colors, expected.visual.vertex_colors)
+    elif expected.visual.kind == "face":
+        np.testing.assert_array_equal(made.visual.face_colors, expected.visual.face_colors)
+    elif expected.visual.kind == "texture":
+        np.testing.assert_array_equal(made.visual.uv, expected.visual.uv)
+    assert set(made.face_attributes) == set(expected.face_attributes)
+    for key, value in expected.face_attributes.items():
+        np.testing.assert_array_equal(made.face_attributes[key], value)
+    return got
+
+
+@pytest.fixture(scope="module")
+def mesh():
+    """A closed mesh with coordinates that need every digit (no round numbers)."""
+    m = trimesh.creation.icosphere(subdivisions=2)
+    rng = np.random.default_rng(0)
+    m.vertices = m.vertices * [1.3, 0.7, 2.1] + rng.normal(scale=0.01, size=m.vertices.shape) + [10.0, -3.0, 0.5]
+    return m
+
+
+def exported(mesh, file_type, **kwargs):
+    data = mesh.export(file_type=file_type, **kwargs)
+    return data.encode() if isinstance(data, str) else data
+
+
+# --------------------------------------------------------------------------- OFF
+def test_off_exported(mesh):
+    check_same(exported(mesh, "off"), "off")
+
+
+OFF_VARIANTS = {
+    "comments_blank_crlf": "# made by hand\r\nOFF\r\n# counts\r\n\r\n4 2 0\r\n0 0 0 # first\r\n1 0 0\r\n\r\n"
+                           "1 1 0\r\n0 1 0.5\r\n# faces\r\n3 0 1 2\r\n3 0 2 3\r\n",
+    "counts_on_header_line": "OFF 4 2 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n3 0 2 3\n",
+    "coff_colors": "COFF\n4 2 0\n0 0 0 255 0 0 255\n1 0 0 0 255 0 255\n1 1 0 0 0 255 255\n0 1 0 9 9 9 255\n"
+                   "3 0 1 2 0.5 0.5 0.5\n3 0 2 3 0.1 0.2 0.3\n",
+    "quads": "OFF\n6 2 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n2 0 0\n2 1 0\n4 0 1 2 3\n4 1 4 5 2\n",
+    "mixed_triangles_quads": "OFF\n6 3 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n2 0 0\n2 1 0\n4 1 4 5 2\n3 0 1 2\n4 0 1 2 3\n",
+    "indented_trailing_spaces": "  OFF\n  3 1 0  \n\t0 0 0\n 1e-3 0 0 \n0 1.5E+2 -0\n  3   0 1 2   \n\n\n",
+    "more_faces_than_lines_hold_extra_lines": "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 2 1 0\n",
+}
+
+
+@pytest.mark.parametrize("name", sorted(OFF_VARIANTS))
+def test_off_by_hand(name):
+    check_same(OFF_VARIANTS[name], "off")
+
+
+OFF_POLYGONS = {
+    "mixed": ("OFF\n8 4 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n2 0 0\n2 1 0\n3 0.5 0\n3 1.5 1\n",
+              "5 1 4 6 5 2\n3 0 1 2\n4 0 1 2 3\n6 4 6 7 5 2 1\n"),
+    "pentagons": ("OFF\n6 2 0\n0 0 0\n1 0 0\n1.5 1 0\n0.5 1.5 0\n-0.5 1 0\n2 2 2\n", "5 0 1 2 3 4\n5 5 4 3 2 1\n"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(OFF_POLYGONS))
+def test_off_polygons(name):
+    """trimesh's OFF loader fails on polygons of more than 4 corners (it fans the index strings);
+    the reader gives what trimesh.geometry.triangulate_quads gives for the integer lists."""
+    head, faces = OFF_POLYGONS[name]
+    got = readers.read((head + faces).encode(), "off")
+    polygons = [[int(i) for i in line.split()[1:]] for line in faces.splitlines()]
+    np.testing.assert_array_equal(got.faces, trimesh.geometry.triangulate_quads(polygons))
+    first = head.replace(head.splitlines()[1], head.splitlines()[1].split()[0] + " 1 0") + "3 0 1 2\n"
+    np.testing.assert_array_equal(got.vertices, trimesh_load(first.encode(), "off").vertices)
+
+
+@pytest.mark.parametrize("text", [
+    "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 5\n",      # index out of range: trimesh raises
+    "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n4 0 1 2\n",      # fewer indices than the count
+    "OFF\n3 1 0\n0 0 0\n1 0\n0 1 0\n3 0 1 2\n",        # a vertex line with 2 values
+    "OFF\n3 0 0\n0 0 0\n1 0 0\n0 1 0\n",               # no faces: a point cloud
+    "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0x1\n3 0 1 2\n",    # a number float() and strtod read differently
+    "PLY\n",
+])
+def test_off_refused(text):
+    with pytest.raises(Unsupported):
+        readers.read(text.encode(), "off")
+
+
+# --------------------------------------------------------------------------- PLY
+@pytest.mark.parametrize("encoding", ["binary", "ascii"])
+def test_ply_exported(mesh, encoding):
+    check_same(exported(mesh, "ply", encoding=encoding), "ply")
+    colored = mesh.copy()
+    colored.visual.vertex_colors = np.random.default_rng(1).integers(0, 255, (len(mesh.vertices), 4))
+    check_same(exported(colored, "ply", encoding=encoding), "ply")
+    colored = mesh.copy()
+    colored.visual.face_colors = np.random.default_rng(2).integers(0, 255, (len(mesh.faces), 4))
+    check_same(exported(colored, "ply", encoding=encoding), "ply")
+
+
+def ply_bytes(encoding, vertex, face, comments=("made by hand",), newline="\n"):
+    """A PLY file from structured arrays: vertex (n,) with fields; face as (properties, rows) where
+    rows are tuples whose list is a tuple of indices."""
+    (vprops, vrows), (fprops, frows) = vertex, face
+    lines = ["ply", f"format {encoding} 1.0", *(f"comment {c}" for c in comments),
+             f"element vertex {len(vrows)}", *(f"property {t} {n}" for t, n in vprops),
+             f"element face {len(frows)}", *(f"property {p}" for p in fprops), "end_header"]
+    header = (newline.join(lines) + newline).encode()
+    if encoding == "ascii":
+        def text(row):
+            return " ".join(" ".join(map(str, (len(v), *v))) if isinstance(v, tuple) else str(v) for v in row)
+        return header + newline.join(text(r) for r in list(vrows) + list(frows)).encode() + newline.encode()
+    endian = ">" if "big" in encoding else "<"
+    types = {"float": "f4", "double": "f8", "uchar": "u1", "int": "i4", "uint": "u4", "short": "i2", "ushort": "u2"}
+    body = b"".join(np.array(row, [(n, endian + types[t]) for t, n in vprops]).tobytes() for row in vrows)
+    for row in frows:
+        for prop, value in zip(fprops, row):
+            words = prop.split()
+            if words[0] == "list":
+                body += np.array(len(value), endian + types[words[1]]).tobytes()
+                body += np.array(value, endian + types[words[2]]).tobytes()
+            else:
+                body += np.array(value, endian + types[words[0]]).tobytes()
+    return header + body
+
+
+SQUARE = [(0.0, 0.0, 0.0), (1.0, 0.0, 0.25), (1.0, 1.0, 0.5), (0.0, 1.0, 0.125), (2.0, 0.5, 0.1)]
+
+
+def extra_vertex(n=len(SQUARE)):
+    props = [("float", "x"), ("float", "y"), ("float", "z"), ("float", "quality"), ("float", "nx"), ("float", "ny"),
+             ("float", "nz"), ("uchar", "red"), ("uchar", "green"), ("uchar", "blue"), ("int", "flags")]
+    rows = [(*SQUARE[i], 0.1 * i, 0.0, 0.6, 0.8, 10 * i, 20, 30 + i, i - 2) for i in range(n)]
+    return props, rows
+
+
+@pytest.mark.parametrize("encoding", ["ascii", "binary_little_endian", "binary_big_endian"])
+@pytest.mark.parametrize("counts", ["uchar int", "int uint", "uchar ushort"])
+def test_ply_extra_properties(encoding, counts):
+    vertex = extra_vertex()
+    face = (["int before", f"list {counts} vertex_indices", "float after", "uchar red", "uchar green", "uchar blue"],
+            [(7, (0, 1, 2), 0.5, 1, 2, 3), (8, (0, 2, 3), 0.25, 4, 5, 6), (9, (1, 4, 2), 1.5, 7, 8, 9)])
+    got = check_same(ply_bytes(encoding, vertex, face), "ply")
+    assert set(got.extras) == {"vertex_normals", "vertex_colors", "face_colors"}
+
+
+@pytest.mark.parametrize("encoding", ["ascii", "binary_little_endian", "binary_big_endian"])
+def test_ply_quads_and_double(encoding):
+    vertex = ([("double", "x"), ("double", "y"), ("double", "z")], SQUARE + [(2.0, 1.5, 0.3)])
+    face = (["list uchar int vertex_index"], [((0, 1, 2, 3),), ((1, 4, 5, 2),)])
+    check_same(ply_bytes(encoding, vertex, face), "ply")
+
+
+def test_ply_ascii_mixed_polygons_crlf():
+    vertex = ([("float", "x"), ("float", "y"), ("float", "z")], SQUARE + [(2.0, 1.5, 0.3), (3.0, 1.0, 0.0)])
+    face = (["list uchar int vertex_indices", "int flags"],
+            [((0, 1, 2, 3), 1), ((1, 4, 2), 2), ((4, 6, 5, 2, 1), 3), ((0, 1, 2), 4)])
+    check_same(ply_bytes("ascii", vertex, face, newline="\r\n"), "ply")
+
+
+@pytest.mark.parametrize("data", [
+    # lists of several lengths in a binary file: trimesh reads the first one's length for all
+    ply_bytes("binary_little_endian", ([("float", "x"), ("float", "y"), ("float", "z")], SQUARE),
+              (["list uchar int vertex_indices"], [((0, 1, 2, 3),), ((1, 4, 2),)])),
+    ply_bytes("ascii", ([("float", "x"), ("float", "y"), ("float", "z"), ("float", "u"), ("float", "v")],
+                        [(*p, 0.5, 0.5) for p in SQUARE]),
+              (["list uchar int vertex_indices"], [((0, 1, 2),)])),  # texture coordinates
+    ply_bytes("ascii", ([("float", "x"), ("float", "y"), ("float", "z")], SQUARE),
+              (["list uchar int vertex_indices"], [((0, 1, 9),)])),  # an index out of range
+    ply_bytes("ascii", ([("float", "x"), ("float", "y"), ("float", "z")], SQUARE), (["list uchar int vertex_indices"], [])),
+    ply_bytes("ascii", ([("float", "x"), ("float", "y"), ("float", "z")], SQUARE),
+              (["list uchar int vertex_indices"], [((0, 1, 2),)])).replace(b"end_header\n", b"end_header\n\n"),
+    b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nelement edge 1\nend_header\n1\n1\n",
+])
+def test_ply_refused(data):
+    with pytest.raises(Unsupported):
+        readers.read(data, "ply")
+
+
+# --------------------------------------------------------------------------- OBJ
+def test_obj_exported(mesh):
+    check_same(exported(mesh, "obj"), "obj")
+    check_same(exported(mesh, "obj", include_normals=True), "obj")
+    textured = mesh.copy()
+    uv = np.random.default_rng(3).uniform(size=(len(mesh.vertices), 2))
+    textured.visual = trimesh.visual.TextureVisuals(uv=uv)
+    data = exported(textured, "obj", include_texture=True, write_texture=False)
+    check_same(data.replace(b"usemtl material_0\n", b"").replace(b"mtllib material.mtl\n", b""), "obj")
+
+
+OBJ_HEAD = "v 0 0 0\nv 1 0 0.25\nv 1 1 0.5\nv 0 1 0.125\nv 2 0.5 0.1\nv 2 1.5 0.3\nv 3 1 0\nv 9 9 9\n"
+OBJ_UV = "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvt 0.5 0.5\n"
+OBJ_NORMALS = "vn 0 0 1\nvn 0 1 0\nvn 1 0 0\n"
+OBJ_VARIANTS = {
+    "triangles": OBJ_HEAD + "f 1 2 3\nf 1 3 4\nf 2 5 3\n",
+    "quads": OBJ_HEAD + "f 1 2 3 4\nf 2 5 6 3\n",
+    "mixed_polygons": OBJ_HEAD + "f 1 2 3 4\nf 2 5 3\nf 5 7 6 3 2\nf 1 2 3\n",
+    "negative": OBJ_HEAD + "f -8 -7 -6\nf -8 -6 -5\nf 2 -4 3\n",
+    "comments_groups_blank_crlf": ("# a comment\r\nmtllib none.mtl\r\no body\r\n\r\n" + OBJ_HEAD.replace("\n", "\r\n")
+                                   + "g part\r\ns 1\r\n# faces\r\nf 1 2 3\r\n\r\nf 1 3 4\r\ns off\r\nf 2 5 3\r\n"),
+    "continuation": OBJ_HEAD + "f 1 2 \\\n3\nf 1 3 4\n",
+    "w_coordinate": OBJ_HEAD.replace("\n", " 1.0\n") + "f 1 2 3\nf 1 3 4\n",
+    "vertex_colors": OBJ_HEAD.replace("\n", " 0.5 0.25 1\n") + "f 1 2 3\nf 1 3 4\n",
+    "v_vt": OBJ_HEAD + OBJ_UV + "f 1/1 2/2 3/3\nf 1/1 3/3 4/4\nf 2/5 5/2 3/3\n",
+    "v_vn": OBJ_HEAD + OBJ_NORMALS + "f 1//1 2//1 3//2\nf 1//1 3//2 4//3\nf 2//3 5//3 3//3\n",
+    "v_vt_vn": OBJ_HEAD + OBJ_UV + OBJ_NORMALS + "f 1/1/1 2/2/1 3/3/2\nf 1/1/1 3/3/2 4/4/3\nf 2/5/3 5/2/3 3/3/1\n",
+    "v_vt_vn_quads": OBJ_HEAD + OBJ_UV + OBJ_NORMALS + "f 1/1/1 2/2/1 3/3/2 4/4/3\nf 2/5/3 5/2/3 6/3/1 3/1/1\n",
+    "v_vt_mixed": OBJ_HEAD + OBJ_UV + "f 1/1 2/2 3/3 4/4\nf 2/5 5/2 3/3\nf 5/1 7/2 6/3 3/4 2/5\n",
+    "v_vt_negative": OBJ_HEAD + OBJ_UV + "f -8/-5 -7/-4 -6/-3\nf 1/1 3/3 4/4\n",
+    "v_vn_without_normals": OBJ_HEAD + "f 1//1 2//1 3//1\n",
+    "v_vt_without_uv": OBJ_HEAD + "f 1/1 2/1 3/1\n",
+    "unreferenced_first": "v 5 5 5\n" + OBJ_HEAD + "f 2 3 4\n",
+}
+
+
+@pytest.mark.parametrize("name", sorted(OBJ_VARIANTS))
+def test_obj_by_hand(name):
+    check_same(OBJ_VARIANTS[name], "obj")
+
+
+@pytest.mark.parametrize("text", [
+    OBJ_HEAD + "usemtl a\nf 1 2 3\nusemtl b\nf 1 3 4\n",   # materials split the mesh
+    OBJ_HEAD + "f 1 2 3\nf 1/1 3/1 4/1\n",                 # several kinds of references
+    OBJ_HEAD + "f 1 2 30\n",                               # a vertex that is not there
+    OBJ_HEAD,                                              # a point cloud
+    OBJ_HEAD + "f 1 2\n",
+])
+def test_obj_refused(text):
+    with pytest.raises(Unsupported):
+        readers.read(text.encode(), "obj")
+
+
+# --------------------------------------------------------------------------- STL
+@pytest.mark.parametrize("file_type", ["stl", "stl_ascii"])
+def test_stl_exported(mesh, file_type):
+    got = check_same(exported(mesh, file_type), "stl")
+    assert len(got.vertices) == 3 * len(mesh.faces)  # duplicates are kept, as trimesh keeps them
+
+
+def test_stl_ascii_by_hand():
+    text = ("solid Part 1\r\n  facet normal 0 0 1\r\n    outer loop\r\n      vertex 0 0 0\r\n      vertex 1 0 0\r\n"
+            "      vertex 1 1 0\r\n    endloop\r\n  endfacet\r\n  facet normal 0 0 1\r\n    outer loop\r\n"
+            "      vertex 0 0 0\r\n      vertex 1 1 0\r\n      vertex 0 1 1.5e-1\r\n    endloop\r\n  endfacet\r\n"
+            "endsolid Part 1\r\n")
+    check_same(text, "stl")
+
+
+def test_stl_refused():
+    two = "solid a\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 1 1 0\nendloop\nendfacet\nendsolid a\n"
+    with pytest.raises(Unsupported):
+        readers.read((two + two.replace(" a", " b")).encode(), "stl")
+    with pytest.raises(Unsupported):
+        readers.read(b"\0" * 84, "stl")  # binary, no triangles
+
+
+def test_registry():
+    assert set(readers.READERS) == {"off", "ply", "obj", "stl"}
+    with pytest.raises(Unsupported):
+        readers.read(b"glTF", "glb")
+
+
+# --------------------------------------------------------------------------- the dev data
+def dev_meshes():
+    if not SHARED.is_dir():
+        return []
+    return [next(iter(sorted(d.glob("*.ply")))) for d in sorted(SHARED.glob("*/")) + sorted(SHARED.glob("*/*/"))
+            if any(d.glob("*.ply"))]
+
+
+@pytest.mark.shared
+@pytest.mark.skipif(not SHARED.is_dir(), reason="needs ../shared/data")
+@pytest.mark.parametrize("path", dev_meshes(), ids=lambda p: f"{p.parent.name}/{p.name}")
+def test_dev_data_in_every_format(path):
+    """One mesh of each dev class, written by trimesh's exporters in every format, read alike."""
+    mesh = trimesh.load(path, process=False)
+    check_same(path.read_bytes(), "ply")
+    for file_type, kwargs in [("off", {}), ("obj", {}), ("stl", {}), ("stl_ascii", {}),
+                              ("ply", {"encoding": "ascii"}), ("ply", {"encoding": "binary"})]:
+        check_same(exported(mesh, file_type, **kwargs), file_type.split("_")[0])
+
+
+# --------------------------------------------------------------------------- the library's loading path
+def without_fast_readers(monkeypatch):
+    def refuse(data, file_type):
+        raise Unsupported("disabled")
+
+    monkeypatch.setattr(readers, "read", refuse)
+
+
+LIBRARY_FILES = {
+    "off": lambda m: exported(m, "off"),
+    "ply": lambda m: exported(m, "ply"),
+    "ply_ascii_colors": lambda m: exported(colored(m), "ply", encoding="ascii"),
+    "obj": lambda m: exported(m, "obj", include_normals=True),
+    "obj_uv": lambda m: OBJ_VARIANTS["v_vt_vn"].encode(),
+    "obj_quads": lambda m: OBJ_VARIANTS["quads"].encode(),
+    "stl": lambda m: exported(m, "stl"),
+    "stl_ascii": lambda m: exported(m, "stl_ascii"),
+    "ply_normals_extras": lambda m: ply_bytes("binary_little_endian", extra_vertex(),
+                                              (["list uchar int vertex_indices"], [((0, 1, 2, 3),), ((1, 4, 2),)])[:1] +
+                                              ([((0, 1, 2),), ((1, 4, 2),), ((0, 2, 3),)],)),
+}
+
+
+def colored(m):
+    out = m.copy()
+    out.visual.vertex_colors = np.random.default_rng(4).integers(0, 255, (len(m.vertices), 4))
+    return out
+
+
+@pytest.mark.parametrize("name", sorted(LIBRARY_FILES))
+def test_library_load_is_unchanged(tmp_path, monkeypatch, mesh, name):
+    """jaxpose.mesh.load through the fast readers equals load through trimesh alone: the merged
+    mesh, its colors and UV, and the bytes of its normalized copy in every output format."""
+    from jaxpose import mesh as jmesh
+
+    path = tmp_path / f"input.{name.split('_')[0]}"
+    path.write_bytes(LIBRARY_FILES[name](mesh))
+    fast = jmesh.load(path)
+    with monkeypatch.context() as patch:
+        without_fast_readers(patch)
+        slow = jmesh.load(path)
+    assert type(fast) is type(slow)
+    assert {k: v for k, v in fast.metadata.items() if not k.startswith("_")} == \
+        {k: v for k, v in slow.metadata.items() if not k.startswith("_")}
+    np.testing.assert_array_equal(fast.vertices, slow.vertices)
+    np.testing.assert_array_equal(fast.faces, slow.faces)
+    assert fast.visual.kind == slow.visual.kind
+    if slow.visual.kind == "texture":
+        np.testing.assert_array_equal(fast.visual.uv, slow.visual.uv)
+    elif slow.visual.kind is not None:
+        np.testing.assert_array_equal(fast.visual.vertex_colors, slow.visual.vertex_colors)
+        np.testing.assert_array_equal(fast.visual.face_colors, slow.visual.face_colors)
+    np.testing.assert_array_equal(fast.vertex_normals, slow.vertex_normals)
+    np.testing.assert_array_equal(fast.face_normals, slow.face_normals)
+    if name.startswith("stl"):
+        assert len(fast.vertices) < 3 * len(fast.faces)  # the corners were merged
+    pose_fast, pose_slow = jmesh.normalize_mesh(fast)[1], jmesh.normalize_mesh(slow)[1]
+    np.testing.assert_array_equal(np.asarray(pose_fast.center), np.asarray(pose_slow.center))
+    np.testing.assert_array_equal(np.asarray(pose_fast.scale), np.asarray(pose_slow.scale))
+    for file_type in jmesh.MESH_FORMATS:
+        a = jmesh.encode(jmesh._transformed(fast, pose_fast), file_type)
+        b = jmesh.encode(jmesh._transformed(slow, pose_slow), file_type)
+        assert a == b, file_type
+
+
+def test_library_merge_hash_collision_falls_back(monkeypatch):
+    """Two different keys with one hash: the array merge says it cannot tell (trimesh merges)."""
+    from jaxpose import mesh as jmesh
+
+    vertices = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 1, 0]])
+    faces = np.array([[0, 1, 2], [0, 1, 3]])
+    keep, inverse = jmesh._merged(vertices, faces)
+    np.testing.assert_array_equal(keep, [0, 1, 2])
+    np.testing.assert_array_equal(inverse[faces], [[0, 1, 2], [0, 1, 2]])
+    monkeypatch.setattr(jmesh, "_HASH", np.zeros(3, np.uint64))  # every key hashes to 0
+    assert jmesh._merged(vertices, faces) is None
+    assert jmesh._merged(vertices[:3], faces[:1]) is None

@@ -68,7 +68,7 @@ class Loaded(NamedTuple):
 
 # --------------------------------------------------------------------------- numbers
 _SEPARATOR = ";"  # never part of a number: marks line ends among the tokens
-_NOT_INTEGER = re.compile(rb"[^0-9 ]")
+_LONG = re.compile(rb"[0-9]{16}")
 _SIGNED = re.compile(rb"-?[0-9]+(?: -?[0-9]+)*")
 
 
@@ -112,9 +112,9 @@ def _ints(tokens, negative=False) -> np.ndarray:
         return np.zeros(0, np.int64)
     text = " ".join(tokens)
     raw = text.encode("ascii", "replace")
-    if _NOT_INTEGER.search(raw) is not None and not (negative and _SIGNED.fullmatch(raw)):
+    if raw.translate(None, b"0123456789 ") and not (negative and _SIGNED.fullmatch(raw)):
         raise Unsupported("an index that is not an integer")
-    if max(map(len, tokens)) > 15:  # fromstring's int64 overflows silently; trimesh's floats round
+    if _LONG.search(raw) is not None:  # fromstring's int64 overflows silently; trimesh's floats round
         raise Unsupported("an index too large")
     return np.fromstring(text, dtype=np.int64, sep=" ")
 

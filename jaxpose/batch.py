@@ -20,6 +20,7 @@ tables together are the unsharded table (:func:`jaxpose.read_transforms` reads s
 """
 from __future__ import annotations
 
+import hashlib
 import logging
 import numbers
 import os
@@ -65,10 +66,11 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
               progress=None, shard=None, timeout=None) -> BatchResult:
     """Normalize files, folders and manifests into `output_dir`; see :func:`normalize_files`."""
     from . import transforms
-    from .atomic import check_folder_writable, remove_temporaries, write_atomic
+    from .atomic import check_folder_writable, remove_temporaries
     from .inputs import check_shard, find_inputs, plan_outputs, shard_index
-    from .journal import OutputFolder, shard_name
+    from .journal import open_output_folder, shard_name
     from .mesh import OUTPUT_FORMATS
+    from .remote import RemotePath, location
 
     start = time.perf_counter()
     options = NormalizeOptions() if options is None else options
@@ -82,14 +84,14 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
         if file_format not in OUTPUT_FORMATS:
             raise InvalidInputError(f"format must be one of {', '.join(OUTPUT_FORMATS)}; got {file_format!r}")
     shard = check_shard(shard)
-    output_dir = Path(os.path.abspath(output_dir))
+    output_dir = location(output_dir)
     if table is None:
         name = transforms.default_table_name()
         if shard is not None:
             stem, _, suffix = name.rpartition(".")
             name = f"{stem}.{shard_name(shard)}.{suffix}"
         table = output_dir / name
-    table = Path(os.path.abspath(table))
+    table = location(table)
     transforms.table_format(table)
     found = find_inputs(inputs, glob=glob, exclude=[output_dir])
     given = [inputs] if isinstance(inputs, (str, os.PathLike)) else list(inputs)
@@ -98,10 +100,11 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
         items = [item for item in items if shard_index(item.source.relative_to(found.root), shard[1]) == shard[0]]
     fingerprint = options.fingerprint(file_format)
     fixed = options.columns()
-    with OutputFolder(output_dir, force=force, shard=shard) as folder:
-        check_folder_writable(table.parent, what="table")
+    with open_output_folder(output_dir, force=force, shard=shard) as folder:
+        if not isinstance(table, RemotePath):
+            check_folder_writable(table.parent, what="table")
+            remove_temporaries(table)
         folder.remove_temporaries(None if shard is None else [item.output for item in items])
-        remove_temporaries(table)
         records = folder.records()
         if not force:
             _refuse_overwriting_others(items, records)
@@ -124,9 +127,8 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
             if work and not run.stopped:
                 run.execute(work, executor_args, file_format, options, check)
         finally:  # also on KeyboardInterrupt: the table holds every finished input
-            rows = table_rows(items, folder.records())
-            write_atomic(table, transforms.write_transforms(rows, table, rotation=bool(options.rotation_method) or None),
-                         force=True)
+            rows = table_rows(items, folder.records(), folder.exists)
+            write_file(table, transforms.write_transforms(rows, table, rotation=bool(options.rotation_method) or None))
     return BatchResult([transforms.Transform.from_record(r) for r in rows], table, run.written, skipped, run.failed, run.stopped,
                        time.perf_counter() - start, run.peak_mb)
 
@@ -225,10 +227,32 @@ def _check_run(workers, scheduler, dask_local, timeout=None):
             "timeout": timeout}
 
 
+def write_file(path, data):
+    """Write bytes to a local path atomically (:func:`jaxpose.atomic.write_atomic`), or to a
+    remote one in one PUT; replaces what is there."""
+    from .atomic import write_atomic
+    from .remote import RemotePath
+
+    if isinstance(path, RemotePath):
+        return path.write_bytes(data)
+    return write_atomic(path, data, force=True)
+
+
 def _input_key(path, check):
     """Size, modification time (and SHA-256) of a regular file now; None for others (never opened
     here: a FIFO would block)."""
+    from .remote import RemotePath, modified_ns
+
     key = {"input_size": None, "input_mtime_ns": None, "input_sha256": ""}
+    if isinstance(path, RemotePath):
+        try:
+            info = path.info()
+            key.update(input_size=info["size"], input_mtime_ns=modified_ns(info))
+            if check == "hash":
+                key["input_sha256"] = hashlib.sha256(path.read_bytes()).hexdigest()
+        except Exception:  # missing or unreadable: not done; its read says why
+            key["input_size"] = None
+        return key
     try:
         info = os.stat(path)
     except OSError:
@@ -268,14 +292,15 @@ def _is_done(record, key, fingerprint, output):
     return all(record.get(f) == key[f] for f in fields)
 
 
-def table_rows(items, records) -> list:
+def table_rows(items, records, exists=os.path.exists) -> list:
     """The table of a run: the records of its inputs (`items`, in order), then those of earlier
     runs' inputs whose outputs are still there and still theirs (`records`: the journal's, last
     record of each input, ordered by their last record).
 
     An output an input of this run wrote or owns (an ok record) has its row; so has a failed input
     of this run. Earlier inputs keep their rows while their output exists and no later record
-    names it, so that every output in the folder has the row that inverts it.
+    names it, so that every output in the folder has the row that inverts it. `exists(output)`
+    says whether an output is there.
     """
     owner = {}
     for name, record in reversed(records.items()):  # the latest record to name an output owns it
@@ -284,7 +309,7 @@ def table_rows(items, records) -> list:
 
     def current(name, record):
         return record.get("status") == "ok" and owner.get(record.get("output")) == name \
-            and os.path.exists(record["output"])
+            and exists(record["output"])
 
     rows, mine = [], set()
     for item in items:
@@ -369,16 +394,14 @@ class _Run:
             self._write_and_record(item, key, result)
 
     def _write_and_record(self, item, key, result):
-        from .atomic import write_atomic
-
         record = {**key, **{k: v for k, v in result.record.items() if k != "matrix"}}  # the worker's read wins
         record.update(self.fixed, input=str(item.source), output="", options=self.fingerprint)
         if record["status"] == "ok":
             try:
                 item.output.parent.mkdir(parents=True, exist_ok=True)
-                write_atomic(item.output, result.data, force=True)
+                write_file(item.output, result.data)
                 record["output"] = str(item.output)
-            except OSError as exc:
+            except Exception as exc:  # OSError here; a remote store has errors of its own
                 record.update(status="failed", error=f"cannot write {item.output}: {one_line(exc)}")
         if record["status"] == "ok":
             self.written += 1

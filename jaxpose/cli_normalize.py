@@ -115,6 +115,15 @@ def _normalize_one(args, options, source, fail):
         source = EXAMPLE
     if source is None:
         return fail("normalize needs an INPUT file (or --example)", code=2)
+    from .remote import is_url, location
+
+    if any(is_url(p) and not p.lower().startswith("file://") for p in (source, args.output) if p):
+        return fail("remote paths (URLs) are for datasets: a folder or manifest INPUT, or -o OUTDIR/ "
+                    "(a folder, ending in /)", code=2)
+    if is_url(source):  # file://: a local path
+        source = str(location(source))
+    if is_url(args.output):
+        args.output = str(location(args.output))
     use_example = source == EXAMPLE and not Path(source).exists()
     output = Path(args.output) if args.output else None
     json_path = Path(args.transform) if args.transform else (transform_path(output) if output else None)

@@ -20,11 +20,13 @@ import csv
 import fnmatch
 import hashlib
 import os
+import posixpath
 import stat
 from pathlib import Path
 from typing import NamedTuple
 
 from ._validate import InvalidInputError
+from .remote import RemotePath, is_url, location
 
 __all__ = ["MESH_SUFFIXES", "MANIFEST_SUFFIXES", "Item", "Found", "find_inputs", "plan_outputs", "is_batch_input",
            "shard_index", "check_shard", "file_kind"]
@@ -41,8 +43,8 @@ class Item(NamedTuple):
       output: the output file, absolute (None until :func:`plan_outputs`).
     """
 
-    source: Path
-    output: Path | None = None
+    source: Path | RemotePath
+    output: Path | RemotePath | None = None
 
 
 class Found(NamedTuple):
@@ -72,15 +74,16 @@ def file_kind(mode) -> str:
 
 def is_batch_input(path) -> bool:
     """Whether a command-line INPUT is a folder or a manifest (not a single mesh file)."""
-    path = Path(path)
-    return path.is_dir() or path.suffix.lower() in MANIFEST_SUFFIXES
+    path = location(path)
+    return path.suffix.lower() in MANIFEST_SUFFIXES or path.is_dir()
 
 
 def find_inputs(inputs, glob=None, exclude=()) -> Found:
     """The input files of files, folders and manifests, in a deterministic order, without repeats.
 
     Args:
-      inputs: paths (str or Path) of files, folders and manifests.
+      inputs: paths (str or Path) or URLs (:mod:`jaxpose.remote`) of files, folders and
+        manifests, all on one file system.
       glob: narrows folder searches (fnmatch): matched against the file name, or, when it contains
         ``/``, against the path relative to the searched folder, where ``*`` also spans folders
         (``"kid_*/pose_0?.ply"``).
@@ -90,16 +93,20 @@ def find_inputs(inputs, glob=None, exclude=()) -> Found:
       :class:`Found`: the files, their root and the irregular files met by folder searches.
 
     Raises:
-      InvalidInputError: an INPUT that does not exist, an unreadable manifest, nothing found.
+      InvalidInputError: an INPUT that does not exist, an unreadable manifest, nothing found,
+        INPUTs on different file systems.
     """
-    inputs = [Path(p) for p in ([inputs] if isinstance(inputs, (str, os.PathLike)) else inputs)]
+    inputs = [inputs] if isinstance(inputs, (str, os.PathLike, RemotePath)) else list(inputs)
     if not inputs:
         raise InvalidInputError("no inputs given")
-    exclude = {os.path.realpath(e) for e in exclude}
+    exclude = {identity(location(e)) for e in exclude}
     files, roots, irregular = [], [], {}
     for given in inputs:
-        path = Path(os.path.abspath(given))
-        if path.is_dir():
+        path = location(given)
+        if isinstance(path, RemotePath) and path.is_dir():
+            roots.append(path)
+            files += _search_remote(path, glob, exclude)
+        elif path.is_dir():
             roots.append(path)
             files += _search(path, glob, exclude, irregular)
         elif not path.exists():
@@ -113,15 +120,53 @@ def find_inputs(inputs, glob=None, exclude=()) -> Found:
             files.append(path)
     seen, unique = set(), []
     for path in files:
-        key = os.path.realpath(path)
+        key = identity(path)
         if key not in seen:
             seen.add(key)
             unique.append(path)
     if not unique:
         hint = f" matching {glob!r}" if glob else f" ({', '.join(MESH_SUFFIXES)})"
         raise InvalidInputError(f"no mesh files found in {', '.join(map(str, inputs))}{hint}")
-    root = Path(os.path.commonpath([str(r) for r in roots]))
-    return Found(unique, root, {p: irregular[p] for p in unique if p in irregular})
+    return Found(unique, _common_root(roots), {p: irregular[p] for p in unique if p in irregular})
+
+
+def identity(path) -> str:
+    """What makes two paths the same file: the real path of a local one, a remote one's URL."""
+    return str(path) if isinstance(path, RemotePath) else os.path.realpath(path)
+
+
+def _common_root(roots):
+    remote = [r for r in roots if isinstance(r, RemotePath)]
+    if not remote:
+        return Path(os.path.commonpath([str(r) for r in roots]))
+    if len(remote) < len(roots) or len({r.fs.protocol for r in remote}) > 1:
+        raise InvalidInputError("the INPUTs are on different file systems ("
+                                f"{', '.join(sorted({str(r).split('://')[0] if isinstance(r, RemotePath) else 'local' for r in roots}))}"
+                                "); give each its own run")
+    return RemotePath(remote[0].fs, posixpath.commonpath([r.path for r in remote]))
+
+
+def _search_remote(folder, glob, exclude):
+    """A folder search on a remote file system, in the order of the local one (each folder's
+    files sorted, then its sub-folders)."""
+    found = []
+    for name, info in folder.fs.find(folder.path, detail=True).items():
+        if info.get("type", "file") != "file":
+            continue
+        path = RemotePath(folder.fs, name)
+        relative = path.relative_to(folder)
+        if any(part.startswith(".") for part in relative.parts) or relative.suffix.lower() not in MESH_SUFFIXES:
+            continue
+        if any(identity(folder / Path(*relative.parts[:i])) in exclude for i in range(1, len(relative.parts))):
+            continue
+        if glob is None or _matches(relative, glob):
+            found.append((relative, path))
+    return [path for _, path in sorted(found, key=lambda pair: _walk_order(pair[0]))]
+
+
+def _walk_order(relative):
+    parts = relative.parts
+    return [(1, p) for p in parts[:-1]] + [(0, parts[-1])]
 
 
 def _search(folder, glob, exclude, irregular):
@@ -150,7 +195,7 @@ def _matches(relative, glob):
 
 def _read_manifest(path):
     try:
-        text = path.read_text(encoding="utf-8-sig")
+        text = path.read_bytes().decode("utf-8-sig")
     except (OSError, UnicodeDecodeError) as exc:
         raise InvalidInputError(f"{path}: cannot read the manifest: {exc}") from None
     if path.suffix.lower() == ".csv":
@@ -165,7 +210,9 @@ def _read_manifest(path):
     else:
         entries = [line.strip() for line in text.splitlines()]
     entries = [e for e in entries if e and not e.startswith("#")]
-    return [Path(os.path.abspath(path.parent / Path(e).expanduser())) for e in entries]
+    if isinstance(path, RemotePath):  # relative to the manifest, on its file system
+        return [location(e) if is_url(e) else path.parent / e for e in entries]
+    return [location(e) if is_url(e) else Path(os.path.abspath(path.parent / Path(e).expanduser())) for e in entries]
 
 
 def plan_outputs(files, root, output_dir, file_format=None, table=None, given=()) -> list:
@@ -185,15 +232,15 @@ def plan_outputs(files, root, output_dir, file_format=None, table=None, given=()
       InvalidInputError: two inputs with one output, an output that is an input, or a table that
         is an input or an output (nothing has been written).
     """
-    output_dir = Path(os.path.abspath(output_dir))
+    output_dir = location(output_dir)
     items, owner = [], {}
-    sources = {os.path.realpath(f): f for f in [*given, *files]}
+    sources = {identity(location(f)): f for f in [*given, *files]}
     for source in files:
         relative = source.relative_to(root)
         output = output_dir / relative
         if file_format:
             output = output.with_suffix("." + file_format)
-        key = os.path.realpath(output)
+        key = identity(output)
         if key in owner:
             raise InvalidInputError(f"{owner[key]} and {source} would both be written to {output}; "
                                     "give them separate runs or output folders")
@@ -203,7 +250,7 @@ def plan_outputs(files, root, output_dir, file_format=None, table=None, given=()
         owner[key] = source
         items.append(Item(source, output))
     if table is not None:
-        key = os.path.realpath(os.path.abspath(table))
+        key = identity(location(table))
         if key in sources or key in owner:
             raise InvalidInputError(f"the table {table} would overwrite "
                                     f"{'an input' if key in sources else 'an output'}; name another file")

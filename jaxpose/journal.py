@@ -9,17 +9,25 @@ rerun consults to skip finished inputs; the transforms table is rebuilt from it.
 A shard's run (``--shard I/N``, machines sharing one OUTDIR) has a journal and a lock of its own
 (``journal.shard-I-of-N.jsonl``, ``lock.shard-I-of-N``) and holds ``lock`` shared: shards run side
 by side, a second run of one shard is refused, and so is an unsharded run while shards run.
+
+An output folder on a remote file system (:mod:`jaxpose.remote`) is a :class:`RemoteOutputFolder`:
+object stores have neither locks nor appends, so it has no lock (two runs into one remote folder
+are not refused: give each its own folder, or its own shard) and its journal is one object per
+input under ``.jaxpose/records/``, each written whole in one PUT after the input's output.
 """
 from __future__ import annotations
 
+import hashlib
 import json
 import os
+import time
 from pathlib import Path
 
 from ._validate import InvalidInputError, JaxposeError
 from .atomic import check_folder_writable, is_temporary
 
-__all__ = ["STATE_FOLDER", "OutputFolder", "FolderBusyError", "shard_name"]
+__all__ = ["STATE_FOLDER", "OutputFolder", "RemoteOutputFolder", "open_output_folder", "FolderBusyError",
+           "shard_name"]
 
 STATE_FOLDER = ".jaxpose"
 
@@ -141,6 +149,87 @@ class OutputFolder:
                     except FileNotFoundError:
                         pass
         return removed
+
+
+    def exists(self, path) -> bool:
+        """Whether an output (a path in a record) is there."""
+        return os.path.exists(path)
+
+
+def open_output_folder(root, force=False, shard=None):
+    """:class:`OutputFolder` for a local folder, :class:`RemoteOutputFolder` for a remote one."""
+    from .remote import RemotePath
+
+    kind = RemoteOutputFolder if isinstance(root, RemotePath) else OutputFolder
+    return kind(root, force=force, shard=shard)
+
+
+class RemoteOutputFolder:
+    """An output folder on a remote file system, opened for one run (a context manager), with the
+    interface of :class:`OutputFolder`: no lock; the journal is one JSON object per input
+    (``.jaxpose/records[.shard-I-of-N]/<sha256 of the input>.json``), replaced whole.
+
+    Args:
+      root: a :class:`jaxpose.remote.RemotePath`; force, shard: as :class:`OutputFolder`'s.
+
+    Raises:
+      InvalidInputError: the folder is a file, or (without `force`) holds files but no
+        ``.jaxpose`` state.
+    """
+
+    def __init__(self, root, force=False, shard=None):
+        self.root = root
+        self.state = root / STATE_FOLDER
+        self.force = force
+        self.shard = shard
+        self.journal = self.state / (f"records.{shard_name(shard)}" if shard is not None else "records")
+
+    def __enter__(self):
+        fs = self.root.fs
+        if self.root.is_file():
+            raise InvalidInputError(f"output folder {self.root} is a file")
+        if not self.force and not self.state.exists() and self.root.exists() and fs.ls(self.root.path):
+            raise InvalidInputError(f"output folder {self.root} holds files that jaxpose did not write; "
+                                    "use an empty or new folder (or --force / force=True to write into it)")
+        self.root.mkdir(parents=True, exist_ok=True)
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+    def records(self) -> dict:
+        """{input: its record}, ordered by when each was written (the latest last)."""
+        fs = self.root.fs
+        try:
+            names = [n for n in fs.find(self.journal.path) if n.endswith(".json")]
+        except FileNotFoundError:
+            return {}
+        found = []
+        for blob in (fs.cat(names).values() if names else ()):
+            try:
+                record = json.loads(blob)
+            except (ValueError, TypeError):
+                continue
+            if isinstance(record, dict) and "input" in record:
+                found.append(record)
+        found.sort(key=lambda r: r.get("written_ns", 0))
+        return {r["input"]: r for r in found}
+
+    def append(self, record: dict) -> None:
+        """Write the input's record (replacing its earlier one) in one PUT."""
+        record = {**record, "written_ns": time.time_ns()}
+        name = hashlib.sha256(os.fsencode(record["input"])).hexdigest() + ".json"
+        line = json.dumps(record, separators=(",", ":"), allow_nan=True).encode("utf-8")
+        (self.journal / name).write_bytes(line)
+
+    def remove_temporaries(self, targets=None) -> int:
+        """Nothing to remove: remote outputs are written in one PUT, without temporaries."""
+        return 0
+
+    def exists(self, path) -> bool:
+        from .remote import location
+
+        return location(path).exists()
 
 
 def _existing_parent(path):

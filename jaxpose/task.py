@@ -135,11 +135,16 @@ def normalize_file(source, options=None, file_type=None, check="mtime") -> FileR
     try:
         from . import mesh
 
-        before = _input_stat(source, check) if isinstance(source, (str, os.PathLike)) else {}
-        record.update({k: v for k, v in before.items() if k != "input_inode"})
-        geometry = mesh.load(source)
-        if before.get("input_inode") is not None:
-            _check_unchanged(source, before)
+        from .remote import is_url
+
+        if is_url(source) and not source.lower().startswith("file://"):
+            geometry = _load_remote(source, check, record)
+        else:
+            before = _input_stat(source, check) if isinstance(source, (str, os.PathLike)) else {}
+            record.update({k: v for k, v in before.items() if k != "input_inode"})
+            geometry = mesh.load(source)
+            if before.get("input_inode") is not None:
+                _check_unchanged(source, before)
         record.update(kind="mesh" if hasattr(geometry, "faces") else "points",
                       vertices=len(geometry.vertices), faces=len(getattr(geometry, "faces", ())))
         ext = mesh.output_format(f"output.{file_type or Path(str(source)).suffix.lstrip('.')}", geometry)
@@ -154,6 +159,35 @@ def normalize_file(source, options=None, file_type=None, check="mtime") -> FileR
     record.update(seconds=time.perf_counter() - start, worker=f"{socket.gethostname()}:{os.getpid()}",
                   worker_peak_mb=_peak_mb(), version=__version__)
     return FileResult(record, data)
+
+
+def _load_remote(url, check, record):
+    """Read a remote file (:mod:`jaxpose.remote`): its bytes through a local temporary file of
+    the same suffix (the readers take paths); size, time and SHA-256 of those bytes in `record`."""
+    import tempfile
+
+    from . import mesh
+    from ._validate import InvalidInputError, JaxposeError
+    from .remote import location, modified_ns
+
+    path = location(url)
+    try:
+        info = path.info()
+    except FileNotFoundError:
+        raise InvalidInputError(f"no such file: {url}") from None
+    data = path.read_bytes()
+    record.update(input_size=len(data), input_mtime_ns=modified_ns(info),
+                  input_sha256=hashlib.sha256(data).hexdigest() if check == "hash" else "")
+    after = path.info()
+    if (after.get("size"), modified_ns(after)) != (info.get("size"), modified_ns(info)) or len(data) != info.get("size"):
+        raise InvalidInputError(f"{url}: changed while it was read; run again to read it whole")
+    with tempfile.TemporaryDirectory(prefix="jaxpose-") as folder:
+        local = Path(folder) / ("input" + path.suffix.lower())
+        local.write_bytes(data)
+        try:
+            return mesh.load(local)
+        except JaxposeError as exc:  # its message names the temporary file: name the URL
+            raise type(exc)(str(exc).replace(str(local), url)) from None
 
 
 def _input_stat(path, check):

@@ -53,7 +53,6 @@ import importlib.util
 import io
 import math
 import os
-from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
@@ -154,7 +153,7 @@ def default_table_name() -> str:
 
 def table_format(path) -> str:
     """``"parquet"`` or ``"csv"`` from a table path's suffix; refuses others and Parquet without pyarrow."""
-    suffix = Path(path).suffix.lower()
+    suffix = os.path.splitext(str(path))[1].lower()
     if suffix == ".csv":
         return "csv"
     if suffix in (".parquet", ".pq"):
@@ -274,9 +273,11 @@ def read_transforms(path) -> list:
         >>> back = row.invert(trimesh.load(row.output).vertices)  # the input's coordinates
         >>> everything = jaxpose.read_transforms(["shard0/", "shard1/", "shard2/"])
     """
+    from .remote import RemotePath
+
+    if isinstance(path, (str, os.PathLike, RemotePath)) and not location_of(path).is_dir():
+        return _read_table(path)
     tables = _tables(path)
-    if len(tables) == 1 and isinstance(path, (str, os.PathLike)) and not Path(path).is_dir():
-        return _read_table(tables[0])
     return merge_transforms([_read_table(t) for t in tables])
 
 
@@ -305,34 +306,48 @@ def merge_transforms(tables) -> list:
 
 def _tables(path):
     """The table files `path` names: itself, a folder's default-named tables, or a list's."""
-    if not isinstance(path, (str, os.PathLike)):
+    from .remote import RemotePath, modified_ns
+
+    if not isinstance(path, (str, os.PathLike, RemotePath)):
         return [t for p in path for t in _tables(p)]
-    path = Path(path)
+    path = location_of(path)
     if not path.is_dir():
         return [path]
-    found = [p for p in path.iterdir() if p.name.startswith("transforms") and p.is_file()
+    if isinstance(path, RemotePath):
+        listed = [(RemotePath(path.fs, i["name"]), modified_ns(i) or 0) for i in path.fs.ls(path.path, detail=True)
+                  if i.get("type") == "file"]
+    else:
+        listed = [(p, p.stat().st_mtime_ns) for p in path.iterdir() if p.is_file()]
+    found = [(when, p.name, p) for p, when in listed if p.name.startswith("transforms")
              and p.suffix.lower() in (".parquet", ".pq", ".csv")]
     if not found:
         raise InvalidInputError(f"no transforms table (transforms*.parquet, transforms*.csv) in the folder {path}")
-    return sorted(found, key=lambda p: (p.stat().st_mtime_ns, p.name))
+    return [p for _, _, p in sorted(found, key=lambda t: t[:2])]
+
+
+def location_of(path):
+    """A table's path: local, or remote for a URL (:func:`jaxpose.remote.location`)."""
+    from .remote import location
+
+    return location(path)
 
 
 def _read_table(path):
-    path = Path(path)
+    path = location_of(path)
     kind = table_format(path)
     if not path.is_file():
         raise InvalidInputError(f"no such table: {path}")
+    data = path.read_bytes()
     if kind == "parquet":
         import pyarrow.parquet as pq
 
         try:
-            records = pq.read_table(path).to_pylist()
+            records = pq.read_table(io.BytesIO(data)).to_pylist()
         except Exception as exc:
             raise InvalidInputError(f"{path}: not a readable Parquet table: {exc}") from None
     else:
-        with open(path, newline="", encoding="utf-8") as handle:
-            reader = csv.DictReader(handle)
-            records = [{k: _csv_value(v, _TYPES.get(k, "str")) for k, v in r.items()} for r in reader]
+        reader = csv.DictReader(io.StringIO(data.decode("utf-8"), newline=""))
+        records = [{k: _csv_value(v, _TYPES.get(k, "str")) for k, v in r.items()} for r in reader]
     missing = [c for c in COLUMNS if records and c not in records[0] and c not in _OPTIONAL]
     if missing:
         raise InvalidInputError(f"{path}: not a transforms table (no column {', '.join(missing)})")

@@ -105,13 +105,14 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
             check_folder_writable(table.parent, what="table")
             remove_temporaries(table)
         folder.remove_temporaries(None if shard is None else [item.output for item in items])
-        records = folder.records()
+        entries = folder.entries()
         if not force:
-            _refuse_overwriting_others(items, records)
+            _refuse_overwriting_others(items, entries)
+        pairs = {(r["input"], r.get("output") or ""): r for r in entries}
         todo, skipped = [], 0
         for item in items:
             key = _input_key(item.source, check)
-            record = records.get(str(item.source))
+            record = pairs.get((str(item.source), str(item.output)))
             if not force and _is_done(record, key, fingerprint, item.output):
                 skipped += 1
             else:
@@ -127,7 +128,7 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
             if work and not run.stopped:
                 run.execute(work, executor_args, file_format, options, check)
         finally:  # also on KeyboardInterrupt: the table holds every finished input
-            rows = table_rows(items, folder.records(), folder.exists)
+            rows = table_rows(items, folder.entries(), folder.exists)
             write_file(table, transforms.write_transforms(rows, table, rotation=bool(options.rotation_method) or None))
     return BatchResult([transforms.Transform.from_record(r) for r in rows], table, run.written, skipped, run.failed, run.stopped,
                        time.perf_counter() - start, run.peak_mb)
@@ -272,9 +273,9 @@ def _not_regular(path, kind):
                    "(name it as an INPUT to read it)")
 
 
-def _refuse_overwriting_others(items, records):
+def _refuse_overwriting_others(items, entries):
     """Refuse (before any work) to replace an output that an earlier run wrote from another input."""
-    owners = {r["output"]: name for name, r in records.items() if r.get("status") == "ok" and r.get("output")}
+    owners = {r["output"]: r["input"] for r in entries if r.get("status") == "ok" and r.get("output")}
     for item in items:
         owner = owners.get(str(item.output))
         if owner is not None and owner != str(item.source) and item.output.exists():
@@ -292,34 +293,41 @@ def _is_done(record, key, fingerprint, output):
     return all(record.get(f) == key[f] for f in fields)
 
 
-def table_rows(items, records, exists=os.path.exists) -> list:
-    """The table of a run: the records of its inputs (`items`, in order), then those of earlier
-    runs' inputs whose outputs are still there and still theirs (`records`: the journal's, last
-    record of each input, ordered by their last record).
+def table_rows(items, entries, exists=os.path.exists) -> list:
+    """The table of a run: a row for every output in the folder, and one for each failed input.
 
-    An output an input of this run wrote or owns (an ok record) has its row; so has a failed input
-    of this run. Earlier inputs keep their rows while their output exists and no later record
-    names it, so that every output in the folder has the row that inverts it. `exists(output)`
-    says whether an output is there.
+    Args:
+      items: this run's inputs and outputs (:class:`jaxpose.inputs.Item`), in order.
+      entries: the journal's last record of each (input, output) pair, in the order written
+        (:meth:`jaxpose.journal.OutputFolder.entries`).
+      exists: whether an output (a record's path) is there.
+
+    Returns:
+      The records: first, for each input of this run, the row of its output (when that is there)
+      and its failed row (when its latest attempt failed); then the rows of every other output
+      still there that earlier runs wrote, in the order written. An output's row is the latest
+      ok record that names it, so every output in the folder has the row that inverts it, even
+      when its input has since been written elsewhere, changed, or failed.
     """
     owner = {}
-    for name, record in reversed(records.items()):  # the latest record to name an output owns it
+    for i, record in enumerate(entries):  # the latest record to name an output owns it
         if record.get("status") == "ok" and record.get("output"):
-            owner.setdefault(record["output"], name)
-
-    def current(name, record):
-        return record.get("status") == "ok" and owner.get(record.get("output")) == name \
-            and exists(record["output"])
-
-    rows, mine = [], set()
+            owner[record["output"]] = i
+    live = {i for output, i in owner.items() if exists(output)}
+    latest = {record["input"]: i for i, record in enumerate(entries)}
+    pairs = {(record["input"], record.get("output") or ""): i for i, record in enumerate(entries)}
+    chosen = []
     for item in items:
         name = str(item.source)
-        record = records.get(name)
-        if record is not None and (record.get("status") != "ok" or current(name, record)):
-            rows.append(record)
-            mine.add(name)
-    rows += [r for name, r in records.items() if name not in mine and current(name, r)]
-    return rows
+        mine = pairs.get((name, str(item.output)))
+        if mine in live:
+            chosen.append(mine)
+        last = latest.get(name)
+        if last is not None and entries[last].get("status") != "ok":
+            chosen.append(last)
+    taken = set(chosen)
+    chosen += [i for i in sorted(live) if i not in taken]
+    return [entries[i] for i in chosen]
 
 
 def _failed(error):

@@ -13,7 +13,7 @@ by side, a second run of one shard is refused, and so is an unsharded run while 
 An output folder on a remote file system (:mod:`jaxpose.remote`) is a :class:`RemoteOutputFolder`:
 object stores have neither locks nor appends, so it has no lock (two runs into one remote folder
 are not refused: give each its own folder, or its own shard) and its journal is one object per
-input under ``.jaxpose/records/``, each written whole in one PUT after the input's output.
+(input, output) pair under ``.jaxpose/records/``, each written whole in one PUT after the output.
 """
 from __future__ import annotations
 
@@ -104,8 +104,12 @@ class OutputFolder:
         self._journal, self._locks = None, []
 
     def records(self) -> dict:
-        """{input path: its last journal record} (dicts), torn or foreign lines skipped; ordered by
-        those last records (the latest last)."""
+        """{input path: its last journal record} (dicts), ordered by those records (latest last)."""
+        return _latest_by_input(self.entries())
+
+    def entries(self) -> list:
+        """The last record of each (input, output) pair (a failed one has output ""), in the order
+        they were written (latest last); torn or foreign lines skipped."""
         out = {}
         try:
             with open(self.journal, "rb") as handle:
@@ -115,11 +119,12 @@ class OutputFolder:
                     except ValueError:
                         continue  # a line torn by a crash
                     if isinstance(record, dict) and "input" in record:
-                        out.pop(record["input"], None)
-                        out[record["input"]] = record
+                        key = (record["input"], record.get("output") or "")
+                        out.pop(key, None)
+                        out[key] = record
         except FileNotFoundError:
             pass
-        return out
+        return list(out.values())
 
     def append(self, record: dict) -> None:
         """Append one record as one JSON line, in one ``write`` call."""
@@ -166,8 +171,9 @@ def open_output_folder(root, force=False, shard=None):
 
 class RemoteOutputFolder:
     """An output folder on a remote file system, opened for one run (a context manager), with the
-    interface of :class:`OutputFolder`: no lock; the journal is one JSON object per input
-    (``.jaxpose/records[.shard-I-of-N]/<sha256 of the input>.json``), replaced whole.
+    interface of :class:`OutputFolder`: no lock; the journal is one JSON object per (input,
+    output) pair (``.jaxpose/records[.shard-I-of-N]/<sha256 of input NUL output>.json``), replaced
+    whole.
 
     Args:
       root: a :class:`jaxpose.remote.RemotePath`; force, shard: as :class:`OutputFolder`'s.
@@ -198,7 +204,11 @@ class RemoteOutputFolder:
         return False
 
     def records(self) -> dict:
-        """{input: its record}, ordered by when each was written (the latest last)."""
+        """{input path: its last record}, ordered by those records (latest last)."""
+        return _latest_by_input(self.entries())
+
+    def entries(self) -> list:
+        """The last record of each (input, output) pair, in the order they were written."""
         fs = self.root.fs
         try:
             names = [n for n in fs.find(self.journal.path) if n.endswith(".json")]
@@ -213,12 +223,13 @@ class RemoteOutputFolder:
             if isinstance(record, dict) and "input" in record:
                 found.append(record)
         found.sort(key=lambda r: r.get("written_ns", 0))
-        return {r["input"]: r for r in found}
+        return found
 
     def append(self, record: dict) -> None:
-        """Write the input's record (replacing its earlier one) in one PUT."""
+        """Write the record of an (input, output) pair (replacing its earlier one) in one PUT."""
         record = {**record, "written_ns": time.time_ns()}
-        name = hashlib.sha256(os.fsencode(record["input"])).hexdigest() + ".json"
+        pair = os.fsencode(record["input"]) + b"\0" + os.fsencode(record.get("output") or "")
+        name = hashlib.sha256(pair).hexdigest() + ".json"
         line = json.dumps(record, separators=(",", ":"), allow_nan=True).encode("utf-8")
         (self.journal / name).write_bytes(line)
 
@@ -230,6 +241,14 @@ class RemoteOutputFolder:
         from .remote import location
 
         return location(path).exists()
+
+
+def _latest_by_input(entries):
+    out = {}
+    for record in entries:
+        out.pop(record["input"], None)
+        out[record["input"]] = record
+    return out
 
 
 def _existing_parent(path):

@@ -284,9 +284,9 @@ def read_transforms(path) -> list:
 def merge_transforms(tables) -> list:
     """The rows of several tables as one table.
 
-    Rows are concatenated in order; a row whose input comes again later is dropped for the later
-    one (a later run redid it), and so is an ok row whose output a later ok row names (a later
-    run replaced that file). Shards' tables have neither: they concatenate.
+    Rows are concatenated in order; an ok row is dropped when a later ok row names the same
+    output (a later run replaced that file), a failed row when a later row has the same input (a
+    later run tried it again). Shards' tables have neither: they concatenate.
 
     Args:
       tables: lists of :class:`Transform` (or dicts of columns).
@@ -298,10 +298,10 @@ def merge_transforms(tables) -> list:
     last_input, last_output = {}, {}
     for i, row in enumerate(rows):
         last_input[row.input] = i
-        if row.ok and row.output:
+        if row.ok:
             last_output[row.output] = i
-    return [row for i, row in enumerate(rows) if last_input[row.input] == i
-            and not (row.ok and row.output and last_output[row.output] != i)]
+    return [row for i, row in enumerate(rows)
+            if (last_output[row.output] == i if row.ok else last_input[row.input] == i)]
 
 
 def _tables(path):

@@ -153,9 +153,24 @@ def test_each_row_records_the_input_and_what_made_it(tmp_path, scans):
         assert json.loads(row.options)["format"] == "ply"
 
 
-def test_merge_keeps_the_latest_row_of_an_input_and_of_an_output(tmp_path, scans):
-    a = run([scans / "a"], tmp_path / "a").rows
-    b = run([scans / "a"], tmp_path / "b", options=NormalizeOptions(method="bbox")).rows
-    merged = merge_transforms([a, b])
-    assert [r.method for r in merged] == ["bbox"] * len(b)  # the later table redid the same inputs
+def test_merge_keeps_the_latest_row_of_an_output_and_of_a_failed_input(tmp_path, scans):
+    out = tmp_path / "out"
+    a = run([scans / "a"], out, table=tmp_path / "a.csv").rows
+    b = run([scans / "a"], out, table=tmp_path / "b.csv", options=NormalizeOptions(method="bbox")).rows
+    assert [r.method for r in b] == ["bbox"] * 3  # the same outputs, redone with other options
+    merged = jaxpose.read_transforms([tmp_path / "a.csv", tmp_path / "b.csv"])
+    assert [(r.input, r.method, r.status) for r in merged] == [(r.input, r.method, r.status) for r in b]
+    elsewhere = run([scans / "a"], tmp_path / "other", options=NormalizeOptions(method="bbox")).rows
+    both = merge_transforms([a, elsewhere])  # other outputs: a's ok rows stay, its failure was retried
+    assert [r.output for r in both] == [r.output for r in a if r.ok] + [r.output for r in elsewhere]
     assert merge_transforms([a]) == a
+
+
+def test_one_input_written_to_two_outputs_keeps_both_rows(tmp_path, scans):
+    out = tmp_path / "out"
+    run([scans / "a"], out)  # root scans/a: out/capsule.ply
+    rows = run([scans], out, glob="capsule.ply").rows  # root scans: out/a/capsule.ply, the same input
+    capsule = str(scans / "a" / "capsule.ply")
+    assert sorted(r.output for r in rows if r.input == capsule) == [str(out / "a" / "capsule.ply"),
+                                                                   str(out / "capsule.ply")]
+    assert rows[0].output == str(out / "a" / "capsule.ply")  # this run's first

@@ -142,13 +142,14 @@ def normalize_files(inputs, output_dir, options=None, **kwargs) -> list:
 
     Args:
       inputs: a path or paths: mesh files, folders (searched recursively for
-        :data:`jaxpose.inputs.MESH_SUFFIXES`) and manifests (``.txt`` / ``.csv`` lists of paths).
-      output_dir: the output folder (made when missing; refused when another run holds it, or when
-        it holds files jaxpose did not write, unless ``force``).
+        :data:`jaxpose.inputs.MESH_SUFFIXES`) and manifests (``.txt`` / ``.csv`` lists of paths);
+        fsspec URLs too (``"s3://bucket/scans/"``; :mod:`jaxpose.remote`, ``jaxpose[remote]``).
+      output_dir: the output folder, a path or an fsspec URL (made when missing; refused when
+        another run holds it, or when it holds files jaxpose did not write, unless ``force``).
       options: :class:`NormalizeOptions` (method, gamma, ..., rotation); default the defaults.
       glob: narrows folder searches (``"pose_*.ply"``, ``"kid_*/pose_0?.ply"``).
       file_format: output format for all (``"ply"``); default each input's.
-      table: the transforms table's path (``.parquet`` or ``.csv``); default
+      table: the transforms table's path or URL (``.parquet`` or ``.csv``); default
         ``output_dir/transforms.parquet`` (``.csv`` without pyarrow).
       workers: local worker processes (default: the cores available; 1 runs in this process).
       scheduler: a dask.distributed scheduler address (``"tcp://host:8786"``) to run on instead; its

@@ -233,10 +233,13 @@ def _check_options(options):
 
 
 def _shifted(pose, shift):
-    """The pose of a geometry moved by -shift, for the geometry itself (float64 NumPy center)."""
+    """The pose of a geometry moved by -shift, for the geometry itself, as a host pose (NumPy
+    fields, floats float64: :func:`jaxpose.result.host`, whatever the method)."""
+    from .result import Pose, host
+
     center = np.asarray(pose.center, np.float64) + shift
-    if hasattr(pose, "_replace"):
-        return pose._replace(center=center)
+    if isinstance(pose, Pose):
+        return host(pose)._replace(center=center)
     return type(pose)(**{**vars(pose), "center": center})  # a pose-like object of a stand-in normalize
 
 

@@ -17,7 +17,7 @@ from ._validate import is_traced
 if TYPE_CHECKING:  # annotations only
     import jax
 
-__all__ = ["Pose", "Status", "status_message", "MAX_SPACING", "MAX_CELL", "MIN_SPREAD"]
+__all__ = ["Pose", "host", "Status", "status_message", "MAX_SPACING", "MAX_CELL", "MIN_SPREAD"]
 
 MAX_SPACING = 2.0  # median nearest-neighbour distance of the samples, in kernel widths
 MAX_CELL = 2.0  # finest grid cell edge, in kernel widths
@@ -72,8 +72,45 @@ def status_message(code) -> str:
 
 
 
+def _xp(*values):
+    """NumPy when every given value is concrete NumPy (or a Python number), else jax.numpy."""
+    given = [v for v in values if v is not None]
+    if all(isinstance(v, (np.ndarray, np.generic, bool, int, float)) for v in given):
+        return np
+    return _jnp()
+
+
+def host(pose):
+    """The pose with every field a NumPy value: floats float64, flags bool, codes int (None kept).
+
+    The type of every pose the host entry points return (:func:`jaxpose.normalize_mesh`,
+    :func:`jaxpose.estimators.estimate`, the command line, the batch runner), whatever the method.
+    Reads JAX arrays back from the device once; a traced pose is refused (use it inside JAX).
+    """
+    def convert(name, value):
+        if value is None:
+            return None
+        if is_traced(value):
+            raise TypeError(f"Pose.{name} is traced: host() is for concrete poses")
+        a = np.asarray(value)
+        if a.dtype.kind == "f":
+            return a.astype(np.float64)
+        return a.astype(bool) if a.dtype.kind == "b" else a.astype(np.int64) if a.dtype.kind in "iu" else a
+
+    return Pose(**{name: convert(name, getattr(pose, name)) for name in Pose._fields})
+
+
 class Pose(NamedTuple):
     """A similarity x -> R (x - center) / scale, with the diagnostics of how it was found. A pytree.
+
+    Types (one policy for every method): the JAX entry points (:func:`jaxpose.normalize`,
+    :func:`jaxpose.normalize_batch`) return JAX arrays in JAX's default float dtype (float32, or
+    float64 with ``jax_enable_x64``), so that they jit, vmap and differentiate; the host entry
+    points (:func:`jaxpose.normalize_mesh`, :func:`jaxpose.estimators.estimate`, the command line
+    and the batch runner, every method, ``ocsvm`` included) return NumPy values: floats float64,
+    ``valid`` / ``converged`` bool, ``status`` / ``iterations`` / ``count`` int64 (:func:`host`).
+    ``matrix``, ``apply`` and ``inverse`` compute in the fields' kind: NumPy fields give NumPy
+    float64 (no JAX import), JAX fields JAX arrays.
 
     Attributes:
       center: (3,) in the units of the input.
@@ -126,31 +163,26 @@ class Pose(NamedTuple):
     @property
     def flagged(self):
         """() bool (or None without a rotation): the rotation is not well determined (ambiguity > 0)."""
-        return None if self.ambiguity is None else _jnp().asarray(self.ambiguity) > 0
-
-    def _rotation(self, dtype):
-        jnp = _jnp()
-        if self.rotation is None:
-            return jnp.broadcast_to(jnp.eye(3, dtype=dtype), jnp.shape(self.center)[:-1] + (3, 3))
-        return jnp.asarray(self.rotation, dtype)
+        return None if self.ambiguity is None else _xp(self.ambiguity).asarray(self.ambiguity) > 0
 
     @property
     def matrix(self):
-        """(..., 4, 4) homogeneous matrix of x -> R (x - center) / scale."""
-        jnp = _jnp()
+        """(..., 4, 4) homogeneous matrix of x -> R (x - center) / scale (NumPy float64 for a host
+        pose, a JAX array for a JAX pose)."""
+        jnp = _xp(self.center, self.scale, self.rotation)
         c, s = jnp.asarray(self.center), jnp.asarray(self.scale)
         if self.rotation is None:
             eye = jnp.broadcast_to(jnp.eye(3, dtype=c.dtype), c.shape[:-1] + (3, 3))
             top = jnp.concatenate([eye / s[..., None, None], (-c / s[..., None])[..., None]], axis=-1)
         else:
-            r = self._rotation(c.dtype) / s[..., None, None]
+            r = jnp.asarray(self.rotation, c.dtype) / s[..., None, None]
             top = jnp.concatenate([r, -jnp.einsum("...ij,...j->...i", r, c)[..., None]], axis=-1)
         bottom = jnp.broadcast_to(jnp.asarray([0, 0, 0, 1], c.dtype), c.shape[:-1] + (1, 4))
         return jnp.concatenate([top, bottom], axis=-2)
 
     def apply(self, x):
-        """Normalize points x : (n, 3) -> (n, 3)."""
-        jnp = _jnp()
+        """Normalize points x : (n, 3) -> (n, 3) (NumPy for NumPy points and a host pose)."""
+        jnp = _xp(x, self.center, self.scale, self.rotation)
         y = (jnp.asarray(x) - self.center) / self.scale
         if self.rotation is None:
             return y
@@ -161,7 +193,7 @@ class Pose(NamedTuple):
         -R center / scale, scale 1 / scale)."""
         if self.rotation is None:
             return self._replace(center=-self.center / self.scale, scale=1.0 / self.scale)
-        xp = np if isinstance(self.rotation, np.ndarray) and isinstance(self.center, np.ndarray) else _jnp()
+        xp = _xp(self.rotation, self.center, self.scale)
         r = xp.asarray(self.rotation)
         center = -xp.einsum("...ij,...j->...i", r, self.center) / xp.asarray(self.scale)[..., None]
         return self._replace(center=center, scale=1.0 / self.scale, rotation=xp.swapaxes(r, -1, -2))

@@ -182,3 +182,30 @@ def test_a_mesh_without_area_is_refused_by_name():
         sample_surface(line, 100)
     # its vertices, given as points, are points
     np.testing.assert_allclose(baselines.surface_centroid(trimesh.PointCloud(line.vertices)), [1.5, 0, 0])
+
+
+def test_one_type_policy_for_host_poses_of_every_method():
+    """Host entry points return NumPy poses (floats float64) whatever the method, and a host pose's
+    matrix is NumPy float64 computed without JAX (docs/api.md, jaxpose.result.Pose)."""
+    import subprocess
+    import sys
+
+    from jaxpose.estimators import estimate
+
+    box = trimesh.creation.box(extents=(1.0, 0.6, 0.3))
+    for method in ("robust", "ocsvm", "surface_centroid"):
+        pose = estimate(box, method, count=300)
+        for name in ("center", "scale", "converged", "valid", "status"):
+            value = getattr(pose, name)
+            assert isinstance(value, np.ndarray), (method, name, type(value))
+        assert pose.center.dtype == np.float64 and pose.scale.dtype == np.float64, method
+        assert pose.valid.dtype == bool and pose.status.dtype == np.int64
+        m = pose.matrix
+        assert isinstance(m, np.ndarray) and m.dtype == np.float64
+        np.testing.assert_allclose(pose.apply(pose.center[None]), 0.0, atol=1e-12)
+        np.testing.assert_allclose(m[:3, :3] @ pose.center + m[:3, 3], 0.0, atol=1e-12)
+    code = ("import sys, numpy as np; from jaxpose.result import Pose; "
+            "m = Pose.from_center_scale(np.array([1e9, 2.0, 3.0]), 2.0).matrix; "
+            "assert m.dtype == np.float64 and m[0, 3] == -5e8, m; assert 'jax' not in sys.modules")
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr

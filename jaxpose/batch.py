@@ -217,6 +217,10 @@ def _check_run(workers, scheduler, dask_local, timeout=None):
         timeout = float(timeout)
     if scheduler is not None and dask_local is not None:
         raise InvalidInputError("give either scheduler (--scheduler) or dask_local (--dask-local), not both")
+    if scheduler is not None or dask_local is not None:
+        from .workers import _distributed
+
+        _distributed()  # not installed: refused here, before OUTDIR, its journal or its table is touched
     if dask_local is not None:
         dask_local = _count(dask_local, "dask_local", 1)
     if scheduler is not None and not (isinstance(scheduler, str) and scheduler):

@@ -36,7 +36,8 @@ def add_parser(sub, add_svm_options, handler):
     p.add_argument("--center", choices=CENTERS, default=None, help="center estimator (overrides --method's)")
     p.add_argument("--scale", choices=SCALES, default=None, help="scale estimator (overrides --method's)")
     p.add_argument("--strict", action="store_true", help="closed-surface estimators refuse open meshes")
-    p.add_argument("--sampling", choices=SAMPLING, default="even", help="surface sampling (default even)")
+    p.add_argument("--sampling", choices=SAMPLING, default=None, help="surface sampling of the ocsvm method "
+                                                                        "(default even)")
     p.add_argument("--resolution", type=int, default=None, help="grid resolution of the volume moments (>= 8)")
     p.add_argument("--transform", help="one INPUT: where to write the transform JSON (default: OUTPUT.transform.json)")
     p.add_argument("--rotation", nargs="?", const=DEFAULT_ROTATION, default=None, metavar="METHOD",
@@ -63,9 +64,12 @@ def add_parser(sub, add_svm_options, handler):
     many.add_argument("--timeout", type=float, metavar="SECONDS",
                       help="an input taking longer (reading, normalizing) is recorded as failed and its worker "
                            "process replaced; local runs")
-    p.set_defaults(handler=handler)
+    # the OCSVM's options: None when not given, so that a method that ignores them can refuse them
+    p.set_defaults(handler=handler, **dict.fromkeys(_OCSVM_ONLY))
 
 
+_OCSVM_ONLY = ("gamma", "nu", "count", "seed", "sampling")  # what only the OCSVM (center, scale or frame) reads
+_CLOSED_FORMS = ("solid_centroid", "gyration_radius", "depth_weighted_solid")  # what --strict applies to
 _MANY_ONLY = ("glob", "format", "table", "workers", "scheduler", "dask_local", "check", "fail_fast", "shard",
               "timeout")
 
@@ -86,18 +90,52 @@ def transform_path(output) -> Path:
     return output.with_name(output.stem + ".transform.json")
 
 
+def ignored_options(args) -> str | None:
+    """Why options given on the command line do nothing with the chosen method, or None.
+
+    ``--gamma``, ``--nu``, ``--count``, ``--seed`` and ``--sampling`` are read only by the OCSVM
+    (``--method ocsvm``, ``--center/--scale ocsvm`` or ``--rotation ocsvm``); ``--strict`` only by
+    the closed-surface estimators.
+    """
+    from .estimators import DEFAULT_METHOD, resolve
+
+    c_name, s_name = resolve(args.method, args.center, args.scale)
+    chosen = f"--method {args.method or DEFAULT_METHOD} (center {c_name}, scale {s_name})"
+    if "ocsvm" not in (c_name, s_name) and args.rotation != "ocsvm":
+        given = [f"--{name}" for name in _OCSVM_ONLY if getattr(args, name, None) is not None]
+        if given:
+            return (f"{', '.join(given)} {'apply' if len(given) > 1 else 'applies'} to the ocsvm method "
+                    f"(--method ocsvm), which {chosen} does not use; drop {'them' if len(given) > 1 else 'it'}")
+    if args.strict and not set(_CLOSED_FORMS) & {c_name, s_name}:
+        return (f"--strict applies to the closed-surface estimators ({', '.join(_CLOSED_FORMS)}), which {chosen} "
+                "does not use; drop it")
+    return None
+
+
 def run(args, fail):
     """Run ``jaxpose normalize`` with parsed `args`; `fail(message, code)` reports errors. Returns the exit code."""
     from .task import NormalizeOptions
-    from .inputs import is_batch_input
+    from .inputs import MESH_SUFFIXES, is_batch_input
 
-    options = NormalizeOptions(method=args.method, center=args.center, scale=args.scale, gamma=args.gamma,
-                               nu=args.nu, count=args.count, seed=args.seed, sampling=args.sampling,
-                               resolution=args.resolution, rotation=args.rotation or False, strict=args.strict)
+    ignored = ignored_options(args)
+    if ignored:
+        return fail(ignored, code=2)
+    from .errors import InvalidInputError
+
+    given = {name: getattr(args, name) for name in _OCSVM_ONLY if getattr(args, name, None) is not None}
+    try:  # a value out of range is a usage error (exit 2), found before any file is read
+        options = NormalizeOptions(method=args.method, center=args.center, scale=args.scale,
+                                   resolution=args.resolution, rotation=args.rotation or False, strict=args.strict,
+                                   **given)
+    except InvalidInputError as exc:
+        return fail(str(exc), code=2)
     inputs = list(args.inputs)
     many = len(inputs) > 1 or any(p != EXAMPLE and is_batch_input(p) for p in inputs) or bool(
         args.output and (os.path.isdir(args.output) or args.output.endswith(("/", os.sep))))
     if many:
+        if args.output and Path(args.output).suffix.lower() in MESH_SUFFIXES and not os.path.isdir(args.output):
+            return fail(f"-o {args.output} names a mesh file, but {'these INPUTs' if len(inputs) > 1 else inputs[0]} "
+                        "give many files: -o OUTDIR (a folder, created if missing)", code=2)
         return _normalize_many(args, options, fail)
     given = [f"--{name.replace('_', '-')}" for name in _MANY_ONLY if getattr(args, name) not in (None, False)]
     if given:
@@ -146,6 +184,9 @@ def _normalize_one(args, options, source, fail):
     if args.rotation:
         record.update(rotation_method=args.rotation, rotation=_flat(pose.rotation).reshape(3, 3).tolist(),
                       ambiguity=float(_flat(pose.ambiguity)[0]), rotation_flagged=bool(_flat(pose.ambiguity)[0] > 0))
+    for path in (output, json_path):  # folders checked creatable before the work, made now (as OUTDIRs are)
+        if path is not None:
+            path.parent.mkdir(parents=True, exist_ok=True)
     if output is not None:
         mesh.export(normalized, output, force=args.force)
     if json_path is not None:
@@ -170,7 +211,12 @@ def _check_outputs(source, output, json_path, force):
     for path, what in named:
         if source is not None and os.path.realpath(path) == os.path.realpath(source):
             raise InvalidInputError(f"{what} {path} is the input file; write the output elsewhere")
-        check_folder_writable(path.parent, what=f"{what} {path}: the")
+        folder = path.parent
+        while str(folder) not in ("", ".") and not folder.exists() and folder != folder.parent:
+            folder = folder.parent  # a missing folder is made after the work: its nearest existing one must allow it
+        if folder.exists() and not folder.is_dir():
+            raise InvalidInputError(f"{what} {path}: {folder} is a file, not a folder")
+        check_folder_writable(folder, what=f"{what} {path}: the")
         if path.exists() and not force:
             raise InvalidInputError(f"{path} exists (use --force to overwrite)")
 

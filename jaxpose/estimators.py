@@ -119,7 +119,8 @@ def _robust_solid(geometry, resolution):
     sol = solid.robust_solid(vertices, faces, resolution=resolution)
     if not sol.inside.any():
         raise JaxposeError("the shape encloses no volume (a flat or open sheet, or a scan of one side): "
-                           "the robust solid is empty; use method='surface_centroid' or 'ocsvm'")
+                           "the robust solid is empty; use the surface_centroid or ocsvm method "
+                           "(method='surface_centroid'; on the command line --method surface_centroid)")
     return sol
 
 

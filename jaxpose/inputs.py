@@ -4,8 +4,9 @@ An INPUT is a mesh file, a folder (searched recursively for :data:`MESH_SUFFIXES
 and folders skipped, narrowed by a glob) or a manifest (:data:`MANIFEST_SUFFIXES`: one path per
 line, ``#`` comments; or a CSV whose ``path`` / ``input`` column, else first column, holds them;
 relative paths are relative to the manifest). Outputs mirror the inputs' tree: each input's path
-relative to the common folder of all INPUTs (a folder INPUT counts as its own root), under the
-output folder, with the input's format or the one asked for.
+relative to the deepest folder common to all inputs (a folder INPUT counts as that folder, a file
+or a manifest's entry as the file's folder: one folder INPUT is its own root, several folders
+keep their names), under the output folder, with the input's format or the one asked for.
 
 A folder search takes regular files (and links to them); other files it meets (FIFOs, sockets,
 devices, links to them) are returned apart, to be recorded as failed without being opened, and

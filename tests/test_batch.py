@@ -232,8 +232,8 @@ def test_cli_one_file_refusals_before_work(tmp_path, tree, capsys, monkeypatch):
         (["-o", str(tmp_path / "c.stl")], "point cloud cannot be written as STL"),
         (["-o", str(tmp_path / "c.ply"), "--transform", str(tmp_path / "c.ply")], "name the same file"),
         (["-o", str(cloud)], "is the input file"),
-        (["-o", str(tmp_path / "missing" / "c.ply")], "does not exist"),
-        (["-o", str(tmp_path / "c.ply"), "--transform", str(tmp_path / "no" / "t.json")], "does not exist"),
+        (["-o", str(cloud / "c.ply")], "is a file"),  # a missing folder is made; a file in the way is refused
+        (["-o", str(tmp_path / "c.ply"), "--transform", str(cloud / "t.json")], "is a file"),
         (["-o", str(tmp_path / "c.vtk")], "cannot write '.vtk'"),
         (["-o", str(tmp_path / "c.ply"), "--workers", "2"], "--workers apply to many files"),
         (["--count", "2", "--method", "ocsvm"], "count must be >= 4"),
@@ -244,7 +244,7 @@ def test_cli_one_file_refusals_before_work(tmp_path, tree, capsys, monkeypatch):
         assert code in (1, 2) and fragment in err and "Traceback" not in err, (args, err)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["scans"]
     code = cli.main(["normalize", str(tmp_path / "nothing.ply"), "-o", str(tmp_path / "x.ply"), "--resolution", "3"])
-    assert code == 1 and "resolution must be >= 8" in capsys.readouterr().err  # before reading the input
+    assert code == 2 and "resolution must be >= 8" in capsys.readouterr().err  # usage, before reading the input
 
 
 def test_cli_writes_a_point_cloud_in_a_points_format(tmp_path, tree):

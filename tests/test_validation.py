@@ -370,11 +370,12 @@ def test_cli_bad_and_degenerate_files(tmp_path, capsys):
         ([tmp_path / "corrupt.ply"], 1, "cannot read PLY"),
         ([tmp_path / "nan.obj"], 1, "NaN"),
         ([tmp_path / "empty.obj"], 1, "empty geometry"),
-        ([tmp_path / "cloud.ply", "--gamma", "-1"], 1, "gamma must be > 0"),
-        ([tmp_path / "cloud.ply", "--nu", "nan"], 1, "nu must be finite"),
-        ([tmp_path / "cloud.ply", "--count", "2"], 1, "count must be >= 4"),
-        ([tmp_path / "cloud.ply", "--resolution", "2"], 1, "resolution must be >= 8"),
-        ([tmp_path / "cloud.ply", "-o", tmp_path / "nodir" / "x.ply"], 1, "does not exist"),
+        ([tmp_path / "cloud.ply", "--method", "ocsvm", "--gamma", "-1"], 2, "gamma must be > 0"),
+        ([tmp_path / "cloud.ply", "--method", "ocsvm", "--nu", "nan"], 2, "nu must be finite"),
+        ([tmp_path / "cloud.ply", "--method", "ocsvm", "--count", "2"], 2, "count must be >= 4"),
+        ([tmp_path / "cloud.ply", "--resolution", "2"], 2, "resolution must be >= 8"),
+        ([tmp_path / "cloud.ply", "--count", "200"], 2, "applies to the ocsvm method"),
+        ([tmp_path / "cloud.ply", "-o", tmp_path / "flat.obj" / "x.ply"], 1, "is a file"),
         ([tmp_path / "cloud.ply", "-o", tmp_path / "flat.obj"], 1, "exists"),
         ([], 2, "needs an INPUT"),
     ]
@@ -389,8 +390,8 @@ def test_cli_bad_and_degenerate_files(tmp_path, capsys):
     assert got == 1 and "encloses no volume" in err and not (tmp_path / "never.ply").exists(), err
     for name, method in (("cloud.ply", "robust"), ("flat.obj", "ocsvm")):  # the OCSVM region handles a sheet
         out_path = tmp_path / f"out_{name}.ply"
-        got, out, err = _run_cli(["normalize", tmp_path / name, "-o", out_path, "--count", str(M),
-                                  "--method", method], capsys)
+        count = ["--count", str(M)] if method == "ocsvm" else []
+        got, out, err = _run_cli(["normalize", tmp_path / name, "-o", out_path, *count, "--method", method], capsys)
         assert got == 0, err
         assert out_path.exists() and (tmp_path / f"out_{name}.transform.json").exists()
         mode = stat.S_IMODE(out_path.stat().st_mode)

@@ -6,17 +6,15 @@ cells: the same values as ``scipy.ndimage.distance_transform_edt(inside)``, bit 
 Squared distances are exact int32 arithmetic, one axis at a time (the squared distance is a sum
 over axes, so the minimum separates):
 
-1. along axis 0, f(i) = (distance to the nearest False cell in the same line)^2, from the index
-   of the last False cell at or before i (``lax.cummax``) and the next at or after it
-   (``lax.cummin``), in O(n);
-2. along each further axis, g(i) = min_j f(j) + (i - j)^2. The minimiser j of a cell satisfies
-   (i - j)^2 <= g(i), so after taking the offsets |i - j| <= K the result is exact for every cell
-   whose current value is below (K + 1)^2; a ``lax.while_loop`` takes the offsets K = 1, 2, ...
-   (both signs, one vector min each) until that holds for every cell (a traced bound: about the
-   grid's largest depth steps, at most the axis length).
+1. along axis 0, f(i) = (distance to the nearest False cell in the same line)^2, from the cells
+   counted since the last False cell, scanned forwards and backwards (``lax.scan``), in O(n);
+2. along each further axis, g(i) = min_j f(j) + (i - j)^2. Since g(i) <= f(i), the minimiser j of
+   a cell satisfies (i - j)^2 <= f(i), so the offsets |i - j| <= sqrt(max f) give the exact
+   result; a ``lax.while_loop`` takes the offsets k = 1, 2, ... (both signs, one vector min each)
+   up to that traced bound (about the grid's largest depth, at most the axis length).
 
 Memory: a few arrays the size of the grid (the shifted copies are padded along one axis), never
-grid x grid. Cost: O(n) per cell for pass 1, O(largest depth) per cell for each further pass.
+grid x grid. Cost: O(1) per cell for pass 1, O(largest depth) per cell for each further pass.
 
 Conventions (those of scipy). Cells beyond the grid border are not outside: a line with no False
 cell takes its distances from the other lines. A grid with no False cell at all gets scipy's
@@ -43,9 +41,10 @@ from jax import lax
 
 from .errors import InvalidInputError
 
-__all__ = ["squared_distance", "distance", "host_distance", "MAX_SQUARED"]
+__all__ = ["squared_distance", "distance", "depth_weights", "host_distance", "pad_to_bucket", "MAX_SQUARED", "BUCKET"]
 
 MAX_SQUARED = 2**30  # int32 sentinel "no False cell in reach"; every exact squared distance is below it
+BUCKET = 16  # host grids are padded to a multiple of this per axis (one compilation per bucket)
 
 
 def _check_shape(shape):
@@ -55,53 +54,63 @@ def _check_shape(shape):
         raise InvalidInputError(f"grid shape {tuple(shape)} is too large for int32 squared distances")
 
 
-def _first_pass(inside):
-    """Squared distance to the nearest False cell along axis 0 (MAX_SQUARED where the line has none)."""
-    n = inside.shape[0]
-    idx = lax.broadcasted_iota(jnp.int32, inside.shape, 0)
-    far = jnp.int32(2 * n + 1)
-    before = lax.cummax(jnp.where(inside, -far, idx), axis=0)  # last False at or before i
-    after = lax.cummin(jnp.where(inside, far + n, idx), axis=0, reverse=True)  # next False at or after i
-    d = jnp.minimum(idx - before, after - idx)
+def _first_pass(background):
+    """Squared distance to the nearest background cell along axis 0 (MAX_SQUARED where the line has
+    none): the cells since the last background cell, scanned forwards and backwards."""
+    n = background.shape[0]
+    far = jnp.full(background.shape[1:], 2 * n + 1, jnp.int32)  # no background seen yet
+
+    def step(since, is_background):
+        since = jnp.where(is_background, 0, since + 1)
+        return since, since
+
+    _, forward = lax.scan(step, far, background)
+    _, backward = lax.scan(step, far, background, reverse=True)
+    d = jnp.minimum(forward, backward)
     return jnp.where(d <= n, d * d, jnp.int32(MAX_SQUARED))
 
 
-def _min_plus(f, axis):
-    """g(i) = min_j f(j) + (i - j)^2 along ``axis``, exact (module docs)."""
+def _min_plus(f, axis, valid):
+    """g(i) = min_j f(j) + (i - j)^2 along ``axis``, exact (module docs) on the ``valid`` cells.
+
+    The loop bound is fixed before the loop: g <= f, so offsets up to sqrt(max f) suffice, the max
+    over the valid cells of lines with some finite value (a cell with none in reach, f =
+    MAX_SQUARED, makes it the whole axis). Lines with no finite value stay MAX_SQUARED whatever the
+    offsets, and cells beyond the extent are never the minimiser of a cell within it (they hold no
+    background): neither holds the loop.
+    """
     n = f.shape[axis]
     if n == 1:
         return f
     pad = [(0, 0)] * f.ndim
     pad[axis] = (n, n)
     padded = jnp.pad(f, pad, constant_values=MAX_SQUARED)  # beyond the border: nothing in reach
-    # lines with no finite value stay MAX_SQUARED whatever the offsets: they do not hold the loop
-    reachable = jnp.any(f < MAX_SQUARED, axis=axis, keepdims=True)
-
-    def bound(g):
-        return jnp.max(jnp.where(reachable, g, 0))
+    reachable = jnp.any(f < MAX_SQUARED, axis=axis, keepdims=True) & valid
+    top = jnp.max(jnp.where(reachable, f, 0))
 
     def shifted(k):
         return lax.dynamic_slice_in_dim(padded, n + k, n, axis)
 
     def cond(state):
-        k, _, top = state
+        k, _ = state
         return (k < n) & (k * k <= top)
 
     def body(state):
-        k, g, _ = state
-        g = jnp.minimum(g, jnp.minimum(shifted(k), shifted(-k)) + k * k)
-        return k + 1, g, bound(g)
+        k, g = state
+        return k + 1, jnp.minimum(g, jnp.minimum(shifted(k), shifted(-k)) + k * k)
 
-    _, g, _ = lax.while_loop(cond, body, (jnp.int32(1), f, bound(f)))
-    return g
+    return lax.while_loop(cond, body, (jnp.int32(1), f))[1]
 
 
 @jax.jit
-def squared_distance(inside):
+def squared_distance(inside, extent=None):
     """Exact squared Euclidean distance of each True cell to the nearest False cell (module docs).
 
     Args:
       inside: (n_0, ..., n_{d-1}) bool (any nonzero value counts as True), static shape, d >= 1.
+      extent: optional (d,) int, traced: only the cells with index < extent along every axis are
+        the grid; the others (padding that lets grids of different sizes share one compilation)
+        are neither inside nor outside, and get 0. Default: the whole array.
 
     Returns:
       int32 array of the same shape: 0 on False cells, the squared distance in cells elsewhere.
@@ -115,32 +124,84 @@ def squared_distance(inside):
     _check_shape(inside.shape)
     if inside.size == 0:
         return jnp.zeros(inside.shape, jnp.int32)
-    d2 = _first_pass(inside)
-    for axis in range(1, inside.ndim):
-        d2 = _min_plus(d2, axis)
-    # no False cell anywhere: scipy's value, the distance to the virtual cell (-1, 0, ..., 0)
     grids = [lax.broadcasted_iota(jnp.int32, inside.shape, a) for a in range(inside.ndim)]
+    if extent is None:
+        valid = jnp.ones(inside.shape, bool)
+    else:
+        extent = jnp.asarray(extent, jnp.int32)
+        valid = jnp.all(jnp.stack([g < extent[a] for a, g in enumerate(grids)]), axis=0)
+    d2 = _first_pass(~inside & valid)
+    for axis in range(1, inside.ndim):
+        d2 = _min_plus(d2, axis, valid)
+    # no False cell anywhere: scipy's value, the distance to the virtual cell (-1, 0, ..., 0)
     virtual = (grids[0] + 1) ** 2 + sum((g * g for g in grids[1:]), jnp.int32(0))
-    return jnp.where(jnp.all(inside), virtual, d2)
+    d2 = jnp.where(jnp.all(inside | ~valid), virtual, d2)
+    return jnp.where(inside & valid, d2, 0)
 
 
 @partial(jax.jit, static_argnames="dtype")
-def distance(inside, dtype=None):
+def distance(inside, extent=None, dtype=None):
     """Exact Euclidean distance of each True cell to the nearest False cell, in cells (module docs).
 
     Args:
       inside: (n_0, ..., n_{d-1}) bool, static shape.
+      extent: as :func:`squared_distance`.
       dtype: float dtype of the result (default: JAX's default float, float32 unless x64 is on).
 
     Returns:
       Array of ``inside``'s shape, sqrt(:func:`squared_distance`) rounded once to ``dtype``.
     """
     dtype = jnp.result_type(float) if dtype is None else dtype
-    return jnp.sqrt(squared_distance(inside).astype(dtype))
+    return jnp.sqrt(squared_distance(inside, extent).astype(dtype))
+
+
+@jax.jit
+def depth_weights(inside, power, bias=0.0, extent=None):
+    """Weights (depth / largest depth)^power of the cells of an occupancy (0 outside it).
+
+    The depth of a True cell is its :func:`distance` minus ``bias`` cells (where the shape's
+    surface lies relative to its outermost cells), at least 0. The pitch cancels in the ratio.
+
+    Args:
+      inside: (n_0, ..., n_{d-1}) bool; extent: as :func:`squared_distance`.
+      power: () float >= 0 (traced: differentiable). 0 gives weight 1 on every True cell (0^0 = 1).
+      bias: () float, cells subtracted from the distance.
+
+    Returns:
+      (n_0, ..., n_{d-1}) float weights in [0, 1]; 1 on every True cell when no cell is deeper than
+      ``bias``. Their derivative in ``power`` is log(ratio) * weight (0 where the depth is 0).
+    """
+    power = jnp.asarray(power, jnp.result_type(float))
+    inside = jnp.asarray(inside).astype(bool)
+    if extent is not None:  # cells beyond the extent are not part of the occupancy
+        grids = [lax.broadcasted_iota(jnp.int32, inside.shape, a) for a in range(inside.ndim)]
+        inside = inside & jnp.all(jnp.stack([g < jnp.asarray(extent)[a] for a, g in enumerate(grids)]), axis=0)
+    d = jnp.maximum(distance(inside, extent, dtype=power.dtype) - bias, 0.0)
+    top = jnp.max(d)
+    ratio = d / jnp.where(top > 0, top, 1.0)
+    positive = ratio > 0
+    w = jnp.where(positive, jnp.where(positive, ratio, 1.0) ** power, jnp.where(power == 0, 1.0, 0.0))
+    return jnp.where(inside, jnp.where(top > 0, w, 1.0), 0.0)
+
+
+def pad_to_bucket(grid, multiple=BUCKET):
+    """A NumPy grid padded with False (0) at the high end of each axis to a multiple of ``multiple``,
+    and its extent, for :func:`squared_distance` ``(padded, extent)``: grids whose sides round up
+    alike share one compilation.
+
+    Returns:
+      padded (NumPy, the grid's dtype), extent (d,) int32 NumPy = grid.shape.
+    """
+    grid = np.asarray(grid)
+    multiple = int(multiple)
+    pad = [(0, -n % multiple) for n in grid.shape]
+    return np.pad(grid, pad), np.asarray(grid.shape, np.int32)
 
 
 def host_distance(inside):
-    """:func:`squared_distance` for NumPy callers: (shape) float64 NumPy distances, the values of
-    ``scipy.ndimage.distance_transform_edt(inside)``."""
+    """:func:`distance` for NumPy callers: (shape) float64 NumPy distances, the values of
+    ``scipy.ndimage.distance_transform_edt(inside)`` (the grid is padded to a bucket first)."""
     inside = np.asarray(inside, bool)
-    return np.sqrt(np.asarray(squared_distance(inside)).astype(np.float64))
+    padded, extent = pad_to_bucket(inside)
+    d2 = np.asarray(squared_distance(padded, extent))[tuple(slice(0, n) for n in inside.shape)]
+    return np.sqrt(d2.astype(np.float64))

@@ -9,7 +9,9 @@ that solid's volume (:mod:`jaxpose.solid`): the solid is found with or without a
 stray parts separated from the body are dropped, and each voxel weighs its depth to the outside to
 the power 4, so the deep part of the shape (a body's torso), which moves least under articulation,
 sets the center. The volume is nearly invariant under articulation of soft bodies. See
-``docs/estimators.md`` for the measurements behind the choice.
+``docs/estimators.md`` for the measurements behind the choice. The solid is built on the host
+(NumPy); its depth, weights and moments are JAX (:func:`robust_moments`: one compiled function per
+grid bucket, differentiable in the power).
 
 ``"ocsvm"`` is the paper's method (:func:`jaxpose.normalize` on ``count`` surface samples), the
 only one differentiable in (gamma, nu). The others are the classical baselines of
@@ -24,13 +26,17 @@ from __future__ import annotations
 import numbers
 import warnings
 
+import jax
+import jax.numpy as jnp
 import numpy as np
 
 from . import baselines, sample, solid, voxels
-from ._validate import InvalidInputError, JaxposeError
+from ._validate import InvalidInputError, JaxposeError, is_traced
+from .depth import depth_weights, pad_to_bucket
+from .moments import Moments, grid_moments
 
 __all__ = ["METHODS", "CENTERS", "SCALES", "DEFAULT_METHOD", "ROBUST_POWER", "resolve", "estimate",
-           "estimate_many", "robust_center_scale", "depth_centroid", "centered"]
+           "estimate_many", "robust_center_scale", "robust_moments", "solid_moments", "centered"]
 
 METHODS = {
     "robust": ("robust_depth", "robust_volume"),
@@ -104,19 +110,21 @@ def robust_center_scale(geometry, power=ROBUST_POWER, resolution=solid.RESOLUTIO
 
     Returns:
       center (3,) float64 = sum_v d_v^p x_v / sum_v d_v^p over the kept voxels, scale () =
-      V^(1/3), both in the input's units, and the :class:`jaxpose.solid.Solid`.
+      V^(1/3), both in the input's units, and the :class:`jaxpose.solid.Solid` (its ``depth``
+      None: the depth is taken in JAX).
 
     Raises:
       JaxposeError: the shape encloses no volume (a flat or open sheet, a one-sided scan).
     """
     sol = _robust_solid(geometry, resolution)
-    return depth_centroid(sol, power), sol.volume() ** (1.0 / 3.0), sol
+    center, volume = _center_volume(solid_moments(sol, power), sol)
+    return center, volume ** (1.0 / 3.0), sol
 
 
 def _robust_solid(geometry, resolution):
     resolution = solid.check_resolution(resolution)
     vertices, faces = baselines.split_geometry(geometry)
-    sol = solid.robust_solid(vertices, faces, resolution=resolution)
+    sol = solid.robust_solid(vertices, faces, resolution=resolution, with_depth=False)
     if not sol.inside.any():
         raise JaxposeError("the shape encloses no volume (a flat or open sheet, or a scan of one side): "
                            "the robust solid is empty; use the surface_centroid or ocsvm method "
@@ -124,13 +132,47 @@ def _robust_solid(geometry, resolution):
     return sol
 
 
-def depth_centroid(sol, power=ROBUST_POWER):
-    """sum_v d_v^p x_v / sum_v d_v^p over the kept voxels of a :class:`jaxpose.solid.Solid`. (3,)"""
-    if not (isinstance(power, numbers.Real) and np.isfinite(power) and power >= 0):
+@jax.jit
+def robust_moments(inside, occupied, origin, pitch, power, bias, extent=None) -> Moments:
+    """Moments of a depth^p-weighted voxel solid: depth (:func:`jaxpose.depth.depth_weights`), then
+    :func:`jaxpose.moments.grid_moments`. Pure JAX, jittable, vmappable.
+
+    Args:
+      inside: (nx, ny, nz) bool, the solid's voxels; occupied: (nx, ny, nz) bool, voxels that
+        straddle the surface (they count half in the volume; all False for a mesh solid).
+      origin: (3,) lower corner of voxel (0, 0, 0); pitch: () voxel edge (units).
+      power: () depth exponent p >= 0; bias: () voxels subtracted from the distance transform.
+      extent: optional (3,) int, the grid within an array padded with False
+        (:func:`jaxpose.depth.pad_to_bucket`).
+
+    Returns:
+      :class:`jaxpose.moments.Moments` in the grid's frame: center sum_v d_v^p x_v / sum_v d_v^p,
+      volume pitch^3 (#inside - #occupied / 2). Differentiable in ``power``, ``pitch`` and
+      ``origin``; the occupancy itself carries no derivative.
+    """
+    w = depth_weights(inside, power, bias, extent)
+    occupancy = inside.astype(w.dtype) - 0.5 * (inside & occupied).astype(w.dtype)
+    return grid_moments(occupancy, w, origin, pitch)
+
+
+def solid_moments(sol, power=ROBUST_POWER) -> Moments:
+    """:func:`robust_moments` of a host :class:`jaxpose.solid.Solid` (grid padded to a bucket; JAX's
+    default float). The moments are in the grid's frame (``Moments.center @ sol.frame`` is the world
+    center). Differentiable in ``power`` (a traced power is not checked). Raises InvalidInputError
+    for a power that is not a finite number >= 0."""
+    if not is_traced(power) and not (isinstance(power, numbers.Real) and np.isfinite(power) and power >= 0):
         raise InvalidInputError(f"power must be a finite number >= 0, got {power!r}")
-    d = sol.depth[sol.inside]
-    w = (d / d.max()) ** float(power) if d.max() > 0 else np.ones_like(d)
-    return (w @ sol.centers()) / w.sum()
+    inside, extent = pad_to_bucket(sol.inside)
+    occupied = np.zeros_like(inside) if sol.occupied is None else pad_to_bucket(sol.occupied)[0]
+    dtype = jnp.result_type(float)
+    return robust_moments(inside, occupied, jnp.asarray(sol.origin, dtype), jnp.asarray(sol.pitch, dtype),
+                          jnp.asarray(power, dtype), jnp.asarray(sol.bias, dtype), extent)
+
+
+def _center_volume(moments, sol):
+    """World center (3,) float64 and volume () float of a solid's moments."""
+    center = np.asarray(moments.center, np.float64) @ np.asarray(sol.frame, np.float64)
+    return center, float(moments.volume)
 
 
 _SHARED = ("_robust_solid", "_ocsvm", "_voxels", "_moments")  # what does not depend on the power
@@ -146,6 +188,14 @@ class _Shape:
         self._ocsvm = None
         self._voxels = None
         self._moments = None
+        self._robust = None
+
+    def robust(self):
+        """World center and volume of the robust solid at this shape's power."""
+        if self._robust is None:
+            sol = self.robust_solid()
+            self._robust = _center_volume(solid_moments(sol, self.options.get("power", ROBUST_POWER)), sol)
+        return self._robust
 
     def solid_moments(self, strict):
         if self._moments is None:
@@ -177,7 +227,7 @@ class _Shape:
 
     def center(self, name, strict):
         if name == "robust_depth":
-            return depth_centroid(self.robust_solid(), self.options.get("power", ROBUST_POWER))
+            return self.robust()[0]
         if name == "ocsvm":
             return np.asarray(self.ocsvm().center, np.float64)
         if name == "solid_centroid":
@@ -191,7 +241,7 @@ class _Shape:
 
     def scale(self, name, center, strict):
         if name == "robust_volume":
-            return self.robust_solid().volume() ** (1.0 / 3.0)
+            return self.robust()[1] ** (1.0 / 3.0)
         if name == "ocsvm":
             return float(np.asarray(self.ocsvm().scale))
         if name == "gyration_radius":

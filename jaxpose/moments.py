@@ -1,4 +1,6 @@
-"""Volume moments of the SVDD region {f >= 0}: centroid (eq. 4), mean distance (eq. 5), volume, M2.
+"""Weighted volume moments: of the SVDD region {f >= 0} (centroid, eq. 4; mean distance, eq. 5;
+volume; M2) and of any weighted occupancy on a grid (:func:`grid_moments`), one implementation
+(:func:`weighted_moments`).
 
 Quadrature. Each grid cell gets a fractional occupancy from the local signed distance to the
 boundary, f / |grad f|, against the cell's width along the normal, sum_k |n_k| h_k:
@@ -51,7 +53,7 @@ from .grid import (CHILD_OFFSETS, domain, evaluate_children, evaluate_grid, eval
                    morton_codes)
 
 __all__ = ["Moments", "volume_moments", "region_moments", "discretize", "occupancy", "moments_from_occupancy",
-           "band_score", "select_cells", "LAST_BAND"]
+           "weighted_moments", "grid_moments", "band_score", "select_cells", "LAST_BAND"]
 
 
 class Moments(NamedTuple):
@@ -79,8 +81,17 @@ def occupancy(f, grad, h):
     return jnp.where(ok, jnp.clip(0.5 + f / safe, 0.0, 1.0), (f >= 0).astype(f.dtype))
 
 
-def moments_from_occupancy(x, w, h):
-    """Moments of the weighted cells x : (n, 3), w : (n,), h : (3,)."""
+def weighted_moments(x, w):
+    """Weighted moments of points (the one implementation behind every estimator's moments).
+
+    Args:
+      x: (n, 3) float, cell centers (or any points); w: (n,) float >= 0, their weights.
+
+    Returns:
+      mass () = sum w; center (3,) = sum w x / mass; mean distance () = sum w |x - c| / mass;
+      second moment (3, 3) = sum w (x - c)(x - c)^T / mass. With mass 0 the center is 0.
+      Differentiable in x and w (the distance's square root is kept off 0 by the float's tiny).
+    """
     mass = jnp.sum(w)
     safe = jnp.where(mass > 0, mass, 1.0)
     c = jnp.sum(w[:, None] * x, axis=0) / safe
@@ -88,7 +99,42 @@ def moments_from_occupancy(x, w, h):
     dist = jnp.sqrt(jnp.sum(d * d, axis=-1) + jnp.finfo(x.dtype).tiny)
     md = jnp.sum(w * dist) / safe
     second = jnp.einsum("n,ni,nj->ij", w, d, d) / safe
+    return mass, c, md, second
+
+
+def moments_from_occupancy(x, w, h):
+    """Moments of the weighted cells x : (n, 3), w : (n,) (occupied volume in cells of size h), h : (3,)."""
+    mass, c, md, second = weighted_moments(x, w)
     return Moments(c, md, mass * jnp.prod(h), second, h, jnp.asarray(0))
+
+
+def grid_moments(occupancy, weights, origin, pitch):
+    """Moments of a weighted occupancy on a regular grid.
+
+    Args:
+      occupancy: (nx, ny, nz) float in [0, 1] (or bool), the share of each cell inside the shape.
+      weights: (nx, ny, nz) float >= 0, each cell's weight in the center and second moment (e.g.
+        1, or depth^p on the occupied cells); cells outside the shape should weigh 0.
+      origin: (3,) lower corner of cell (0, 0, 0); pitch: () cell edge (traced: differentiable).
+
+    Returns:
+      :class:`Moments`: center sum w x / sum w over the cell centers x = origin + pitch (i + 1/2),
+      mean distance and second moment with the same weights, volume = pitch^3 sum occupancy,
+      cell = (pitch,) * 3.
+
+    Example::
+
+        >>> occ = jnp.zeros((8, 8, 8)).at[2:6, 2:6, 2:6].set(1.0)
+        >>> grid_moments(occ, occ, jnp.zeros(3), 0.5).center  # [2, 2, 2]
+    """
+    weights = jnp.asarray(weights)
+    dtype = weights.dtype
+    shape = weights.shape
+    idx = jnp.stack(jnp.meshgrid(*(jnp.arange(n, dtype=dtype) for n in shape), indexing="ij"), axis=-1)
+    x = jnp.asarray(origin, dtype) + pitch * (idx.reshape(-1, 3) + 0.5)
+    _, c, md, second = weighted_moments(x, weights.reshape(-1))
+    volume = jnp.sum(jnp.asarray(occupancy, dtype)) * pitch**3
+    return Moments(c, md, volume, second, jnp.full(3, pitch, dtype), jnp.asarray(0))
 
 
 # (linear widths, share of the curvature allowance) of the last level's band (module docs); others: (1.5, 1)

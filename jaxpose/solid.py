@@ -26,9 +26,10 @@ Memory. A grid of ``resolution`` voxels along the largest extent holds at most a
 :func:`check_resolution` refuses a resolution whose worst case exceeds
 :data:`jaxpose.config.MEMORY_BUDGET`.
 
-Depth. The Euclidean distance of each kept voxel to the outside (:func:`depth`), minus half a voxel
-for mesh solids (their outer voxel centers lie inside the surface) and one voxel for point solids
-(their outer voxels straddle it).
+Depth. The Euclidean distance of each kept voxel to the outside (:func:`depth`, the exact transform
+of :mod:`jaxpose.depth`), minus ``Solid.bias`` voxels: half a voxel for mesh solids (their outer
+voxel centers lie inside the surface) and one voxel for point solids (their outer voxels straddle
+it).
 """
 from __future__ import annotations
 
@@ -42,10 +43,11 @@ from scipy.sparse.csgraph import connected_components
 
 from ._validate import InvalidInputError
 from .config import MEMORY_BUDGET
+from .depth import host_distance
 
 __all__ = ["Solid", "robust_solid", "cap_holes", "ray_vote_solid", "point_solid", "exterior_fill", "keep_main",
            "depth", "make_grid", "closing_radius", "neighbour_distances", "check_resolution", "RESOLUTION", "COARSE",
-           "KEEP_RATIO", "SPACING_SAMPLES", "VOXEL_BYTES"]
+           "KEEP_RATIO", "SPACING_SAMPLES", "VOXEL_BYTES", "MESH_BIAS", "POINT_BIAS"]
 
 RESOLUTION = 96  # voxels along the main body's largest extent
 COARSE = 48  # the same for the first pass over everything
@@ -53,6 +55,8 @@ KEEP_RATIO = 0.5  # a separate component is kept when at least this share of the
 MAX_CLOSING = 4  # point clouds: the pitch is coarsened so that the closing radius stays within this
 SPACING_SAMPLES = 10_000  # point clouds: the spacing is measured from at most this many of the points
 VOXEL_BYTES = 64  # peak memory per voxel of the fine grid (measured 50-58 bytes)
+MESH_BIAS = 0.5  # voxels between a mesh solid's outer voxel centers and its surface (depth offset)
+POINT_BIAS = 1.0  # the same for a point solid (its outer voxels straddle the surface)
 _MAX_MARGIN = 3 * MAX_CLOSING + 3  # voxels around the box (point clouds; meshes: 3)
 _OFFSET = 1e-3 * np.sqrt(2.0)  # grid offset in pitches: grid lines miss the vertices of axis-aligned models
 _AXES = ((0, 1, 2), (1, 2, 0), (2, 0, 1))  # ray axis a, then (b, c) with (a, b, c) cyclic
@@ -63,13 +67,16 @@ class Solid(NamedTuple):
 
     Attributes:
       inside: (nx, ny, nz) bool, the kept voxels (main body and parts kept with it).
-      depth: (nx, ny, nz) float64, distance to the outside in units (0 outside).
+      depth: (nx, ny, nz) float64, distance to the outside in units (0 outside), or None when
+        :func:`robust_solid` was asked not to compute it.
       origin: (3,) lower corner of voxel (0, 0, 0), in the grid's frame.
       pitch: voxel edge length, in units.
       occupied: (nx, ny, nz) bool for point solids (voxels holding a point), None for meshes.
       frame: (3, 3) rotation whose rows are the grid axes in world coordinates (identity by default):
         a voxel center y in the grid frame is the world point ``frame.T @ y``.
       components: number of components found; dropped: how many were dropped as stray parts.
+      bias: voxels subtracted from the distance transform in ``depth`` (:data:`MESH_BIAS`,
+        :data:`POINT_BIAS`).
     """
 
     inside: np.ndarray
@@ -80,6 +87,7 @@ class Solid(NamedTuple):
     frame: np.ndarray
     components: int
     dropped: int
+    bias: float = MESH_BIAS
 
     def centers(self):
         """(n, 3) world coordinates of the kept voxel centers, in ``np.nonzero(inside)`` order."""
@@ -339,10 +347,11 @@ def keep_main(solid, keep_ratio=KEEP_RATIO):
     return np.concatenate([[False], keep])[lab], int(n), int((~keep).sum())
 
 
-def depth(kept, pitch, bias=0.5):
-    """Euclidean distance to the outside in units: the distance transform minus ``bias`` voxels
-    (the mean offset of the true surface from the solid's outermost voxel centers), at least 0."""
-    return np.maximum(ndimage.distance_transform_edt(kept) - bias, 0.0) * pitch
+def depth(kept, pitch, bias=MESH_BIAS):
+    """Euclidean distance to the outside in units: the exact distance transform
+    (:func:`jaxpose.depth.host_distance`) minus ``bias`` voxels (the mean offset of the true surface
+    from the solid's outermost voxel centers), at least 0. (shape) float64 NumPy."""
+    return np.maximum(host_distance(kept) - bias, 0.0) * pitch
 
 
 def _near(x, kept, origin, pitch, grow=1):
@@ -356,7 +365,7 @@ def _near(x, kept, origin, pitch, grow=1):
 
 # ------------------------------------------------------------------ driver
 def robust_solid(vertices, faces=None, *, resolution=RESOLUTION, coarse=COARSE, keep_ratio=KEEP_RATIO,
-                 min_votes=3, frame=None) -> Solid:
+                 min_votes=3, frame=None, with_depth=True) -> Solid:
     """The kept solid of a mesh or a point cloud (module docs).
 
     Args:
@@ -369,6 +378,8 @@ def robust_solid(vertices, faces=None, *, resolution=RESOLUTION, coarse=COARSE, 
       min_votes: of the 6 one-sided windings, how many make a voxel inside (meshes).
       frame: optional (3, 3) rotation (rows = grid axes in world coordinates); the grid is laid out
         along them (for rotation-equivariant results, e.g. along the shape's principal axes).
+      with_depth: compute ``Solid.depth`` on the host (False: None, for callers that take the
+        depth in JAX from ``inside`` and ``bias``).
 
     Returns:
       :class:`Solid`; its ``inside`` is empty when the shape encloses no volume (a flat or open
@@ -412,5 +423,6 @@ def robust_solid(vertices, faces=None, *, resolution=RESOLUTION, coarse=COARSE, 
     origin, shape = make_grid(lo, hi, pitch, margin(pitch))
     solid, occupied = solid_at(origin, pitch, shape)
     kept, components, dropped = keep_main(exterior_fill(solid), keep_ratio)
-    dep = depth(kept, pitch, bias=0.5 if faces is not None else 1.0)
-    return Solid(kept, dep, origin, pitch, occupied, frame, components, dropped)
+    bias = MESH_BIAS if faces is not None else POINT_BIAS
+    dep = depth(kept, pitch, bias=bias) if with_depth else None
+    return Solid(kept, dep, origin, pitch, occupied, frame, components, dropped, bias)

@@ -9,7 +9,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy import ndimage
 
-from jaxpose.depth import MAX_SQUARED, distance, host_distance, squared_distance
+from jaxpose.depth import MAX_SQUARED, depth_weights, distance, host_distance, pad_to_bucket, squared_distance
 from jaxpose.errors import InvalidInputError
 
 # a few shapes (each compiles once): 1-D to 3-D, anisotropic, unit axes
@@ -43,6 +43,22 @@ def test_anisotropic_blobs_equal_scipy(shape):
     inside[tuple(rng.integers(0, s, 4) for s in shape)] = False
     inside[0] = False  # one face outside, the rest of the border is not
     np.testing.assert_array_equal(np.asarray(squared_distance(inside)), scipy_squared(inside))
+
+
+@pytest.mark.parametrize("shape, extent", [((16, 16, 16), (9, 4, 7)), ((16, 16, 16), (16, 3, 11)), ((6, 11), (1, 5))])
+def test_extent_pads_without_changing_the_grid(shape, extent):
+    rng = np.random.default_rng(sum(extent))
+    padded = rng.random(shape) < 0.5  # padding of either value: neither inside nor outside
+    grid = tuple(slice(0, e) for e in extent)
+    padded[grid] = rng.random(extent) < 0.95
+    got = np.asarray(squared_distance(padded, np.array(extent)))
+    np.testing.assert_array_equal(got[grid], scipy_squared(padded[grid]))
+    rest = np.ones(shape, bool)
+    rest[grid] = False
+    assert not got[rest].any()
+    padded[grid] = True  # no False cell within the extent: scipy's full-grid convention
+    np.testing.assert_array_equal(np.asarray(squared_distance(padded, np.array(extent)))[grid],
+                                  scipy_squared(padded[grid]))
 
 
 def test_lines_without_false_cells_take_distances_from_other_lines():
@@ -104,3 +120,49 @@ def test_jit_and_vmap_agree_with_single_calls():
         np.testing.assert_array_equal(np.asarray(got[b]), scipy_squared(batch[b]))
     inner = jax.jit(lambda g: jnp.sum(distance(g)))(batch[0])  # called inside another jitted function
     np.testing.assert_allclose(float(inner), ndimage.distance_transform_edt(batch[0]).sum(), rtol=1e-6)
+
+
+# --------------------------------------------------------------------------- weights, buckets
+def scipy_weights(inside, power, bias):
+    d = np.maximum(ndimage.distance_transform_edt(inside) - bias, 0.0)
+    top = d[inside].max() if inside.any() else 0.0
+    w = (d / top) ** power if top > 0 else np.ones(inside.shape)
+    return np.where(inside, w, 0.0)
+
+
+@pytest.mark.parametrize("power, bias", [(4.0, 0.5), (1.5, 1.0), (0.0, 0.5), (2.0, 0.0)])
+def test_depth_weights_match_the_scipy_formula(x64, power, bias):
+    inside = np.zeros((12, 16, 10), bool)
+    inside[2:10, 3:14, 2:9] = True
+    inside[5, 6, 4] = False  # a cavity
+    padded, extent = pad_to_bucket(inside)
+    assert padded.shape == (16, 16, 16) and tuple(extent) == inside.shape
+    w = np.asarray(depth_weights(padded, power, bias, extent))
+    np.testing.assert_allclose(w[:12, :16, :10], scipy_weights(inside, power, bias), rtol=1e-12, atol=0)
+    assert not w[12:].any()
+    if power == 0.0:  # 0^0 = 1: the plain solid, outer voxels included
+        np.testing.assert_array_equal(w[:12, :16, :10], inside.astype(float))
+
+
+def test_depth_weights_of_a_solid_no_deeper_than_the_bias_are_uniform():
+    inside = np.zeros((5, 5, 5), bool)
+    inside[2, 2, 2] = True  # distance 1, depth 1 - 1 = 0 everywhere
+    np.testing.assert_array_equal(np.asarray(depth_weights(inside, 4.0, 1.0)), inside.astype(np.float32))
+
+
+def test_depth_weights_gradient_in_power(x64):
+    inside = np.zeros((9, 10, 11), bool)
+    inside[1:8, 2:9, 1:10] = True
+    grad = jax.grad(lambda p: jnp.sum(depth_weights(inside, p, 0.5) * jnp.arange(990.0).reshape(9, 10, 11)))
+    f = lambda p: float(jnp.sum(depth_weights(inside, p, 0.5) * jnp.arange(990.0).reshape(9, 10, 11)))
+    for p in (4.0, 0.5):
+        g = float(grad(p))
+        assert np.isfinite(g)
+        assert g == pytest.approx((f(p * 1.01) - f(p * 0.99)) / (0.02 * p), rel=1e-3)
+
+
+def test_host_distance_pads_to_a_bucket_and_equals_scipy():
+    inside = np.random.default_rng(5).random((19, 7, 33)) < 0.9
+    np.testing.assert_array_equal(host_distance(inside), ndimage.distance_transform_edt(inside))
+    padded, extent = pad_to_bucket(inside, 8)
+    assert padded.shape == (24, 8, 40) and padded.dtype == bool and not padded[19:].any()

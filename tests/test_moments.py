@@ -237,3 +237,36 @@ def test_select_fits_by_index_or_overflows_by_score(n_want):
     else:
         best = set(np.asarray(jax.lax.top_k(-jnp.asarray(score), k)[1]).tolist())
         assert len(got) == k and got == best
+
+
+# --------------------------------------------------------------------------- moments of a grid
+def test_grid_moments_of_a_voxel_box_are_closed_forms(x64):
+    from jaxpose.moments import grid_moments
+
+    origin, pitch = np.array([-1.0, 0.5, 2.0]), 0.25
+    occ = np.zeros((10, 12, 9))
+    lo, n = np.array([2, 3, 1]), np.array([5, 7, 4])
+    occ[2:7, 3:10, 1:5] = 1.0
+    mom = grid_moments(jnp.asarray(occ), jnp.asarray(occ), jnp.asarray(origin), pitch)
+    np.testing.assert_allclose(np.asarray(mom.center), origin + pitch * (lo + n / 2), rtol=1e-14)
+    assert float(mom.volume) == pytest.approx(n.prod() * pitch**3, rel=1e-14)
+    # a discrete uniform variable over n cell centers has variance (n^2 - 1) / 12 cells^2
+    np.testing.assert_allclose(np.asarray(mom.second_moment), np.diag((n**2 - 1) / 12 * pitch**2), atol=1e-14)
+    np.testing.assert_allclose(np.asarray(mom.cell), [pitch] * 3)
+
+
+def test_grid_moments_share_the_cell_list_implementation(x64):
+    from jaxpose.moments import grid_moments
+
+    rng = np.random.default_rng(0)
+    occ = (rng.random((6, 5, 7)) < 0.6).astype(float)
+    w = occ * rng.random(occ.shape)
+    origin, pitch = np.array([0.3, -0.1, 0.2]), 0.1
+    mom = grid_moments(jnp.asarray(occ), jnp.asarray(w), jnp.asarray(origin), pitch)
+    x = origin + pitch * (np.stack(np.nonzero(np.ones(occ.shape)), axis=1) + 0.5)
+    ref = moments_from_occupancy(jnp.asarray(x), jnp.asarray(w.ravel()), jnp.full(3, pitch))
+    for a, b in [(mom.center, ref.center), (mom.mean_distance, ref.mean_distance), (mom.second_moment, ref.second_moment)]:
+        np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-13, atol=1e-16)
+    # the weights set the center, the occupancy the volume
+    np.testing.assert_allclose(np.asarray(mom.center), (w.ravel() @ x) / w.sum(), rtol=1e-13)
+    assert float(mom.volume) == pytest.approx(occ.sum() * pitch**3, rel=1e-13)

@@ -1,0 +1,115 @@
+"""The robust estimator's JAX half (depth -> weights -> moments) against scipy and finite differences."""
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+import trimesh
+from scipy import ndimage
+
+from jaxpose import estimators, mesh, solid
+from jaxpose.depth import pad_to_bucket
+from jaxpose.errors import InvalidInputError
+from conftest import SHARED
+
+
+def scipy_center_volume(sol, power):
+    """The robust center and volume from scipy's distance transform (the oracle)."""
+    d = np.maximum(ndimage.distance_transform_edt(sol.inside) - sol.bias, 0.0)[sol.inside]
+    w = (d / d.max()) ** power if d.max() > 0 else np.ones_like(d)
+    x = sol.origin + sol.pitch * (np.stack(np.nonzero(sol.inside), axis=1) + 0.5)
+    n = float(sol.inside.sum()) - (0.0 if sol.occupied is None else 0.5 * float((sol.occupied & sol.inside).sum()))
+    return ((w @ x) / w.sum()) @ sol.frame, n * sol.pitch**3
+
+
+@pytest.fixture(scope="module")
+def shape_solid():
+    geometry, _ = estimators.centered(mesh.example_shape())
+    return estimators._robust_solid(geometry, solid.RESOLUTION)
+
+
+@pytest.mark.parametrize("power", [4.0, 1.0, 0.0])
+def test_mesh_solid_matches_scipy(shape_solid, power):
+    center, volume = scipy_center_volume(shape_solid, power)
+    mom = estimators.solid_moments(shape_solid, power)
+    assert mom.center.dtype == jnp.float32
+    np.testing.assert_allclose(np.asarray(mom.center, float) @ shape_solid.frame, center, atol=1e-6)
+    assert float(mom.volume) == pytest.approx(volume, rel=1e-6)
+
+
+def test_point_solid_counts_straddling_voxels_half():
+    points, _ = trimesh.sample.sample_surface(trimesh.creation.capsule(height=1.0, radius=0.4), 6000, seed=0)
+    sol = solid.robust_solid(points, with_depth=False)
+    assert sol.bias == solid.POINT_BIAS and sol.depth is None and sol.occupied.any()
+    center, volume = scipy_center_volume(sol, 4.0)
+    mom = estimators.solid_moments(sol, 4.0)
+    np.testing.assert_allclose(np.asarray(mom.center, float), center, atol=1e-6)
+    assert float(mom.volume) == pytest.approx(volume, rel=1e-6) == sol.volume()
+
+
+def test_float64(x64, shape_solid):
+    center, volume = scipy_center_volume(shape_solid, 4.0)
+    mom = estimators.solid_moments(shape_solid, 4.0)
+    assert mom.center.dtype == jnp.float64
+    np.testing.assert_allclose(np.asarray(mom.center) @ shape_solid.frame, center, rtol=0, atol=1e-13)
+    assert float(mom.volume) == pytest.approx(volume, rel=1e-13)
+
+
+def test_bad_power_is_refused(shape_solid):
+    for power in (-1.0, float("nan"), "4"):
+        with pytest.raises(InvalidInputError, match="power"):
+            estimators.solid_moments(shape_solid, power)
+
+
+def test_vmap_over_a_batch_of_grids_equals_single_calls():
+    rng = np.random.default_rng(0)
+    grids = np.zeros((3, 16, 16, 16), bool)
+    for b, r in enumerate((4, 5, 6)):
+        idx = np.indices((16, 16, 16)) - 7.5 - rng.uniform(-1, 1, (3, 1, 1, 1))
+        grids[b] = np.sum(idx**2, axis=0) < r * r
+    occupied = np.zeros_like(grids)
+    origin, pitch = jnp.zeros(3), jnp.float32(0.1)
+    batched = jax.vmap(lambda g, o: estimators.robust_moments(g, o, origin, pitch, 4.0, 0.5))(grids, occupied)
+    for b in range(3):
+        one = estimators.robust_moments(grids[b], occupied[b], origin, pitch, 4.0, 0.5)
+        np.testing.assert_allclose(np.asarray(batched.center[b]), np.asarray(one.center), rtol=1e-6)
+        assert float(batched.volume[b]) == pytest.approx(float(one.volume), rel=1e-6)
+
+
+def power_gradients(sol, power=estimators.ROBUST_POWER, step=0.01):
+    """jax.grad of the center (3,) and scale in the power, and 1 % central differences."""
+    def center_scale(p):
+        mom = estimators.solid_moments(sol, p)
+        return mom.center @ jnp.asarray(sol.frame, mom.center.dtype), mom.volume ** (1.0 / 3.0)
+
+    grad_c = jax.jacfwd(lambda p: center_scale(p)[0])(power)
+    grad_s = jax.grad(lambda p: center_scale(p)[1])(power)
+    hi, lo = center_scale(power * (1 + step)), center_scale(power * (1 - step))
+    fd_c = (np.asarray(hi[0], float) - np.asarray(lo[0], float)) / (2 * step * power)
+    fd_s = (float(hi[1]) - float(lo[1])) / (2 * step * power)
+    return np.asarray(grad_c, float), float(grad_s), fd_c, fd_s
+
+
+def check_gradients(sol, scale):
+    grad_c, grad_s, fd_c, fd_s = power_gradients(sol)
+    assert np.all(np.isfinite(grad_c)) and np.isfinite(grad_s)
+    # the center moves with the power (toward the deep part); the scale (a volume) does not depend on it
+    assert np.linalg.norm(fd_c) > 1e-4 * scale
+    np.testing.assert_allclose(grad_c, fd_c, rtol=0.1, atol=0.1 * np.linalg.norm(fd_c))
+    assert grad_s == 0.0 and fd_s == 0.0
+
+
+def test_power_gradient_matches_central_differences(shape_solid):
+    check_gradients(shape_solid, 1.0)
+
+
+@pytest.mark.shared
+@pytest.mark.parametrize("path", ["faust-dev/tr_reg_000.ply", "faust-dev/tr_reg_015.ply", "kids-dev/kid_0001/pose_03.ply"])
+def test_power_gradient_on_dev_shapes(path):
+    file = SHARED / "data" / path
+    if not file.exists():
+        pytest.skip("../shared data is not available")
+    geometry, _ = estimators.centered(mesh.load(file))
+    sol = estimators._robust_solid(geometry, solid.RESOLUTION)
+    check_gradients(sol, float(np.ptp(geometry.vertices, axis=0).max()))

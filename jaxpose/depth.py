@@ -41,7 +41,7 @@ from jax import lax
 
 from .errors import InvalidInputError
 
-__all__ = ["squared_distance", "distance", "depth_weights", "host_distance", "pad_to_bucket", "MAX_SQUARED", "BUCKET"]
+__all__ = ["squared_distance", "distance", "depth_weights", "host_distance", "to_bucket", "from_bucket", "MAX_SQUARED", "BUCKET"]
 
 MAX_SQUARED = 2**30  # int32 sentinel "no False cell in reach"; every exact squared distance is below it
 BUCKET = 16  # host grids are padded to a multiple of this per axis (one compilation per bucket)
@@ -184,24 +184,37 @@ def depth_weights(inside, power, bias=0.0, extent=None):
     return jnp.where(inside, jnp.where(top > 0, w, 1.0), 0.0)
 
 
-def pad_to_bucket(grid, multiple=BUCKET):
-    """A NumPy grid padded with False (0) at the high end of each axis to a multiple of ``multiple``,
-    and its extent, for :func:`squared_distance` ``(padded, extent)``: grids whose sides round up
-    alike share one compilation.
+def to_bucket(grid, multiple=BUCKET):
+    """A NumPy grid with its axes in ascending order of length, padded with False (0) at the high
+    end of each axis to a multiple of ``multiple``: grids whose sorted sides round up alike share
+    one compilation of :func:`squared_distance` ``(padded, extent)``, and the shortest axis comes
+    first (the first pass's 1-D distances, which bound the second pass's loop, are then the
+    shortest).
 
     Returns:
-      padded (NumPy, the grid's dtype), extent (d,) int32 NumPy = grid.shape.
+      padded (NumPy, the grid's dtype), extent (d,) int32 NumPy (the sorted shape), axes (d,) int:
+      ``padded[:extent...] == grid.transpose(axes)``.
     """
     grid = np.asarray(grid)
-    multiple = int(multiple)
-    pad = [(0, -n % multiple) for n in grid.shape]
-    return np.pad(grid, pad), np.asarray(grid.shape, np.int32)
+    axes = np.argsort(grid.shape, kind="stable")
+    moved = grid.transpose(axes)
+    pad = [(0, -n % int(multiple)) for n in moved.shape]
+    return np.pad(moved, pad), np.asarray(moved.shape, np.int32), axes
+
+
+def from_bucket(values, axes, extent):
+    """The inverse of :func:`to_bucket` on a result of the padded grid's shape (NumPy)."""
+    values = np.asarray(values)[tuple(slice(0, int(n)) for n in extent)]
+    return values.transpose(np.argsort(axes))
 
 
 def host_distance(inside):
     """:func:`distance` for NumPy callers: (shape) float64 NumPy distances, the values of
-    ``scipy.ndimage.distance_transform_edt(inside)`` (the grid is padded to a bucket first)."""
+    ``scipy.ndimage.distance_transform_edt(inside)`` (computed on :func:`to_bucket`'s grid)."""
     inside = np.asarray(inside, bool)
-    padded, extent = pad_to_bucket(inside)
-    d2 = np.asarray(squared_distance(padded, extent))[tuple(slice(0, n) for n in inside.shape)]
+    if inside.size and inside.all():  # scipy's value for no False cell depends on the axes' order
+        idx = np.indices(inside.shape)
+        return np.sqrt(((idx[0] + 1) ** 2 + np.sum(idx[1:] ** 2, axis=0)).astype(np.float64))
+    padded, extent, axes = to_bucket(inside)
+    d2 = from_bucket(squared_distance(padded, extent), axes, extent)
     return np.sqrt(d2.astype(np.float64))

@@ -32,11 +32,11 @@ import numpy as np
 
 from . import baselines, sample, solid, voxels
 from ._validate import InvalidInputError, JaxposeError, is_traced
-from .depth import depth_weights, pad_to_bucket
+from .depth import depth_weights, to_bucket
 from .moments import Moments, grid_moments
 
 __all__ = ["METHODS", "CENTERS", "SCALES", "DEFAULT_METHOD", "ROBUST_POWER", "resolve", "estimate",
-           "estimate_many", "robust_center_scale", "robust_moments", "solid_moments", "centered"]
+           "estimate_many", "robust_center_scale", "robust_moments", "solid_moments", "solid_center_volume", "centered"]
 
 METHODS = {
     "robust": ("robust_depth", "robust_volume"),
@@ -117,7 +117,7 @@ def robust_center_scale(geometry, power=ROBUST_POWER, resolution=solid.RESOLUTIO
       JaxposeError: the shape encloses no volume (a flat or open sheet, a one-sided scan).
     """
     sol = _robust_solid(geometry, resolution)
-    center, volume = _center_volume(solid_moments(sol, power), sol)
+    center, volume = solid_center_volume(sol, power)
     return center, volume ** (1.0 / 3.0), sol
 
 
@@ -143,7 +143,7 @@ def robust_moments(inside, occupied, origin, pitch, power, bias, extent=None) ->
       origin: (3,) lower corner of voxel (0, 0, 0); pitch: () voxel edge (units).
       power: () depth exponent p >= 0; bias: () voxels subtracted from the distance transform.
       extent: optional (3,) int, the grid within an array padded with False
-        (:func:`jaxpose.depth.pad_to_bucket`).
+        (:func:`jaxpose.depth.to_bucket`).
 
     Returns:
       :class:`jaxpose.moments.Moments` in the grid's frame: center sum_v d_v^p x_v / sum_v d_v^p,
@@ -156,23 +156,32 @@ def robust_moments(inside, occupied, origin, pitch, power, bias, extent=None) ->
 
 
 def solid_moments(sol, power=ROBUST_POWER) -> Moments:
-    """:func:`robust_moments` of a host :class:`jaxpose.solid.Solid` (grid padded to a bucket; JAX's
-    default float). The moments are in the grid's frame (``Moments.center @ sol.frame`` is the world
-    center). Differentiable in ``power`` (a traced power is not checked). Raises InvalidInputError
-    for a power that is not a finite number >= 0."""
+    """:func:`robust_moments` of a host :class:`jaxpose.solid.Solid`, in voxel units from the grid's
+    corner (origin 0, pitch 1; computed on the grid's :func:`jaxpose.depth.to_bucket`; JAX's
+    default float).
+
+    The world moments are ``sol.origin + sol.pitch * center`` (then ``@ sol.frame``), ``pitch^3 *
+    volume``: :func:`solid_center_volume` applies them in float64 on the host, so a float32 center
+    keeps its digits wherever the grid lies (voxel units are exact integers plus one half).
+    Differentiable in ``power`` (a traced power is not checked). Raises InvalidInputError for a
+    power that is not a finite number >= 0."""
     if not is_traced(power) and not (isinstance(power, numbers.Real) and np.isfinite(power) and power >= 0):
         raise InvalidInputError(f"power must be a finite number >= 0, got {power!r}")
-    inside, extent = pad_to_bucket(sol.inside)
-    occupied = np.zeros_like(inside) if sol.occupied is None else pad_to_bucket(sol.occupied)[0]
+    inside, extent, axes = to_bucket(sol.inside)
+    occupied = np.zeros_like(inside) if sol.occupied is None else to_bucket(sol.occupied)[0]
     dtype = jnp.result_type(float)
-    return robust_moments(inside, occupied, jnp.asarray(sol.origin, dtype), jnp.asarray(sol.pitch, dtype),
-                          jnp.asarray(power, dtype), jnp.asarray(sol.bias, dtype), extent)
+    mom = robust_moments(inside, occupied, jnp.zeros(3, dtype), jnp.ones((), dtype), jnp.asarray(power, dtype),
+                         jnp.asarray(sol.bias, dtype), extent)
+    back = np.argsort(axes)  # the bucket's axes back to the grid's
+    return mom._replace(center=mom.center[back], second_moment=mom.second_moment[back][:, back])
 
 
-def _center_volume(moments, sol):
-    """World center (3,) float64 and volume () float of a solid's moments."""
-    center = np.asarray(moments.center, np.float64) @ np.asarray(sol.frame, np.float64)
-    return center, float(moments.volume)
+def solid_center_volume(sol, power=ROBUST_POWER):
+    """The depth^p-weighted center (3,) float64 NumPy, in world units, and the volume (float) of a
+    host :class:`jaxpose.solid.Solid`: :func:`solid_moments` mapped to the world in float64."""
+    moments = solid_moments(sol, power)
+    center = (sol.origin + sol.pitch * np.asarray(moments.center, np.float64)) @ np.asarray(sol.frame, np.float64)
+    return center, float(moments.volume) * sol.pitch**3
 
 
 _SHARED = ("_robust_solid", "_ocsvm", "_voxels", "_moments")  # what does not depend on the power
@@ -194,7 +203,7 @@ class _Shape:
         """World center and volume of the robust solid at this shape's power."""
         if self._robust is None:
             sol = self.robust_solid()
-            self._robust = _center_volume(solid_moments(sol, self.options.get("power", ROBUST_POWER)), sol)
+            self._robust = solid_center_volume(sol, self.options.get("power", ROBUST_POWER))
         return self._robust
 
     def solid_moments(self, strict):

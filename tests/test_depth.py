@@ -9,7 +9,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy import ndimage
 
-from jaxpose.depth import MAX_SQUARED, depth_weights, distance, host_distance, pad_to_bucket, squared_distance
+from jaxpose.depth import MAX_SQUARED, depth_weights, distance, from_bucket, host_distance, squared_distance, to_bucket
 from jaxpose.errors import InvalidInputError
 
 # a few shapes (each compiles once): 1-D to 3-D, anisotropic, unit axes
@@ -135,13 +135,13 @@ def test_depth_weights_match_the_scipy_formula(x64, power, bias):
     inside = np.zeros((12, 16, 10), bool)
     inside[2:10, 3:14, 2:9] = True
     inside[5, 6, 4] = False  # a cavity
-    padded, extent = pad_to_bucket(inside)
-    assert padded.shape == (16, 16, 16) and tuple(extent) == inside.shape
+    padded, extent, axes = to_bucket(inside)
+    assert padded.shape == (16, 16, 16) and tuple(extent) == (10, 12, 16) and tuple(axes) == (2, 0, 1)
     w = np.asarray(depth_weights(padded, power, bias, extent))
-    np.testing.assert_allclose(w[:12, :16, :10], scipy_weights(inside, power, bias), rtol=1e-12, atol=0)
-    assert not w[12:].any()
+    np.testing.assert_allclose(from_bucket(w, axes, extent), scipy_weights(inside, power, bias), rtol=1e-12, atol=0)
+    assert not w[10:].any() and not w[:, 12:].any()
     if power == 0.0:  # 0^0 = 1: the plain solid, outer voxels included
-        np.testing.assert_array_equal(w[:12, :16, :10], inside.astype(float))
+        np.testing.assert_array_equal(from_bucket(w, axes, extent), inside.astype(float))
 
 
 def test_depth_weights_of_a_solid_no_deeper_than_the_bias_are_uniform():
@@ -164,5 +164,7 @@ def test_depth_weights_gradient_in_power(x64):
 def test_host_distance_pads_to_a_bucket_and_equals_scipy():
     inside = np.random.default_rng(5).random((19, 7, 33)) < 0.9
     np.testing.assert_array_equal(host_distance(inside), ndimage.distance_transform_edt(inside))
-    padded, extent = pad_to_bucket(inside, 8)
-    assert padded.shape == (24, 8, 40) and padded.dtype == bool and not padded[19:].any()
+    padded, extent, axes = to_bucket(inside, 8)
+    assert padded.shape == (8, 24, 40) and padded.dtype == bool and tuple(axes) == (1, 0, 2)
+    assert not padded[7:].any() and not padded[:, 19:].any() and not padded[:, :, 33:].any()
+    np.testing.assert_array_equal(from_bucket(padded, axes, extent), inside)

@@ -17,7 +17,7 @@ import trimesh
 from . import formats, sample
 from ._validate import InvalidInputError, check_gamma, check_int, check_nu, check_points
 from .atomic import write_atomic
-from .io import readers
+from .io import readers, writers
 from .sample import SAMPLING
 
 __all__ = [
@@ -452,6 +452,11 @@ def encode(geometry, file_type) -> bytes:
       InvalidInputError: the geometry cannot be written in that format.
     """
     output_format(f"geometry.{file_type}", geometry)
+    if file_type == "off" and isinstance(geometry, trimesh.Trimesh):
+        try:
+            return writers.off_bytes(geometry.vertices, geometry.faces)  # trimesh's bytes, sooner
+        except writers.Unsupported:
+            pass
     try:
         data = geometry.export(file_type=file_type)
     except Exception as exc:

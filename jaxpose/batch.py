@@ -126,7 +126,7 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
                 else:
                     work.append((item, key))
             if work and not run.stopped:
-                run.execute(work, executor_args, file_format, options, check)
+                run.execute(work, executor_args, file_format, options, check, resumed=bool(records))
         finally:  # also on KeyboardInterrupt: the table holds every finished input
             rows = table_rows(items, folder.entries(), folder.exists)
             write_file(table, transforms.write_transforms(rows, table, rotation=bool(options.rotation_method) or None))
@@ -335,6 +335,13 @@ def table_rows(items, entries, exists=os.path.exists) -> list:
     return [entries[i] for i in chosen]
 
 
+def _is_regular(path):
+    try:
+        return stat.S_ISREG(os.stat(path).st_mode)
+    except OSError:
+        return False
+
+
 def _failed(error):
     from . import __version__
 
@@ -351,15 +358,20 @@ class _Run:
         self.stopped = False
         self.peak_mb = {}
 
-    def execute(self, todo, executor_args, file_format, options, check):
+    def execute(self, todo, executor_args, file_format, options, check, resumed=False):
         from tqdm import tqdm
 
-        from .workers import DaskExecutor, LocalExecutor, TaskTimeout, WorkerLost
+        from .workers import DaskExecutor, LocalExecutor, TaskTimeout, WorkerLost, runs_like_a_worker
 
         if executor_args["scheduler"] is not None or executor_args["dask_local"] is not None:
             executor = DaskExecutor(executor_args["scheduler"], executor_args["dask_local"])
         else:
-            executor = LocalExecutor(min(executor_args["workers"], len(todo)), timeout=executor_args["timeout"])
+            # the first input in this process while the workers start, where that is safe: a regular
+            # file (it cannot block), the workers' numerics, and a fresh folder (an input that crashed
+            # the run takes a worker process on the rerun)
+            head_start = not resumed and runs_like_a_worker() and _is_regular(todo[0][0].source)
+            executor = LocalExecutor(min(executor_args["workers"], len(todo)), timeout=executor_args["timeout"],
+                                     head_start=head_start)
         bar = tqdm(total=len(todo), unit="file", desc="normalize", dynamic_ncols=True, smoothing=0.05,
                    disable=None if self.progress is None else not self.progress)
         queue, pending, retried = list(reversed(todo)), {}, set()

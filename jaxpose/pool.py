@@ -150,14 +150,15 @@ class ProcessPool:
                 continue
             self._busy[worker] = (future, time.monotonic())
 
-    def wait(self, pending) -> set:
-        """Wait up to :data:`POLL_S` for results; returns the finished futures among `pending`.
+    def wait(self, pending, timeout=POLL_S) -> set:
+        """Wait up to `timeout` seconds for results; returns the finished futures among `pending`
+        (any object with ``done()``).
 
         Also enforces the time limit (a worker past it is killed) and sends queued tasks to free
         workers.
         """
         if self._busy:
-            delay = POLL_S
+            delay = timeout
             if self.timeout is not None:
                 now = time.monotonic()
                 delay = min(delay, max(0.0, min(start + self.timeout - now for _, start in self._busy.values())))
@@ -175,7 +176,7 @@ class ProcessPool:
                             "was killed)"))
             self._dispatch()
         else:
-            time.sleep(0 if any(f.done() for f in pending) else min(POLL_S, 0.05))
+            time.sleep(0 if any(f.done() for f in pending) else min(timeout, 0.05))
         return {future for future in pending if future.done()}
 
     def _collect(self, worker):

@@ -200,3 +200,53 @@ def test_a_plain_script_without_a_main_guard_can_use_worker_processes(tmp_path):
     assert done.returncode == 0, done.stderr
     assert done.stdout.splitlines() == ["START", "ROWS 7 4 2"]  # the script ran once; two workers did the work
     assert "Error" not in done.stderr and "Traceback" not in done.stderr
+
+
+def test_head_start_runs_the_first_task_here_and_the_rest_in_workers():
+    executor = LocalExecutor(2, head_start=True)
+    try:
+        futures = [executor.submit(os.getpid) for _ in range(4)]
+        done = set()
+        while len(done) < 4:
+            done |= executor.wait(set(futures) - done)
+        pids = [executor.result(f) for f in futures]
+    finally:
+        executor.close()
+    assert pids[0] == os.getpid() and os.getpid() not in pids[1:]
+    executor = LocalExecutor(2, timeout=30.0, head_start=True)  # a time limit: no task may run here
+    try:
+        future = executor.submit(os.getpid)
+        while not executor.wait({future}):
+            pass
+        assert executor.result(future) != os.getpid()
+    finally:
+        executor.close()
+
+
+def test_cli_head_start_gives_the_workers_results(tmp_path):
+    """`jaxpose normalize DIR --workers 2`: the first file is done by the command's own process (its
+    pid in the table) while the workers start, with the same numbers as a run done by workers only
+    (OMP_NUM_THREADS other than the workers' 1 turns the head start off)."""
+    import subprocess
+    import sys
+
+    import trimesh
+
+    (tmp_path / "scans").mkdir()
+    for i, suffix in enumerate(["off", "ply", "off", "ply"]):
+        shape = trimesh.creation.icosphere(subdivisions=2) if i % 2 else trimesh.creation.box(extents=[1, 2, 3])
+        shape.apply_translation([i, 0.5 * i, 0])
+        shape.export(tmp_path / "scans" / f"shape{i}.{suffix}")
+    tables = {}
+    for name, threads in (("head", "1"), ("workers", "2")):
+        env = {**os.environ, "OMP_NUM_THREADS": threads}
+        process = subprocess.Popen([sys.executable, "-m", "jaxpose", "normalize", str(tmp_path / "scans"), "-o",
+                                    str(tmp_path / name), "--workers", "2", "--resolution", "16"], env=env,
+                                   stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        _, err = process.communicate(timeout=300)
+        assert process.returncode == 0, err
+        rows = jaxpose.read_transforms(tmp_path / name / "transforms.parquet")
+        tables[name] = rows
+        pids = [int(r.worker.rsplit(":", 1)[1]) for r in rows]
+        assert (process.pid in pids) == (name == "head")
+    assert stable(tables["head"], tmp_path / "head") == stable(tables["workers"], tmp_path / "workers")

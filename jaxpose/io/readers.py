@@ -68,7 +68,6 @@ class Loaded(NamedTuple):
 
 # --------------------------------------------------------------------------- numbers
 _SEPARATOR = ";"  # never part of a number: marks line ends among the tokens
-_LONG = re.compile(rb"[0-9]{16}")
 _SIGNED = re.compile(rb"-?[0-9]+(?: -?[0-9]+)*")
 
 
@@ -114,9 +113,38 @@ def _ints(tokens, negative=False) -> np.ndarray:
     raw = text.encode("ascii", "replace")
     if raw.translate(None, b"0123456789 ") and not (negative and _SIGNED.fullmatch(raw)):
         raise Unsupported("an index that is not an integer")
-    if _LONG.search(raw) is not None:  # fromstring's int64 overflows silently; trimesh's floats round
+    return _in_range(np.fromstring(text, dtype=np.int64, sep=" "))
+
+
+def _in_range(values):
+    """Integers trimesh's float parsing keeps exactly (fromstring saturates past int64)."""
+    if len(values) and (values.max() >= 10**15 or values.min() <= -(10**15)):
         raise Unsupported("an index too large")
-    return np.fromstring(text, dtype=np.int64, sep=" ")
+    return values
+
+
+def _line_tokens(block: bytes, lines: int) -> np.ndarray:
+    """Tokens per line of `lines` lines joined by newlines, split at spaces, tabs and newlines."""
+    chars = np.frombuffer(block, np.uint8)
+    space = (chars == 32) | (chars == 9) | (chars == 10)
+    start = ~space
+    start[1:] &= space[:-1]
+    return np.bincount(np.searchsorted(np.flatnonzero(chars == 10), np.flatnonzero(start)), minlength=lines)
+
+
+def _triangle_lines(lines):
+    """Faces (m, 3) of OFF lines that are all ``3 a b c`` with decimal digits only, read as one
+    block; None for anything else."""
+    block = "\n".join(lines).encode("utf-8")
+    if block.translate(None, b"0123456789 \t\n"):
+        return None
+    counts = _line_tokens(block, len(lines))
+    if not np.all(counts == 4):
+        return None
+    values = _in_range(np.fromstring(block, dtype=np.int64, sep=" ")).reshape(-1, 4)  # digits only: one per token
+    if not np.all(values[:, 0] == 3):
+        return None
+    return values[:, 1:]
 
 
 def _take(tokens, index) -> list:
@@ -219,10 +247,11 @@ def read_off(data: bytes) -> Loaded:
     text = _text(data)
     if "#" in text:
         text = _comment_strip(text)
-    found = _OFF.search(text.strip())
+    text = text.strip()
+    found = _OFF.search(text)
     if found is None:
         raise Unsupported("no OFF header")
-    raw = text.strip()[found.end():]
+    raw = text[found.end():]
     lines = list(filter(None, map(str.strip, raw.splitlines())))
     if not lines:
         raise Unsupported("no counts")
@@ -242,6 +271,9 @@ def read_off(data: bytes) -> Loaded:
     block = lines[nv + 1:nv + nf + 1]
     if not block:
         raise Unsupported("no faces")
+    triangles = _triangle_lines(block)
+    if triangles is not None:
+        return _checked(vertices.reshape(-1, 3), triangles)
     tokens, counts = _tokens(block)
     starts = _starts(counts)
     sizes = _ints(_take(tokens, starts))

@@ -46,15 +46,22 @@ def configure_process(one_thread=True) -> bool:
     (the command line does this first); returns whether it did."""
     import sys
 
+    global _CONFIGURED
+
     if "numpy" in sys.modules or "jax" in sys.modules:
         return False
     os.environ.update(process_environment(one_thread))
+    _CONFIGURED = True
     return True
 
 
+_CONFIGURED = False  # configure_process ran before NumPy was imported
+
+
 def runs_like_a_worker() -> bool:
-    """Whether this process has the workers' one BLAS thread (so computes their bits exactly)."""
-    return all(os.environ.get(name) == value for name, value in _ONE_THREAD.items())
+    """Whether this process computes as its worker processes do: :func:`configure_process` set it
+    up before NumPy was imported (as the command line does), with the workers' one BLAS thread."""
+    return _CONFIGURED and all(os.environ.get(name) == value for name, value in _ONE_THREAD.items())
 
 
 _HEAD_POLL_S = 0.01  # how often wait() looks at the head start's thread

@@ -126,7 +126,7 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
                 else:
                     work.append((item, key))
             if work and not run.stopped:
-                run.execute(work, executor_args, file_format, options, check, resumed=bool(records))
+                run.execute(work, executor_args, file_format, options, check, resumed=bool(entries))
         finally:  # also on KeyboardInterrupt: the table holds every finished input
             rows = table_rows(items, folder.entries(), folder.exists)
             write_file(table, transforms.write_transforms(rows, table, rotation=bool(options.rotation_method) or None))

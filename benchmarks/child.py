@@ -24,7 +24,7 @@ def child_main(spec_json):
     gamma, nu = float(spec.get("gamma", GAMMA)), float(spec.get("nu", NU))
     if kind == "jaxpose":
         from jaxpose.moments import volume_moments
-        from jaxpose.svdd import fit_svdd
+        from jaxpose.occupancy.svdd import fit_svdd
 
         y = prescale(points)[0]
         base = maxrss_mb()

@@ -48,7 +48,7 @@ def load_points(m, seed=0, index=0):
 
 def prescale(points):
     """y = (x - mean) / s_ref exactly as ``normalize`` does (float64 numpy); -> y, mean, size."""
-    from jaxpose.frame import REFERENCE_RMS
+    from jaxpose.pose.frame import REFERENCE_RMS
 
     x = np.asarray(points, np.float64)
     mean = x.mean(axis=0)

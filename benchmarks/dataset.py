@@ -9,7 +9,7 @@ local       ``jaxpose normalize MANIFEST -o OUTDIR --workers W`` (a fresh OUTDIR
 dask        the same with ``--dask-local W`` (a new local dask.distributed cluster each run, its
             start and stop included; skipped without dask.distributed)
 dask_running  the same with ``--scheduler ADDRESS`` on a cluster that is already running (started
-            once, before the runs, by ``jaxpose.workers.local_cluster(W)``): how a cluster is used.
+            once, before the runs, by ``jaxpose.batch.workers.local_cluster(W)``): how a cluster is used.
             Its workers stay up between runs; their CPU time is not counted (only the client's)
 single      one file, ``jaxpose normalize FILE -o OUT`` twice; the second run is the one reported
             (the persistent compilation cache filled; the default estimator compiles nothing)
@@ -106,7 +106,7 @@ def run(repeats=3, workers=2, dask=True, data=DATA, copies=1, with_single=True):
         cpus = {name: [] for name in names}
         tables = {}
         if dask:
-            from jaxpose.workers import local_cluster
+            from jaxpose.batch.workers import local_cluster
 
             cluster = local_cluster(workers)
         for i in range(repeats):

@@ -4,7 +4,7 @@
 source checkout with ../shared beside it. For every rigid-core aligned mesh
 (:func:`jaxpose.evaluation.align_core`) of each input variant
 (:data:`jaxpose.evaluation.variants.VARIANTS`) the ``head`` frame
-(:func:`jaxpose.rotation.head_frame`) and, along its front-back axis, every front-back cue measured:
+(:func:`jaxpose.rotation.rotation.head_frame`) and, along its front-back axis, every front-back cue measured:
 the two the frame reads (the jaw below the skull's center, the surface's reach), the same jaw read
 with every point counted once (from the lattice points, and from the vertices alone: what a
 registered mesh's finer face adds), the whole head surface's centroid, the three solid cues of the
@@ -32,7 +32,8 @@ SLAB = 0.5  # the former vote's jaw: the solid up to this many head depths above
 
 def cues(sol, frame, found, vertices, faces):
     """{cue name: signed offset along ``frame``'s front-back axis} for one solid (units)."""
-    from jaxpose import rotation, sample
+    from jaxpose.rotation import rotation
+    from jaxpose import sample
 
     lattice = sample.lattice_points(vertices, faces, rotation.CELL * sol.pitch)
     geo = rotation.head_chest(sol, found, lattice)
@@ -64,7 +65,8 @@ def cues(sol, frame, found, vertices, faces):
 
 def measure(instances):
     """Per-class figures (module docs) of the ``head`` frame on one class's aligned instances."""
-    from jaxpose import baselines, parts, rotation
+    from jaxpose import baselines
+    from jaxpose.rotation import parts, rotation
     from jaxpose.evaluation.rotation import class_angles, sign_free_angles
 
     rows, values, flags, constriction = [], [], [], []

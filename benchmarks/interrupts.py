@@ -43,8 +43,8 @@ def command(mode, out):
 def check(out, code, expected, err):
     """Problems found after one trial (an empty list when it passed)."""
     from jaxpose import mesh
-    from jaxpose.atomic import is_temporary
-    from jaxpose.transforms import Transform
+    from jaxpose.io.atomic import is_temporary
+    from jaxpose.batch.transforms import Transform
 
     problems = []
     if code != expected:

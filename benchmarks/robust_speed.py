@@ -48,7 +48,8 @@ def numpy_robust(geometry, power=POWER):
     """The robust center and scale as the package computed them before the JAX pipeline (frozen
     reference): the host solid, scipy's distance transform minus the solid's bias, the
     depth^p-weighted centroid and the solid's volume in NumPy float64."""
-    from jaxpose import estimators, solid
+    from jaxpose.pose import estimators
+    from jaxpose.occupancy import solid
 
     sol = estimators._robust_solid(geometry, solid.RESOLUTION)
     return numpy_moments(sol, power)
@@ -62,7 +63,7 @@ def numpy_moments(sol, power=POWER):
 
 
 def jax_robust(geometry, power=POWER):
-    from jaxpose import estimators
+    from jaxpose.pose import estimators
 
     center, scale, _ = estimators.robust_center_scale(geometry, power)
     return center, scale
@@ -71,7 +72,8 @@ def jax_robust(geometry, power=POWER):
 def speed(name, geometry, repeats):
     import jax
 
-    from jaxpose import estimators, solid
+    from jaxpose.pose import estimators
+    from jaxpose.occupancy import solid
     from jaxpose.depth import to_bucket
 
     sol = estimators._robust_solid(geometry, solid.RESOLUTION)
@@ -98,7 +100,8 @@ def gradients(name, geometry, step=0.01):
     import jax
     import jax.numpy as jnp
 
-    from jaxpose import estimators, solid
+    from jaxpose.pose import estimators
+    from jaxpose.occupancy import solid
 
     sol = estimators._robust_solid(geometry, solid.RESOLUTION)
 
@@ -118,7 +121,8 @@ def gradients(name, geometry, step=0.01):
 
 
 def load(path):
-    from jaxpose import estimators, mesh
+    from jaxpose.pose import estimators
+    from jaxpose import mesh
 
     geometry = mesh.example_shape() if path is None else mesh.load(path)
     return estimators.centered(geometry)[0]

@@ -2,7 +2,7 @@
 
 ``python -m benchmarks.rotation [--json OUT] [--datasets faust-dev,kids-dev] [--variants ...] [--figures DIR]``
 from a source checkout with ../shared beside it. Each class is rigid-core aligned, every variant made
-from the aligned meshes, and every method of :data:`jaxpose.rotation.ROTATIONS` measured by
+from the aligned meshes, and every method of :data:`jaxpose.rotation.rotation.ROTATIONS` measured by
 :func:`jaxpose.evaluation.evaluate_rotation` (angle of each instance's frame to the class's chordal
 mean frame; raw and sign-free). Also: the ``core`` frame without its part cue and cross-check (the
 moments alone), the equivariance error (random rotations of a few meshes), the acceptance verdict
@@ -28,7 +28,8 @@ ABLATION = "core (moments only)"
 
 def _ablation(classes, variants, seed=0):
     """Summary rows of the core frame without the feet cue and the cross-check, per variant."""
-    from jaxpose import baselines, rotation
+    from jaxpose import baselines
+    from jaxpose.rotation import rotation
     from jaxpose.evaluation.rotation import class_angles, sign_free_angles
     from jaxpose.evaluation.variants import make_class
 
@@ -56,7 +57,7 @@ def equivariance(classes, rotations=3, meshes=2):
     import trimesh
 
     from jaxpose.evaluation.rotation import angle
-    from jaxpose.rotation import frame_of
+    from jaxpose.rotation.rotation import frame_of
 
     rng = np.random.default_rng(0)
     worst = {k: {"unflagged": 0.0, "all": 0.0} for k in ("core", "head", "ocsvm")}

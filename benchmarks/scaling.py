@@ -58,7 +58,7 @@ def _scaling_in_m(ms, gamma, nu, repeats, sk, sk_max_m, timeout, x64, resolution
 def _scaling_in_resolution(resolutions, m_grid, gamma, nu, repeats, sk, sk_max_grid_points):
     """Moments alone (refine=1, plain grid) vs decision_function on the grid."""
     from jaxpose.moments import volume_moments
-    from jaxpose.svdd import fit_svdd
+    from jaxpose.occupancy.svdd import fit_svdd
 
     points, _ = load_points(m_grid)
     y = prescale(points)[0]

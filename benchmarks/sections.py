@@ -10,7 +10,7 @@ from .sklearn_pipeline import feasibility, sk_alpha, sk_fit, dual_objective, skl
 
 def bench_solver(points, gamma=GAMMA, nu=NU, repeats=5, tol=1e-3, use_sklearn=True):
     """Fit alone, both sides, interleaved; dual objectives and their relative difference."""
-    from jaxpose.svdd import fit_svdd
+    from jaxpose.occupancy.svdd import fit_svdd
 
     y, _, _ = prescale(points)
     m = y.shape[0]
@@ -56,7 +56,7 @@ def _reference(points, gamma, nu, resolution, refine, tol, max_iter):
     import jax.numpy as jnp
 
     from jaxpose.moments import volume_moments
-    from jaxpose.svdd import fit_svdd
+    from jaxpose.occupancy.svdd import fit_svdd
 
     y, mean, size = prescale(points)
     t = now()
@@ -80,8 +80,8 @@ def bench_end2end(points, gamma=GAMMA, nu=NU, repeats=5, resolution=None, refine
                   ref_resolution=64, ref_refine=4, ref_tol=1e-4, ref_max_iter=20_000, use_sklearn=True, fit=None):
     """normalize vs the scikit-learn pipeline, per object; centers against a reference.
     resolution / refine: None = the defaults of ``normalize``."""
-    from jaxpose.pose import normalize
-    from jaxpose.svdd import pick_solver
+    from jaxpose.pose.pose import normalize
+    from jaxpose.occupancy.svdd import pick_solver
 
     m = len(points)
     opts = grid_opts(resolution, refine)
@@ -130,7 +130,7 @@ def _batch_objects(n, m, seed=0):
 def bench_batch(n_objects=8, m=1000, gamma=GAMMA, nu=NU, repeats=3, resolution=None, refine=None, sk_resolution=64,
                 use_sklearn=True, fit=None):
     """Objects per second: normalize_batch vs a loop of normalize vs a loop of the sklearn pipeline."""
-    from jaxpose.pose import normalize, normalize_batch
+    from jaxpose.pose.pose import normalize, normalize_batch
 
     sets, names = _batch_objects(n_objects, m)
     opts = {**grid_opts(resolution, refine), **(fit or {})}
@@ -166,7 +166,7 @@ def bench_accuracy(n_objects=20, m=2000, gamma=GAMMA, nu=NU, resolution=None, re
     are within ``ACCURACY_BAR``. Objects: FAUST tr_reg_000.. when present, else samplings of the example shape
     with seeds 0.. . Answers which scikit-learn grid is as accurate as ``normalize`` (one mesh can
     mislead: the indicator's error jumps with the grid's offset)."""
-    from jaxpose.pose import normalize
+    from jaxpose.pose.pose import normalize
 
     faust = faust_dir() is not None
     grid = grid_opts(resolution, refine)

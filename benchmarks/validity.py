@@ -1,6 +1,6 @@
 """Which OCSVM poses are valid on real bodies (FAUST dev meshes), and the ratios behind the status.
 
-For each case: the scale, the status, and the three ratios :mod:`jaxpose.validity` compares
+For each case: the scale, the status, and the three ratios :mod:`jaxpose.pose.validity` compares
 (sample spacing and finest cell in kernel widths, the region's mean distance over the samples'
 median distance from its centroid), computed here again from the same pre-scaled samples.
 
@@ -23,12 +23,12 @@ DATA = Path("/work/shared/data/faust-dev")
 
 
 def ratios(points, gamma, nu, resolution):
-    """(spacing, cell, spread) ratios of one case, as jaxpose.validity computes them."""
+    """(spacing, cell, spread) ratios of one case, as jaxpose.pose.validity computes them."""
     from jaxpose.config import GridConfig, SolverConfig
-    from jaxpose.frame import host_frame, prescale
+    from jaxpose.pose.frame import host_frame, prescale
     from jaxpose.moments import region_moments
-    from jaxpose.svdd import solve_svdd
-    from jaxpose.validity import median_distance, median_spacing
+    from jaxpose.occupancy.svdd import solve_svdd
+    from jaxpose.pose.validity import median_distance, median_spacing
 
     c, s = host_frame(points)
     y = prescale(jnp.asarray((points - c) / s, jnp.float32))[0]

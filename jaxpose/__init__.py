@@ -34,26 +34,28 @@ __all__ = [
 
 # public name -> the module that defines it (imported on first access)
 _LAZY_NAMES = {
-    "SVDD": "svdd",
-    "fit_svdd": "svdd",
-    "decision_function": "svdd",
+    "SVDD": "occupancy.svdd",
+    "fit_svdd": "occupancy.svdd",
+    "decision_function": "occupancy.svdd",
     "Moments": "moments",
     "volume_moments": "moments",
-    "Pose": "result",
-    "normalize": "pose",
-    "normalize_batch": "pose",
+    "Pose": "pose.result",
+    "normalize": "pose.pose",
+    "normalize_batch": "pose.pose",
     "SolverConfig": "config",
     "GridConfig": "config",
     "PoseConfig": "config",
     "sample_surface": "mesh",
     "normalize_mesh": "mesh",
-    "normalize_files": "batch",
-    "read_transforms": "transforms",
-    "pose_sensitivity": "sensitivity",
-    "Status": "result",
+    "normalize_files": "batch.batch",
+    "read_transforms": "batch.transforms",
+    "pose_sensitivity": "pose.sensitivity",
+    "Status": "pose.result",
 }
-_LAZY_MODULES = ("baselines", "sensitivity", "datasets", "evaluation", "tuning", "plot", "mesh", "batch",
-                 "transforms")
+# public module name -> where it lives (``jaxpose.sensitivity`` and ``jaxpose.transforms``: their paths before the layers)
+_LAZY_MODULES = {name: name for name in ("baselines", "datasets", "evaluation", "tuning", "plot", "mesh", "batch", "io",
+                                         "occupancy", "pose", "rotation")}
+_LAZY_MODULES.update(sensitivity="pose.sensitivity", transforms="batch.transforms")
 
 
 def __getattr__(name):
@@ -64,7 +66,7 @@ def __getattr__(name):
         globals()[name] = value  # later look-ups skip this function
         return value
     if name in _LAZY_MODULES:
-        return importlib.import_module(f".{name}", __name__)
+        return importlib.import_module(f".{_LAZY_MODULES[name]}", __name__)
     raise AttributeError(f"module 'jaxpose' has no attribute {name!r}")
 
 

@@ -10,11 +10,11 @@ section 2); they are plain NumPy and are not differentiated.
 
 Centers : ``surface_centroid``, ``vertex_mean``, ``bbox_center``, ``min_ball``,
           ``solid_centroid`` (closed form, closed meshes), ``depth_weighted_solid``
-          (voxels, :mod:`jaxpose.voxels`).
+          (voxels, :mod:`jaxpose.occupancy.voxels`).
 Scales  : ``mean_distance``, ``unit_cube``, ``unit_sphere``, ``gyration_radius`` (closed form,
           closed meshes), ``sqrt_area`` (meshes).
 Frames  : ``pca_vertices``, ``pca_surface``, ``inertia`` (trimesh's principal axes): the usual
-          canonical orientations, as :class:`jaxpose.rotation.Frame` (see :func:`frame`).
+          canonical orientations, as :class:`jaxpose.rotation.rotation.Frame` (see :func:`frame`).
 Dispatch: ``center(mesh, method)``, ``scale(mesh, method, center=None)``, ``frame(mesh, method)``.
 
 The solid quantities need a closed surface: on an open mesh they warn (:class:`OpenMeshWarning`)
@@ -29,7 +29,7 @@ from ._validate import InvalidInputError
 from .geometry import is_closed, require_faces, split_geometry, triangle_areas, warn_if_open
 from .host import anchor
 from .orientation import SIGN_MIN, Frame, ambiguity, complete_signs, proper, relative_gaps
-from .voxels import depth_weighted_solid, filled_voxels, weighted_centroid
+from .occupancy.voxels import depth_weighted_solid, filled_voxels, weighted_centroid
 
 __all__ = [
     "CENTERS",
@@ -373,7 +373,7 @@ def _skew_frame(x):
 def pca_vertices_frame(mesh_or_points):
     """PCA of the vertices, signs by third moments (two most skewed axes; the third by det = +1).
 
-    Returns :class:`jaxpose.rotation.Frame`.
+    Returns :class:`jaxpose.rotation.rotation.Frame`.
     """
     vertices, _ = split_geometry(mesh_or_points)
     return _skew_frame(vertices)
@@ -383,7 +383,7 @@ def pca_surface_frame(mesh_or_points, count=FRAME_SAMPLES):
     """PCA of ``count`` even area-weighted surface samples (seed 0: a rotated copy gets the rotated
     samples), signs as :func:`pca_vertices_frame`. Point clouds: their points.
 
-    Returns :class:`jaxpose.rotation.Frame`.
+    Returns :class:`jaxpose.rotation.rotation.Frame`.
     """
     vertices, faces = split_geometry(mesh_or_points)
     if faces is None:
@@ -395,7 +395,7 @@ def inertia_frame(mesh_or_points):
     """trimesh's principal inertia axes (``principal_inertia_transform``; smallest moment of inertia
     first, trimesh's signs, the last row negated if needed for det = +1). Meshes only.
 
-    Returns :class:`jaxpose.rotation.Frame` (no ambiguity measure: NaN).
+    Returns :class:`jaxpose.rotation.rotation.Frame` (no ambiguity measure: NaN).
     """
     import trimesh
 
@@ -407,7 +407,7 @@ def inertia_frame(mesh_or_points):
 
 
 def frame(mesh_or_points, method="pca_surface"):
-    """Frame by name, one of :data:`FRAMES`.  Returns :class:`jaxpose.rotation.Frame`."""
+    """Frame by name, one of :data:`FRAMES`.  Returns :class:`jaxpose.rotation.rotation.Frame`."""
     if method not in FRAMES:
         raise InvalidInputError(f"unknown frame method {method!r}; valid: {', '.join(FRAMES)}")
     return globals()[method + "_frame"](mesh_or_points)

@@ -1,23 +1,20 @@
-"""Meshes in and out: load, sample, normalize, export.
+"""One mesh or point cloud: sample its surface, normalize it, and the matrix of its pose.
 
-The only module that uses trimesh for file I/O. Loading never modifies the input
-file; exporting is atomic (temporary file in the target directory, then
-``os.replace``) and refuses to overwrite unless ``force=True``.
+:func:`normalize_mesh` reads a file or takes a geometry (:mod:`jaxpose.io.mesh`), estimates the
+center and scale by name (:mod:`jaxpose.pose.pose.estimators`), optionally the rotation
+(:mod:`jaxpose.rotation.rotation`), and returns the transformed copy with its :class:`~jaxpose.Pose`.
+File reading and writing live in :mod:`jaxpose.io.mesh`; their names are re-exported here.
 """
 from __future__ import annotations
 
-import io
 import numbers
-import os
-from pathlib import Path
 
 import numpy as np
-import trimesh
 
-from . import formats, sample
-from ._validate import InvalidInputError, check_gamma, check_int, check_nu, check_points
-from .atomic import write_atomic
-from .io import readers, writers
+from . import sample
+from ._validate import InvalidInputError, check_gamma, check_int, check_nu
+from .io.mesh import MESH_FORMATS, OUTPUT_FORMATS, POINT_FORMATS, encode, example_shape, export, load, output_format
+from .io.atomic import write_atomic
 from .sample import SAMPLING
 
 __all__ = [
@@ -37,179 +34,6 @@ __all__ = [
     "write_atomic",
     "example_shape",
 ]
-
-# --------------------------------------------------------------------------- load
-def load(path_or_mesh):
-    """Read a mesh or point cloud from anything trimesh reads (OBJ, PLY, OFF, STL, GLB, ...).
-
-    A Scene is concatenated into one geometry; geometry without faces comes back as
-    a :class:`trimesh.PointCloud`. Trimesh/PointCloud/Scene objects and ``(n, 3)``
-    arrays are accepted as they are (arrays become point clouds).
-
-    Returns
-    -------
-    geometry : trimesh.Trimesh | trimesh.PointCloud
-    """
-    if isinstance(path_or_mesh, (str, os.PathLike)):
-        geometry = _read(Path(path_or_mesh))
-        source = str(path_or_mesh)
-        if isinstance(geometry, readers.Loaded):
-            return _from_loaded(geometry, source)
-    else:
-        geometry = path_or_mesh
-        source = "input"
-    if isinstance(geometry, trimesh.Scene):
-        geometry = _flatten(geometry, source)
-    if not isinstance(geometry, (trimesh.Trimesh, trimesh.PointCloud)):
-        if hasattr(geometry, "vertices") or isinstance(geometry, (np.ndarray, list, tuple)):
-            points = getattr(geometry, "vertices", geometry)
-            check_points(points, name=f"points of {source}", min_points=1)
-            geometry = trimesh.PointCloud(np.asarray(points, dtype=np.float64))
-        else:
-            raise InvalidInputError(f"{source}: cannot use a {type(geometry).__name__} as a mesh")
-    if len(geometry.vertices) == 0:
-        raise InvalidInputError(f"{source}: empty geometry (no vertices)")
-    if not np.all(np.isfinite(geometry.vertices)):
-        raise InvalidInputError(f"{source}: vertices with NaN or inf coordinates")
-    if isinstance(geometry, trimesh.Trimesh) and len(geometry.faces) == 0:
-        geometry = trimesh.PointCloud(np.asarray(geometry.vertices))
-    if source != "input" and isinstance(geometry, trimesh.Trimesh):
-        _merge_vertices(geometry)  # STL and friends store each triangle's corners apart
-    return geometry
-
-
-def _merge_vertices(geometry):
-    """trimesh's ``merge_vertices`` (an absolute tolerance, 1e-8), decided near the origin: far from
-    it, rounding every coordinate to 1e-8 overflows and merges distinct vertices. The merge runs on
-    a copy moved by an anchor vertex (:func:`jaxpose.host.anchor`); the vertices kept are then
-    taken from the input as they are, so loading changes no coordinate, not even by rounding."""
-    from .host import anchor
-
-    original = np.asarray(geometry.vertices, np.float64)
-    faces = np.asarray(geometry.faces, np.int64)
-    geometry.vertices = original - anchor(original)
-    geometry.merge_vertices()
-    inverse = np.full(len(original), -1, np.int64)  # original vertex -> merged vertex
-    inverse[faces.ravel()] = np.asarray(geometry.faces, np.int64).ravel()
-    referenced = np.nonzero(inverse >= 0)[0]
-    merged, first = np.unique(inverse[referenced], return_index=True)
-    if not np.array_equal(merged, np.arange(len(geometry.vertices))):  # not the documented merge
-        raise InvalidInputError("could not merge the mesh's duplicate vertices")
-    geometry.vertices = original[referenced[first]]
-
-
-_MERGE_DIGITS = 8  # trimesh's tol.merge, 1e-8
-_HASH = np.array([0x9E3779B97F4A7C15, 0xC2B2AE3D27D4EB4F, 0x165667B19E3779F9], np.uint64)
-
-
-def _merged(vertices, faces):
-    """:func:`_merge_vertices` on arrays: (keep, inverse) such that ``vertices[keep]`` and
-    ``inverse[faces]`` are the merged mesh, or None where it cannot tell (then trimesh merges).
-
-    trimesh's keys (coordinates moved by the anchor, times 1e8, rounded to int64), its order (the
-    referenced vertices' first occurrences, in file order; unreferenced ones dropped); the duplicate
-    keys found by sorting a hash of each key and comparing the keys it groups. keep : (k,) int64,
-    inverse : (n,) int64."""
-    from .host import anchor
-
-    referenced = np.zeros(len(vertices), bool)
-    referenced[faces] = True
-    used = np.nonzero(referenced)[0]
-    keys = np.column_stack([(vertices - anchor(vertices)) * (10**_MERGE_DIGITS)]).round().astype(np.int64)[used]
-    with np.errstate(over="ignore"):
-        hashed = np.bitwise_xor.reduce(keys.view(np.uint64) * _HASH, axis=1)
-    order = np.argsort(hashed, kind="stable")  # equal hashes: first occurrence first
-    starts = np.ones(len(order), bool)
-    starts[1:] = hashed[order[1:]] != hashed[order[:-1]]
-    inverse = np.zeros(len(vertices), np.int64)
-    if np.all(starts):  # no duplicates
-        inverse[used] = np.arange(len(used))
-        return used, inverse
-    if np.any(~starts[1:] & np.any(keys[order[1:]] != keys[order[:-1]], axis=1)):
-        return None  # a hash shared by different keys
-    first = order[starts]
-    rank = np.empty(len(first), np.int64)
-    rank[np.argsort(first)] = np.arange(len(first))  # groups in order of first occurrence
-    group = np.empty(len(order), np.int64)
-    group[order] = np.cumsum(starts) - 1
-    inverse[used] = rank[group]
-    return used[np.sort(first)], inverse
-
-
-def _from_loaded(loaded, source):
-    """What :func:`load` makes of a fast reader's mesh, on arrays: its checks and vertex merge, then
-    one ``trimesh.Trimesh``. Normals from the file are dropped, as the merge drops them on trimesh's
-    path (moving the vertices clears trimesh's cache)."""
-    if not np.all(np.isfinite(loaded.vertices)):
-        raise InvalidInputError(f"{source}: vertices with NaN or inf coordinates")
-    extras = {k: v for k, v in loaded.extras.items() if k not in ("vertex_normals", "face_normals")}
-    merged = None if "visual" in extras else _merged(loaded.vertices, loaded.faces)  # UV: trimesh's merge
-    if merged is None:
-        geometry = trimesh.Trimesh(**loaded.kwargs(), process=False)
-        _merge_vertices(geometry)
-        return geometry
-    keep, inverse = merged
-    if "vertex_colors" in extras:
-        extras["vertex_colors"] = extras["vertex_colors"][keep]
-    return trimesh.Trimesh(vertices=loaded.vertices[keep], faces=inverse[loaded.faces], process=False, **extras)
-
-
-def _read(path):
-    if not path.exists():
-        raise InvalidInputError(f"no such file: {path}")
-    if not (path.is_file() or path.is_fifo()):  # a named pipe delivers a stream: read it
-        raise InvalidInputError(f"not a file: {path}")
-    ext = "".join(path.suffixes[-2:]).lower().lstrip(".") if path.suffix else ""
-    known = set(trimesh.available_formats())
-    if ext not in known:
-        ext = path.suffix.lower().lstrip(".")
-    if ext not in known:
-        raise InvalidInputError(
-            f"{path}: unsupported format {path.suffix or '(no extension)'!r}; "
-            f"readable: {', '.join(sorted(known))}"
-        )
-    try:
-        data = path.read_bytes()  # read-only: the file is never touched
-    except OSError as exc:
-        raise InvalidInputError(f"{path}: cannot read: {exc.strerror}") from None
-    found = formats.sniff_format(data)
-    if found is not None and found != ext and ext in ("ply", "glb", "stl", "off", "obj", "xyz"):
-        raise InvalidInputError(f"{path}: the content is {found.upper()}, not {ext.upper()}: "
-                                f"rename it to .{found} (the extension chooses the reader)")
-    if ext in formats.TEXT_FORMATS or (ext == "stl" and found == "stl" and not formats.binary_stl(data)):
-        data = formats.as_text(data, f"{path}", ext)
-    if ext in readers.READERS:
-        try:
-            return readers.read(data, ext)
-        except readers.Unsupported:  # trimesh reads it
-            pass
-    try:
-        geometry = trimesh.load(io.BytesIO(data), file_type=ext, process=False)
-    except Exception as exc:  # every reader has its own errors for corrupt files
-        detail = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise InvalidInputError(f"{path}: cannot read {ext.upper()} file: {detail}") from None
-    if not _has_vertices(geometry):
-        raise InvalidInputError(f"{path}: empty geometry: no vertices read as {ext.upper()} (the file is empty, "
-                                f"or its content is not {ext.upper()})")
-    return geometry
-
-
-def _has_vertices(geometry):
-    if isinstance(geometry, trimesh.Scene):
-        return any(len(getattr(g, "vertices", ())) for g in geometry.geometry.values())
-    return len(getattr(geometry, "vertices", ())) > 0
-
-
-def _flatten(scene, source):
-    """Scene -> one Trimesh (meshes concatenated, transforms applied) or PointCloud."""
-    parts = scene.dump()
-    meshes = [g for g in parts if isinstance(g, trimesh.Trimesh) and len(g.faces) > 0]
-    if meshes:
-        return meshes[0] if len(meshes) == 1 else trimesh.util.concatenate(meshes)
-    points = [np.asarray(g.vertices) for g in parts if hasattr(g, "vertices") and len(g.vertices)]
-    if not points:
-        raise InvalidInputError(f"{source}: empty geometry (no meshes or points)")
-    return trimesh.PointCloud(np.concatenate(points, axis=0))
 
 
 # --------------------------------------------------------------------------- sample
@@ -251,7 +75,8 @@ def check_arguments(gamma=47.0, nu=0.5, count=2000, seed=0, sampling="even", met
         raise InvalidInputError(f"unknown sampling {sampling!r}; valid: {', '.join(SAMPLING)}")
     if not isinstance(strict, (bool, np.bool_)):
         raise InvalidInputError(f"strict must be True or False, got {strict!r}")
-    from . import estimators, solid
+    from .pose import estimators
+    from .occupancy import solid
     from .config import PoseConfig
 
     c_name, s_name = estimators.resolve(method, center, scale)
@@ -307,33 +132,33 @@ def normalize_mesh(
 
     Args:
       mesh_or_path: a path (anything trimesh reads), Trimesh, PointCloud or (n, 3) points.
-      method: one of :data:`jaxpose.estimators.METHODS`; default ``"robust"``, the depth^4-weighted
+      method: one of :data:`jaxpose.pose.estimators.METHODS`; default ``"robust"``, the depth^4-weighted
         centroid of a robust solid and its volume's cube root (works on closed meshes, meshes with
         holes or stray parts, and point clouds; the most consistent under articulation, see
         ``docs/estimators.md``). ``"ocsvm"`` is the paper's method: ``count`` surface samples
         (``seed``, ``sampling``) -> :func:`jaxpose.normalize` (``gamma``, ``nu``, ``options``).
       center, scale: choose either part independently (``center="solid_centroid",
-        scale="sqrt_area"``; names in :data:`jaxpose.estimators.CENTERS` / ``SCALES``).
+        scale="sqrt_area"``; names in :data:`jaxpose.pose.estimators.CENTERS` / ``SCALES``).
       strict: closed-surface estimators raise on an open mesh instead of warning.
       power: depth exponent (robust_depth: 4; depth_weighted_solid: 2).
       resolution: for the robust solid, voxels along the body's largest extent (96); for
         ``ocsvm``, the grid resolution of :func:`jaxpose.normalize`.
       rotation: False (default: translation and scale only, exactly as without the option), True
-        (the ``head`` frame of :mod:`jaxpose.rotation`: the head and chest of the robust solid, or
+        (the ``head`` frame of :mod:`jaxpose.rotation.rotation`: the head and chest of the robust solid, or
         its depth^4-weighted ``core`` frame where no neck is found; meshes and point clouds) or a
-        name of :data:`jaxpose.rotation.ROTATIONS` (``head``, ``core``, ``ocsvm``,
+        name of :data:`jaxpose.rotation.rotation.ROTATIONS` (``head``, ``core``, ``ocsvm``,
         ``pca_vertices``, ``pca_surface``, ``inertia``). Sets ``Pose.rotation`` (rows =
         canonical axes, det +1) and ``Pose.ambiguity`` / ``Pose.flagged``; the center and scale
         are the same as without it.
 
     Returns:
       normalized: a transformed copy (Trimesh or PointCloud), pose: :class:`jaxpose.Pose` (its
-      center in float64, exact under translation: :func:`jaxpose.estimators.centered`).
+      center in float64, exact under translation: :func:`jaxpose.pose.estimators.centered`).
 
     Raises:
       InvalidInputError: any bad argument (named, with its range), before the file is read; an
         unreadable file; a mesh with no area.
-      JaxposeError: no valid pose (for ``ocsvm`` with the reason of :mod:`jaxpose.validity`; for
+      JaxposeError: no valid pose (for ``ocsvm`` with the reason of :mod:`jaxpose.pose.validity`; for
         ``robust`` a shape that encloses no volume).
 
     Example::
@@ -344,13 +169,13 @@ def normalize_mesh(
     c_name, s_name, extra, options, frame_name = check_arguments(
         gamma, nu, count, seed, sampling, method, center=center, scale=scale, strict=strict, power=power,
         resolution=resolution, rotation=rotation, **options)
-    from . import estimators
+    from .pose import estimators
 
     geometry = load(mesh_or_path)
     pose = estimators.estimate(geometry, method, center=center, scale=scale, strict=strict, gamma=gamma, nu=nu,
                                count=count, seed=seed, sampling=sampling, ocsvm=options, **extra)
     if frame_name is not None:
-        from .rotation import frame_of
+        from .rotation.rotation import frame_of
 
         found = frame_of(estimators.centered(geometry)[0], frame_name, resolution=extra.get("resolution"),
                          ocsvm={"gamma": gamma, "nu": nu, "count": count, "seed": seed, "sampling": sampling,
@@ -380,7 +205,7 @@ def _transformed(geometry, pose):
 
 def _rotation_name(rotation):
     """None (no rotation), or the frame method a ``rotation=`` argument names."""
-    from .rotation import DEFAULT_ROTATION, ROTATIONS
+    from .rotation.rotation import DEFAULT_ROTATION, ROTATIONS
 
     if rotation is None or isinstance(rotation, (bool, np.bool_)):
         return DEFAULT_ROTATION if rotation else None
@@ -406,86 +231,3 @@ def pose_matrix(pose):
     matrix[:3, :3] /= scale
     matrix[:3, 3] = -(matrix[:3, :3] @ center) if rotation is not None else -center / scale
     return matrix
-
-
-# --------------------------------------------------------------------------- export
-MESH_FORMATS = ("ply", "obj", "off", "stl", "glb")  # hold triangles
-POINT_FORMATS = ("ply", "obj", "glb", "xyz")  # hold a point cloud
-OUTPUT_FORMATS = tuple(sorted(set(MESH_FORMATS) | set(POINT_FORMATS)))
-
-
-def output_format(path, geometry=None) -> str:
-    """The format a path's suffix names, checked against what it can hold; no I/O.
-
-    Args:
-      path: the output file (``out.ply``); the format is its lower-case suffix.
-      geometry: optionally the Trimesh / PointCloud to be written: a point cloud needs one of
-        :data:`POINT_FORMATS` (STL and OFF hold triangles only), a mesh one of :data:`MESH_FORMATS`.
-
-    Returns:
-      The format name (``"ply"``).
-
-    Raises:
-      InvalidInputError: no suffix, a format that cannot be written, or one that cannot hold
-        `geometry`.
-    """
-    path = Path(path)
-    ext = path.suffix.lower().lstrip(".")
-    if not ext:
-        raise InvalidInputError(f"{path}: no extension to choose an output format; "
-                                f"writable: {', '.join(OUTPUT_FORMATS)}")
-    if ext not in OUTPUT_FORMATS:
-        raise InvalidInputError(f"{path}: cannot write {path.suffix!r} files; writable: {', '.join(OUTPUT_FORMATS)}")
-    if isinstance(geometry, trimesh.PointCloud) and ext not in POINT_FORMATS:
-        raise InvalidInputError(f"{path}: a point cloud cannot be written as {ext.upper()} (it holds triangles "
-                                f"only); use one of {', '.join('.' + e for e in POINT_FORMATS)}")
-    if isinstance(geometry, trimesh.Trimesh) and ext not in MESH_FORMATS:
-        raise InvalidInputError(f"{path}: a mesh cannot be written as {ext.upper()} (it holds points only); "
-                                f"use one of {', '.join('.' + e for e in MESH_FORMATS)}")
-    return ext
-
-
-def encode(geometry, file_type) -> bytes:
-    """The bytes of a Trimesh or PointCloud in a format of :data:`OUTPUT_FORMATS` (no I/O).
-
-    Raises:
-      InvalidInputError: the geometry cannot be written in that format.
-    """
-    output_format(f"geometry.{file_type}", geometry)
-    if file_type == "off" and isinstance(geometry, trimesh.Trimesh):
-        try:
-            return writers.off_bytes(geometry.vertices, geometry.faces)  # trimesh's bytes, sooner
-        except writers.Unsupported:
-            pass
-    try:
-        data = geometry.export(file_type=file_type)
-    except Exception as exc:
-        raise InvalidInputError(f"cannot write {type(geometry).__name__} as {file_type!r}: {exc}") from None
-    return data.encode("utf-8") if isinstance(data, str) else bytes(data)
-
-
-def export(mesh, path, force=False):
-    """Write `mesh` to `path` atomically, in the format named by its extension.
-
-    The format is checked against the geometry first (:func:`output_format`: a point cloud is
-    refused for STL or OFF). Refuses an existing `path` unless `force`. Returns the path as a
-    :class:`Path`.
-    """
-    path = Path(path)
-    data = encode(mesh, output_format(path, mesh))
-    return write_atomic(path, data, force=force)
-
-
-# --------------------------------------------------------------------------- example
-def example_shape():
-    """A capsule body with a thin outlying arm: the paper's hard case for centroids.
-
-    Returns mesh : trimesh.Trimesh (watertight parts, concatenated)
-    """
-    body = trimesh.creation.capsule(height=1.0, radius=0.5, count=[24, 24])
-    arm = trimesh.creation.cylinder(radius=0.08, height=1.6, sections=16)
-    arm.apply_transform(trimesh.transformations.rotation_matrix(np.pi / 2, [0.0, 1.0, 0.0]))
-    arm.apply_translation([1.2, 0.0, 0.3])
-    hand = trimesh.creation.icosphere(subdivisions=2, radius=0.2)
-    hand.apply_translation([2.0, 0.0, 0.3])
-    return trimesh.util.concatenate([body, arm, hand])

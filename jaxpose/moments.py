@@ -11,7 +11,7 @@ the hard indicator of eqs. 4-5 integrated to sub-cell accuracy (error O(h^2), ag
 counting cells), and piecewise differentiable in f.
 
 Grid. A coarse grid of ``resolution``^3 cells covers a box that provably holds the region
-(:func:`jaxpose.grid.domain`); then, log2(``refine``) times, the cells near the boundary are split
+(:func:`jaxpose.occupancy.grid.domain`); then, log2(``refine``) times, the cells near the boundary are split
 into 2 x 2 x 2 children (narrow-band refinement). A level refines the cells the linearised
 boundary cuts plus a margin (:func:`band_score`: 1.5 linear cell widths and a curvature allowance,
 so that thin parts are caught); the last level takes the cut cells and half the allowance
@@ -23,8 +23,8 @@ integral's error falls as c h^2 when the boundary cells halve; the integrals wit
 finest level, I_h and I_2h, are both at hand, so the weights are taken as (4 w_h - w_2h) / 3.
 
 Evaluation of f. Every level lies on a tensor-product lattice where exp(-gamma |x - p|^2) factors
-per axis: the coarse grid is evaluated in boxes (:func:`jaxpose.grid.evaluate_grid`) and the
-children from tables of per-axis factors (:func:`jaxpose.grid.evaluate_children`), with the same
+per axis: the coarse grid is evaluated in boxes (:func:`jaxpose.occupancy.grid.evaluate_grid`) and the
+children from tables of per-axis factors (:func:`jaxpose.occupancy.grid.evaluate_children`), with the same
 values as evaluating each cell directly.
 
 Derivatives. The cells, the refinement and the occupancies are computed without derivatives
@@ -33,7 +33,7 @@ the tangent of (f, grad f) only at the cells whose occupancy is strictly between
 clipped occupancy has zero derivative elsewhere): the coarea boundary term
 d/dtheta int_{f >= 0} g dV = int g (df/dtheta) delta(f) dV, smeared over one cell. With the
 points held fixed (derivatives in gamma and nu) that tangent comes from explicit sums, one pass
-per kernel block (:func:`jaxpose.grid.evaluate_on_grid_jvp`); otherwise from JAX's JVP of the
+per kernel block (:func:`jaxpose.occupancy.grid.evaluate_on_grid_jvp`); otherwise from JAX's JVP of the
 direct sums. The grid box is snapped to a lattice, so it is piecewise constant in (gamma, nu):
 these are the derivatives of the computed moments wherever the discretization does not switch (a
 cell entering or leaving the band or the one-cell occupancy ramp).
@@ -49,7 +49,7 @@ import jax.numpy as jnp
 from ._hyper import instantiate, is_zero
 from ._validate import InvalidInputError
 from .config import GridConfig
-from .grid import (CHILD_OFFSETS, domain, evaluate_children, evaluate_grid, evaluate_on_grid, evaluate_on_grid_jvp,
+from .occupancy.grid import (CHILD_OFFSETS, domain, evaluate_children, evaluate_grid, evaluate_on_grid, evaluate_on_grid_jvp,
                    morton_codes)
 
 __all__ = ["Moments", "volume_moments", "region_moments", "discretize", "occupancy", "moments_from_occupancy",

@@ -105,7 +105,7 @@ def region_slices(svdd_or_points, gamma=47.0, nu=0.5, *, center=None, planes=("x
 
     svdd_or_points : an :class:`jaxpose.SVDD` (drawn in its own units) or (m, 3) surface
         samples, fitted here like :func:`jaxpose.normalize` does: pre-scaled by
-        :func:`jaxpose.frame.reference_frame`, ``gamma`` dimensionless; drawn in the units of
+        :func:`jaxpose.pose.frame.reference_frame`, ``gamma`` dimensionless; drawn in the units of
         the points
     center : (3,) where the slices cut; default the region's centroid c_m (eq. 4): for points,
         ``jaxpose.normalize(points, gamma, nu, **normalize_options).center`` (its compilation is
@@ -118,9 +118,9 @@ def region_slices(svdd_or_points, gamma=47.0, nu=0.5, *, center=None, planes=("x
     import jax.numpy as jnp
 
     from jaxpose.moments import volume_moments
-    from jaxpose.frame import reference_frame
-    from jaxpose.pose import normalize
-    from jaxpose.svdd import SVDD, decision_function, fit_svdd
+    from jaxpose.pose.frame import reference_frame
+    from jaxpose.pose.pose import normalize
+    from jaxpose.occupancy.svdd import SVDD, decision_function, fit_svdd
 
     if isinstance(svdd_or_points, SVDD):
         svdd = svdd_or_points
@@ -204,7 +204,7 @@ def mesh_3d(mesh_or_points, ax=None, *, color="0.7", alpha=0.5, edgecolor=None, 
 def centers_plot(mesh_or_points, pose=None, gamma=47.0, nu=0.5, *, methods=("robust_depth", "surface_centroid",
                  "vertex_mean", "bbox_center", "min_ball"), count=1000, seed=0, plane="xz", ax=None, path=None, title=None,
                  **normalize_options):
-    """A shape with the OCSVM center and other centers (names of ``jaxpose.estimators.CENTERS``) marked.
+    """A shape with the OCSVM center and other centers (names of ``jaxpose.pose.estimators.CENTERS``) marked.
 
     pose : the OCSVM :class:`jaxpose.Pose` (or (center, scale)); default ``jaxpose.normalize``
         of ``count`` surface samples with (gamma, nu, normalize_options)
@@ -213,7 +213,7 @@ def centers_plot(mesh_or_points, pose=None, gamma=47.0, nu=0.5, *, methods=("rob
     The OCSVM scale is drawn as a circle (sphere outline) of radius ``pose.scale`` about its center.
     """
     import jaxpose
-    from jaxpose import estimators
+    from jaxpose.pose import estimators
 
     v, f = _vertices_faces(mesh_or_points)
     samples = np.asarray(jaxpose.sample_surface(mesh_or_points, count, seed)) if f is not None else v

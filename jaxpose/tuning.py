@@ -23,7 +23,7 @@ parameters do not lower their spread below the start's, the tuner says so and re
 (``kept_defaults``).
 
 Every object of a class has the same point count, so a class is one stacked (n, m, 3) array and
-the pose is ``jax.lax.map`` of :func:`jaxpose.pose.pose_pipeline` with a static config: one
+the pose is ``jax.lax.map`` of :func:`jaxpose.pose.pose.pose_pipeline` with a static config: one
 compilation per class size, none inside the loop.
 """
 from __future__ import annotations
@@ -38,7 +38,7 @@ import numpy as np
 
 from . import _validate
 from .config import PoseConfig
-from .pose import pose_pipeline
+from .pose.pose import pose_pipeline
 
 __all__ = ["tune", "objective", "spread_of"]
 

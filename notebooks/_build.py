@@ -56,7 +56,7 @@ plot.region_slices(points, 45.0, 0.8, ax=axes[1], pixels=100, resolution=RESOLUT
 fig'''),
     new_markdown_cell("## Every center at once\n\nThe dashed circle has the OCSVM scale as its radius."),
     new_code_cell('''plot.centers_plot(shape, paper, count=COUNT)'''),
-    new_code_cell('''from jaxpose import estimators
+    new_code_cell('''from jaxpose.pose import estimators
 for method in ("robust", "ocsvm", "surface_centroid", "solid", "bbox", "min_ball"):
     p = estimators.estimate(shape, method, count=COUNT, ocsvm={"resolution": RESOLUTION})
     print(f"{method:18s}", np.round(np.asarray(p.center, float), 4), round(float(p.scale), 4))'''),
@@ -78,12 +78,12 @@ from jaxpose import datasets, evaluation
 from jaxpose.mesh import example_shape
 points = np.asarray(jaxpose.sample_surface(example_shape(), COUNT, seed=0))'''),
     new_markdown_cell("## Derivatives of the pose in γ and ν\n\n"
-                      "`jaxpose.sensitivity.pose_sensitivity` gives d center / dγ, d scale / dγ and the same "
+                      "`jaxpose.pose.sensitivity.pose_sensitivity` gives d center / dγ, d scale / dγ and the same "
                       "for ν: by default the trend of the pose over γ(1 ± 1 %) and ν(1 ± 1 %) (secant slopes "
                       "of the SVDD solution; `derivative=\"exact\"` gives the local implicit derivative, see "
                       "docs/design.md). `jax.grad` of `jaxpose.normalize` gives the same derivatives."),
     new_code_cell('''try:
-    from jaxpose.sensitivity import pose_sensitivity
+    from jaxpose.pose.sensitivity import pose_sensitivity
 except ImportError:
     pose_sensitivity = None
 if pose_sensitivity is not None:
@@ -172,7 +172,7 @@ plot.sweep_curves(sweeps)'''),
     new_markdown_cell("## Pairs of normalized objects overlaid (Fig. 8)\n\nThe reference object of a class and a "
                       "deformed instance, each normalized on its own; top the robust default, bottom the surface "
                       "centroid and mean distance."),
-    new_code_cell('''from jaxpose import estimators
+    new_code_cell('''from jaxpose.pose import estimators
 names = list(data)[:3]
 pairs = [(data[c][0], data[c][-1]) for c in names]
 robust = [[estimators.estimate(m) for m in p] for p in pairs]

@@ -7,7 +7,7 @@ import sys
 import tempfile
 
 # One persistent compilation cache is shared by the processes the tests start: command-line
-# subprocesses and their workers (JAXPOSE_CACHE_DIR, read by jaxpose.cache) and notebook kernels
+# subprocesses and their workers (JAXPOSE_CACHE_DIR, read by jaxpose.batch.cache) and notebook kernels
 # (JAX_COMPILATION_CACHE_DIR) load what another compiled instead of compiling it again. The test
 # processes themselves (pytest-xdist workers inherit these variables) compile for themselves:
 # XLA:CPU's executable serialization, the cache's write, once crashed a worker with a

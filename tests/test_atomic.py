@@ -3,7 +3,7 @@ import os
 
 import pytest
 
-from jaxpose.atomic import check_folder_writable, is_temporary, remove_temporaries, temporary_path, write_atomic
+from jaxpose.io.atomic import check_folder_writable, is_temporary, remove_temporaries, temporary_path, write_atomic
 from jaxpose.errors import InvalidInputError
 
 

@@ -10,10 +10,11 @@ import pytest
 import trimesh
 
 import jaxpose
-from jaxpose import batch, cli, mesh
+from jaxpose.batch import batch
+from jaxpose import cli, mesh
 from jaxpose.errors import InvalidInputError
-from jaxpose.journal import FolderBusyError, OutputFolder
-from jaxpose.task import NormalizeOptions
+from jaxpose.batch.journal import FolderBusyError, OutputFolder
+from jaxpose.batch.task import NormalizeOptions
 
 from conftest import write_mesh_tree
 

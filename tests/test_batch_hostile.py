@@ -18,9 +18,10 @@ import pytest
 import trimesh
 
 import jaxpose
-from jaxpose import batch, mesh
+from jaxpose.batch import batch
+from jaxpose import mesh
 from jaxpose.errors import InvalidInputError
-from jaxpose.task import NormalizeOptions
+from jaxpose.batch.task import NormalizeOptions
 
 pytestmark = pytest.mark.skipif(sys.platform != "linux", reason="FIFOs, sockets, /proc and bytes names: Linux")
 

@@ -10,9 +10,10 @@ import pytest
 import trimesh
 
 import jaxpose
-from jaxpose import batch, cli, mesh
+from jaxpose.batch import batch
+from jaxpose import cli, mesh
 from jaxpose.errors import InvalidInputError
-from jaxpose.task import NormalizeOptions
+from jaxpose.batch.task import NormalizeOptions
 
 from conftest import write_mesh_tree
 

@@ -10,14 +10,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import trimesh
 
 import jaxpose
-from jaxpose import batch, cli, mesh
+from jaxpose.batch import batch
+from jaxpose import cli, mesh
 from jaxpose.errors import InvalidInputError
-from jaxpose.inputs import shard_index
-from jaxpose.journal import FolderBusyError, OutputFolder
-from jaxpose.task import NormalizeOptions
-from jaxpose.transforms import merge_transforms
+from jaxpose.batch.inputs import shard_index
+from jaxpose.batch.journal import FolderBusyError, OutputFolder
+from jaxpose.batch.task import NormalizeOptions
+from jaxpose.batch.transforms import merge_transforms
 
 from conftest import write_mesh_tree
 
@@ -40,7 +42,7 @@ def stable(row, out):
 def scans(tmp_path):
     write_mesh_tree(tmp_path / "scans")
     for i in range(5):  # a few more, so that each of 3 shards has some
-        jaxpose.mesh.trimesh.creation.box(extents=(1.0 + 0.1 * i, 0.5, 0.3)).export(tmp_path / "scans" / f"box{i}.stl")
+        trimesh.creation.box(extents=(1.0 + 0.1 * i, 0.5, 0.3)).export(tmp_path / "scans" / f"box{i}.stl")
     return tmp_path / "scans"
 
 
@@ -126,7 +128,7 @@ def test_an_output_of_another_input_is_not_replaced_without_force(tmp_path, scan
     run([scans / "a" / "capsule.ply"], out)  # -> out/capsule.ply
     other = tmp_path / "elsewhere"
     other.mkdir()
-    (other / "capsule.ply").write_bytes(jaxpose.mesh.trimesh.creation.box().export(file_type="ply"))
+    (other / "capsule.ply").write_bytes(trimesh.creation.box().export(file_type="ply"))
     before = (out / "capsule.ply").read_bytes()
     with pytest.raises(InvalidInputError, match="holds the output of .*capsule.ply.*force"):
         run([other / "capsule.ply"], out)

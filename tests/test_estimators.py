@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from jaxpose import InvalidInputError, JaxposeError, baselines, estimators
+from jaxpose import InvalidInputError, JaxposeError, baselines
+from jaxpose.pose import estimators
 from jaxpose._validate import OpenMeshWarning
 
 
@@ -186,11 +187,11 @@ def test_a_mesh_without_area_is_refused_by_name():
 
 def test_one_type_policy_for_host_poses_of_every_method():
     """Host entry points return NumPy poses (floats float64) whatever the method, and a host pose's
-    matrix is NumPy float64 computed without JAX (docs/api.md, jaxpose.result.Pose)."""
+    matrix is NumPy float64 computed without JAX (docs/api.md, jaxpose.pose.result.Pose)."""
     import subprocess
     import sys
 
-    from jaxpose.estimators import estimate
+    from jaxpose.pose.estimators import estimate
 
     box = trimesh.creation.box(extents=(1.0, 0.6, 0.3))
     for method in ("robust", "ocsvm", "surface_centroid"):
@@ -204,7 +205,7 @@ def test_one_type_policy_for_host_poses_of_every_method():
         assert isinstance(m, np.ndarray) and m.dtype == np.float64
         np.testing.assert_allclose(pose.apply(pose.center[None]), 0.0, atol=1e-12)
         np.testing.assert_allclose(m[:3, :3] @ pose.center + m[:3, 3], 0.0, atol=1e-12)
-    code = ("import sys, numpy as np; from jaxpose.result import Pose; "
+    code = ("import sys, numpy as np; from jaxpose.pose.result import Pose; "
             "m = Pose.from_center_scale(np.array([1e9, 2.0, 3.0]), 2.0).matrix; "
             "assert m.dtype == np.float64 and m[0, 3] == -5e8, m; assert 'jax' not in sys.modules")
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)

@@ -8,7 +8,7 @@ import pytest
 import trimesh
 
 import jaxpose
-import jaxpose.pose  # the module the fixtures patch (not imported by "import jaxpose" alone)
+import jaxpose.pose.pose  # the module the fixtures patch (not imported by "import jaxpose" alone)
 from jaxpose import evaluation
 from jaxpose._validate import InvalidInputError
 from jaxpose.evaluation import align_core, evaluate, format_per_class, format_table, scale_spread, spread, sweep
@@ -34,7 +34,7 @@ def fake_normalize(monkeypatch):
         center = np.asarray(points).mean(axis=0) + np.array([gamma, 0.0, 0.0])
         return SimpleNamespace(center=center, scale=1.0 + nu, converged=True)
 
-    monkeypatch.setattr(jaxpose.pose, "normalize", normalize)
+    monkeypatch.setattr(jaxpose.pose.pose, "normalize", normalize)
     return calls
 
 
@@ -196,7 +196,7 @@ def test_evaluate_rejects(kwargs, fake_normalize):
 
 def test_sweep_with_fake_normalize(fake_normalize, monkeypatch):
     # sweep calls normalize on the samples themselves: a fake whose center is gamma * mean
-    monkeypatch.setattr(jaxpose.pose, "normalize", lambda points, gamma=47.0, nu=0.5, **options: SimpleNamespace(
+    monkeypatch.setattr(jaxpose.pose.pose, "normalize", lambda points, gamma=47.0, nu=0.5, **options: SimpleNamespace(
         center=gamma * np.asarray(points).mean(axis=0), scale=1.0 + nu, converged=True))
     classes = {"boxes": _boxes()}
     out = sweep(classes, "gamma", values=[1.0, 3.0], count=300)

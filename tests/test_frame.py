@@ -5,7 +5,7 @@ import pytest
 
 from conftest import box_surface
 from jaxpose import InvalidInputError
-from jaxpose.frame import REFERENCE_RMS, host_frame, prescale, principal_axes, reference_frame
+from jaxpose.pose.frame import REFERENCE_RMS, host_frame, prescale, principal_axes, reference_frame
 
 
 def _rotation(seed):

@@ -25,7 +25,7 @@ import trimesh
 import jaxpose
 from jaxpose import moments
 from jaxpose.mesh import example_shape, sample_surface
-from jaxpose.sensitivity import pose, pose_sensitivity
+from jaxpose.pose.sensitivity import pose, pose_sensitivity
 
 OPTS = dict(resolution=16, refine=2, band=2048, tol=1e-7, max_iter=200_000)
 
@@ -40,7 +40,7 @@ def _vec(p):
 def _fn(points, **opts):
     """(gamma, nu) -> [center, scale] of the production pipeline (``pose.pose_pipeline``), exact derivative."""
     from jaxpose.config import PoseConfig
-    from jaxpose.pose import pose_pipeline
+    from jaxpose.pose.pose import pose_pipeline
 
     config = PoseConfig.create(**{"derivative": "exact", **opts})
 
@@ -68,8 +68,8 @@ def _structure(points, **opts):
     iterations, SVDD status of each point (0 zero, 1 free, 2 at the cap), the cells (centers
     and constant factors: box and refinement) and each cell's occupancy class (0, ramp, 1)."""
     from jaxpose.config import PoseConfig
-    from jaxpose.frame import prescale
-    from jaxpose.svdd import solve_svdd
+    from jaxpose.pose.frame import prescale
+    from jaxpose.occupancy.svdd import solve_svdd
 
     config = PoseConfig.create(**{"derivative": "exact", **opts})
 

@@ -1,11 +1,11 @@
-"""Grids that cover the SVDD region and the evaluation of f on them (jaxpose.grid)."""
+"""Grids that cover the SVDD region and the evaluation of f on them (jaxpose.occupancy.grid)."""
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from jaxpose.grid import cell_centers, domain, evaluate_on_grid
-from jaxpose.grid import CHILD_OFFSETS
-from jaxpose.svdd import SVDD, decision_function, fit_svdd
+from jaxpose.occupancy.grid import cell_centers, domain, evaluate_on_grid
+from jaxpose.occupancy.grid import CHILD_OFFSETS
+from jaxpose.occupancy.svdd import SVDD, decision_function, fit_svdd
 from conftest import box_surface, clusters, sphere_with_arm
 
 
@@ -46,7 +46,7 @@ def test_grid_tangent_in_one_pass_matches_autodiff(x64):
     jax.jvp of evaluate_on_grid, with the terms of every point or of the support only."""
     import jax
 
-    from jaxpose.grid import evaluate_on_grid_jvp
+    from jaxpose.occupancy.grid import evaluate_on_grid_jvp
 
     svdd = fit_svdd(clusters(300), 47.0, 0.5)
     rng = np.random.default_rng(1)
@@ -65,7 +65,7 @@ def test_grid_tangent_in_one_pass_matches_autodiff(x64):
 
 def test_domain_is_snapped_and_piecewise_constant(x64):
     # issue 3: the grid must not follow gamma continuously (derivatives hold it fixed)
-    from jaxpose.grid import LATTICE, region_radius
+    from jaxpose.occupancy.grid import LATTICE, region_radius
 
     svdd = fit_svdd(box_surface(300), 47.0, 0.5, tol=1e-6)
     lo, hi = (np.asarray(v) for v in domain(svdd))
@@ -83,7 +83,7 @@ def test_domain_is_snapped_and_piecewise_constant(x64):
 
 
 def test_morton_order_matches_codes_of_cell_centers():
-    from jaxpose.grid import morton_codes, morton_order
+    from jaxpose.occupancy.grid import morton_codes, morton_order
 
     for n in (4, 8, 32):
         lo, hi = jnp.array([-1.0, -1.0, -1.0]), jnp.array([1.0, 1.0, 1.0])
@@ -123,7 +123,7 @@ def test_separable_subgrids_equal_direct_evaluation(x64):
     per block of boxes along a segment 4 long (cutoff ~0.9 in float64)."""
     import jax
 
-    from jaxpose.grid import evaluate_subgrids
+    from jaxpose.occupancy.grid import evaluate_subgrids
 
     rng = np.random.default_rng(2)
     t = rng.uniform(0.0, 4.0, 1200)
@@ -150,7 +150,7 @@ def test_separable_subgrids_equal_direct_evaluation(x64):
 def test_grid_layout_matches_cell_centers(x64, resolution):
     """evaluate_grid: the coarse grid in boxes of at most 32^3 cells (resolution 33: 2 x 17 per
     axis, cells past the grid dropped), rows in Morton order, equal to the direct sums."""
-    from jaxpose.grid import cell_centers, evaluate_grid, morton_order
+    from jaxpose.occupancy.grid import cell_centers, evaluate_grid, morton_order
 
     svdd = fit_svdd(clusters(300), 47.0, 0.5)
     lo, hi = domain(svdd)
@@ -173,7 +173,7 @@ def _segment_svdd():
 def _lattice_cells(rng, lo, h, n, k):
     """k distinct cells of a lattice lo + (i + 1/2) h, i < n / 2 per axis, in Z-order: 3/4 of them
     within 0.15 of the segment's axis (where the boundary is), the rest anywhere."""
-    from jaxpose.grid import morton_codes
+    from jaxpose.occupancy.grid import morton_codes
 
     ijk = np.stack(np.unravel_index(np.arange((n // 2) ** 3), (n // 2,) * 3), -1)
     x = lo + (ijk + 0.5) * h
@@ -190,7 +190,7 @@ def test_children_from_tables_equal_direct_evaluation(x64, monkeypatch):
     direct fallback when the tables would be too big gives the same."""
     import jax
 
-    from jaxpose import grid
+    from jaxpose.occupancy import grid
 
     svdd, rng = _segment_svdd()
     lo, hi = domain(svdd)
@@ -219,7 +219,7 @@ def test_children_from_tables_are_accurate_in_float32():
     value on the segment (3.1e-8, mu = 0.078), 50x closer than the direct sums (1.5e-6)."""
     import jax
 
-    from jaxpose import grid
+    from jaxpose.occupancy import grid
 
     with jax.enable_x64(True):
         svdd64, rng = _segment_svdd()

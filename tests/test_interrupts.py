@@ -13,8 +13,8 @@ import trimesh
 
 import jaxpose
 from jaxpose import mesh
-from jaxpose.atomic import is_temporary
-from jaxpose.journal import OutputFolder
+from jaxpose.io.atomic import is_temporary
+from jaxpose.batch.journal import OutputFolder
 
 ROOT = Path(__file__).resolve().parents[1]
 TIMING = ("seconds", "worker", "worker_peak_mb")
@@ -69,7 +69,7 @@ def assert_outputs_complete(out, scans=None):
         outputs.remove(unrecorded[0])
     for path in outputs:
         assert str(path) in by_output, f"{path} has no record"
-        row = jaxpose.transforms.Transform.from_record(by_output[str(path)])
+        row = jaxpose.batch.transforms.Transform.from_record(by_output[str(path)])
         expected = row.apply(mesh.load(row.input).vertices).astype(np.float32)
         np.testing.assert_array_equal(mesh.load(path).vertices.astype(np.float32), expected)
     return records
@@ -124,7 +124,7 @@ def test_interrupt_mid_run_leaves_nothing_partial(tmp_path, sig, code, word, wor
 
 # --------------------------------------------------------------------------- the guard, in this process
 def test_guard_turns_signals_into_exceptions_and_restores_handlers():
-    from jaxpose.interrupts import SignalGuard, Terminated, check
+    from jaxpose.batch.interrupts import SignalGuard, Terminated, check
 
     before = signal.getsignal(signal.SIGTERM)
     with SignalGuard() as guard:
@@ -142,7 +142,7 @@ def test_guard_turns_signals_into_exceptions_and_restores_handlers():
 def test_a_deferred_block_is_not_cut_by_a_signal():
     """An output and its journal line are written in a deferred() block: a signal inside is held
     until the block ends, then raised; an error of the block itself goes first."""
-    from jaxpose.interrupts import SignalGuard, Terminated, deferred
+    from jaxpose.batch.interrupts import SignalGuard, Terminated, deferred
 
     done = []
     with SignalGuard() as guard:
@@ -166,7 +166,7 @@ def test_a_deferred_block_is_not_cut_by_a_signal():
 def test_guard_silences_its_own_swallowed_interrupt(capsys):
     import gc
 
-    from jaxpose.interrupts import SignalGuard
+    from jaxpose.batch.interrupts import SignalGuard
 
     class Swallower:
         def __del__(self):

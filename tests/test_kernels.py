@@ -2,7 +2,7 @@
 import jax.numpy as jnp
 import numpy as np
 
-from jaxpose.kernels import gaussian_kernel, kernel_matvec_blocked, map_blocks, power_iteration
+from jaxpose.occupancy.kernels import gaussian_kernel, kernel_matvec_blocked, map_blocks, power_iteration
 
 
 def test_kernel_and_blocked_products_match_numpy(x64):

@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from jaxpose import baselines, formats, mesh
+from jaxpose import baselines, mesh
+from jaxpose.io import formats
 from jaxpose._validate import InvalidInputError
 
 

@@ -3,11 +3,11 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from jaxpose.grid import cell_centers, domain, evaluate_on_grid
+from jaxpose.occupancy.grid import cell_centers, domain, evaluate_on_grid
 from jaxpose.config import GridConfig
-from jaxpose.grid import CHILD_OFFSETS
+from jaxpose.occupancy.grid import CHILD_OFFSETS
 from jaxpose.moments import discretize, moments_from_occupancy, occupancy, region_moments, volume_moments
-from jaxpose.svdd import SVDD, fit_svdd
+from jaxpose.occupancy.svdd import SVDD, fit_svdd
 from conftest import sphere_with_arm
 
 
@@ -107,7 +107,7 @@ def test_boundary_tangent_equals_tangent_through_all_cells(x64):
     the secant nu-slope is, where points enter the support): their terms must not be skipped."""
     import jax
 
-    from jaxpose.grid import SV_CHUNK
+    from jaxpose.occupancy.grid import SV_CHUNK
 
     m = 600
     svdd = fit_svdd(sphere_with_arm(m), 47.0, 0.5, tol=1e-6)
@@ -171,7 +171,7 @@ def test_refinement_with_tables_equals_direct_children(x64, monkeypatch):
     (normalize_batch's path)."""
     import jax
 
-    from jaxpose import grid
+    from jaxpose.occupancy import grid
 
     svdd = fit_svdd(sphere_with_arm(500), 47.0, 0.5)
     cfg = GridConfig(resolution=16, block=512, refine=4, band=4096)
@@ -191,7 +191,8 @@ def test_last_level_band_holds_every_cut_cell(x64):
     not the full band. Brute force: the children of every cell of the full band, evaluated; every cell
     whose children's occupancies differ (the boundary passes through it) must be chosen (the thin arm:
     a quarter of the allowance missed 84 such cells at 64^3, float32)."""
-    from jaxpose import grid, moments
+    from jaxpose.occupancy import grid
+    from jaxpose import moments
 
     svdd = fit_svdd(sphere_with_arm(600), 47.0, 0.5)
     lo, hi = domain(svdd)

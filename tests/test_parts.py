@@ -1,12 +1,12 @@
-"""jaxpose.parts: the merge tree of a depth field and the head, neck and trunk, on voxel solids of
+"""jaxpose.rotation.parts: the merge tree of a depth field and the head, neck and trunk, on voxel solids of
 balls and rods whose depths are known in closed form (their radii, within the distance transform's
 voxel)."""
 import numpy as np
 import pytest
 from scipy import ndimage
 
-from jaxpose.parts import NECK, THICK, find_parts, merge_tree
-from jaxpose.solid import Solid
+from jaxpose.rotation.parts import NECK, THICK, find_parts, merge_tree
+from jaxpose.occupancy.solid import Solid
 
 
 def voxel_solid(parts, pitch=0.05, lo=(-3.0, -1.2, -1.2), hi=(3.0, 1.2, 1.2)):

@@ -6,9 +6,9 @@ import pytest
 
 import jaxpose
 from jaxpose.moments import volume_moments
-from jaxpose.frame import reference_frame
-from jaxpose.pose import Pose, normalize
-from jaxpose.svdd import fit_svdd
+from jaxpose.pose.frame import reference_frame
+from jaxpose.pose.pose import Pose, normalize
+from jaxpose.occupancy.svdd import fit_svdd
 from conftest import box_surface, clusters, faust_points, sphere_with_arm
 
 
@@ -192,7 +192,7 @@ def test_float32_translation_at_1e5():
 # --------------------------------------------------------------------------- bounded cost
 def test_large_inputs_are_subsampled_with_the_count_reported():
     """Above max_points a seeded uniform subset is fitted: the same pose as fitting that subset."""
-    from jaxpose.sizes import MAX_POINTS, subsample_index
+    from jaxpose.pose.sizes import MAX_POINTS, subsample_index
 
     big = box_surface(3000, seed=5)
     pose = normalize(big, max_points=300, seed=7)
@@ -209,7 +209,7 @@ def test_point_counts_share_compilations():
     """Sets of 290..320 points are padded to 320 rows (masked): no new compilation after the first."""
     import jax.monitoring as monitoring
 
-    from jaxpose.sizes import bucket
+    from jaxpose.pose.sizes import bucket
 
     assert [bucket(m) for m in (5, 8, 9, 290, 300, 320, 321, 400, 2000, 4096)] == \
         [5, 8, 10, 320, 320, 320, 384, 448, 2048, 4096]

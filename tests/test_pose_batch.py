@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import jaxpose
-from jaxpose import pose as pose_module
+from jaxpose.pose import pose as pose_module
 from jaxpose._validate import InvalidInputError
 
 from conftest import box_surface, clusters, sphere_with_arm

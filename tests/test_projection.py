@@ -3,7 +3,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from jaxpose.projection import projection_capped_simplex
+from jaxpose.occupancy.svdd.projection import projection_capped_simplex
 
 
 def oracle(y, cap):
@@ -88,7 +88,7 @@ def test_hard_inputs_match_oracle(x64, kind):
 
 def test_search_takes_few_steps(x64):
     """The steps the tau search takes on a solver-like input (a feasible point plus a small step)."""
-    from jaxpose.projection import _find_tau
+    from jaxpose.occupancy.svdd.projection import _find_tau
 
     rng = np.random.default_rng(2)
     m, cap = 2000, 1e-3

@@ -381,7 +381,7 @@ def test_library_load_is_unchanged(tmp_path, monkeypatch, mesh, name):
 
 def test_library_merge_hash_collision_falls_back(monkeypatch):
     """Two different keys with one hash: the array merge says it cannot tell (trimesh merges)."""
-    from jaxpose import mesh as jmesh
+    from jaxpose.io import mesh as jmesh
 
     vertices = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 1, 0]])
     faces = np.array([[0, 1, 2], [0, 1, 3]])

@@ -8,7 +8,9 @@ import pytest
 import trimesh
 from scipy import ndimage
 
-from jaxpose import estimators, mesh, solid
+from jaxpose.pose import estimators
+from jaxpose import mesh
+from jaxpose.occupancy import solid
 from jaxpose.errors import InvalidInputError
 from conftest import SHARED
 

@@ -7,11 +7,12 @@ import pytest
 import trimesh
 
 import jaxpose
-from jaxpose import baselines, cli, mesh, parts, rotation, sample
+from jaxpose import baselines, cli, mesh, sample
+from jaxpose.rotation import parts, rotation
 from jaxpose.evaluation import evaluate_rotation, format_rotation_per_class, format_rotation_table
 from jaxpose.evaluation.rotation import angle, chordal_mean, sign_free_angles
-from jaxpose.pose import Pose
-from jaxpose.voxels import GRID_SHIFT
+from jaxpose.pose.pose import Pose
+from jaxpose.occupancy.voxels import GRID_SHIFT
 from conftest import box_surface, clusters
 
 RAD = np.pi / 180.0

@@ -4,7 +4,7 @@ import pytest
 import trimesh
 
 from jaxpose import InvalidInputError
-from jaxpose.solid import cap_holes, exterior_fill, keep_main, robust_solid
+from jaxpose.occupancy.solid import cap_holes, exterior_fill, keep_main, robust_solid
 
 
 def _solid(mesh, **kw):
@@ -96,7 +96,7 @@ def test_degenerate_input():
 
 
 def test_voxel_memory_is_bounded():
-    from jaxpose.solid import check_resolution
+    from jaxpose.occupancy.solid import check_resolution
 
     assert check_resolution(96) == 96 and check_resolution(291) == 291
     with pytest.raises(InvalidInputError, match=r"resolution=1000 needs up to 65\.\d+ GiB .* use a resolution in \[8, 291\]"):
@@ -108,7 +108,7 @@ def test_voxel_memory_is_bounded():
 def test_point_spacing_from_a_subset(monkeypatch):
     """Above SPACING_SAMPLES points the spacing is measured from a seeded subset of them (to all
     the others): the same closing radius and nearly the same solid as from every point."""
-    import jaxpose.solid as solid
+    import jaxpose.occupancy.solid as solid
 
     sphere = trimesh.creation.icosphere(subdivisions=3)
     points = trimesh.sample.sample_surface(sphere, 2000, seed=0)[0]

@@ -1,6 +1,6 @@
 """SVDD dual against scikit-learn's OneClassSVM (libsvm) as the oracle.
 
-Mapping (see jaxpose/svdd.py): libsvm's b = dual_coef_ at support_, b = nu m alpha;
+Mapping (see jaxpose/occupancy/svdd/): libsvm's b = dual_coef_ at support_, b = nu m alpha;
 rho = offset_ = nu m mu / 2; decision_function = (nu m / 2) f.
 """
 import jax
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import jaxpose
-from jaxpose.svdd import fit_svdd, decision_function
+from jaxpose.occupancy.svdd import fit_svdd, decision_function
 from conftest import clusters, faust_points, sphere_with_arm
 
 sklearn_svm = pytest.importorskip("sklearn.svm")
@@ -147,7 +147,7 @@ def test_auto_solver_caps_total_iterations():
 def test_smo_stops_at_max_iter_between_checks(max_iter):
     """SMO checks its stopping rule every SMO_GROUP updates, yet never runs past max_iter (nor
     stops short of it), and the updates past the smaller cap lower the objective."""
-    from jaxpose.svdd import SMO_GROUP
+    from jaxpose.occupancy.svdd import SMO_GROUP
 
     assert SMO_GROUP > 1 and max_iter % SMO_GROUP  # the cap falls between two checks
     pts = clusters(300)
@@ -160,7 +160,7 @@ def test_smo_stops_at_max_iter_between_checks(max_iter):
 def test_default_solver_is_chosen_by_size():
     """solver=None: "pg" up to PG_MAX_M points, "auto" above (on CPU): the same solution as asking
     for that solver by name, bit for bit (both sides of the threshold, float32)."""
-    from jaxpose.svdd import PG_MAX_M, pick_solver
+    from jaxpose.occupancy.svdd import PG_MAX_M, pick_solver
 
     assert pick_solver("smo", 10) == "smo" and pick_solver(None, PG_MAX_M) == "pg"
     expected = "auto" if jax.default_backend() == "cpu" else "pg"
@@ -210,8 +210,8 @@ def test_stop_rule_is_scale_free_in_gamma(x64):
     """The violation is measured in units of min(a^T K a, 1 - a^T K a): at small gamma the
     differences of K a are O(gamma) and so is 1 - a^T K a, so the rule's value at a fixed
     non-optimal alpha does not vanish with gamma (it did, relative to a^T K a -> 1)."""
-    from jaxpose.kernels import gaussian_kernel
-    from jaxpose.svdd import kkt_violation
+    from jaxpose.occupancy.kernels import gaussian_kernel
+    from jaxpose.occupancy.svdd import kkt_violation
 
     x = jnp.asarray(_unit_clusters(1))
     a = jnp.full((x.shape[0],), 1.0 / x.shape[0])
@@ -243,10 +243,10 @@ def test_default_tol_is_close_to_a_tight_solution_at_small_gamma(x64, gamma):
 def test_polish_solves_the_active_set_exactly(x64):
     """From a projected-gradient iterate stopped at tol 1e-3, the polished solution satisfies the
     KKT conditions to rounding (libsvm at a tight tol as the oracle for the weights)."""
-    from jaxpose.kernels import gaussian_kernel
-    from jaxpose.svdd.pg import solve_pg
-    from jaxpose.svdd.polish import polish
-    from jaxpose.svdd.problem import caps as point_caps
+    from jaxpose.occupancy.kernels import gaussian_kernel
+    from jaxpose.occupancy.svdd.pg import solve_pg
+    from jaxpose.occupancy.svdd.polish import polish
+    from jaxpose.occupancy.svdd.problem import caps as point_caps
     from jaxpose.config import SolverConfig
 
     x = jnp.asarray(_unit_clusters(2))

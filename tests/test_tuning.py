@@ -8,7 +8,8 @@ import pytest
 import trimesh
 
 import jaxpose
-from jaxpose import tuning, tuning_cli
+from jaxpose import tuning
+from jaxpose.cli import tune as tuning_cli
 from jaxpose.mesh import sample_surface
 
 FAST = dict(resolution=8, refine=2, band=256, tol=1e-5)  # one compilation shared by the tests (4 objects of 120 points)

@@ -6,7 +6,7 @@ import trimesh
 
 import jaxpose
 from jaxpose import InvalidPoseWarning, JaxposeError, Status
-from jaxpose.validity import MAX_CELL, MAX_SPACING, median_distance, median_spacing, status_message
+from jaxpose.pose.validity import MAX_CELL, MAX_SPACING, median_distance, median_spacing, status_message
 from conftest import sphere_with_arm
 
 # test_gradients' small grid (its compilation): 8 coarse cells per axis, refined once

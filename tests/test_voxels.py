@@ -3,7 +3,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from jaxpose import baselines, voxels
+from jaxpose import baselines
+from jaxpose.occupancy import voxels
 from jaxpose.errors import InvalidInputError, OpenMeshWarning
 
 

@@ -6,10 +6,11 @@ import time
 import pytest
 
 import jaxpose
-from jaxpose import batch, cli
-from jaxpose.task import NormalizeOptions
+from jaxpose.batch import batch
+from jaxpose import cli
+from jaxpose.batch.task import NormalizeOptions
 from jaxpose._validate import InvalidInputError
-from jaxpose.workers import DaskExecutor, LocalExecutor, TaskTimeout, WorkerLost, local_cluster
+from jaxpose.batch.workers import DaskExecutor, LocalExecutor, TaskTimeout, WorkerLost, local_cluster
 
 from conftest import write_mesh_tree
 
@@ -151,8 +152,8 @@ def _die():
 
 
 def test_worker_environment_one_blas_thread_and_the_compilation_cache(tmp_path, monkeypatch):
-    from jaxpose import cache
-    from jaxpose.workers import process_environment
+    from jaxpose.batch import cache
+    from jaxpose.batch.workers import process_environment
 
     for name in ("JAX_COMPILATION_CACHE_DIR", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
         monkeypatch.delenv(name, raising=False)

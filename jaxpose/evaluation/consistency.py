@@ -16,7 +16,7 @@ them. For one class and one method with centers :math:`c_1..c_n` (3-vectors) and
 All are in the units of the meshes (the procedural dataset has largest extent ~1 per object).
 A summary value is the plain average of the per-class values over classes.
 
-Methods: the named estimators of :mod:`jaxpose.estimators` (the robust default, the paper's
+Methods: the named estimators of :mod:`jaxpose.pose.estimators` (the robust default, the paper's
 ``ocsvm``, the surface centroid, vertex mean, bounding box, minimum ball, the closed-form solid with
 its gyration radius or sqrt(area), the depth-weighted voxel solid), each on every input variant of
 :mod:`jaxpose.evaluation.variants` (plain, outliers, big_outliers, points, holes).
@@ -52,7 +52,7 @@ def _sample(mesh, count, seed):
 def _ocsvm(points_list, gamma, nu, options):
     """Centers (n, 3), scales (n,) and solver convergence flags of jaxpose.normalize per point set
     (a loop: one compilation for equal point counts)."""
-    from ..pose import normalize
+    from ..pose.pose import normalize
 
     poses = [normalize(p, gamma=gamma, nu=nu, **options) for p in points_list]
     centers = np.stack([np.asarray(p.center, dtype=np.float64).reshape(3) for p in poses])
@@ -70,7 +70,7 @@ def _check_classes(classes):
 
 
 def _check_methods(methods):
-    from ..estimators import METHODS as NAMED
+    from ..pose.estimators import METHODS as NAMED
 
     methods = METHODS if methods is None else tuple(methods)
     if not methods:
@@ -108,7 +108,7 @@ def reference_method(variant):
 
 def _evaluate_class(meshes, methods, options, seconds):
     """{method: cell} for one class (one variant): the spreads, or the error a method raised."""
-    from ..estimators import estimate_many
+    from ..pose.estimators import estimate_many
 
     poses = {m: [] for m in methods}
     opened = 0
@@ -137,7 +137,7 @@ def _evaluate_class(meshes, methods, options, seconds):
 def _warm_up(mesh, methods, options, first):
     """Each method once on one object, timed into `first` {method: seconds}: the first call, which
     compiles what JAX compiles, kept apart from the run times."""
-    from ..estimators import estimate_many
+    from ..pose.estimators import estimate_many
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", OpenMeshWarning)
@@ -173,7 +173,7 @@ def evaluate(classes, gamma=47.0, nu=0.5, methods=None, count=2000, seed=0, alig
       classes: {class name: [Trimesh, ...]} (at least 2 per class), e.g.
         :func:`jaxpose.datasets.make_dataset` or :func:`jaxpose.datasets.load_folder`.
       gamma, nu, normalize_options: for ``ocsvm`` (:func:`jaxpose.normalize`).
-      methods: names of :data:`jaxpose.estimators.METHODS`, optionally ``"name:power"`` for the
+      methods: names of :data:`jaxpose.pose.estimators.METHODS`, optionally ``"name:power"`` for the
         depth exponent (default :data:`METHODS`: every estimator, the depth-weighted solid at
         powers 2 and 4).
       count, seed: surface samples per mesh for ``ocsvm``; ``seed`` also seeds the variants.

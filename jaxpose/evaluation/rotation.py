@@ -106,13 +106,13 @@ def evaluate_rotation(classes, methods=None, variants=("plain",), align_core=Fal
 
     Args:
       classes: {class name: [Trimesh, ...]} (at least 2 per class).
-      methods: names of :data:`jaxpose.rotation.ROTATIONS` (default: all of them).
+      methods: names of :data:`jaxpose.rotation.rotation.ROTATIONS` (default: all of them).
       variants: names of :data:`jaxpose.evaluation.variants.VARIANTS`, made from the aligned meshes.
       align_core: first rigidly align each class (:func:`jaxpose.evaluation.align_core`).
       seed: seeds the variants (and the OCSVM samples).
       progress: optional callable(done, total, message).
       frames: also return each instance's rotation (``per_class[...][method]["rotations"]``).
-      options: for :func:`jaxpose.rotation.frame_of` (``resolution``; ``ocsvm`` dict).
+      options: for :func:`jaxpose.rotation.rotation.frame_of` (``resolution``; ``ocsvm`` dict).
 
     Returns:
       ``{"params", "variants": {variant: {"summary": [row, ...], "per_class": {class: {method:
@@ -124,7 +124,7 @@ def evaluate_rotation(classes, methods=None, variants=("plain",), align_core=Fal
       where a method does not apply (with ``error``). A cell holds the per-instance ``raw``,
       ``sign_free`` angles and ``ambiguity``.
     """
-    from ..rotation import ROTATIONS, frame_of, frame_solid
+    from ..rotation.rotation import ROTATIONS, frame_of, frame_solid
     from .. import baselines
 
     if not isinstance(classes, dict) or not classes or any(len(m) < 2 for m in classes.values()):

@@ -1,0 +1,440 @@
+"""Normalize many files: inputs -> outputs that mirror their tree, plus a transforms table.
+
+The work of one file is :func:`jaxpose.batch.task.normalize_file`, a pure function of (path, options,
+format) that returns the pose and the encoded output; it runs in local worker processes (``workers``; one
+worker runs in a thread of this process), or on a dask.distributed cluster (``scheduler`` or
+``dask_local``; the optional extra ``pip install jaxpose[dask]``), with the same results. Results
+stream back as they complete; only this process writes: each output atomically
+(:mod:`jaxpose.io.atomic`), then one journal line (:mod:`jaxpose.batch.journal`). The transforms table
+(:mod:`jaxpose.batch.transforms`) is rebuilt from the journal when the run ends, fails fast or is
+interrupted. A rerun skips the inputs whose output exists and whose record matches the input's
+size and modification time (or SHA-256 with ``check="hash"``) and the options; failed inputs are
+tried again. A bad input is recorded (status ``failed``, its error) and logged, and the run goes
+on. Worker processes (:mod:`jaxpose.batch.workers`) compile what JAX needs once each and reuse it for
+every file, with the persistent compilation cache (:mod:`jaxpose.batch.cache`).
+
+The table is the record of how to invert every output in the folder: besides this run's inputs,
+it keeps the rows of earlier runs into the same folder whose outputs are still there. ``shard``
+takes the inputs of one of N shards (:func:`jaxpose.batch.inputs.shard_index`), for N machines; their
+tables together are the unsharded table (:func:`jaxpose.read_transforms` reads several).
+"""
+from __future__ import annotations
+
+import hashlib
+import logging
+import numbers
+import os
+import stat
+import time
+from pathlib import Path
+from typing import NamedTuple
+
+from ..errors import InvalidInputError
+from .task import FileResult, NormalizeOptions, normalize_file, one_line, sha256_file
+
+__all__ = ["CHECKS", "NormalizeOptions", "BatchResult", "normalize_files", "run_batch"]
+
+log = logging.getLogger(__name__)
+CHECKS = ("mtime", "hash")
+
+
+# --------------------------------------------------------------------------- many files
+class BatchResult(NamedTuple):
+    """What :func:`run_batch` did.
+
+    Attributes:
+      rows: the table (:class:`jaxpose.batch.transforms.Transform`), one row per input reached, in input order.
+      table: where the table was written.
+      written: inputs normalized by this run; skipped: inputs an earlier run had done; failed:
+        inputs that failed in this run; stopped: True when ``fail_fast`` ended the run early.
+      seconds: wall time of the run.
+      peak_mb: {worker: its peak resident memory, MiB} over this run's inputs.
+    """
+
+    rows: list
+    table: Path
+    written: int
+    skipped: int
+    failed: int
+    stopped: bool
+    seconds: float
+    peak_mb: dict
+
+
+def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, table=None, workers=None,
+              scheduler=None, dask_local=None, check="mtime", fail_fast=False, force=False,
+              progress=None, shard=None, timeout=None) -> BatchResult:
+    """Normalize files, folders and manifests into `output_dir`; see :func:`normalize_files`."""
+    from . import transforms
+    from ..io.atomic import check_folder_writable, remove_temporaries
+    from .inputs import check_shard, find_inputs, plan_outputs, shard_index
+    from .journal import open_output_folder, shard_name
+    from ..mesh import OUTPUT_FORMATS
+    from ..io.remote import RemotePath, location
+
+    start = time.perf_counter()
+    options = NormalizeOptions() if options is None else options
+    if not isinstance(options, NormalizeOptions):
+        raise InvalidInputError(f"options must be a NormalizeOptions, got {type(options).__name__}")
+    executor_args = _check_run(workers, scheduler, dask_local, timeout)
+    if check not in CHECKS:
+        raise InvalidInputError(f"check must be one of {', '.join(CHECKS)}; got {check!r}")
+    if file_format is not None:
+        file_format = str(file_format).lower().lstrip(".")
+        if file_format not in OUTPUT_FORMATS:
+            raise InvalidInputError(f"format must be one of {', '.join(OUTPUT_FORMATS)}; got {file_format!r}")
+    shard = check_shard(shard)
+    output_dir = location(output_dir)
+    if table is None:
+        name = transforms.default_table_name()
+        if shard is not None:
+            stem, _, suffix = name.rpartition(".")
+            name = f"{stem}.{shard_name(shard)}.{suffix}"
+        table = output_dir / name
+    table = location(table)
+    transforms.table_format(table)
+    found = find_inputs(inputs, glob=glob, exclude=[output_dir])
+    given = [inputs] if isinstance(inputs, (str, os.PathLike)) else list(inputs)
+    items = plan_outputs(found.files, found.root, output_dir, file_format=file_format, table=table, given=given)
+    if shard is not None:  # after the checks of the whole plan: every shard refuses alike
+        items = [item for item in items if shard_index(item.source.relative_to(found.root), shard[1]) == shard[0]]
+    fingerprint = options.fingerprint(file_format)
+    fixed = options.columns()
+    with open_output_folder(output_dir, force=force, shard=shard) as folder:
+        if not isinstance(table, RemotePath):
+            check_folder_writable(table.parent, what="table")
+            remove_temporaries(table)
+        folder.remove_temporaries(None if shard is None else [item.output for item in items])
+        entries = folder.entries()
+        if not force:
+            _refuse_overwriting_others(items, entries)
+        pairs = {(r["input"], r.get("output") or ""): r for r in entries}
+        todo, skipped = [], 0
+        for item in items:
+            key = _input_key(item.source, check)
+            record = pairs.get((str(item.source), str(item.output)))
+            if not force and _is_done(record, key, fingerprint, item.output):
+                skipped += 1
+            else:
+                todo.append((item, key))
+        run = _Run(folder, fixed, fingerprint, fail_fast, progress, len(todo))
+        try:
+            work = []
+            for item, key in todo:  # what a folder search met that is not a file: failed unread
+                if item.source in found.irregular:
+                    run.finish(item, key, _not_regular(item.source, found.irregular[item.source]))
+                else:
+                    work.append((item, key))
+            if work and not run.stopped:
+                run.execute(work, executor_args, file_format, options, check, resumed=bool(entries))
+        finally:  # also on KeyboardInterrupt: the table holds every finished input
+            rows = table_rows(items, folder.entries(), folder.exists)
+            write_file(table, transforms.write_transforms(rows, table, rotation=bool(options.rotation_method) or None))
+    return BatchResult([transforms.Transform.from_record(r) for r in rows], table, run.written, skipped, run.failed, run.stopped,
+                       time.perf_counter() - start, run.peak_mb)
+
+
+def normalize_files(inputs, output_dir, options=None, **kwargs) -> list:
+    """Normalize every mesh of files, folders and manifests; outputs mirror the inputs' tree.
+
+    Options of :class:`NormalizeOptions` may also be given by name (``method="ocsvm"``), the
+    run's below; an unknown name raises :class:`InvalidInputError`.
+
+    Args:
+      inputs: a path or paths: mesh files, folders (searched recursively for
+        :data:`jaxpose.batch.inputs.MESH_SUFFIXES`) and manifests (``.txt`` / ``.csv`` lists of paths);
+        fsspec URLs too (``"s3://bucket/scans/"``; :mod:`jaxpose.io.remote`, ``jaxpose[remote]``).
+      output_dir: the output folder, a path or an fsspec URL (made when missing; refused when
+        another run holds it, or when it holds files jaxpose did not write, unless ``force``).
+      options: :class:`NormalizeOptions` (method, gamma, ..., rotation); default the defaults.
+      glob: narrows folder searches (``"pose_*.ply"``, ``"kid_*/pose_0?.ply"``).
+      file_format: output format for all (``"ply"``); default each input's.
+      table: the transforms table's path or URL (``.parquet`` or ``.csv``); default
+        ``output_dir/transforms.parquet`` (``.csv`` without pyarrow).
+      workers: local worker processes (default: the cores available; 1 runs in this process).
+      scheduler: a dask.distributed scheduler address (``"tcp://host:8786"``) to run on instead; its
+        workers must see the input and the output paths' parent folders are only used here.
+      dask_local: run on a new dask ``LocalCluster`` of this many worker processes instead.
+      check: how a rerun recognizes an unchanged input: ``"mtime"`` (size and modification time,
+        default) or ``"hash"`` (SHA-256 of its bytes).
+      fail_fast: stop at the first failed input.
+      force: redo every input, and write into a folder jaxpose did not make.
+      progress: a progress bar on stderr (rate, ETA): True, False, or None (only on a terminal).
+      shard: (index, count): only the inputs of shard `index` of `count` (0 <= index < count), by
+        a stable hash of each input's path relative to the inputs' root, so that `count` machines
+        given the same arguments take every input once. The table defaults to
+        ``transforms.shard-I-of-N.parquet``; the shards' tables together are the whole table
+        (``jaxpose.read_transforms([...])`` or ``read_transforms(output_dir)``).
+      timeout: seconds an input may take in its worker (reading, normalizing, encoding); past
+        them the worker process is killed and replaced, and the input recorded as failed. The
+        work then runs in worker processes even with ``workers=1``; local runs only. The first
+        input of each worker includes compiling (seconds for ``ocsvm``): leave room for it.
+
+    Returns:
+      The transforms table: a list of :class:`jaxpose.batch.transforms.Transform`, one per input, in order
+      (also written to ``table``; failed inputs have ``status == "failed"`` and their ``error``),
+      then the rows of earlier runs into `output_dir` whose outputs are still there.
+
+    Raises:
+      InvalidInputError: bad arguments, missing INPUTs, aliasing outputs, an unusable output folder,
+        an output that an earlier run wrote from another input (unless `force`) (all before any work).
+      jaxpose.batch.journal.FolderBusyError: another run is writing to `output_dir`.
+
+    Example::
+
+        >>> rows = jaxpose.normalize_files("scans/", "normalized/", workers=4)
+        >>> [r.input for r in rows if not r.ok]                  # what failed, with r.error
+    """
+    import dataclasses
+    import inspect
+
+    fields = {f.name for f in dataclasses.fields(NormalizeOptions)}
+    runs = set(inspect.signature(run_batch).parameters) - {"inputs", "output_dir", "options"}
+    unknown = sorted(set(kwargs) - fields - runs)
+    if unknown:
+        raise InvalidInputError(f"unknown argument{'s' if len(unknown) > 1 else ''} {', '.join(unknown)}; "
+                                f"valid: {', '.join(sorted(fields | runs))}")
+    named = {k: kwargs.pop(k) for k in list(kwargs) if k in fields}
+    if named and options is not None:
+        raise InvalidInputError(f"give options either as NormalizeOptions or by name ({', '.join(named)}), not both")
+    return run_batch(inputs, output_dir, NormalizeOptions(**named) if named else options, **kwargs).rows
+
+
+def _count(value, name, minimum):
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
+        raise InvalidInputError(f"{name} must be an int >= {minimum}, got {value!r}")
+    return int(value)
+
+
+def _check_run(workers, scheduler, dask_local, timeout=None):
+    from .workers import default_workers
+
+    if timeout is not None:
+        if isinstance(timeout, bool) or not isinstance(timeout, numbers.Real) or not 0 < timeout < float("inf"):
+            raise InvalidInputError(f"timeout must be a number of seconds > 0, got {timeout!r}")
+        if scheduler is not None or dask_local is not None:
+            raise InvalidInputError("timeout (--timeout) is for local runs: Dask cannot stop a running task")
+        timeout = float(timeout)
+    if scheduler is not None and dask_local is not None:
+        raise InvalidInputError("give either scheduler (--scheduler) or dask_local (--dask-local), not both")
+    if scheduler is not None or dask_local is not None:
+        from .workers import _distributed
+
+        _distributed()  # not installed: refused here, before OUTDIR, its journal or its table is touched
+    if dask_local is not None:
+        dask_local = _count(dask_local, "dask_local", 1)
+    if scheduler is not None and not (isinstance(scheduler, str) and scheduler):
+        raise InvalidInputError(f"scheduler must be an address such as 'tcp://host:8786', got {scheduler!r}")
+    if workers is not None:
+        if scheduler is not None or dask_local is not None:
+            raise InvalidInputError("workers (--workers) is for local runs; a Dask cluster brings its own")
+        workers = _count(workers, "workers", 1)
+    return {"workers": workers or default_workers(), "scheduler": scheduler, "dask_local": dask_local,
+            "timeout": timeout}
+
+
+def write_file(path, data):
+    """Write bytes to a local path atomically (:func:`jaxpose.io.atomic.write_atomic`), or to a
+    remote one in one PUT; replaces what is there."""
+    from ..io.atomic import write_atomic
+    from ..io.remote import RemotePath
+
+    if isinstance(path, RemotePath):
+        return path.write_bytes(data)
+    return write_atomic(path, data, force=True)
+
+
+def _input_key(path, check):
+    """Size, modification time (and SHA-256) of a regular file now; None for others (never opened
+    here: a FIFO would block)."""
+    from ..io.remote import RemotePath, modified_ns
+
+    key = {"input_size": None, "input_mtime_ns": None, "input_sha256": ""}
+    if isinstance(path, RemotePath):
+        try:
+            info = path.info()
+            key.update(input_size=info["size"], input_mtime_ns=modified_ns(info))
+            if check == "hash":
+                key["input_sha256"] = hashlib.sha256(path.read_bytes()).hexdigest()
+        except Exception:  # missing or unreadable: not done; its read says why
+            key["input_size"] = None
+        return key
+    try:
+        info = os.stat(path)
+    except OSError:
+        return key
+    if stat.S_ISREG(info.st_mode):
+        key.update(input_size=info.st_size, input_mtime_ns=info.st_mtime_ns)
+        if check == "hash":
+            try:
+                key["input_sha256"] = sha256_file(path)
+            except OSError:
+                key["input_size"] = None  # unreadable: not done; its read says why
+    return key
+
+
+def _not_regular(path, kind):
+    return _failed(f"{path}: {kind}, not a regular file: a folder search reads regular files only "
+                   "(name it as an INPUT to read it)")
+
+
+def _refuse_overwriting_others(items, entries):
+    """Refuse (before any work) to replace an output that an earlier run wrote from another input."""
+    owners = {r["output"]: r["input"] for r in entries if r.get("status") == "ok" and r.get("output")}
+    for item in items:
+        owner = owners.get(str(item.output))
+        if owner is not None and owner != str(item.source) and item.output.exists():
+            raise InvalidInputError(f"{item.output} holds the output of {owner} (an earlier run into this folder), "
+                                    f"not of {item.source}; use another output folder, or --force / force=True "
+                                    "to replace it")
+
+
+def _is_done(record, key, fingerprint, output):
+    if not record or record.get("status") != "ok" or record.get("options") != fingerprint:
+        return False
+    if record.get("output") != str(output) or not output.exists() or key["input_size"] is None:
+        return False
+    fields = ("input_size", "input_sha256") if key["input_sha256"] else ("input_size", "input_mtime_ns")
+    return all(record.get(f) == key[f] for f in fields)
+
+
+def table_rows(items, entries, exists=os.path.exists) -> list:
+    """The table of a run: a row for every output in the folder, and one for each failed input.
+
+    Args:
+      items: this run's inputs and outputs (:class:`jaxpose.batch.inputs.Item`), in order.
+      entries: the journal's last record of each (input, output) pair, in the order written
+        (:meth:`jaxpose.batch.journal.OutputFolder.entries`).
+      exists: whether an output (a record's path) is there.
+
+    Returns:
+      The records: first, for each input of this run, the row of its output (when that is there)
+      and its failed row (when its latest attempt failed); then the rows of every other output
+      still there that earlier runs wrote, in the order written. An output's row is the latest
+      ok record that names it, so every output in the folder has the row that inverts it, even
+      when its input has since been written elsewhere, changed, or failed.
+    """
+    owner = {}
+    for i, record in enumerate(entries):  # the latest record to name an output owns it
+        if record.get("status") == "ok" and record.get("output"):
+            owner[record["output"]] = i
+    live = {i for output, i in owner.items() if exists(output)}
+    latest = {record["input"]: i for i, record in enumerate(entries)}
+    pairs = {(record["input"], record.get("output") or ""): i for i, record in enumerate(entries)}
+    chosen = []
+    for item in items:
+        name = str(item.source)
+        mine = pairs.get((name, str(item.output)))
+        if mine in live:
+            chosen.append(mine)
+        last = latest.get(name)
+        if last is not None and entries[last].get("status") != "ok":
+            chosen.append(last)
+    taken = set(chosen)
+    chosen += [i for i in sorted(live) if i not in taken]
+    return [entries[i] for i in chosen]
+
+
+def _is_regular(path):
+    try:
+        return stat.S_ISREG(os.stat(path).st_mode)
+    except OSError:
+        return False
+
+
+def _failed(error):
+    from .. import __version__
+
+    return FileResult({"status": "failed", "error": error, "version": __version__}, None)
+
+
+class _Run:
+    """The waiting loop of one run: submit a window of tasks, write each result as it arrives."""
+
+    def __init__(self, folder, fixed, fingerprint, fail_fast, progress, total):
+        self.folder, self.fixed, self.fingerprint, self.fail_fast = folder, fixed, fingerprint, fail_fast
+        self.progress, self.total = progress, total
+        self.written = self.failed = 0
+        self.stopped = False
+        self.peak_mb = {}
+
+    def execute(self, todo, executor_args, file_format, options, check, resumed=False):
+        from tqdm import tqdm
+
+        from .workers import DaskExecutor, LocalExecutor, TaskTimeout, WorkerLost, runs_like_a_worker
+
+        if executor_args["scheduler"] is not None or executor_args["dask_local"] is not None:
+            executor = DaskExecutor(executor_args["scheduler"], executor_args["dask_local"])
+        else:
+            # the first input in this process while the workers start, where that is safe: a regular
+            # file (it cannot block), the workers' numerics, and a fresh folder (an input that crashed
+            # the run takes a worker process on the rerun)
+            head_start = not resumed and runs_like_a_worker() and _is_regular(todo[0][0].source)
+            executor = LocalExecutor(min(executor_args["workers"], len(todo)), timeout=executor_args["timeout"],
+                                     head_start=head_start)
+        bar = tqdm(total=len(todo), unit="file", desc="normalize", dynamic_ncols=True, smoothing=0.05,
+                   disable=None if self.progress is None else not self.progress)
+        queue, pending, retried = list(reversed(todo)), {}, set()
+        window = 2 * executor.workers
+        try:
+            while queue or pending:
+                while queue and len(pending) < window and not self.stopped:
+                    item, key = queue.pop()
+                    future = executor.submit(normalize_file, str(item.source), options, file_format, check)
+                    pending[future] = (item, key)
+                if not pending:
+                    break
+                for future in executor.wait(pending):
+                    item, key = pending.pop(future)
+                    try:
+                        result = executor.result(future)
+                    except WorkerLost as exc:  # its worker died (the others go on): once more, then record
+                        if item.source not in retried:
+                            retried.add(item.source)
+                            queue.append((item, key))
+                            continue
+                        result = _failed(f"{exc}; tried twice")
+                    except TaskTimeout as exc:
+                        result = _failed(str(exc))
+                    except Exception as exc:  # the task itself broke (not the input): recorded as well
+                        result = _failed(one_line(exc))
+                    self.finish(item, key, result)
+                    bar.update(1)
+                    if self.failed:
+                        bar.set_postfix_str(f"{self.failed} failed", refresh=False)
+                if self.stopped:
+                    break
+            executor.close(kill=self.stopped)
+        except BaseException:
+            executor.close(kill=True)
+            raise
+        finally:
+            bar.close()
+
+    def finish(self, item, key, result):
+        """Write one input's output (when it has one) and append its record."""
+        from .interrupts import deferred
+
+        with deferred():  # an output and its journal line, both or (on a signal before) neither
+            self._write_and_record(item, key, result)
+
+    def _write_and_record(self, item, key, result):
+        record = {**key, **{k: v for k, v in result.record.items() if k != "matrix"}}  # the worker's read wins
+        record.update(self.fixed, input=str(item.source), output="", options=self.fingerprint)
+        if record["status"] == "ok":
+            try:
+                item.output.parent.mkdir(parents=True, exist_ok=True)
+                write_file(item.output, result.data)
+                record["output"] = str(item.output)
+            except Exception as exc:  # OSError here; a remote store has errors of its own
+                record.update(status="failed", error=f"cannot write {item.output}: {one_line(exc)}")
+        if record["status"] == "ok":
+            self.written += 1
+        else:
+            self.failed += 1
+            error = record["error"]
+            log.warning("%s", error if error.startswith(str(item.source)) else f"{item.source}: {error}")
+            self.stopped = self.fail_fast
+        if record.get("worker") and record.get("worker_peak_mb") is not None:
+            self.peak_mb[record["worker"]] = max(self.peak_mb.get(record["worker"], 0.0), record["worker_peak_mb"])
+        self.folder.append(record)

@@ -1,0 +1,296 @@
+"""The inputs of a batch run: files, folders and manifests -> (input, output) pairs, checked.
+
+An INPUT is a mesh file, a folder (searched recursively for :data:`MESH_SUFFIXES`, hidden files
+and folders skipped, narrowed by a glob) or a manifest (:data:`MANIFEST_SUFFIXES`: one path per
+line, ``#`` comments; or a CSV whose ``path`` / ``input`` column, else first column, holds them;
+relative paths are relative to the manifest). Outputs mirror the inputs' tree: each input's path
+relative to the deepest folder common to all inputs (a folder INPUT counts as that folder, a file
+or a manifest's entry as the file's folder: one folder INPUT is its own root, several folders
+keep their names), under the output folder, with the input's format or the one asked for.
+
+A folder search takes regular files (and links to them); other files it meets (FIFOs, sockets,
+devices, links to them) are returned apart, to be recorded as failed without being opened, and
+links to folders are not followed (a link loop cannot trap it). A file named as an INPUT or in a
+manifest is read whatever it is (a FIFO delivers a stream; ``--timeout`` bounds the wait).
+
+:func:`shard_index` splits inputs among N machines by a stable hash of their relative path.
+"""
+from __future__ import annotations
+
+import csv
+import fnmatch
+import hashlib
+import os
+import posixpath
+import stat
+from pathlib import Path
+from typing import NamedTuple
+
+from .._validate import InvalidInputError
+from ..io.remote import RemotePath, is_url, location
+
+__all__ = ["MESH_SUFFIXES", "MANIFEST_SUFFIXES", "Item", "Found", "find_inputs", "plan_outputs", "is_batch_input",
+           "shard_index", "check_shard", "file_kind"]
+
+MESH_SUFFIXES = (".ply", ".obj", ".off", ".stl", ".glb", ".gltf", ".xyz")
+MANIFEST_SUFFIXES = (".txt", ".csv", ".lst", ".list")
+
+
+class Item(NamedTuple):
+    """One input file and where its output goes.
+
+    Attributes:
+      source: the input file, absolute (it may be missing: a manifest's entry; it then fails).
+      output: the output file, absolute (None until :func:`plan_outputs`).
+    """
+
+    source: Path | RemotePath
+    output: Path | RemotePath | None = None
+
+
+class Found(NamedTuple):
+    """What :func:`find_inputs` found.
+
+    Attributes:
+      files: absolute input paths (sorted within each folder; manifest order kept), no repeats.
+      root: the common folder their outputs are mirrored from.
+      irregular: {path: what it is ("a FIFO", ...)} for the files of `files` that a folder search
+        met and that are not regular files: they fail without being opened.
+    """
+
+    files: list
+    root: Path
+    irregular: dict
+
+
+def file_kind(mode) -> str:
+    """What a file mode stands for, in words: "a regular file", "a FIFO", "a socket", ..."""
+    for test, name in ((stat.S_ISREG, "a regular file"), (stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO"),
+                       (stat.S_ISSOCK, "a socket"), (stat.S_ISCHR, "a character device"),
+                       (stat.S_ISBLK, "a block device")):
+        if test(mode):
+            return name
+    return "not a regular file"
+
+
+def is_batch_input(path) -> bool:
+    """Whether a command-line INPUT is a folder or a manifest (not a single mesh file)."""
+    path = location(path)
+    return path.suffix.lower() in MANIFEST_SUFFIXES or path.is_dir()
+
+
+def find_inputs(inputs, glob=None, exclude=()) -> Found:
+    """The input files of files, folders and manifests, in a deterministic order, without repeats.
+
+    Args:
+      inputs: paths (str or Path) or URLs (:mod:`jaxpose.io.remote`) of files, folders and
+        manifests, all on one file system.
+      glob: narrows folder searches (fnmatch): matched against the file name, or, when it contains
+        ``/``, against the path relative to the searched folder, where ``*`` also spans folders
+        (``"kid_*/pose_0?.ply"``).
+      exclude: folders never searched (the output folder, when it lies inside an input folder).
+
+    Returns:
+      :class:`Found`: the files, their root and the irregular files met by folder searches.
+
+    Raises:
+      InvalidInputError: an INPUT that does not exist, an unreadable manifest, nothing found,
+        INPUTs on different file systems.
+    """
+    inputs = [inputs] if isinstance(inputs, (str, os.PathLike, RemotePath)) else list(inputs)
+    if not inputs:
+        raise InvalidInputError("no inputs given")
+    exclude = {identity(location(e)) for e in exclude}
+    files, roots, irregular = [], [], {}
+    for given in inputs:
+        path = location(given)
+        if isinstance(path, RemotePath) and path.is_dir():
+            roots.append(path)
+            files += _search_remote(path, glob, exclude)
+        elif path.is_dir():
+            roots.append(path)
+            files += _search(path, glob, exclude, irregular)
+        elif not path.exists():
+            raise InvalidInputError(f"no such file or folder: {given}")
+        elif path.suffix.lower() in MANIFEST_SUFFIXES:
+            listed = _read_manifest(path)
+            roots += [p.parent for p in listed]
+            files += listed
+        else:
+            roots.append(path.parent)
+            files.append(path)
+    seen, unique = set(), []
+    for path in files:
+        key = identity(path)
+        if key not in seen:
+            seen.add(key)
+            unique.append(path)
+    if not unique:
+        hint = f" matching {glob!r}" if glob else f" ({', '.join(MESH_SUFFIXES)})"
+        raise InvalidInputError(f"no mesh files found in {', '.join(map(str, inputs))}{hint}")
+    return Found(unique, _common_root(roots), {p: irregular[p] for p in unique if p in irregular})
+
+
+def identity(path) -> str:
+    """What makes two paths the same file: the real path of a local one, a remote one's URL."""
+    return str(path) if isinstance(path, RemotePath) else os.path.realpath(path)
+
+
+def _common_root(roots):
+    remote = [r for r in roots if isinstance(r, RemotePath)]
+    if not remote:
+        return Path(os.path.commonpath([str(r) for r in roots]))
+    if len(remote) < len(roots) or len({r.fs.protocol for r in remote}) > 1:
+        raise InvalidInputError("the INPUTs are on different file systems ("
+                                f"{', '.join(sorted({str(r).split('://')[0] if isinstance(r, RemotePath) else 'local' for r in roots}))}"
+                                "); give each its own run")
+    return RemotePath(remote[0].fs, posixpath.commonpath([r.path for r in remote]))
+
+
+def _search_remote(folder, glob, exclude):
+    """A folder search on a remote file system, in the order of the local one (each folder's
+    files sorted, then its sub-folders)."""
+    found = []
+    for name, info in folder.fs.find(folder.path, detail=True).items():
+        if info.get("type", "file") != "file":
+            continue
+        path = RemotePath(folder.fs, name)
+        relative = path.relative_to(folder)
+        if any(part.startswith(".") for part in relative.parts) or relative.suffix.lower() not in MESH_SUFFIXES:
+            continue
+        if any(identity(folder / Path(*relative.parts[:i])) in exclude for i in range(1, len(relative.parts))):
+            continue
+        if glob is None or _matches(relative, glob):
+            found.append((relative, path))
+    return [path for _, path in sorted(found, key=lambda pair: _walk_order(pair[0]))]
+
+
+def _walk_order(relative):
+    parts = relative.parts
+    return [(1, p) for p in parts[:-1]] + [(0, parts[-1])]
+
+
+def _search(folder, glob, exclude, irregular):
+    found = []
+    for here, dirs, names in os.walk(folder):  # links to folders are listed in dirs, not followed
+        dirs[:] = sorted(d for d in dirs if not d.startswith(".")
+                         and os.path.realpath(os.path.join(here, d)) not in exclude)
+        for name in sorted(names):
+            if name.startswith(".") or os.path.splitext(name)[1].lower() not in MESH_SUFFIXES:
+                continue
+            path = Path(here) / name
+            if glob is None or _matches(path.relative_to(folder), glob):
+                found.append(path)
+                try:
+                    mode = os.stat(path).st_mode
+                except OSError:  # a dangling link: it fails when read, saying so
+                    continue
+                if not stat.S_ISREG(mode):
+                    irregular[path] = file_kind(mode)
+    return found
+
+
+def _matches(relative, glob):
+    return fnmatch.fnmatch(relative.as_posix() if "/" in glob else relative.name, glob)
+
+
+def _read_manifest(path):
+    try:
+        text = path.read_bytes().decode("utf-8-sig")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InvalidInputError(f"{path}: cannot read the manifest: {exc}") from None
+    if path.suffix.lower() == ".csv":
+        rows = [r for r in csv.reader(text.splitlines()) if r and r[0].strip()]
+        column = 0
+        if rows:
+            header = [c.strip().lower() for c in rows[0]]
+            named = [header.index(n) for n in ("path", "input") if n in header]
+            if named:
+                column, rows = named[0], rows[1:]
+        entries = [r[column].strip() if column < len(r) else "" for r in rows]
+    else:
+        entries = [line.strip() for line in text.splitlines()]
+    entries = [e for e in entries if e and not e.startswith("#")]
+    if isinstance(path, RemotePath):  # relative to the manifest, on its file system
+        return [location(e) if is_url(e) else path.parent / e for e in entries]
+    return [location(e) if is_url(e) else Path(os.path.abspath(path.parent / Path(e).expanduser())) for e in entries]
+
+
+def plan_outputs(files, root, output_dir, file_format=None, table=None, given=()) -> list:
+    """Pair each input with its output under `output_dir`, refusing every kind of aliasing.
+
+    Args:
+      files, root: from :func:`find_inputs`.
+      output_dir: the output folder.
+      file_format: an output format for all (``"ply"``), or None to keep each input's.
+      table: the transforms table's path, checked against inputs and outputs too.
+      given: the INPUTs as given (manifests among them), which the table must not overwrite either.
+
+    Returns:
+      list of :class:`Item` with absolute outputs, in the order of `files`.
+
+    Raises:
+      InvalidInputError: two inputs with one output, an output that is an input, or a table that
+        is an input or an output (nothing has been written).
+    """
+    output_dir = location(output_dir)
+    items, owner = [], {}
+    sources = {identity(location(f)): f for f in [*given, *files]}
+    for source in files:
+        relative = source.relative_to(root)
+        output = output_dir / relative
+        if file_format:
+            output = output.with_suffix("." + file_format)
+        key = identity(output)
+        if key in owner:
+            raise InvalidInputError(f"{owner[key]} and {source} would both be written to {output}; "
+                                    "give them separate runs or output folders")
+        if key in sources:
+            raise InvalidInputError(f"{output} would overwrite its input; choose an output folder apart "
+                                    "from the inputs")
+        owner[key] = source
+        items.append(Item(source, output))
+    if table is not None:
+        key = identity(location(table))
+        if key in sources or key in owner:
+            raise InvalidInputError(f"the table {table} would overwrite "
+                                    f"{'an input' if key in sources else 'an output'}; name another file")
+    return items
+
+
+def check_shard(shard):
+    """`shard` as (index, count) of ints with 0 <= index < count; None stays None.
+
+    Raises:
+      InvalidInputError: anything else (with the expected form).
+    """
+    if shard is None:
+        return None
+    try:
+        index, count = shard
+        if any(isinstance(v, bool) or int(v) != v for v in (index, count)):
+            raise ValueError
+        index, count = int(index), int(count)
+    except (TypeError, ValueError):
+        raise InvalidInputError(f"shard must be (index, count), such as (0, 4); got {shard!r}") from None
+    if not 0 <= index < count:
+        raise InvalidInputError(f"shard must have 0 <= index < count (the shards of 4 are 0/4 ... 3/4); "
+                                f"got {index}/{count}")
+    return index, count
+
+
+def shard_index(relative, count) -> int:
+    """The shard (0 ... count - 1) of an input, from its path relative to the inputs' root.
+
+    A stable hash (the first 8 bytes of the SHA-256 of the path's bytes, ``/``-separated, as a
+    big-endian integer, modulo `count`), the same on every machine and Python process (unlike
+    ``hash``), so that N machines given the same INPUTs and ``--shard 0/N`` ... ``N-1/N`` take
+    every input exactly once.
+
+    Example::
+
+        >>> shard_index("kid_01/pose_03.ply", 4)
+        1
+    """
+    key = os.fsencode(Path(relative).as_posix())
+    return int.from_bytes(hashlib.sha256(key).digest()[:8], "big") % int(count)

@@ -1,0 +1,286 @@
+"""The state of a batch output folder across runs: an exclusive lock and an append-only journal.
+
+``OUTDIR/.jaxpose/`` holds ``lock`` (held with ``flock`` for the whole run, so a second run on the
+same folder is refused while the first is alive; the kernel releases it when a process dies, even
+by SIGKILL) and ``journal.jsonl``, one JSON line per finished input, appended with a single
+``write`` (a killed run leaves whole lines; a torn last line is ignored). The journal is what a
+rerun consults to skip finished inputs; the transforms table is rebuilt from it.
+
+A shard's run (``--shard I/N``, machines sharing one OUTDIR) has a journal and a lock of its own
+(``journal.shard-I-of-N.jsonl``, ``lock.shard-I-of-N``) and holds ``lock`` shared: shards run side
+by side, a second run of one shard is refused, and so is an unsharded run while shards run.
+
+An output folder on a remote file system (:mod:`jaxpose.io.remote`) is a :class:`RemoteOutputFolder`:
+object stores have neither locks nor appends, so it has no lock (two runs into one remote folder
+are not refused: give each its own folder, or its own shard) and its journal is one object per
+(input, output) pair under ``.jaxpose/records/``, each written whole in one PUT after the output.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import time
+from pathlib import Path
+
+from .._validate import InvalidInputError, JaxposeError
+from ..io.atomic import check_folder_writable, is_temporary
+
+__all__ = ["STATE_FOLDER", "OutputFolder", "RemoteOutputFolder", "open_output_folder", "FolderBusyError",
+           "shard_name"]
+
+STATE_FOLDER = ".jaxpose"
+
+
+class FolderBusyError(JaxposeError):
+    """Another run holds the output folder's lock."""
+
+
+def shard_name(shard) -> str:
+    """``"shard-I-of-N"`` for shard (I, N), ``""`` for None: the suffix of a shard's files."""
+    return "" if shard is None else f"shard-{shard[0]}-of-{shard[1]}"
+
+
+class OutputFolder:
+    """An output folder opened for one run: locked, with its journal. A context manager.
+
+    Args:
+      root: the output folder; created (with parents) when missing.
+      force: accept an existing, non-empty folder that no jaxpose run made.
+      shard: (index, count) for one shard's run (its own journal and lock), or None.
+
+    Raises:
+      FolderBusyError: another run holds the lock (message names its pid).
+      InvalidInputError: the folder is not writable, or (without `force`) it holds files but no
+        ``.jaxpose`` state, i.e. it was not made by jaxpose.
+
+    Example::
+
+        >>> with OutputFolder("normalized") as folder:
+        ...     done = folder.records()            # {input: last record}
+        ...     folder.append({"input": "/data/a.ply", "status": "ok"})
+    """
+
+    def __init__(self, root, force=False, shard=None):
+        self.root = Path(root)
+        self.state = self.root / STATE_FOLDER
+        self.force = force
+        self.shard = shard
+        suffix = f".{shard_name(shard)}" if shard is not None else ""
+        self.journal = self.state / f"journal{suffix}.jsonl"
+        self._shard_lock = self.state / f"lock{suffix}" if shard is not None else None
+        self._locks = []
+        self._journal = None
+
+    def __enter__(self):
+        if self.root.exists() and not self.root.is_dir():
+            raise InvalidInputError(f"output folder {self.root} is a file")
+        if not self.root.exists():
+            check_folder_writable(_existing_parent(self.root), what=f"output folder {self.root}: the parent")
+            self.root.mkdir(parents=True, exist_ok=True)
+        check_folder_writable(self.root, what="output")
+        if not self.state.is_dir() and any(self.root.iterdir()) and not self.force:
+            raise InvalidInputError(f"output folder {self.root} holds files that jaxpose did not write; "
+                                    "use an empty or new folder (or --force / force=True to write into it)")
+        self.state.mkdir(exist_ok=True)
+        try:
+            self._locks.append(_lock(self.state / "lock", shared=self.shard is not None))
+            if self._shard_lock is not None:
+                self._locks.append(_lock(self._shard_lock))
+            self._journal = os.open(self.journal, os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o666)
+        except BaseException:
+            self._release()
+            raise
+        return self
+
+    def __exit__(self, *exc):
+        self._release()
+        return False
+
+    def _release(self):
+        for fd in (self._journal, *self._locks):
+            if fd is not None:
+                os.close(fd)  # closing a lock file releases its lock
+        self._journal, self._locks = None, []
+
+    def records(self) -> dict:
+        """{input path: its last journal record} (dicts), ordered by those records (latest last)."""
+        return _latest_by_input(self.entries())
+
+    def entries(self) -> list:
+        """The last record of each (input, output) pair (a failed one has output ""), in the order
+        they were written (latest last); torn or foreign lines skipped."""
+        out = {}
+        try:
+            with open(self.journal, "rb") as handle:
+                for line in handle:
+                    try:
+                        record = json.loads(line)
+                    except ValueError:
+                        continue  # a line torn by a crash
+                    if isinstance(record, dict) and "input" in record:
+                        key = (record["input"], record.get("output") or "")
+                        out.pop(key, None)
+                        out[key] = record
+        except FileNotFoundError:
+            pass
+        return list(out.values())
+
+    def append(self, record: dict) -> None:
+        """Append one record as one JSON line, in one ``write`` call."""
+        line = (json.dumps(record, separators=(",", ":"), allow_nan=True) + "\n").encode("utf-8")
+        written = os.write(self._journal, line)
+        if written != len(line):  # a full disk: leave no half line to the next record
+            raise OSError(f"{self.journal}: short write ({written} of {len(line)} bytes)")
+
+    def remove_temporaries(self, targets=None) -> int:
+        """Remove the temporaries that killed runs left; returns how many.
+
+        Args:
+          targets: only those of these files (a shard's outputs: other shards may be writing
+            theirs); None: anywhere under the folder (this run holds it alone).
+        """
+        if targets is not None:
+            from ..io.atomic import remove_temporaries
+
+            return sum(remove_temporaries(t) for t in targets)
+        removed = 0
+        for folder, dirs, files in os.walk(self.root):
+            for name in files:
+                if is_temporary(name):
+                    try:
+                        os.unlink(os.path.join(folder, name))
+                        removed += 1
+                    except FileNotFoundError:
+                        pass
+        return removed
+
+
+    def exists(self, path) -> bool:
+        """Whether an output (a path in a record) is there."""
+        return os.path.exists(path)
+
+
+def open_output_folder(root, force=False, shard=None):
+    """:class:`OutputFolder` for a local folder, :class:`RemoteOutputFolder` for a remote one."""
+    from ..io.remote import RemotePath
+
+    kind = RemoteOutputFolder if isinstance(root, RemotePath) else OutputFolder
+    return kind(root, force=force, shard=shard)
+
+
+class RemoteOutputFolder:
+    """An output folder on a remote file system, opened for one run (a context manager), with the
+    interface of :class:`OutputFolder`: no lock; the journal is one JSON object per (input,
+    output) pair (``.jaxpose/records[.shard-I-of-N]/<sha256 of input NUL output>.json``), replaced
+    whole.
+
+    Args:
+      root: a :class:`jaxpose.io.remote.RemotePath`; force, shard: as :class:`OutputFolder`'s.
+
+    Raises:
+      InvalidInputError: the folder is a file, or (without `force`) holds files but no
+        ``.jaxpose`` state.
+    """
+
+    def __init__(self, root, force=False, shard=None):
+        self.root = root
+        self.state = root / STATE_FOLDER
+        self.force = force
+        self.shard = shard
+        self.journal = self.state / (f"records.{shard_name(shard)}" if shard is not None else "records")
+
+    def __enter__(self):
+        fs = self.root.fs
+        if self.root.is_file():
+            raise InvalidInputError(f"output folder {self.root} is a file")
+        if not self.force and not self.state.exists() and self.root.exists() and fs.ls(self.root.path):
+            raise InvalidInputError(f"output folder {self.root} holds files that jaxpose did not write; "
+                                    "use an empty or new folder (or --force / force=True to write into it)")
+        self.root.mkdir(parents=True, exist_ok=True)
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+    def records(self) -> dict:
+        """{input path: its last record}, ordered by those records (latest last)."""
+        return _latest_by_input(self.entries())
+
+    def entries(self) -> list:
+        """The last record of each (input, output) pair, in the order they were written."""
+        fs = self.root.fs
+        try:
+            names = [n for n in fs.find(self.journal.path) if n.endswith(".json")]
+        except FileNotFoundError:
+            return {}
+        found = []
+        for blob in (fs.cat(names).values() if names else ()):
+            try:
+                record = json.loads(blob)
+            except (ValueError, TypeError):
+                continue
+            if isinstance(record, dict) and "input" in record:
+                found.append(record)
+        found.sort(key=lambda r: r.get("written_ns", 0))
+        return found
+
+    def append(self, record: dict) -> None:
+        """Write the record of an (input, output) pair (replacing its earlier one) in one PUT."""
+        record = {**record, "written_ns": time.time_ns()}
+        pair = os.fsencode(record["input"]) + b"\0" + os.fsencode(record.get("output") or "")
+        name = hashlib.sha256(pair).hexdigest() + ".json"
+        line = json.dumps(record, separators=(",", ":"), allow_nan=True).encode("utf-8")
+        (self.journal / name).write_bytes(line)
+
+    def remove_temporaries(self, targets=None) -> int:
+        """Nothing to remove: remote outputs are written in one PUT, without temporaries."""
+        return 0
+
+    def exists(self, path) -> bool:
+        from ..io.remote import location
+
+        return location(path).exists()
+
+
+def _latest_by_input(entries):
+    out = {}
+    for record in entries:
+        out.pop(record["input"], None)
+        out[record["input"]] = record
+    return out
+
+
+def _existing_parent(path):
+    path = path.absolute()
+    while not path.exists() and path != path.parent:
+        path = path.parent
+    return path
+
+
+def _lock(path, shared=False):
+    """A non-blocking lock on `path`, exclusive or `shared` (held while the returned descriptor is
+    open); an exclusive holder writes its pid in the file, for the message of the next one."""
+    fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
+    try:
+        _try_lock(fd, shared)
+    except BlockingIOError:
+        try:
+            holder = os.pread(fd, 64, 0).decode("ascii", "replace").strip() or "unknown"
+        finally:
+            os.close(fd)
+        raise FolderBusyError(f"another jaxpose run (pid {holder}{', or shards' if path.name == 'lock' and not shared else ''}) is writing to "
+                              f"{path.parent.parent}; wait for it to finish or use another output folder") from None
+    except BaseException:
+        os.close(fd)
+        raise
+    if not shared:
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"{os.getpid()}\n".encode("ascii"), 0)
+    return fd
+
+
+def _try_lock(fd, shared):
+    import fcntl  # POSIX (Linux, macOS)
+
+    fcntl.flock(fd, (fcntl.LOCK_SH if shared else fcntl.LOCK_EX) | fcntl.LOCK_NB)

@@ -1,0 +1,259 @@
+"""Local worker processes that are stopped one at a time: a task past its time limit, or a worker
+killed from outside, costs that task alone while the other workers go on.
+
+Each worker is a fresh Python interpreter started with ``python -c`` (not :mod:`multiprocessing`'s
+spawn), so the caller's ``__main__`` is never imported again in it: a plain script without
+``if __name__ == "__main__":`` may use the pool. A worker runs one task at a time: the function
+and its arguments (pickled) arrive on a pipe, the result (or the exception it raised) goes back on
+another. The pool keeps the queue: a task is sent when a worker is free, and its clock starts
+then. A worker is in a process group of its own (a terminal's Ctrl-C reaches the parent only,
+which stops the workers), and on Linux it dies with the parent, even when that is killed by SIGKILL.
+
+Example::
+
+    >>> pool = ProcessPool(2, timeout=60.0)
+    >>> future = pool.submit(abs, -3)
+    >>> while not pool.wait({future}): pass
+    >>> pool.result(future)
+    3
+    >>> pool.close()
+"""
+from __future__ import annotations
+
+import collections
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from multiprocessing.connection import Connection, wait as wait_for
+
+__all__ = ["ProcessPool", "WorkerLost", "TaskTimeout", "POLL_S"]
+
+POLL_S = 0.5  # wait() returns at least this often, so the caller stays responsive to interrupts
+
+# the worker's first lines: the caller's import path, then this module's loop
+_BOOT = ("import sys, json; sys.path[:] = json.loads(sys.argv[1]); "
+         "from jaxpose.batch.pool import _serve; _serve(*map(int, sys.argv[2:5]))")
+
+
+class WorkerLost(Exception):
+    """The process running a task died (out of memory, killed from outside, a native crash)."""
+
+
+class TaskTimeout(Exception):
+    """A task ran past the pool's time limit; its worker was killed (and is replaced)."""
+
+
+class _Future:
+    """A task's outcome: ``done()``, then ``value`` or ``error``."""
+
+    __slots__ = ("value", "error", "finished")
+
+    def __init__(self):
+        self.value = self.error = None
+        self.finished = False
+
+    def done(self) -> bool:
+        return self.finished
+
+    def _set(self, value=None, error=None):
+        self.value, self.error, self.finished = value, error, True
+
+
+class _Worker:
+    """One worker process and its two pipes (tasks in, results out)."""
+
+    def __init__(self, environment):
+        task_read, task_write = os.pipe()
+        result_read, result_write = os.pipe()
+        try:
+            self.process = subprocess.Popen(
+                [sys.executable, "-c", _BOOT, json.dumps(sys.path), str(task_read), str(result_write),
+                 str(os.getpid())],
+                stdin=subprocess.DEVNULL, pass_fds=(task_read, result_write), env={**os.environ, **environment},
+                process_group=0)
+        except BaseException:
+            for fd in (task_read, task_write, result_read, result_write):
+                os.close(fd)
+            raise
+        os.close(task_read)  # the worker's ends: with them closed here, a dead worker reads as EOF
+        os.close(result_write)
+        self.tasks = Connection(task_write, readable=False)
+        self.results = Connection(result_read, writable=False)
+
+    @property
+    def pid(self):
+        return self.process.pid
+
+    def death(self) -> str:
+        """How the process ended, in words (it is waited for)."""
+        try:
+            code = self.process.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            return "it stopped answering"
+        if code < 0:
+            try:
+                name = signal.Signals(-code).name
+            except ValueError:
+                name = f"signal {-code}"
+            return f"killed by {name}"
+        return f"exit status {code}"
+
+    def kill(self):
+        """Kill the process (if alive), wait for it and close the pipes."""
+        if self.process.poll() is None:
+            self.process.kill()
+        self.process.wait()
+        self.tasks.close()
+        self.results.close()
+
+
+class ProcessPool:
+    """`workers` worker processes, started as needed; tasks are queued here and run one per worker.
+
+    Args:
+      workers: how many processes at most.
+      environment: variables set in the workers' environment (on top of this process's).
+      timeout: seconds a task may run in its worker (from when the worker receives it); past it
+        the worker is killed and the task's ``result`` raises :class:`TaskTimeout`. None: no limit.
+
+    A worker that dies makes its task's ``result`` raise :class:`WorkerLost`; the other tasks are
+    not affected, and a new worker takes its place for the next task.
+    """
+
+    def __init__(self, workers, environment=None, timeout=None):
+        self.workers = int(workers)
+        self.timeout = timeout
+        self._environment = dict(environment or {})
+        self._idle = []
+        self._busy = {}  # worker -> (future, monotonic start)
+        self._queue = collections.deque()  # (future, fn, args) not yet sent
+
+    def submit(self, fn, *args) -> _Future:
+        """Queue ``fn(*args)`` (picklable, importable by name in a fresh interpreter)."""
+        future = _Future()
+        self._queue.append((future, fn, args))
+        self._dispatch()
+        return future
+
+    def _dispatch(self):
+        while self._queue and (self._idle or len(self._busy) < self.workers):
+            worker = self._idle.pop() if self._idle else _Worker(self._environment)
+            future, fn, args = self._queue.popleft()
+            try:
+                worker.tasks.send((fn, args))
+            except (OSError, EOFError):  # it died while idle: this task never started
+                worker.kill()
+                self._queue.appendleft((future, fn, args))
+                continue
+            self._busy[worker] = (future, time.monotonic())
+
+    def wait(self, pending, timeout=POLL_S) -> set:
+        """Wait up to `timeout` seconds for results; returns the finished futures among `pending`
+        (any object with ``done()``).
+
+        Also enforces the time limit (a worker past it is killed) and sends queued tasks to free
+        workers.
+        """
+        if self._busy:
+            delay = timeout
+            if self.timeout is not None:
+                now = time.monotonic()
+                delay = min(delay, max(0.0, min(start + self.timeout - now for _, start in self._busy.values())))
+            by_pipe = {worker.results: worker for worker in self._busy}
+            for pipe in wait_for(list(by_pipe), timeout=delay):
+                self._collect(by_pipe[pipe])
+            if self.timeout is not None:
+                now = time.monotonic()
+                for worker, (future, start) in list(self._busy.items()):
+                    if now - start >= self.timeout:
+                        del self._busy[worker]
+                        worker.kill()
+                        future._set(error=TaskTimeout(
+                            f"stopped after the time limit of {self.timeout:g} s (its worker, pid {worker.pid}, "
+                            "was killed)"))
+            self._dispatch()
+        else:
+            time.sleep(0 if any(f.done() for f in pending) else min(timeout, 0.05))
+        return {future for future in pending if future.done()}
+
+    def _collect(self, worker):
+        future, _ = self._busy.pop(worker)
+        try:
+            ok, value = worker.results.recv()
+        except (EOFError, OSError):  # the process died; a half-sent result reads as EOF too
+            how = worker.death()
+            worker.kill()
+            future._set(error=WorkerLost(f"its worker process (pid {worker.pid}) died while working on it: {how} "
+                                         "(out of memory, or killed from outside?)"))
+            return
+        future._set(value=value) if ok else future._set(error=value)
+        self._idle.append(worker)
+
+    def result(self, future):
+        """The task's return value; raises what it raised, or WorkerLost / TaskTimeout."""
+        if not future.done():
+            raise RuntimeError("result() of a task that has not finished")
+        if future.error is not None:
+            raise future.error
+        return future.value
+
+    @property
+    def pids(self) -> list:
+        """The process ids of the live workers (busy ones first)."""
+        return [w.pid for w in [*self._busy, *self._idle]]
+
+    def close(self, kill=False):
+        """Stop every worker: at once with `kill` (queued and running tasks are dropped), else when
+        their tasks are done (the caller has waited for them)."""
+        self._queue.clear()
+        workers = [*self._busy, *self._idle]
+        self._busy, self._idle = {}, []
+        if kill:
+            for worker in workers:
+                worker.kill()
+            return
+        for worker in workers:  # end of the task pipe: the worker's loop ends
+            worker.tasks.close()
+        for worker in workers:
+            try:
+                worker.process.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                pass
+            worker.kill()
+
+
+# --------------------------------------------------------------------------- in the worker
+def _serve(task_fd, result_fd, parent):
+    """The worker's loop: receive (fn, args), send (True, value) or (False, exception)."""
+    _die_with_parent(parent)
+    tasks = Connection(task_fd, writable=False)
+    results = Connection(result_fd, readable=False)
+    while True:
+        try:
+            fn, args = tasks.recv()
+        except EOFError:  # the pool closed this worker, or the parent is gone
+            return
+        try:
+            reply = (True, fn(*args))
+        except BaseException as exc:  # the task's own error is its result
+            reply = (False, exc)
+        try:
+            results.send(reply)
+        except Exception as exc:  # an exception or result that does not pickle
+            results.send((False, RuntimeError(f"{type(exc).__name__}: {exc} (sending {type(reply[1]).__name__})")))
+
+
+def _die_with_parent(parent):
+    """On Linux, SIGKILL this process when the parent dies (prctl PR_SET_PDEATHSIG)."""
+    if sys.platform.startswith("linux"):
+        import ctypes
+
+        try:
+            ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL))  # 1: PR_SET_PDEATHSIG
+        except (OSError, AttributeError):
+            pass
+    if os.getppid() != parent:  # the parent died before the line above
+        os._exit(0)

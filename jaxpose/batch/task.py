@@ -1,0 +1,259 @@
+"""One file's work in a batch: read, normalize, encode, as a pure function of its arguments.
+
+:class:`NormalizeOptions` holds how each file is normalized (the arguments of
+:func:`jaxpose.normalize_mesh`), validated once before any I/O; :func:`normalize_file` does one
+file and returns its table columns and the encoded output without writing anything, so that it
+can run in any worker process or on a Dask cluster and the caller alone writes.
+"""
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import os
+import stat
+import time
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+
+__all__ = ["NormalizeOptions", "FileResult", "normalize_file", "one_line", "sha256_file"]
+
+
+# --------------------------------------------------------------------------- options
+@dataclasses.dataclass(frozen=True)
+class NormalizeOptions:
+    """How each file is normalized: the arguments of :func:`jaxpose.normalize_mesh`, validated once.
+
+    Every value is checked when the object is made, before any file is read or anything compiled,
+    by the same function as :func:`jaxpose.normalize_mesh` (:func:`jaxpose.mesh.check_arguments`):
+    names (``method``, ``center``, ``scale``, ``sampling``, ``rotation``) against the known ones,
+    ``gamma`` > 0, ``nu`` in [0, 1], ``count`` >= 4, ``seed`` >= 0, ``resolution`` only for the
+    estimators that have one (robust, ocsvm) and within the memory budget of their grid.
+
+    Raises:
+      InvalidInputError: a value out of range or a name not known, with the allowed ones.
+    """
+
+    method: str | None = None
+    center: str | None = None
+    scale: str | None = None
+    gamma: float = 47.0
+    nu: float = 0.5
+    count: int = 2000
+    seed: int = 0
+    sampling: str = "even"
+    resolution: int | None = None
+    rotation: bool | str = False
+    strict: bool = False
+
+    def __post_init__(self):
+        from ..mesh import check_arguments
+
+        check_arguments(**self.mesh_arguments())  # every value, the names, the grid's memory
+        self._set(gamma=float(self.gamma), nu=float(self.nu), count=int(self.count), seed=int(self.seed),
+                  resolution=None if self.resolution is None else int(self.resolution),
+                  rotation=bool(self.rotation) if isinstance(self.rotation, (bool, np.bool_)) else self.rotation,
+                  strict=bool(self.strict))
+
+    def _set(self, **values):  # normalized values on a frozen instance, once, at construction
+        for name, value in values.items():
+            object.__setattr__(self, name, value)
+
+    @property
+    def rotation_method(self) -> str | None:
+        """The rotation's frame method, or None without one."""
+        from ..rotation.rotation import DEFAULT_ROTATION
+
+        return (DEFAULT_ROTATION if self.rotation is True else self.rotation) or None
+
+    def mesh_arguments(self) -> dict:
+        """The keyword arguments of :func:`jaxpose.normalize_mesh` these options stand for."""
+        return dict(method=self.method, center=self.center, scale=self.scale, gamma=self.gamma, nu=self.nu,
+                    count=self.count, seed=self.seed, sampling=self.sampling, strict=self.strict,
+                    resolution=self.resolution, rotation=self.rotation)
+
+    def columns(self) -> dict:
+        """The table columns these options fill (method names and parameters)."""
+        from ..pose.estimators import DEFAULT_METHOD, resolve
+
+        c_name, s_name = resolve(self.method, self.center, self.scale)
+        out = dict(method=self.method or DEFAULT_METHOD, center_method=c_name, scale_method=s_name,
+                   gamma=self.gamma, nu=self.nu, count=self.count, seed=self.seed, sampling=self.sampling,
+                   resolution=self.resolution)
+        if self.rotation_method:
+            out["rotation_method"] = self.rotation_method
+        return out
+
+    def fingerprint(self, file_format=None) -> str:
+        """A string equal for equal options (and output format): what a rerun compares."""
+        return json.dumps({**dataclasses.asdict(self), "format": file_format}, sort_keys=True)
+
+
+# --------------------------------------------------------------------------- one file
+class FileResult(NamedTuple):
+    """What :func:`normalize_file` returns.
+
+    Attributes:
+      record: table columns known to the worker (``status``, ``error``, ``kind``, ``vertices``,
+        ``faces``, ``center_x/_y/_z``, ``scale``, ``valid``, ``converged``, rotation columns,
+        ``seconds``, ``worker``, ``worker_peak_mb``, ``version``, and for a path ``input_size``,
+        ``input_mtime_ns``, ``input_sha256``) and ``matrix`` (4 x 4 nested lists, or None).
+      data: the encoded normalized file, or None when the input failed.
+    """
+
+    record: dict
+    data: bytes | None
+
+
+def normalize_file(source, options=None, file_type=None, check="mtime") -> FileResult:
+    """Read one mesh or point cloud, normalize it and encode the result; a pure function.
+
+    Nothing is written: the caller decides where the bytes go. Errors of the input (unreadable,
+    empty, NaN coordinates, a point cloud for a triangles-only format, no valid pose, a file that
+    changed while it was read) come back as ``record["status"] == "failed"`` with a one-line
+    ``record["error"]``. The input's size and modification time (and SHA-256) are those of the
+    bytes read: taken just before reading and checked unchanged just after.
+
+    Args:
+      source: a path (anything :func:`jaxpose.mesh.load` reads) or a Trimesh / PointCloud.
+      options: :class:`NormalizeOptions` (default: the defaults).
+      file_type: output format (:data:`jaxpose.mesh.OUTPUT_FORMATS`); default the source's suffix
+        (give it for a geometry object).
+      check: ``"hash"`` also records the SHA-256 of a regular file's bytes (``input_sha256``).
+
+    Returns:
+      :class:`FileResult`.
+    """
+    import socket
+
+    start = time.perf_counter()
+    options = NormalizeOptions() if options is None else options
+    record = {"status": "failed", "error": "", "kind": "", "vertices": 0, "faces": 0, "matrix": None}
+    data = None
+    try:
+        from .. import mesh
+
+        from ..io.remote import is_url
+
+        if is_url(source) and not source.lower().startswith("file://"):
+            geometry = _load_remote(source, check, record)
+        else:
+            before = _input_stat(source, check) if isinstance(source, (str, os.PathLike)) else {}
+            record.update({k: v for k, v in before.items() if k != "input_inode"})
+            geometry = mesh.load(source)
+            if before.get("input_inode") is not None:
+                _check_unchanged(source, before)
+        record.update(kind="mesh" if hasattr(geometry, "faces") else "points",
+                      vertices=len(geometry.vertices), faces=len(getattr(geometry, "faces", ())))
+        ext = mesh.output_format(f"output.{file_type or Path(str(source)).suffix.lstrip('.')}", geometry)
+        normalized, pose = mesh.normalize_mesh(geometry, **options.mesh_arguments())
+        record.update(_pose_columns(pose, mesh.pose_matrix(pose)))
+        data = mesh.encode(normalized, ext)
+        record.update(status="ok")
+    except Exception as exc:  # every failure of one input is that input's record, not the run's end
+        record.update(error=one_line(exc))
+    from .. import __version__
+
+    record.update(seconds=time.perf_counter() - start, worker=f"{socket.gethostname()}:{os.getpid()}",
+                  worker_peak_mb=_peak_mb(), version=__version__)
+    return FileResult(record, data)
+
+
+def _load_remote(url, check, record):
+    """Read a remote file (:mod:`jaxpose.io.remote`): its bytes through a local temporary file of
+    the same suffix (the readers take paths); size, time and SHA-256 of those bytes in `record`."""
+    import tempfile
+
+    from .. import mesh
+    from .._validate import InvalidInputError, JaxposeError
+    from ..io.remote import location, modified_ns
+
+    path = location(url)
+    try:
+        info = path.info()
+    except FileNotFoundError:
+        raise InvalidInputError(f"no such file: {url}") from None
+    data = path.read_bytes()
+    record.update(input_size=len(data), input_mtime_ns=modified_ns(info),
+                  input_sha256=hashlib.sha256(data).hexdigest() if check == "hash" else "")
+    after = path.info()
+    if (after.get("size"), modified_ns(after)) != (info.get("size"), modified_ns(info)) or len(data) != info.get("size"):
+        raise InvalidInputError(f"{url}: changed while it was read; run again to read it whole")
+    with tempfile.TemporaryDirectory(prefix="jaxpose-") as folder:
+        local = Path(folder) / ("input" + path.suffix.lower())
+        local.write_bytes(data)
+        try:
+            return mesh.load(local)
+        except JaxposeError as exc:  # its message names the temporary file: name the URL
+            raise type(exc)(str(exc).replace(str(local), url)) from None
+
+
+def _input_stat(path, check):
+    """The input's table columns from ``os.stat`` (nothing for a file that cannot be stat'ed: the
+    read says why), with its SHA-256 for a regular file when `check` is ``"hash"``."""
+    out = {"input_size": None, "input_mtime_ns": None, "input_sha256": ""}
+    try:
+        info = os.stat(path)
+    except OSError:
+        return out
+    if not stat.S_ISREG(info.st_mode):  # a FIFO or device: no size, nothing to compare afterwards
+        return out
+    out.update(input_size=info.st_size, input_mtime_ns=info.st_mtime_ns, input_inode=(info.st_dev, info.st_ino))
+    if check == "hash":
+        out["input_sha256"] = sha256_file(path)
+    return out
+
+
+def _check_unchanged(path, before):
+    from .._validate import InvalidInputError
+
+    try:
+        info = os.stat(path)
+    except OSError as exc:
+        raise InvalidInputError(f"{path}: removed while it was read ({exc.strerror})") from None
+    after = (info.st_size, info.st_mtime_ns, (info.st_dev, info.st_ino))
+    if after != (before["input_size"], before["input_mtime_ns"], before["input_inode"]):
+        raise InvalidInputError(f"{path}: changed while it was read (size {before['input_size']} -> "
+                                f"{info.st_size} bytes); run again to read it whole")
+
+
+def sha256_file(path) -> str:
+    """The SHA-256 of a file's bytes, hex."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def _pose_columns(pose, matrix):
+    import numpy as np
+
+    center = np.asarray(pose.center, dtype=np.float64).reshape(3)
+    out = dict(center_x=float(center[0]), center_y=float(center[1]), center_z=float(center[2]),
+               scale=float(np.asarray(pose.scale, dtype=np.float64)), valid=bool(np.all(pose.valid)),
+               converged=bool(np.all(pose.converged)), matrix=matrix.tolist())
+    if getattr(pose, "rotation", None) is not None:
+        rotation = np.asarray(pose.rotation, dtype=np.float64).reshape(3, 3)
+        out.update({f"r{i}{j}": float(rotation[i, j]) for i in range(3) for j in range(3)})
+        out["ambiguity"] = float(np.asarray(pose.ambiguity, dtype=np.float64))
+    return out
+
+
+def one_line(exc) -> str:
+    """An exception as one line: its message (a JaxposeError's), else ``Type: message``."""
+    from .._validate import JaxposeError
+
+    text = " ".join(str(exc).split())
+    return text if isinstance(exc, JaxposeError) and text else f"{type(exc).__name__}: {text}".rstrip(": ")
+
+
+def _peak_mb():
+    try:
+        import resource
+    except ImportError:  # Windows
+        return None
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return peak / 2**20 if os.uname().sysname == "Darwin" else peak / 2**10

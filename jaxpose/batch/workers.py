@@ -1,0 +1,221 @@
+"""Where batch tasks run: local worker processes, a thread of this process, or a Dask cluster.
+
+One small interface for all: ``submit(fn, *args) -> future``, ``wait(pending) -> done`` (wakes at
+least every half second, so the caller stays responsive to interrupts), ``result(future)``
+(raises :class:`WorkerLost` when the worker itself died, :class:`TaskTimeout` when a local task ran
+past its time limit) and ``close(kill)``. A lost or stopped worker costs its own task only. Tasks must be pure
+functions of their arguments; nothing is kept in a worker between tasks except what JAX caches
+(compiled programs), so each worker compiles once.
+"""
+from __future__ import annotations
+
+import concurrent.futures as cf
+import logging
+import os
+
+from ..errors import InvalidInputError, JaxposeError
+from .pool import POLL_S, ProcessPool, TaskTimeout, WorkerLost
+
+__all__ = ["WorkerLost", "TaskTimeout", "LocalExecutor", "DaskExecutor", "local_cluster", "default_workers",
+           "process_environment", "configure_process", "runs_like_a_worker", "POLL_S"]
+
+# one BLAS thread per process: parallelism comes from the workers, and sums come out in the same
+# order in every process (bit-identical results locally and on Dask, which sets the same)
+_ONE_THREAD = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+
+
+def default_workers() -> int:
+    """The number of cores this process may use."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # macOS, Windows
+        return os.cpu_count() or 1
+
+
+def process_environment(one_thread=True) -> dict:
+    """The environment variables of a worker process: one BLAS thread (unless `one_thread` is
+    False), the compilation cache (:mod:`jaxpose.batch.cache`); variables already set are left alone."""
+    from . import cache
+
+    wanted = {**(_ONE_THREAD if one_thread else {}), **cache.environment()}
+    return {k: v for k, v in wanted.items() if k not in os.environ}
+
+
+def configure_process(one_thread=True) -> bool:
+    """Apply :func:`process_environment` to this process if NumPy and JAX are not imported yet
+    (the command line does this first); returns whether it did."""
+    import sys
+
+    global _CONFIGURED
+
+    if "numpy" in sys.modules or "jax" in sys.modules:
+        return False
+    os.environ.update(process_environment(one_thread))
+    _CONFIGURED = True
+    return True
+
+
+_CONFIGURED = False  # configure_process ran before NumPy was imported
+
+
+def runs_like_a_worker() -> bool:
+    """Whether this process computes as its worker processes do: :func:`configure_process` set it
+    up before NumPy was imported (as the command line does), with the workers' one BLAS thread."""
+    return _CONFIGURED and all(os.environ.get(name) == value for name, value in _ONE_THREAD.items())
+
+
+_HEAD_POLL_S = 0.01  # how often wait() looks at the head start's thread
+
+
+class LocalExecutor:
+    """``workers`` == 1 without a time limit: a thread of this process; else worker processes
+    (:class:`jaxpose.batch.pool.ProcessPool`: fresh interpreters, each stopped on its own when its task
+    runs past `timeout` or it dies, the others going on).
+
+    With `head_start` (worker processes, no time limit) the first task runs in a thread of this
+    process, which has its modules imported already, while the worker processes start (each
+    imports NumPy, SciPy and trimesh first): the first result comes that much sooner. Give it only
+    for a task that cannot block (a regular file, not a FIFO) in a process that
+    :func:`runs_like_a_worker`.
+
+    Worker processes get :func:`process_environment` (one BLAS thread, the compilation cache).
+    """
+
+    def __init__(self, workers, timeout=None, head_start=False):
+        self.workers = workers
+        self.timeout = timeout
+        self._head = None
+        if workers == 1 and timeout is None:
+            self._pool = cf.ThreadPoolExecutor(1, thread_name_prefix="jaxpose-worker")
+        else:
+            self._pool = ProcessPool(workers, environment=process_environment(), timeout=timeout)
+            if head_start and timeout is None:
+                self._head = cf.ThreadPoolExecutor(1, thread_name_prefix="jaxpose-head-start")
+
+    def submit(self, fn, *args):
+        if self._head is not None and not hasattr(self, "_head_future"):
+            self._head_future = self._head.submit(fn, *args)
+            return self._head_future
+        return self._pool.submit(fn, *args)
+
+    def wait(self, pending):
+        if isinstance(self._pool, ProcessPool):
+            head = getattr(self, "_head_future", None)
+            waiting_for_head = head is not None and head in pending and not head.done()
+            return self._pool.wait(pending, timeout=_HEAD_POLL_S if waiting_for_head else POLL_S)
+        return cf.wait(pending, timeout=POLL_S, return_when=cf.FIRST_COMPLETED)[0]
+
+    def result(self, future):
+        """The task's value; WorkerLost / TaskTimeout when its worker died or ran past the limit."""
+        if isinstance(self._pool, ProcessPool) and not isinstance(future, cf.Future):
+            return self._pool.result(future)
+        return future.result()
+
+    def close(self, kill=False):
+        """Stop; with `kill`, drop queued tasks and kill running worker processes at once (a thread
+        cannot be killed: it finishes its task)."""
+        if isinstance(self._pool, ProcessPool):
+            self._pool.close(kill=kill)
+            if self._head is not None:
+                self._head.shutdown(wait=True, cancel_futures=kill)
+        else:
+            self._pool.shutdown(wait=True, cancel_futures=kill)
+
+
+# A local cluster for this work: no MALLOC_TRIM_THRESHOLD_ (Dask's default of 64 KiB turns every large
+# NumPy array into an mmap and page faults: +50 % CPU on the voxel solids), no stack profiler (it
+# samples every worker thread every 10 ms).
+_DASK_LOCAL = {"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
+               "distributed.worker.profile.enabled": False}
+
+
+def local_cluster(workers):
+    """A new dask.distributed ``LocalCluster`` of `workers` single-threaded worker processes, set
+    up for this work: the workers' environment of :func:`process_environment`, no dashboard (its
+    scheduler's HTTP server on a free port, so that several can run at once), and
+    neither Dask's ``MALLOC_TRIM_THRESHOLD_`` nor its stack profiler. Close it when done (it is a
+    context manager). ``--dask-local N`` runs on one of these; start one yourself to keep its
+    workers warm across runs and pass its ``scheduler_address`` as ``--scheduler``.
+
+    Raises:
+      InvalidInputError: dask.distributed is not installed.
+      JaxposeError: the cluster could not start.
+
+    Example:
+      >>> with local_cluster(2) as cluster:  # doctest: +SKIP
+      ...     normalize_files(["meshes/"], "out/", scheduler=cluster.scheduler_address)
+    """
+    distributed = _distributed()
+    import dask
+
+    try:
+        with dask.config.set(_DASK_LOCAL):
+            return distributed.LocalCluster(
+                n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                scheduler_kwargs={"dashboard_address": ":0"},  # its metrics server: any free port
+                silence_logs=logging.ERROR, env=process_environment())
+    except Exception as exc:  # distributed's own errors (RuntimeError, ...)
+        raise JaxposeError(f"could not start a local Dask cluster of {workers} workers: {exc}") from None
+
+
+def _distributed():
+    """The ``distributed`` package, or a clear error naming the extra that installs it."""
+    try:
+        import distributed
+    except ImportError:
+        raise InvalidInputError("Dask runs need dask.distributed: pip install 'jaxpose[dask]'") from None
+    return distributed
+
+
+class DaskExecutor:
+    """Tasks on a dask.distributed cluster: a running one (`scheduler` address) or a new
+    ``LocalCluster`` of `local` single-threaded worker processes (closed with the executor).
+
+    A running cluster's workers keep their own configuration; Dask's default
+    ``MALLOC_TRIM_THRESHOLD_`` costs this workload about half again its CPU time (page faults), so
+    start them without it (``distributed.nanny.pre-spawn-environ``) where you can.
+
+    Raises:
+      InvalidInputError: dask.distributed is not installed, or the scheduler cannot be reached.
+    """
+
+    def __init__(self, scheduler=None, local=None):
+        Client = _distributed().Client
+
+        self.cluster = None
+        if scheduler is not None:
+            try:
+                self.client = Client(scheduler, timeout="30s")
+            except (OSError, TimeoutError) as exc:
+                raise InvalidInputError(f"cannot reach the Dask scheduler {scheduler}: {exc}") from None
+        else:
+            self.cluster = local_cluster(local)
+            self.client = Client(self.cluster)
+        threads = sum(w.get("nthreads", 1) for w in self.client.scheduler_info()["workers"].values())
+        self.workers = max(1, threads)
+
+    def submit(self, fn, *args):
+        return self.client.submit(fn, *args, pure=False, retries=1)
+
+    def wait(self, pending):
+        import asyncio
+
+        from distributed import wait
+
+        try:
+            return wait(list(pending), timeout=POLL_S, return_when="FIRST_COMPLETED").done
+        except (TimeoutError, asyncio.TimeoutError):
+            return set()
+
+    def result(self, future):
+        try:
+            return future.result()
+        except Exception as exc:  # KilledWorker and the like (a task's own errors are its result)
+            raise WorkerLost(f"the Dask task failed: {' '.join(str(exc).split()) or type(exc).__name__}") from None
+        finally:
+            future.release()
+
+    def close(self, kill=False):
+        self.client.close()
+        if self.cluster is not None:
+            self.cluster.close()

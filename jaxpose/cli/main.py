@@ -1,0 +1,81 @@
+"""Command line: ``jaxpose normalize | evaluate | tune | bench`` (also ``python -m jaxpose``).
+
+Thin: parse arguments, call the library, print and write results. No math here.
+Exit codes: 0 success, 1 failure (one line on stderr, no traceback), 2 usage error, 130 Ctrl-C,
+143 SIGTERM (:mod:`jaxpose.batch.interrupts`; nothing partial or temporary is left).
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+
+from ..errors import JaxposeError
+from . import bench, evaluate, normalize, tune
+from .common import fail
+
+__all__ = ["main", "console", "build_parser"]
+
+_DELEGATED = ("tune", "bench")  # commands that receive every argument after their name
+
+
+# --------------------------------------------------------------------------- parser
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="jaxpose",
+        description="Consistent translation and scale (and orientation) normalization of 3D shapes with one-class SVMs.",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+    for command in (normalize, evaluate, tune, bench):
+        command.add_parser(sub)
+    return parser
+
+
+# --------------------------------------------------------------------------- main
+def main(argv=None) -> int:
+    """Run the command line; returns the exit code (argparse usage errors exit with 2)."""
+    parser = build_parser()
+    args, extra = parser.parse_known_args(argv)
+    if extra and args.command not in _DELEGATED:
+        parser.error(f"unrecognized arguments: {' '.join(extra)}")
+    args.extra = extra
+    try:
+        return int(args.handler(args) or 0)
+    except JaxposeError as exc:
+        return fail(str(exc))
+    except (OSError, ValueError) as exc:  # file system and number trouble outside the library
+        return fail(f"{type(exc).__name__}: {exc}")
+    except KeyboardInterrupt as exc:
+        return _interrupted(exc)
+
+
+def _interrupted(exc):
+    from ..batch.interrupts import Terminated
+
+    if isinstance(exc, Terminated):
+        return fail("terminated (SIGTERM); nothing partial was left", code=143)
+    return fail("interrupted; nothing partial was left", code=130)
+
+
+def console():
+    """The ``jaxpose`` command (and ``python -m jaxpose``): :func:`main` under a signal guard.
+
+    Ends the process with ``os._exit`` (:func:`jaxpose.batch.interrupts.leave`): the exit code of
+    :func:`main`, or 128 + the signal when Ctrl-C or SIGTERM came at any moment of the run.
+    """
+    from ..batch import interrupts, workers
+
+    code = 1
+    with interrupts.SignalGuard() as guard:
+        try:
+            # before anything imports NumPy or JAX: the compilation cache; for normalize also one
+            # BLAS thread, as in its worker processes (the same bits whichever process computes)
+            workers.configure_process(one_thread=sys.argv[1:2] == ["normalize"])
+            code = main()
+        except SystemExit as exc:  # argparse: --help (0), usage errors (2)
+            code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else fail(exc.code))
+        except KeyboardInterrupt as exc:  # landed outside main's own handling
+            code = _interrupted(exc)
+        if guard.received is not None and code != guard.exit_code:
+            code = fail("interrupted after the work was done", code=guard.exit_code)
+        interrupts.leave(code)

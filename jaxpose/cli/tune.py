@@ -1,0 +1,143 @@
+"""``jaxpose tune``: load or make the classes, align and vary them, call :func:`jaxpose.tuning.tune`.
+
+Thin: arguments to data, data to the library, the result to stdout and JSON. Exit codes: 0
+success, 1 failure (message on stderr), 2 usage error.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from .. import _validate
+
+__all__ = ["add_parser", "run", "parser", "load_classes"]
+
+
+def add_parser(sub):
+    """Register ``tune`` on the sub-command parsers `sub`: every argument after it goes to :func:`run`."""
+    p = sub.add_parser("tune", add_help=False, help="gradient-based tuning of gamma and nu (arguments go to jaxpose.cli.tune)")
+    p.set_defaults(handler=_command)
+
+
+def _command(args):
+    return run(list(args.extra))
+
+
+def parser():
+    p = argparse.ArgumentParser(prog="jaxpose tune", description="gradient-based tuning of gamma and nu, "
+                                "checked on held-out classes")
+    p.add_argument("--data", default=None, help="folder with one sub-folder of meshes per class (default: the "
+                   "built-in procedural dataset)")
+    p.add_argument("--holdout-data", default=None, help="another such folder, only evaluated (e.g. another dataset)")
+    p.add_argument("--holdout", type=float, default=None,
+                   help="fraction of the classes held out of tuning (default 0.25 without --holdout-data, else 0)")
+    p.add_argument("--align-core", action="store_true", help="rigidly align each class on its stable core first "
+                   "(meshes of a class share their vertex order)")
+    p.add_argument("--variants", default="plain", help="comma list of input variants (plain, outliers, big_outliers, "
+                   "points, holes); each variant of a class counts as a class")
+    p.add_argument("--classes", default=None, help="comma-separated subset of classes")
+    p.add_argument("--instances", type=int, default=6, help="objects per class (procedural dataset)")
+    p.add_argument("--steps", type=int, default=12)
+    p.add_argument("--lr", type=float, default=0.1)
+    p.add_argument("--reg", type=float, default=0.05, help="pull towards the start (share of the start loss per "
+                   "unit of log gamma / logit nu squared)")
+    p.add_argument("--count", type=int, default=400, help="surface samples per object, drawn afresh at every step")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--scale-weight", type=float, default=0.0)
+    p.add_argument("--gamma", type=float, default=47.0)
+    p.add_argument("--nu", type=float, default=0.5)
+    p.add_argument("--resolution", type=int, default=16)
+    p.add_argument("--refine", type=int, default=2)
+    p.add_argument("--band", type=int, default=2048)
+    p.add_argument("--tol", type=float, default=1e-3)
+    p.add_argument("--solver", choices=("pg", "smo", "auto"), default=None,
+                   help="SVDD solver (default: normalize's, pg up to 2500 points, auto above)")
+    p.add_argument("--json", default=None, help="write the result here (trajectory, train and held-out spreads)")
+    p.add_argument("--force", action="store_true", help="overwrite an existing --json file")
+    return p
+
+
+def load_classes(folder, names=None, align_core=False, variants=("plain",), seed=0, instances=6):
+    """{class[/variant]: [mesh, ...]} from a folder of class sub-folders (None: the procedural dataset),
+    optionally rigid-core aligned, in each input variant (:mod:`jaxpose.evaluation.variants`)."""
+    from .. import datasets
+    from ..evaluation import alignment
+    from ..evaluation.variants import VARIANTS, make_class
+
+    unknown = [v for v in variants if v not in VARIANTS]
+    if unknown or not variants:
+        raise _validate.InvalidInputError(f"unknown variants {unknown}; valid: {', '.join(VARIANTS)}")
+    if folder is None:
+        meshes = datasets.make_dataset(seed, instances=instances, classes=names)
+    else:
+        meshes = datasets.load_folder(folder)
+        if names:
+            missing = sorted(set(names) - set(meshes))
+            if missing:
+                raise _validate.InvalidInputError(f"no classes {missing} in {folder}; found {sorted(meshes)}")
+            meshes = {k: v for k, v in meshes.items() if k in names}
+    if align_core:
+        meshes = {k: alignment.align_core(v) for k, v in meshes.items()}
+    out = {}
+    for variant in variants:
+        for k, (name, objs) in enumerate(meshes.items()):
+            out[name if variants == ("plain",) else f"{name}/{variant}"] = make_class(objs, variant, seed, k)
+    return out
+
+
+def run(argv) -> int:
+    """Parse ``argv``, tune, print a summary (progress on stderr), write --json. -> exit code."""
+    args_parser = parser()
+    try:
+        args = args_parser.parse_args(list(argv))
+    except SystemExit as exc:
+        return int(exc.code or 0)
+    if args.json and Path(args.json).exists() and not args.force:  # before minutes of work, not after
+        print(f"jaxpose tune: error: {args.json} exists (use --force to overwrite)", file=sys.stderr)
+        return 1
+    import jax
+
+    # float64: the trend derivatives are differences of solutions 2 % apart
+    x64 = jax.config.jax_enable_x64
+    jax.config.update("jax_enable_x64", True)
+    try:
+        return _run(args)
+    finally:
+        jax.config.update("jax_enable_x64", x64)
+
+
+def _run(args) -> int:
+    from ..mesh import write_atomic
+    from ..tuning import tune
+
+    say = lambda s: print(s, file=sys.stderr, flush=True)
+    try:
+        variants = tuple(v.strip() for v in args.variants.split(",") if v.strip())
+        names = args.classes.split(",") if args.classes else None
+        say("loading classes ...")
+        classes = load_classes(args.data, names, args.align_core, variants, args.seed, args.instances)
+        held = (load_classes(args.holdout_data, None, args.align_core, variants, args.seed)
+                if args.holdout_data else None)
+        holdout = args.holdout if args.holdout is not None else (0.0 if held else 0.25)
+        result = tune(classes, gamma0=args.gamma, nu0=args.nu, steps=args.steps, lr=args.lr, reg=args.reg,
+                      scale_weight=args.scale_weight, holdout=holdout, holdout_classes=held, seed=args.seed,
+                      count=args.count, progress=say, resolution=args.resolution, refine=args.refine,
+                      band=args.band, tol=args.tol, solver=args.solver)
+    except _validate.JaxposeError as exc:
+        print(f"jaxpose tune: error: {exc}", file=sys.stderr)
+        return 1
+    result["data"] = dict(data=args.data, holdout_data=args.holdout_data, align_core=bool(args.align_core),
+                          variants=list(variants))
+    if args.json:
+        write_atomic(args.json, json.dumps(result, indent=2).encode(), force=True)  # checked before the run
+    tr, ho = result["train"], result["holdout"]
+    print(f"gamma {result['gamma0']:.4g} -> {result['tuned']['gamma']:.4g}, nu {result['nu0']:.4g} -> "
+          f"{result['tuned']['nu']:.4g}")
+    print(f"train sigma_tr {tr['sigma_tr_start']:.5g} -> {tr['sigma_tr_tuned']:.5g}")
+    if ho:
+        print(f"held-out sigma_tr {ho['sigma_tr_start']:.5g} -> {ho['sigma_tr_tuned']:.5g}")
+    print(result["verdict"])
+    print(f"use: gamma {result['gamma']:.4g}, nu {result['nu']:.4g}")
+    return 0

@@ -1,0 +1,127 @@
+"""Atomic file writes: a temporary name beside the target, fsync, then ``os.replace``.
+
+A reader never sees a partial file: the target either keeps its old content or gets the whole new
+one. The temporary is ``.NAME.<random>.tmp`` in the target's folder (same file system, so the
+rename is atomic); it is removed when the write fails or is interrupted (``KeyboardInterrupt``,
+``SystemExit``). Only a process killed outright (SIGKILL, power loss) can leave one behind:
+:func:`remove_temporaries` clears those, and the batch runner calls it before writing again.
+"""
+from __future__ import annotations
+
+import os
+import secrets
+from pathlib import Path
+
+from .._validate import InvalidInputError
+
+__all__ = ["write_atomic", "temporary_path", "is_temporary", "remove_temporaries", "check_folder_writable"]
+
+_SUFFIX = ".tmp"
+
+
+def temporary_path(path) -> Path:
+    """A fresh temporary name for `path`: ``.NAME.<12 hex digits>.tmp`` in the same folder."""
+    path = Path(path)
+    return path.with_name(f".{path.name}.{secrets.token_hex(6)}{_SUFFIX}")
+
+
+def is_temporary(name) -> bool:
+    """Whether a file name is one of :func:`temporary_path`'s (``.NAME.<12 hex digits>.tmp``)."""
+    name = str(name)
+    if not (name.startswith(".") and name.endswith(_SUFFIX)):
+        return False
+    stem = name[1:-len(_SUFFIX)]
+    target, _, token = stem.rpartition(".")
+    return bool(target) and len(token) == 12 and all(c in "0123456789abcdef" for c in token)
+
+
+def remove_temporaries(path) -> int:
+    """Remove the temporaries of `path` that a killed writer left (``.NAME.<12 hex>.tmp``).
+
+    Args:
+      path: the target file (it need not exist); only its own temporaries are touched.
+
+    Returns:
+      How many were removed.
+    """
+    path = Path(path)
+    folder = path.parent if str(path.parent) else Path(".")
+    prefix = f".{path.name}."
+    removed = 0
+    try:
+        names = os.listdir(folder)
+    except FileNotFoundError:
+        return 0
+    for name in names:
+        if name.startswith(prefix) and is_temporary(name) and name[len(prefix):-len(_SUFFIX)].count(".") == 0:
+            try:
+                os.unlink(folder / name)
+                removed += 1
+            except FileNotFoundError:
+                pass
+    return removed
+
+
+def check_folder_writable(folder, what="output") -> Path:
+    """Raise :class:`InvalidInputError` unless `folder` is an existing folder we may create files in.
+
+    Args:
+      folder: the folder; what: how the message names it ("output", "table", ...).
+
+    Returns:
+      The folder as a :class:`Path`.
+    """
+    folder = Path(folder) if str(folder) else Path(".")
+    if not folder.exists():
+        raise InvalidInputError(f"{what} folder {folder} does not exist")
+    if not folder.is_dir():
+        raise InvalidInputError(f"{what} folder {folder} is not a folder")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise InvalidInputError(f"{what} folder {folder} is not writable")
+    return folder
+
+
+def write_atomic(path, data, force=False) -> Path:
+    """Write bytes (or text, as UTF-8) to `path` via a temporary file and ``os.replace``.
+
+    Args:
+      path: the target file; its folder must exist and be writable.
+      data: bytes or str.
+      force: replace an existing `path` (its permission bits are kept); otherwise refuse it.
+
+    Returns:
+      `path` as a :class:`Path`.
+
+    Raises:
+      InvalidInputError: `path` exists (without `force`), or its folder is missing or not writable.
+      OSError: the write itself failed (disk full, ...); nothing is left behind.
+    """
+    path = Path(path)
+    if path.exists() and not force:
+        raise InvalidInputError(f"{path} exists (use force / --force to overwrite)")
+    check_folder_writable(path.parent, what=f"{path}: the")
+    if isinstance(data, str):
+        data = data.encode("utf-8")
+    old_mode = (path.stat().st_mode & 0o777) if path.exists() else None
+    tmp = temporary_path(path)
+    try:
+        try:
+            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)  # the umask applies
+        except FileExistsError:  # someone else's temporary of the same name: not ours to remove
+            tmp = None
+            raise
+        with os.fdopen(fd, "wb") as handle:
+            if old_mode is not None:
+                os.chmod(handle.fileno(), old_mode)
+            handle.write(data)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(tmp, path)
+    except BaseException:  # errors, KeyboardInterrupt, SystemExit: never leave the temporary
+        if tmp is not None:
+            try:
+                os.unlink(tmp)
+            except FileNotFoundError:
+                pass
+        raise
+    return path

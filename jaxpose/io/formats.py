@@ -1,0 +1,59 @@
+"""What a mesh file's bytes hold: the format its first bytes announce, and text in any encoding.
+
+Plain functions of bytes (no trimesh): :mod:`jaxpose.mesh` uses them to name a file whose content
+is another format than its suffix, and to decode text formats itself (trimesh falls back to the
+optional ``charset_normalizer`` for text that is not UTF-8).
+"""
+from __future__ import annotations
+
+from .._validate import InvalidInputError
+
+__all__ = ["TEXT_FORMATS", "sniff_format", "binary_stl", "as_text"]
+
+TEXT_FORMATS = ("obj", "off", "xyz")  # text formats: decoded here (UTF-8, else Latin-1), any encoding reads
+_OFF_HEADERS = (b"OFF", b"COFF", b"NOFF", b"CNOFF", b"STOFF", b"4OFF")
+
+
+def sniff_format(data: bytes):
+    """The format a file's first bytes announce, or None: ``ply`` (``ply`` magic), ``glb``
+    (``glTF``), ``stl`` (binary: 84 + 50 n bytes for the n triangles of its header; ASCII:
+    ``solid``), ``off`` (an OFF header)."""
+    if data.startswith(b"ply"):
+        return "ply"
+    if data.startswith(b"glTF"):
+        return "glb"
+    if binary_stl(data):
+        return "stl"
+    first = data.lstrip()[:16].split()
+    if first and first[0].lower() == b"solid":
+        return "stl"
+    if first and first[0] in _OFF_HEADERS:
+        return "off"
+    return None
+
+
+def binary_stl(data: bytes):
+    """A binary STL: an 80-byte header, a triangle count n, then 50 bytes per triangle."""
+    return len(data) > 84 and 84 + 50 * int.from_bytes(data[80:84], "little") == len(data)
+
+
+def as_text(data: bytes, name: str, ext: str) -> bytes:
+    """A text file's bytes as UTF-8.
+
+    Args:
+      data: the file's bytes; name: how messages call the file; ext: its format (for messages).
+
+    Returns:
+      ``data`` when it is UTF-8; else its Latin-1 reading re-encoded as UTF-8 (every byte is a
+      character in Latin-1, and mesh data itself is ASCII: only comments and names change).
+
+    Raises:
+      InvalidInputError: NUL bytes (binary data, not text).
+    """
+    if b"\x00" in data:
+        raise InvalidInputError(f"{name}: binary data, not a text {ext.upper()} file (does the extension match the content?)")
+    try:
+        data.decode("utf-8")
+        return data
+    except UnicodeDecodeError:
+        return data.decode("latin-1").encode("utf-8")

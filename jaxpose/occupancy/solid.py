@@ -1,0 +1,428 @@
+"""A robust voxel solid of a mesh (closed, open, with stray parts) or of a point cloud, and its depth.
+
+The solid is the set of voxel centers inside the shape, on a grid of pitch h = (largest extent of
+the main body) / ``resolution``; every length is in the input's units, computed in float64,
+deterministic (no random numbers).
+
+Inside test. Meshes: every boundary loop gets a fan cap (:func:`cap_holes`); every voxel center
+gets 6 one-sided winding numbers, one per half-line along +-x, +-y, +-z, from the signed ray
+crossings of the uncapped faces (:func:`ray_vote_solid`). For a closed surface all 6 agree; a hole
+corrupts only the half-lines through it, so a voxel is inside when at least 3 of its 6 counts are
+non-zero (ties inside: a false "outside" voxel deep inside would lower the depth of its whole
+neighbourhood, a false "inside" voxel next to the surface adds a shallow, low-weight voxel), or when
+the capped surface winds around it. The non-zero rule makes overlapping or inverted closed parts a
+union. Point clouds: a morphological closing of the voxels holding points (:func:`point_solid`),
+with a radius from the points' own spacing (above ``SPACING_SAMPLES`` points, measured from a seeded
+uniform subset of them to all the others). Enclosed cavities are filled (:func:`exterior_fill`).
+
+Stray parts. 26-connected components of the solid are sized by their boundary voxels (a surface
+area proxy); the largest is the main body and another component is kept only when it is at least
+``keep_ratio`` of its size (:func:`keep_main`). Parts that overlap or touch the main volume belong to
+its component and are always kept. A first pass at ``coarse`` voxels over everything finds the main
+body, so that stray parts neither coarsen the grid nor enter it.
+
+Memory. A grid of ``resolution`` voxels along the largest extent holds at most about
+(resolution + 31)^3 voxels (a cube, with the widest margins) of ``VOXEL_BYTES`` each at the peak;
+:func:`check_resolution` refuses a resolution whose worst case exceeds
+:data:`jaxpose.config.MEMORY_BUDGET`.
+
+Depth. The Euclidean distance of each kept voxel to the outside (:func:`depth`, the exact transform
+of :mod:`jaxpose.depth`), minus ``Solid.bias`` voxels: half a voxel for mesh solids (their outer
+voxel centers lie inside the surface) and one voxel for point solids (their outer voxels straddle
+it).
+"""
+from __future__ import annotations
+
+import numbers
+from typing import NamedTuple
+
+import numpy as np
+from scipy import ndimage
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+from .._validate import InvalidInputError
+from ..config import MEMORY_BUDGET
+from ..depth import host_distance
+
+__all__ = ["Solid", "robust_solid", "cap_holes", "ray_vote_solid", "point_solid", "exterior_fill", "keep_main",
+           "depth", "make_grid", "closing_radius", "neighbour_distances", "check_resolution", "RESOLUTION", "COARSE",
+           "KEEP_RATIO", "SPACING_SAMPLES", "VOXEL_BYTES", "MESH_BIAS", "POINT_BIAS"]
+
+RESOLUTION = 96  # voxels along the main body's largest extent
+COARSE = 48  # the same for the first pass over everything
+KEEP_RATIO = 0.5  # a separate component is kept when at least this share of the main body's boundary
+MAX_CLOSING = 4  # point clouds: the pitch is coarsened so that the closing radius stays within this
+SPACING_SAMPLES = 10_000  # point clouds: the spacing is measured from at most this many of the points
+VOXEL_BYTES = 64  # peak memory per voxel of the fine grid (measured 50-58 bytes)
+MESH_BIAS = 0.5  # voxels between a mesh solid's outer voxel centers and its surface (depth offset)
+POINT_BIAS = 1.0  # the same for a point solid (its outer voxels straddle the surface)
+_MAX_MARGIN = 3 * MAX_CLOSING + 3  # voxels around the box (point clouds; meshes: 3)
+_OFFSET = 1e-3 * np.sqrt(2.0)  # grid offset in pitches: grid lines miss the vertices of axis-aligned models
+_AXES = ((0, 1, 2), (1, 2, 0), (2, 0, 1))  # ray axis a, then (b, c) with (a, b, c) cyclic
+
+
+class Solid(NamedTuple):
+    """The kept solid of a shape on a voxel grid.
+
+    Attributes:
+      inside: (nx, ny, nz) bool, the kept voxels (main body and parts kept with it).
+      depth: (nx, ny, nz) float64, distance to the outside in units (0 outside), or None when
+        :func:`robust_solid` was asked not to compute it.
+      origin: (3,) lower corner of voxel (0, 0, 0), in the grid's frame.
+      pitch: voxel edge length, in units.
+      occupied: (nx, ny, nz) bool for point solids (voxels holding a point), None for meshes.
+      frame: (3, 3) rotation whose rows are the grid axes in world coordinates (identity by default):
+        a voxel center y in the grid frame is the world point ``frame.T @ y``.
+      components: number of components found; dropped: how many were dropped as stray parts.
+      bias: voxels subtracted from the distance transform in ``depth`` (:data:`MESH_BIAS`,
+        :data:`POINT_BIAS`).
+    """
+
+    inside: np.ndarray
+    depth: np.ndarray
+    origin: np.ndarray
+    pitch: float
+    occupied: np.ndarray | None
+    frame: np.ndarray
+    components: int
+    dropped: int
+    bias: float = MESH_BIAS
+
+    def centers(self):
+        """(n, 3) world coordinates of the kept voxel centers, in ``np.nonzero(inside)`` order."""
+        idx = np.stack(np.nonzero(self.inside), axis=1) + 0.5
+        return (self.origin + self.pitch * idx) @ self.frame
+
+    def volume(self):
+        """Volume of the kept solid in units^3: h^3 (voxels - occupied / 2).
+
+        Mesh solids are voxel centers inside the surface (the count is unbiased); point solids
+        contain the voxels holding points, which straddle the surface, so half of them are left out.
+        """
+        n = float(self.inside.sum())
+        if self.occupied is not None:
+            n -= 0.5 * float((self.occupied & self.inside).sum())
+        return n * self.pitch ** 3
+
+
+# ------------------------------------------------------------------ grids
+def make_grid(lo, hi, pitch, margin=3):
+    """Grid covering the box [lo, hi] (3,) with ``margin`` voxels on each side.
+
+    Returns origin (3,) (the lower corner of voxel 0) and shape (3,) ints.
+    """
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    origin = lo - (margin + _OFFSET) * pitch
+    shape = np.ceil((hi - origin) / pitch).astype(int) + margin
+    return origin, shape
+
+
+# ------------------------------------------------------------------ mesh solid
+def cap_holes(vertices, faces):
+    """Close every boundary loop of a mesh by a fan around the loop's centroid.
+
+    Boundary edges are the directed face edges that occur once; their connected components are the
+    loops; each edge (e0 -> e1) gets the cap triangle (e1, e0, centroid), oriented like its face, so
+    faces + caps is a closed 2-cycle (winding numbers are defined) whatever the loops' shapes.
+
+    Args:
+      vertices: (n, 3) float; faces: (f, 3) int.
+
+    Returns:
+      vertices (n + loops, 3) with the loop centroids appended, caps (boundary edges, 3) int.
+    """
+    n = len(vertices)
+    e = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    key = np.minimum(e[:, 0], e[:, 1]) * n + np.maximum(e[:, 0], e[:, 1])
+    order = np.argsort(key, kind="stable")
+    k = key[order]
+    single = np.ones(len(k), bool)
+    same = k[1:] == k[:-1]
+    single[1:] &= ~same
+    single[:-1] &= ~same
+    be = e[order[single]]
+    if len(be) == 0:
+        return vertices, np.zeros((0, 3), np.int64)
+    nodes, local = np.unique(be, return_inverse=True)
+    local = local.reshape(-1, 2)
+    g = coo_matrix((np.ones(len(be)), (local[:, 0], local[:, 1])), shape=(len(nodes),) * 2)
+    nl, lab = connected_components(g, directed=False)
+    cen = np.stack([np.bincount(lab, vertices[nodes, k], minlength=nl) for k in range(3)], 1)
+    cen /= np.bincount(lab, minlength=nl)[:, None]
+    loop = lab[local[:, 0]]
+    caps = np.stack([be[:, 1], be[:, 0], n + loop], axis=1)
+    return np.vstack([vertices, cen]), caps
+
+
+def _prepare(g, faces):
+    p0, p1, p2 = g[faces[:, 0]], g[faces[:, 1]], g[faces[:, 2]]
+    return (p0, p1, p2), np.minimum(np.minimum(p0, p1), p2), np.maximum(np.maximum(p0, p1), p2)
+
+
+def _crossings(prep, shape, a, b, c):
+    """Signed crossings of the grid lines along axis a by the prepared triangles (grid units):
+    (start index along a, j, k, sign); line (j, k) passes through voxel centers i = 0..n_a - 1."""
+    (p0, p1, p2), lo, hi = prep
+    j0 = np.maximum(np.ceil(lo[:, b]), 0).astype(np.int64)
+    j1 = np.minimum(np.floor(hi[:, b]), shape[b] - 1).astype(np.int64)
+    k0 = np.maximum(np.ceil(lo[:, c]), 0).astype(np.int64)
+    k1 = np.minimum(np.floor(hi[:, c]), shape[c] - 1).astype(np.int64)
+    nj, nk = j1 - j0 + 1, k1 - k0 + 1
+    hit = np.flatnonzero((nj > 0) & (nk > 0))
+    count = nj[hit] * nk[hit]
+    rep = np.repeat(hit, count)
+    local = np.arange(len(rep)) - np.repeat(np.cumsum(count) - count, count)
+    nkr = nk[rep]
+    jj = j0[rep] + local // nkr
+    kk = k0[rep] + local % nkr
+    q0, q1, q2 = p0[rep], p1[rep], p2[rep]
+    u0, u1, u2 = q0[:, b], q1[:, b], q2[:, b]
+    w0, w1, w2 = q0[:, c], q1[:, c], q2[:, c]
+    d = (u1 - u0) * (w2 - w0) - (u2 - u0) * (w1 - w0)  # twice the signed projected area
+    ok = d != 0
+    d = np.where(ok, d, 1.0)
+    l1 = ((jj - u0) * (w2 - w0) - (u2 - u0) * (kk - w0)) / d
+    l2 = ((u1 - u0) * (kk - w0) - (jj - u0) * (w1 - w0)) / d
+    l0 = 1.0 - l1 - l2
+    ok &= (l0 >= 0) & (l1 >= 0) & (l2 >= 0)
+    tt = l0 * q0[:, a] + l1 * q1[:, a] + l2 * q2[:, a]
+    start = np.clip(np.floor(tt[ok]).astype(np.int64) + 1, 0, shape[a])
+    return start, jj[ok], kk[ok], np.where(d[ok] > 0, -1, 1).astype(np.int32)
+
+
+def _votes(deltas):
+    """Non-zero one-sided windings (0..2) per voxel from a (n_a + 1, n_b, n_c) crossing delta."""
+    wf = np.cumsum(deltas, axis=0)
+    total = wf[-1]
+    wf = wf[:-1]
+    return (wf != 0).astype(np.uint8) + ((wf - total) != 0)
+
+
+def ray_vote_solid(vertices, faces, origin, pitch, shape, min_votes=3, caps=None):
+    """Inside test of voxel centers by signed ray crossings along the 3 axes, counted from both ends.
+
+    For a grid line along axis a, every triangle it crosses contributes s = -sign(n_a) (+1 entering
+    a closed, outward-oriented surface). W_f(i) is the sum of s over the crossings before voxel
+    center i, W_b(i) = W_f(i) - T (T the sum over the whole line, 0 for a closed surface); votes
+    counts the non-zero values among {W_f, W_b} x 3 axes.
+
+    Args:
+      vertices: (n, 3), faces: (f, 3), origin: (3,), pitch: float, shape: (3,) ints.
+      min_votes: inside iff votes >= min_votes.
+      caps: optional (q, 3) extra faces (:func:`cap_holes`); voxels around which faces + caps
+        wind are inside too.
+
+    Returns:
+      solid (shape) bool and votes (shape) uint8 in 0..6 (of the uncapped faces).
+    """
+    shape = tuple(int(s) for s in shape)
+    g = (vertices - origin) / pitch - 0.5  # grid units: voxel center i at g = i
+    votes = np.zeros(shape, np.uint8)
+    capped = np.zeros(shape, np.uint8)
+    tri = _prepare(g, faces)
+    tcap = _prepare(g, caps) if caps is not None and len(caps) else None
+    for a, b, c in _AXES:
+        delta = np.zeros((shape[a] + 1, shape[b], shape[c]), np.int32)
+        st, jj, kk, s = _crossings(tri, shape, a, b, c)
+        np.add.at(delta, (st, jj, kk), s)
+        back = np.argsort((a, b, c))
+        votes += np.transpose(_votes(delta), back)
+        if tcap is not None:
+            st, jj, kk, s = _crossings(tcap, shape, a, b, c)
+            np.add.at(delta, (st, jj, kk), s)
+            capped += np.transpose(_votes(delta), back)
+    solid = votes >= min_votes
+    if tcap is not None:
+        solid |= capped >= 4  # closed: all 6 agree up to ties
+    return solid, votes
+
+
+# ------------------------------------------------------------------ point-cloud solid
+def neighbour_distances(points, k=4, samples=None, seed=0):
+    """Distances from points to their k nearest other points (scipy's cKDTree over all of them).
+
+    Args:
+      points: (n, 3) float; k: neighbours.
+      samples: None (every point), or at most this many points, a uniform random subset without
+        replacement (``numpy.random.default_rng(seed)``), queried against all the points.
+
+    Returns:
+      (q, k) float, q = n or min(n, samples), rows ascending.
+    """
+    from scipy.spatial import cKDTree
+
+    queries = points
+    if samples is not None and len(points) > samples:
+        queries = points[np.random.default_rng(seed).choice(len(points), size=int(samples), replace=False)]
+    tree = cKDTree(points, balanced_tree=False, compact_nodes=False)  # the faster build for one query
+    dist, _ = tree.query(queries, k=k + 1, workers=1)
+    return dist[:, 1:]
+
+
+def check_resolution(resolution, budget=MEMORY_BUDGET):
+    """Validate a voxel resolution (an int >= 8 whose worst-case grid fits ``budget`` bytes).
+
+    The worst case is a cube: (resolution + 2 * margin + 1)^3 voxels of ``VOXEL_BYTES``.
+
+    Returns:
+      resolution as an int.
+
+    Raises:
+      InvalidInputError: naming the range, and the memory the grid would need.
+    """
+    if isinstance(resolution, bool) or not isinstance(resolution, numbers.Integral) or resolution < 8:
+        raise InvalidInputError(f"resolution must be >= 8 (an int), got {resolution!r}")
+    side = lambda r: r + 2 * _MAX_MARGIN + 1
+    largest = int(np.floor((budget / VOXEL_BYTES) ** (1.0 / 3.0))) - 2 * _MAX_MARGIN - 1
+    while VOXEL_BYTES * side(largest + 1) ** 3 <= budget:
+        largest += 1
+    while VOXEL_BYTES * side(largest) ** 3 > budget:
+        largest -= 1
+    need = VOXEL_BYTES * float(side(int(resolution))) ** 3
+    if need > budget:
+        raise InvalidInputError(
+            f"resolution={int(resolution)} needs up to {need / 2**30:.2f} GiB for the voxel grid "
+            f"({side(int(resolution)) ** 3:.2g} voxels at {VOXEL_BYTES} bytes); the limit is "
+            f"{budget / 2**30:g} GiB: use a resolution in [8, {largest}]"
+        )
+    return int(resolution)
+
+
+def closing_radius(r_k, pitch):
+    """Closing radius in voxels (int >= 1) of a point cloud: the 90th percentile of the 4-NN
+    distances r_k (the distance across the largest typical gap between samples) over the pitch,
+    rounded up."""
+    return int(max(1, np.ceil(np.quantile(r_k, 0.9) / pitch)))
+
+
+def point_solid(points, origin, pitch, shape, radius, max_radius=None):
+    """Closing of the voxels holding points: dilate by ``radius`` voxels, fill cavities, erode back.
+
+    When the samples have gaps wider than the dilation, the fill finds no cavity (it leaks); then
+    the radius grows by max(1, radius // 4) voxels, up to ``max_radius`` (default 3 radius). A
+    closing is accepted when the filled closing holds >= 1.2 x the voxels of the closed shell alone.
+
+    Returns:
+      solid (shape) bool, occupied (shape) bool (voxels holding a point), the radius used.
+    """
+    shape = tuple(int(s) for s in shape)
+    idx = np.floor((points - origin) / pitch).astype(np.int64)
+    inside = np.all((idx >= 0) & (idx < np.array(shape)), axis=1)
+    occ = np.zeros(shape, bool)
+    occ[tuple(idx[inside].T)] = True
+    out_dist = ndimage.distance_transform_edt(~occ)
+    max_radius = 3 * radius if max_radius is None else max_radius
+    while True:
+        dil = out_dist <= radius
+        closed = ndimage.distance_transform_edt(exterior_fill(dil)) > radius
+        if radius >= max_radius or closed.sum() >= 1.2 * (ndimage.distance_transform_edt(dil) > radius).sum():
+            return closed | occ, occ, radius
+        radius = min(radius + max(1, radius // 4), max_radius)
+
+
+# ------------------------------------------------------------------ components, depth
+def exterior_fill(solid):
+    """The solid with its enclosed cavities filled (the complement components that do not reach
+    the grid border), as ``scipy.ndimage.binary_fill_holes`` does, by one labelling."""
+    lab, n = ndimage.label(~solid)
+    if n == 0:
+        return solid
+    border = np.zeros(n + 1, bool)
+    for face in (lab[0], lab[-1], lab[:, 0], lab[:, -1], lab[:, :, 0], lab[:, :, -1]):
+        border[np.unique(face)] = True
+    border[0] = False
+    return ~border[lab]
+
+
+def keep_main(solid, keep_ratio=KEEP_RATIO):
+    """The 26-connected components of ``solid`` that are the main body or at least ``keep_ratio``
+    of its size (boundary voxel count). Returns kept (shape) bool, components, dropped."""
+    lab, n = ndimage.label(solid, structure=np.ones((3, 3, 3), bool))
+    if n == 0:
+        return solid, 0, 0
+    boundary = solid & ~ndimage.binary_erosion(solid)
+    size = np.bincount(lab[boundary], minlength=n + 1)[1:]
+    keep = size >= keep_ratio * size.max()
+    return np.concatenate([[False], keep])[lab], int(n), int((~keep).sum())
+
+
+def depth(kept, pitch, bias=MESH_BIAS):
+    """Euclidean distance to the outside in units: the exact distance transform
+    (:func:`jaxpose.depth.host_distance`) minus ``bias`` voxels (the mean offset of the true surface
+    from the solid's outermost voxel centers), at least 0. (shape) float64 NumPy."""
+    return np.maximum(host_distance(kept) - bias, 0.0) * pitch
+
+
+def _near(x, kept, origin, pitch, grow=1):
+    """(m,) bool: the voxel of each point x (m, 3) lies within ``grow`` voxels of ``kept``."""
+    near = ndimage.binary_dilation(kept, structure=np.ones((3, 3, 3), bool), iterations=grow) if grow else kept
+    idx = np.floor((x - origin) / pitch).astype(np.int64)
+    np.clip(idx, -1, np.array(kept.shape), out=idx)
+    padded = np.pad(near, 1)
+    return padded[idx[:, 0] + 1, idx[:, 1] + 1, idx[:, 2] + 1]
+
+
+# ------------------------------------------------------------------ driver
+def robust_solid(vertices, faces=None, *, resolution=RESOLUTION, coarse=COARSE, keep_ratio=KEEP_RATIO,
+                 min_votes=3, frame=None, with_depth=True) -> Solid:
+    """The kept solid of a mesh or a point cloud (module docs).
+
+    Args:
+      vertices: (n, 3) float, in any units.
+      faces: (f, 3) int, or None for a point cloud.
+      resolution: voxels along the main body's largest extent (>= 8); coarse: the same for the
+        first pass over everything. For point clouds the pitch is at least the 90th percentile of
+        the 4-NN spacing / ``MAX_CLOSING`` (sparser samples carry no finer detail).
+      keep_ratio: separate components smaller than this share of the main body are dropped.
+      min_votes: of the 6 one-sided windings, how many make a voxel inside (meshes).
+      frame: optional (3, 3) rotation (rows = grid axes in world coordinates); the grid is laid out
+        along them (for rotation-equivariant results, e.g. along the shape's principal axes).
+      with_depth: compute ``Solid.depth`` on the host (False: None, for callers that take the
+        depth in JAX from ``inside`` and ``bias``).
+
+    Returns:
+      :class:`Solid`; its ``inside`` is empty when the shape encloses no volume (a flat or open
+      sheet, a point cloud of one side).
+    """
+    resolution, coarse = check_resolution(resolution), check_resolution(coarse)
+    v = np.asarray(vertices, np.float64)
+    frame = None if frame is None else np.asarray(frame, np.float64)
+    v = v if frame is None else v @ frame.T
+    frame = np.eye(3) if frame is None else frame
+    n_input = len(v)
+    lo, hi = v.min(0), v.max(0)
+    if not float((hi - lo).max()) > 0:
+        raise InvalidInputError("the shape has no extent: all its points coincide")
+    if faces is None:
+        r_gap = neighbour_distances(v, 4, samples=SPACING_SAMPLES)[:, 3]
+        caps = None
+    else:
+        v, caps = cap_holes(v, np.asarray(faces, np.int64))
+
+    def solid_at(origin, pitch, shape):
+        if faces is None:
+            return point_solid(v, origin, pitch, shape, closing_radius(r_gap, pitch))[:2]
+        return ray_vote_solid(v, faces, origin, pitch, shape, min_votes=min_votes, caps=caps)[0], None
+
+    def margin(pitch):
+        return 3 * closing_radius(r_gap, pitch) + 3 if faces is None else 3
+
+    def coarsest(pitch):  # a point cloud's spacing limits its detail: closing radius <= MAX_CLOSING voxels
+        return max(pitch, float(np.quantile(r_gap, 0.9)) / MAX_CLOSING) if faces is None else pitch
+
+    # pass 1: the main body at a coarse pitch over everything (stray parts included)
+    pitch1 = coarsest(float((hi - lo).max()) / coarse)
+    origin1, shape1 = make_grid(lo, hi, pitch1, margin(pitch1))
+    kept1 = keep_main(solid_at(origin1, pitch1, shape1)[0], keep_ratio)[0]
+    on1 = _near(v[:n_input], kept1, origin1, pitch1, grow=1) if kept1.any() else None
+    if on1 is not None and on1.any():  # the exact box of the input on the main body
+        lo, hi = v[:n_input][on1].min(0), v[:n_input][on1].max(0)
+    # pass 2: the fine grid on the main body's box
+    pitch = coarsest(float((hi - lo).max()) / resolution)
+    origin, shape = make_grid(lo, hi, pitch, margin(pitch))
+    solid, occupied = solid_at(origin, pitch, shape)
+    kept, components, dropped = keep_main(exterior_fill(solid), keep_ratio)
+    bias = MESH_BIAS if faces is not None else POINT_BIAS
+    dep = depth(kept, pitch, bias=bias) if with_depth else None
+    return Solid(kept, dep, origin, pitch, occupied, frame, components, dropped, bias)

@@ -1,0 +1,150 @@
+"""``fit_svdd``: validate, pick a solver, solve, and attach the implicit derivative."""
+from __future__ import annotations
+
+from functools import partial
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ... import _validate
+from ...config import SolverConfig
+from .implicit import implicit_alpha
+from .pg import solve_pg
+from .polish import polish
+from .problem import SVDD, caps as point_caps, kernel_ops, offset, upper_bound
+from .smo import solve_smo
+
+__all__ = ["fit_svdd", "solve_svdd", "pick_solver", "PG_MAX_M", "SMO_BUDGET"]
+
+PG_MAX_M = 2500  # solver=None: "pg" up to this many points (on CPU), "auto" above
+SMO_BUDGET = 10  # "auto": SMO pair updates per point before projected gradient takes over
+
+
+def pick_solver(solver, m):
+    """The solver that ``solver=None`` stands for at m points (static).
+
+    On CPU, projected gradient up to ``PG_MAX_M`` points (its kernel products are fast while K
+    stays in cache, and at equal tol it stops at a more even point than SMO, whose pair choices
+    flip with rounding), "auto" above (SMO first: O(m) per update and no K needed). On other
+    backends kernel products are cheap and thousands of sequential updates are not: "pg".
+    """
+    if solver is not None:
+        return solver
+    return "pg" if m <= PG_MAX_M or jax.default_backend() != "cpu" else "auto"
+
+
+def fit_svdd(points, gamma, nu, *, mask=None, init_alpha=None, config: SolverConfig | None = None, throw=False,
+             **options) -> SVDD:
+    """Fit the SVDD dual (eq. 2) on points.
+
+    Args:
+      points: (m, 3) float32 or float64 (the result follows; integers become the default float).
+      gamma: () > 0, the kernel parameter in 1 / units of ``points`` squared (as scikit-learn's).
+      nu: () in [0, 1]; C = 1 / (nu m); nu = 0 is the hard-margin minimum enclosing ball.
+      mask: optional (m,) bool; False rows are padding and get alpha = 0.
+      init_alpha: optional (m,) warm start (projected onto the feasible set).
+      config: a :class:`jaxpose.config.SolverConfig`; or its fields as keywords (``tol``,
+        ``max_iter``, ``check_every``, ``kernel``, ``block``, ``solver``).
+      throw: raise ConvergenceError if the iteration cap is hit (concrete calls only).
+
+    Returns:
+      :class:`SVDD`, with ``converged``, ``iterations`` and ``kkt_violation`` as diagnostics.
+
+    Solvers: "pg" (accelerated projected gradient, one kernel product per step), "smo" (libsvm's
+    pair updates), "auto" (SMO for at most min(SMO_BUDGET m, max_iter // 2) updates, then projected
+    gradient from there); ``None`` picks by size (:func:`pick_solver`). Same problem, stopping
+    rule (:func:`jaxpose.occupancy.svdd.kkt_violation` <= tol) and derivatives. Where at most
+    ``polish.MAX_FREE`` points are free at the end, the solution is then polished: solved exactly
+    on its active set, kept if that lowers the violation (:mod:`jaxpose.occupancy.svdd.polish`).
+
+    Differentiation: jittable (options static), vmappable over same-size point sets, and
+    differentiable in points, gamma and nu by the implicit KKT derivative
+    (:mod:`jaxpose.occupancy.svdd.implicit`), in forward and reverse mode, without unrolling iterations.
+
+    Raises:
+      InvalidInputError: bad points, gamma, nu, mask, init_alpha or option.
+
+    Example::
+
+        >>> svdd = jaxpose.fit_svdd(points, gamma=5.0, nu=0.3)
+        >>> bool(svdd.converged), svdd.alpha.sum()
+    """
+    if config is None:
+        config = SolverConfig(**options)
+    elif options:
+        raise _validate.InvalidInputError(f"give either config or options, not both (got {sorted(options)})")
+    elif not isinstance(config, SolverConfig):
+        raise _validate.InvalidInputError(f"config must be a SolverConfig, got {type(config).__name__}")
+    points = _validate.check_points(points)
+    _validate.check_gamma(gamma)
+    _validate.check_nu(nu)
+    m = points.shape[0] if hasattr(points, "shape") else len(points)
+    if mask is not None:
+        if tuple(getattr(mask, "shape", (len(mask),))) != (m,):
+            raise _validate.InvalidInputError(f"mask must have shape ({m},), got {tuple(jnp.shape(mask))}")
+        if not _validate.is_traced(mask) and not _validate.is_traced(points):
+            _validate.check_points(np.asarray(points)[np.asarray(mask, bool)], name="points selected by mask")
+    if init_alpha is not None:
+        if tuple(jnp.shape(init_alpha)) != (m,):
+            raise _validate.InvalidInputError(f"init_alpha must have shape ({m},), got {tuple(jnp.shape(init_alpha))}")
+        if not _validate.is_traced(init_alpha) and not np.all(np.isfinite(np.asarray(init_alpha, np.float64))):
+            raise _validate.InvalidInputError("init_alpha has NaN or inf entries")
+    points = jnp.asarray(points)
+    if not jnp.issubdtype(points.dtype, jnp.floating):
+        points = points.astype(jnp.result_type(float))
+    result = solve_svdd(points, gamma, nu, mask, init_alpha, config)
+    if throw and not _validate.is_traced(result.converged) and not bool(result.converged):
+        raise _validate.ConvergenceError(
+            f"SVDD solver hit max_iter={config.max_iter} with relative KKT violation "
+            f"{float(result.kkt_violation):.3g} > tol={config.tol}"
+        )
+    return result
+
+
+@partial(jax.jit, static_argnames=("config",))
+def solve_svdd(points, gamma, nu, mask, init_alpha, config: SolverConfig) -> SVDD:
+    """:func:`fit_svdd` without input checks, compiled per ``config`` (static) and shape.
+
+    Args as :func:`fit_svdd`; ``mask`` and ``init_alpha`` may be None. Pure JAX.
+    """
+    dtype = points.dtype
+    m = points.shape[0]
+    solver = pick_solver(config.solver, m)
+    gamma = jnp.asarray(gamma, dtype)
+    nu = jnp.asarray(nu, dtype)
+    mask = jnp.ones((m,), bool) if mask is None else jnp.asarray(mask, bool)
+    caps = point_caps(nu, mask)
+    cold = init_alpha is None
+    if cold:
+        init_alpha = jnp.where(mask, 1.0, 0.0).astype(dtype) / jnp.sum(mask)
+    sg = jax.lax.stop_gradient
+    args = (sg(points), sg(gamma), sg(caps), mask, sg(jnp.asarray(init_alpha, dtype)))
+    if solver == "pg":
+        a, _, it, viol = solve_pg(*args, config)
+    else:
+        budget = config.max_iter if solver == "smo" else min(config.max_iter // 2, SMO_BUDGET * m)
+        a, _, it, viol = solve_smo(*args, config, budget, density_start_=cold)
+        if solver == "auto":  # SMO's tail is slow where most support vectors are free: finish by PG
+            def finish(a):
+                r = solve_pg(args[0], args[1], args[2], mask, a, config, max_iter=config.max_iter - budget)
+                return r[0], it + r[2], r[3]
+
+            a, it, viol = jax.lax.cond(viol > config.tol, finish, lambda a: (a, it, viol), a)
+    matvec = lambda v: kernel_ops(args[0], args[1], config.kernel, config.block)[0](v)  # built only if used
+    a, viol = polish(args[0], args[1], args[2], mask, a, viol, matvec)
+    a = implicit_alpha(a, points, gamma, caps, mask)
+    # recomputed with the differentiable alpha, so that offset and objective carry derivatives
+    Ka = kernel_ops(points, gamma, config.kernel, config.block)[0](a)
+    return SVDD(
+        points=points,
+        alpha=a,
+        gamma=gamma,
+        cap=upper_bound(nu, jnp.sum(mask)),
+        offset=offset(a, Ka, caps, mask),
+        objective=jnp.vdot(a, Ka),
+        iterations=it,
+        kkt_violation=viol,
+        converged=viol <= config.tol,
+        mask=mask,
+    )

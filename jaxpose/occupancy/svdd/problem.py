@@ -1,0 +1,190 @@
+"""The SVDD problem: the fitted model, its box constraint, stopping rule, offset and decision function.
+
+Dual (eq. 2 of the paper) with a Gaussian kernel, so that k(x, x) = 1:
+
+    min_a  a^T K a   s.t.  0 <= a_i <= C = 1 / (nu m),  sum a = 1.
+
+With the free support vectors F = {0 < a_i < C}, the KKT conditions give 2 (K a)_i = mu on F and
+
+    f(x) = R^2 - ||Phi(x) - c||^2 = 2 k(x)^T a - mu,   R^2 = 1 - mu + a^T K a   (eq. 3),
+
+positive inside the region.
+
+Mapping to scikit-learn / libsvm (``OneClassSVM(kernel="rbf", gamma, nu)``): libsvm solves
+min 1/2 b^T K b, 0 <= b_i <= 1, sum b = nu m, so b = nu m a; ``dual_coef_[0]`` holds b at
+``support_``; libsvm's rho = (K b)_i on free points = nu m mu / 2 = ``offset_``; and its
+``decision_function(x)`` = k(x)^T b - rho = (nu m / 2) f(x).
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+
+from ... import _validate
+from ...config import BLOCK
+from ..kernels import gaussian_kernel, kernel_matvec_blocked, map_blocks
+
+__all__ = ["SVDD", "upper_bound", "caps", "kernel_ops", "kkt_violation", "offset", "decision_function",
+           "decision_value_and_grad", "DENSE_LIMIT"]
+
+DENSE_LIMIT = 12_000  # kernel="auto": above this many points K is never stored (memory O(m * block))
+
+
+class SVDD(NamedTuple):
+    """A fitted SVDD; a pytree (jit and vmap friendly).
+
+    Attributes:
+      points: (m, 3) training points, in the units given.
+      alpha: (m,) dual solution, sum 1, 0 <= alpha <= cap.
+      gamma: () kernel parameter, 1 / units^2.
+      cap: () the upper bound C = min(1, 1 / (nu m)).
+      offset: () mu, so that f(x) = 2 k(x)^T alpha - mu.
+      objective: () alpha^T K alpha.
+      iterations: () solver iterations (pair updates plus gradient steps).
+      kkt_violation: () relative KKT violation at the end (:func:`kkt_violation`).
+      converged: () bool, kkt_violation <= tol.
+      mask: (m,) bool, the points that take part (padding in batches is False).
+    """
+
+    points: jax.Array
+    alpha: jax.Array
+    gamma: jax.Array
+    cap: jax.Array
+    offset: jax.Array
+    objective: jax.Array
+    iterations: jax.Array
+    kkt_violation: jax.Array
+    converged: jax.Array
+    mask: jax.Array
+
+    @property
+    def radius2(self):
+        """R^2 of the feature-space ball (eq. 1)."""
+        return 1.0 - self.offset + self.objective
+
+    @property
+    def support(self):
+        """(m,) bool, the support vectors (alpha > 0)."""
+        return self.alpha > 0
+
+
+def upper_bound(nu, m):
+    """C = 1 / (nu m), capped at 1 (nu = 0: no upper bound); safe to differentiate. () float."""
+    nm = nu * m
+    return jnp.where(nm > 1.0, 1.0 / jnp.where(nm > 1.0, nm, 1.0), 1.0)
+
+
+def caps(nu, mask):
+    """Per-point upper bounds (m,): C on the points that take part, 0 on padding."""
+    m_valid = jnp.sum(mask)
+    return jnp.where(mask, upper_bound(nu, m_valid), 0.0)
+
+
+def kernel_ops(points, gamma, kernel, block=BLOCK):
+    """(v -> K v, i -> K[i]) with K stored (dense) or computed in blocks and per column.
+
+    kernel: "dense", "blocked" or "auto" (dense up to ``DENSE_LIMIT`` points).
+    """
+    m = points.shape[0]
+    dense = kernel == "dense" or (kernel == "auto" and m <= DENSE_LIMIT)
+    if dense:
+        K = gaussian_kernel(points, points, gamma)
+        return (lambda v: K @ v), (lambda i: K[i])
+    return ((lambda v: kernel_matvec_blocked(points, v, gamma, block)),
+            (lambda i: gaussian_kernel(points[i][None], points, gamma)[0]))
+
+
+def kkt_violation(alpha, Ka, caps, mask):
+    """The stopping rule: libsvm's maximal KKT violation in units of the kernel's own spread.
+
+    Args:
+      alpha: (m,) feasible point; Ka: (m,) K alpha; caps: (m,) upper bounds; mask: (m,) bool.
+
+    Returns:
+      (violation, objective): violation = max_{a_j > 0} (Ka)_j - min_{a_i < C} (Ka)_i divided by
+      s = min(a^T K a, 1 - a^T K a), >= 0; objective = a^T K a.
+
+    Why that unit: the violation is a difference of values of Ka = <Phi(x_i), c>, and so are the
+    decision values f = 2 Ka - mu that place the region's boundary. Their spread is bounded by
+    a^T K a, the squared norm of the feature-space center c (the scale at large gamma, where K
+    tends to I and every value of Ka is small), and by 1 - a^T K a = sum_i a_i ||Phi(x_i) - c||^2,
+    the spread of the features around c (the scale at small gamma, where K = 1 1^T - gamma D +
+    O(gamma^2), Ka tends to 1 and the informative differences are O(gamma)). Relative to the
+    smaller of the two the rule is scale-free in gamma at both ends: as gamma -> 0 it becomes
+    (differences of squared distances to the weighted mean) / (2 weighted variance), the
+    minimum enclosing ball's own rule at nu = 0. At the exact solution the violation is 0, and
+    f at the training points is then within about 2 tol s of its exact value.
+    """
+    inf = jnp.asarray(jnp.inf, Ka.dtype)
+    obj = jnp.vdot(alpha, Ka)
+    up = jnp.max(jnp.where(mask & (alpha > 0), Ka, -inf))
+    low = jnp.min(jnp.where(mask & (alpha < caps), Ka, inf))
+    viol = jnp.maximum(up - low, 0.0)
+    viol = jnp.where(jnp.isfinite(viol), viol, 0.0)
+    unit = jnp.minimum(obj, 1.0 - obj)
+    return viol / jnp.maximum(unit, jnp.finfo(Ka.dtype).tiny), obj
+
+
+def offset(alpha, Ka, caps, mask):
+    """mu = 2 (K a)_i averaged over the free support vectors; libsvm's midpoint rule if none. ()"""
+    g = 2.0 * Ka
+    free = mask & (alpha > 0) & (alpha < caps)
+    n_free = jnp.sum(free)
+    mean_free = jnp.sum(jnp.where(free, g, 0.0)) / jnp.maximum(n_free, 1)
+    inf = jnp.asarray(jnp.inf, g.dtype)
+    lb = jnp.max(jnp.where(mask & (alpha >= caps) & (alpha > 0), g, -inf))  # f <= 0 there
+    ub = jnp.min(jnp.where(mask & (alpha <= 0), g, inf))  # f >= 0 there
+    mid = jnp.where(jnp.isfinite(lb) & jnp.isfinite(ub), 0.5 * (lb + ub), jnp.where(jnp.isfinite(lb), lb, ub))
+    return jnp.where(n_free > 0, mean_free, mid)
+
+
+def decision_value_and_grad(svdd: SVDD, x, block=BLOCK):
+    """f(x) (eq. 3) and its spatial gradient, in blocks of query points.
+
+    Args:
+      svdd: a fitted :class:`SVDD`; x: (n, 3) query points; block: rows per block.
+
+    Returns:
+      f (n,) and grad f (n, 3) = -4 gamma sum_i alpha_i k(x, x_i) (x - x_i). Memory O(block m).
+    """
+    p, a, g = svdd.points, svdd.alpha, svdd.gamma
+
+    def one_block(xb):
+        d = xb[:, None, :] - p[None, :, :]
+        w = a * jnp.exp(-g * jnp.sum(d * d, axis=-1))
+        f = 2.0 * jnp.sum(w, axis=1) - svdd.offset
+        grad = -4.0 * g * jnp.einsum("nm,nmk->nk", w, d)
+        return f, grad
+
+    return map_blocks(one_block, x, block)
+
+
+def decision_function(svdd: SVDD, x, block=BLOCK):
+    """The decision function f(x) = 2 k(x)^T alpha - mu (eq. 3), positive inside the region.
+
+    Args:
+      svdd: a fitted :class:`SVDD`.
+      x: (n, 3) query points (any real dtype; computed in the model's dtype).
+      block: query rows per block (memory O(block m)).
+
+    Returns:
+      (n,) float.
+
+    Raises:
+      InvalidInputError: ``svdd`` is not an SVDD, or x is not a finite (n, 3) array.
+
+    Example::
+
+        >>> svdd = jaxpose.fit_svdd(points, gamma=5.0, nu=0.3)
+        >>> inside = jaxpose.decision_function(svdd, points) >= 0
+    """
+    if not isinstance(svdd, SVDD):
+        raise _validate.InvalidInputError(f"svdd must be an SVDD from fit_svdd, got {type(svdd).__name__}")
+    _validate.check_array(x, name="x")
+    x = jnp.asarray(x, svdd.points.dtype)
+    if x.shape[0] == 0:
+        return jnp.zeros((0,), x.dtype)
+    p, a, g = svdd.points, svdd.alpha, svdd.gamma
+    return map_blocks(lambda xb: 2.0 * (gaussian_kernel(xb, p, g) @ a) - svdd.offset, x, block)

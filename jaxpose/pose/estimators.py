@@ -1,0 +1,361 @@
+"""Named estimators of a shape's center and scale, for meshes and point clouds, one interface.
+
+A method is a (center, scale) pair; the two can also be chosen independently
+(``estimate(mesh, center="solid_centroid", scale="sqrt_area")``).
+
+The default, ``"robust"``, is the depth^4-weighted centroid of a robust solid and the cube root of
+that solid's volume (:mod:`jaxpose.occupancy.solid`): the solid is found with or without a closed surface
+(holes are capped and voted over by rays along 3 axes; point clouds are closed morphologically),
+stray parts separated from the body are dropped, and each voxel weighs its depth to the outside to
+the power 4, so the deep part of the shape (a body's torso), which moves least under articulation,
+sets the center. The volume is nearly invariant under articulation of soft bodies. See
+``docs/estimators.md`` for the measurements behind the choice. The solid is built on the host
+(NumPy); its depth, weights and moments are JAX (:func:`robust_moments`: one compiled function per
+grid bucket, differentiable in the power).
+
+``"ocsvm"`` is the paper's method (:func:`jaxpose.normalize` on ``count`` surface samples), the
+only one differentiable in (gamma, nu). The others are the classical baselines of
+:mod:`jaxpose.baselines`.
+
+Every estimator runs on a copy of the input moved by one of its own vertices (:func:`centered`):
+the move is exact in float64 (a difference of nearby floats), so results are equivariant under
+translation to the last digit the output can hold, wherever the shape sits.
+"""
+from __future__ import annotations
+
+import numbers
+import warnings
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .. import baselines, sample
+from ..occupancy import solid, voxels
+from .._validate import InvalidInputError, JaxposeError, is_traced
+from ..depth import depth_weights, to_bucket
+from ..moments import Moments, grid_moments
+
+__all__ = ["METHODS", "CENTERS", "SCALES", "DEFAULT_METHOD", "ROBUST_POWER", "resolve", "estimate",
+           "estimate_many", "robust_center_scale", "robust_moments", "solid_moments", "solid_center_volume", "centered"]
+
+METHODS = {
+    "robust": ("robust_depth", "robust_volume"),
+    "ocsvm": ("ocsvm", "ocsvm"),
+    "surface_centroid": ("surface_centroid", "mean_distance"),
+    "vertex_mean": ("vertex_mean", "mean_distance"),
+    "bbox": ("bbox_center", "unit_cube"),
+    "min_ball": ("min_ball", "unit_sphere"),
+    "solid": ("solid_centroid", "gyration_radius"),
+    "solid_sqrt_area": ("solid_centroid", "sqrt_area"),
+    "depth_weighted_solid": ("depth_weighted_solid", "sqrt_area"),
+}
+DEFAULT_METHOD = "robust"
+CENTERS = ("robust_depth", "ocsvm") + baselines.CENTERS
+SCALES = ("robust_volume", "ocsvm") + baselines.SCALES
+ROBUST_POWER = 4.0  # depth exponent of the robust center
+_OCSVM_KEYS = ("gamma", "nu", "count", "seed", "sampling")
+
+
+def resolve(method=None, center=None, scale=None):
+    """The (center, scale) names of a method and/or explicit choices; validated.
+
+    ``method`` (default ``"robust"``) gives both; ``center`` / ``scale`` replace either. Raises
+    InvalidInputError naming an unknown name.
+    """
+    if method is not None and method not in METHODS:
+        raise InvalidInputError(f"unknown method {method!r}; valid: {', '.join(METHODS)}")
+    c, s = METHODS[method or DEFAULT_METHOD]
+    c, s = center or c, scale or s
+    if c not in CENTERS:
+        raise InvalidInputError(f"unknown center {c!r}; valid: {', '.join(CENTERS)}")
+    if s not in SCALES:
+        raise InvalidInputError(f"unknown scale {s!r}; valid: {', '.join(SCALES)}")
+    return c, s
+
+
+def centered(geometry):
+    """A copy of a mesh or point cloud translated so that its vertex nearest the middle of its
+    bounding box sits at the origin, and that vertex.
+
+    Args:
+      geometry: Trimesh, PointCloud or (n, 3) points.
+
+    Returns:
+      moved: Trimesh (same faces, ``process=False``) or PointCloud, in float64; shift (3,) float64
+      with ``moved.vertices == vertices - shift``. Far from the origin the subtraction is exact
+      (Sterbenz), so ``shift`` plus a result computed on ``moved`` keeps every digit.
+
+    Raises:
+      InvalidInputError: bad vertices or faces; a mesh whose faces have no area.
+    """
+    import trimesh
+
+    from ..host import anchor
+
+    vertices, faces = baselines.split_geometry(geometry)
+    shift = anchor(vertices)
+    moved = vertices - shift
+    if faces is None:
+        return trimesh.PointCloud(moved), shift
+    return trimesh.Trimesh(moved, faces, process=False), shift
+
+
+def robust_center_scale(geometry, power=ROBUST_POWER, resolution=solid.RESOLUTION):
+    """The robust center and scale (module docs) of a mesh or point cloud.
+
+    Args:
+      geometry: Trimesh, PointCloud or (n, 3) points.
+      power: depth exponent p >= 0 of the center's weights.
+      resolution: voxels along the main body's largest extent (>= 8).
+
+    Returns:
+      center (3,) float64 = sum_v d_v^p x_v / sum_v d_v^p over the kept voxels, scale () =
+      V^(1/3), both in the input's units, and the :class:`jaxpose.occupancy.solid.Solid` (its ``depth``
+      None: the depth is taken in JAX).
+
+    Raises:
+      JaxposeError: the shape encloses no volume (a flat or open sheet, a one-sided scan).
+    """
+    sol = _robust_solid(geometry, resolution)
+    center, volume = solid_center_volume(sol, power)
+    return center, volume ** (1.0 / 3.0), sol
+
+
+def _robust_solid(geometry, resolution):
+    resolution = solid.check_resolution(resolution)
+    vertices, faces = baselines.split_geometry(geometry)
+    sol = solid.robust_solid(vertices, faces, resolution=resolution, with_depth=False)
+    if not sol.inside.any():
+        raise JaxposeError("the shape encloses no volume (a flat or open sheet, or a scan of one side): "
+                           "the robust solid is empty; use the surface_centroid or ocsvm method "
+                           "(method='surface_centroid'; on the command line --method surface_centroid)")
+    return sol
+
+
+@jax.jit
+def robust_moments(inside, occupied, origin, pitch, power, bias, extent=None) -> Moments:
+    """Moments of a depth^p-weighted voxel solid: depth (:func:`jaxpose.depth.depth_weights`), then
+    :func:`jaxpose.moments.grid_moments`. Pure JAX, jittable, vmappable.
+
+    Args:
+      inside: (nx, ny, nz) bool, the solid's voxels; occupied: (nx, ny, nz) bool, voxels that
+        straddle the surface (they count half in the volume; all False for a mesh solid).
+      origin: (3,) lower corner of voxel (0, 0, 0); pitch: () voxel edge (units).
+      power: () depth exponent p >= 0; bias: () voxels subtracted from the distance transform.
+      extent: optional (3,) int, the grid within an array padded with False
+        (:func:`jaxpose.depth.to_bucket`).
+
+    Returns:
+      :class:`jaxpose.moments.Moments` in the grid's frame: center sum_v d_v^p x_v / sum_v d_v^p,
+      volume pitch^3 (#inside - #occupied / 2). Differentiable in ``power``, ``pitch`` and
+      ``origin``; the occupancy itself carries no derivative.
+    """
+    w = depth_weights(inside, power, bias, extent)
+    occupancy = inside.astype(w.dtype) - 0.5 * (inside & occupied).astype(w.dtype)
+    return grid_moments(occupancy, w, origin, pitch)
+
+
+def solid_moments(sol, power=ROBUST_POWER) -> Moments:
+    """:func:`robust_moments` of a host :class:`jaxpose.occupancy.solid.Solid`, in voxel units from the grid's
+    corner (origin 0, pitch 1; computed on the grid's :func:`jaxpose.depth.to_bucket`; JAX's
+    default float).
+
+    The world moments are ``sol.origin + sol.pitch * center`` (then ``@ sol.frame``), ``pitch^3 *
+    volume``: :func:`solid_center_volume` applies them in float64 on the host, so a float32 center
+    keeps its digits wherever the grid lies (voxel units are exact integers plus one half).
+    Differentiable in ``power`` (a traced power is not checked). Raises InvalidInputError for a
+    power that is not a finite number >= 0."""
+    if not is_traced(power) and not (isinstance(power, numbers.Real) and np.isfinite(power) and power >= 0):
+        raise InvalidInputError(f"power must be a finite number >= 0, got {power!r}")
+    inside, extent, axes = to_bucket(sol.inside)
+    occupied = np.zeros_like(inside) if sol.occupied is None else to_bucket(sol.occupied)[0]
+    dtype = jnp.result_type(float)
+    mom = robust_moments(inside, occupied, jnp.zeros(3, dtype), jnp.ones((), dtype), jnp.asarray(power, dtype),
+                         jnp.asarray(sol.bias, dtype), extent)
+    back = np.argsort(axes)  # the bucket's axes back to the grid's
+    return mom._replace(center=mom.center[back], second_moment=mom.second_moment[back][:, back])
+
+
+def solid_center_volume(sol, power=ROBUST_POWER):
+    """The depth^p-weighted center (3,) float64 NumPy, in world units, and the volume (float) of a
+    host :class:`jaxpose.occupancy.solid.Solid`: :func:`solid_moments` mapped to the world in float64."""
+    moments = solid_moments(sol, power)
+    center = (sol.origin + sol.pitch * np.asarray(moments.center, np.float64)) @ np.asarray(sol.frame, np.float64)
+    return center, float(moments.volume) * sol.pitch**3
+
+
+_SHARED = ("_robust_solid", "_ocsvm", "_voxels", "_moments")  # what does not depend on the power
+
+
+class _Shape:
+    """One input with the intermediate results that several estimators share, computed once."""
+
+    def __init__(self, geometry, options):
+        self.geometry = geometry
+        self.options = options
+        self._robust_solid = None
+        self._ocsvm = None
+        self._voxels = None
+        self._moments = None
+        self._robust = None
+
+    def robust(self):
+        """World center and volume of the robust solid at this shape's power."""
+        if self._robust is None:
+            sol = self.robust_solid()
+            self._robust = solid_center_volume(sol, self.options.get("power", ROBUST_POWER))
+        return self._robust
+
+    def solid_moments(self, strict):
+        if self._moments is None:
+            self._moments = baselines.solid_moments(self.geometry, strict)
+        return self._moments
+
+    def robust_solid(self):
+        if self._robust_solid is None:
+            self._robust_solid = _robust_solid(self.geometry, self.options.get("resolution", solid.RESOLUTION))
+        return self._robust_solid
+
+    def ocsvm(self):
+        if self._ocsvm is None:
+            from .._validate import InvalidPoseWarning
+            from .pose import normalize
+            from .validity import status_message
+
+            o = self.options
+            points = sample.sample_surface(self.geometry, o.get("count", 2000), seed=o.get("seed", 0),
+                                           method=o.get("sampling", "even"))
+            with warnings.catch_warnings():  # an invalid pose is raised below, with its reason
+                warnings.simplefilter("ignore", InvalidPoseWarning)
+                pose = normalize(points, o.get("gamma", 47.0), o.get("nu", 0.5), **o.get("ocsvm", {}))
+            if not bool(np.asarray(getattr(pose, "valid", True))):
+                reason = status_message(pose.status) if hasattr(pose, "status") else "not valid"
+                raise JaxposeError(f"the ocsvm estimator gave no valid pose: {reason}")
+            self._ocsvm = pose
+        return self._ocsvm
+
+    def center(self, name, strict):
+        if name == "robust_depth":
+            return self.robust()[0]
+        if name == "ocsvm":
+            return np.asarray(self.ocsvm().center, np.float64)
+        if name == "solid_centroid":
+            return self.solid_moments(strict)[1]
+        if name == "depth_weighted_solid":
+            if self._voxels is None:
+                self._voxels = voxels.filled_voxels(self.geometry, strict=strict)
+            x, d = self._voxels
+            return voxels.weighted_centroid(x, d ** float(self.options.get("power", 2.0)))
+        return baselines.center(self.geometry, name)
+
+    def scale(self, name, center, strict):
+        if name == "robust_volume":
+            return self.robust()[1] ** (1.0 / 3.0)
+        if name == "ocsvm":
+            return float(np.asarray(self.ocsvm().scale))
+        if name == "gyration_radius":
+            _, c, second = self.solid_moments(strict)
+            return float(np.sqrt(np.trace(second) + np.sum((np.asarray(center) - c) ** 2)))
+        return baselines.scale(self.geometry, name, center=center)
+
+
+def estimate(geometry, method=None, *, center=None, scale=None, strict=False, **options):
+    """Center and scale of a mesh or point cloud by name, as a :class:`jaxpose.Pose`.
+
+    Args:
+      geometry: Trimesh, PointCloud or (n, 3) points (already loaded).
+      method: one of :data:`METHODS` (default ``"robust"``).
+      center, scale: override either part (names in :data:`CENTERS`, :data:`SCALES`).
+      strict: closed-surface estimators (``solid_centroid``, ``gyration_radius``,
+        ``depth_weighted_solid``) raise on an open mesh instead of warning.
+      options: ``power`` (depth exponent: robust_depth 4, depth_weighted_solid 2), ``resolution``
+        (robust solid voxels, 96); for ``ocsvm``: ``gamma``, ``nu``, ``count``, ``seed``,
+        ``sampling`` and ``ocsvm`` (a dict of :func:`jaxpose.normalize` options).
+
+    Returns:
+      Pose (center (3,), scale ()), in the input's units: the scales of different methods are
+      different sizes (a mean distance, a volume's cube root, an extent), consistent within a method.
+
+    Raises:
+      InvalidInputError: unknown names or options; a surface estimator on points.
+      JaxposeError: no valid pose (e.g. a shape that encloses no volume for ``robust``).
+    """
+    c_name, s_name = resolve(method, center, scale)
+    _check_options(options)
+    moved, shift = centered(geometry)
+    return _shifted(_pose(_Shape(moved, options), c_name, s_name, strict), shift)
+
+
+def _check_options(options):
+    unknown = sorted(set(options) - {"power", "resolution", "ocsvm", *_OCSVM_KEYS})
+    if unknown:
+        raise InvalidInputError(f"unknown option{'s' if len(unknown) > 1 else ''} {', '.join(unknown)}")
+
+
+def _shifted(pose, shift):
+    """The pose of a geometry moved by -shift, for the geometry itself, as a host pose (NumPy
+    fields, floats float64: :func:`jaxpose.pose.result.host`, whatever the method)."""
+    from .result import Pose, host
+
+    center = np.asarray(pose.center, np.float64) + shift
+    if isinstance(pose, Pose):
+        return host(pose)._replace(center=center)
+    return type(pose)(**{**vars(pose), "center": center})  # a pose-like object of a stand-in normalize
+
+
+def _pose(shape, c_name, s_name, strict):
+    from .result import Pose
+
+    c = np.asarray(shape.center(c_name, strict), np.float64)
+    s = float(shape.scale(s_name, c, strict))
+    if c_name == s_name == "ocsvm":
+        pose = shape.ocsvm()
+    else:
+        pose = Pose.from_center_scale(c, s)
+    if not bool(np.all(np.asarray(getattr(pose, "valid", True)))):
+        raise JaxposeError(f"{c_name} / {s_name} gave no valid pose (center {c}, scale {s})")
+    return pose
+
+
+def estimate_many(geometry, methods, strict=False, timings=False, **options):
+    """Several methods on one input, sharing what they have in common (the robust solid, the
+    voxels of the depth-weighted solid, the OCSVM fit).
+
+    Args:
+      geometry: as :func:`estimate`; methods: names of :data:`METHODS`, each optionally with a depth
+        power as ``"name:p"`` (``"depth_weighted_solid:4"``); strict, options: as :func:`estimate`.
+
+      timings: also return each method's seconds (shared work counted where first done).
+
+    Returns:
+      {method: Pose, or the JaxposeError it raised (e.g. a surface estimator on points)}, with
+      ``timings`` {method: (that, seconds)}.
+    """
+    import time
+
+    _check_options(options)
+    geometry, shift = centered(geometry)
+    shapes, out = {}, {}
+    for spec in methods:
+        name, _, power = str(spec).partition(":")
+        c_name, s_name = resolve(name)
+        key = float(power) if power else None
+        if key not in shapes:  # one shared input per power (the solids do not depend on it)
+            base = next(iter(shapes.values()), None)
+            shapes[key] = shape = _Shape(geometry, options if key is None else {**options, "power": key})
+            if base is not None:
+                for attr in _SHARED:
+                    setattr(shape, attr, getattr(base, attr))
+        start = time.perf_counter()
+        try:
+            out[spec] = _shifted(_pose(shapes[key], c_name, s_name, strict), shift)
+        except JaxposeError as exc:
+            out[spec] = exc
+        if timings:
+            out[spec] = (out[spec], time.perf_counter() - start)
+        for other in shapes.values():  # share what was computed
+            for attr in _SHARED:
+                if getattr(other, attr) is None:
+                    setattr(other, attr, getattr(shapes[key], attr))
+    return out

@@ -1,0 +1,199 @@
+"""The result of every estimator: :class:`Pose` (a similarity with its diagnostics) and
+:class:`Status` (why a pose is not valid).
+
+Importing this module does not import JAX (NumPy estimators return a Pose without it); methods
+that compute with JAX arrays import it when called. What the validity checks are is
+:mod:`jaxpose.pose.validity`'s contract.
+"""
+from __future__ import annotations
+
+import enum
+from typing import TYPE_CHECKING, NamedTuple
+
+import numpy as np
+
+from .._validate import is_traced
+
+if TYPE_CHECKING:  # annotations only
+    import jax
+
+__all__ = ["Pose", "host", "Status", "status_message", "MAX_SPACING", "MAX_CELL", "MIN_SPREAD"]
+
+MAX_SPACING = 2.0  # median nearest-neighbour distance of the samples, in kernel widths
+MAX_CELL = 2.0  # finest grid cell edge, in kernel widths
+MIN_SPREAD = 0.25  # region mean distance / samples' median distance from its centroid
+
+
+def _jnp():
+    import jax.numpy as jnp
+
+    return jnp
+
+
+class Status(enum.IntEnum):
+    """Why a pose is not valid (``Pose.status``); ``OK`` (0) when it is. ``Status(code).message``
+    explains a code; when several apply, the first in this order is reported."""
+
+    OK = 0
+    BAD_PARAMETERS = 1
+    DEGENERATE_INPUT = 2
+    SPARSE_SAMPLES = 3
+    UNRESOLVED_GRID = 4
+    EMPTY_REGION = 5
+    COLLAPSED_REGION = 6
+    NOT_FINITE = 7
+
+    @property
+    def message(self) -> str:
+        """One sentence: what went wrong and what to change."""
+        return _MESSAGES[self]
+
+
+_MESSAGES = {
+    Status.OK: "valid",
+    Status.BAD_PARAMETERS: "gamma or nu is out of range (gamma finite and > 0, nu in [0, 1])",
+    Status.DEGENERATE_INPUT: "the points have no extent (all identical) or are not finite",
+    Status.SPARSE_SAMPLES: (f"the samples are too sparse for gamma: their median spacing exceeds {MAX_SPACING:g} "
+                            "kernel widths 1/sqrt(2 gamma), so the region is a cloud of separate balls; use more "
+                            "samples or a smaller gamma"),
+    Status.UNRESOLVED_GRID: (f"the grid does not resolve the kernel: its finest cell exceeds {MAX_CELL:g} kernel "
+                             "widths 1/sqrt(2 gamma), so the result depends on the grid; raise resolution or "
+                             "refine, or lower gamma"),
+    Status.EMPTY_REGION: "the region {f >= 0} is empty on this grid (no positive volume)",
+    Status.NOT_FINITE: "the center or the scale is not finite, or the scale is not positive",
+    Status.COLLAPSED_REGION: (f"the region collapsed: its mean distance is below {MIN_SPREAD:g} of the samples' "
+                              "median distance from its centroid (nu near 1, or too few samples)"),
+}
+
+
+def status_message(code) -> str:
+    """The message of a status code (an int, or a NumPy/JAX integer scalar)."""
+    return Status(int(code)).message
+
+
+
+def _xp(*values):
+    """NumPy when every given value is concrete NumPy (or a Python number), else jax.numpy."""
+    given = [v for v in values if v is not None]
+    if all(isinstance(v, (np.ndarray, np.generic, bool, int, float)) for v in given):
+        return np
+    return _jnp()
+
+
+def host(pose):
+    """The pose with every field a NumPy value: floats float64, flags bool, codes int (None kept).
+
+    The type of every pose the host entry points return (:func:`jaxpose.normalize_mesh`,
+    :func:`jaxpose.pose.estimators.estimate`, the command line, the batch runner), whatever the method.
+    Reads JAX arrays back from the device once; a traced pose is refused (use it inside JAX).
+    """
+    def convert(name, value):
+        if value is None:
+            return None
+        if is_traced(value):
+            raise TypeError(f"Pose.{name} is traced: host() is for concrete poses")
+        a = np.asarray(value)
+        if a.dtype.kind == "f":
+            return a.astype(np.float64)
+        return a.astype(bool) if a.dtype.kind == "b" else a.astype(np.int64) if a.dtype.kind in "iu" else a
+
+    return Pose(**{name: convert(name, getattr(pose, name)) for name in Pose._fields})
+
+
+class Pose(NamedTuple):
+    """A similarity x -> R (x - center) / scale, with the diagnostics of how it was found. A pytree.
+
+    Types (one policy for every method): the JAX entry points (:func:`jaxpose.normalize`,
+    :func:`jaxpose.normalize_batch`) return JAX arrays in JAX's default float dtype (float32, or
+    float64 with ``jax_enable_x64``), so that they jit, vmap and differentiate; the host entry
+    points (:func:`jaxpose.normalize_mesh`, :func:`jaxpose.pose.estimators.estimate`, the command line
+    and the batch runner, every method, ``ocsvm`` included) return NumPy values: floats float64,
+    ``valid`` / ``converged`` bool, ``status`` / ``iterations`` / ``count`` int64 (:func:`host`).
+    ``matrix``, ``apply`` and ``inverse`` compute in the fields' kind: NumPy fields give NumPy
+    float64 (no JAX import), JAX fields JAX arrays.
+
+    Attributes:
+      center: (3,) in the units of the input.
+      scale: () > 0, in the units of the input.
+      converged: () bool, the SVDD solver reached its tolerance.
+      valid: () bool, ``status == Status.OK``: parameters in range, samples dense enough for gamma,
+        a grid that resolves the kernel, a non-empty region that has not collapsed, a finite center
+        and a positive finite scale (:mod:`jaxpose.pose.validity`). Convergence is apart (``converged``).
+      iterations: () solver iterations.
+      ambiguity: None, or () in [0, 1]: how poorly the rotation is determined (0: every cue of
+        :mod:`jaxpose.rotation.rotation` clears its threshold); see ``flagged``.
+      rotation: None (no rotation: R = I), or (3, 3) a proper rotation whose rows are the canonical
+        axes in the input's coordinates (``rotation=True`` of :func:`normalize` and friends).
+      status: () int, a :class:`jaxpose.pose.validity.Status` code: 0 when valid, else why not
+        (``Status(int(pose.status)).message``).
+      count: None, or () int: how many points the SVDD was fitted to (fewer than given above
+        ``MAX_POINTS``).
+
+    Poses from :func:`normalize_batch` carry a leading batch axis on every field.
+    """
+
+    center: jax.Array
+    scale: jax.Array
+    converged: jax.Array = True
+    valid: jax.Array = True
+    iterations: jax.Array = 0
+    ambiguity: jax.Array | None = None
+    rotation: jax.Array | None = None
+    status: jax.Array = 0
+    count: jax.Array | None = None
+
+    @classmethod
+    def from_center_scale(cls, center, scale, rotation=None, ambiguity=None) -> "Pose":
+        """A Pose from a given center (3,) and scale () (and optionally rotation (3, 3), ambiguity ());
+        valid when center and scale are finite and scale > 0.
+
+        Concrete values stay NumPy float64 (every digit of a center far from the origin is kept);
+        traced values stay JAX arrays.
+        """
+        xp = _jnp() if is_traced(center) or is_traced(scale) else np
+        center = xp.asarray(center, dtype=None if xp is not np else np.float64)
+        scale = xp.asarray(scale, center.dtype)
+        valid = xp.all(xp.isfinite(center)) & xp.isfinite(scale) & (scale > 0)
+        if rotation is not None:
+            rotation = xp.asarray(rotation, center.dtype)
+            ambiguity = xp.asarray(0.0 if ambiguity is None else ambiguity, center.dtype)
+        status = xp.where(valid, int(Status.OK), int(Status.NOT_FINITE)).astype(np.int32)
+        return cls(center, scale, xp.asarray(True), valid, xp.asarray(0), ambiguity, rotation, status)
+
+    @property
+    def flagged(self):
+        """() bool (or None without a rotation): the rotation is not well determined (ambiguity > 0)."""
+        return None if self.ambiguity is None else _xp(self.ambiguity).asarray(self.ambiguity) > 0
+
+    @property
+    def matrix(self):
+        """(..., 4, 4) homogeneous matrix of x -> R (x - center) / scale (NumPy float64 for a host
+        pose, a JAX array for a JAX pose)."""
+        jnp = _xp(self.center, self.scale, self.rotation)
+        c, s = jnp.asarray(self.center), jnp.asarray(self.scale)
+        if self.rotation is None:
+            eye = jnp.broadcast_to(jnp.eye(3, dtype=c.dtype), c.shape[:-1] + (3, 3))
+            top = jnp.concatenate([eye / s[..., None, None], (-c / s[..., None])[..., None]], axis=-1)
+        else:
+            r = jnp.asarray(self.rotation, c.dtype) / s[..., None, None]
+            top = jnp.concatenate([r, -jnp.einsum("...ij,...j->...i", r, c)[..., None]], axis=-1)
+        bottom = jnp.broadcast_to(jnp.asarray([0, 0, 0, 1], c.dtype), c.shape[:-1] + (1, 4))
+        return jnp.concatenate([top, bottom], axis=-2)
+
+    def apply(self, x):
+        """Normalize points x : (n, 3) -> (n, 3) (NumPy for NumPy points and a host pose)."""
+        jnp = _xp(x, self.center, self.scale, self.rotation)
+        y = (jnp.asarray(x) - self.center) / self.scale
+        if self.rotation is None:
+            return y
+        return y @ jnp.asarray(self.rotation, y.dtype).T
+
+    def inverse(self) -> "Pose":
+        """The inverse similarity y -> scale R^T y + center, as a Pose (rotation R^T, center
+        -R center / scale, scale 1 / scale)."""
+        if self.rotation is None:
+            return self._replace(center=-self.center / self.scale, scale=1.0 / self.scale)
+        xp = _xp(self.rotation, self.center, self.scale)
+        r = xp.asarray(self.rotation)
+        center = -xp.einsum("...ij,...j->...i", r, self.center) / xp.asarray(self.scale)[..., None]
+        return self._replace(center=center, scale=1.0 / self.scale, rotation=xp.swapaxes(r, -1, -2))

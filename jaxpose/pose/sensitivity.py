@@ -1,0 +1,66 @@
+"""Derivatives of the OCSVM pose (center, scale) in gamma and nu, as NumPy values.
+
+``pose`` is :func:`jaxpose.normalize` (whose default derivatives in gamma and nu follow the trend
+of the pose over steps of 1 %, ``derivative="trend"``, see :mod:`jaxpose.occupancy.svdd.secant`);
+``pose_sensitivity`` returns the four derivatives of the center and the scale at one (gamma, nu),
+computed with ``jax.jacfwd`` of it.
+"""
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .. import _validate
+from ..config import PoseConfig
+from .pose import Pose, normalize
+
+__all__ = ["pose", "pose_sensitivity", "NU_DELTA"]
+
+NU_DELTA = PoseConfig().nu_delta  # relative half-width of the nu interval of the trend derivative
+
+
+def pose(points, gamma=47.0, nu=0.5, **options) -> Pose:
+    """:func:`jaxpose.normalize`: the same values and, by default, the same trend derivatives.
+
+    Args:
+      points: (m, 3); gamma, nu: () (traceable); options: as ``normalize``, including
+        ``derivative`` ("trend", "exact", "secant"), ``gamma_delta`` and ``nu_delta`` (relative
+        half-widths of the intervals) and ``secant_iterations``.
+    """
+    return normalize(points, gamma, nu, **options)
+
+
+def pose_sensitivity(points, gamma=47.0, nu=0.5, **options) -> dict:
+    """Derivatives of the pose in gamma and nu, as NumPy values.
+
+    Args:
+      points: (m, 3) surface samples; gamma, nu: floats; options: as :func:`pose`.
+
+    Returns:
+      {"center" (3,), "scale" (), "dcenter_dgamma" (3,), "dcenter_dnu" (3,), "dscale_dgamma" (),
+      "dscale_dnu" ()} as float NumPy arrays in the units of ``points`` (by default the trend over
+      gamma (1 +- gamma_delta) and nu (1 +- nu_delta)), plus "converged" and "valid" (bools).
+    """
+    _validate.check_gamma(gamma)
+    _validate.check_nu(nu)
+    points = np.asarray(_validate.check_points(points))
+    dtype = jnp.result_type(points.dtype if np.issubdtype(points.dtype, np.floating) else float)
+    theta = jnp.asarray([gamma, nu], dtype)
+
+    def f(t):
+        p = pose(points, t[0], t[1], **options)
+        return jnp.concatenate([p.center, p.scale[None]]), p
+
+    J, p = jax.jacfwd(f, has_aux=True)(theta)
+    J = np.asarray(J)
+    return {
+        "center": np.asarray(p.center),
+        "scale": np.asarray(p.scale),
+        "dcenter_dgamma": J[:3, 0],
+        "dcenter_dnu": J[:3, 1],
+        "dscale_dgamma": J[3, 0],
+        "dscale_dnu": J[3, 1],
+        "converged": bool(p.converged),
+        "valid": bool(p.valid),
+    }

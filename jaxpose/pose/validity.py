@@ -1,0 +1,116 @@
+"""When an OCSVM pose is valid: the traced checks behind ``Pose.valid`` and ``Pose.status``.
+
+The codes, their messages and the thresholds live in :mod:`jaxpose.pose.result` (no JAX needed).
+
+A pose is valid (``Pose.valid``, ``Pose.status == Status.OK``) when its number can be trusted as
+the centroid and mean distance of a region that the samples and the grid actually determine:
+
+* the parameters are in range and the points have an extent (:attr:`Status.BAD_PARAMETERS`,
+  :attr:`Status.DEGENERATE_INPUT`);
+* neighbouring samples' kernels overlap (:attr:`Status.SPARSE_SAMPLES`): the median distance of a
+  sample to its nearest neighbour is at most ``MAX_SPACING`` kernel widths sigma = 1 / sqrt(2 gamma)
+  (pre-scaled frame, :mod:`jaxpose.pose.frame`). Sparser samples make the region a cloud of separate
+  balls, one around each sample, whose moments say more about the sampling than the shape;
+* the grid resolves the kernel (:attr:`Status.UNRESOLVED_GRID`): the finest cell edge is at most
+  ``MAX_CELL`` kernel widths, i.e. every cell center lies within one kernel width of the cell's
+  faces, where the linearised occupancy of :mod:`jaxpose.moments` holds. Coarser cells make the
+  result depend on the grid;
+* the region has a positive volume (:attr:`Status.EMPTY_REGION`);
+* the region has not collapsed (:attr:`Status.COLLAPSED_REGION`): its mean distance from its
+  centroid is at least ``MIN_SPREAD`` times the samples' median distance from that centroid. A
+  region that covers the samples has a ratio near 1 (3/4 for a solid ball sampled on its sphere, 1
+  for a shell, about 1/2 when nu leaves far parts out); nu near 1 or a handful of samples shrink
+  the region onto the densest few samples and the ratio towards 0;
+* the center is finite and the scale positive and finite (:attr:`Status.NOT_FINITE`).
+
+The solver's convergence is reported apart (``Pose.converged``). Every check is a traced
+comparison (no Python branches on values), so poses under ``jit`` and ``vmap`` carry their status.
+
+Example::
+
+    >>> pose = jaxpose.normalize(points, gamma=1e4)
+    >>> jaxpose.Status(int(pose.status)).message
+"""
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+
+from ..occupancy.kernels import map_blocks
+from .result import MAX_CELL, MAX_SPACING, MIN_SPREAD, Status, status_message
+
+__all__ = ["Status", "MAX_SPACING", "MAX_CELL", "MIN_SPREAD", "status_message", "pose_status", "median_spacing",
+           "median_distance"]
+
+
+
+def _masked_median(values, mask):
+    """Lower median of values (m,) over mask (m,) bool (at least one True)."""
+    n = jnp.sum(mask)
+    ordered = jnp.sort(jnp.where(mask, values, jnp.inf))
+    return ordered[jnp.maximum(n - 1, 0) // 2]
+
+
+def median_spacing(y, mask=None, block=512):
+    """Median distance of each point to its nearest other point.
+
+    Args:
+      y: (m, 3) float; mask: optional (m,) bool (False rows are padding, left out).
+      block: rows per block (memory O(block * m)).
+
+    Returns:
+      () float in the units of ``y`` (0 when points repeat). Not differentiated.
+    """
+    y = jax.lax.stop_gradient(jnp.asarray(y))  # an array of the default float type, NumPy input too
+    m = y.shape[0]
+    mask = jnp.ones((m,), bool) if mask is None else jnp.asarray(mask, bool)
+    idx = jnp.arange(m)
+
+    def nearest(rows):
+        yi, i = rows[:, :3], rows[:, 3].astype(jnp.int32)
+        d2 = jnp.sum((yi[:, None, :] - y[None, :, :]) ** 2, axis=-1)
+        d2 = jnp.where(mask[None, :] & (idx[None, :] != i[:, None]), d2, jnp.inf)
+        return jnp.min(d2, axis=1)
+
+    rows = jnp.concatenate([y, idx[:, None].astype(y.dtype)], axis=1)
+    return jnp.sqrt(_masked_median(map_blocks(nearest, rows, block), mask))
+
+
+def median_distance(y, center, mask=None):
+    """Median distance of the points y (m, 3) (over ``mask``) from center (3,). () float."""
+    y = jax.lax.stop_gradient(jnp.asarray(y))  # an array of the default float type, NumPy input too
+    mask = jnp.ones(y.shape[:1], bool) if mask is None else jnp.asarray(mask, bool)
+    return _masked_median(jnp.linalg.norm(y - jax.lax.stop_gradient(center), axis=-1), mask)
+
+
+def pose_status(y, mask, gamma, size, moments, refine, center, scale):
+    """The status of a pose (module docs), traced.
+
+    Args:
+      y: (m, 3) the pre-scaled samples; mask: (m,) bool or None; gamma: () the pre-scaled gamma;
+      size: () the reference size (0: degenerate input); moments: the region's
+      :class:`jaxpose.moments.Moments` in the pre-scaled frame; refine: the grid's (static) refine;
+      center (3,), scale (): the pose in world units.
+
+    Returns:
+      () int32, a :class:`Status` code.
+    """
+    sg = jax.lax.stop_gradient
+    gamma = sg(gamma)
+    width = jnp.sqrt(1.0 / (2.0 * jnp.maximum(gamma, jnp.finfo(y.dtype).tiny)))
+    spacing = median_spacing(y, mask)
+    cell = jnp.max(sg(moments.cell)) / refine
+    spread = median_distance(y, moments.center, mask)
+    finite = jnp.all(jnp.isfinite(center)) & jnp.isfinite(scale) & (scale > 0)
+    volume, md = sg(moments.volume), sg(moments.mean_distance)
+    conditions = [
+        ~(size > 0) | ~jnp.all(jnp.isfinite(sg(y))),
+        spacing > MAX_SPACING * width,
+        cell > MAX_CELL * width,
+        ~(volume > 0),
+        ~(md >= MIN_SPREAD * spread),
+        ~finite,
+    ]
+    codes = [Status.DEGENERATE_INPUT, Status.SPARSE_SAMPLES, Status.UNRESOLVED_GRID, Status.EMPTY_REGION,
+             Status.COLLAPSED_REGION, Status.NOT_FINITE]
+    return jnp.select(conditions, [jnp.int32(int(c)) for c in codes], jnp.int32(0))

@@ -1,0 +1,481 @@
+"""Canonical axes of a shape: a rotation that holds under articulation, and every frame by name.
+
+A frame (:class:`jaxpose.orientation.Frame`) is a proper rotation R (3, 3) whose rows are the
+shape's canonical axes in world coordinates (det R = +1); canonical coordinates are
+R (x - c) / s. :func:`frame_of` gives any of :data:`ROTATIONS` by name: ``core`` and ``head``
+(built here), ``ocsvm`` (:func:`jaxpose.orientation.region_frame`, through :func:`jaxpose.normalize`) and the
+baselines of :mod:`jaxpose.baselines`. The sign rule's pieces, the ambiguity and its thresholds
+are in :mod:`jaxpose.orientation` (re-exported here).
+
+``core`` (meshes and point clouds, :func:`core_frame`), on the robust voxel solid of
+:mod:`jaxpose.occupancy.solid`:
+
+1. Pre-frame. The grid of the solid is laid out along the principal axes of the input's surface
+   (exact area moments of the triangles; the covariance of the points of a point cloud), their
+   signs fixed by the input's third moments (:func:`pre_frame`): rotating the input rotates the
+   grid with it, so the voxels, and everything computed from them, are the same.
+2. Axes. The eigenvectors (largest first) of the second moments of the solid, each voxel weighted
+   by its depth^4 (depth: distance to the outside): the weight falls with the fourth power of a
+   part's thickness, so limbs, which are thin and move, hardly count and the axes are those of
+   the trunk.
+3. Mirror axis. Bodies that articulate (people, animals) are bilaterally symmetric: any signed
+   statistic along the left-right axis is noise of the pose. Their long axis lies in the mirror
+   plane, so the mirror axis is the one of the two minor axes whose plane (through the depth^2
+   centroid) maps the depth^2-weighted solid better onto itself (:func:`symmetry_scores`); its
+   sign comes from det R = +1.
+4. Signs of the other two axes: each points to where the far mass of the (unweighted) solid lies,
+   the sign of its third moment E[z^3] / r^3 (z along the axis about the solid's centroid, r the
+   solid's RMS radius, so margins are comparable between axes and with the share of the volume a
+   moving limb carries). On a person the first axis points to the feet (the legs are the far mass).
+5. Feet. The third moment cannot orient a body front to back: nothing heavy sits in front of or
+   behind the trunk. When it leaves the minor non-mirror axis undetermined, that axis points to
+   where the feet point (:func:`feet_offset`: the slab of the solid at the legs' end of the first
+   axis, each part of it against the solid just above it), if that slab is thin enough to be feet.
+   Feet point forward, not sideways: when the mirror test of step 3 is undetermined (an
+   asymmetric pose), the minor axis the feet point along more is the forward one and the other
+   the mirror axis.
+6. Cross-check. The deep core (depth^4 centroid) lies toward the head's end of the first axis's
+   extent (a person's legs are longer than head and neck); where it does not agree with the third
+   moment's sign, the first axis is called undetermined.
+
+``head`` (the default of ``rotation=True``; meshes and point clouds, :func:`head_frame`), on the
+same solid: a frame tied to the head and the chest, the parts that move least with a person's
+limbs and waist.
+
+1. Parts. The head, the neck and the trunk (:func:`jaxpose.rotation.parts.find_parts`: the two thick parts
+   of the depth field that meet at its most constricted saddle). No neck (a ball, a box, a shape
+   whose parts are all thin beside its thickest): the ``core`` frame, with its own ambiguity.
+2. Up. From the chest (the solid on the trunk's side of the neck within ``CHEST`` head depths of
+   it, each voxel weighted by depth^``CHEST_POWER``) to the head's centroid; it points to the head.
+3. Front-back and left-right. The chest's second moments across up: a chest is wider than it is
+   deep, so the thinner direction is front-back; left-right completes det = +1.
+4. Rows. As the ``core`` frame's for a person: axis 0 from the head toward the feet (-up),
+   axis 2 back to front, axis 1 = axis 2 x axis 0 (det +1).
+5. Front-back's sign: the face. The head's surface is the input's points above the neck within
+   ``FACE`` head depths of the head blob's balls (:func:`head_surface`; a mesh's vertices and
+   points on its faces every ``CELL`` pitches), pooled in cells of ``CELL`` pitches, each cell that
+   holds points one point at their mean: area at that scale, not the sampling density. The
+   skull's center is the head blob's depth^2-weighted centroid. The neck holds the skull from
+   behind and below, and the face hangs in front of it: the head's surface below the skull's
+   center (jaw, mouth, chin) lies ahead of that center. Axis 2 points to where that surface's
+   centroid lies (:func:`front_back_cues`). A pose cannot turn this around; the neck's
+   bend only tilts it. A second reading checks it: the surface reaches farther ahead of the
+   center than behind it (its 98th plus its 2nd percentile along the axis). Where the two
+   disagree, what was found may not be a head (a hand on it, holes in it): the frame is the
+   ``core`` frame, flagged (ambiguity 1).
+6. Ambiguity (the formula of :func:`jaxpose.orientation.ambiguity`): the neck's distinctness
+   (constriction - runner-up) / constriction and the chest's gap across up, each against
+   ``GAP_MIN``, and the jaw's offset in head depths against ``FACE_MIN``.
+
+The cells make the sign a property of the shape: with each vertex counted once instead,
+a registered mesh, meshed finer on the face than on the skull, reads a stronger cue that a
+uniformly sampled scan would not give (docs/rotation.md).
+
+How the ``head`` and ``core`` frames do on real bodies, and when to prefer which:
+docs/rotation.md.
+
+Equivariance holds up to float rounding for inputs whose pre-frame third moments are not zero; an
+exactly mirror-symmetric input leaves the sign of its pre-frame's mirror axis to rounding, and its
+grid may then come out mirrored (voxel-level differences).
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from scipy import ndimage
+
+from .. import baselines, sample
+from . import parts
+from ..occupancy import solid
+from .._validate import InvalidInputError, JaxposeError
+from ..orientation import (GAP_MIN, SIGN_MIN, SYMMETRY_MIN, Frame, ambiguity, complete_signs, descending_axes, proper,
+                          region_frame, relative_gaps)
+from ..occupancy.voxels import GRID_SHIFT
+
+__all__ = ["Frame", "ROTATIONS", "DEFAULT_ROTATION", "GAP_MIN", "SIGN_MIN", "SYMMETRY_MIN", "FOOT", "FEET_DEPTH",
+           "FOOT_MIN", "AXES_POWER", "SYMMETRY_POWER", "CHEST", "CHEST_POWER", "FACE", "CELL", "FACE_MIN",
+           "pre_frame", "frame_solid", "core_frame", "HeadChest", "head_chest", "head_surface", "front_back_cues",
+           "head_frame", "feet_offset", "symmetry_scores", "ambiguity", "complete_signs", "frame_of", "region_frame",
+           "proper"]
+
+ROTATIONS = ("core", "head", "ocsvm", "pca_vertices", "pca_surface", "inertia")
+DEFAULT_ROTATION = "head"  # rotation=True: the head frame, the core frame where no neck is found
+FOOT = 0.05  # the feet: this share of the length at the legs' end (ankles at about 4 % of a person's height)
+FEET_DEPTH = 0.5  # feet are thinner than half the trunk's depth (ankle ~4 cm, head ~9 cm, trunk ~11 cm)
+FOOT_MIN = 0.01  # feet offset (in lengths) below which it is called undetermined: about one voxel
+AXES_POWER = 4.0  # depth exponent of the axes' weights
+CHEST = 2.0  # head: the chest is the solid on the trunk's side of the neck within this many head depths of it
+CHEST_POWER = 2.0  # head: depth exponent of the chest's weights
+FACE = 0.5  # head: its surface is the input's points within this many head depths of the head blob's balls
+CELL = 0.5  # head: the head's surface is read in cells of this many pitches, each holding points counted once
+FACE_MIN = 0.1  # head: the jaw's offset (head depths) below which front-back is called undetermined
+SYMMETRY_POWER = 2.0  # depth exponent of the mirror test's weights
+
+
+# ------------------------------------------------------------------ the core frame
+def _third_moments(x, w=None):
+    """(3,) signs-only helper: sum w (x - mean)^3 per axis of x (n, 3)."""
+    w = np.ones(len(x)) if w is None else w
+    d = x - (w @ x) / w.sum()
+    return w @ (d ** 3)
+
+
+def pre_frame(vertices, faces=None):
+    """The grid frame of :func:`frame_solid`: principal axes of the input, signs by third moments.
+
+    Meshes: the exact second moments of the surface (area-weighted, closed form per triangle);
+    point clouds (``faces`` None): the covariance of the points. Each axis points to the positive
+    third moment of the vertices along it, so the frame of a rotated input is the rotated frame.
+
+    Args:
+      vertices: (n, 3) float; faces: (f, 3) int or None.
+
+    Returns:
+      (3, 3) orthonormal rows (largest second moment first; not necessarily proper).
+    """
+    v = np.asarray(vertices, np.float64)
+    if faces is not None and len(faces):
+        t = v[np.asarray(faces, np.int64)]
+        area = 0.5 * np.linalg.norm(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]), axis=1)
+        total = area.sum()
+        if total > 0:
+            c = (area @ t.sum(axis=1)) / (3.0 * total)
+            t0 = t - c
+            s0 = t0.sum(axis=1)
+            cov = (np.einsum("f,fki,fkj->ij", area, t0, t0) + np.einsum("f,fi,fj->ij", area, s0, s0)) / (12.0 * total)
+        else:
+            faces = None
+    if faces is None or not len(faces):
+        d = v - v.mean(axis=0)
+        cov = d.T @ d / len(v)
+    _, axes = descending_axes(cov)
+    skew = _third_moments(v @ axes.T)
+    return axes * np.where(skew >= 0, 1.0, -1.0)[:, None]
+
+
+def frame_solid(vertices, faces=None, resolution=None):
+    """The robust solid (:func:`jaxpose.occupancy.solid.robust_solid`) on a grid along :func:`pre_frame`."""
+    resolution = solid.RESOLUTION if resolution is None else int(resolution)
+    return solid.robust_solid(vertices, faces, resolution=resolution, frame=pre_frame(vertices, faces))
+
+
+def _grid_centers(sol):
+    """(n, 3) kept voxel centers in grid coordinates and their (n,) depths."""
+    idx = np.stack(np.nonzero(sol.inside), axis=1)
+    return sol.origin + sol.pitch * (idx + 0.5), sol.depth[sol.inside], idx
+
+
+def _weights(d, power):
+    top = d.max()
+    return (d / top) ** float(power) if top > 0 else np.ones_like(d)
+
+
+def symmetry_scores(sol, axes, center, power=SYMMETRY_POWER):
+    """Mirror self-overlap (3,) of the depth^p-weighted solid about the plane through ``center``
+    orthogonal to each row of ``axes`` (grid coordinates): s_a = sum min(w(x), w(M_a x)) / sum w(x),
+    M_a the reflection, w read at the voxel nearest M_a x (0 outside). 1 for a mirror-symmetric solid."""
+    y, d, _ = _grid_centers(sol)
+    w = _weights(d, power)
+    grid = np.zeros(sol.inside.shape)
+    grid[sol.inside] = w
+    shape = np.array(sol.inside.shape)
+    out = np.zeros(3)
+    for a, e in enumerate(np.asarray(axes, np.float64)):
+        ym = y - 2.0 * ((y - center) @ e)[:, None] * e
+        ir = np.floor((ym - sol.origin) / sol.pitch).astype(np.int64)
+        ok = np.all((ir >= 0) & (ir < shape), axis=1)
+        wr = np.zeros(len(y))
+        wr[ok] = grid[tuple(ir[ok].T)]
+        out[a] = np.minimum(w, wr).sum() / w.sum()
+    return out
+
+
+def feet_offset(sol, axes, up=0, forward=2):
+    """Where the feet point: the forward offset of each foot from its ankle, in units of the length.
+
+    The slab of the solid within ``FOOT`` of the length L at the end axis ``up`` points to (the
+    legs' end: it points to the far mass) is split into its connected parts (the feet, or whatever
+    ends the body there); each part is compared with the solid just above it (within ``FOOT`` of L
+    above the slab and ``2 FOOT`` of L sideways from the part's centroid): s = sum_parts n_p
+    (f_part - f_above) / (L sum_p n_p), f the coordinate along ``forward``. Feet reach forward of
+    the ankles (the foot centroid lies about 3 % of a person's height ahead of the ankle). A slab
+    deeper than ``FEET_DEPTH`` of the solid's depth somewhere is not feet (a head, a trunk): no cue.
+
+    Args:
+      sol: Solid; axes: (3, 3) rows in grid coordinates (oriented: ``up`` toward the legs).
+
+    Returns:
+      () the offset s (0 when no part is found).
+    """
+    y, d, idx = _grid_centers(sol)
+    z = (y - y.mean(axis=0)) @ np.asarray(axes, np.float64).T
+    h, f = z[:, up], z[:, forward]
+    side = z[:, 3 - up - forward]
+    length = h.max() - h.min()
+    slab = h >= h.max() - FOOT * length
+    if d[slab].max() > FEET_DEPTH * d.max():  # too thick for feet (a head, a trunk, knees): no cue
+        return 0.0
+    grid = np.zeros(sol.inside.shape, bool)
+    grid[tuple(idx[slab].T)] = True
+    labels, count = ndimage.label(grid, np.ones((3, 3, 3), bool))
+    part = labels[tuple(idx.T)]
+    total, mass = 0.0, 0
+    for p in range(1, count + 1):
+        mine = part == p
+        top = h[mine].min()
+        near = (h < top) & (h >= top - FOOT * length) & \
+            (np.hypot(f - f[mine].mean(), side - side[mine].mean()) < 2 * FOOT * length)
+        if near.sum() == 0:
+            continue
+        total += mine.sum() * (f[mine].mean() - f[near].mean())
+        mass += mine.sum()
+    return total / (mass * length) if mass else 0.0
+
+
+def core_frame(sol, power=AXES_POWER, feet=True, cross_check=True) -> Frame:
+    """The ``core`` frame (module docs, steps 2-6) of a solid from :func:`frame_solid`.
+
+    Args:
+      sol: :class:`jaxpose.occupancy.solid.Solid` (any grid frame; equivariant when laid out by :func:`pre_frame`).
+      power: depth exponent of the axes' weights.
+      feet: when the third moment leaves the sign of the minor non-mirror axis undetermined, take
+        it from :func:`feet_offset`; when the mirror test is undetermined, the feet choose (step 5).
+      cross_check: call the first axis's sign undetermined when the deep core's side (step 6)
+        disagrees with its third moment.
+
+    Returns:
+      :class:`Frame`; ``mirror`` is the mirror axis; ``margins`` the sign cues' margins as
+      multiples of their thresholds (< 1: undetermined).
+    """
+    y, d, _ = _grid_centers(sol)
+    if len(y) < 4:
+        return _undetermined()
+    w = _weights(d, power)
+    c = (w @ y) / w.sum()
+    z = y - c
+    lam, axes = descending_axes((z * w[:, None]).T @ z / w.sum())
+    zc = (y - y.mean(axis=0)) @ axes.T
+    r = np.sqrt(np.mean(np.sum(zc * zc, axis=1)))
+    stat = np.mean(zc ** 3, axis=0) / r ** 3 / SIGN_MIN  # signed, in multiples of the threshold
+    conf = np.abs(stat)
+    w2 = _weights(d, SYMMETRY_POWER)
+    sym = symmetry_scores(sol, axes, (w2 @ y) / w2.sum())
+    k = 1 if sym[1] >= sym[2] else 2  # the long axis lies in the mirror plane
+    mirror_ratio = abs(sym[1] - sym[2]) / SYMMETRY_MIN
+    h = zc[:, 0]
+    if cross_check and (0.5 * (h.max() + h.min()) - (w @ h) / w.sum()) * stat[0] <= 0:
+        conf[0] = 0.0
+    if feet:
+        oriented = axes.copy()
+        oriented[0] *= 1.0 if stat[0] >= 0 else -1.0
+        offset = {a: feet_offset(sol, oriented, 0, a) / FOOT_MIN for a in (1, 2)}
+        split = abs(offset[1]) - abs(offset[2])  # the feet point along the forward axis, not the mirror axis
+        if mirror_ratio < 1.0 and abs(split) > mirror_ratio:
+            k, mirror_ratio = (2 if split > 0 else 1), abs(split)
+        minor = 3 - k
+        if conf[minor] < 1.0:
+            stat[minor] = offset[minor]
+            conf[minor] = abs(offset[minor])
+    rot, _, k = complete_signs(axes, stat, completed=k, to_world=sol.frame)
+    conf[k] = 0.0
+    gaps = relative_gaps(lam)
+    amb = ambiguity(gaps, np.min(np.delete(conf, k)), SYMMETRY_MIN * mirror_ratio)
+    return Frame(rot, amb, lam, gaps, conf, k, sym)
+
+
+class HeadChest(NamedTuple):
+    """The geometry of the ``head`` frame on a solid's grid (grid coordinates; :func:`head_chest`).
+
+    Attributes:
+      parts: :class:`jaxpose.rotation.parts.Parts` (head, trunk, neck).
+      centers: (n, 3) the kept voxels' centers; depth: (n,) their depths; index: (n, 3) their voxels.
+      chest: (n,) bool, the chest (the solid on the trunk's side of the neck within ``CHEST`` head depths).
+      chest_center: (3,) its depth^``CHEST_POWER``-weighted centroid; cov: (3, 3) its second moment.
+      head_center: (3,) the head blob's centroid.
+      up: (3,) unit, from ``chest_center`` to ``head_center``.
+      front_back: (3,) unit, the thinner of the chest's second moments across ``up`` (sign unset).
+      spread: (2,) the chest's second moments across ``up``: front-back, left-right (units^2).
+      skull: (3,) the head blob's depth^2-weighted centroid (the center of the skull).
+      surface: (k, 3) the head's surface, one point per cell holding input points (:func:`head_surface`).
+      eps: the offset (``GRID_SHIFT`` of a pitch) that keeps planes and spheres off voxel centers.
+    """
+
+    parts: parts.Parts
+    centers: np.ndarray
+    depth: np.ndarray
+    index: np.ndarray
+    chest: np.ndarray
+    chest_center: np.ndarray
+    cov: np.ndarray
+    head_center: np.ndarray
+    up: np.ndarray
+    front_back: np.ndarray
+    spread: np.ndarray
+    skull: np.ndarray
+    surface: np.ndarray
+    eps: float
+
+
+def head_surface(points, sol, found, up, eps, cell=CELL):
+    """The head's surface as points (module docs, step 5): each cell that holds input points, once.
+
+    A point belongs to the head when it lies above the plane through the neck across ``up`` and
+    within ``FACE`` head depths of one of the head blob's balls (the ball about each voxel of
+    ``found.head`` with that voxel's depth as radius: the blob grown back to the head's surface).
+    The points are first pooled in cells of ``cell`` pitches, each cell one point at their mean:
+    the result measures surface area at that scale, whatever the input's sampling density (a
+    registered mesh's face is meshed finer than its skull).
+
+    Args:
+      points: (m, 3) the input's points (a mesh's vertices) in the solid's grid coordinates.
+      sol: the solid; found: its :class:`jaxpose.rotation.parts.Parts`; up: (3,) unit; eps: plane offset.
+      cell: the cells' edge in pitches; None keeps every point (each counted once).
+
+    Returns:
+      (k, 3) grid coordinates (k = 0 where no point is on the head).
+    """
+    balls = sol.origin + sol.pitch * (np.argwhere(found.head) + 0.5)  # the head blob's voxel centers
+    radii = sol.depth[found.head]
+    reach = FACE * found.head_depth + eps
+    center = balls.mean(axis=0)
+    bound = np.max(np.linalg.norm(balls - center, axis=1) + radii) + reach
+    p = points[(np.linalg.norm(points - center, axis=1) < bound) & ((points - found.neck) @ up > eps)]
+    if cell is not None and len(p):
+        key = np.floor((p - sol.origin) / (cell * sol.pitch) + GRID_SHIFT).astype(np.int64)
+        key -= key.min(axis=0)
+        span = key.max(axis=0) + 1
+        _, inverse, counts = np.unique((key[:, 0] * span[1] + key[:, 1]) * span[2] + key[:, 2],
+                                       return_inverse=True, return_counts=True)
+        p = np.stack([np.bincount(inverse, weights=p[:, j]) for j in range(3)], axis=1) / counts[:, None]
+    q, b = p - center, balls - center  # |q - b| < radius + reach, as one matrix product
+    near = np.sum(q * q, axis=1)[:, None] - 2.0 * q @ b.T + np.sum(b * b, axis=1)[None] < ((radii + reach) ** 2)[None]
+    return p[near.any(axis=1)]
+
+
+def head_chest(sol, found, points):
+    """The head, chest, axes and head surface of the ``head`` frame (module docs, steps 2-5) on a
+    solid from :func:`frame_solid`, its :func:`jaxpose.rotation.parts.find_parts` and the input's (m, 3)
+    points (world coordinates); None where no chest lies below the neck. Every plane and sphere is
+    moved off the voxel centers by ``GRID_SHIFT`` of a pitch, so that no voxel lies on one (where
+    rounding, not the shape, would decide: lattice-aligned shapes)."""
+    y, d, idx = _grid_centers(sol)
+    hd, neck = found.head_depth, found.neck
+    blob = found.head[tuple(idx.T)]
+    hc = y[blob].mean(axis=0)
+    eps = GRID_SHIFT * sol.pitch
+    saddle = np.rint((neck - sol.origin) / sol.pitch - 0.5)
+    reach = (CHEST * hd + eps) / sol.pitch
+    toward = (hc - neck) / np.linalg.norm(hc - neck)
+    chest = ((y - neck) @ toward < -eps) & (np.sum((idx - saddle) ** 2, axis=1) < reach ** 2)
+    w = d[chest] ** CHEST_POWER
+    if chest.sum() < 4 or not w.sum() > 0:
+        return None
+    cc = (w @ y[chest]) / w.sum()
+    up = (hc - cc) / np.linalg.norm(hc - cc)
+    z = y[chest] - cc
+    cov = (z * w[:, None]).T @ z / w.sum()
+    across = np.eye(3) - np.outer(up, up)
+    lam, vec = np.linalg.eigh(across @ cov @ across)  # ascending: ~0 along up, front-back, left-right
+    ws = d[blob] ** 2
+    skull = (ws @ y[blob]) / ws.sum()
+    surface = head_surface(np.asarray(points, np.float64) @ sol.frame.T, sol, found, up, eps)
+    return HeadChest(found, y, d, idx, chest, cc, cov, hc, up, vec[:, 1], lam[1:], skull, surface, eps)
+
+
+def front_back_cues(geo, front_back):
+    """(2,) the face's offsets along ``front_back`` (module docs, step 5), in units: the centroid
+    of the head's surface below the skull's center (jaw, mouth, chin) ahead of that center, and
+    the whole surface's reach ahead of the center plus its reach behind it (its 98th plus its 2nd
+    percentile: nose and chin against the back of the skull); 0 where the head has no surface
+    points (below its center)."""
+    if not len(geo.surface):
+        return np.zeros(2)
+    rel = geo.surface - geo.skull
+    z, low = rel @ front_back, rel @ geo.up < 0
+    return np.array([z[low].mean() if low.any() else 0.0, np.quantile(z, 0.02) + np.quantile(z, 0.98)])
+
+
+def head_frame(sol, vertices, faces=None) -> Frame:
+    """The ``head`` frame (module docs) of a solid from :func:`frame_solid` and its input.
+
+    Args:
+      sol: the solid of :func:`frame_solid` of the input.
+      vertices: (n, 3) the input's vertices (a point cloud's points), world coordinates.
+      faces: (f, 3) int, a mesh's faces (None for a point cloud): the head's surface is read from
+        the vertices and from points on the faces every ``CELL`` pitches
+        (:func:`jaxpose.sample.lattice_points`).
+
+    Returns:
+      :class:`Frame`: ``eigenvalues`` the chest's second moments along the final axes (units^2);
+      ``gaps`` the neck's distinctness (constriction - runner-up) / constriction and the chest's
+      relative gap across ``up``; ``margins`` (neck gap / GAP_MIN, 0, the jaw's offset in head
+      depths / FACE_MIN); ``mirror`` 1 (left-right, completed by det). A solid with no neck gets
+      :func:`core_frame`; one whose face's two readings disagree gets :func:`core_frame` flagged
+      (ambiguity 1).
+
+    Example:
+      >>> v, f = baselines.split_geometry(person)                     # doctest: +SKIP
+      >>> head_frame(frame_solid(v, f), v, f).rotation[2]  # back to front, world coordinates  # doctest: +SKIP
+    """
+    found = parts.find_parts(sol)
+    geo = None if found is None else head_chest(sol, found, sample.lattice_points(vertices, faces, CELL * sol.pitch))
+    if geo is None:  # no neck, or no chest below it: no frame of the head and chest
+        return core_frame(sol)
+    jaw, reach = front_back_cues(geo, geo.front_back)
+    if jaw * reach <= 0:  # the face's readings disagree (what was found may not be a head): the core frame
+        return core_frame(sol)._replace(ambiguity=1.0)
+    fb = geo.front_back if jaw > 0 else -geo.front_back
+    axes = np.stack([-geo.up, np.cross(fb, -geo.up), fb])  # axis 0 points to the feet, as the core frame's
+    down, fb_w = -geo.up @ sol.frame, fb @ sol.frame
+    rot = np.stack([down, np.cross(fb_w, down), fb_w])  # det +1 also where the grid frame is improper
+    gaps = np.array([(found.constriction - found.runner_up) / found.constriction,
+                     (geo.spread[1] - geo.spread[0]) / max(geo.spread[1], 1e-300)])
+    sign = abs(jaw) / found.head_depth / FACE_MIN
+    moments = np.einsum("ai,ij,aj->a", axes, geo.cov, axes)
+    return Frame(rot, ambiguity(gaps, sign), moments, gaps, np.array([gaps[0] / GAP_MIN, 0.0, sign]), 1,
+                 np.full(3, np.nan))
+
+
+def _undetermined():
+    return Frame(np.eye(3), 1.0, np.zeros(3), np.zeros(2), np.zeros(3), 2, np.full(3, np.nan))
+
+
+# ------------------------------------------------------------------ dispatch (host)
+def frame_of(geometry, method=DEFAULT_ROTATION, *, resolution=None, sol=None, ocsvm=None) -> Frame:
+    """The canonical frame of a mesh or point cloud by name (one of :data:`ROTATIONS`).
+
+    Args:
+      geometry: Trimesh, PointCloud or (n, 3) points.
+      method: ``head`` (default; ``core`` where it finds no neck), ``core``, ``ocsvm`` or a baseline of
+        :mod:`jaxpose.baselines`
+        (``pca_vertices``, ``pca_surface``, ``inertia``: meshes only).
+      resolution: voxels of the robust solid along the body's largest extent (``core``).
+      sol: a solid from :func:`frame_solid` to reuse (``core``).
+      ocsvm: for ``ocsvm``, a dict of ``gamma``, ``nu``, ``count``, ``seed``, ``sampling`` and
+        ``options`` (of :func:`jaxpose.normalize`).
+
+    Returns:
+      :class:`Frame` (rotation in the input's world coordinates).
+    """
+    if method not in ROTATIONS:
+        raise InvalidInputError(f"unknown rotation {method!r}; valid: {', '.join(ROTATIONS)}")
+    if method in ("core", "head"):
+        if sol is None or method == "head":
+            vertices, faces = baselines.split_geometry(geometry)
+        if sol is None:
+            sol = frame_solid(vertices, faces, resolution)
+        if not sol.inside.any():
+            raise JaxposeError(f"the shape encloses no volume: the {method} frame is undefined; "
+                               "use rotation='pca_surface' or 'ocsvm'")
+        return core_frame(sol) if method == "core" else head_frame(sol, vertices, faces)
+    if method == "ocsvm":
+        from ..pose.pose import normalize  # JAX only when asked for
+
+        o = dict(ocsvm or {})
+        points = sample.sample_surface(geometry, o.get("count", 2000), seed=o.get("seed", 0),
+                                       method=o.get("sampling", "even"))
+        pose = normalize(points, o.get("gamma", 47.0), o.get("nu", 0.5), rotation=True, **o.get("options", {}))
+        return Frame(np.asarray(pose.rotation, np.float64), float(np.asarray(pose.ambiguity)),
+                     np.full(3, np.nan), np.full(2, np.nan), np.full(3, np.nan), -1, np.full(3, np.nan))
+    return baselines.frame(geometry, method)

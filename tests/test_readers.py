@@ -391,3 +391,23 @@ def test_library_merge_hash_collision_falls_back(monkeypatch):
     monkeypatch.setattr(jmesh, "_HASH", np.zeros(3, np.uint64))  # every key hashes to 0
     assert jmesh._merged(vertices, faces) is None
     assert jmesh._merged(vertices[:3], faces[:1]) is None
+
+
+@pytest.mark.parametrize("name", ["off", "ply", "ply_ascii_colors", "obj", "obj_uv", "stl", "stl_ascii"])
+def test_dataset_folders_load_as_trimesh_does(tmp_path, monkeypatch, mesh, name):
+    """datasets.load_folder through the fast readers: trimesh.load(path, force="mesh",
+    process=False)'s mesh (vertices as stored, none merged) and names."""
+    from jaxpose.datasets import folder
+
+    path = tmp_path / "class" / f"input.{name.split('_')[0]}"
+    path.parent.mkdir()
+    path.write_bytes(LIBRARY_FILES[name](mesh))
+    fast = folder.load_folder(tmp_path)["class"][0]
+    with monkeypatch.context() as patch:
+        without_fast_readers(patch)
+        slow = folder.load_folder(tmp_path)["class"][0]
+    np.testing.assert_array_equal(fast.vertices, slow.vertices)
+    np.testing.assert_array_equal(fast.faces, slow.faces)
+    assert {k: v for k, v in fast.metadata.items() if not k.startswith("_")} == \
+        {k: v for k, v in slow.metadata.items() if not k.startswith("_")}
+    assert fast.visual.kind == slow.visual.kind

@@ -6,6 +6,7 @@ from pathlib import Path
 import trimesh
 
 from jaxpose._validate import InvalidInputError
+from jaxpose.io import readers
 
 __all__ = ["load_folder", "MESH_SUFFIXES"]
 
@@ -18,6 +19,10 @@ def _mesh_files(folder: Path) -> list[Path]:
 
 
 def _load(path: Path) -> trimesh.Trimesh:
+    mesh = _read_fast(path)
+    if mesh is not None:
+        mesh.metadata.setdefault("file_name", path.name)
+        return mesh
     try:
         mesh = trimesh.load(path, force="mesh", process=False)
     except Exception as exc:  # trimesh raises many types on bad files
@@ -25,6 +30,23 @@ def _load(path: Path) -> trimesh.Trimesh:
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
         raise InvalidInputError(f"{path} holds no triangle mesh")
     mesh.metadata.setdefault("file_name", path.name)
+    return mesh
+
+
+def _read_fast(path: Path):
+    """``trimesh.load(path, force="mesh", process=False)`` through :mod:`jaxpose.io.readers`
+    (vertices as stored, nothing merged; trimesh's names in the metadata), or None where they do
+    not apply."""
+    ext = path.suffix.lower().lstrip(".")
+    if ext not in readers.READERS:
+        return None
+    try:
+        loaded = readers.read(path.read_bytes(), ext)
+    except (readers.Unsupported, OSError):
+        return None
+    mesh = trimesh.Trimesh(**loaded.kwargs(), process=False)
+    name = mesh.metadata.get("name", path.name)  # an ASCII STL's solid names it, as in trimesh
+    mesh.metadata.update(name=name, node=name)
     return mesh
 
 

@@ -251,3 +251,26 @@ def test_cli_head_start_gives_the_workers_results(tmp_path):
         pids = [int(r.worker.rsplit(":", 1)[1]) for r in rows]
         assert (process.pid in pids) == (name == "head")
     assert stable(tables["head"], tmp_path / "head") == stable(tables["workers"], tmp_path / "workers")
+
+
+def test_read_ahead_asks_for_regular_files_only(tmp_path):
+    """The run asks the kernel to read each input ahead of its worker: regular files only (a FIFO
+    is never opened: its writer would see a reader come and go)."""
+    import threading
+
+    from jaxpose.batch.batch import read_ahead
+
+    regular = tmp_path / "a.off"
+    regular.write_bytes(b"OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n")
+    assert read_ahead(regular) == hasattr(os, "posix_fadvise")
+    assert read_ahead(tmp_path / "missing.off") is False
+    fifo = tmp_path / "f.off"
+    os.mkfifo(fifo)
+    opened = threading.Event()
+    writer = threading.Thread(target=lambda: (os.close(os.open(fifo, os.O_WRONLY)), opened.set()), daemon=True)
+    writer.start()
+    assert read_ahead(fifo) is False
+    writer.join(timeout=1.0)
+    assert not opened.is_set()  # no reader came: the writer still waits
+    os.close(os.open(fifo, os.O_RDONLY | os.O_NONBLOCK))  # let it go
+    writer.join(timeout=5.0)

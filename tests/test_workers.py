@@ -274,3 +274,14 @@ def test_read_ahead_asks_for_regular_files_only(tmp_path):
     assert not opened.is_set()  # no reader came: the writer still waits
     os.close(os.open(fifo, os.O_RDONLY | os.O_NONBLOCK))  # let it go
     writer.join(timeout=5.0)
+
+
+def test_the_command_line_configures_its_process_before_numpy():
+    """`python -m jaxpose normalize` sets the workers' environment (one BLAS thread, the
+    compilation cache) before anything imports NumPy: importing the command line imports no NumPy."""
+    import subprocess
+    import sys
+
+    code = "import sys, jaxpose.cli, jaxpose.__main__; print(sorted({'numpy', 'jax'} & set(sys.modules)))"
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert done.stdout.strip() == "[]", done.stdout + done.stderr

@@ -10,7 +10,7 @@ import json
 import sys
 from pathlib import Path
 
-from .. import _validate
+from ..errors import InvalidInputError, JaxposeError  # (not _validate: it imports NumPy)
 
 __all__ = ["add_parser", "run", "parser", "load_classes"]
 
@@ -68,7 +68,7 @@ def load_classes(folder, names=None, align_core=False, variants=("plain",), seed
 
     unknown = [v for v in variants if v not in VARIANTS]
     if unknown or not variants:
-        raise _validate.InvalidInputError(f"unknown variants {unknown}; valid: {', '.join(VARIANTS)}")
+        raise InvalidInputError(f"unknown variants {unknown}; valid: {', '.join(VARIANTS)}")
     if folder is None:
         meshes = datasets.make_dataset(seed, instances=instances, classes=names)
     else:
@@ -76,7 +76,7 @@ def load_classes(folder, names=None, align_core=False, variants=("plain",), seed
         if names:
             missing = sorted(set(names) - set(meshes))
             if missing:
-                raise _validate.InvalidInputError(f"no classes {missing} in {folder}; found {sorted(meshes)}")
+                raise InvalidInputError(f"no classes {missing} in {folder}; found {sorted(meshes)}")
             meshes = {k: v for k, v in meshes.items() if k in names}
     if align_core:
         meshes = {k: alignment.align_core(v) for k, v in meshes.items()}
@@ -125,7 +125,7 @@ def _run(args) -> int:
                       scale_weight=args.scale_weight, holdout=holdout, holdout_classes=held, seed=args.seed,
                       count=args.count, progress=say, resolution=args.resolution, refine=args.refine,
                       band=args.band, tol=args.tol, solver=args.solver)
-    except _validate.JaxposeError as exc:
+    except JaxposeError as exc:
         print(f"jaxpose tune: error: {exc}", file=sys.stderr)
         return 1
     result["data"] = dict(data=args.data, holdout_data=args.holdout_data, align_core=bool(args.align_core),

@@ -190,7 +190,7 @@ def fake_evaluation(monkeypatch):
     monkeypatch.setattr(evaluation, "evaluate", evaluate)
     monkeypatch.setattr(evaluation, "format_table", lambda result: "TABLE")
     monkeypatch.setattr(evaluation, "format_per_class", lambda result: "PER CLASS")
-    monkeypatch.setattr(datasets, "make_dataset", lambda seed=0: {"made": seed})
+    monkeypatch.setattr(datasets, "make_dataset", lambda seed=0, **kw: {"made": seed, **kw})
     monkeypatch.setattr(datasets, "load_folder", lambda path: {"folder": str(path)})
     return calls
 
@@ -201,11 +201,12 @@ def test_evaluate_wiring(tmp_path, capsys, fake_evaluation):
     assert code == 0
     captured = capsys.readouterr()
     assert "TABLE" in captured.out and "PER CLASS" not in captured.out
-    assert fake_evaluation["classes"] == {"made": 3}
+    assert fake_evaluation["classes"] == {"made": 3, "instances": 10, "classes": None}
     kwargs = fake_evaluation["kwargs"]
     assert (kwargs["gamma"], kwargs["nu"], kwargs["seed"], kwargs["align_core"], kwargs["sweep"]) == (
         30.0, 0.2, 3, True, False)
-    assert kwargs["variants"] == ["plain"] and kwargs["methods"] is None
+    assert kwargs["variants"] == ["plain", "outliers", "big_outliers", "points", "holes"]  # all, as the README shows
+    assert kwargs["methods"] is None
     assert json.loads(out.read_text())["params"] == {"gamma": 30.0}
     assert_clean_failure(cli.main(["evaluate", "--json", str(out)]), capsys, "exists")
     assert cli.main(["evaluate", "--data", str(tmp_path), "--sweep", "--json", str(out), "--force",

@@ -82,3 +82,82 @@ def test_flat_mesh_error_names_the_command_line_flag(tmp_path, capsys):
     trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], [[0, 1, 2], [0, 2, 3]]).export(flat)
     assert cli.main(["normalize", str(flat), "-o", str(tmp_path / "out.ply")]) == 1
     assert "--method surface_centroid" in _err(capsys)
+
+
+# --------------------------------------------------------------------------- evaluate
+@pytest.fixture
+def no_work(monkeypatch):
+    """evaluation.evaluate that fails the test if reached: a refusal must come before the work."""
+    from jaxpose import evaluation
+
+    monkeypatch.setattr(evaluation, "evaluate", lambda *a, **k: pytest.fail("the work started"))
+
+
+@pytest.mark.parametrize("args, fragment", [
+    (["--methods", "robust,surface_centroid", "--gamma", "30"], "--gamma applies to the ocsvm method"),
+    (["--methods", "robust", "--count", "100", "--nu", "0.2"], "--nu, --count apply to the ocsvm method"),
+    (["--gamma", "-1"], "gamma must be > 0"),
+    (["--variants", "plain,wobbly"], "unknown variants"),
+    (["--methods", "median"], "unknown method"),
+    (["--classes", "unicorn"], "unknown class"),
+])
+def test_evaluate_usage_errors_exit_2_before_the_work(capsys, no_work, args, fragment):
+    assert cli.main(["evaluate", *args]) == 2
+    assert fragment in _err(capsys)
+
+
+def test_evaluate_output_paths_are_checked_before_the_work(tmp_path, capsys, no_work):
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    for args, fragment in ((["--json", str(blocker / "r.json")], "is a file"),
+                           (["--plots", str(blocker)], "is a file"),
+                           (["--json", str(blocker)], "exists"),
+                           (["--json", str(tmp_path)], "is a folder")):
+        assert cli.main(["evaluate", "--methods", "bbox", *args]) == 1, args
+        assert fragment in _err(capsys), args
+
+
+def test_evaluate_small_run_legend_progress_and_files(tmp_path, capsys):
+    """The documented small version: progress lines on stderr when it is not a terminal, a legend,
+    ms per object apart from the first call, gamma only with the OCSVM, missing folders made."""
+    out = tmp_path / "new" / "r.json"
+    code = cli.main(["evaluate", "--classes", "chair,pot", "--instances", "2", "--variants", "plain",
+                     "--methods", "bbox,surface_centroid", "--json", str(out), "--plots", str(tmp_path / "figs")])
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    assert "jaxpose evaluate: [0/2] plain: first call of each method (compiles)" in captured.err
+    assert "jaxpose evaluate: [2/2] done" in captured.err
+    text = captured.out
+    assert "2 classes x 2 objects" in text and "gamma" not in text.splitlines()[0]
+    assert "lower is better" in text and "ms/object" in text and "compilation" in text
+    assert out.exists() and (tmp_path / "figs" / "consistency_plain.png").exists()
+
+
+def test_a_closed_pipe_ends_quietly_with_exit_0(tmp_path):
+    """`jaxpose ... | head`: the reader leaves before the table is printed; the files were written
+    first, the exit status is 0 and nothing is said on stderr."""
+    out = tmp_path / "r.json"
+    proc = subprocess.Popen([sys.executable, "-m", "jaxpose", "evaluate", "--classes", "chair", "--instances", "2",
+                             "--variants", "plain", "--methods", "bbox", "--json", str(out)],
+                            cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc.stdout.close()  # like `| head -0`
+    with proc.stderr:
+        err = proc.stderr.read().decode()
+    assert proc.wait(timeout=300) == 0, err
+    assert "error" not in err and "Traceback" not in err, err
+    assert out.exists()
+
+
+def test_help_describes_every_option():
+    from jaxpose.cli.tune import parser
+
+    for action in parser()._actions:
+        assert action.help, action.option_strings
+    run = subprocess.run([sys.executable, "-m", "jaxpose", "--help"], capture_output=True, text=True, cwd=ROOT,
+                         timeout=120)
+    assert run.returncode == 0 and "one-class SVMs." not in run.stdout
+    assert "robust" in run.stdout and "Exit codes" in run.stdout
+    for command in ("normalize", "evaluate"):
+        sub = cli.build_parser()._subparsers._group_actions[0].choices[command]
+        for action in sub._actions:
+            assert action.help, (command, action.option_strings)

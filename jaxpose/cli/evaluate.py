@@ -1,7 +1,8 @@
 """``jaxpose evaluate``: consistency of centers and scales (or canonical frames) per class, per input variant.
 
-Thin: arguments to :func:`jaxpose.evaluation.evaluate` (or ``evaluate_rotation``), the table to
-stdout, the result to ``--json`` and figures to ``--plots``.
+Thin: the arguments checked before any work (names, values, options the run would ignore, where
+the results go), then :func:`jaxpose.evaluation.evaluate` (or ``evaluate_rotation``) with progress
+on stderr, the files written, and the table with its legend on stdout.
 """
 from __future__ import annotations
 
@@ -16,13 +17,19 @@ __all__ = ["add_parser", "run"]
 
 def add_parser(sub):
     """Register ``evaluate`` on the sub-command parsers `sub`."""
-    p = sub.add_parser("evaluate", help="consistency of centers and scales per class, per input variant")
+    p = sub.add_parser("evaluate", help="consistency of centers and scales per class, per input variant",
+                       description="Within-class spread of each method's centers (sigma_tr) and scales (cv_scale) "
+                                   "on the built-in procedural dataset or --data, in seeded input variants. Progress "
+                                   "on stderr; a table per variant and a legend on stdout.")
     p.add_argument("--data", help="folder of classes (one subfolder of meshes per class); default: procedural dataset")
+    p.add_argument("--classes", help="built-in dataset: comma-separated subset of its 12 classes (default all)")
+    p.add_argument("--instances", type=int, default=None, help="built-in dataset: objects per class (default 10)")
     p.add_argument("--align-core", action="store_true", help="align the rigid core of each class before measuring")
     add_svm_options(p, count=2000)
+    p.set_defaults(**dict.fromkeys(("gamma", "nu", "count")))  # None when not given: refused where nothing uses them
     p.add_argument("--methods", help="comma-separated methods, name or name:power (default: all)")
-    p.add_argument("--variants", default="plain",
-                   help="comma-separated input variants: plain,outliers,big_outliers,points,holes (default plain)")
+    p.add_argument("--variants", default="all",
+                   help="comma-separated input variants: plain,outliers,big_outliers,points,holes, or all (default)")
     p.add_argument("--sweep", action="store_true", help="also sweep gamma and nu of the ocsvm method")
     p.add_argument("--rotation", nargs="?", const="all", default=None, metavar="METHODS",
                    help="measure canonical frames instead: angle to each class's mean frame per rotation "
@@ -35,51 +42,127 @@ def add_parser(sub):
     p.set_defaults(handler=run)
 
 
+_OCSVM_OPTIONS = ("gamma", "nu", "count")
+
+
+def _evaluate_usage(args):
+    """The evaluation's arguments checked and resolved before any work: (methods, variants, ocsvm
+    options), or a usage error (exit 2) naming what is wrong."""
+    from .. import evaluation
+    from ..evaluation.consistency import _check_methods, _check_variants
+    from ..rotation.rotation import ROTATIONS
+    from ..batch.task import NormalizeOptions
+
+    methods = [m for m in args.methods.split(",") if m] if args.methods else None
+    variants = [v for v in args.variants.split(",") if v]
+    if variants == ["all"]:
+        variants = list(evaluation.VARIANTS)
+    _check_variants(variants)
+    if args.rotation:
+        rotations = ROTATIONS if args.rotation == "all" else [m for m in args.rotation.split(",") if m]
+        uses_ocsvm = "ocsvm" in rotations
+    else:
+        names = [str(m).partition(":")[0] for m in _check_methods(methods)]
+        uses_ocsvm = "ocsvm" in names or args.sweep
+    given = {name: getattr(args, name) for name in _OCSVM_OPTIONS if getattr(args, name) is not None}
+    if given and not uses_ocsvm:
+        flags = ", ".join(f"--{name}" for name in given)
+        raise _Usage(f"{flags} {'apply' if len(given) > 1 else 'applies'} to the ocsvm method (the paper's), which "
+                     f"this evaluation does not run (add ocsvm to {'--rotation' if args.rotation else '--methods'}"
+                     f"{'' if args.rotation else ' or --sweep'}, or drop {'them' if len(given) > 1 else 'it'})")
+    if args.data and (args.classes or args.instances is not None):
+        raise _Usage("--classes and --instances choose from the built-in dataset; --data takes every class of DIR")
+    checked = NormalizeOptions(method="ocsvm", seed=args.seed, **given)  # gamma > 0, nu in [0, 1], count >= 4, seed
+    return methods, variants, {"gamma": checked.gamma, "nu": checked.nu, "count": checked.count}
+
+
+class _Usage(Exception):
+    """A usage error found by a command's own checks (exit 2)."""
+
+
+def _check_result_paths(args):
+    """--json and --plots: refused before the work (an existing file without --force, a folder
+    that cannot be made or written, plots without matplotlib)."""
+    from ..errors import InvalidInputError
+
+    if args.json:
+        path = Path(args.json)
+        if path.is_dir():
+            raise InvalidInputError(f"--json {path} is a folder; name a file")
+        if path.exists() and not args.force:
+            raise InvalidInputError(f"{path} exists (use --force to overwrite)")
+        _check_creatable(path.parent, f"--json {path}")
+    if args.plots:
+        folder = Path(args.plots)
+        if folder.exists() and not folder.is_dir():
+            raise InvalidInputError(f"--plots {folder} is a file; name a folder")
+        _check_creatable(folder, f"--plots {folder}")
+        try:
+            import matplotlib  # noqa: F401
+        except ImportError:
+            raise InvalidInputError("--plots needs matplotlib (pip install matplotlib): plots not available") from None
+
+
+def _check_creatable(folder, what):
+    """`folder` exists and is writable, or its nearest existing parent is a writable folder."""
+    import os
+
+    from ..errors import InvalidInputError
+
+    folder = Path(folder) if str(folder) else Path(".")
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent
+    if not folder.is_dir():
+        raise InvalidInputError(f"{what}: {folder} is a file, not a folder")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise InvalidInputError(f"{what}: the folder {folder} is not writable")
+
+
 def run(args):
     """Run ``jaxpose evaluate`` with parsed `args`. Returns the exit code."""
     from .. import datasets, evaluation
+    from ..errors import InvalidInputError
 
-    if args.json and Path(args.json).exists() and not args.force:
-        return fail(f"{args.json} exists (use --force to overwrite)")
-    methods = [m for m in args.methods.split(",") if m] if args.methods else None
-    variants = [v for v in args.variants.split(",") if v]
+    try:
+        methods, variants, ocsvm = _evaluate_usage(args)
+    except (_Usage, InvalidInputError) as exc:
+        return fail(str(exc), code=2)
+    _check_result_paths(args)
     if args.data:
         classes = datasets.load_folder(args.data)
     else:
-        classes = datasets.make_dataset(seed=args.seed)
+        names = [c for c in args.classes.split(",") if c] if args.classes else None
+        try:
+            classes = datasets.make_dataset(seed=args.seed, instances=10 if args.instances is None else args.instances,
+                                            classes=names)
+        except InvalidInputError as exc:
+            return fail(str(exc), code=2)
     if args.rotation:
-        return _evaluate_rotation(args, classes, variants)
+        return _evaluate_rotation(args, classes, variants, ocsvm)
     with _ProgressBar() as progress:
-        result = evaluation.evaluate(
-            classes,
-            gamma=args.gamma,
-            nu=args.nu,
-            count=args.count,
-            seed=args.seed,
-            align_core=args.align_core,
-            progress=progress,
-            sweep=args.sweep,
-            methods=methods,
-            variants=variants,
-        )
+        result = evaluation.evaluate(classes, seed=args.seed, align_core=args.align_core, progress=progress,
+                                     sweep=args.sweep, methods=methods, variants=variants, **ocsvm)
+    _write_result(args, result, "evaluation_figures")  # the files first: a reader that leaves early loses nothing
     print(evaluation.format_table(result))
     if args.per_class:
         print(evaluation.format_per_class(result))
-    return _write_result(args, result, "evaluation_figures")
+    _say_written(args)
+    return 0
 
 
-def _evaluate_rotation(args, classes, variants):
+def _evaluate_rotation(args, classes, variants, ocsvm):
     from .. import evaluation
 
     methods = None if args.rotation == "all" else [m for m in args.rotation.split(",") if m]
     with _ProgressBar() as progress:
         result = evaluation.evaluate_rotation(classes, methods=methods, variants=variants, align_core=args.align_core,
-                                              seed=args.seed, progress=progress, frames=True,
-                                              ocsvm={"gamma": args.gamma, "nu": args.nu, "count": args.count})
+                                              seed=args.seed, progress=progress, frames=True, ocsvm=ocsvm)
+    _write_result(args, result, "rotation_figures")
     print(evaluation.format_rotation_table(result))
     if args.per_class:
         print(evaluation.format_rotation_per_class(result))
-    return _write_result(args, result, "rotation_figures")
+    _say_written(args)
+    return 0
 
 
 def _write_result(args, result, figures):
@@ -87,24 +170,35 @@ def _write_result(args, result, figures):
     if args.json:
         from ..io.atomic import write_atomic
 
+        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
         write_atomic(args.json, json.dumps(result, indent=2) + "\n", force=args.force)
-        print(f"wrote {args.json}")
     if args.plots:
         from .. import plot
 
         getattr(plot, figures)(result, args.plots)
+
+
+def _say_written(args):
+    if args.json:
+        print(f"wrote {args.json}")
+    if args.plots:
         print(f"wrote figures to {args.plots}")
-    return 0
 
 
 class _ProgressBar:
-    """progress(done, total, message) as a tqdm bar on a terminal (rate and ETA), silent otherwise."""
+    """progress(done, total, message) on stderr: a tqdm bar on a terminal (rate and ETA), one line
+    per step otherwise (a log, a pipe), so that a long run never looks stalled."""
 
     def __enter__(self):
         self.bar = None
+        self.lines = not sys.stderr.isatty()
         return self
 
     def __call__(self, done, total, message):
+        if self.lines:
+            count = "" if total is None else f"[{done}/{total}] "
+            print(f"jaxpose evaluate: {count}{message}", file=sys.stderr, flush=True)
+            return
         from tqdm import tqdm
 
         if total is None:

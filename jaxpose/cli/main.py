@@ -22,7 +22,12 @@ _DELEGATED = ("tune", "bench")  # commands that receive every argument after the
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="jaxpose",
-        description="Consistent translation and scale (and orientation) normalization of 3D shapes with one-class SVMs.",
+        description="A canonical position and size (and orientation) for 3D shapes that bend, stretch, have holes "
+                    "or stray parts: meshes and point clouds, one file or a dataset. The default method, robust, is "
+                    "the depth-weighted centroid and volume of a robust solid; --method ocsvm is the paper's "
+                    "one-class SVM; classical baselines by name.",
+        epilog="Exit codes: 0 success, 1 failure (one line on stderr), 2 usage (a bad option or value), "
+               "130 Ctrl-C, 143 SIGTERM. 'jaxpose COMMAND --help' describes each command.",
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
@@ -41,12 +46,26 @@ def main(argv=None) -> int:
     args.extra = extra
     try:
         return int(args.handler(args) or 0)
+    except BrokenPipeError:  # `jaxpose ... | head`: the reader left; the work and its files were done first
+        _silence_stdout()
+        return 0
     except JaxposeError as exc:
         return fail(str(exc))
     except (OSError, ValueError) as exc:  # file system and number trouble outside the library
         return fail(f"{type(exc).__name__}: {exc}")
     except KeyboardInterrupt as exc:
         return _interrupted(exc)
+
+
+def _silence_stdout():
+    """Point stdout at /dev/null, so that nothing more is written to the closed pipe (no second
+    BrokenPipeError when Python flushes it)."""
+    import os
+
+    try:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass
 
 
 def _interrupted(exc):

@@ -39,19 +39,24 @@ def parser():
                    "points, holes); each variant of a class counts as a class")
     p.add_argument("--classes", default=None, help="comma-separated subset of classes")
     p.add_argument("--instances", type=int, default=6, help="objects per class (procedural dataset)")
-    p.add_argument("--steps", type=int, default=12)
-    p.add_argument("--lr", type=float, default=0.1)
+    p.add_argument("--steps", type=int, default=12, help="Adam steps in (log gamma, logit nu) (default 12)")
+    p.add_argument("--lr", type=float, default=0.1, help="Adam's learning rate in those coordinates (default 0.1)")
     p.add_argument("--reg", type=float, default=0.05, help="pull towards the start (share of the start loss per "
                    "unit of log gamma / logit nu squared)")
     p.add_argument("--count", type=int, default=400, help="surface samples per object, drawn afresh at every step")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--scale-weight", type=float, default=0.0)
-    p.add_argument("--gamma", type=float, default=47.0)
-    p.add_argument("--nu", type=float, default=0.5)
-    p.add_argument("--resolution", type=int, default=16)
-    p.add_argument("--refine", type=int, default=2)
-    p.add_argument("--band", type=int, default=2048)
-    p.add_argument("--tol", type=float, default=1e-3)
+    p.add_argument("--seed", type=int, default=0, help="seed of the samples, the variants and the held-out split "
+                   "(default 0)")
+    p.add_argument("--scale-weight", type=float, default=0.0, help="weight of the scale's spread (cv) in the loss, "
+                   "beside the center's sigma_tr (default 0: the center only)")
+    p.add_argument("--gamma", type=float, default=47.0, help="starting gamma, the paper's (default 47)")
+    p.add_argument("--nu", type=float, default=0.5, help="starting nu, the paper's (default 0.5)")
+    p.add_argument("--resolution", type=int, default=16, help="grid cells per axis of the volume integral during "
+                   "tuning (default 16; normalize's default is 64)")
+    p.add_argument("--refine", type=int, default=2, help="a power of 2: cells near the boundary split 2x2x2, log2(refine) times "
+                   "(default 2)")
+    p.add_argument("--band", type=int, default=2048, help="boundary cells refined at the first level, doubled at each further "
+                   "level (default 2048)")
+    p.add_argument("--tol", type=float, default=1e-3, help="SVDD solver tolerance (default 1e-3)")
     p.add_argument("--solver", choices=("pg", "smo", "auto"), default=None,
                    help="SVDD solver (default: normalize's, pg up to 2500 points, auto above)")
     p.add_argument("--json", default=None, help="write the result here (trajectory, train and held-out spreads)")

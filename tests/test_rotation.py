@@ -1,6 +1,7 @@
 """Canonical frames: equivariance, sign flips, det +1, the ambiguity flag, Pose algebra, JSON round trip,
 rotation=False changes nothing, frame baselines, evaluate_rotation and the CLI."""
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -293,3 +294,20 @@ def test_cli_normalize_rotation_json_round_trip(tmp_path, capsys, body_frame):
     np.testing.assert_allclose(np.asarray(pose.inverse().apply(v_out), np.float64), v_in, atol=1e-4)
     np.testing.assert_allclose(np.linalg.inv(matrix) @ np.c_[v_out, np.ones(len(v_out))].T,
                                np.c_[v_in, np.ones(len(v_in))].T, atol=1e-9)
+
+
+TOSCA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "tosca-dev"
+
+
+@pytest.mark.shared
+@pytest.mark.skipif(not TOSCA.is_dir(), reason="needs ../shared/data/tosca-dev")
+def test_head_frame_flags_the_animal_frames_it_gets_wrong():
+    """On four-legged animals the head frame takes the chest's thinner axis (their left-right) for
+    front-back: the mirror test (left-right must be the normal of the body's best mirror plane)
+    flags it. Every frame more than 30 degrees off its class frame is flagged (issue 36.6)."""
+    from jaxpose.datasets import load_folder
+
+    res = evaluate_rotation(load_folder(TOSCA), methods=("head",), align_core=True)
+    for name, cell in res["variants"]["plain"]["per_class"].items():
+        raw, amb = np.array(cell["raw"]), np.array(cell["ambiguity"])
+        assert (raw > 30).any() and np.all(amb[raw > 30] > 0), name

@@ -280,7 +280,8 @@ def core_frame(sol, power=AXES_POWER, feet=True, cross_check=True) -> Frame:
     rot, _, k = complete_signs(axes, stat, completed=k, to_world=sol.frame)
     conf[k] = 0.0
     gaps = relative_gaps(lam)
-    amb = ambiguity(gaps, np.min(np.delete(conf, k)), SYMMETRY_MIN * mirror_ratio)
+    contrast = min(SYMMETRY_MIN * mirror_ratio, sym[k] - sym[0])  # the long axis lies in the mirror plane
+    amb = ambiguity(gaps, np.min(np.delete(conf, k)), contrast)
     return Frame(rot, amb, lam, gaps, conf, k, sym)
 
 
@@ -433,8 +434,11 @@ def head_frame(sol, vertices, faces=None) -> Frame:
                      (geo.spread[1] - geo.spread[0]) / max(geo.spread[1], 1e-300)])
     sign = abs(jaw) / found.head_depth / FACE_MIN
     moments = np.einsum("ai,ij,aj->a", axes, geo.cov, axes)
-    return Frame(rot, ambiguity(gaps, sign), moments, gaps, np.array([gaps[0] / GAP_MIN, 0.0, sign]), 1,
-                 np.full(3, np.nan))
+    w2 = _weights(geo.depth, SYMMETRY_POWER)
+    sym = symmetry_scores(sol, axes, (w2 @ geo.centers) / w2.sum())
+    contrast = sym[1] - max(sym[0], sym[2])  # left-right must be the normal of the body's best mirror plane
+    return Frame(rot, ambiguity(gaps, sign, contrast), moments, gaps, np.array([gaps[0] / GAP_MIN, 0.0, sign]), 1,
+                 sym)
 
 
 def _undetermined():

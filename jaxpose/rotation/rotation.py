@@ -22,7 +22,8 @@ are in :mod:`jaxpose.orientation` (re-exported here).
    statistic along the left-right axis is noise of the pose. Their long axis lies in the mirror
    plane, so the mirror axis is the one of the two minor axes whose plane (through the depth^2
    centroid) maps the depth^2-weighted solid better onto itself (:func:`symmetry_scores`); its
-   sign comes from det R = +1.
+   sign comes from det R = +1. Its contrast (against the other minor axis, and against the long
+   axis, which must lie in the mirror plane) enters the ambiguity against ``SYMMETRY_MIN``.
 4. Signs of the other two axes: each points to where the far mass of the (unweighted) solid lies,
    the sign of its third moment E[z^3] / r^3 (z along the axis about the solid's centroid, r the
    solid's RMS radius, so margins are comparable between axes and with the share of the volume a
@@ -65,7 +66,12 @@ limbs and waist.
    ``core`` frame, flagged (ambiguity 1).
 6. Ambiguity (the formula of :func:`jaxpose.orientation.ambiguity`): the neck's distinctness
    (constriction - runner-up) / constriction and the chest's gap across up, each against
-   ``GAP_MIN``, and the jaw's offset in head depths against ``FACE_MIN``.
+   ``GAP_MIN``, the jaw's offset in head depths against ``FACE_MIN``, and the mirror test: a
+   bilateral body's left-right axis is the normal of its best mirror plane, so the mirror score
+   (:func:`symmetry_scores`, depth^``SYMMETRY_POWER`` weights, about the planes through their
+   centroid) of axis 1 less the larger of the other two, against ``SYMMETRY_MIN``. An animal's
+   chest is deeper than it is wide: there the chest's thinner axis is its left-right axis, the
+   frame turns it front to back, and this test says so.
 
 The cells make the sign a property of the shape: with each vertex counted once instead,
 a registered mesh, meshed finer on the face than on the skull, reads a stronger cue that a
@@ -411,7 +417,8 @@ def head_frame(sol, vertices, faces=None) -> Frame:
       :class:`Frame`: ``eigenvalues`` the chest's second moments along the final axes (units^2);
       ``gaps`` the neck's distinctness (constriction - runner-up) / constriction and the chest's
       relative gap across ``up``; ``margins`` (neck gap / GAP_MIN, 0, the jaw's offset in head
-      depths / FACE_MIN); ``mirror`` 1 (left-right, completed by det). A solid with no neck gets
+      depths / FACE_MIN); ``mirror`` 1 (left-right, completed by det); ``symmetry`` the mirror
+      scores about the planes normal to the three axes (step 6). A solid with no neck gets
       :func:`core_frame`; one whose face's two readings disagree gets :func:`core_frame` flagged
       (ambiguity 1).
 

@@ -145,7 +145,7 @@ def normalize_mesh(
         ``ocsvm``, the grid resolution of :func:`jaxpose.normalize`.
       rotation: False (default: translation and scale only, exactly as without the option), True
         (the ``head`` frame of :mod:`jaxpose.rotation.rotation`: the head and chest of the robust solid, or
-        its depth^4-weighted ``core`` frame where no neck is found; meshes and point clouds) or a
+        its depth^4-weighted ``core`` frame, flagged, where no neck is found; meshes and point clouds) or a
         name of :data:`jaxpose.rotation.rotation.ROTATIONS` (``head``, ``core``, ``ocsvm``,
         ``pca_vertices``, ``pca_surface``, ``inertia``). Sets ``Pose.rotation`` (rows =
         canonical axes, det +1) and ``Pose.ambiguity`` / ``Pose.flagged``; the center and scale

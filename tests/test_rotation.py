@@ -138,13 +138,13 @@ def test_a_head_without_a_face_is_flagged():
         assert rotation.frame_of(person(jaw=False), "head", resolution=resolution).flag
 
 
-def test_head_frame_without_a_head_is_the_core_frame(body_frame):
-    """The toy body's head is thinner than half its trunk: no neck, so the core frame, with its own
-    ambiguity (also the default of rotation=True)."""
+def test_head_frame_without_a_head_is_the_core_frame_flagged(body_frame):
+    """The toy body's head is thinner than half its trunk: no neck, so the core frame (also the
+    default of rotation=True), flagged: no head vouches for it, though its own cues hold."""
     m, core = body_frame
     got = rotation.frame_of(m, "head", resolution=48)
     np.testing.assert_array_equal(got.rotation, core.rotation)
-    assert got.ambiguity == core.ambiguity == 0.0 and np.isnan(got.symmetry).sum() == 0
+    assert core.ambiguity == 0.0 and got.ambiguity == 1.0 and got.flag and np.isnan(got.symmetry).sum() == 0
     assert rotation.DEFAULT_ROTATION == "head"
     example = mesh.example_shape()  # a capsule with an arm: no neck either
     np.testing.assert_array_equal(rotation.frame_of(example, "head").rotation, rotation.frame_of(example, "core").rotation)

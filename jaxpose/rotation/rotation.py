@@ -45,7 +45,10 @@ limbs and waist.
 
 1. Parts. The head, the neck and the trunk (:func:`jaxpose.rotation.parts.find_parts`: the two thick parts
    of the depth field that meet at its most constricted saddle). No neck (a ball, a box, a shape
-   whose parts are all thin beside its thickest): the ``core`` frame, with its own ambiguity.
+   whose parts are all thin beside its thickest, an animal whose head is thinner than half its
+   trunk): the ``core`` frame, flagged (ambiguity 1): a frame of the trunk's mass turns with the
+   waist and follows a person's build in its signs, and no head vouches for it (rotation="core"
+   asks for it unflagged where its own cues hold).
 2. Up. From the chest (the solid on the trunk's side of the neck within ``CHEST`` head depths of
    it, each voxel weighted by depth^``CHEST_POWER``) to the head's centroid; it points to the head.
 3. Front-back and left-right. The chest's second moments across up: a chest is wider than it is
@@ -106,7 +109,7 @@ __all__ = ["Frame", "ROTATIONS", "DEFAULT_ROTATION", "GAP_MIN", "SIGN_MIN", "SYM
            "proper"]
 
 ROTATIONS = ("core", "head", "ocsvm", "pca_vertices", "pca_surface", "inertia")
-DEFAULT_ROTATION = "head"  # rotation=True: the head frame, the core frame where no neck is found
+DEFAULT_ROTATION = "head"  # rotation=True: the head frame, the core frame (flagged) where no neck is found
 FOOT = 0.05  # the feet: this share of the length at the legs' end (ankles at about 4 % of a person's height)
 FEET_DEPTH = 0.5  # feet are thinner than half the trunk's depth (ankle ~4 cm, head ~9 cm, trunk ~11 cm)
 FOOT_MIN = 0.01  # feet offset (in lengths) below which it is called undetermined: about one voxel
@@ -418,9 +421,8 @@ def head_frame(sol, vertices, faces=None) -> Frame:
       ``gaps`` the neck's distinctness (constriction - runner-up) / constriction and the chest's
       relative gap across ``up``; ``margins`` (neck gap / GAP_MIN, 0, the jaw's offset in head
       depths / FACE_MIN); ``mirror`` 1 (left-right, completed by det); ``symmetry`` the mirror
-      scores about the planes normal to the three axes (step 6). A solid with no neck gets
-      :func:`core_frame`; one whose face's two readings disagree gets :func:`core_frame` flagged
-      (ambiguity 1).
+      scores about the planes normal to the three axes (step 6). A solid with no neck, or one
+      whose face's two readings disagree, gets :func:`core_frame` flagged (ambiguity 1).
 
     Example:
       >>> v, f = baselines.split_geometry(person)                     # doctest: +SKIP
@@ -428,8 +430,8 @@ def head_frame(sol, vertices, faces=None) -> Frame:
     """
     found = parts.find_parts(sol)
     geo = None if found is None else head_chest(sol, found, sample.lattice_points(vertices, faces, CELL * sol.pitch))
-    if geo is None:  # no neck, or no chest below it: no frame of the head and chest
-        return core_frame(sol)
+    if geo is None:  # no neck, or no chest below it: the core frame, flagged (no head vouches for it)
+        return core_frame(sol)._replace(ambiguity=1.0)
     jaw, reach = front_back_cues(geo, geo.front_back)
     if jaw * reach <= 0:  # the face's readings disagree (what was found may not be a head): the core frame
         return core_frame(sol)._replace(ambiguity=1.0)
@@ -458,7 +460,7 @@ def frame_of(geometry, method=DEFAULT_ROTATION, *, resolution=None, sol=None, oc
 
     Args:
       geometry: Trimesh, PointCloud or (n, 3) points.
-      method: ``head`` (default; ``core`` where it finds no neck), ``core``, ``ocsvm`` or a baseline of
+      method: ``head`` (default; ``core``, flagged, where it finds no neck), ``core``, ``ocsvm`` or a baseline of
         :mod:`jaxpose.baselines`
         (``pca_vertices``, ``pca_surface``, ``inertia``: meshes only).
       resolution: voxels of the robust solid along the body's largest extent (``core``).

@@ -308,6 +308,6 @@ def test_head_frame_flags_the_animal_frames_it_gets_wrong():
     from jaxpose.datasets import load_folder
 
     res = evaluate_rotation(load_folder(TOSCA), methods=("head",), align_core=True)
-    for name, cell in res["variants"]["plain"]["per_class"].items():
-        raw, amb = np.array(cell["raw"]), np.array(cell["ambiguity"])
+    for name, cells in res["variants"]["plain"]["per_class"].items():
+        raw, amb = np.array(cells["head"]["raw"]), np.array(cells["head"]["ambiguity"])
         assert (raw > 30).any() and np.all(amb[raw > 30] > 0), name

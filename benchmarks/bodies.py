@@ -5,7 +5,7 @@
 
 The six dev classes (faust-dev as its two people, kids-dev's two children, tosca-dev's dog and
 horse), each rigid-core aligned (``jaxpose.evaluation.align_core``), every variant made as
-``jaxpose evaluate`` makes it. For every shape one robust solid (``jaxpose.solid.robust_solid``)
+``jaxpose evaluate`` makes it. For every shape one robust solid (``jaxpose.occupancy.solid.robust_solid``)
 and, from it, candidate centers and scales (below); per class the spreads of
 ``jaxpose.evaluation`` (sigma_tr, cv), printed one table per class, and the averages over the
 six classes. Nothing here is asserted; it is the record of the research behind the estimator.
@@ -31,17 +31,20 @@ from pathlib import Path
 import numpy as np
 from scipy import ndimage
 
+from jaxpose import baselines, datasets
+from jaxpose.evaluation import align_core, class_angles, make_class
+from jaxpose.occupancy.solid import cap_holes, robust_solid
+from jaxpose.rotation.parts import find_parts
+from jaxpose.rotation.rotation import SYMMETRY_POWER, _grid_centers, _weights, frame_of, frame_solid, symmetry_scores
+
+from .consistency import class_folder
+
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
 CLASSES = ("person_a", "person_b", "kid_0001", "kid_0002", "dog", "horse")
 
 
 def dev_classes(tmp, names=CLASSES, every=1):
     """{class: [aligned Trimesh]} of the six dev classes (``every``: keep every k-th instance)."""
-    from jaxpose import datasets
-    from jaxpose.evaluation import align_core
-
-    from .consistency import class_folder
-
     out = {}
     for dataset in ("faust-dev", "kids-dev", "tosca-dev"):
         want = [n for n in names if n in _members(dataset)]
@@ -77,9 +80,7 @@ def local_thickness(inside, depth_vox):
 
 
 def capped_volume(vertices, faces):
-    """Signed volume of the mesh with every hole capped (``jaxpose.solid.cap_holes``), units^3."""
-    from jaxpose.solid import cap_holes
-
+    """Signed volume of the mesh with every hole capped (``jaxpose.occupancy.solid.cap_holes``), units^3."""
     v, caps = cap_holes(np.asarray(vertices, np.float64), np.asarray(faces, np.int64))
     f = np.vstack([faces, caps])
     a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
@@ -88,9 +89,6 @@ def capped_volume(vertices, faces):
 
 def candidates(shape, resolution, powers=(1, 2, 4, 6, 8), thick=False):
     """{name: center (3,)} and {name: scale} of one shape (module docs)."""
-    from jaxpose import baselines
-    from jaxpose.solid import robust_solid
-
     v, f = baselines.split_geometry(shape)
     sol = robust_solid(v, f, resolution=resolution)
     x = sol.centers()
@@ -105,8 +103,6 @@ def candidates(shape, resolution, powers=(1, 2, 4, 6, 8), thick=False):
             w = (t / t.max()) ** p
             centers[f"thick^{p}"] = w @ x / w.sum()
     centers["voxel_solid"] = x.mean(0)
-    from jaxpose.parts import find_parts
-
     found = find_parts(sol)
     if found is not None:
         blob = found.head[sol.inside]
@@ -137,8 +133,6 @@ def spreads(centers, scales):
 
 
 def main(argv=None):
-    from jaxpose.evaluation import make_class
-
     p = argparse.ArgumentParser(prog="python -m benchmarks.bodies")
     p.add_argument("--variants", default="plain")
     p.add_argument("--classes", default=",".join(CLASSES))
@@ -188,11 +182,7 @@ if __name__ == "__main__":
 def frame_rows(classes, variants=("plain",), methods=("head",)):
     """Per (variant, class, method): each instance's angle to the class frame (degrees), its flag,
     and the mirror self-overlap of its depth^2 solid about the planes normal to the frame's three
-    axes (:func:`jaxpose.rotation.symmetry_scores`; axis 1 is left-right for every frame here)."""
-    from jaxpose import baselines
-    from jaxpose.evaluation import class_angles, make_class
-    from jaxpose.rotation import SYMMETRY_POWER, _grid_centers, _weights, frame_of, frame_solid, symmetry_scores
-
+    axes (:func:`jaxpose.rotation.rotation.symmetry_scores`; axis 1 is left-right for every frame here)."""
     out = {}
     for variant in variants:
         for name, meshes in classes.items():

@@ -278,8 +278,8 @@ def test_evaluate_rotation_and_cli(tmp_path, capsys, body_frame):
     assert (tmp_path / "fig" / "rotation_angles_plain.png").exists()
 
 
-def test_cli_normalize_rotation_json_round_trip(tmp_path, capsys, body_frame):
-    m, _ = body_frame
+def test_cli_normalize_rotation_json_round_trip(tmp_path, capsys):
+    m = person()  # a head: an unflagged head frame (the toy body has no neck: flagged)
     src, dst = tmp_path / "in.ply", tmp_path / "out.ply"
     moved(m, random_rotation(np.random.default_rng(7))).export(src)
     assert cli.main(["normalize", str(src), "-o", str(dst), "--rotation", "--resolution", "48"]) == 0

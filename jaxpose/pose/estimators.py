@@ -166,23 +166,42 @@ def solid_moments(sol, power=ROBUST_POWER) -> Moments:
     keeps its digits wherever the grid lies (voxel units are exact integers plus one half).
     Differentiable in ``power`` (a traced power is not checked). Raises InvalidInputError for a
     power that is not a finite number >= 0."""
+    args, back = _bucketed(sol, power)
+    mom = robust_moments(*args)
+    center = mom.center + jnp.asarray(_HALF * args[-1], mom.center.dtype)  # from the grid's corner
+    return mom._replace(center=center[back], second_moment=mom.second_moment[back][:, back])
+
+
+def solid_center_volume(sol, power=ROBUST_POWER):
+    """The depth^p-weighted center (3,) float64 NumPy, in world units, and the volume (float) of a
+    host :class:`jaxpose.occupancy.solid.Solid`: :func:`solid_moments`' center and volume (only they are
+    computed) mapped to the world in float64."""
+    args, back = _bucketed(sol, power)
+    center, volume = _center_volume(*args)
+    center = sol.origin + sol.pitch * (np.asarray(center, np.float64) + _HALF * args[-1])[back]
+    return center @ np.asarray(sol.frame, np.float64), float(volume) * sol.pitch**3
+
+
+_HALF = 0.5  # the moments are taken from the grid's middle (smaller numbers, fewer float32 digits lost)
+
+
+def _bucketed(sol, power):
+    """The arguments of :func:`robust_moments` for a host solid in voxel units from the grid's
+    middle (origin -extent / 2, exact), and the axes' order back."""
     if not is_traced(power) and not (isinstance(power, numbers.Real) and np.isfinite(power) and power >= 0):
         raise InvalidInputError(f"power must be a finite number >= 0, got {power!r}")
     inside, extent, axes = to_bucket(sol.inside)
     occupied = np.zeros_like(inside) if sol.occupied is None else to_bucket(sol.occupied)[0]
     dtype = jnp.result_type(float)
-    mom = robust_moments(inside, occupied, jnp.zeros(3, dtype), jnp.ones((), dtype), jnp.asarray(power, dtype),
-                         jnp.asarray(sol.bias, dtype), extent)
-    back = np.argsort(axes)  # the bucket's axes back to the grid's
-    return mom._replace(center=mom.center[back], second_moment=mom.second_moment[back][:, back])
+    args = (inside, occupied, (-_HALF * extent).astype(dtype), np.ones((), dtype), jnp.asarray(power, dtype),
+            np.asarray(sol.bias, dtype), extent)
+    return args, np.argsort(axes)  # the bucket's axes back to the grid's
 
 
-def solid_center_volume(sol, power=ROBUST_POWER):
-    """The depth^p-weighted center (3,) float64 NumPy, in world units, and the volume (float) of a
-    host :class:`jaxpose.occupancy.solid.Solid`: :func:`solid_moments` mapped to the world in float64."""
-    moments = solid_moments(sol, power)
-    center = (sol.origin + sol.pitch * np.asarray(moments.center, np.float64)) @ np.asarray(sol.frame, np.float64)
-    return center, float(moments.volume) * sol.pitch**3
+@jax.jit
+def _center_volume(*args):
+    mom = robust_moments(*args)
+    return mom.center, mom.volume
 
 
 _SHARED = ("_robust_solid", "_ocsvm", "_voxels", "_moments")  # what does not depend on the power

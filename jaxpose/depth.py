@@ -6,15 +6,16 @@ cells: the same values as ``scipy.ndimage.distance_transform_edt(inside)``, bit 
 Squared distances are exact int32 arithmetic, one axis at a time (the squared distance is a sum
 over axes, so the minimum separates):
 
-1. along axis 0, f(i) = (distance to the nearest False cell in the same line)^2, from the cells
-   counted since the last False cell, scanned forwards and backwards (``lax.scan``), in O(n);
-2. along each further axis, g(i) = min_j f(j) + (i - j)^2. Since g(i) <= f(i), the minimiser j of
-   a cell satisfies (i - j)^2 <= f(i), so the offsets |i - j| <= sqrt(max f) give the exact
-   result; a ``lax.while_loop`` takes the offsets k = 1, 2, ... (both signs, one vector min each)
-   up to that traced bound (about the grid's largest depth, at most the axis length).
+starting from f = 0 on False cells and "none in reach" elsewhere, each axis in turn replaces f by
+g(i) = min_j f(j) + (i - j)^2 along it (the first pass gives the squared distance to the nearest
+False cell in the same line, the second within the same plane, the third in the grid). The
+minimiser j of a cell satisfies (i - j)^2 <= g(i) <= f(i), so a ``lax.while_loop`` over the
+offsets k = 1, 2, ... (both signs, one vector min each) is exact once k^2 exceeds every value
+still to be improved: a traced bound, about the largest distance along that axis, never more than
+the axis length.
 
 Memory: a few arrays the size of the grid (the shifted copies are padded along one axis), never
-grid x grid. Cost: O(1) per cell for pass 1, O(largest depth) per cell for each further pass.
+grid x grid. Cost: O(largest depth) vector operations over the grid per axis.
 
 Conventions (those of scipy). Cells beyond the grid border are not outside: a line with no False
 cell takes its distances from the other lines. A grid with no False cell at all gets scipy's
@@ -44,7 +45,8 @@ from .errors import InvalidInputError
 __all__ = ["squared_distance", "distance", "depth_weights", "host_distance", "to_bucket", "from_bucket", "MAX_SQUARED", "BUCKET"]
 
 MAX_SQUARED = 2**30  # int32 sentinel "no False cell in reach"; every exact squared distance is below it
-BUCKET = 16  # host grids are padded to a multiple of this per axis (one compilation per bucket)
+BUCKET = 32  # host grids are padded to a multiple of this per axis (one compilation per bucket) ...
+BUCKET_LONG = 16  # ... and their longest axis, which the resolution sets, to a multiple of this
 
 
 def _check_shape(shape):
@@ -54,30 +56,15 @@ def _check_shape(shape):
         raise InvalidInputError(f"grid shape {tuple(shape)} is too large for int32 squared distances")
 
 
-def _first_pass(background):
-    """Squared distance to the nearest background cell along axis 0 (MAX_SQUARED where the line has
-    none): the cells since the last background cell, scanned forwards and backwards."""
-    n = background.shape[0]
-    far = jnp.full(background.shape[1:], 2 * n + 1, jnp.int32)  # no background seen yet
-
-    def step(since, is_background):
-        since = jnp.where(is_background, 0, since + 1)
-        return since, since
-
-    _, forward = lax.scan(step, far, background)
-    _, backward = lax.scan(step, far, background, reverse=True)
-    d = jnp.minimum(forward, backward)
-    return jnp.where(d <= n, d * d, jnp.int32(MAX_SQUARED))
-
-
 def _min_plus(f, axis, valid):
     """g(i) = min_j f(j) + (i - j)^2 along ``axis``, exact (module docs) on the ``valid`` cells.
 
-    The loop bound is fixed before the loop: g <= f, so offsets up to sqrt(max f) suffice, the max
-    over the valid cells of lines with some finite value (a cell with none in reach, f =
-    MAX_SQUARED, makes it the whole axis). Lines with no finite value stay MAX_SQUARED whatever the
-    offsets, and cells beyond the extent are never the minimiser of a cell within it (they hold no
-    background): neither holds the loop.
+    Offsets k = 1, 2, ... (both signs, one vector min each) until no valid cell can improve: a cell
+    whose value is below k^2 is final, since any j at |i - j| >= k adds at least k^2. Lines with no
+    finite value stay MAX_SQUARED whatever the offsets, and cells beyond the extent are never the
+    minimiser of a cell within it (they hold no background): neither holds the loop. When every
+    finite value is an exact square of a distance along the axis already (a second pass), the
+    bound k^2 <= max f, fixed before the loop, is the same test without a reduction per offset.
     """
     n = f.shape[axis]
     if n == 1:
@@ -86,14 +73,15 @@ def _min_plus(f, axis, valid):
     pad[axis] = (n, n)
     padded = jnp.pad(f, pad, constant_values=MAX_SQUARED)  # beyond the border: nothing in reach
     reachable = jnp.any(f < MAX_SQUARED, axis=axis, keepdims=True) & valid
-    top = jnp.max(jnp.where(reachable, f, 0))
+    top = jnp.max(jnp.where(reachable, f, 0))  # MAX_SQUARED when a cell has nothing in reach yet
 
     def shifted(k):
         return lax.dynamic_slice_in_dim(padded, n + k, n, axis)
 
     def cond(state):
-        k, _ = state
-        return (k < n) & (k * k <= top)
+        k, g = state
+        more = (k * k <= top) & ((top < MAX_SQUARED) | jnp.any(reachable & (g >= k * k)))
+        return (k < n) & more
 
     def body(state):
         k, g = state
@@ -130,8 +118,8 @@ def squared_distance(inside, extent=None):
     else:
         extent = jnp.asarray(extent, jnp.int32)
         valid = jnp.all(jnp.stack([g < extent[a] for a, g in enumerate(grids)]), axis=0)
-    d2 = _first_pass(~inside & valid)
-    for axis in range(1, inside.ndim):
+    d2 = jnp.where(inside | ~valid, jnp.int32(MAX_SQUARED), jnp.int32(0))  # 0 on the outside cells
+    for axis in range(inside.ndim):
         d2 = _min_plus(d2, axis, valid)
     # no False cell anywhere: scipy's value, the distance to the virtual cell (-1, 0, ..., 0)
     virtual = (grids[0] + 1) ** 2 + sum((g * g for g in grids[1:]), jnp.int32(0))
@@ -184,12 +172,13 @@ def depth_weights(inside, power, bias=0.0, extent=None):
     return jnp.where(inside, jnp.where(top > 0, w, 1.0), 0.0)
 
 
-def to_bucket(grid, multiple=BUCKET):
+def to_bucket(grid, multiple=BUCKET, longest=BUCKET_LONG):
     """A NumPy grid with its axes in ascending order of length, padded with False (0) at the high
-    end of each axis to a multiple of ``multiple``: grids whose sorted sides round up alike share
-    one compilation of :func:`squared_distance` ``(padded, extent)``, and the shortest axis comes
-    first (the first pass's 1-D distances, which bound the second pass's loop, are then the
-    shortest).
+    end of each axis to a multiple of ``multiple`` (the longest axis: of ``longest``): grids whose
+    sorted sides round up alike share one compilation of :func:`squared_distance` ``(padded,
+    extent)`` (the 52 meshes of the dev datasets at the default resolution fall into 6 buckets),
+    and the shortest axis comes first (its 1-D distances, which bound the second pass's loop, are
+    then the shortest).
 
     Returns:
       padded (NumPy, the grid's dtype), extent (d,) int32 NumPy (the sorted shape), axes (d,) int:
@@ -198,7 +187,8 @@ def to_bucket(grid, multiple=BUCKET):
     grid = np.asarray(grid)
     axes = np.argsort(grid.shape, kind="stable")
     moved = grid.transpose(axes)
-    pad = [(0, -n % int(multiple)) for n in moved.shape]
+    last = moved.ndim - 1
+    pad = [(0, -n % int(longest if a == last else multiple)) for a, n in enumerate(moved.shape)]
     return np.pad(moved, pad), np.asarray(moved.shape, np.int32), axes
 
 

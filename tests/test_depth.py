@@ -136,7 +136,7 @@ def test_depth_weights_match_the_scipy_formula(x64, power, bias):
     inside[2:10, 3:14, 2:9] = True
     inside[5, 6, 4] = False  # a cavity
     padded, extent, axes = to_bucket(inside)
-    assert padded.shape == (16, 16, 16) and tuple(extent) == (10, 12, 16) and tuple(axes) == (2, 0, 1)
+    assert padded.shape == (32, 32, 16) and tuple(extent) == (10, 12, 16) and tuple(axes) == (2, 0, 1)
     w = np.asarray(depth_weights(padded, power, bias, extent))
     np.testing.assert_allclose(from_bucket(w, axes, extent), scipy_weights(inside, power, bias), rtol=1e-12, atol=0)
     assert not w[10:].any() and not w[:, 12:].any()
@@ -164,7 +164,7 @@ def test_depth_weights_gradient_in_power(x64):
 def test_host_distance_pads_to_a_bucket_and_equals_scipy():
     inside = np.random.default_rng(5).random((19, 7, 33)) < 0.9
     np.testing.assert_array_equal(host_distance(inside), ndimage.distance_transform_edt(inside))
-    padded, extent, axes = to_bucket(inside, 8)
-    assert padded.shape == (8, 24, 40) and padded.dtype == bool and tuple(axes) == (1, 0, 2)
+    padded, extent, axes = to_bucket(inside, 8, 16)
+    assert padded.shape == (8, 24, 48) and padded.dtype == bool and tuple(axes) == (1, 0, 2)
     assert not padded[7:].any() and not padded[:, 19:].any() and not padded[:, :, 33:].any()
     np.testing.assert_array_equal(from_bucket(padded, axes, extent), inside)

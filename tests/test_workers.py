@@ -151,6 +151,26 @@ def _die():
     os._exit(9)
 
 
+def _slow_start():
+    time.sleep(3.0)
+
+
+def test_a_new_workers_warm_up_is_outside_the_time_limit():
+    from jaxpose.batch.pool import ProcessPool
+
+    pool = ProcessPool(1, timeout=1.0, warm_up=_slow_start)  # 3 s to start, 1 s a task
+    try:
+        quick, slow = pool.submit(abs, -2), pool.submit(time.sleep, 30)
+        done = set()
+        while len(done) < 2:
+            done |= pool.wait({quick, slow} - done)
+        assert pool.result(quick) == 2  # its worker's start-up was not counted
+        with pytest.raises(TaskTimeout):
+            pool.result(slow)
+    finally:
+        pool.close(kill=True)
+
+
 def test_worker_environment_one_blas_thread_and_the_compilation_cache(tmp_path, monkeypatch):
     from jaxpose.batch import cache
     from jaxpose.batch.workers import process_environment

@@ -30,7 +30,7 @@ from pathlib import Path
 from typing import NamedTuple
 
 from ..errors import InvalidInputError
-from .task import FileResult, NormalizeOptions, normalize_file, one_line, sha256_file
+from .task import FileResult, NormalizeOptions, normalize_file, one_line, sha256_file, warm_up
 
 __all__ = ["CHECKS", "NormalizeOptions", "BatchResult", "normalize_files", "run_batch"]
 
@@ -167,8 +167,9 @@ def normalize_files(inputs, output_dir, options=None, **kwargs) -> list:
         (``jaxpose.read_transforms([...])`` or ``read_transforms(output_dir)``).
       timeout: seconds an input may take in its worker (reading, normalizing, encoding); past
         them the worker process is killed and replaced, and the input recorded as failed. The
-        work then runs in worker processes even with ``workers=1``; local runs only. The first
-        input of each worker includes compiling (seconds for ``ocsvm``): leave room for it.
+        work then runs in worker processes even with ``workers=1``; local runs only. A worker's
+        start-up is not counted; compiling for a grid size it has not met yet is (seconds for
+        ``ocsvm`` without the compilation cache): leave room for it.
 
     Returns:
       The transforms table: a list of :class:`jaxpose.batch.transforms.Transform`, one per input, in order
@@ -391,7 +392,7 @@ class _Run:
             # the run takes a worker process on the rerun)
             head_start = not resumed and runs_like_a_worker() and _is_regular(todo[0][0].source)
             executor = LocalExecutor(min(executor_args["workers"], len(todo)), timeout=executor_args["timeout"],
-                                     head_start=head_start)
+                                     head_start=head_start, warm_up=warm_up)
         bar = tqdm(total=len(todo), unit="file", desc="normalize", dynamic_ncols=True, smoothing=0.05,
                    disable=None if self.progress is None else not self.progress)
         queue, pending, retried = list(reversed(todo)), {}, set()

@@ -116,19 +116,23 @@ class ProcessPool:
     Args:
       workers: how many processes at most.
       environment: variables set in the workers' environment (on top of this process's).
-      timeout: seconds a task may run in its worker (from when the worker receives it); past it
+      timeout: seconds a task may run in its worker (from when the worker starts it); past it
         the worker is killed and the task's ``result`` raises :class:`TaskTimeout`. None: no limit.
+      warm_up: a function (picklable by name) each new worker runs before its first task, outside
+        the time limit: the imports every task needs, so that a worker's start-up is not counted
+        against its first task.
 
     A worker that dies makes its task's ``result`` raise :class:`WorkerLost`; the other tasks are
     not affected, and a new worker takes its place for the next task.
     """
 
-    def __init__(self, workers, environment=None, timeout=None):
+    def __init__(self, workers, environment=None, timeout=None, warm_up=None):
         self.workers = int(workers)
         self.timeout = timeout
+        self.warm_up = warm_up
         self._environment = dict(environment or {})
         self._idle = []
-        self._busy = {}  # worker -> (future, monotonic start)
+        self._busy = {}  # worker -> (future, monotonic start; None while it warms up)
         self._queue = collections.deque()  # (future, fn, args) not yet sent
 
     def submit(self, fn, *args) -> _Future:
@@ -140,15 +144,19 @@ class ProcessPool:
 
     def _dispatch(self):
         while self._queue and (self._idle or len(self._busy) < self.workers):
-            worker = self._idle.pop() if self._idle else _Worker(self._environment)
+            fresh = not self._idle
+            worker = _Worker(self._environment) if fresh else self._idle.pop()
+            warm = fresh and self.warm_up is not None
             future, fn, args = self._queue.popleft()
             try:
+                if warm:  # it runs first; the task's clock starts when its reply comes
+                    worker.tasks.send((self.warm_up, ()))
                 worker.tasks.send((fn, args))
             except (OSError, EOFError):  # it died while idle: this task never started
                 worker.kill()
                 self._queue.appendleft((future, fn, args))
                 continue
-            self._busy[worker] = (future, time.monotonic())
+            self._busy[worker] = (future, None if warm else time.monotonic())
 
     def wait(self, pending, timeout=POLL_S) -> set:
         """Wait up to `timeout` seconds for results; returns the finished futures among `pending`
@@ -159,16 +167,16 @@ class ProcessPool:
         """
         if self._busy:
             delay = timeout
-            if self.timeout is not None:
-                now = time.monotonic()
-                delay = min(delay, max(0.0, min(start + self.timeout - now for _, start in self._busy.values())))
+            started = [start for _, start in self._busy.values() if start is not None]
+            if self.timeout is not None and started:
+                delay = min(delay, max(0.0, min(started) + self.timeout - time.monotonic()))
             by_pipe = {worker.results: worker for worker in self._busy}
             for pipe in wait_for(list(by_pipe), timeout=delay):
                 self._collect(by_pipe[pipe])
             if self.timeout is not None:
                 now = time.monotonic()
                 for worker, (future, start) in list(self._busy.items()):
-                    if now - start >= self.timeout:
+                    if start is not None and now - start >= self.timeout:
                         del self._busy[worker]
                         worker.kill()
                         future._set(error=TaskTimeout(
@@ -180,7 +188,7 @@ class ProcessPool:
         return {future for future in pending if future.done()}
 
     def _collect(self, worker):
-        future, _ = self._busy.pop(worker)
+        future, start = self._busy.pop(worker)
         try:
             ok, value = worker.results.recv()
         except (EOFError, OSError):  # the process died; a half-sent result reads as EOF too
@@ -188,6 +196,9 @@ class ProcessPool:
             worker.kill()
             future._set(error=WorkerLost(f"its worker process (pid {worker.pid}) died while working on it: {how} "
                                          "(out of memory, or killed from outside?)"))
+            return
+        if start is None:  # the warm-up's reply (an error in it shows again in the task): now the task
+            self._busy[worker] = (future, time.monotonic())
             return
         future._set(value=value) if ok else future._set(error=value)
         self._idle.append(worker)

@@ -18,7 +18,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["NormalizeOptions", "FileResult", "normalize_file", "one_line", "sha256_file"]
+__all__ = ["NormalizeOptions", "FileResult", "normalize_file", "one_line", "sha256_file", "warm_up"]
 
 
 # --------------------------------------------------------------------------- options
@@ -188,6 +188,15 @@ def _load_remote(url, check, record):
             return mesh.load(local)
         except JaxposeError as exc:  # its message names the temporary file: name the URL
             raise type(exc)(str(exc).replace(str(local), url)) from None
+
+
+def warm_up() -> None:
+    """Import what :func:`normalize_file` needs (readers, trimesh, JAX): a new worker process runs
+    this before its first input, so that its start-up does not count against that input's time
+    limit (a first compilation for a new grid size still does)."""
+    import jax.numpy  # noqa: F401
+
+    from .. import mesh  # noqa: F401
 
 
 def _input_stat(path, check):

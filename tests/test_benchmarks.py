@@ -205,3 +205,20 @@ def test_stop_rule_benchmark_table():
                        "tolerance": rows})
     assert "worst |difference| / scale: 2.00e-03" in text and "| a | 0 |" in text
 
+
+
+def test_robust_speed_benchmark_runs_on_the_example_shape():
+    """benchmarks/robust_speed.py: one warm run on the built-in shape; the JAX and frozen NumPy
+    paths agree and the power derivative is finite (no timing assertion)."""
+    import numpy as np
+
+    from benchmarks import robust_speed as r
+
+    result = r.run([("example_shape", None)], repeats=1)
+    speed, grad = result["speed"][0], result["gradients"][0]
+    assert speed["center_diff_rel"] < 1e-6 and speed["scale_diff_rel"] < 1e-12
+    assert speed["stats"]["jax"]["runs_s"] and speed["ratio"] > 0
+    assert grad["finite"] and grad["center_rel_err"] < 0.1 and grad["grad_scale"] == 0.0
+    assert np.linalg.norm(grad["fd_center"]) > 0
+    text = r.markdown(result)
+    assert "| example_shape |" in text and "d center / dp" in text

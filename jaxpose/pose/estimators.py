@@ -29,6 +29,7 @@ import warnings
 import jax
 import jax.numpy as jnp
 import numpy as np
+from scipy import ndimage
 
 from .. import baselines, sample
 from ..occupancy import solid, voxels
@@ -115,22 +116,80 @@ def robust_center_scale(geometry, power=ROBUST_POWER, resolution=solid.RESOLUTIO
       None: the depth is taken in JAX).
 
     Raises:
-      JaxposeError: the shape encloses no volume (a flat or open sheet, a one-sided scan).
+      JaxposeError: the shape has no robust pose, with the reason: it encloses no volume (a flat
+        sheet), it is mostly open (hole caps would add more than :data:`MAX_CAP_SHARE` of its
+        area), it is several separate bodies of equal size (:data:`EQUAL_BODIES`), a point cloud
+        too sparse for a closing (its solid under :data:`MIN_POINT_VOXELS` voxels across).
     """
     sol = _robust_solid(geometry, resolution)
     center, volume = solid_center_volume(sol, power)
     return center, volume ** (1.0 / 3.0), sol
 
 
+_OTHER = "use the surface_centroid or ocsvm method (method='surface_centroid'; on the command line --method " \
+         "surface_centroid)"
+
+
 def _robust_solid(geometry, resolution):
+    """The robust solid, or a JaxposeError saying why the shape has no robust pose (the edges of
+    the estimator, checked here at its boundary: no volume, :data:`MAX_CAP_SHARE`,
+    :data:`EQUAL_BODIES`, :data:`MIN_POINT_VOXELS`)."""
     resolution = solid.check_resolution(resolution)
     vertices, faces = baselines.split_geometry(geometry)
     sol = solid.robust_solid(vertices, faces, resolution=resolution, with_depth=False)
     if not sol.inside.any():
-        raise JaxposeError("the shape encloses no volume (a flat or open sheet, or a scan of one side): "
-                           "the robust solid is empty; use the surface_centroid or ocsvm method "
-                           "(method='surface_centroid'; on the command line --method surface_centroid)")
+        raise JaxposeError(f"the shape encloses no volume (a flat or open sheet, or a scan of one side): "
+                           f"the robust solid is empty; {_OTHER}")
+    if faces is not None:
+        _check_mostly_closed(vertices, faces)
+    if faces is not None:  # a point cloud's closing can break thin parts into pieces of any size
+        _check_one_body(sol)
+    else:
+        idx = np.nonzero(sol.inside)
+        across = max(int(i.max() - i.min()) + 1 for i in idx)
+        if across < MIN_POINT_VOXELS:
+            raise JaxposeError(f"the point cloud is too sparse for a closing: at the voxel size its spacing allows "
+                               f"(the 90th percentile of the 4-neighbour distance / {solid.MAX_CLOSING}) its solid "
+                               f"spans {across} voxels (at least {MIN_POINT_VOXELS} are needed); use more points, or "
+                               "the vertex_mean or ocsvm method")
     return sol
+
+
+MAX_CAP_SHARE = 0.6  # meshes: closing the holes may add at most this share of the surface's own area
+EQUAL_BODIES = 0.1  # separate bodies whose sizes (voxels) differ by less than this share are equal
+MIN_POINT_VOXELS = 12  # point clouds: the closed solid spans at least this many voxels along its largest extent
+
+
+def _area(v, f):
+    return 0.5 * np.linalg.norm(np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]), axis=1)
+
+
+def _check_mostly_closed(vertices, faces):
+    """Refuse a mesh whose hole caps (:func:`jaxpose.solid.cap_holes`) would make much of its
+    solid: an open sheet, a bowl-less scan; small holes (a few % to a third of the area) pass."""
+    faces = np.asarray(faces, np.int64)
+    capped, caps = solid.cap_holes(np.asarray(vertices, np.float64), faces)
+    if len(caps) == 0:
+        return
+    share = float(_area(capped, caps).sum() / max(_area(capped, faces).sum(), 1e-300))
+    if share > MAX_CAP_SHARE:
+        raise JaxposeError(f"the mesh is mostly open (a sheet, or a scan of one side): closing its holes would add "
+                           f"{100 * share:.0f} % of its own area (at most {100 * MAX_CAP_SHARE:.0f} %), so the caps, "
+                           f"not the shape, would make the robust solid; {_OTHER}")
+
+
+def _check_one_body(sol):
+    """Refuse a mesh solid of several separate bodies of equal size (within :data:`EQUAL_BODIES`): no
+    single body sets the pose, and which one leads flips with a small change of either. Bodies
+    of different sizes pass (a stray part is dropped; a comparable part is kept with the body)."""
+    if sol.components - sol.dropped < 2:
+        return
+    labels, n = ndimage.label(sol.inside, structure=np.ones((3, 3, 3), bool))
+    sizes = np.sort(np.bincount(labels.ravel())[1:])[::-1]
+    if n >= 2 and sizes[1] >= (1 - EQUAL_BODIES) * sizes[0]:
+        equal = int(np.sum(sizes >= (1 - EQUAL_BODIES) * sizes[0]))
+        raise JaxposeError(f"the shape is {equal} separate bodies of equal size (within {100 * EQUAL_BODIES:.0f} %): "
+                           f"no single body sets the pose; normalize each body on its own, or {_OTHER}")
 
 
 @jax.jit

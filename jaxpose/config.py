@@ -1,5 +1,11 @@
 """Option objects: frozen, hashable (static under ``jit``), validated once; the one source of defaults.
 
+The estimators' parameters, each default written here only:
+
+* :class:`OCSVMOptions` (:data:`OCSVM`) -- the paper's estimator: gamma, nu and the surface
+  samples it is fitted to;
+* :class:`RobustOptions` (:data:`ROBUST`) -- the robust estimator: the depth exponent of its center.
+
 Three objects cover every option of the OCSVM pipeline:
 
 * :class:`SolverConfig` -- how the SVDD dual (eq. 2) is solved and when it stops;
@@ -24,8 +30,9 @@ import math
 import numbers
 
 from ._validate import InvalidInputError
+from .sample import SAMPLING
 
-__all__ = ["SolverConfig", "GridConfig", "PoseConfig", "BLOCK", "KERNELS", "SOLVERS", "DERIVATIVES", "MEMORY_BUDGET",
+__all__ = ["OCSVMOptions", "OCSVM", "RobustOptions", "ROBUST", "SolverConfig", "GridConfig", "PoseConfig", "BLOCK", "KERNELS", "SOLVERS", "DERIVATIVES", "MEMORY_BUDGET",
            "CELL_BYTES"]
 
 BLOCK = 2048  # rows per block: kernel products and grid cells (memory O(BLOCK * m))
@@ -53,6 +60,70 @@ def _choice(value, name, choices):
 def _set(obj, **values):
     for key, value in values.items():
         object.__setattr__(obj, key, value)
+
+
+def _real(value, name, low, high, closed=True):
+    """``value`` as a float in [low, high] (or (low, high] with ``closed=False``); bools refused."""
+    try:
+        v = math.nan if isinstance(value, bool) else float(value)
+    except (TypeError, ValueError):
+        v = math.nan
+    if not (math.isfinite(v) and (low <= v if closed else low < v) and v <= high):
+        interval = f"{'[' if closed else '('}{low:g}, {high:g}{']' if math.isfinite(high) else ')'}"
+        raise InvalidInputError(f"{name} must be a number in {interval}, got {value!r}")
+    return v
+
+
+@dataclasses.dataclass(frozen=True)
+class OCSVMOptions:
+    """The paper's estimator (``method="ocsvm"``): its parameters and the samples it is fitted to.
+
+    Attributes:
+      gamma: Gaussian kernel width, dimensionless (points in the reference frame of
+        :mod:`jaxpose.pose.frame`), > 0; the paper's value.
+      nu: the OCSVM's slack, the share of samples allowed outside the region, in [0, 1].
+      count: surface samples per object (>= 4).
+      seed: the samples' seed (>= 0).
+      sampling: ``"even"`` (stratified per-face counts) or ``"random"`` (:data:`jaxpose.sample.SAMPLING`).
+
+    Example::
+
+        options = dataclasses.replace(OCSVM, gamma=30.0)  # the defaults, but a wider kernel
+    """
+
+    gamma: float = 47.0
+    nu: float = 0.5
+    count: int = 2000
+    seed: int = 0
+    sampling: str = "even"
+
+    def __post_init__(self):
+        _set(self, gamma=_real(self.gamma, "gamma", 0.0, math.inf, closed=False), nu=_real(self.nu, "nu", 0.0, 1.0),
+             count=_int(self.count, "count", 4), seed=_int(self.seed, "seed", 0),
+             sampling=_choice(self.sampling, "sampling", SAMPLING))
+
+
+@dataclasses.dataclass(frozen=True)
+class RobustOptions:
+    """The robust estimator (``method="robust"``, the default): center sum d^p x / sum d^p over the
+    voxels of the robust solid, d a voxel's depth to the outside.
+
+    Attributes:
+      power: the depth exponent p of the center's weights, >= 0 (0: the solid's centroid).
+
+    Example::
+
+        center = depth_centroid(solid, RobustOptions(power=2.0).power)
+    """
+
+    power: float = 4.0
+
+    def __post_init__(self):
+        _set(self, power=_real(self.power, "power", 0.0, math.inf))
+
+
+OCSVM = OCSVMOptions()  # the defaults, read by every function that takes these parameters
+ROBUST = RobustOptions()
 
 
 @dataclasses.dataclass(frozen=True)

@@ -13,6 +13,7 @@ import numpy as np
 
 from . import sample
 from ._validate import InvalidInputError, check_gamma, check_int, check_nu
+from .config import OCSVM
 from .io.mesh import MESH_FORMATS, OUTPUT_FORMATS, POINT_FORMATS, encode, example_shape, export, load, output_format
 from .io.atomic import write_atomic
 from .sample import SAMPLING
@@ -54,7 +55,7 @@ def sample_surface(mesh, count, seed=0, method="even"):
 
 
 # --------------------------------------------------------------------------- normalize
-def check_arguments(gamma=47.0, nu=0.5, count=2000, seed=0, sampling="even", method=None, *, center=None,
+def check_arguments(gamma=OCSVM.gamma, nu=OCSVM.nu, count=OCSVM.count, seed=OCSVM.seed, sampling=OCSVM.sampling, method=None, *, center=None,
                     scale=None, strict=False, power=None, resolution=None, rotation=False, **options):
     """Check every argument of :func:`normalize_mesh` (same names and defaults) without reading
     anything or compiling: names against the known ones, ranges, which options apply to which
@@ -113,10 +114,10 @@ def check_arguments(gamma=47.0, nu=0.5, count=2000, seed=0, sampling="even", met
 
 def normalize_mesh(
     mesh_or_path,
-    gamma=47.0,
-    nu=0.5,
-    count=2000,
-    seed=0,
+    gamma=OCSVM.gamma,
+    nu=OCSVM.nu,
+    count=OCSVM.count,
+    seed=OCSVM.seed,
     sampling="even",
     method=None,
     *,
@@ -132,15 +133,15 @@ def normalize_mesh(
 
     Args:
       mesh_or_path: a path (anything trimesh reads), Trimesh, PointCloud or (n, 3) points.
-      method: one of :data:`jaxpose.pose.estimators.METHODS`; default ``"robust"``, the depth^4-weighted
-        centroid of a robust solid and its volume's cube root (works on closed meshes, meshes with
+      method: one of :data:`jaxpose.pose.estimators.METHODS`; default ``"robust"``, the depth^p-weighted
+        centroid (p: ``power``) of a robust solid and its volume's cube root (works on closed meshes, meshes with
         holes or stray parts, and point clouds; the most consistent under articulation, see
         ``docs/estimators.md``). ``"ocsvm"`` is the paper's method: ``count`` surface samples
         (``seed``, ``sampling``) -> :func:`jaxpose.normalize` (``gamma``, ``nu``, ``options``).
       center, scale: choose either part independently (``center="solid_centroid",
         scale="sqrt_area"``; names in :data:`jaxpose.pose.estimators.CENTERS` / ``SCALES``).
       strict: closed-surface estimators raise on an open mesh instead of warning.
-      power: depth exponent (robust_depth: 4; depth_weighted_solid: 2).
+      power: depth exponent (robust_depth: ``jaxpose.config.ROBUST.power``; depth_weighted_solid: 2).
       resolution: for the robust solid, voxels along the body's largest extent (96); for
         ``ocsvm``, the grid resolution of :func:`jaxpose.normalize`.
       rotation: False (default: translation and scale only, exactly as without the option), True

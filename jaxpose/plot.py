@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .config import OCSVM
 from .errors import InvalidInputError
 
 __all__ = ["region_slices", "mesh_3d", "centers_plot", "sweep_curves", "scale_bars", "variant_bars", "class_bars",
@@ -99,7 +100,7 @@ def _equal_3d(ax, points):
 
 
 # --------------------------------------------------------------------------- Fig. 3
-def region_slices(svdd_or_points, gamma=47.0, nu=0.5, *, center=None, planes=("xy", "xz", "yz"),
+def region_slices(svdd_or_points, gamma=OCSVM.gamma, nu=OCSVM.nu, *, center=None, planes=("xy", "xz", "yz"),
                   pixels=100, thickness=0.04, ax=None, path=None, title=None, **normalize_options):
     """Slices of the OCSVM decision function through the region's center (paper, Fig. 3).
 
@@ -201,7 +202,7 @@ def mesh_3d(mesh_or_points, ax=None, *, color="0.7", alpha=0.5, edgecolor=None, 
     return _finish(fig, path)
 
 
-def centers_plot(mesh_or_points, pose=None, gamma=47.0, nu=0.5, *, methods=("robust_depth", "surface_centroid",
+def centers_plot(mesh_or_points, pose=None, gamma=OCSVM.gamma, nu=OCSVM.nu, *, methods=("robust_depth", "surface_centroid",
                  "vertex_mean", "bbox_center", "min_ball"), count=1000, seed=0, plane="xz", ax=None, path=None, title=None,
                  **normalize_options):
     """A shape with the OCSVM center and other centers (names of ``jaxpose.pose.estimators.CENTERS``) marked.

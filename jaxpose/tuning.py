@@ -37,7 +37,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from . import _validate
-from .config import PoseConfig
+from .config import OCSVM, PoseConfig
 from .pose.pose import pose_pipeline
 
 __all__ = ["tune", "objective", "spread_of"]
@@ -138,14 +138,14 @@ def spread_of(samplers, gamma, nu, class_loss, seed):
     return objective(samplers, _start_theta(float(gamma), float(nu)), class_loss, seed)[1]
 
 
-def tune(classes, gamma0=47.0, nu0=0.5, steps=12, lr=0.1, scale_weight=0.0, holdout=0.0, holdout_classes=None,
+def tune(classes, gamma0=OCSVM.gamma, nu0=OCSVM.nu, steps=12, lr=0.1, scale_weight=0.0, holdout=0.0, holdout_classes=None,
          seed=0, count=400, reg=0.05, progress=None, **normalize_options) -> dict:
     """Tune (gamma, nu) by gradient descent on the mean within-class center spread (module docs).
 
     Args:
       classes: {name: [Trimesh | PointCloud, ...]} (sampled afresh at every step), or {name:
         [(m, 3) arrays]} (the same m within a class; used as given); at least 2 objects each.
-      gamma0, nu0: the start (the paper's 47, 0.5; nu0 in (0.02, 0.98)); steps: optax.adam steps
+      gamma0, nu0: the start (default :data:`jaxpose.config.OCSVM`, the paper's; nu0 in (0.02, 0.98)); steps: optax.adam steps
         (>= 0); lr: initial rate (cosine decay to lr / 10).
       scale_weight: weight of the coefficient of variation of the scale in the loss.
       holdout: fraction of ``classes`` held out of the steps (whole classes, at least one held out

@@ -72,3 +72,47 @@ def test_grid_memory_is_bounded():
         GridConfig(resolution=64, refine=1024, band=10**6)
     with pytest.raises(InvalidInputError, match="resolution=1000"):
         PoseConfig.create(resolution=1000)
+
+
+# --------------------------------------------------------------------------- the estimators' parameters
+def test_estimator_options_are_the_paper_values_and_validated():
+    from jaxpose.config import OCSVM, ROBUST, OCSVMOptions, RobustOptions
+
+    # the paper's gamma = 47 and nu = 0.5 (section 4), and the robust center's depth^4 weights (docs/estimators.md)
+    assert (OCSVM.gamma, OCSVM.nu, ROBUST.power) == (47.0, 0.5, 4.0)
+    assert hash(OCSVM) == hash(OCSVMOptions()) and ROBUST == RobustOptions()
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        OCSVM.gamma = 1.0  # type: ignore[misc]
+    for bad, fragment in [(dict(gamma=0.0), "gamma"), (dict(gamma=float("inf")), "gamma"), (dict(nu=1.5), "nu"),
+                          (dict(nu=True), "nu"), (dict(count=3), "count"), (dict(seed=-1), "seed"),
+                          (dict(sampling="grid"), "sampling")]:
+        with pytest.raises(InvalidInputError, match=fragment):
+            OCSVMOptions(**bad)
+    with pytest.raises(InvalidInputError, match="power"):
+        RobustOptions(power=-1.0)
+
+
+def test_every_entry_point_reads_the_one_default():
+    """The functions, the batch options and the command line all default to jaxpose.config's values."""
+    import inspect
+
+    import jaxpose
+    from jaxpose import mesh, tuning
+    from jaxpose.batch.task import NormalizeOptions
+    from jaxpose.cli import build_parser
+    from jaxpose.config import OCSVM, ROBUST
+    from jaxpose.evaluation import evaluate
+    from jaxpose.pose import estimators, sensitivity
+
+    for fn in (jaxpose.normalize, jaxpose.normalize_batch, jaxpose.normalize_mesh, mesh.check_arguments, evaluate,
+               sensitivity.pose_sensitivity):
+        params = inspect.signature(fn).parameters
+        assert (params["gamma"].default, params["nu"].default) == (OCSVM.gamma, OCSVM.nu), fn.__name__
+    params = inspect.signature(tuning.tune).parameters
+    assert (params["gamma0"].default, params["nu0"].default) == (OCSVM.gamma, OCSVM.nu)
+    assert (NormalizeOptions().gamma, NormalizeOptions().nu, NormalizeOptions().count) == (
+        OCSVM.gamma, OCSVM.nu, OCSVM.count)
+    assert inspect.signature(estimators.robust_center_scale).parameters["power"].default == ROBUST.power
+    for command in (["normalize", "x.ply"], ["evaluate"]):
+        args = build_parser().parse_args(command)
+        assert (args.gamma, args.nu, args.count, args.seed) == (OCSVM.gamma, OCSVM.nu, OCSVM.count, OCSVM.seed)

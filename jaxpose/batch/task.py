@@ -18,6 +18,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..config import OCSVM
+
 __all__ = ["NormalizeOptions", "FileResult", "normalize_file", "one_line", "sha256_file", "warm_up"]
 
 
@@ -39,11 +41,11 @@ class NormalizeOptions:
     method: str | None = None
     center: str | None = None
     scale: str | None = None
-    gamma: float = 47.0
-    nu: float = 0.5
-    count: int = 2000
-    seed: int = 0
-    sampling: str = "even"
+    gamma: float = OCSVM.gamma
+    nu: float = OCSVM.nu
+    count: int = OCSVM.count
+    seed: int = OCSVM.seed
+    sampling: str = OCSVM.sampling
     resolution: int | None = None
     rotation: bool | str = False
     strict: bool = False

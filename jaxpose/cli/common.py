@@ -3,14 +3,17 @@ from __future__ import annotations
 
 import sys
 
+from ..config import OCSVM
+
 __all__ = ["add_svm_options", "fail"]
 
 
-def add_svm_options(p, count=2000):
-    p.add_argument("--gamma", type=float, default=47.0, help="ocsvm: Gaussian kernel width (dimensionless, default 47)")
-    p.add_argument("--nu", type=float, default=0.5, help="ocsvm: slack in [0, 1] (default 0.5)")
+def add_svm_options(p, count=OCSVM.count):
+    p.add_argument("--gamma", type=float, default=OCSVM.gamma,
+                   help=f"ocsvm: Gaussian kernel width (dimensionless, default {OCSVM.gamma:g})")
+    p.add_argument("--nu", type=float, default=OCSVM.nu, help=f"ocsvm: slack in [0, 1] (default {OCSVM.nu:g})")
     p.add_argument("--count", type=int, default=count, help=f"ocsvm: surface samples per object (default {count})")
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--seed", type=int, default=OCSVM.seed, help=f"random seed (default {OCSVM.seed})")
 
 
 def fail(message, code=1):

@@ -25,7 +25,7 @@ def add_parser(sub):
     p.add_argument("--classes", help="built-in dataset: comma-separated subset of its 12 classes (default all)")
     p.add_argument("--instances", type=int, default=None, help="built-in dataset: objects per class (default 10)")
     p.add_argument("--align-core", action="store_true", help="align the rigid core of each class before measuring")
-    add_svm_options(p, count=2000)
+    add_svm_options(p)
     p.set_defaults(**dict.fromkeys(("gamma", "nu", "count")))  # None when not given: refused where nothing uses them
     p.add_argument("--methods", help="comma-separated methods, name or name:power (default: all)")
     p.add_argument("--variants", default="all",

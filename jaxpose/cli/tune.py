@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 
 from ..errors import InvalidInputError, JaxposeError  # (not _validate: it imports NumPy)
+from ..config import OCSVM
 
 __all__ = ["add_parser", "run", "parser", "load_classes"]
 
@@ -48,8 +49,9 @@ def parser():
                    "(default 0)")
     p.add_argument("--scale-weight", type=float, default=0.0, help="weight of the scale's spread (cv) in the loss, "
                    "beside the center's sigma_tr (default 0: the center only)")
-    p.add_argument("--gamma", type=float, default=47.0, help="starting gamma, the paper's (default 47)")
-    p.add_argument("--nu", type=float, default=0.5, help="starting nu, the paper's (default 0.5)")
+    p.add_argument("--gamma", type=float, default=OCSVM.gamma,
+                   help=f"starting gamma, the paper's (default {OCSVM.gamma:g})")
+    p.add_argument("--nu", type=float, default=OCSVM.nu, help=f"starting nu, the paper's (default {OCSVM.nu:g})")
     p.add_argument("--resolution", type=int, default=16, help="grid cells per axis of the volume integral during "
                    "tuning (default 16; normalize's default is 64)")
     p.add_argument("--refine", type=int, default=2, help="a power of 2: cells near the boundary split 2x2x2, log2(refine) times "

@@ -29,6 +29,7 @@ import numpy as np
 
 from .. import baselines
 from .._validate import InvalidInputError, OpenMeshWarning
+from ..config import OCSVM
 from . import alignment
 from .measures import scale_spread, spread
 from .variants import VARIANTS, make_class
@@ -39,7 +40,7 @@ METHODS = ("robust", "ocsvm", "surface_centroid", "vertex_mean", "bbox", "min_ba
            "depth_weighted_solid:2", "depth_weighted_solid:4")
 SWEEP_VALUES = {"gamma": (1.0, 2.0, 5.0, 10.0, 20.0, 30.0, 40.0, 47.0, 50.0),
                 "nu": (0.1, 0.2, 0.3, 0.4, 0.5, 0.6)}
-SWEEP_FIXED = {"gamma": {"nu": 0.0}, "nu": {"gamma": 47.0}}  # the paper's Fig. 5 (a), (b)
+SWEEP_FIXED = {"gamma": {"nu": 0.0}, "nu": {"gamma": OCSVM.gamma}}  # the paper's Fig. 5 (a), (b)
 KEYS = ("sigma_tr", "sigma_tr_axis", "sigma_scale", "cv_scale")
 
 
@@ -165,7 +166,7 @@ def _summary(per_class, methods, seconds, variant, first=None, objects=0):
     return rows
 
 
-def evaluate(classes, gamma=47.0, nu=0.5, methods=None, count=2000, seed=0, align_core=False,
+def evaluate(classes, gamma=OCSVM.gamma, nu=OCSVM.nu, methods=None, count=OCSVM.count, seed=OCSVM.seed, align_core=False,
              progress=None, sweep=False, variants=("plain",), **normalize_options) -> dict:
     """Within-class spread of centers and scales for each method and input variant (paper, sec. 4.2).
 
@@ -242,13 +243,13 @@ def _jsonable(value):
     return repr(value)
 
 
-def sweep(classes, param="gamma", values=None, fixed=None, count=2000, seed=0, progress=None,
+def sweep(classes, param="gamma", values=None, fixed=None, count=OCSVM.count, seed=OCSVM.seed, progress=None,
           **normalize_options) -> dict:
     """sigma_tr and sigma_scale of ``ocsvm`` as one parameter varies (paper, Fig. 5 and 6).
 
     param : "gamma" or "nu"; values : default :data:`SWEEP_VALUES` [param]
     fixed : the other parameter, default :data:`SWEEP_FIXED` [param] (nu = 0 for the gamma
-        sweep, gamma = 47 for the nu sweep, as in the paper)
+        sweep, the default gamma for the nu sweep, as in the paper)
     Surface samples are drawn once per mesh and reused for every value.
 
     Returns ``{"param", "values", "fixed", "per_class": {class: {"sigma_tr": [...],

@@ -3,13 +3,13 @@
 A method is a (center, scale) pair; the two can also be chosen independently
 (``estimate(mesh, center="solid_centroid", scale="sqrt_area")``).
 
-The default, ``"robust"``, is the depth^4-weighted centroid of a robust solid and the cube root of
+The default, ``"robust"``, is the depth^p-weighted centroid of a robust solid and the cube root of
 that solid's volume (:mod:`jaxpose.occupancy.solid`): the solid is found with or without a closed surface
 (holes are capped and voted over by rays along 3 axes; point clouds are closed morphologically),
 stray parts separated from the body are dropped, and each voxel weighs its depth to the outside to
-the power 4, so the deep part of the shape (a body's torso), which moves least under articulation,
-sets the center. The volume is nearly invariant under articulation of soft bodies. See
-``docs/estimators.md`` for the measurements behind the choice. The solid is built on the host
+the power p (:data:`jaxpose.config.ROBUST`), so the deep part of the shape (a body's torso), which
+moves least under articulation, sets the center. The volume is nearly invariant under articulation of
+soft bodies. See ``docs/estimators.md`` for the measurements behind the choice. The solid is built on the host
 (NumPy); its depth, weights and moments are JAX (:func:`robust_moments`: one compiled function per
 grid bucket, differentiable in the power).
 
@@ -34,6 +34,7 @@ from scipy import ndimage
 from .. import baselines, sample
 from ..occupancy import solid, voxels
 from .._validate import InvalidInputError, JaxposeError, is_traced
+from ..config import OCSVM, ROBUST
 from ..depth import depth_weights, to_bucket
 from ..moments import Moments, grid_moments
 
@@ -54,7 +55,7 @@ METHODS = {
 DEFAULT_METHOD = "robust"
 CENTERS = ("robust_depth", "ocsvm") + baselines.CENTERS
 SCALES = ("robust_volume", "ocsvm") + baselines.SCALES
-ROBUST_POWER = 4.0  # depth exponent of the robust center
+ROBUST_POWER = ROBUST.power  # depth exponent of the robust center (jaxpose.config.ROBUST)
 _OCSVM_KEYS = ("gamma", "nu", "count", "seed", "sampling")
 
 
@@ -302,11 +303,11 @@ class _Shape:
             from .validity import status_message
 
             o = self.options
-            points = sample.sample_surface(self.geometry, o.get("count", 2000), seed=o.get("seed", 0),
-                                           method=o.get("sampling", "even"))
+            points = sample.sample_surface(self.geometry, o.get("count", OCSVM.count), seed=o.get("seed", OCSVM.seed),
+                                           method=o.get("sampling", OCSVM.sampling))
             with warnings.catch_warnings():  # an invalid pose is raised below, with its reason
                 warnings.simplefilter("ignore", InvalidPoseWarning)
-                pose = normalize(points, o.get("gamma", 47.0), o.get("nu", 0.5), **o.get("ocsvm", {}))
+                pose = normalize(points, o.get("gamma", OCSVM.gamma), o.get("nu", OCSVM.nu), **o.get("ocsvm", {}))
             if not bool(np.asarray(getattr(pose, "valid", True))):
                 reason = status_message(pose.status) if hasattr(pose, "status") else "not valid"
                 raise JaxposeError(f"the ocsvm estimator gave no valid pose: {reason}")
@@ -347,7 +348,7 @@ def estimate(geometry, method=None, *, center=None, scale=None, strict=False, **
       center, scale: override either part (names in :data:`CENTERS`, :data:`SCALES`).
       strict: closed-surface estimators (``solid_centroid``, ``gyration_radius``,
         ``depth_weighted_solid``) raise on an open mesh instead of warning.
-      options: ``power`` (depth exponent: robust_depth 4, depth_weighted_solid 2), ``resolution``
+      options: ``power`` (depth exponent: robust_depth ``ROBUST.power``, depth_weighted_solid 2), ``resolution``
         (robust solid voxels, 96); for ``ocsvm``: ``gamma``, ``nu``, ``count``, ``seed``,
         ``sampling`` and ``ocsvm`` (a dict of :func:`jaxpose.normalize` options).
 

@@ -33,7 +33,7 @@ import numpy as np
 
 from .. import _validate
 from .._hyper import hyper_jvp
-from ..config import PoseConfig
+from ..config import OCSVM, PoseConfig
 from .frame import host_frame, prescale
 from ..moments import region_moments
 from ..orientation import region_frame
@@ -105,7 +105,7 @@ def pose_pipeline(points, mask, gamma, nu, config: PoseConfig, rotation: bool = 
 _pipeline_jit = jax.jit(pose_pipeline, static_argnames=("config", "rotation"))
 
 
-def normalize(points, gamma=47.0, nu=0.5, *, config: PoseConfig | None = None, throw=False, rotation=False,
+def normalize(points, gamma=OCSVM.gamma, nu=OCSVM.nu, *, config: PoseConfig | None = None, throw=False, rotation=False,
               max_points=MAX_POINTS, seed=0, **options) -> Pose:
     """The OCSVM pose (center c_m, scale d_m) of surface samples.
 
@@ -223,7 +223,7 @@ def _finish(pose, shift, size, gamma, nu, throw, tol):
     return pose
 
 
-def normalize_batch(list_of_points: Iterable, gamma=47.0, nu=0.5, *, pad_to=None, throw=False, strategy="auto",
+def normalize_batch(list_of_points: Iterable, gamma=OCSVM.gamma, nu=OCSVM.nu, *, pad_to=None, throw=False, strategy="auto",
                     config: PoseConfig | None = None, rotation=False, max_points=MAX_POINTS, seed=0,
                     **options) -> Pose:
     """Normalize many objects with one compilation (padding and masks).

@@ -12,7 +12,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import _validate
-from ..config import PoseConfig
+from ..config import OCSVM, PoseConfig
 from .pose import Pose, normalize
 
 __all__ = ["pose", "pose_sensitivity", "NU_DELTA"]
@@ -20,7 +20,7 @@ __all__ = ["pose", "pose_sensitivity", "NU_DELTA"]
 NU_DELTA = PoseConfig().nu_delta  # relative half-width of the nu interval of the trend derivative
 
 
-def pose(points, gamma=47.0, nu=0.5, **options) -> Pose:
+def pose(points, gamma=OCSVM.gamma, nu=OCSVM.nu, **options) -> Pose:
     """:func:`jaxpose.normalize`: the same values and, by default, the same trend derivatives.
 
     Args:
@@ -31,7 +31,7 @@ def pose(points, gamma=47.0, nu=0.5, **options) -> Pose:
     return normalize(points, gamma, nu, **options)
 
 
-def pose_sensitivity(points, gamma=47.0, nu=0.5, **options) -> dict:
+def pose_sensitivity(points, gamma=OCSVM.gamma, nu=OCSVM.nu, **options) -> dict:
     """Derivatives of the pose in gamma and nu, as NumPy values.
 
     Args:

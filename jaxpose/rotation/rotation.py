@@ -98,6 +98,7 @@ from .. import baselines, sample
 from . import parts
 from ..occupancy import solid
 from .._validate import InvalidInputError, JaxposeError
+from ..config import OCSVM
 from ..orientation import (GAP_MIN, SIGN_MIN, SYMMETRY_MIN, Frame, ambiguity, complete_signs, descending_axes, proper,
                           region_frame, relative_gaps)
 from ..occupancy.voxels import GRID_SHIFT
@@ -486,9 +487,9 @@ def frame_of(geometry, method=DEFAULT_ROTATION, *, resolution=None, sol=None, oc
         from ..pose.pose import normalize  # JAX only when asked for
 
         o = dict(ocsvm or {})
-        points = sample.sample_surface(geometry, o.get("count", 2000), seed=o.get("seed", 0),
-                                       method=o.get("sampling", "even"))
-        pose = normalize(points, o.get("gamma", 47.0), o.get("nu", 0.5), rotation=True, **o.get("options", {}))
+        points = sample.sample_surface(geometry, o.get("count", OCSVM.count), seed=o.get("seed", OCSVM.seed),
+                                       method=o.get("sampling", OCSVM.sampling))
+        pose = normalize(points, o.get("gamma", OCSVM.gamma), o.get("nu", OCSVM.nu), rotation=True, **o.get("options", {}))
         return Frame(np.asarray(pose.rotation, np.float64), float(np.asarray(pose.ambiguity)),
                      np.full(3, np.nan), np.full(2, np.nan), np.full(3, np.nan), -1, np.full(3, np.nan))
     return baselines.frame(geometry, method)

@@ -29,12 +29,12 @@ import dataclasses
 import math
 import numbers
 
-from ._validate import InvalidInputError
-from .sample import SAMPLING
+from .errors import InvalidInputError
 
-__all__ = ["OCSVMOptions", "OCSVM", "RobustOptions", "ROBUST", "SolverConfig", "GridConfig", "PoseConfig", "BLOCK", "KERNELS", "SOLVERS", "DERIVATIVES", "MEMORY_BUDGET",
+__all__ = ["SAMPLING", "OCSVMOptions", "OCSVM", "RobustOptions", "ROBUST", "SolverConfig", "GridConfig", "PoseConfig", "BLOCK", "KERNELS", "SOLVERS", "DERIVATIVES", "MEMORY_BUDGET",
            "CELL_BYTES"]
 
+SAMPLING = ("even", "random")  # how surface samples are drawn (jaxpose.sample.sample_surface)
 BLOCK = 2048  # rows per block: kernel products and grid cells (memory O(BLOCK * m))
 MEMORY_BUDGET = 2 * 2**30  # bytes one grid may take at its peak (the OCSVM's cells, the robust solid's voxels)
 CELL_BYTES = 96  # peak bytes per cell of the OCSVM grid (measured 70-95, float32 and float64)
@@ -84,7 +84,7 @@ class OCSVMOptions:
       nu: the OCSVM's slack, the share of samples allowed outside the region, in [0, 1].
       count: surface samples per object (>= 4).
       seed: the samples' seed (>= 0).
-      sampling: ``"even"`` (stratified per-face counts) or ``"random"`` (:data:`jaxpose.sample.SAMPLING`).
+      sampling: ``"even"`` (stratified per-face counts) or ``"random"`` (:data:`SAMPLING`).
 
     Example::
 

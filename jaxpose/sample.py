@@ -3,12 +3,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from .config import SAMPLING
 from ._validate import InvalidInputError, check_int
 from .geometry import split_geometry, triangle_areas
 
 __all__ = ["SAMPLING", "sample_surface", "lattice_points"]
-
-SAMPLING = ("even", "random")
 
 
 def sample_surface(geometry, count, seed=0, method="even"):

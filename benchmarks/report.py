@@ -289,9 +289,15 @@ def cli(argv=None) -> int:
     if bad or not sections:
         print(f"jaxpose bench: error: unknown sections {bad}; valid: {','.join(SECTIONS)}", file=sys.stderr)
         return 2
-    if args.json and Path(args.json).exists() and not args.force:
-        print(f"jaxpose bench: error: {args.json} exists (use --force to overwrite)", file=sys.stderr)
-        return 1
+    if args.json:  # before the work: an existing file, a folder that cannot be made or written
+        from jaxpose.cli.common import check_output_file
+        from jaxpose.errors import InvalidInputError
+
+        try:
+            check_output_file(args.json, args.force, "--json")
+        except InvalidInputError as exc:
+            print(f"jaxpose bench: error: {exc}", file=sys.stderr)
+            return 1
     if args.m is not None and args.m < 8:
         print("jaxpose bench: error: --m must be >= 8", file=sys.stderr)
         return 2
@@ -320,6 +326,7 @@ def cli(argv=None) -> int:
     if args.json:
         from jaxpose.mesh import write_atomic
 
+        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
         write_atomic(args.json, json.dumps(result, indent=2, default=_jsonable) + "\n", force=args.force)
         print(f"wrote {args.json}")
     return 0

@@ -161,3 +161,11 @@ def test_help_describes_every_option():
         sub = cli.build_parser()._subparsers._group_actions[0].choices[command]
         for action in sub._actions:
             assert action.help, (command, action.option_strings)
+
+
+@pytest.mark.parametrize("command", ["tune", "bench"])
+def test_tune_and_bench_check_json_before_the_work(tmp_path, capsys, command):
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    assert cli.main([command, "--json", str(blocker / "r.json")]) == 1
+    assert "is a file" in _err(capsys)

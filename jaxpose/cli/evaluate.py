@@ -10,7 +10,7 @@ import json
 import sys
 from pathlib import Path
 
-from .common import add_svm_options, fail
+from .common import add_svm_options, check_creatable, check_output_file, fail
 
 __all__ = ["add_parser", "run"]
 
@@ -86,36 +86,16 @@ def _check_result_paths(args):
     from ..errors import InvalidInputError
 
     if args.json:
-        path = Path(args.json)
-        if path.is_dir():
-            raise InvalidInputError(f"--json {path} is a folder; name a file")
-        if path.exists() and not args.force:
-            raise InvalidInputError(f"{path} exists (use --force to overwrite)")
-        _check_creatable(path.parent, f"--json {path}")
+        check_output_file(args.json, args.force, "--json")
     if args.plots:
         folder = Path(args.plots)
         if folder.exists() and not folder.is_dir():
             raise InvalidInputError(f"--plots {folder} is a file; name a folder")
-        _check_creatable(folder, f"--plots {folder}")
+        check_creatable(folder, f"--plots {folder}")
         try:
             import matplotlib  # noqa: F401
         except ImportError:
             raise InvalidInputError("--plots needs matplotlib (pip install matplotlib): plots not available") from None
-
-
-def _check_creatable(folder, what):
-    """`folder` exists and is writable, or its nearest existing parent is a writable folder."""
-    import os
-
-    from ..errors import InvalidInputError
-
-    folder = Path(folder) if str(folder) else Path(".")
-    while not folder.exists() and folder != folder.parent:
-        folder = folder.parent
-    if not folder.is_dir():
-        raise InvalidInputError(f"{what}: {folder} is a file, not a folder")
-    if not os.access(folder, os.W_OK | os.X_OK):
-        raise InvalidInputError(f"{what}: the folder {folder} is not writable")
 
 
 def run(args):

@@ -101,9 +101,15 @@ def run(argv) -> int:
         args = args_parser.parse_args(list(argv))
     except SystemExit as exc:
         return int(exc.code or 0)
-    if args.json and Path(args.json).exists() and not args.force:  # before minutes of work, not after
-        print(f"jaxpose tune: error: {args.json} exists (use --force to overwrite)", file=sys.stderr)
-        return 1
+    if args.json:  # before minutes of work, not after
+        from ..errors import InvalidInputError
+        from .common import check_output_file
+
+        try:
+            check_output_file(args.json, args.force, "--json")
+        except InvalidInputError as exc:
+            print(f"jaxpose tune: error: {exc}", file=sys.stderr)
+            return 1
     import jax
 
     # float64: the trend derivatives are differences of solutions 2 % apart
@@ -138,6 +144,7 @@ def _run(args) -> int:
     result["data"] = dict(data=args.data, holdout_data=args.holdout_data, align_core=bool(args.align_core),
                           variants=list(variants))
     if args.json:
+        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
         write_atomic(args.json, json.dumps(result, indent=2).encode(), force=True)  # checked before the run
     tr, ho = result["train"], result["holdout"]
     print(f"gamma {result['gamma0']:.4g} -> {result['tuned']['gamma']:.4g}, nu {result['nu0']:.4g} -> "

@@ -370,7 +370,8 @@ def test_library_load_is_unchanged(tmp_path, monkeypatch, mesh, name):
     np.testing.assert_array_equal(fast.face_normals, slow.face_normals)
     if name.startswith("stl"):
         assert len(fast.vertices) < 3 * len(fast.faces)  # the corners were merged
-    pose_fast, pose_slow = jmesh.normalize_mesh(fast)[1], jmesh.normalize_mesh(slow)[1]
+    method = "surface_centroid"  # defined on the open sheets too (the robust default refuses them)
+    pose_fast, pose_slow = jmesh.normalize_mesh(fast, method=method)[1], jmesh.normalize_mesh(slow, method=method)[1]
     np.testing.assert_array_equal(np.asarray(pose_fast.center), np.asarray(pose_slow.center))
     np.testing.assert_array_equal(np.asarray(pose_fast.scale), np.asarray(pose_slow.scale))
     for file_type in jmesh.MESH_FORMATS:

@@ -1,17 +1,18 @@
 """Within-class spread measures, evaluation driver, sweeps and rigid-core alignment."""
 import os
 from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
 import trimesh
 
 import jaxpose
-import jaxpose.pose.pose  # the module the fixtures patch (not imported by "import jaxpose" alone)
+import jaxpose.pose.estimators  # the modules the fixtures patch (not imported by "import jaxpose" alone)
+import jaxpose.pose.pose
 from jaxpose import evaluation
 from jaxpose._validate import InvalidInputError
 from jaxpose.evaluation import align_core, evaluate, format_per_class, format_table, scale_spread, spread, sweep
+from jaxpose.pose.result import Pose
 
 SHARED = next((p for p in (Path(__file__).resolve().parents[1] / ".." / "shared", Path("/work/shared"))
                if (p / "data" / "faust-dev").is_dir()), None)
@@ -32,10 +33,16 @@ def fake_normalize(monkeypatch):
     def normalize(points, gamma=47.0, nu=0.5, **options):
         calls.append(options)
         center = np.asarray(points).mean(axis=0) + np.array([gamma, 0.0, 0.0])
-        return SimpleNamespace(center=center, scale=1.0 + nu, converged=True)
+        return Pose.from_center_scale(center, 1.0 + nu)
 
-    monkeypatch.setattr(jaxpose.pose.pose, "normalize", normalize)
+    _patch_normalize(monkeypatch, normalize)
     return calls
+
+
+def _patch_normalize(monkeypatch, normalize):
+    """``normalize`` where the library looks it up: the pose module and the estimators."""
+    monkeypatch.setattr(jaxpose.pose.pose, "normalize", normalize)
+    monkeypatch.setattr(jaxpose.pose.estimators, "normalize", normalize)
 
 
 def _boxes():
@@ -196,8 +203,8 @@ def test_evaluate_rejects(kwargs, fake_normalize):
 
 def test_sweep_with_fake_normalize(fake_normalize, monkeypatch):
     # sweep calls normalize on the samples themselves: a fake whose center is gamma * mean
-    monkeypatch.setattr(jaxpose.pose.pose, "normalize", lambda points, gamma=47.0, nu=0.5, **options: SimpleNamespace(
-        center=gamma * np.asarray(points).mean(axis=0), scale=1.0 + nu, converged=True))
+    _patch_normalize(monkeypatch, lambda points, gamma=47.0, nu=0.5, **options: Pose.from_center_scale(
+        gamma * np.asarray(points).mean(axis=0), 1.0 + nu))
     classes = {"boxes": _boxes()}
     out = sweep(classes, "gamma", values=[1.0, 3.0], count=300)
     assert out["param"] == "gamma" and out["values"] == [1.0, 3.0] and out["fixed"] == {"nu": 0.0}

@@ -24,19 +24,25 @@ translation to the last digit the output can hold, wherever the shape sits.
 from __future__ import annotations
 
 import numbers
+import time
 import warnings
 
 import jax
 import jax.numpy as jnp
 import numpy as np
+import trimesh
 from scipy import ndimage
 
 from .. import baselines, sample
 from ..occupancy import solid, voxels
-from .._validate import InvalidInputError, JaxposeError, is_traced
+from .._validate import InvalidInputError, InvalidPoseWarning, JaxposeError, is_traced
 from ..config import OCSVM, ROBUST
 from ..depth import depth_weights, to_bucket
+from ..host import anchor
 from ..moments import Moments, grid_moments
+from .pose import normalize
+from .result import Pose, host
+from .validity import status_message
 
 __all__ = ["METHODS", "CENTERS", "SCALES", "DEFAULT_METHOD", "ROBUST_POWER", "resolve", "estimate",
            "estimate_many", "robust_center_scale", "robust_moments", "solid_moments", "solid_center_volume", "centered"]
@@ -91,10 +97,6 @@ def centered(geometry):
     Raises:
       InvalidInputError: bad vertices or faces; a mesh whose faces have no area.
     """
-    import trimesh
-
-    from ..host import anchor
-
     vertices, faces = baselines.split_geometry(geometry)
     shift = anchor(vertices)
     moved = vertices - shift
@@ -298,19 +300,14 @@ class _Shape:
 
     def ocsvm(self):
         if self._ocsvm is None:
-            from .._validate import InvalidPoseWarning
-            from .pose import normalize
-            from .validity import status_message
-
             o = self.options
             points = sample.sample_surface(self.geometry, o.get("count", OCSVM.count), seed=o.get("seed", OCSVM.seed),
                                            method=o.get("sampling", OCSVM.sampling))
             with warnings.catch_warnings():  # an invalid pose is raised below, with its reason
                 warnings.simplefilter("ignore", InvalidPoseWarning)
                 pose = normalize(points, o.get("gamma", OCSVM.gamma), o.get("nu", OCSVM.nu), **o.get("ocsvm", {}))
-            if not bool(np.asarray(getattr(pose, "valid", True))):
-                reason = status_message(pose.status) if hasattr(pose, "status") else "not valid"
-                raise JaxposeError(f"the ocsvm estimator gave no valid pose: {reason}")
+            if not bool(np.asarray(pose.valid)):
+                raise JaxposeError(f"the ocsvm estimator gave no valid pose: {status_message(pose.status)}")
             self._ocsvm = pose
         return self._ocsvm
 
@@ -375,24 +372,17 @@ def _check_options(options):
 def _shifted(pose, shift):
     """The pose of a geometry moved by -shift, for the geometry itself, as a host pose (NumPy
     fields, floats float64: :func:`jaxpose.pose.result.host`, whatever the method)."""
-    from .result import Pose, host
-
-    center = np.asarray(pose.center, np.float64) + shift
-    if isinstance(pose, Pose):
-        return host(pose)._replace(center=center)
-    return type(pose)(**{**vars(pose), "center": center})  # a pose-like object of a stand-in normalize
+    return host(pose)._replace(center=np.asarray(pose.center, np.float64) + shift)
 
 
 def _pose(shape, c_name, s_name, strict):
-    from .result import Pose
-
     c = np.asarray(shape.center(c_name, strict), np.float64)
     s = float(shape.scale(s_name, c, strict))
     if c_name == s_name == "ocsvm":
         pose = shape.ocsvm()
     else:
         pose = Pose.from_center_scale(c, s)
-    if not bool(np.all(np.asarray(getattr(pose, "valid", True)))):
+    if not bool(np.all(np.asarray(pose.valid))):
         raise JaxposeError(f"{c_name} / {s_name} gave no valid pose (center {c}, scale {s})")
     return pose
 
@@ -411,8 +401,6 @@ def estimate_many(geometry, methods, strict=False, timings=False, **options):
       {method: Pose, or the JaxposeError it raised (e.g. a surface estimator on points)}, with
       ``timings`` {method: (that, seconds)}.
     """
-    import time
-
     _check_options(options)
     geometry, shift = centered(geometry)
     shapes, out = {}, {}

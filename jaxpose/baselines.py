@@ -60,9 +60,6 @@ __all__ = [
     "triangle_areas",
 ]
 
-CENTERS = ("surface_centroid", "vertex_mean", "bbox_center", "min_ball", "solid_centroid", "depth_weighted_solid")
-SCALES = ("mean_distance", "unit_cube", "unit_sphere", "gyration_radius", "sqrt_area")
-FRAMES = ("pca_vertices", "pca_surface", "inertia")
 FRAME_SAMPLES = 20000  # pca_surface: even surface samples (seed 0)
 
 # mean_distance splits each triangle into k*k congruent sub-triangles (k from
@@ -337,9 +334,7 @@ def center(mesh_or_points, method="surface_centroid"):
     """Center by name, one of :data:`CENTERS`.  Returns center : (3,) float64."""
     if method not in CENTERS:
         raise InvalidInputError(f"unknown center method {method!r}; valid: {', '.join(CENTERS)}")
-    if method == "min_ball":
-        return min_ball(mesh_or_points)[0]
-    return globals()[method](mesh_or_points)  # solid ones: defaults (warn on open meshes)
+    return _CENTERS[method](mesh_or_points)  # solid ones: defaults (warn on open meshes)
 
 
 def scale(mesh_or_points, method="mean_distance", center=None):
@@ -350,9 +345,7 @@ def scale(mesh_or_points, method="mean_distance", center=None):
     """
     if method not in SCALES:
         raise InvalidInputError(f"unknown scale method {method!r}; valid: {', '.join(SCALES)}")
-    if method in ("unit_cube", "sqrt_area"):
-        return globals()[method](mesh_or_points)
-    return globals()[method](mesh_or_points, center)
+    return _SCALES[method](mesh_or_points, center)
 
 
 # --------------------------------------------------------------------------- frames
@@ -410,4 +403,26 @@ def frame(mesh_or_points, method="pca_surface"):
     """Frame by name, one of :data:`FRAMES`.  Returns :class:`jaxpose.rotation.rotation.Frame`."""
     if method not in FRAMES:
         raise InvalidInputError(f"unknown frame method {method!r}; valid: {', '.join(FRAMES)}")
-    return globals()[method + "_frame"](mesh_or_points)
+    return _FRAMES[method](mesh_or_points)
+
+
+# --------------------------------------------------------------------------- registries: name -> function
+_CENTERS = {  # (mesh_or_points) -> (3,)
+    "surface_centroid": surface_centroid,
+    "vertex_mean": vertex_mean,
+    "bbox_center": bbox_center,
+    "min_ball": lambda mesh_or_points: min_ball(mesh_or_points)[0],
+    "solid_centroid": solid_centroid,
+    "depth_weighted_solid": depth_weighted_solid,
+}
+_SCALES = {  # (mesh_or_points, center) -> float; the center is ignored where it does not matter
+    "mean_distance": mean_distance,
+    "unit_cube": lambda mesh_or_points, center: unit_cube(mesh_or_points),
+    "unit_sphere": unit_sphere,
+    "gyration_radius": gyration_radius,
+    "sqrt_area": lambda mesh_or_points, center: sqrt_area(mesh_or_points),
+}
+_FRAMES = {"pca_vertices": pca_vertices_frame, "pca_surface": pca_surface_frame, "inertia": inertia_frame}
+CENTERS = tuple(_CENTERS)
+SCALES = tuple(_SCALES)
+FRAMES = tuple(_FRAMES)

@@ -312,28 +312,39 @@ class _Shape:
         return self._ocsvm
 
     def center(self, name, strict):
-        if name == "robust_depth":
-            return self.robust()[0]
-        if name == "ocsvm":
-            return np.asarray(self.ocsvm().center, np.float64)
-        if name == "solid_centroid":
-            return self.solid_moments(strict)[1]
-        if name == "depth_weighted_solid":
-            if self._voxels is None:
-                self._voxels = voxels.filled_voxels(self.geometry, strict=strict)
-            x, d = self._voxels
-            return voxels.weighted_centroid(x, d ** float(self.options.get("power", 2.0)))
-        return baselines.center(self.geometry, name)
+        """The center of one name: a shared computation of this shape, or a baseline's closed form."""
+        own = _SHAPE_CENTERS.get(name)
+        return own(self, strict) if own else baselines.center(self.geometry, name)
 
     def scale(self, name, center, strict):
-        if name == "robust_volume":
-            return self.robust()[1] ** (1.0 / 3.0)
-        if name == "ocsvm":
-            return float(np.asarray(self.ocsvm().scale))
-        if name == "gyration_radius":
-            _, c, second = self.solid_moments(strict)
-            return float(np.sqrt(np.trace(second) + np.sum((np.asarray(center) - c) ** 2)))
-        return baselines.scale(self.geometry, name, center=center)
+        """The scale of one name about `center`: a shared computation, or a baseline's closed form."""
+        own = _SHAPE_SCALES.get(name)
+        return own(self, center, strict) if own else baselines.scale(self.geometry, name, center=center)
+
+    def depth_weighted_center(self, strict):
+        if self._voxels is None:
+            self._voxels = voxels.filled_voxels(self.geometry, strict=strict)
+        x, d = self._voxels
+        return voxels.weighted_centroid(x, d ** float(self.options.get("power", 2.0)))
+
+    def gyration_radius(self, center, strict):
+        _, c, second = self.solid_moments(strict)
+        return float(np.sqrt(np.trace(second) + np.sum((np.asarray(center) - c) ** 2)))
+
+
+# the centers and scales that share this shape's intermediate results: name -> (shape, [center,] strict) -> value;
+# every other name is a closed form of jaxpose.baselines
+_SHAPE_CENTERS = {
+    "robust_depth": lambda shape, strict: shape.robust()[0],
+    "ocsvm": lambda shape, strict: np.asarray(shape.ocsvm().center, np.float64),
+    "solid_centroid": lambda shape, strict: shape.solid_moments(strict)[1],
+    "depth_weighted_solid": _Shape.depth_weighted_center,
+}
+_SHAPE_SCALES = {
+    "robust_volume": lambda shape, center, strict: shape.robust()[1] ** (1.0 / 3.0),
+    "ocsvm": lambda shape, center, strict: float(np.asarray(shape.ocsvm().scale)),
+    "gyration_radius": _Shape.gyration_radius,
+}
 
 
 def estimate(geometry, method=None, *, center=None, scale=None, strict=False, **options):

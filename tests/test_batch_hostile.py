@@ -176,6 +176,11 @@ def test_an_output_folder_that_is_a_file(tmp_path):
     code, _, err = cli(tmp_path / "scans", "-o", tmp_path / "outfile", "--workers", "1")
     assert code == 1 and "is a file" in err and "Traceback" not in err
     assert (tmp_path / "outfile").read_text() == "mine"
+    # an existing file with a mesh suffix as OUTDIR: a usage error before any work, the file untouched
+    (tmp_path / "out.ply").write_text("mine")
+    code, _, err = cli(tmp_path / "scans", "-o", tmp_path / "out.ply", "--workers", "1")
+    assert code == 2 and "names a mesh file" in err and "Traceback" not in err
+    assert (tmp_path / "out.ply").read_text() == "mine"
     # a folder the outputs need is a file: those inputs fail, the file stays, the rest is done
     good_meshes(tmp_path / "scans" / "other", count=1)
     (tmp_path / "out").mkdir()

@@ -171,6 +171,25 @@ def test_a_new_workers_warm_up_is_outside_the_time_limit():
         pool.close(kill=True)
 
 
+def test_a_slow_interpreter_start_is_outside_the_time_limit(tmp_path):
+    """No warm-up at all: the clock starts at the worker's own "started" message, not when the task
+    is sent, so an interpreter that takes 3 s to start (a loaded machine) does not fail a 1 s task."""
+    from jaxpose.batch.pool import ProcessPool
+
+    (tmp_path / "sitecustomize.py").write_text("import time\ntime.sleep(3.0)\n")  # runs at interpreter start
+    pool = ProcessPool(1, timeout=1.0, environment={"PYTHONPATH": str(tmp_path)})
+    try:
+        quick, slow = pool.submit(abs, -2), pool.submit(time.sleep, 30)
+        done = set()
+        while len(done) < 2:
+            done |= pool.wait({quick, slow} - done)
+        assert pool.result(quick) == 2
+        with pytest.raises(TaskTimeout):  # the limit still holds once a task has started
+            pool.result(slow)
+    finally:
+        pool.close(kill=True)
+
+
 def test_worker_environment_one_blas_thread_and_the_compilation_cache(tmp_path, monkeypatch):
     from jaxpose.batch import cache
     from jaxpose.batch.workers import process_environment

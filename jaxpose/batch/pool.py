@@ -6,7 +6,9 @@ spawn), so the caller's ``__main__`` is never imported again in it: a plain scri
 ``if __name__ == "__main__":`` may use the pool. A worker runs one task at a time: the function
 and its arguments (pickled) arrive on a pipe, the result (or the exception it raised) goes back on
 another. The pool keeps the queue: a task is sent when a worker is free, and its clock starts
-then. A worker is in a process group of its own (a terminal's Ctrl-C reaches the parent only,
+when the worker reports that it has started it (its "started" message, sent once the task has
+been received and unpickled), so a worker still starting up or warming up, or not yet scheduled on
+a loaded machine, never counts against a task's limit. A worker is in a process group of its own (a terminal's Ctrl-C reaches the parent only,
 which stops the workers), and on Linux it dies with the parent, even when that is killed by SIGKILL.
 
 Example::
@@ -32,6 +34,7 @@ from multiprocessing.connection import Connection, wait as wait_for
 __all__ = ["ProcessPool", "WorkerLost", "TaskTimeout", "POLL_S"]
 
 POLL_S = 0.5  # wait() returns at least this often, so the caller stays responsive to interrupts
+_STARTED = "started"  # a worker's message when it begins a task; its result follows
 
 # the worker's first lines: the caller's import path, then this module's loop
 _BOOT = ("import sys, json; sys.path[:] = json.loads(sys.argv[1]); "
@@ -116,8 +119,8 @@ class ProcessPool:
     Args:
       workers: how many processes at most.
       environment: variables set in the workers' environment (on top of this process's).
-      timeout: seconds a task may run in its worker (from when the worker starts it); past it
-        the worker is killed and the task's ``result`` raises :class:`TaskTimeout`. None: no limit.
+      timeout: seconds a task may run in its worker (from the worker's message that it has started
+        it, not from when it was sent); past it the worker is killed and the task's ``result`` raises :class:`TaskTimeout`. None: no limit.
       warm_up: a function (picklable by name) each new worker runs before its first task, outside
         the time limit: the imports every task needs, so that a worker's start-up is not counted
         against its first task.
@@ -132,7 +135,7 @@ class ProcessPool:
         self.warm_up = warm_up
         self._environment = dict(environment or {})
         self._idle = []
-        self._busy = {}  # worker -> (future, monotonic start; None while it warms up)
+        self._busy = {}  # worker -> (future, monotonic start: None until it reports, messages to skip)
         self._queue = collections.deque()  # (future, fn, args) not yet sent
 
     def submit(self, fn, *args) -> _Future:
@@ -156,7 +159,8 @@ class ProcessPool:
                 worker.kill()
                 self._queue.appendleft((future, fn, args))
                 continue
-            self._busy[worker] = (future, None if warm else time.monotonic())
+            # a warm-up's two messages (started, its reply) are skipped; the task's "started" starts its clock
+            self._busy[worker] = (future, None, 2 if warm else 0)
 
     def wait(self, pending, timeout=POLL_S) -> set:
         """Wait up to `timeout` seconds for results; returns the finished futures among `pending`
@@ -167,7 +171,7 @@ class ProcessPool:
         """
         if self._busy:
             delay = timeout
-            started = [start for _, start in self._busy.values() if start is not None]
+            started = [start for _, start, _ in self._busy.values() if start is not None]
             if self.timeout is not None and started:
                 delay = min(delay, max(0.0, min(started) + self.timeout - time.monotonic()))
             by_pipe = {worker.results: worker for worker in self._busy}
@@ -175,7 +179,7 @@ class ProcessPool:
                 self._collect(by_pipe[pipe])
             if self.timeout is not None:
                 now = time.monotonic()
-                for worker, (future, start) in list(self._busy.items()):
+                for worker, (future, start, _) in list(self._busy.items()):
                     if start is not None and now - start >= self.timeout:
                         del self._busy[worker]
                         worker.kill()
@@ -188,18 +192,26 @@ class ProcessPool:
         return {future for future in pending if future.done()}
 
     def _collect(self, worker):
-        future, start = self._busy.pop(worker)
-        try:
-            ok, value = worker.results.recv()
-        except (EOFError, OSError):  # the process died; a half-sent result reads as EOF too
-            how = worker.death()
-            worker.kill()
-            future._set(error=WorkerLost(f"its worker process (pid {worker.pid}) died while working on it: {how} "
-                                         "(out of memory, or killed from outside?)"))
-            return
-        if start is None:  # the warm-up's reply (an error in it shows again in the task): now the task
-            self._busy[worker] = (future, time.monotonic())
-            return
+        """Read the worker's messages that have arrived, up to its task's result."""
+        while True:
+            future, start, skip = self._busy.pop(worker)
+            try:
+                message = worker.results.recv()
+            except (EOFError, OSError):  # the process died; a half-sent result reads as EOF too
+                how = worker.death()
+                worker.kill()
+                future._set(error=WorkerLost(f"its worker process (pid {worker.pid}) died while working on it: "
+                                             f"{how} (out of memory, or killed from outside?)"))
+                return
+            if skip:  # the warm-up's (an error in it shows again in the task)
+                self._busy[worker] = (future, start, skip - 1)
+            elif message == _STARTED:  # the worker has the task and begins it: its clock starts now
+                self._busy[worker] = (future, time.monotonic(), 0)
+            else:
+                break
+            if not worker.results.poll():
+                return
+        ok, value = message
         future._set(value=value) if ok else future._set(error=value)
         self._idle.append(worker)
 
@@ -238,7 +250,7 @@ class ProcessPool:
 
 # --------------------------------------------------------------------------- in the worker
 def _serve(task_fd, result_fd, parent):
-    """The worker's loop: receive (fn, args), send (True, value) or (False, exception)."""
+    """The worker's loop: receive (fn, args), send "started", then (True, value) or (False, exception)."""
     _die_with_parent(parent)
     tasks = Connection(task_fd, writable=False)
     results = Connection(result_fd, readable=False)
@@ -247,6 +259,7 @@ def _serve(task_fd, result_fd, parent):
             fn, args = tasks.recv()
         except EOFError:  # the pool closed this worker, or the parent is gone
             return
+        results.send(_STARTED)
         try:
             reply = (True, fn(*args))
         except BaseException as exc:  # the task's own error is its result

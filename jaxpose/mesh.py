@@ -13,9 +13,12 @@ import numpy as np
 
 from . import sample
 from ._validate import InvalidInputError, check_gamma, check_int, check_nu
-from .config import OCSVM
+from .config import OCSVM, PoseConfig
 from .io.mesh import MESH_FORMATS, OUTPUT_FORMATS, POINT_FORMATS, encode, example_shape, export, load, output_format
 from .io.atomic import write_atomic
+from .occupancy import solid
+from .pose import estimators
+from .rotation.rotation import DEFAULT_ROTATION, ROTATIONS, frame_of
 from .sample import SAMPLING
 
 __all__ = [
@@ -76,10 +79,6 @@ def check_arguments(gamma=OCSVM.gamma, nu=OCSVM.nu, count=OCSVM.count, seed=OCSV
         raise InvalidInputError(f"unknown sampling {sampling!r}; valid: {', '.join(SAMPLING)}")
     if not isinstance(strict, (bool, np.bool_)):
         raise InvalidInputError(f"strict must be True or False, got {strict!r}")
-    from .pose import estimators
-    from .occupancy import solid
-    from .config import PoseConfig
-
     c_name, s_name = estimators.resolve(method, center, scale)
     uses_ocsvm = "ocsvm" in (c_name, s_name)
     unknown = sorted(set(options) - set(PoseConfig.FLAT))
@@ -170,14 +169,10 @@ def normalize_mesh(
     c_name, s_name, extra, options, frame_name = check_arguments(
         gamma, nu, count, seed, sampling, method, center=center, scale=scale, strict=strict, power=power,
         resolution=resolution, rotation=rotation, **options)
-    from .pose import estimators
-
     geometry = load(mesh_or_path)
     pose = estimators.estimate(geometry, method, center=center, scale=scale, strict=strict, gamma=gamma, nu=nu,
                                count=count, seed=seed, sampling=sampling, ocsvm=options, **extra)
     if frame_name is not None:
-        from .rotation.rotation import frame_of
-
         found = frame_of(estimators.centered(geometry)[0], frame_name, resolution=extra.get("resolution"),
                          ocsvm={"gamma": gamma, "nu": nu, "count": count, "seed": seed, "sampling": sampling,
                                 "options": options})
@@ -206,8 +201,6 @@ def _transformed(geometry, pose):
 
 def _rotation_name(rotation):
     """None (no rotation), or the frame method a ``rotation=`` argument names."""
-    from .rotation.rotation import DEFAULT_ROTATION, ROTATIONS
-
     if rotation is None or isinstance(rotation, (bool, np.bool_)):
         return DEFAULT_ROTATION if rotation else None
     if isinstance(rotation, str) and rotation in ROTATIONS:

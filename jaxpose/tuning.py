@@ -38,6 +38,7 @@ import numpy as np
 
 from . import _validate
 from .config import OCSVM, PoseConfig
+from .mesh import sample_surface
 from .pose.pose import pose_pipeline
 
 __all__ = ["tune", "objective", "spread_of"]
@@ -86,8 +87,6 @@ def _make_loss(config, scale_weight):
 
 def _sampler(classes, count, name):
     """{class: seed -> (n, m, 3) float array}: meshes sampled per seed, arrays as given."""
-    from .mesh import sample_surface
-
     out = {}
     for cname, objs in classes.items():
         objs = list(objs)

@@ -290,7 +290,7 @@ def cli(argv=None) -> int:
         print(f"jaxpose bench: error: unknown sections {bad}; valid: {','.join(SECTIONS)}", file=sys.stderr)
         return 2
     if args.json:  # before the work: an existing file, a folder that cannot be made or written
-        from jaxpose.cli.common import check_output_file
+        from jaxpose.io.atomic import check_output_file
         from jaxpose.errors import InvalidInputError
 
         try:

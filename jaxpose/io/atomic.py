@@ -12,9 +12,10 @@ import os
 import secrets
 from pathlib import Path
 
-from .._validate import InvalidInputError
+from ..errors import InvalidInputError  # (not _validate: the command line imports this before NumPy)
 
-__all__ = ["write_atomic", "temporary_path", "is_temporary", "remove_temporaries", "check_folder_writable"]
+__all__ = ["write_atomic", "temporary_path", "is_temporary", "remove_temporaries", "check_folder_writable",
+           "check_output_file", "check_creatable"]
 
 _SUFFIX = ".tmp"
 
@@ -125,3 +126,26 @@ def write_atomic(path, data, force=False) -> Path:
                 pass
         raise
     return path
+
+
+def check_output_file(path, force=False, what="--json"):
+    """Refuse, before any work, an output file that cannot be written: a folder, an existing file
+    without ``force``, or a folder that cannot be made or written (raises InvalidInputError).
+    A missing folder is made when the file is written."""
+    path = Path(path)
+    if path.is_dir():
+        raise InvalidInputError(f"{what} {path} is a folder; name a file")
+    if path.exists() and not force:
+        raise InvalidInputError(f"{path} exists (use --force to overwrite)")
+    check_creatable(path.parent, f"{what} {path}")
+
+
+def check_creatable(folder, what):
+    """`folder` exists and is writable, or its nearest existing parent is a writable folder."""
+    folder = Path(folder) if str(folder) else Path(".")
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent
+    if not folder.is_dir():
+        raise InvalidInputError(f"{what}: {folder} is a file, not a folder")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise InvalidInputError(f"{what}: the folder {folder} is not writable")

@@ -85,7 +85,10 @@ def weighted_moments(x, w):
     """Weighted moments of points (the one implementation behind every estimator's moments).
 
     Args:
-      x: (n, 3) float, cell centers (or any points); w: (n,) float >= 0, their weights.
+      x: 3 arrays, the points' coordinates along each axis, broadcastable to the shape of ``w``
+        (a cell list: ``x[:, 0], x[:, 1], x[:, 2]`` with w (n,); a grid: the axes' cell centers
+        shaped (nx, 1, 1), (1, ny, 1), (1, 1, nz) with w (nx, ny, nz), never stored per cell).
+      w: float >= 0, the weights.
 
     Returns:
       mass () = sum w; center (3,) = sum w x / mass; mean distance () = sum w |x - c| / mass;
@@ -94,17 +97,17 @@ def weighted_moments(x, w):
     """
     mass = jnp.sum(w)
     safe = jnp.where(mass > 0, mass, 1.0)
-    c = jnp.sum(w[:, None] * x, axis=0) / safe
-    d = x - c
-    dist = jnp.sqrt(jnp.sum(d * d, axis=-1) + jnp.finfo(x.dtype).tiny)
-    md = jnp.sum(w * dist) / safe
-    second = jnp.einsum("n,ni,nj->ij", w, d, d) / safe
-    return mass, c, md, second
+    c = [jnp.sum(w * xa) / safe for xa in x]
+    d = [xa - ca for xa, ca in zip(x, c)]
+    tiny = jnp.finfo(w.dtype).tiny
+    md = jnp.sum(w * jnp.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2] + tiny)) / safe
+    second = jnp.stack([jnp.stack([jnp.sum(w * da * db) for db in d]) for da in d]) / safe
+    return mass, jnp.stack(c), md, second
 
 
 def moments_from_occupancy(x, w, h):
     """Moments of the weighted cells x : (n, 3), w : (n,) (occupied volume in cells of size h), h : (3,)."""
-    mass, c, md, second = weighted_moments(x, w)
+    mass, c, md, second = weighted_moments((x[:, 0], x[:, 1], x[:, 2]), w)
     return Moments(c, md, mass * jnp.prod(h), second, h, jnp.asarray(0))
 
 
@@ -130,9 +133,10 @@ def grid_moments(occupancy, weights, origin, pitch):
     weights = jnp.asarray(weights)
     dtype = weights.dtype
     shape = weights.shape
-    idx = jnp.stack(jnp.meshgrid(*(jnp.arange(n, dtype=dtype) for n in shape), indexing="ij"), axis=-1)
-    x = jnp.asarray(origin, dtype) + pitch * (idx.reshape(-1, 3) + 0.5)
-    _, c, md, second = weighted_moments(x, weights.reshape(-1))
+    origin = jnp.asarray(origin, dtype)
+    x = [(origin[a] + pitch * (jnp.arange(n, dtype=dtype) + 0.5)).reshape([n if b == a else 1 for b in range(3)])
+         for a, n in enumerate(shape)]
+    _, c, md, second = weighted_moments(x, weights)
     volume = jnp.sum(jnp.asarray(occupancy, dtype)) * pitch**3
     return Moments(c, md, volume, second, jnp.full(3, pitch, dtype), jnp.asarray(0))
 

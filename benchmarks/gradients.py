@@ -4,7 +4,7 @@
 
 1. Accuracy (float64): on FAUST dev meshes (tr_reg_000, tr_reg_013, when ../shared is there) and
    synthetic shapes (a sphere with an arm, the example shape), at (gamma, nu) = (20, 0.3),
-   (47, 0.5), (10, 0.1): ``jax.jacfwd`` of ``normalize(...).center`` and ``.scale`` with the
+   (47, 0.5), (10, 0.1): ``jax.jacfwd`` of ``normalize(..., method="ocsvm").center`` and ``.scale`` with the
    default derivative (``"trend"``) and with ``derivative="exact"``, against central finite
    differences of ``normalize`` itself at steps of 1 % and 2 % of gamma and of nu. A derivative
    passes where its center (vector) and its scale are within 20 % of the difference quotient,
@@ -70,7 +70,7 @@ def accuracy(m=1000, tol=1e-6, params=PARAMS, progress=print):
     rows = []
     for name, pts in shapes(m).items():
         def vec(g, n, **kw):
-            p = jaxpose.normalize(pts, g, n, tol=tol, **kw)
+            p = jaxpose.normalize(pts, method="ocsvm", gamma=g, nu=n, tol=tol, **kw)
             return jnp.concatenate([p.center, p.scale[None]])
 
         for g, n in params:
@@ -124,7 +124,7 @@ def timing(m=2000, repeats=5, x64=False):
         dt = jnp.result_type(float)
 
         def vec(t, **kw):
-            p = jaxpose.normalize(pts, t[0], t[1], **kw)
+            p = jaxpose.normalize(pts, method="ocsvm", gamma=t[0], nu=t[1], **kw)
             return jnp.concatenate([p.center, p.scale[None]])
 
         t0 = jnp.asarray([47.0, 0.5], dt)

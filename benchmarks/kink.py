@@ -5,7 +5,7 @@
 A sphere with one arm (``tests/conftest.py``, ``sphere_with_arm(m, seed=1)``), float64 (or JAX's
 default float32 with ``--float32``), at ``normalize``'s default solver tol (or ``--tol``). Prints:
 
-1. ``jax.jacfwd`` of ``normalize(...).center`` in nu with each derivative mode (``trend``: the
+1. ``jax.jacfwd`` of ``normalize(..., method="ocsvm").center`` in nu with each derivative mode (``trend``: the
    secant of the SVDD solution over nu (1 +- 1 %) with the grid held fixed; ``exact``: the slope
    of the piece nu lies on; ``secant``).
 2. Central differences (f(nu (1 + e)) - f(nu (1 - e))) / (2 nu e) of ``normalize`` itself at steps
@@ -50,13 +50,13 @@ def measure(m=800, gamma=20.0, nu=0.3, tol=None, progress=print):
     opts = {} if tol is None else {"tol": tol}
 
     def center(n, t=tol, **kw):
-        return np.asarray(jaxpose.normalize(pts, gamma, n, **({} if t is None else {"tol": t}), **kw).center,
+        return np.asarray(jaxpose.normalize(pts, method="ocsvm", gamma=gamma, nu=n, **({} if t is None else {"tol": t}), **kw).center,
                           np.float64)
 
     out = {"m": m, "gamma": gamma, "nu": nu, "tol": tol, "dtype": str(pts.dtype), "jacfwd": {}, "central": [],
            "lattice": []}
     for mode in ("trend", "exact", "secant"):
-        j = jax.jacfwd(lambda n: jaxpose.normalize(pts, gamma, n, derivative=mode, **opts).center)(
+        j = jax.jacfwd(lambda n: jaxpose.normalize(pts, method="ocsvm", gamma=gamma, nu=n, derivative=mode, **opts).center)(
             jnp.asarray(nu, pts.dtype))
         out["jacfwd"][mode] = np.asarray(j, np.float64).tolist()
         progress(f"jacfwd {mode}: {np.asarray(j)}")

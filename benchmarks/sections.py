@@ -87,7 +87,7 @@ def bench_end2end(points, gamma=GAMMA, nu=NU, repeats=5, resolution=None, refine
     opts = grid_opts(resolution, refine)
     resolution, refine = opts["resolution"], opts["refine"]
     opts = {**opts, **(fit or {})}  # solver options of the jaxpose side
-    cases = {"jaxpose": lambda: normalize(points, gamma, nu, **opts)}
+    cases = {"jaxpose": lambda: normalize(points, method="ocsvm", gamma=gamma, nu=nu, **opts)}
     sk = use_sklearn and common.sklearn_available()
     if sk:
         cases["sklearn"] = lambda: sklearn_pipeline(points, gamma, nu, sk_resolution)
@@ -135,8 +135,8 @@ def bench_batch(n_objects=8, m=1000, gamma=GAMMA, nu=NU, repeats=3, resolution=N
     sets, names = _batch_objects(n_objects, m)
     opts = {**grid_opts(resolution, refine), **(fit or {})}
     cases = {
-        "jaxpose_batch": lambda: normalize_batch(sets, gamma, nu, **opts),
-        "jaxpose_loop": lambda: [normalize(p, gamma, nu, **opts) for p in sets],
+        "jaxpose_batch": lambda: normalize_batch(sets, method="ocsvm", gamma=gamma, nu=nu, **opts),
+        "jaxpose_loop": lambda: [normalize(p, method="ocsvm", gamma=gamma, nu=nu, **opts) for p in sets],
     }
     sk = use_sklearn and common.sklearn_available()
     if sk:
@@ -177,7 +177,7 @@ def bench_accuracy(n_objects=20, m=2000, gamma=GAMMA, nu=NU, resolution=None, re
         points, name = load_points(m, seed=0 if faust else i, index=i if faust else 0)
         names.append(name if faust else f"{name}/seed{i}")
         ref = _reference(points, gamma, nu, ref_resolution, ref_refine, ref_tol, ref_max_iter)
-        pose = normalize(points, gamma, nu, **grid, **(fit or {}))  # as in end2end
+        pose = normalize(points, method="ocsvm", gamma=gamma, nu=nu, **grid, **(fit or {}))  # as in end2end
         row = {"jaxpose": _accuracy(np.asarray(pose.center, np.float64), float(pose.scale), ref)}
         for r in sk_resolutions:
             res = sklearn_pipeline(points, gamma, nu, r)

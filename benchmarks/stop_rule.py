@@ -73,7 +73,7 @@ def tolerance_table(m=400, gammas=GAMMAS, nus=NUS):
     for name, pts in _shapes(m).items():
         for nu in nus:
             for g in gammas:
-                a, b = jaxpose.normalize(pts, g, nu), jaxpose.normalize(pts, g, nu, **TIGHT)
+                a, b = jaxpose.normalize(pts, method="ocsvm", gamma=g, nu=nu), jaxpose.normalize(pts, method="ocsvm", gamma=g, nu=nu, **TIGHT)
                 s = float(b.scale)
                 rows.append(dict(shape=name, gamma=g, nu=nu, iterations=int(a.iterations),
                                  iterations_tight=int(b.iterations), converged_tight=bool(b.converged),
@@ -91,11 +91,11 @@ import jaxpose
 pts = np.load(sys.argv[1])
 out = {}
 for name, (g, n) in {"default (47, 0.5)": (47.0, 0.5), "(20, 0.3)": (20.0, 0.3)}.items():
-    p = jaxpose.normalize(pts, g, n)
+    p = jaxpose.normalize(pts, method="ocsvm", gamma=g, nu=n)
     jax.block_until_ready(p.center)
     ts = []
     for _ in range(int(sys.argv[2])):
-        t = time.perf_counter(); jax.block_until_ready(jaxpose.normalize(pts, g, n).center); ts.append(time.perf_counter() - t)
+        t = time.perf_counter(); jax.block_until_ready(jaxpose.normalize(pts, method="ocsvm", gamma=g, nu=n).center); ts.append(time.perf_counter() - t)
     out[name] = dict(seconds=statistics.median(ts), iterations=int(p.iterations), scale=float(p.scale))
 print("RESULT " + json.dumps(out))
 """

@@ -59,7 +59,7 @@ def main(argv=None):
              (2000, 47.0, 1.0, 64)]
     for count, gamma, nu, res in cases:
         pts = np.asarray(jaxpose.sample_surface(body, count, seed=0))
-        pose = jaxpose.normalize(pts, gamma, nu, resolution=res)
+        pose = jaxpose.normalize(pts, method="ocsvm", gamma=gamma, nu=nu, resolution=res)
         sp, cell, spread = ratios(pts, gamma, nu, res)
         print(f"  {count:5d} {gamma:7g} {nu:5g} {res:3d} -> {float(pose.scale):8.4f} "
               f"{jaxpose.Status(int(pose.status)).name:<17} ({sp:.2f}, {cell:.2f}, {spread:.2f})")
@@ -67,7 +67,7 @@ def main(argv=None):
     worst = [0.0, 0.0, np.inf]
     for f in files:
         pts = np.asarray(jaxpose.sample_surface(mesh.load(f), 2000, seed=0))
-        pose = jaxpose.normalize(pts)
+        pose = jaxpose.normalize(pts, method="ocsvm")
         sp, cell, spread = ratios(pts, 47.0, 0.5, 64)
         worst = [max(worst[0], sp), max(worst[1], cell), min(worst[2], spread)]
         if int(pose.status):

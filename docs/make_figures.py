@@ -75,7 +75,7 @@ def main(argv=None) -> int:
         pairs.append((data[c][0], data[c][int(np.argmax(moved))]))
     ocsvm, surface = [], []
     for pair in pairs:
-        ocsvm.append([jaxpose.normalize(np.asarray(jaxpose.sample_surface(m, count, 0)), **opts) for m in pair])
+        ocsvm.append([jaxpose.normalize(np.asarray(jaxpose.sample_surface(m, count, 0)), method="ocsvm", **opts) for m in pair])
         surface.append([(c, baselines.scale(m, "mean_distance", c))
                         for m in pair for c in [baselines.center(m, "surface_centroid")]])
     plot.overlay_pairs(pairs, {"OCSVM": ocsvm, "surface": surface}, labels=names, path=out / "overlay_pairs.png")

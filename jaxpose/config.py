@@ -4,7 +4,8 @@ The estimators' parameters, each default written here only:
 
 * :class:`OCSVMOptions` (:data:`OCSVM`) -- the paper's estimator: gamma, nu and the surface
   samples it is fitted to;
-* :class:`RobustOptions` (:data:`ROBUST`) -- the robust estimator: the depth exponent of its center.
+* :class:`RobustOptions` (:data:`ROBUST`) -- the robust estimator: the depth exponent of its center;
+  :class:`RobustConfig` -- how its voxel solid of a point cloud is built (static grid options).
 
 Three objects cover every option of the OCSVM pipeline:
 
@@ -13,7 +14,7 @@ Three objects cover every option of the OCSVM pipeline:
 * :class:`PoseConfig` -- both, plus how derivatives in (gamma, nu) are taken.
 
 Public functions accept either a config object or the same options as flat keywords
-(``normalize(points, resolution=32, tol=1e-4)``); :meth:`PoseConfig.create` maps the flat
+(``normalize(points, method="ocsvm", resolution=32, tol=1e-4)``); :meth:`PoseConfig.create` maps the flat
 names onto the right object and rejects unknown ones by name.
 
 Example::
@@ -31,7 +32,7 @@ import numbers
 
 from .errors import InvalidInputError
 
-__all__ = ["SAMPLING", "OCSVMOptions", "OCSVM", "RobustOptions", "ROBUST", "SolverConfig", "GridConfig", "PoseConfig", "BLOCK", "KERNELS", "SOLVERS", "DERIVATIVES", "MEMORY_BUDGET",
+__all__ = ["SAMPLING", "OCSVMOptions", "OCSVM", "RobustOptions", "ROBUST", "RobustConfig", "SolverConfig", "GridConfig", "PoseConfig", "BLOCK", "KERNELS", "SOLVERS", "DERIVATIVES", "MEMORY_BUDGET",
            "CELL_BYTES"]
 
 SAMPLING = ("even", "random")  # how surface samples are drawn (jaxpose.sample.sample_surface)
@@ -301,3 +302,62 @@ class PoseConfig:
         return {**dataclasses.asdict(self.svdd), **dataclasses.asdict(self.grid), "derivative": self.derivative,
                 "nu_delta": self.nu_delta, "nu_tol": self.nu_tol, "gamma_delta": self.gamma_delta,
                 "secant_iterations": self.secant_iterations}
+
+
+@dataclasses.dataclass(frozen=True)
+class RobustConfig:
+    """Static options of the robust estimator of a point cloud (:mod:`jaxpose.occupancy.points`).
+
+    Attributes:
+      resolution: voxels along the main body's largest extent (>= 8).
+      coarse: the same for the first pass over every point (>= 8).
+      keep_ratio: a separate component is kept when its boundary has at least this share of the
+        main body's, in [0, 1].
+      max_closing: the pitch is coarsened so that the closing radius stays within this many
+        voxels (>= 1); the radius may then grow to 3 times its start when the fill leaks.
+      spacing_samples: the points' spacing is measured from at most this many of them (>= 1).
+
+    The grid of a pass has ``resolution + 6 max_closing + 7`` cells per axis; its peak memory
+    (about 64 bytes per cell) must fit ``MEMORY_BUDGET``.
+    """
+
+    resolution: int = 96
+    coarse: int = 48
+    keep_ratio: float = 0.5
+    max_closing: int = 4
+    spacing_samples: int = 10_000
+
+    def __post_init__(self):
+        try:
+            ratio = float(self.keep_ratio)
+        except (TypeError, ValueError):
+            ratio = math.nan
+        if isinstance(self.keep_ratio, bool) or not 0.0 <= ratio <= 1.0:
+            raise InvalidInputError(f"keep_ratio must be in [0, 1], got {self.keep_ratio!r}")
+        _set(self, resolution=_int(self.resolution, "resolution", 8), coarse=_int(self.coarse, "coarse", 8),
+             keep_ratio=ratio, max_closing=_int(self.max_closing, "max_closing", 1),
+             spacing_samples=_int(self.spacing_samples, "spacing_samples", 1))
+        cells = max(self.resolution, self.coarse) + 6 * self.max_closing + 7
+        if 64 * cells**3 > MEMORY_BUDGET:
+            raise InvalidInputError(
+                f"resolution={self.resolution} needs about {64 * cells**3 / 2**30:.2f} GiB for the voxel grid "
+                f"({cells}^3 cells); the limit is {MEMORY_BUDGET / 2**30:g} GiB: use a smaller resolution")
+
+    FLAT = ("resolution", "coarse", "keep_ratio", "max_closing", "spacing_samples")
+
+    @classmethod
+    def create(cls, config: "RobustConfig | None" = None, **options) -> "RobustConfig":
+        """``config`` (default: the defaults) with the keyword ``options`` replaced; unknown names
+        raise InvalidInputError."""
+        base = cls() if config is None else config
+        if not isinstance(base, cls):
+            raise InvalidInputError(f"config must be a RobustConfig, got {type(base).__name__}")
+        unknown = sorted(set(options) - set(cls.FLAT))
+        if unknown:
+            raise InvalidInputError(f"unknown option{'s' if len(unknown) > 1 else ''} {', '.join(unknown)}; "
+                                    f"valid: {', '.join(cls.FLAT)}")
+        return dataclasses.replace(base, **options) if options else base
+
+    def flat(self) -> dict:
+        """The options as flat keywords (JSON-able), the inverse of :meth:`create`."""
+        return dataclasses.asdict(self)

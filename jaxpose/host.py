@@ -30,8 +30,13 @@ def host_frame(points, name: str = "points"):
     """
     arr = np.asarray(points, dtype=np.float64)
     big = float(np.max(np.abs(arr)))
-    unit = big if big > 0 else 1.0
-    mean = np.mean(arr / unit, axis=0) * unit
+    # the mean as an input point plus the mean of the differences from it: far from the origin the
+    # differences are exact (Sterbenz), so the mean keeps every digit the offset leaves
+    base = anchor(arr) if np.all(np.isfinite(arr)) else np.zeros(arr.shape[1:])
+    residual = arr - base
+    spread0 = float(np.max(np.abs(residual))) if residual.size else 0.0
+    unit = spread0 if 0 < spread0 < np.inf else 1.0
+    mean = base + np.mean(residual / unit, axis=0) * unit
     d = arr - mean
     spread = float(np.max(np.abs(d)))
     rms = spread * float(np.sqrt(np.mean(np.sum((d / spread) ** 2, axis=1)))) if spread > 0 else 0.0

@@ -109,7 +109,7 @@ def region_slices(svdd_or_points, gamma=OCSVM.gamma, nu=OCSVM.nu, *, center=None
         :func:`jaxpose.pose.frame.reference_frame`, ``gamma`` dimensionless; drawn in the units of
         the points
     center : (3,) where the slices cut; default the region's centroid c_m (eq. 4): for points,
-        ``jaxpose.normalize(points, gamma, nu, **normalize_options).center`` (its compilation is
+        ``jaxpose.normalize(points, method="ocsvm", gamma=gamma, nu=nu, **normalize_options).center`` (its compilation is
         shared with other calls of ``normalize``), for an SVDD ``volume_moments(svdd).center``
     planes : which slices, from "xy", "xz", "yz"; one panel each
     pixels : pixels per side of a slice; thickness : samples within this fraction of the
@@ -138,7 +138,7 @@ def region_slices(svdd_or_points, gamma=OCSVM.gamma, nu=OCSVM.nu, *, center=None
     if center is None and isinstance(svdd_or_points, SVDD):
         center = np.asarray(volume_moments(svdd, resolution=24).center, np.float64)
     elif center is None:
-        center = np.asarray(normalize(jnp.asarray(points), gamma, nu, **normalize_options).center, np.float64)
+        center = np.asarray(normalize(jnp.asarray(points), method="ocsvm", gamma=gamma, nu=nu, **normalize_options).center, np.float64)
     center = np.asarray(center, np.float64).reshape(3)
     lo, hi = points.min(axis=0), points.max(axis=0)
     pad = 0.15 * float((hi - lo).max())
@@ -219,7 +219,7 @@ def centers_plot(mesh_or_points, pose=None, gamma=OCSVM.gamma, nu=OCSVM.nu, *, m
     v, f = _vertices_faces(mesh_or_points)
     samples = np.asarray(jaxpose.sample_surface(mesh_or_points, count, seed)) if f is not None else v
     if pose is None:
-        pose = jaxpose.normalize(samples, gamma, nu, **normalize_options)
+        pose = jaxpose.normalize(samples, method="ocsvm", gamma=gamma, nu=nu, **normalize_options)
     c, s = _center_scale(pose)
     centers = {"ocsvm": c, **{m: np.asarray(estimators.estimate(mesh_or_points, center=m, scale="unit_cube").center,
                                             float) for m in methods}}

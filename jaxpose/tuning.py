@@ -1,4 +1,7 @@
-"""Gradient-based tuning of (gamma, nu) for consistent centers, checked on held-out classes.
+"""Gradient-based tuning of an estimator's continuous parameters for consistent centers, checked on
+held-out classes: (gamma, nu) of the OCSVM (``method="ocsvm"``, the default here) or the depth
+exponent ``power`` of the robust estimator (``method="robust"``, on the classes' points:
+:func:`jaxpose.pose.robust_pipeline`, whose derivative in the power is exact).
 
 Objective, per class of objects that share a frame (rigid-core aligned):
 
@@ -6,8 +9,8 @@ Objective, per class of objects that share a frame (rigid-core aligned):
 
 plus ``scale_weight`` times the coefficient of variation of the scale; the loss is its mean over
 the training classes, plus a pull towards the start ``reg * loss_0 * ||theta - theta_0||^2`` in
-the unconstrained coordinates theta = (log gamma, logit nu) (``reg`` is dimensionless: moving
-log gamma by 1 costs ``reg`` of the starting loss). Minimized with optax.adam (rate decaying to
+the unconstrained coordinates theta = (log gamma, logit nu), or theta = (log power,) (``reg`` is
+dimensionless: moving log gamma by 1 costs ``reg`` of the starting loss). Minimized with optax.adam (rate decaying to
 a tenth along a cosine). The derivatives are :func:`jaxpose.normalize`'s default trend
 derivatives (``derivative="trend"``, ``docs/design.md``).
 
@@ -37,11 +40,14 @@ import jax.numpy as jnp
 import numpy as np
 
 from . import _validate
-from .config import OCSVM, PoseConfig
+from .config import OCSVM, ROBUST, PoseConfig, RobustConfig
 from .mesh import sample_surface
-from .pose.pose import pose_pipeline
+from .occupancy.points import spacing_subset
+from .pose.pose import pose_pipeline, robust_pipeline
 
-__all__ = ["tune", "objective", "spread_of"]
+__all__ = ["tune", "objective", "spread_of", "METHODS"]
+
+METHODS = ("ocsvm", "robust")
 
 _NU_MIN, _NU_MAX = 0.02, 0.98  # keep the secant interval inside (0, 1)
 
@@ -59,26 +65,37 @@ def _start_theta(gamma0, nu0):
     return jnp.asarray([math.log(gamma0), math.log(u / (1.0 - u))])
 
 
-def _class_stats(points, gamma, nu, config):
+def _params(theta, method):
+    """The estimator's parameters {name: value} at theta (module docs)."""
+    if method == "robust":
+        return {"power": jnp.exp(theta[0])}
+    gamma, nu = _from_theta(theta)
+    return {"gamma": gamma, "nu": nu}
+
+
+def _class_stats(points, params, config, method):
     """points (n, m, 3) -> (sigma_tr, cv of scale, all valid) for one class. One object after the
     other (``lax.map``): under ``vmap`` the solver's and the grid's skipped work would all run."""
-    pose = jax.lax.map(lambda p: pose_pipeline(p, None, gamma, nu, config), points)
+    if method == "robust":
+        queries = jnp.asarray(spacing_subset(points.shape[1], config.spacing_samples))
+        pose = jax.lax.map(lambda p: robust_pipeline(p, None, queries, None, params["power"], config), points)
+    else:
+        pose = jax.lax.map(lambda p: pose_pipeline(p, None, params["gamma"], params["nu"], config), points)
     d = pose.center - jnp.mean(pose.center, axis=0)
     sigma = jnp.sqrt(jnp.mean(jnp.sum(d * d, axis=-1)))
     return sigma, jnp.std(pose.scale) / jnp.mean(pose.scale), jnp.all(pose.valid)
 
 
 @functools.lru_cache(maxsize=8)
-def _make_loss(config, scale_weight):
+def _make_loss(config, scale_weight, method="ocsvm"):
     """(class_loss(theta, points) -> (loss, (sigma, cv, ok)), jitted value-and-Jacobian by forward mode),
-    one pair per (config, scale_weight), so that later calls reuse the compilations."""
+    one pair per (config, scale_weight, method), so that later calls reuse the compilations."""
     @jax.jit
     def class_loss(theta, points):
-        gamma, nu = _from_theta(theta)
-        sigma, cv, ok = _class_stats(points, gamma, nu, config)
+        sigma, cv, ok = _class_stats(points, _params(theta, method), config, method)
         return sigma + scale_weight * cv, (sigma, cv, ok)
 
-    def value_and_grad(theta, points):  # two parameters: forward mode (see jaxpose._hyper)
+    def value_and_grad(theta, points):  # one or two parameters: forward mode (see jaxpose._hyper)
         J, (loss, aux) = jax.jacfwd(lambda t: (lambda r: (r[0], r))(class_loss(t, points)), has_aux=True)(theta)
         return (loss, aux), J
 
@@ -133,13 +150,14 @@ def objective(samplers, theta, class_loss, seed):
 
 
 def spread_of(samplers, gamma, nu, class_loss, seed):
-    """Mean sigma_tr over classes at (gamma, nu) on the draw ``seed`` (for reports)."""
+    """Mean sigma_tr over classes at (gamma, nu) on the draw ``seed`` (for reports; ocsvm)."""
     return objective(samplers, _start_theta(float(gamma), float(nu)), class_loss, seed)[1]
 
 
 def tune(classes, gamma0=OCSVM.gamma, nu0=OCSVM.nu, steps=12, lr=0.1, scale_weight=0.0, holdout=0.0, holdout_classes=None,
-         seed=0, count=400, reg=0.05, progress=None, **normalize_options) -> dict:
-    """Tune (gamma, nu) by gradient descent on the mean within-class center spread (module docs).
+         seed=0, count=400, reg=0.05, progress=None, method="ocsvm", power0=ROBUST.power, **normalize_options) -> dict:
+    """Tune (gamma, nu) or the robust power by gradient descent on the mean within-class center
+    spread (module docs).
 
     Args:
       classes: {name: [Trimesh | PointCloud, ...]} (sampled afresh at every step), or {name:
@@ -152,23 +170,39 @@ def tune(classes, gamma0=OCSVM.gamma, nu0=OCSVM.nu, steps=12, lr=0.1, scale_weig
       seed: split seed and first sampling seed; count: samples per mesh; reg: pull towards the
         start (module docs; >= 0).
       progress: optional callable(str), told about every step.
-      normalize_options: static options of :func:`jaxpose.normalize` (resolution, tol, ...).
+      method: ``"ocsvm"`` (tunes gamma, nu) or ``"robust"`` (tunes ``power`` from ``power0`` > 0,
+        on the classes' points; gamma0 and nu0 are not used).
+      normalize_options: static options of :func:`jaxpose.normalize` for that method
+        (ocsvm: resolution, tol, ...; robust: resolution, coarse, ...).
 
     Returns:
-      A JSON-able dict: ``gamma``, ``nu`` (the parameters to use: the tuned ones, or the start
-      when they do not lower the held-out spread), ``tuned`` {gamma, nu}, ``kept_defaults``,
+      A JSON-able dict: ``gamma``, ``nu`` (ocsvm) or ``power`` (robust): the parameters to use
+      (the tuned ones, or the start when they do not lower the held-out spread), ``tuned``
+      {gamma, nu} or {power}, ``method``, ``kept_defaults``,
       ``verdict`` (a sentence), ``train`` and ``holdout`` {sigma_tr_start, sigma_tr_tuned,
-      classes, names, objects} on a fresh draw, the ``trajectory`` [{step, gamma, nu, loss,
-      sigma_tr, cv_scale, grad, valid}] (one draw per step), ``options``, ``seconds``.
+      classes, names, objects} on a fresh draw, the ``trajectory`` [{step, gamma, nu (or power),
+      loss, sigma_tr, cv_scale, grad, valid}] (one draw per step), ``options``, ``seconds``.
 
     Raises:
       InvalidInputError: bad classes, parameters or options.
     """
     import optax
 
-    config = PoseConfig.create(**normalize_options)
-    _validate.check_gamma(gamma0)
-    _validate.check_nu(nu0)
+    if method not in METHODS:
+        raise _validate.InvalidInputError(f"method must be one of {', '.join(map(repr, METHODS))}, got {method!r}")
+    if method == "robust":
+        config = RobustConfig.create(**normalize_options)
+        if not (isinstance(power0, (int, float)) and not isinstance(power0, bool) and math.isfinite(power0)
+                and power0 > 0):
+            raise _validate.InvalidInputError(f"power0 must be a finite number > 0, got {power0!r}")
+        theta0 = jnp.asarray([math.log(float(power0))])
+        start = {"power": float(power0)}
+    else:
+        config = PoseConfig.create(**normalize_options)
+        _validate.check_gamma(gamma0)
+        _validate.check_nu(nu0)
+        theta0 = _start_theta(float(gamma0), float(nu0))
+        start = {"gamma": float(gamma0), "nu": float(nu0)}
     if int(steps) < 0 or float(reg) < 0:
         raise _validate.InvalidInputError(f"steps and reg must be >= 0, got {steps}, {reg}")
     train, test = _split(dict(classes), float(holdout), int(seed))
@@ -176,9 +210,8 @@ def tune(classes, gamma0=OCSVM.gamma, nu0=OCSVM.nu, steps=12, lr=0.1, scale_weig
     test_s = {**(_sampler(test, count, "classes") if test else {}),
               **({f"holdout:{k}": v for k, v in _sampler(holdout_classes, count, "holdout_classes").items()}
                  if holdout_classes else {})}
-    class_loss, class_vg = _make_loss(config, float(scale_weight))
+    class_loss, class_vg = _make_loss(config, float(scale_weight), method)
     say = progress or (lambda _msg: None)
-    theta0 = _start_theta(float(gamma0), float(nu0))
     opt = optax.adam(optax.cosine_decay_schedule(float(lr), max(int(steps), 1), alpha=0.1))
     state, theta = opt.init(theta0), theta0
     update = jax.jit(opt.update)
@@ -189,15 +222,14 @@ def tune(classes, gamma0=OCSVM.gamma, nu0=OCSVM.nu, steps=12, lr=0.1, scale_weig
         loss = float(np.mean([float(v[0][0]) for v in vals]))
         loss0 = loss if loss0 is None else loss0
         grad = sum(v[1] for v in vals) / len(vals) + 2.0 * float(reg) * loss0 * (theta - theta0)
-        g, n = _from_theta(theta)
-        rec = dict(step=step, gamma=float(g), nu=float(n), loss=loss,
+        rec = dict(step=step, **{k: float(v) for k, v in _params(theta, method).items()}, loss=loss,
                    sigma_tr=float(np.mean([float(v[0][1][0]) for v in vals])),
                    cv_scale=float(np.mean([float(v[0][1][1]) for v in vals])),
                    valid=all(bool(v[0][1][2]) for v in vals), grad=[float(x) for x in grad],
                    seconds=time.perf_counter() - t0)
         trajectory.append(rec)
-        say(f"step {step}/{int(steps)}: gamma={rec['gamma']:.3f} nu={rec['nu']:.4f} sigma_tr={rec['sigma_tr']:.5g} "
-            f"({rec['seconds']:.0f} s)")
+        say(f"step {step}/{int(steps)}: " + " ".join(f"{k}={rec[k]:.4g}" for k in start)
+            + f" sigma_tr={rec['sigma_tr']:.5g} ({rec['seconds']:.0f} s)")
         if step >= int(steps) // 2 and rec["valid"]:
             iterates.append(theta)
         if step == int(steps) or not bool(jnp.all(jnp.isfinite(grad))):
@@ -205,12 +237,12 @@ def tune(classes, gamma0=OCSVM.gamma, nu0=OCSVM.nu, steps=12, lr=0.1, scale_weig
         upd, state = update(grad, state, theta)
         theta = optax.apply_updates(theta, upd)
     tuned = jnp.mean(jnp.stack(iterates), axis=0) if iterates else theta0
-    gt, nt = (float(x) for x in _from_theta(tuned))
+    tuned_params = {k: float(v) for k, v in _params(tuned, method).items()}
     check = int(seed) + 100_003  # a draw no step has seen
     block = lambda samplers: dict(sigma_tr_start=objective(samplers, theta0, class_loss, check)[1],
                                   sigma_tr_tuned=objective(samplers, tuned, class_loss, check)[1],
                                   classes=len(samplers), names=sorted(samplers))
-    result = dict(tuned=dict(gamma=gt, nu=nt), gamma0=float(gamma0), nu0=float(nu0), train=block(train_s),
+    result = dict(method=method, tuned=tuned_params, **{f"{k}0": v for k, v in start.items()}, train=block(train_s),
                   holdout=block(test_s) if test_s else None, trajectory=trajectory, steps=int(steps), lr=float(lr),
                   reg=float(reg), scale_weight=float(scale_weight), seed=int(seed), count=int(count),
                   options=config.flat(), seconds=time.perf_counter() - t0)
@@ -219,9 +251,10 @@ def tune(classes, gamma0=OCSVM.gamma, nu0=OCSVM.nu, steps=12, lr=0.1, scale_weig
     lower = judge["sigma_tr_tuned"] < judge["sigma_tr_start"]
     change = judge["sigma_tr_tuned"] / judge["sigma_tr_start"] - 1.0
     result["kept_defaults"] = not lower
-    result["gamma"], result["nu"] = (gt, nt) if lower else (float(gamma0), float(nu0))
-    result["verdict"] = (f"tuned (gamma {gt:.4g}, nu {nt:.4g}) changes the center spread of the {where} by "
+    result.update(tuned_params if lower else start)
+    fmt = lambda d: ", ".join(f"{k} {v:.4g}" for k, v in d.items())
+    result["verdict"] = (f"tuned ({fmt(tuned_params)}) changes the center spread of the {where} by "
                          f"{change:+.1%}: " + ("use them" if lower else
-                                               f"they do not transfer; keeping (gamma {gamma0:g}, nu {nu0:g})"))
+                                               f"they do not transfer; keeping ({fmt(start)})"))
     say(result["verdict"])
     return result

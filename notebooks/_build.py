@@ -91,11 +91,11 @@ if pose_sensitivity is not None:
     for k in ("center", "scale", "dcenter_dgamma", "dscale_dgamma", "dcenter_dnu", "dscale_dnu"):
         print(f"{k:15s}", np.round(np.asarray(sens[k]), 5))
 else:
-    dscale = jax.grad(lambda g: jaxpose.normalize(points, g, 0.5, resolution=RESOLUTION).scale)(47.0)
+    dscale = jax.grad(lambda g: jaxpose.normalize(points, method="ocsvm", gamma=g, nu=0.5, resolution=RESOLUTION).scale)(47.0)
     print("dscale/dgamma", float(dscale))'''),
     new_markdown_cell("The same with `jax.grad` directly, checked against a central finite difference at a step "
                       "of 1 % of γ:"),
-    new_code_cell('''scale_of = lambda g: jaxpose.normalize(points, g, 0.5, resolution=RESOLUTION).scale
+    new_code_cell('''scale_of = lambda g: jaxpose.normalize(points, method="ocsvm", gamma=g, nu=0.5, resolution=RESOLUTION).scale
 g0 = 47.0
 h = 0.01 * g0
 print("jax.grad           ", float(jax.grad(scale_of)(g0)))
@@ -103,7 +103,7 @@ print("finite difference  ", float((scale_of(g0 + h) - scale_of(g0 - h)) / (2 * 
     new_markdown_cell("## How the pose moves with γ\n\nThe OCSVM center's x coordinate (the arm is along +x) and "
                       "the scale over γ; small γ approaches the minimum enclosing ball."),
     new_code_cell('''gammas = [2.0, 10.0, 30.0, 47.0] if SMALL else [1.0, 2.0, 5.0, 10.0, 20.0, 30.0, 40.0, 47.0, 60.0]
-poses = [jaxpose.normalize(points, g, 0.5, resolution=RESOLUTION) for g in gammas]
+poses = [jaxpose.normalize(points, method="ocsvm", gamma=g, nu=0.5, resolution=RESOLUTION) for g in gammas]
 fig, axes = plt.subplots(1, 2, figsize=(9, 3.2), layout="constrained")
 axes[0].plot(gammas, [float(p.center[0]) for p in poses], "o-")
 axes[0].set(xlabel="γ", ylabel="center x")

@@ -56,7 +56,7 @@ def test_config_or_options_not_both():
     with pytest.raises(InvalidInputError, match="either config or options"):
         jaxpose.fit_svdd(pts, 1.0, 0.5, config=SolverConfig(), tol=1e-4)
     with pytest.raises(InvalidInputError, match="config must be a PoseConfig"):
-        jaxpose.normalize(pts, config=GridConfig())
+        jaxpose.normalize(pts, method="ocsvm", config=GridConfig())
 
 
 def test_grid_memory_is_bounded():
@@ -104,17 +104,26 @@ def test_every_entry_point_reads_the_one_default():
     from jaxpose.evaluation import evaluate
     from jaxpose.pose import estimators, sensitivity
 
-    for fn in (jaxpose.normalize, jaxpose.normalize_batch, jaxpose.normalize_mesh, mesh.check_arguments, evaluate,
-               sensitivity.pose_sensitivity):
+    for fn in (jaxpose.normalize_mesh, mesh.check_arguments, evaluate, sensitivity.pose_sensitivity):
         params = inspect.signature(fn).parameters
         assert (params["gamma"].default, params["nu"].default) == (OCSVM.gamma, OCSVM.nu), fn.__name__
+    # normalize / normalize_batch take both methods' parameters as keywords left unset (an option of the
+    # other method is refused by name); unset, each method's is config's
+    from jaxpose.config import PoseConfig, RobustConfig
+    from jaxpose.pose import pose as pose_module
+
+    assert pose_module._options("ocsvm", None, {}, False) == (PoseConfig(), {"gamma": OCSVM.gamma, "nu": OCSVM.nu})
+    assert pose_module._options("robust", None, {}, False) == (RobustConfig(), {"power": ROBUST.power})
     params = inspect.signature(tuning.tune).parameters
     assert (params["gamma0"].default, params["nu0"].default) == (OCSVM.gamma, OCSVM.nu)
     assert (NormalizeOptions().gamma, NormalizeOptions().nu, NormalizeOptions().count) == (
         OCSVM.gamma, OCSVM.nu, OCSVM.count)
     assert inspect.signature(estimators.robust_center_scale).parameters["power"].default == ROBUST.power
-    args = tune.parser().parse_args([])
-    assert (args.gamma, args.nu) == (OCSVM.gamma, OCSVM.nu)
+    args = tune.parser().parse_args([])  # unset (refused with --method robust); the command fills them in
+    assert (args.gamma, args.nu, args.power) == (None, None, None)
+    assert tune._method_options(args) == {"gamma0": OCSVM.gamma, "nu0": OCSVM.nu, "resolution": 16, "refine": 2,
+                                          "band": 2048, "tol": 1e-3, "solver": None}
+    assert tune._method_options(tune.parser().parse_args(["--method", "robust"])) == {"power0": ROBUST.power}
     # normalize and evaluate leave them None (refused where nothing runs the OCSVM); the library fills them in
     for command in (["normalize", "x.ply"], ["evaluate"]):
         assert build_parser().parse_args(command).gamma is None

@@ -183,12 +183,12 @@ def test_forward_reverse_jit_vmap_agree(small_points):
 def test_core_normalize_differentiable_in_gamma(small_points):
     """jax.grad and jax.jacfwd agree with derivative="exact" too (the trend: the test above)."""
     shape_points, opts = small_points, {**SMALL, "derivative": "exact"}
-    f = lambda g: jaxpose.normalize(shape_points, g, 0.5, **opts).scale
+    f = lambda g: jaxpose.normalize(shape_points, method="ocsvm", gamma=g, nu=0.5, **opts).scale
     a = jax.grad(f)(47.0)
     b = jax.jacfwd(f)(47.0)
     np.testing.assert_allclose(a, b, rtol=1e-6)
     # pose() has the same forward values and the same gamma-derivative as normalize()
-    p, q = pose(shape_points, 47.0, 0.5, **opts), jaxpose.normalize(shape_points, 47.0, 0.5, **opts)
+    p, q = pose(shape_points, 47.0, 0.5, **opts), jaxpose.normalize(shape_points, method="ocsvm", gamma=47.0, nu=0.5, **opts)
     # (normalize pre-centers concrete points in float64 NumPy: equal up to rounding)
     np.testing.assert_allclose(np.asarray(p.center), np.asarray(q.center), rtol=1e-12, atol=1e-12)
 
@@ -198,7 +198,7 @@ def test_reverse_mode_in_points_still_works(small_points):
     mode, equal to the JVP along a random direction; and jointly with gamma (exact mode: the
     points' derivative is the implicit one in every mode)."""
     opts = {**SMALL, "derivative": "exact"}
-    f = lambda p, g: jaxpose.normalize(p, g, 0.5, **opts).scale
+    f = lambda p, g: jaxpose.normalize(p, method="ocsvm", gamma=g, nu=0.5, **opts).scale
     gp, gg = jax.grad(f, argnums=(0, 1))(small_points, 47.0)
     v = jnp.asarray(np.random.default_rng(0).normal(size=small_points.shape))
     _, jv = jax.jvp(lambda p: f(p, 47.0), (small_points,), (v,))
@@ -212,7 +212,7 @@ def _fd(points, g, n, param, eps, **opts):
         hi, lo, h = (g * (1 + eps), n), (g * (1 - eps), n), g * eps
     else:
         hi, lo, h = (g, n * (1 + eps)), (g, n * (1 - eps)), n * eps
-    return (_vec(jaxpose.normalize(points, *hi, **opts)) - _vec(jaxpose.normalize(points, *lo, **opts))) / (2 * h)
+    return (_vec(jaxpose.normalize(points, method="ocsvm", *hi, **opts)) - _vec(jaxpose.normalize(points, method="ocsvm", *lo, **opts))) / (2 * h)
 
 
 def test_default_derivative_follows_fd_at_one_percent(shape_points):
@@ -223,7 +223,7 @@ def test_default_derivative_follows_fd_at_one_percent(shape_points):
     holds the grid fixed (measured here: 28 % at 32^3, 5 % at 64^3)."""
     g, n = 20.0, 0.3
     opts = dict(tol=1e-7, max_iter=200_000)
-    J = np.asarray(jax.jacfwd(lambda t: jnp.asarray(_vec_j(jaxpose.normalize(shape_points, t[0], t[1], **opts))))(
+    J = np.asarray(jax.jacfwd(lambda t: jnp.asarray(_vec_j(jaxpose.normalize(shape_points, method="ocsvm", gamma=t[0], nu=t[1], **opts))))(
         jnp.asarray([g, n])))
     for k, param in enumerate(("gamma", "nu")):
         fd = _fd(shape_points, g, n, param, 0.01, **opts)
@@ -251,12 +251,12 @@ def test_derivative_modes_share_values_and_tolerance_mode_agrees(small_points):
     differentiation); the lock-step secant and the secant of two solutions solved to a tight
     tolerance (secant_iterations=None) agree."""
     opts = {**SMALL, "tol": 1e-6}
-    vals = {mode: _vec(jaxpose.normalize(small_points, 30.0, 0.4, derivative=mode, **opts))
+    vals = {mode: _vec(jaxpose.normalize(small_points, method="ocsvm", gamma=30.0, nu=0.4, derivative=mode, **opts))
             for mode in ("trend", "exact", "secant")}
     np.testing.assert_array_equal(vals["trend"], vals["exact"])
     np.testing.assert_array_equal(vals["trend"], vals["secant"])
     f = lambda it: np.asarray(jax.jacfwd(lambda t: _vec_j(jaxpose.normalize(
-        small_points, t[0], t[1], secant_iterations=it, nu_tol=1e-9, **opts)))(jnp.asarray([30.0, 0.4])))
+        small_points, method="ocsvm", gamma=t[0], nu=t[1], secant_iterations=it, nu_tol=1e-9, **opts)))(jnp.asarray([30.0, 0.4])))
     a, b = f(None), f(400)
     assert np.max(np.abs(a - b)) <= 0.05 * np.max(np.abs(b)), (a, b)
 

@@ -57,14 +57,14 @@ def compute(x64: bool) -> dict:
         out = {}
         inputs = _inputs()
         for name, pts in inputs.items():
-            out[f"{name}/normalize"] = _vec(jaxpose.normalize(pts))
+            out[f"{name}/normalize"] = _vec(jaxpose.normalize(pts, method="ocsvm"))
         for name in ("sphere_arm", "box"):
-            out[f"{name}/normalize_g20_n0.3_r32"] = _vec(jaxpose.normalize(inputs[name], 20.0, 0.3, resolution=32))
+            out[f"{name}/normalize_g20_n0.3_r32"] = _vec(jaxpose.normalize(inputs[name], method="ocsvm", gamma=20.0, nu=0.3, resolution=32))
         pts = inputs["sphere_arm"]
-        out["sphere_arm/smo"] = _vec(jaxpose.normalize(pts, solver="smo"))
-        out["sphere_arm/auto"] = _vec(jaxpose.normalize(pts, solver="auto"))
-        out["sphere_arm/refine4"] = _vec(jaxpose.normalize(pts, resolution=32, refine=4))
-        batch = jaxpose.normalize_batch([inputs["sphere_arm"], inputs["box"][:350]], resolution=32)
+        out["sphere_arm/smo"] = _vec(jaxpose.normalize(pts, method="ocsvm", solver="smo"))
+        out["sphere_arm/auto"] = _vec(jaxpose.normalize(pts, method="ocsvm", solver="auto"))
+        out["sphere_arm/refine4"] = _vec(jaxpose.normalize(pts, method="ocsvm", resolution=32, refine=4))
+        batch = jaxpose.normalize_batch([inputs["sphere_arm"], inputs["box"][:350]], method="ocsvm", resolution=32)
         out["batch"] = _vec(batch)
         svdd = jaxpose.fit_svdd(inputs["clusters"], 0.5, 0.3)
         out["fit_svdd/clusters"] = [float(svdd.objective), float(svdd.offset), float(jnp.sum(svdd.alpha)),
@@ -83,7 +83,7 @@ def compute(x64: bool) -> dict:
             out["mesh/ocsvm"] = _vec(normalize_mesh(mesh, count=M, method="ocsvm")[1])
             p = inputs["sphere_arm"]
             jac = jax.jacfwd(lambda g, n: jnp.concatenate(
-                [(q := jaxpose.normalize(p, g, n, resolution=16, tol=1e-6, derivative="exact")).center,
+                [(q := jaxpose.normalize(p, method="ocsvm", gamma=g, nu=n, resolution=16, tol=1e-6, derivative="exact")).center,
                  q.scale[None]]),
                 argnums=(0, 1))(20.0, 0.3)
             out["jacfwd_exact/sphere_arm"] = [float(v) for v in np.concatenate([np.asarray(j) for j in jac])]

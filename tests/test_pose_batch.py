@@ -25,8 +25,8 @@ def _sets():
 @pytest.fixture(scope="module")
 def batch_and_single():
     sets = _sets()
-    batch = jaxpose.normalize_batch(sets, 47.0, 0.5, **OPTS)
-    single = [jaxpose.normalize(p, 47.0, 0.5, **OPTS) for p in sets]
+    batch = jaxpose.normalize_batch(sets, method="ocsvm", gamma=47.0, nu=0.5, **OPTS)
+    single = [jaxpose.normalize(p, method="ocsvm", gamma=47.0, nu=0.5, **OPTS) for p in sets]
     return sets, batch, single
 
 
@@ -52,7 +52,7 @@ def test_batch_equals_normalize_per_object(batch_and_single):
 def test_batch_order_does_not_matter(batch_and_single):
     sets, batch, _ = batch_and_single
     order = [2, 0, 3, 1]
-    again = jaxpose.normalize_batch([sets[i] for i in order], 47.0, 0.5, **OPTS)
+    again = jaxpose.normalize_batch([sets[i] for i in order], method="ocsvm", gamma=47.0, nu=0.5, **OPTS)
     for j, i in enumerate(order):
         np.testing.assert_allclose(np.asarray(again.center[j]), np.asarray(batch.center[i]),
                                    atol=1e-4 * float(batch.scale[i]), rtol=0)
@@ -63,13 +63,13 @@ def test_one_compilation_for_different_sizes():
     sets = _sets()
     opts = dict(OPTS, refine=1)  # an option set no other test uses: a fresh cache entry
     before = pose_module._batched._cache_size()
-    jaxpose.normalize_batch(sets, 47.0, 0.5, pad_to=240, **opts)
+    jaxpose.normalize_batch(sets, method="ocsvm", gamma=47.0, nu=0.5, pad_to=240, **opts)
     after_first = pose_module._batched._cache_size()
     assert after_first == before + 1
     # other sizes (all <= pad_to), other values of gamma and nu: no new compilation
     other = [sphere_with_arm(120 + 17 * i, seed=10 + i) for i in range(4)]
-    jaxpose.normalize_batch(other, 30.0, 0.3, pad_to=240, **opts)
-    jaxpose.normalize_batch(sets[::-1], 47.0, 0.5, pad_to=240, **opts)
+    jaxpose.normalize_batch(other, method="ocsvm", gamma=30.0, nu=0.3, pad_to=240, **opts)
+    jaxpose.normalize_batch(sets[::-1], method="ocsvm", gamma=47.0, nu=0.5, pad_to=240, **opts)
     assert pose_module._batched._cache_size() == after_first
 
 
@@ -77,7 +77,7 @@ def test_one_compilation_for_different_sizes():
 def test_strategies_agree_with_normalize(batch_and_single, strategy):
     """lax.map and vmap batches both equal per-object normalize (up to solver tolerance)."""
     sets, _, single = batch_and_single
-    batch = jaxpose.normalize_batch(sets, 47.0, 0.5, strategy=strategy, **OPTS)
+    batch = jaxpose.normalize_batch(sets, method="ocsvm", gamma=47.0, nu=0.5, strategy=strategy, **OPTS)
     for i, s in enumerate(single):
         np.testing.assert_allclose(np.asarray(batch.center[i]), np.asarray(s.center), atol=1e-3 * float(s.scale), rtol=0)
         assert abs(float(batch.scale[i]) - float(s.scale)) <= 1e-3 * float(s.scale)
@@ -89,10 +89,10 @@ def test_smo_solver_in_batches(batch_and_single, strategy):
     solver, and the default solver's pose within what tol 1e-4 allows."""
     sets, batch, _ = batch_and_single
     opts = {**OPTS, "solver": "smo", "tol": 1e-4}
-    b = jaxpose.normalize_batch(sets, 47.0, 0.5, strategy=strategy, **opts)
+    b = jaxpose.normalize_batch(sets, method="ocsvm", gamma=47.0, nu=0.5, strategy=strategy, **opts)
     assert bool(np.all(np.asarray(b.converged)))
     for i, p in enumerate(sets):
-        s = jaxpose.normalize(p, 47.0, 0.5, **opts)
+        s = jaxpose.normalize(p, method="ocsvm", gamma=47.0, nu=0.5, **opts)
         np.testing.assert_allclose(np.asarray(b.center[i]), np.asarray(s.center), atol=1e-3 * float(s.scale), rtol=0)
         np.testing.assert_allclose(np.asarray(b.center[i]), np.asarray(batch.center[i]), atol=2e-3 * float(s.scale), rtol=0)
         assert abs(float(b.scale[i]) - float(batch.scale[i])) <= 2e-3 * float(s.scale)
@@ -100,7 +100,7 @@ def test_smo_solver_in_batches(batch_and_single, strategy):
 
 def test_pad_to_does_not_change_results(batch_and_single):
     sets, batch, _ = batch_and_single
-    padded = jaxpose.normalize_batch(sets, 47.0, 0.5, pad_to=260, **OPTS)
+    padded = jaxpose.normalize_batch(sets, method="ocsvm", gamma=47.0, nu=0.5, pad_to=260, **OPTS)
     np.testing.assert_allclose(np.asarray(padded.center), np.asarray(batch.center),
                                atol=1e-3 * float(jnp.min(batch.scale)), rtol=0)
     np.testing.assert_allclose(np.asarray(padded.scale), np.asarray(batch.scale), rtol=1e-3)
@@ -108,8 +108,8 @@ def test_pad_to_does_not_change_results(batch_and_single):
 
 def test_single_object_batch():
     p = sphere_with_arm(150, seed=1)
-    batch = jaxpose.normalize_batch([p], **OPTS)
-    single = jaxpose.normalize(p, **OPTS)
+    batch = jaxpose.normalize_batch([p], method="ocsvm", **OPTS)
+    single = jaxpose.normalize(p, method="ocsvm", **OPTS)
     assert batch.center.shape == (1, 3)
     np.testing.assert_allclose(np.asarray(batch.center[0]), np.asarray(single.center), atol=1e-3 * float(single.scale))
 
@@ -127,20 +127,20 @@ def test_single_object_batch():
 )
 def test_bad_input_is_rejected(bad):
     with pytest.raises(InvalidInputError):
-        jaxpose.normalize_batch(bad, **OPTS)
+        jaxpose.normalize_batch(bad, method="ocsvm", **OPTS)
 
 
 def test_bad_options_are_rejected():
     sets = [sphere_with_arm(100), sphere_with_arm(120, seed=1)]
     with pytest.raises(InvalidInputError):
-        jaxpose.normalize_batch(sets, pad_to=110)  # smaller than the largest set
+        jaxpose.normalize_batch(sets, method="ocsvm", pad_to=110)  # smaller than the largest set
     with pytest.raises(InvalidInputError):
-        jaxpose.normalize_batch(sets, not_an_option=3)
+        jaxpose.normalize_batch(sets, method="ocsvm", not_an_option=3)
     with pytest.raises(InvalidInputError):
-        jaxpose.normalize_batch(sets, gamma=-1.0)
+        jaxpose.normalize_batch(sets, method="ocsvm", gamma=-1.0)
     with pytest.raises(InvalidInputError):
-        jaxpose.normalize_batch(sets, nu=1.5)
+        jaxpose.normalize_batch(sets, method="ocsvm", nu=1.5)
     with pytest.raises(InvalidInputError):
-        jaxpose.normalize_batch(sets, strategy="pmap")
+        jaxpose.normalize_batch(sets, method="ocsvm", strategy="pmap")
     with pytest.raises(InvalidInputError, match="solver"):
-        jaxpose.normalize_batch(sets, solver="newton")
+        jaxpose.normalize_batch(sets, method="ocsvm", solver="newton")

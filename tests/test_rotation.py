@@ -211,22 +211,22 @@ def test_normalize_mesh_rotation_keeps_center_scale(body_frame):
 
 def test_normalize_points_rotation_equivariant_and_flagged(x64):
     pts = clusters(400, seed=2)
-    base = jaxpose.normalize(pts, resolution=32, rotation=True)
-    plain = jaxpose.normalize(pts, resolution=32)
+    base = jaxpose.normalize(pts, method="ocsvm", resolution=32, rotation=True)
+    plain = jaxpose.normalize(pts, method="ocsvm", resolution=32)
     assert plain.rotation is None and plain.ambiguity is None
     np.testing.assert_allclose(np.asarray(base.center), np.asarray(plain.center), atol=1e-12)
     r = np.asarray(base.rotation)
     assert np.linalg.det(r) == pytest.approx(1.0) and not bool(base.flagged)
     for q in (random_rotation(np.random.default_rng(2)), np.diag([1.0, -1.0, -1.0])):  # a rotation, a sign flip
-        got = jaxpose.normalize(pts @ q.T + 4.0, resolution=32, rotation=True)
+        got = jaxpose.normalize(pts @ q.T + 4.0, method="ocsvm", resolution=32, rotation=True)
         assert angle(np.asarray(got.rotation), r @ q.T) * RAD < 1e-4
-    cube = jaxpose.normalize(box_surface(400, seed=3, extents=(1.0, 1.0, 1.0)), resolution=32, rotation=True)
+    cube = jaxpose.normalize(box_surface(400, seed=3, extents=(1.0, 1.0, 1.0)), method="ocsvm", resolution=32, rotation=True)
     assert bool(cube.flagged)
-    batch = jaxpose.normalize_batch([pts, pts[::-1]], resolution=32, rotation=True)
+    batch = jaxpose.normalize_batch([pts, pts[::-1]], method="ocsvm", resolution=32, rotation=True)
     assert batch.rotation.shape == (2, 3, 3) and batch.ambiguity.shape == (2,)
     np.testing.assert_allclose(np.asarray(batch.rotation[1]), r, atol=1e-6)
     with pytest.raises(jaxpose.InvalidInputError):
-        jaxpose.normalize(pts, rotation="core")
+        jaxpose.normalize(pts, method="ocsvm", rotation="core")
 
 
 def test_measures():

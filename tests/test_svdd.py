@@ -232,8 +232,8 @@ def test_default_tol_is_close_to_a_tight_solution_at_small_gamma(x64, gamma):
     """normalize at the default tol against tol 1e-9 on a sphere with an arm at nu = 0, where the
     region is held by a few points (polishing solves their active set exactly)."""
     pts = sphere_with_arm(300, seed=1)
-    a = jaxpose.normalize(pts, gamma, 0.0, resolution=16)
-    b = jaxpose.normalize(pts, gamma, 0.0, resolution=16, tol=1e-9, max_iter=100_000)
+    a = jaxpose.normalize(pts, method="ocsvm", gamma=gamma, nu=0.0, resolution=16)
+    b = jaxpose.normalize(pts, method="ocsvm", gamma=gamma, nu=0.0, resolution=16, tol=1e-9, max_iter=100_000)
     assert bool(b.converged)
     scale = float(b.scale)
     assert np.linalg.norm(np.asarray(a.center) - np.asarray(b.center)) <= 1e-3 * scale

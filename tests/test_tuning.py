@@ -171,3 +171,33 @@ def test_cli_tune_usage_and_errors(tmp_path, capsys):
 
 def test_lazy_export():
     assert jaxpose.tuning.tune is tuning.tune
+
+
+def test_tune_robust_power():
+    """method="robust" tunes the depth power (exact derivative of the robust centers) on point clouds."""
+    classes = _classes(count=600, n=3)
+    res = tuning.tune(classes, method="robust", power0=4.0, steps=1, lr=0.2, resolution=24, coarse=16)
+    json.dumps(res)
+    assert res["method"] == "robust" and set(res["tuned"]) == {"power"} and res["power0"] == 4.0
+    first, second = res["trajectory"]
+    assert first["power"] == pytest.approx(4.0) and second["power"] != pytest.approx(4.0)
+    assert np.all(np.isfinite(first["grad"])) and len(first["grad"]) == 1 and first["grad"][0] != 0.0
+    assert first["valid"] and "power" in res["verdict"]
+    # the gradient is d loss / d log(power): the central difference of the class spread agrees
+    class_loss, _ = tuning._make_loss(jaxpose.config.RobustConfig(resolution=24, coarse=16), 0.0, "robust")
+    arrays = {k: tuning._sampler({k: v}, 600, "c")[k](0) for k, v in classes.items()}
+    h = 0.02
+    fd = np.mean([(float(class_loss(np.array([np.log(4.0) + h]), a)[0])
+                   - float(class_loss(np.array([np.log(4.0) - h]), a)[0])) / (2 * h) for a in arrays.values()])
+    assert first["grad"][0] == pytest.approx(fd, rel=0.1)
+    with pytest.raises(jaxpose.InvalidInputError, match="power0"):
+        tuning.tune(classes, method="robust", power0=0.0, steps=0)
+    with pytest.raises(jaxpose.InvalidInputError, match="method"):
+        tuning.tune(classes, method="solid", steps=0)
+
+
+def test_cli_tune_refuses_options_of_the_other_method(capsys):
+    assert tuning_cli.run(["--method", "robust", "--gamma", "20", "--steps", "0"]) == 2
+    assert "--gamma is an option of --method ocsvm" in capsys.readouterr().err
+    assert tuning_cli.run(["--power", "2", "--steps", "0"]) == 2
+    assert "--power is an option of --method robust" in capsys.readouterr().err

@@ -63,9 +63,9 @@ BAD_POINTS = {
 def test_bad_points_everywhere(name):
     bad, fragment = BAD_POINTS[name]
     for call in (
-        lambda: normalize(bad),
+        lambda: normalize(bad, method="ocsvm"),
         lambda: fit_svdd(bad, 1.0, 0.5),
-        lambda: jaxpose.normalize_batch([P, bad]),
+        lambda: jaxpose.normalize_batch([P, bad], method="ocsvm"),
     ):
         with pytest.raises(InvalidInputError, match=fragment.replace("(", r"\(").replace(")", r"\)")):
             call()
@@ -89,11 +89,11 @@ def test_bad_points_everywhere(name):
 def test_bad_hyperparameters(kw, fragment):
     args = {**dict(gamma=1.0, nu=0.5), **kw}
     with pytest.raises(InvalidInputError, match=fragment):
-        normalize(P, **args)
+        normalize(P, method="ocsvm", **args)
     with pytest.raises(InvalidInputError, match=fragment):
         fit_svdd(P, **args)
     with pytest.raises(InvalidInputError, match=fragment):
-        jaxpose.normalize_batch([P], **args)
+        jaxpose.normalize_batch([P], method="ocsvm", **args)
 
 
 @pytest.mark.parametrize(
@@ -106,9 +106,9 @@ def test_bad_hyperparameters(kw, fragment):
 )
 def test_bad_options(kw):
     with pytest.raises(InvalidInputError):
-        normalize(P, **kw)
+        normalize(P, method="ocsvm", **kw)
     with pytest.raises(InvalidInputError):
-        jaxpose.normalize_batch([P], **kw)
+        jaxpose.normalize_batch([P], method="ocsvm", **kw)
 
 
 @pytest.mark.parametrize(
@@ -143,20 +143,20 @@ def test_decision_function_bad_input():
 
 def test_normalize_batch_bad_input():
     with pytest.raises(InvalidInputError, match="at least one"):
-        jaxpose.normalize_batch([])
+        jaxpose.normalize_batch([], method="ocsvm")
     with pytest.raises(InvalidInputError, match="pad_to"):
-        jaxpose.normalize_batch([P], pad_to=10)
+        jaxpose.normalize_batch([P], method="ocsvm", pad_to=10)
     with pytest.raises(InvalidInputError, match="unknown option foo"):
-        jaxpose.normalize_batch([P], foo=1)
+        jaxpose.normalize_batch([P], method="ocsvm", foo=1)
     with pytest.raises(InvalidInputError, match="concrete"):
-        jax.jit(lambda p: jaxpose.normalize_batch([p]).scale)(jnp.asarray(P))
+        jax.jit(lambda p: jaxpose.normalize_batch([p], method="ocsvm").scale)(jnp.asarray(P))
     for bad in (42, "points.ply", None):
         with pytest.raises(InvalidInputError, match="list_of_points must be an iterable of"):
-            jaxpose.normalize_batch(bad)
+            jaxpose.normalize_batch(bad, method="ocsvm")
     with pytest.raises(InvalidInputError, match=r"points\[1\] must have shape"):
-        jaxpose.normalize_batch(p for p in (P, P[:, :2]))
+        jaxpose.normalize_batch((p for p in (P, P[:, :2])), method="ocsvm")
     with pytest.raises(InvalidInputError, match="pad_to must be an int"):
-        jaxpose.normalize_batch([P], pad_to=400.0)
+        jaxpose.normalize_batch([P], method="ocsvm", pad_to=400.0)
 
 
 def test_normalize_batch_takes_any_iterable():
@@ -164,8 +164,8 @@ def test_normalize_batch_takes_any_iterable():
     from conftest import sphere_with_arm
 
     sets = [sphere_with_arm(400, seed=1), sphere_with_arm(350, seed=2)]
-    from_list = jaxpose.normalize_batch(sets, resolution=32)
-    from_generator = jaxpose.normalize_batch((s for s in sets), resolution=32)
+    from_list = jaxpose.normalize_batch(sets, method="ocsvm", resolution=32)
+    from_generator = jaxpose.normalize_batch((s for s in sets), method="ocsvm", resolution=32)
     np.testing.assert_array_equal(np.asarray(from_generator.center), np.asarray(from_list.center))
 
 
@@ -173,33 +173,33 @@ def test_out_of_range_for_float32():
     if jax.config.jax_enable_x64:
         pytest.skip("float32 only")
     with pytest.raises(InvalidInputError, match="float32"):
-        normalize(P * 1e300)
+        normalize(P * 1e300, method="ocsvm")
 
 
 # --------------------------------------------------------------------------- convergence
 def test_iteration_cap_is_reported():
-    pose = normalize(P, max_iter=10)
+    pose = normalize(P, method="ocsvm", max_iter=10)
     assert not bool(pose.converged) and finite_pose(pose)
     with pytest.raises(ConvergenceError, match="iteration cap"):
-        normalize(P, max_iter=10, throw=True)
+        normalize(P, method="ocsvm", max_iter=10, throw=True)
     with pytest.raises(ConvergenceError, match="max_iter=10"):
         fit_svdd(P, 10.0, 0.5, max_iter=10, throw=True)
     assert not bool(fit_svdd(P, 10.0, 0.5, max_iter=10).converged)
     with pytest.raises(ConvergenceError):
-        jaxpose.normalize_batch([P, P[::-1]], max_iter=10, throw=True)
+        jaxpose.normalize_batch([P, P[::-1]], method="ocsvm", max_iter=10, throw=True)
 
 
 def test_invalid_result_flagged_or_raised():
     with pytest.warns(jaxpose.InvalidPoseWarning, match="too sparse for gamma"):
-        pose = normalize(P, gamma=1e6)  # kernel far narrower than the sample spacing and a grid cell
+        pose = normalize(P, method="ocsvm", gamma=1e6)  # kernel far narrower than the sample spacing and a grid cell
     assert not bool(pose.valid) and int(pose.status) == jaxpose.Status.SPARSE_SAMPLES
     with pytest.raises(JaxposeError, match="no valid pose"):
-        normalize(P, gamma=1e6, throw=True)
+        normalize(P, method="ocsvm", gamma=1e6, throw=True)
 
 
 # --------------------------------------------------------------------------- under jit
 def test_validity_flag_under_jit():
-    f = jax.jit(lambda p, g, n: normalize(p, g, n))
+    f = jax.jit(lambda p, g, n: normalize(p, method="ocsvm", gamma=g, nu=n))
     pts = jnp.asarray(P, jnp.float32)
     good = f(pts, 47.0, 0.5)
     assert bool(good.valid) and finite_pose(good)
@@ -212,7 +212,7 @@ def test_validity_flag_under_jit():
         assert not bool(pose.valid) and int(pose.status) == jaxpose.Status.BAD_PARAMETERS, (g, n)
     assert int(f(pts, 47.0, 1.0).status) == jaxpose.Status.COLLAPSED_REGION  # traced statuses
     # jit of a concrete-points closure (gamma traced) takes the float64 pre-scaling path
-    scale = jax.jit(lambda g: normalize(P, g, 0.5).scale)(47.0)
+    scale = jax.jit(lambda g: normalize(P, method="ocsvm", gamma=g, nu=0.5).scale)(47.0)
     np.testing.assert_allclose(float(scale), float(good.scale), rtol=1e-3)
 
 
@@ -228,7 +228,7 @@ def test_degenerate_but_legal_shapes():
         "20 parts": np.concatenate([0.02 * P[k::20] + 2.0 * rng.normal(size=3) for k in range(20)]),
     }
     for name, pts in cases.items():
-        pose = normalize(pts, throw=True)
+        pose = normalize(pts, method="ocsvm", throw=True)
         assert bool(pose.valid) and finite_pose(pose) and float(pose.scale) > 0, name
         lo, hi = pts.min(0), pts.max(0)
         assert np.all(np.asarray(pose.center) >= lo - 1e-3) and np.all(np.asarray(pose.center) <= hi + 1e-3), name
@@ -236,50 +236,50 @@ def test_degenerate_but_legal_shapes():
     # plain grid estimate, 2.8e-3 extrapolated, 2.3-2.5e-3 at finer grids: not the grid; 3.0e-3
     # with the rows padded to 320, where float32 sums round differently);
     # in float64 the center is exact (test_degenerate_shapes_are_symmetric_in_float64)
-    pose = normalize(cases["collinear"])
+    pose = normalize(cases["collinear"], method="ocsvm")
     np.testing.assert_allclose(np.asarray(pose.center), [4.0, 3.5, 3.0], atol=4e-3)
-    pose = normalize(cases["two points"])
+    pose = normalize(cases["two points"], method="ocsvm")
     np.testing.assert_allclose(np.asarray(pose.center), [0.5, 0.5, 0.5], atol=2e-3)
 
 
 def test_degenerate_shapes_are_symmetric_in_float64(x64):
     t = np.linspace(0.0, 2.0, M)
-    pose = normalize(np.c_[t, 0.5 * t, np.zeros(M)] + 3.0)
+    pose = normalize(np.c_[t, 0.5 * t, np.zeros(M)] + 3.0, method="ocsvm")
     np.testing.assert_allclose(np.asarray(pose.center), [4.0, 3.5, 3.0], atol=1e-6)
-    pose = normalize(np.r_[np.zeros((M // 2, 3)), np.ones((M // 2, 3))])
+    pose = normalize(np.r_[np.zeros((M // 2, 3)), np.ones((M // 2, 3))], method="ocsvm")
     np.testing.assert_allclose(np.asarray(pose.center), [0.5, 0.5, 0.5], atol=1e-6)
 
 
 def test_float32_far_offsets_and_extreme_units():
     if jax.config.jax_enable_x64:
         pytest.skip("float32 only")
-    ref = normalize(P)
+    ref = normalize(P, method="ocsvm")
     c, s = np.asarray(ref.center, np.float64), float(ref.scale)
     # float32 points at 1e6: compare with the same (quantized) points moved to the origin in float64
     p32 = (P + 1e6).astype(np.float32)
-    near = normalize(p32.astype(np.float64) - 1e6)
-    far = normalize(p32)
-    assert far.center.dtype == jnp.float32 and bool(far.valid)
+    near = normalize(p32.astype(np.float64) - 1e6, method="ocsvm")
+    far = normalize(p32, method="ocsvm")
+    assert far.center.dtype == np.float64 and bool(far.valid)  # mapped back on the host
     assert np.max(np.abs(np.asarray(far.center, np.float64) - 1e6 - np.asarray(near.center))) < 0.07  # float32 ulp(1e6) = 0.0625
     np.testing.assert_allclose(float(far.scale), float(near.scale), rtol=1e-4)
     # float64 points at 1e6 with x64 off: their shape is kept (centered in float64 first)
-    far64 = normalize(P + 1e6)
+    far64 = normalize(P + 1e6, method="ocsvm")
     np.testing.assert_allclose(float(far64.scale), s, rtol=1e-4)
     assert np.max(np.abs(np.asarray(far64.center, np.float64) - 1e6 - c)) < 0.07
     for unit in (1e-6, 1e-30, 1e6, 1e30):
-        pose = normalize((P * unit).astype(np.float32))
+        pose = normalize((P * unit).astype(np.float32), method="ocsvm")
         assert bool(pose.valid), unit
         np.testing.assert_allclose(float(pose.scale) / unit, s, rtol=1e-3)
         np.testing.assert_allclose(np.asarray(pose.center, np.float64) / unit, c, atol=1e-3 * s)
     for dtype in (np.float16, np.int64):
-        pose = normalize((P * 100).astype(dtype))
-        assert pose.center.dtype == jnp.float32 and bool(pose.valid)
+        pose = normalize((P * 100).astype(dtype), method="ocsvm")
+        assert pose.center.dtype == np.float64 and bool(pose.valid)
         np.testing.assert_allclose(float(pose.scale), 100 * s, rtol=2e-2)
 
 
 @pytest.mark.parametrize("gamma,nu", [(1e-3, 0.5), (200.0, 0.5), (47.0, 0.0), (47.0, 0.99), (47.0, 1e-3)])
 def test_edge_hyperparameters(gamma, nu):
-    pose = normalize(P, gamma, nu)
+    pose = normalize(P, method="ocsvm", gamma=gamma, nu=nu)
     assert bool(pose.valid) and bool(pose.converged) and finite_pose(pose)
     assert float(pose.scale) > 0
 
@@ -288,7 +288,7 @@ def test_nu_one_collapses_the_region():
     """nu = 1 puts every sample at its bound: the region shrinks onto the densest samples
     (mean distance 0.013 of the pre-scaled frame against 0.65 at nu = 0.5): not valid."""
     with pytest.warns(jaxpose.InvalidPoseWarning, match="collapsed"):
-        pose = normalize(P, 47.0, 1.0)
+        pose = normalize(P, method="ocsvm", gamma=47.0, nu=1.0)
     assert not bool(pose.valid) and int(pose.status) == jaxpose.Status.COLLAPSED_REGION
 
 
@@ -310,9 +310,9 @@ def test_edge_hyperparameters_fit_svdd():
     shift=st.tuples(*[st.floats(-1e4, 1e4)] * 3),
 )
 def test_equivariance_property(x64, angles, log_scale, shift):
-    base = normalize(P)
+    base = normalize(P, method="ocsvm")
     R, s, t = rotation(angles), 10.0 ** log_scale, np.asarray(shift)
-    moved = normalize(s * P @ R.T + t)
+    moved = normalize(s * P @ R.T + t, method="ocsvm")
     expect = s * np.asarray(base.center) @ R.T + t
     size = s * float(base.scale)
     assert np.linalg.norm(np.asarray(moved.center) - expect) < 2e-3 * size
@@ -322,9 +322,9 @@ def test_equivariance_property(x64, angles, log_scale, shift):
 @settings(max_examples=3, deadline=None, suppress_health_check=list(HealthCheck), phases=(Phase.explicit, Phase.generate), derandomize=True)
 @given(seed=st.integers(0, 2**31 - 1))
 def test_point_order_invariance_property(x64, seed):
-    base = normalize(P)
+    base = normalize(P, method="ocsvm")
     perm = np.random.default_rng(seed).permutation(M)
-    pose = normalize(P[perm])
+    pose = normalize(P[perm], method="ocsvm")
     s = float(base.scale)
     assert np.linalg.norm(np.asarray(pose.center) - np.asarray(base.center)) < 1e-3 * s
     assert abs(float(pose.scale) - s) < 1e-3 * s
@@ -332,8 +332,8 @@ def test_point_order_invariance_property(x64, seed):
 
 def test_duplicating_every_point(x64):
     # the dual with each point twice has the same optimum (alpha split in halves, C halved)
-    base = normalize(P, tol=1e-5)
-    twice = normalize(np.r_[P, P], tol=1e-5)
+    base = normalize(P, method="ocsvm", tol=1e-5)
+    twice = normalize(np.r_[P, P], method="ocsvm", tol=1e-5)
     s = float(base.scale)
     assert np.linalg.norm(np.asarray(twice.center) - np.asarray(base.center)) < 1e-3 * s
     assert abs(float(twice.scale) - s) < 1e-3 * s

@@ -27,7 +27,7 @@ def test_helpers_match_scipy():
 
 
 def test_status_codes_and_messages():
-    assert [int(s) for s in Status] == list(range(8)) and Status(0) is Status.OK
+    assert [int(s) for s in Status] == list(range(11)) and Status(0) is Status.OK
     assert "too sparse" in status_message(np.int32(3)) and "does not resolve" in Status.UNRESOLVED_GRID.message
     assert "collapsed" in Status.COLLAPSED_REGION.message and "no extent" in Status.DEGENERATE_INPUT.message
     pose = jaxpose.Pose.from_center_scale(np.zeros(3), 1.0)
@@ -41,10 +41,10 @@ def test_too_few_samples_are_not_a_plain_number():
     sphere = trimesh.creation.icosphere(subdivisions=2)
     points = jaxpose.sample_surface(sphere, 8, seed=0)
     with pytest.warns(InvalidPoseWarning, match="too sparse for gamma"):
-        pose = jaxpose.normalize(points)
+        pose = jaxpose.normalize(points, method="ocsvm")
     assert not bool(pose.valid) and int(pose.status) == Status.SPARSE_SAMPLES and int(pose.count) == 8
     with pytest.raises(JaxposeError, match="no valid pose .*too sparse"):
-        jaxpose.normalize(points, throw=True)
+        jaxpose.normalize(points, method="ocsvm", throw=True)
     with pytest.raises(JaxposeError, match="ocsvm estimator gave no valid pose: the samples are too sparse"):
         jaxpose.normalize_mesh(sphere, method="ocsvm", count=8)
 
@@ -55,9 +55,9 @@ def test_a_grid_dependent_result_is_flagged(x64):
     UNRESOLVED_GRID, not valid."""
     pts = sphere_with_arm(400, seed=1)
     with pytest.warns(InvalidPoseWarning, match="does not resolve the kernel"):
-        coarse = jaxpose.normalize(pts, 200.0, 0.5, **SMALL)
+        coarse = jaxpose.normalize(pts, method="ocsvm", gamma=200.0, nu=0.5, **SMALL)
     assert int(coarse.status) == Status.UNRESOLVED_GRID and not bool(coarse.valid)
-    fine = jaxpose.normalize(pts, 200.0, 0.5, resolution=32)  # the pinned results' compilation
+    fine = jaxpose.normalize(pts, method="ocsvm", gamma=200.0, nu=0.5, resolution=32)  # the pinned results' compilation
     assert bool(fine.valid)
     assert np.max(np.abs(np.asarray(coarse.center) - np.asarray(fine.center))) > 1e-2 * float(fine.scale)
     assert MAX_CELL == MAX_SPACING == 2.0
@@ -68,8 +68,8 @@ def test_status_per_object_of_a_batch():
     pts = sphere_with_arm(400, seed=1)
     few = jaxpose.sample_surface(trimesh.creation.icosphere(subdivisions=2), 8, seed=0)
     with pytest.warns(InvalidPoseWarning, match=r"point set 1: the samples are too sparse"):
-        batch = jaxpose.normalize_batch([pts, few], resolution=32)  # the pinned batch's compilation
+        batch = jaxpose.normalize_batch([pts, few], method="ocsvm", resolution=32)  # the pinned batch's compilation
     assert [int(s) for s in batch.status] == [Status.OK, Status.SPARSE_SAMPLES]
     assert [int(c) for c in batch.count] == [400, 8] and list(np.asarray(batch.valid)) == [True, False]
     with pytest.raises(JaxposeError, match=r"no valid pose \(point set 1: the samples are too sparse"):
-        jaxpose.normalize_batch([pts, few], resolution=32, throw=True)
+        jaxpose.normalize_batch([pts, few], method="ocsvm", resolution=32, throw=True)

@@ -10,6 +10,7 @@ import json
 import sys
 from pathlib import Path
 
+from ..config import OCSVM, ROBUST
 from ..errors import InvalidInputError, JaxposeError  # (not _validate: it imports NumPy)
 from ..config import OCSVM
 
@@ -27,8 +28,8 @@ def _command(args):
 
 
 def parser():
-    p = argparse.ArgumentParser(prog="jaxpose tune", description="gradient-based tuning of gamma and nu, "
-                                "checked on held-out classes")
+    p = argparse.ArgumentParser(prog="jaxpose tune", description="gradient-based tuning of the OCSVM's gamma and "
+                                "nu, or of the robust estimator's depth power, checked on held-out classes")
     p.add_argument("--data", default=None, help="folder with one sub-folder of meshes per class (default: the "
                    "built-in procedural dataset)")
     p.add_argument("--holdout-data", default=None, help="another such folder, only evaluated (e.g. another dataset)")
@@ -49,18 +50,21 @@ def parser():
                    "(default 0)")
     p.add_argument("--scale-weight", type=float, default=0.0, help="weight of the scale's spread (cv) in the loss, "
                    "beside the center's sigma_tr (default 0: the center only)")
-    p.add_argument("--gamma", type=float, default=OCSVM.gamma,
-                   help=f"starting gamma, the paper's (default {OCSVM.gamma:g})")
-    p.add_argument("--nu", type=float, default=OCSVM.nu, help=f"starting nu, the paper's (default {OCSVM.nu:g})")
-    p.add_argument("--resolution", type=int, default=16, help="grid cells per axis of the volume integral during "
-                   "tuning (default 16; normalize's default is 64)")
-    p.add_argument("--refine", type=int, default=2, help="a power of 2: cells near the boundary split 2x2x2, log2(refine) times "
-                   "(default 2)")
-    p.add_argument("--band", type=int, default=2048, help="boundary cells refined at the first level, doubled at each further "
-                   "level (default 2048)")
-    p.add_argument("--tol", type=float, default=1e-3, help="SVDD solver tolerance (default 1e-3)")
+    p.add_argument("--method", choices=("ocsvm", "robust"), default="ocsvm",
+                   help="what to tune: the OCSVM's gamma and nu (default), or the robust estimator's depth power "
+                   "(on the objects' surface samples as point clouds)")
+    p.add_argument("--gamma", type=float, default=None, help=f"ocsvm: starting gamma, the paper's (default {OCSVM.gamma:g})")
+    p.add_argument("--nu", type=float, default=None, help=f"ocsvm: starting nu, the paper's (default {OCSVM.nu:g})")
+    p.add_argument("--power", type=float, default=None, help=f"robust: starting depth power (default {ROBUST.power:g})")
+    p.add_argument("--resolution", type=int, default=None, help="ocsvm: grid cells per axis of the volume integral "
+                   "during tuning (default 16; normalize's default is 64); robust: voxels along the body (default 96)")
+    p.add_argument("--refine", type=int, default=None, help="ocsvm: a power of 2: cells near the boundary split "
+                   "2x2x2, log2(refine) times (default 2)")
+    p.add_argument("--band", type=int, default=None, help="ocsvm: boundary cells refined at the first level, doubled "
+                   "at each further level (default 2048)")
+    p.add_argument("--tol", type=float, default=None, help="ocsvm: SVDD solver tolerance (default 1e-3)")
     p.add_argument("--solver", choices=("pg", "smo", "auto"), default=None,
-                   help="SVDD solver (default: normalize's, pg up to 2500 points, auto above)")
+                   help="ocsvm: SVDD solver (default: normalize's, pg up to 2500 points, auto above)")
     p.add_argument("--json", default=None, help="write the result here (trajectory, train and held-out spreads)")
     p.add_argument("--force", action="store_true", help="overwrite an existing --json file")
     return p
@@ -127,6 +131,11 @@ def _run(args) -> int:
 
     say = lambda s: print(s, file=sys.stderr, flush=True)
     try:
+        options = _method_options(args)
+    except InvalidInputError as exc:  # a usage error: before any work
+        print(f"jaxpose tune: error: {exc}", file=sys.stderr)
+        return 2
+    try:
         variants = tuple(v.strip() for v in args.variants.split(",") if v.strip())
         names = args.classes.split(",") if args.classes else None
         say("loading classes ...")
@@ -134,10 +143,9 @@ def _run(args) -> int:
         held = (load_classes(args.holdout_data, None, args.align_core, variants, args.seed)
                 if args.holdout_data else None)
         holdout = args.holdout if args.holdout is not None else (0.0 if held else 0.25)
-        result = tune(classes, gamma0=args.gamma, nu0=args.nu, steps=args.steps, lr=args.lr, reg=args.reg,
-                      scale_weight=args.scale_weight, holdout=holdout, holdout_classes=held, seed=args.seed,
-                      count=args.count, progress=say, resolution=args.resolution, refine=args.refine,
-                      band=args.band, tol=args.tol, solver=args.solver)
+        result = tune(classes, steps=args.steps, lr=args.lr, reg=args.reg, scale_weight=args.scale_weight,
+                      holdout=holdout, holdout_classes=held, seed=args.seed, count=args.count, progress=say,
+                      method=args.method, **options)
     except JaxposeError as exc:
         print(f"jaxpose tune: error: {exc}", file=sys.stderr)
         return 1
@@ -147,11 +155,33 @@ def _run(args) -> int:
         Path(args.json).parent.mkdir(parents=True, exist_ok=True)
         write_atomic(args.json, json.dumps(result, indent=2).encode(), force=True)  # checked before the run
     tr, ho = result["train"], result["holdout"]
-    print(f"gamma {result['gamma0']:.4g} -> {result['tuned']['gamma']:.4g}, nu {result['nu0']:.4g} -> "
-          f"{result['tuned']['nu']:.4g}")
+    print(", ".join(f"{k} {result[k + '0']:.4g} -> {v:.4g}" for k, v in result["tuned"].items()))
     print(f"train sigma_tr {tr['sigma_tr_start']:.5g} -> {tr['sigma_tr_tuned']:.5g}")
     if ho:
         print(f"held-out sigma_tr {ho['sigma_tr_start']:.5g} -> {ho['sigma_tr_tuned']:.5g}")
     print(result["verdict"])
-    print(f"use: gamma {result['gamma']:.4g}, nu {result['nu']:.4g}")
+    print("use: " + ", ".join(f"{k} {result[k]:.4g}" for k in result["tuned"]))
     return 0
+
+
+# the command's own defaults for tuning (a coarse OCSVM grid); the parameters' defaults are config's
+_OCSVM_DEFAULTS = {"gamma": OCSVM.gamma, "nu": OCSVM.nu, "resolution": 16, "refine": 2, "band": 2048, "tol": 1e-3,
+                   "solver": None}
+_ROBUST_DEFAULTS = {"power": ROBUST.power}
+
+
+def _method_options(args):
+    """The keywords of :func:`jaxpose.tuning.tune` for ``args.method``; an option of the other
+    method raises InvalidInputError naming the method it belongs to."""
+    own = _ROBUST_DEFAULTS if args.method == "robust" else _OCSVM_DEFAULTS
+    other, other_name = (_OCSVM_DEFAULTS, "ocsvm") if args.method == "robust" else (_ROBUST_DEFAULTS, "robust")
+    for key in other:
+        if key not in own and key != "resolution" and getattr(args, key) is not None:
+            raise InvalidInputError(f"--{key} is an option of --method {other_name}; --method "
+                                              f"{args.method} does not use it")
+    out = {k: (getattr(args, k) if getattr(args, k) is not None else v) for k, v in own.items()}
+    if args.method == "robust":
+        out = {"power0": out["power"], **({"resolution": args.resolution} if args.resolution is not None else {})}
+    else:
+        out = {"gamma0": out.pop("gamma"), "nu0": out.pop("nu"), **out}
+    return out

@@ -55,7 +55,7 @@ def _ocsvm(points_list, gamma, nu, options):
     (a loop: one compilation for equal point counts)."""
     from ..pose.pose import normalize
 
-    poses = [normalize(p, gamma=gamma, nu=nu, **options) for p in points_list]
+    poses = [normalize(p, method="ocsvm", gamma=gamma, nu=nu, **options) for p in points_list]
     centers = np.stack([np.asarray(p.center, dtype=np.float64).reshape(3) for p in poses])
     scales = np.array([float(np.asarray(p.scale)) for p in poses])
     converged = [bool(np.asarray(p.converged)) for p in poses]

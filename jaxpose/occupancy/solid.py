@@ -42,18 +42,19 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from .._validate import InvalidInputError
-from ..config import MEMORY_BUDGET
+from ..config import MEMORY_BUDGET, RobustConfig
 from ..depth import host_distance
 
 __all__ = ["Solid", "robust_solid", "cap_holes", "ray_vote_solid", "point_solid", "exterior_fill", "keep_main",
            "depth", "make_grid", "closing_radius", "neighbour_distances", "check_resolution", "RESOLUTION", "COARSE",
            "KEEP_RATIO", "SPACING_SAMPLES", "VOXEL_BYTES", "MESH_BIAS", "POINT_BIAS"]
 
-RESOLUTION = 96  # voxels along the main body's largest extent
-COARSE = 48  # the same for the first pass over everything
-KEEP_RATIO = 0.5  # a separate component is kept when at least this share of the main body's boundary
-MAX_CLOSING = 4  # point clouds: the pitch is coarsened so that the closing radius stays within this
-SPACING_SAMPLES = 10_000  # point clouds: the spacing is measured from at most this many of the points
+_DEFAULTS = RobustConfig()  # the defaults are written once, in jaxpose.config.RobustConfig
+RESOLUTION = _DEFAULTS.resolution  # voxels along the main body's largest extent
+COARSE = _DEFAULTS.coarse  # the same for the first pass over everything
+KEEP_RATIO = _DEFAULTS.keep_ratio  # a separate component is kept when at least this share of the main body's boundary
+MAX_CLOSING = _DEFAULTS.max_closing  # point clouds: the pitch is coarsened so that the closing radius stays within this
+SPACING_SAMPLES = _DEFAULTS.spacing_samples  # point clouds: the spacing is measured from at most this many points
 VOXEL_BYTES = 64  # peak memory per voxel of the fine grid (measured 50-58 bytes)
 MESH_BIAS = 0.5  # voxels between a mesh solid's outer voxel centers and its surface (depth offset)
 POINT_BIAS = 1.0  # the same for a point solid (its outer voxels straddle the surface)

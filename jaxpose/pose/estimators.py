@@ -33,7 +33,7 @@ import numpy as np
 import trimesh
 from scipy import ndimage
 
-from .. import baselines, sample
+from .. import _validate, baselines, sample
 from ..occupancy import solid, voxels
 from .._validate import InvalidInputError, InvalidPoseWarning, JaxposeError, is_traced
 from ..config import OCSVM, ROBUST
@@ -43,6 +43,7 @@ from ..moments import Moments, grid_moments
 from .pose import normalize
 from .result import Pose, host
 from .validity import status_message
+from .result import MIN_POINT_VOXELS
 
 __all__ = ["METHODS", "CENTERS", "SCALES", "DEFAULT_METHOD", "ROBUST_POWER", "resolve", "estimate",
            "estimate_many", "robust_center_scale", "robust_moments", "solid_moments", "solid_center_volume", "centered"]
@@ -160,7 +161,6 @@ def _robust_solid(geometry, resolution):
 
 MAX_CAP_SHARE = 0.6  # meshes: closing the holes may add at most this share of the surface's own area
 EQUAL_BODIES = 0.1  # separate bodies whose sizes (voxels) differ by less than this share are equal
-MIN_POINT_VOXELS = 12  # point clouds: the closed solid spans at least this many voxels along its largest extent
 
 
 def _area(v, f):
@@ -279,6 +279,7 @@ class _Shape:
         self._ocsvm = None
         self._voxels = None
         self._moments = None
+        self._robust_points = None
         self._robust = None
 
     def robust(self):
@@ -305,11 +306,27 @@ class _Shape:
                                            method=o.get("sampling", OCSVM.sampling))
             with warnings.catch_warnings():  # an invalid pose is raised below, with its reason
                 warnings.simplefilter("ignore", InvalidPoseWarning)
-                pose = normalize(points, o.get("gamma", OCSVM.gamma), o.get("nu", OCSVM.nu), **o.get("ocsvm", {}))
+                pose = normalize(points, method="ocsvm", gamma=o.get("gamma", OCSVM.gamma), nu=o.get("nu", OCSVM.nu), **o.get("ocsvm", {}))
             if not bool(np.asarray(pose.valid)):
                 raise JaxposeError(f"the ocsvm estimator gave no valid pose: {status_message(pose.status)}")
             self._ocsvm = pose
         return self._ocsvm
+
+    def robust_points(self):
+        """The robust pose of a point cloud, by the JAX pipeline (:func:`jaxpose.normalize`)."""
+        if self._robust_points is None:
+            points = baselines.split_geometry(self.geometry)[0]
+            o = {k: self.options[k] for k in ("power", "resolution") if k in self.options}
+            with warnings.catch_warnings():  # an invalid pose is raised below, with its reason
+                warnings.simplefilter("ignore", InvalidPoseWarning)
+                pose = normalize(points, method="robust", **o)
+            if not bool(np.asarray(pose.valid)):
+                raise JaxposeError(f"the robust estimator gave no valid pose: {status_message(pose.status)}")
+            self._robust_points = pose
+        return self._robust_points
+
+    def is_points(self):
+        return baselines.split_geometry(self.geometry)[1] is None
 
     def center(self, name, strict):
         """The center of one name: a shared computation of this shape, or a baseline's closed form."""
@@ -335,13 +352,15 @@ class _Shape:
 # the centers and scales that share this shape's intermediate results: name -> (shape, [center,] strict) -> value;
 # every other name is a closed form of jaxpose.baselines
 _SHAPE_CENTERS = {
-    "robust_depth": lambda shape, strict: shape.robust()[0],
+    "robust_depth": lambda shape, strict: (np.asarray(shape.robust_points().center, np.float64) if shape.is_points()
+                                           else shape.robust()[0]),
     "ocsvm": lambda shape, strict: np.asarray(shape.ocsvm().center, np.float64),
     "solid_centroid": lambda shape, strict: shape.solid_moments(strict)[1],
     "depth_weighted_solid": _Shape.depth_weighted_center,
 }
 _SHAPE_SCALES = {
-    "robust_volume": lambda shape, center, strict: shape.robust()[1] ** (1.0 / 3.0),
+    "robust_volume": lambda shape, center, strict: (float(np.asarray(shape.robust_points().scale)) if shape.is_points()
+                                                    else shape.robust()[1] ** (1.0 / 3.0)),
     "ocsvm": lambda shape, center, strict: float(np.asarray(shape.ocsvm().scale)),
     "gyration_radius": _Shape.gyration_radius,
 }

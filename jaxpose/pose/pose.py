@@ -1,14 +1,23 @@
-"""The OCSVM pose (the paper's section 3.2): ``normalize``, ``normalize_batch`` and the one pipeline.
+"""``normalize`` and ``normalize_batch``: the pose of a point cloud by the robust estimator (the
+default) or the paper's OCSVM (section 3.2), both pure JAX.
 
-Pipeline (:func:`pose_pipeline`, what every entry point runs): points are put in their reference
+``method="robust"`` (:func:`robust_pipeline`): the robust voxel solid of the points
+(:mod:`jaxpose.occupancy.points`), the depth^p-weighted centroid of its voxels and the cube root of
+its volume. ``method="ocsvm"`` (:func:`pose_pipeline`, below). Options of the other method are
+refused by name.
+
+OCSVM pipeline (:func:`pose_pipeline`): points are put in their reference
 frame (:func:`jaxpose.pose.frame.prescale`: centered, divided by their reference size, turned to their
 principal axes, so gamma is dimensionless and the grid turns with the object); the SVDD is fitted
 there (:func:`jaxpose.occupancy.svdd.solve_svdd`); the region's centroid c_m (eq. 4) and mean distance d_m
 (eq. 5) are integrated on a grid (:func:`jaxpose.moments.region_moments`) and mapped back:
 center = mean + s_ref axes c_m, scale = s_ref d_m.
 
-Concrete inputs are first centered and scaled on the host in float64 (:func:`jaxpose.pose.frame.host_frame`)
-and the offset is added back at the end, so coordinates far from the origin keep their digits.
+Far from the origin. Concrete inputs (both methods) are first centered and scaled on the host in
+float64 (:func:`jaxpose.pose.frame.host_frame`) and the pose is mapped back on the host in float64 (its
+center and scale are float64 NumPy), so coordinates far from the origin keep every digit the
+result can hold. A traced input cannot be moved first: when its coordinates are rounded by more
+than ``MAX_ROUNDING`` of its spread, the pose is flagged (``Status.FAR_FROM_ORIGIN``, not valid).
 
 Cost is bounded: above ``MAX_POINTS`` points a seeded uniform subset is used (``Pose.count`` says
 how many); concrete point sets are padded (and masked) to one of four sizes per octave
@@ -33,17 +42,29 @@ import numpy as np
 
 from .. import _validate
 from .._hyper import hyper_jvp
-from ..config import OCSVM, PoseConfig
-from .frame import host_frame, prescale
-from ..moments import region_moments
-from ..orientation import region_frame
+from ..config import OCSVM, ROBUST, PoseConfig, RobustConfig
+from ..depth import depth_weights
+from ..moments import grid_moments, region_moments
+from ..occupancy.points import POINT_BIAS, erode6, point_solid, spacing_subset
 from ..occupancy.svdd import solve_svdd
 from ..occupancy.svdd.secant import with_secants
+from ..orientation import region_frame
+from .frame import host_frame, prescale
 from .sizes import MAX_POINTS, bucket, pad, subsample_index
-from .result import Pose, Status
-from .validity import pose_status
+from .result import MIN_POINT_VOXELS, Pose, Status
+from .validity import flag_offset, pose_status
 
-__all__ = ["Pose", "normalize", "normalize_batch", "pose_pipeline", "pose_from_svdd"]
+__all__ = ["Pose", "METHODS", "DEFAULT_METHOD", "normalize", "normalize_batch", "pose_pipeline", "robust_pipeline",
+           "pose_from_svdd"]
+
+METHODS = ("robust", "ocsvm")
+DEFAULT_METHOD = "robust"
+_SHARED = ("resolution",)  # a grid resolution in both (voxels / OCSVM grid cells)
+_ONLY = {  # keyword -> the method it belongs to (any other method refuses it)
+    **{k: "ocsvm" for k in ("gamma", "nu", "max_points") + PoseConfig.FLAT if k not in _SHARED},
+    **{k: "robust" for k in ("power",) + RobustConfig.FLAT if k not in _SHARED},
+}
+_UNSET = object()
 
 
 def pose_from_svdd(svdd, to_world, size, grid, outside, rotation=False, y=None, mask=None):
@@ -99,76 +120,216 @@ def pose_pipeline(points, mask, gamma, nu, config: PoseConfig, rotation: bool = 
       Pose in the units of ``points``. Derivatives in (gamma, nu) come from forward-mode
       columns, also under jax.grad / jacrev; derivatives in the points by plain autodiff.
     """
-    return hyper_jvp(partial(_pipeline, config=config, rotation=bool(rotation)), (2, 3))(points, mask, gamma, nu)
+    pose = hyper_jvp(partial(_pipeline, config=config, rotation=bool(rotation)), (2, 3))(points, mask, gamma, nu)
+    return flag_offset(pose, points, mask)
+
+
+def robust_pipeline(points, mask, queries, query_mask, power, config: RobustConfig) -> Pose:
+    """The robust pose of a point cloud; pure JAX, no input checks.
+
+    Args:
+      points: (n, 3) float; mask: (n,) bool or None (False rows are padding).
+      queries, query_mask: (m,) int and (m,) bool or None, the points whose spacing is measured
+        (:func:`jaxpose.occupancy.points.spacing_subset`).
+      power: () depth exponent p >= 0 (traced, differentiable).
+      config: :class:`jaxpose.config.RobustConfig` (static).
+
+    Returns:
+      Pose: center (3,) = sum_v d_v^p x_v / sum_v d_v^p over the kept voxels, scale () = V^(1/3),
+      in the units of ``points``; ``converged`` True, ``iterations`` the closing radius in voxels,
+      ``status`` EMPTY_SOLID when the points enclose no volume (no voxel of the solid lies deeper
+      than its surface layer: an open sheet, a scan of one side), SPARSE_CLOUD when the solid spans
+      fewer than ``MIN_POINT_VOXELS`` voxels (too sparse for a closing), DEGENERATE_INPUT, NOT_FINITE,
+      FAR_FROM_ORIGIN (see :mod:`jaxpose.pose.validity`); ``count`` the points used.
+    """
+    n = points.shape[0]
+    mask = jnp.ones((n,), bool) if mask is None else jnp.asarray(mask, bool)
+    sol = point_solid(points, mask, queries, config, query_mask)
+    power = jnp.asarray(power, points.dtype)
+    inside = sol.inside
+    weights = depth_weights(inside, power, POINT_BIAS)
+    occupancy = inside.astype(weights.dtype) - 0.5 * (inside & sol.occupied).astype(weights.dtype)
+    unit = jnp.ones((), weights.dtype)
+    mom = grid_moments(occupancy, weights, jnp.zeros(3, weights.dtype), unit)  # voxel units from the corner
+    center = sol.origin + sol.pitch * mom.center
+    volume = mom.volume * sol.pitch**3
+    scale = jnp.cbrt(jnp.maximum(volume, 0.0))
+    sg = jax.lax.stop_gradient
+    x = sg(points)
+    lo = jnp.min(jnp.where(mask[:, None], x, jnp.inf), axis=0)
+    hi = jnp.max(jnp.where(mask[:, None], x, -jnp.inf), axis=0)
+    degenerate = ~(jnp.max(hi - lo) > 0) | ~jnp.all(jnp.isfinite(jnp.where(mask[:, None], x, 0)))
+    finite = jnp.all(jnp.isfinite(center)) & jnp.isfinite(scale) & (scale > 0)
+    bad_power = ~(jnp.isfinite(sg(power)) & (sg(power) >= 0))
+    # no voxel deeper than the surface layer (distance <= POINT_BIAS: a face neighbour outside): a sheet
+    shallow = ~jnp.any(erode6(inside))
+    cells = [jnp.any(inside, axis=tuple(b for b in range(3) if b != a)) for a in range(3)]
+    idx = [jnp.arange(c.shape[0]) for c in cells]
+    across = jnp.max(jnp.stack([jnp.max(jnp.where(c, i, -1)) - jnp.min(jnp.where(c, i, c.shape[0])) + 1
+                                for c, i in zip(cells, idx)]))
+    status = jnp.select([bad_power, degenerate, ~(volume > 0) | shallow, across < MIN_POINT_VOXELS, ~finite],
+                        [jnp.int32(int(c)) for c in (Status.BAD_PARAMETERS, Status.DEGENERATE_INPUT,
+                                                      Status.EMPTY_SOLID, Status.SPARSE_CLOUD, Status.NOT_FINITE)],
+                        jnp.int32(0))
+    pose = Pose(center, scale, jnp.asarray(True), status == 0, sol.radius, None, None, status,
+                jnp.sum(mask).astype(jnp.int32))
+    return flag_offset(pose, points, mask)
 
 
 _pipeline_jit = jax.jit(pose_pipeline, static_argnames=("config", "rotation"))
+_robust_jit = jax.jit(robust_pipeline, static_argnames=("config",))
 
 
-def normalize(points, gamma=OCSVM.gamma, nu=OCSVM.nu, *, config: PoseConfig | None = None, throw=False, rotation=False,
-              max_points=MAX_POINTS, seed=0, **options) -> Pose:
-    """The OCSVM pose (center c_m, scale d_m) of surface samples.
+def _check_method(method):
+    if method not in METHODS:
+        hint = (" (gamma and nu are keywords: normalize(points, method='ocsvm', gamma=..., nu=...))"
+                if isinstance(method, numbers.Number) else "")
+        raise _validate.InvalidInputError(f"method must be one of {', '.join(map(repr, METHODS))}, "
+                                          f"got {method!r}{hint}")
+    return method
+
+
+def _options(method, config, given, rotation):
+    """(the static config of ``method``, its traced parameters) from the keywords of normalize.
+
+    ``given``: every keyword the caller passed (unset ones left out). Refuses, naming the method
+    it belongs to, any keyword of the other method.
+    """
+    for key in given:
+        owner = _ONLY.get(key)
+        if owner is not None and owner != method:
+            raise _validate.InvalidInputError(
+                f"{key} is an option of method={owner!r}; method={method!r} does not use it (pass "
+                f"method={owner!r} or leave {key} out)")
+    if method == "robust":
+        if config is not None and not isinstance(config, RobustConfig):
+            raise _validate.InvalidInputError(f"config must be a RobustConfig for method='robust', got "
+                                              f"{type(config).__name__}")
+        if rotation:
+            raise _validate.InvalidInputError(
+                "rotation=True is not available with method='robust' in normalize; use "
+                "jaxpose.normalize_mesh(points, rotation=True), or method='ocsvm'")
+        flat = {k: v for k, v in given.items() if k != "power"}
+        return RobustConfig.create(config, **flat), {"power": given.get("power", ROBUST.power)}
+    if config is not None and not isinstance(config, PoseConfig):
+        raise _validate.InvalidInputError(f"config must be a PoseConfig for method='ocsvm', got "
+                                          f"{type(config).__name__}")
+    flat = {k: v for k, v in given.items() if k not in ("gamma", "nu", "max_points")}
+    return PoseConfig.create(config, **flat), {"gamma": given.get("gamma", OCSVM.gamma), "nu": given.get("nu", OCSVM.nu)}
+
+
+def _check_power(power):
+    if _validate.is_traced(power):
+        return power
+    arr = np.asarray(power)
+    if isinstance(power, bool) or arr.ndim != 0 or not (np.issubdtype(arr.dtype, np.floating)
+                                                        or np.issubdtype(arr.dtype, np.integer)) \
+            or not (np.isfinite(float(arr)) and float(arr) >= 0):
+        raise _validate.InvalidInputError(f"power must be a finite number >= 0, got {power!r}")
+    return power
+
+
+def _given(**kwargs):
+    return {k: v for k, v in kwargs.items() if v is not _UNSET}
+
+
+def normalize(x, method: str = DEFAULT_METHOD, *, power=_UNSET, gamma=_UNSET, nu=_UNSET, config=None, throw=False,
+              rotation=False, max_points=_UNSET, seed=0, **options) -> Pose:
+    """The pose (center, scale) of a point cloud: the robust estimator (default) or the OCSVM.
 
     Args:
-      points: (m, 3) samples of a surface, any units and offset (float32, float64 or integers).
-      gamma: () > 0, dimensionless (for the pre-scaled points, see :mod:`jaxpose.pose.frame`).
-      nu: () in [0, 1].
-      config: a :class:`jaxpose.config.PoseConfig`; or, as keywords, any of its flat options:
-        grid ``resolution`` (64), ``refine`` (2), ``band`` (16384), ``extrapolate``; solver ``tol``
-        (1e-3), ``max_iter``, ``check_every``, ``kernel``, ``solver`` (None: "pg" up to 2500
-        points, "auto" above, on CPU); ``block`` (both); ``derivative`` ("trend" | "exact" |
-        "secant"), ``gamma_delta``, ``nu_delta``, ``secant_iterations``, ``nu_tol``.
-      throw: concrete calls only: raise ConvergenceError if the solver hit max_iter,
-        JaxposeError naming the reason if the pose is not valid (otherwise an invalid concrete
-        pose warns with :class:`jaxpose.InvalidPoseWarning`; see ``Pose.valid``, ``Pose.status``).
-      rotation: also the canonical frame of the OCSVM region (``Pose.rotation``, rows = axes,
-        det +1; ``Pose.ambiguity``, ``Pose.flagged``; :func:`jaxpose.orientation.region_frame`); off
-        by default, and off changes nothing. Not differentiated.
-      max_points: int >= 4 or None: above this many points, a uniform random subset of this size
-        (``seed``) is fitted (:func:`jaxpose.pose.sizes.subsample_index`; ``Pose.count``); None fits every point.
-      seed: int >= 0, the seed of that subset.
+      x: (m, 3) points (samples of a surface, or a scan's vertices), any units and offset
+        (float32, float64 or integers); concrete or traced.
+      method: ``"robust"`` (default: the depth^p-weighted centroid of the points' robust voxel
+        solid and its volume's cube root, :func:`robust_pipeline`; the same default as
+        :func:`jaxpose.normalize_mesh`) or ``"ocsvm"`` (the paper's centroid c_m and mean
+        distance d_m of the OCSVM region, :func:`pose_pipeline`).
+      power: robust only: () depth exponent p >= 0 (default 4; traced and differentiable).
+      gamma, nu: ocsvm only: () gamma > 0 dimensionless (for the pre-scaled points,
+        :mod:`jaxpose.pose.frame`; default 47), nu in [0, 1] (default 0.5); traced and differentiable.
+      config: a :class:`jaxpose.config.RobustConfig` (robust) or :class:`jaxpose.config.PoseConfig`
+        (ocsvm); or, as keywords, its flat options. Robust: ``resolution`` (96 voxels along the main
+        body's largest extent), ``coarse``, ``keep_ratio``, ``max_closing``, ``spacing_samples``.
+        OCSVM: grid ``resolution`` (64), ``refine``, ``band``, ``extrapolate``; solver ``tol``,
+        ``max_iter``, ``check_every``, ``kernel``, ``solver``; ``block``; ``derivative``
+        ("trend" | "exact" | "secant"), ``gamma_delta``, ``nu_delta``, ``secant_iterations``,
+        ``nu_tol``. An option of the other method is refused (InvalidInputError naming it).
+      throw: concrete calls only: raise JaxposeError naming the reason if the pose is not valid
+        (and, for ocsvm, ConvergenceError if the solver hit max_iter); otherwise an invalid
+        concrete pose warns with :class:`jaxpose.InvalidPoseWarning`.
+      rotation: ocsvm only: also the canonical frame of the OCSVM region (``Pose.rotation``,
+        ``Pose.ambiguity``); off changes nothing. Not differentiated.
+      max_points: ocsvm only: int >= 4 or None: above this many points (default 4096) a seeded
+        uniform subset is fitted (:func:`jaxpose.pose.sizes.subsample_index`; ``Pose.count``).
+      seed: int >= 0: the seed of that subset (ocsvm) or of the subset whose spacing is measured
+        (robust, above ``spacing_samples`` points).
 
     Returns:
-      :class:`Pose`. The default grid resolves the boundary like a 128^3 grid, extrapolated with
-      the 64^3 level; ``resolution=32`` is about twice as fast and less accurate;
-      ``resolution=32, refine=8`` for thin shells.
+      :class:`Pose` in the input's units. For a concrete input its center and scale are float64
+      NumPy (mapped back on the host, every digit kept far from the origin); for a traced input,
+      JAX arrays. ``Pose.valid`` / ``Pose.status`` say whether to trust it
+      (:mod:`jaxpose.pose.validity`; a traced input too far from the origin for its dtype is
+      ``FAR_FROM_ORIGIN``).
 
-    A pure JAX function of (points, gamma, nu): jittable (options static), vmappable,
-    differentiable in gamma, nu and the points. By default the derivatives in gamma and nu follow
-    the trend of the pose over gamma (1 +- 1 %) and nu (1 +- 1 %) (two extra solves per parameter,
-    only when differentiated); ``derivative="exact"`` gives the local implicit derivative
-    (``docs/design.md``, "How gradients flow"). Concrete points are centered and scaled in
-    float64 NumPy first (float16 and integers are computed in float32), then padded to
-    :func:`jaxpose.pose.sizes.bucket` rows (masked out), so that sets of many sizes share a few compilations.
+    Pure JAX in (x, power) or (x, gamma, nu): jittable (options static), vmappable. Derivatives:
+    robust, in ``power`` (exact) and in the points through the grid's position and pitch (the
+    voxel occupancy is piecewise constant); ocsvm, in gamma and nu (by default the trend over
+    +-1 %, ``docs/design.md``) and in the points. Concrete points are centered and scaled in
+    float64 NumPy first and padded to :func:`jaxpose.pose.sizes.bucket` rows (masked out), so sets of
+    many sizes share a few compilations.
 
     Raises:
-      InvalidInputError: bad points, gamma, nu or option (unknown options are named).
+      InvalidInputError: bad points, method, parameter or option (unknown options and options of
+        the other method are named).
 
     Example::
 
-        >>> pose = jaxpose.normalize(points)           # points: (m, 3)
-        >>> normalized = pose.apply(points)            # center 0, mean distance 1
+        >>> pose = jaxpose.normalize(points)                        # robust, points: (m, 3)
+        >>> pose = jaxpose.normalize(points, method="ocsvm", gamma=20.0)
+        >>> normalized = pose.apply(points)
     """
-    config = PoseConfig.create(config, **options)
-    _validate.check_points(points)
-    _validate.check_gamma(gamma)
-    _validate.check_nu(nu)
-    rotation, max_points, seed = _check_rotation(rotation), _check_max_points(max_points), _check_seed(seed)
-    index = subsample_index(np.shape(points)[0], max_points, seed)
+    method = _check_method(method)
+    given = {**_given(power=power, gamma=gamma, nu=nu, max_points=max_points), **options}
+    config, params = _options(method, config, given, rotation)
+    _validate.check_points(x)
+    rotation, seed = _check_rotation(rotation), _check_seed(seed)
+    if method == "robust":
+        _check_power(params["power"])
+        index = None
+    else:
+        _validate.check_gamma(params["gamma"])
+        _validate.check_nu(params["nu"])
+        index = subsample_index(np.shape(x)[0], _check_max_points(given.get("max_points", MAX_POINTS)), seed)
     shift, size, mask = None, None, None
-    if _validate.is_traced(points):  # pure-JAX path (jit, vmap, grad in points)
-        points = jnp.asarray(points)
+    if _validate.is_traced(x):  # pure-JAX path (jit, vmap, grad in points)
+        points = jnp.asarray(x)
         if not jnp.issubdtype(points.dtype, jnp.floating):
             points = points.astype(jnp.result_type(float))
         points = points if index is None else points[index]
     else:
-        arr = np.asarray(points) if index is None else np.asarray(points)[index]
+        arr = np.asarray(x) if index is None else np.asarray(x)[index]
         dtype = _validate.compute_dtype(arr)
         shift, size = host_frame(arr)
         points, mask = pad([(np.asarray(arr, np.float64) - shift) / size], bucket(len(arr)), dtype)
         points, mask = points[0], mask[0]
-    pose = _pipeline_jit(points, mask, gamma, nu, config, rotation)
-    return _finish(pose, shift, size, gamma, nu, throw, config.svdd.tol)
+    if method == "robust":
+        queries, query_mask = _queries([np.shape(x)[0]], config.spacing_samples, seed)
+        pose = _robust_jit(points, mask, queries[0], query_mask[0], params["power"], config)
+        return _finish(pose, shift, size, throw)
+    pose = _pipeline_jit(points, mask, params["gamma"], params["nu"], config, rotation)
+    return _finish(pose, shift, size, throw, params["gamma"], params["nu"], config.svdd.tol)
+
+
+def _queries(counts, samples, seed):
+    """The spacing subsets of point sets of ``counts`` points (:func:`spacing_subset`), padded to
+    one bucketed length: (n, q) int32 indices and (n, q) bool mask."""
+    subsets = [spacing_subset(int(c), samples, seed) for c in counts]
+    q = bucket(max(len(s) for s in subsets))
+    queries = np.zeros((len(subsets), q), np.int32)
+    query_mask = np.zeros((len(subsets), q), bool)
+    for i, s in enumerate(subsets):
+        queries[i, : len(s)], query_mask[i, : len(s)] = s, True
+    return jnp.asarray(queries), jnp.asarray(query_mask)
 
 
 def _check_rotation(rotation):
@@ -191,24 +352,31 @@ def _check_seed(seed):
     return int(seed)
 
 
-def _finish(pose, shift, size, gamma, nu, throw, tol):
-    """Map a pose of host-prescaled points back, flag out-of-range traced gamma / nu as not
+def _finish(pose, shift, size, throw, gamma=None, nu=None, tol=None):
+    """Map a pose of host-prescaled points back to the input's units in float64 on the host (its
+    center and scale become NumPy float64), flag out-of-range traced gamma / nu (ocsvm) as not
     valid, and raise (``throw``) or warn on an invalid concrete result."""
     status = jnp.asarray(pose.status)
     if shift is not None:
-        dtype = pose.center.dtype
-        center = jnp.asarray(shift, dtype) + jnp.asarray(size, dtype)[..., None] * pose.center
-        scale = jnp.asarray(size, dtype) * pose.scale
-        finite = jnp.all(jnp.isfinite(center), axis=-1) & jnp.isfinite(scale) & (scale > 0)
-        status = jnp.where((status == 0) & ~finite, int(Status.NOT_FINITE), status)
+        size = np.asarray(size, np.float64)
+        if _validate.is_traced(pose.center) or _validate.is_traced(pose.scale):  # traced parameters
+            xp, shift, size = jnp, jnp.asarray(shift, pose.center.dtype), jnp.asarray(size, pose.center.dtype)
+        else:
+            xp = np
+        center = shift + size[..., None] * xp.asarray(pose.center, np.float64 if xp is np else None)
+        scale = size * xp.asarray(pose.scale, np.float64 if xp is np else None)
+        finite = xp.all(xp.isfinite(center), axis=-1) & xp.isfinite(scale) & (scale > 0)
+        status = jnp.where((status == 0) & ~jnp.asarray(finite), int(Status.NOT_FINITE), status)
         pose = pose._replace(center=center, scale=scale)
-    g, n = jnp.asarray(gamma), jnp.asarray(nu)
-    in_range = jnp.isfinite(g) & (g > 0) & jnp.isfinite(n) & (n >= 0) & (n <= 1)
-    status = jnp.where(in_range, status, int(Status.BAD_PARAMETERS)).astype(jnp.int32)
+    if gamma is not None:
+        g, n = jnp.asarray(gamma), jnp.asarray(nu)
+        in_range = jnp.isfinite(g) & (g > 0) & jnp.isfinite(n) & (n >= 0) & (n <= 1)
+        status = jnp.where(in_range, status, int(Status.BAD_PARAMETERS))
+    status = status.astype(jnp.int32)
     pose = pose._replace(valid=status == 0, status=status)
     if _validate.is_traced(pose.valid):
         return pose
-    if throw and not bool(jnp.all(pose.converged)):
+    if throw and tol is not None and not bool(jnp.all(pose.converged)):
         raise _validate.ConvergenceError(
             f"SVDD solver hit its iteration cap ({np.asarray(pose.iterations)} iterations) before tol={tol}"
         )
@@ -223,23 +391,22 @@ def _finish(pose, shift, size, gamma, nu, throw, tol):
     return pose
 
 
-def normalize_batch(list_of_points: Iterable, gamma=OCSVM.gamma, nu=OCSVM.nu, *, pad_to=None, throw=False, strategy="auto",
-                    config: PoseConfig | None = None, rotation=False, max_points=MAX_POINTS, seed=0,
-                    **options) -> Pose:
-    """Normalize many objects with one compilation (padding and masks).
+def normalize_batch(list_of_points: Iterable, method: str = DEFAULT_METHOD, *, power=_UNSET, gamma=_UNSET,
+                    nu=_UNSET, pad_to=None, throw=False, strategy="auto", config=None, rotation=False,
+                    max_points=_UNSET, seed=0, **options) -> Pose:
+    """Normalize many point clouds in one compiled call: padded to one row count, masked, and mapped.
 
     Args:
       list_of_points: an iterable (list, tuple, generator, ...) of (m_i, 3) concrete arrays; rows
-        are padded to :func:`jaxpose.pose.sizes.bucket` (max(m_i)) (or ``pad_to``) and masked out of every sum, so
-        results equal :func:`normalize` per object up to solver tolerance. Each set is centered
-        and scaled in float64 first.
-      gamma, nu: scalars, shared by all objects.
+        are padded (to ``pad_to``, or to :func:`jaxpose.pose.sizes.bucket` (max(m_i))) and masked out of every sum, so results equal :func:`normalize` per object (up to
+        the OCSVM solver's tolerance). Each set is centered and scaled in float64 first.
+      method, power, gamma, nu, config, options, throw, rotation, max_points, seed: as
+        :func:`normalize` (shared by all objects; each set above ``max_points`` is subsampled).
       pad_to: optional row count (>= the largest set) to share one compilation across calls.
-      strategy: "vmap" (all objects in lock-step: fills wide accelerators, but every object runs
-        as many solver iterations as the slowest), "map" (``lax.map``, one object after another
-        inside the compiled call: faster on CPU) or "auto" ("map" on CPU, "vmap" elsewhere).
-      config, options, throw, rotation, max_points, seed: as :func:`normalize` (each set above
-        ``max_points`` is subsampled).
+      strategy: "vmap" (all objects in lock-step: one program over the batch), "map"
+        (``lax.map``, one object after another inside the compiled call) or "auto" ("vmap" for
+        robust; for ocsvm "map" on CPU, where every object would run as many solver iterations
+        as the slowest, "vmap" elsewhere).
 
     Returns:
       :class:`Pose` whose fields have a leading axis of len(list_of_points).
@@ -250,14 +417,21 @@ def normalize_batch(list_of_points: Iterable, gamma=OCSVM.gamma, nu=OCSVM.nu, *,
 
     Under jit, use ``jax.vmap(normalize)`` instead (padding needs concrete arrays).
     """
+    method = _check_method(method)
     if strategy not in ("auto", "map", "vmap"):
         raise _validate.InvalidInputError(f"strategy must be 'auto', 'map' or 'vmap', got {strategy!r}")
     if strategy == "auto":
-        strategy = "map" if jax.default_backend() == "cpu" else "vmap"
-    config = PoseConfig.create(config, **options)
-    _validate.check_gamma(gamma)
-    _validate.check_nu(nu)
-    rotation, max_points, seed = _check_rotation(rotation), _check_max_points(max_points), _check_seed(seed)
+        strategy = "map" if method == "ocsvm" and jax.default_backend() == "cpu" else "vmap"
+    given = {**_given(power=power, gamma=gamma, nu=nu, max_points=max_points), **options}
+    config, params = _options(method, config, given, rotation)
+    rotation, seed = _check_rotation(rotation), _check_seed(seed)
+    if method == "robust":
+        _check_power(params["power"])
+        limit = None
+    else:
+        _validate.check_gamma(params["gamma"])
+        _validate.check_nu(params["nu"])
+        limit = _check_max_points(given.get("max_points", MAX_POINTS))
     if pad_to is not None and (isinstance(pad_to, bool) or not isinstance(pad_to, numbers.Integral)):
         raise _validate.InvalidInputError(f"pad_to must be an int or None, got {pad_to!r}")
     if isinstance(list_of_points, (str, bytes)) or not isinstance(list_of_points, Iterable):
@@ -268,7 +442,7 @@ def normalize_batch(list_of_points: Iterable, gamma=OCSVM.gamma, nu=OCSVM.nu, *,
         raise _validate.InvalidInputError("normalize_batch needs at least one point set")
     if any(_validate.is_traced(a) for a in arrays):
         raise _validate.InvalidInputError("normalize_batch needs concrete point sets; under jit, use jax.vmap(normalize)")
-    arrays = [np.asarray(a) if (k := subsample_index(len(a), max_points, seed)) is None else np.asarray(a)[k]
+    arrays = [np.asarray(a) if (k := subsample_index(len(a), limit, seed)) is None else np.asarray(a)[k]
               for a in arrays]
     dtype = np.result_type(*[_validate.compute_dtype(a) for a in arrays])
     frames = [host_frame(a, name=f"points[{i}]") for i, a in enumerate(arrays)]
@@ -279,10 +453,16 @@ def normalize_batch(list_of_points: Iterable, gamma=OCSVM.gamma, nu=OCSVM.nu, *,
     if m < largest:
         raise _validate.InvalidInputError(f"pad_to={m} is smaller than the largest point set ({largest} points)")
     pts, mask = pad(arrays, m, dtype)
-    gamma = jnp.broadcast_to(jnp.asarray(gamma, pts.dtype), (len(arrays),))
-    nu = jnp.broadcast_to(jnp.asarray(nu, pts.dtype), (len(arrays),))
+    n = len(arrays)
+    if method == "robust":
+        queries, query_mask = _queries([len(a) for a in arrays], config.spacing_samples, seed)
+        power = jnp.broadcast_to(jnp.asarray(params["power"], pts.dtype), (n,))
+        pose = _robust_batched(pts, mask, queries, query_mask, power, config=config, strategy=strategy)
+        return _finish(pose, shift, size, throw)
+    gamma = jnp.broadcast_to(jnp.asarray(params["gamma"], pts.dtype), (n,))
+    nu = jnp.broadcast_to(jnp.asarray(params["nu"], pts.dtype), (n,))
     pose = _batched(pts, mask, gamma, nu, config=config, strategy=strategy, rotation=rotation)
-    return _finish(pose, shift, size, gamma, nu, throw, config.svdd.tol)
+    return _finish(pose, shift, size, throw, gamma, nu, config.svdd.tol)
 
 
 @partial(jax.jit, static_argnames=("config", "strategy", "rotation"))
@@ -291,3 +471,11 @@ def _batched(points, mask, gamma, nu, config, strategy, rotation=False):
     if strategy == "map":
         return jax.lax.map(lambda args: fn(*args), (points, mask, gamma, nu))
     return jax.vmap(fn)(points, mask, gamma, nu)
+
+
+@partial(jax.jit, static_argnames=("config", "strategy"))
+def _robust_batched(points, mask, queries, query_mask, power, config, strategy):
+    fn = lambda p, mk, q, qm, pw: robust_pipeline(p, mk, q, qm, pw, config)
+    if strategy == "map":
+        return jax.lax.map(lambda args: fn(*args), (points, mask, queries, query_mask, power))
+    return jax.vmap(fn)(points, mask, queries, query_mask, power)

@@ -17,11 +17,13 @@ from .._validate import is_traced
 if TYPE_CHECKING:  # annotations only
     import jax
 
-__all__ = ["Pose", "host", "Status", "status_message", "MAX_SPACING", "MAX_CELL", "MIN_SPREAD"]
+__all__ = ["Pose", "host", "Status", "status_message", "MAX_SPACING", "MAX_CELL", "MIN_SPREAD", "MAX_ROUNDING", "MIN_POINT_VOXELS"]
 
 MAX_SPACING = 2.0  # median nearest-neighbour distance of the samples, in kernel widths
 MAX_CELL = 2.0  # finest grid cell edge, in kernel widths
 MIN_SPREAD = 0.25  # region mean distance / samples' median distance from its centroid
+MIN_POINT_VOXELS = 12  # robust, point clouds: the closed solid spans at least this many voxels along its largest extent
+MAX_ROUNDING = 1e-3  # rounding of the largest coordinate (eps |x|max) / the points' RMS spread (traced input)
 
 
 def _jnp():
@@ -42,6 +44,9 @@ class Status(enum.IntEnum):
     EMPTY_REGION = 5
     COLLAPSED_REGION = 6
     NOT_FINITE = 7
+    EMPTY_SOLID = 8
+    FAR_FROM_ORIGIN = 9
+    SPARSE_CLOUD = 10
 
     @property
     def message(self) -> str:
@@ -61,6 +66,15 @@ _MESSAGES = {
                              "refine, or lower gamma"),
     Status.EMPTY_REGION: "the region {f >= 0} is empty on this grid (no positive volume)",
     Status.NOT_FINITE: "the center or the scale is not finite, or the scale is not positive",
+    Status.EMPTY_SOLID: ("the points enclose no volume: the robust solid is empty or no voxel of it lies deeper "
+                         "than its surface layer (an open sheet, a scan of one side); use method='ocsvm'"),
+    Status.FAR_FROM_ORIGIN: (f"the points lie so far from the origin, relative to their spread, that their dtype "
+                             f"cannot resolve them (rounding above {MAX_ROUNDING:g} of the spread): call with a "
+                             "concrete array (moved on the host in float64), move the points near the origin "
+                             "first, or enable jax_enable_x64"),
+    Status.SPARSE_CLOUD: (f"the point cloud is too sparse for a closing: at the voxel size its spacing allows (the "
+                          f"90th percentile of the 4-neighbour distance / max_closing) its solid spans fewer than "
+                          f"{MIN_POINT_VOXELS} voxels; use more points, or the vertex_mean or ocsvm method"),
     Status.COLLAPSED_REGION: (f"the region collapsed: its mean distance is below {MIN_SPREAD:g} of the samples' "
                               "median distance from its centroid (nu near 1, or too few samples)"),
 }

@@ -28,7 +28,7 @@ def pose(points, gamma=OCSVM.gamma, nu=OCSVM.nu, **options) -> Pose:
         ``derivative`` ("trend", "exact", "secant"), ``gamma_delta`` and ``nu_delta`` (relative
         half-widths of the intervals) and ``secant_iterations``.
     """
-    return normalize(points, gamma, nu, **options)
+    return normalize(points, method="ocsvm", gamma=gamma, nu=nu, **options)
 
 
 def pose_sensitivity(points, gamma=OCSVM.gamma, nu=OCSVM.nu, **options) -> dict:

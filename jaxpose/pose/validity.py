@@ -28,7 +28,7 @@ comparison (no Python branches on values), so poses under ``jit`` and ``vmap`` c
 
 Example::
 
-    >>> pose = jaxpose.normalize(points, gamma=1e4)
+    >>> pose = jaxpose.normalize(points, method="ocsvm", gamma=1e4)
     >>> jaxpose.Status(int(pose.status)).message
 """
 from __future__ import annotations
@@ -37,10 +37,10 @@ import jax
 import jax.numpy as jnp
 
 from ..occupancy.kernels import map_blocks
-from .result import MAX_CELL, MAX_SPACING, MIN_SPREAD, Status, status_message
+from .result import MAX_CELL, MAX_ROUNDING, MAX_SPACING, MIN_SPREAD, Status, status_message
 
-__all__ = ["Status", "MAX_SPACING", "MAX_CELL", "MIN_SPREAD", "status_message", "pose_status", "median_spacing",
-           "median_distance"]
+__all__ = ["Status", "MAX_SPACING", "MAX_CELL", "MIN_SPREAD", "MAX_ROUNDING", "status_message", "pose_status",
+           "median_spacing", "median_distance", "unresolved_offset", "flag_offset"]
 
 
 
@@ -114,3 +114,30 @@ def pose_status(y, mask, gamma, size, moments, refine, center, scale):
     codes = [Status.DEGENERATE_INPUT, Status.SPARSE_SAMPLES, Status.UNRESOLVED_GRID, Status.EMPTY_REGION,
              Status.COLLAPSED_REGION, Status.NOT_FINITE]
     return jnp.select(conditions, [jnp.int32(int(c)) for c in codes], jnp.int32(0))
+
+
+def unresolved_offset(points, mask=None):
+    """() bool: the points' coordinates are rounded by more than ``MAX_ROUNDING`` of their spread.
+
+    eps(dtype) max |x| against the RMS distance of the points from their mean: a traced input far
+    from the origin (|x| >> spread) has lost its shape before any computation, and every result
+    computed from it is off by about that rounding. Concrete inputs are moved near the origin on
+    the host first (:func:`jaxpose.host.host_frame`) and never trip this. Not differentiated.
+    """
+    x = jax.lax.stop_gradient(jnp.asarray(points))
+    w = jnp.ones(x.shape[:1], bool) if mask is None else jnp.asarray(mask, bool)
+    n = jnp.maximum(jnp.sum(w), 1).astype(x.dtype)
+    big = jnp.max(jnp.where(w[:, None], jnp.abs(x), 0))
+    mean = jnp.sum(jnp.where(w[:, None], x, 0), axis=0) / n
+    mean = mean + jnp.sum(jnp.where(w[:, None], x - mean, 0), axis=0) / n
+    d = jnp.where(w[:, None], x - mean, 0)
+    rms = jnp.sqrt(jnp.sum(d * d) / n)
+    return jnp.finfo(x.dtype).eps * big > MAX_ROUNDING * rms
+
+
+def flag_offset(pose, points, mask=None):
+    """``pose`` with status FAR_FROM_ORIGIN (and valid False) where :func:`unresolved_offset`: the
+    root cause, reported before what it leads to (rounded points that look degenerate or sparse)."""
+    far = unresolved_offset(points, mask)
+    status = jnp.where(far, jnp.int32(int(Status.FAR_FROM_ORIGIN)), pose.status)
+    return pose._replace(status=status.astype(jnp.int32), valid=status == 0)

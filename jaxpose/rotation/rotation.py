@@ -489,7 +489,7 @@ def frame_of(geometry, method=DEFAULT_ROTATION, *, resolution=None, sol=None, oc
         o = dict(ocsvm or {})
         points = sample.sample_surface(geometry, o.get("count", OCSVM.count), seed=o.get("seed", OCSVM.seed),
                                        method=o.get("sampling", OCSVM.sampling))
-        pose = normalize(points, o.get("gamma", OCSVM.gamma), o.get("nu", OCSVM.nu), rotation=True, **o.get("options", {}))
+        pose = normalize(points, method="ocsvm", gamma=o.get("gamma", OCSVM.gamma), nu=o.get("nu", OCSVM.nu), rotation=True, **o.get("options", {}))
         return Frame(np.asarray(pose.rotation, np.float64), float(np.asarray(pose.ambiguity)),
                      np.full(3, np.nan), np.full(2, np.nan), np.full(3, np.nan), -1, np.full(3, np.nan))
     return baselines.frame(geometry, method)

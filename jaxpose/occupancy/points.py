@@ -1,0 +1,379 @@
+"""The robust voxel solid of a point cloud, in JAX: jittable, vmappable, no host step.
+
+The algorithm of :func:`jaxpose.occupancy.solid.robust_solid` for points, on a static grid (cell count
+static, pitch and origin traced):
+
+1. Spacing: r_4, the distance of each point of a seeded uniform subset (at most
+   ``spacing_samples``; indices from :func:`spacing_subset`, fixed by the point count) to its 4th
+   nearest other point (blocked brute force; candidates from a matrix product, distances then
+   recomputed exactly); q = its 90th percentile (linear interpolation, as ``numpy.quantile``).
+2. Pitch h = max(extent / resolution, q / ``max_closing``); closing radius r = max(1, ceil(q / h))
+   voxels; a margin of 3 r + 3 voxels around the box; grid origin lo - (margin + 1e-3 sqrt 2) h.
+3. Occupied voxels: each point's voxel (scatter). Closing: dilate by r (squared distance to the
+   occupied voxels <= r^2), fill enclosed cavities (:func:`exterior_fill`), erode by r. A closing
+   is accepted when it holds >= 1.2 x the voxels of the eroded shell alone (no cavity: the fill
+   leaked through a gap wider than the dilation); otherwise r grows by max(1, r // 4) up to 3 r
+   (``lax.while_loop``). The solid is the closing or the occupied voxels.
+4. Stray parts (:func:`keep_main`): 26-connected components (min-label propagation and pointer
+   jumping in a ``lax.while_loop``), sized by their boundary voxels (6-neighbour erosion); the
+   largest and those at least ``keep_ratio`` of it are kept.
+5. Two passes: a coarse one (``coarse`` voxels along the largest extent) over every point finds
+   the main body; the points within one voxel of it give the box of the fine pass
+   (``resolution``), whose solid is filled and kept again.
+6. What :func:`jaxpose.pose.pose.robust_pipeline` takes from it: the depth of each kept voxel, its exact
+   distance to the outside minus ``POINT_BIAS`` = one voxel (occupied voxels straddle the surface)
+   (:func:`jaxpose.depth.depth_weights`), and the volume h^3 (kept voxels - kept occupied voxels / 2)
+   (:func:`jaxpose.moments.grid_moments`).
+
+Grids: ``resolution + 2 (3 max_closing + 3) + 1`` cells per axis (127 at the default 96), enough
+for the widest margin whatever the shape, so the cell count never depends on the points.
+
+Differentiation: the occupancy, the depth and the radius are piecewise constant in the points
+(no derivative flows through them); the grid's origin and pitch follow the points' box and
+spacing, so centers and scales move with a translation or a scaling of the points exactly.
+
+Example::
+
+    >>> sol = point_solid(points, None, spacing_subset(len(points), 10_000), RobustConfig())
+    >>> sol.inside.sum(), sol.pitch
+"""
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax import lax
+
+from ..config import RobustConfig
+from .solid import POINT_BIAS
+
+__all__ = ["PointSolid", "point_solid", "spacing_subset", "spacing_quantile", "grid_cells", "exterior_fill",
+           "components", "keep_main", "erode6", "capped_squared_distance", "POINT_BIAS"]
+
+_OFFSET = 1e-3 * math.sqrt(2.0)  # grid offset in pitches, as jaxpose.solid's: grid lines miss axis-aligned points
+_BIG = np.int32(2**30)  # "no feature in reach" for squared distances; "no label" for components
+_CANDIDATES = 8  # nearest-neighbour candidates per query from the matrix product, then exact
+
+
+class PointSolid(NamedTuple):
+    """The kept solid of a point cloud on a static grid (a pytree).
+
+    Attributes:
+      inside: (g, g, g) bool, kept voxels.
+      occupied: (g, g, g) bool, voxels holding a point.
+      origin: (3,) lower corner of voxel (0, 0, 0); pitch: () voxel edge, in units.
+      radius: () int32, the closing radius used (voxels).
+      components: () int32, components found; dropped: () int32, dropped as stray parts.
+    """
+
+    inside: jax.Array
+    occupied: jax.Array
+    origin: jax.Array
+    pitch: jax.Array
+    radius: jax.Array
+    components: jax.Array
+    dropped: jax.Array
+
+
+def grid_cells(resolution: int, max_closing: int) -> int:
+    """Cells per axis of the static grid of a pass at ``resolution`` (module docs)."""
+    return int(resolution) + 2 * (3 * int(max_closing) + 3) + 1
+
+
+# ------------------------------------------------------------------ spacing
+def spacing_subset(n: int, samples: int, seed: int = 0) -> np.ndarray:
+    """Indices (q,) of the points whose neighbour distances are measured: every point when
+    n <= samples, else ``numpy.random.default_rng(seed).choice(n, samples, replace=False)`` (the
+    subset of :func:`jaxpose.occupancy.solid.neighbour_distances`). Depends on (n, samples, seed) only."""
+    if n <= samples:
+        return np.arange(n)
+    return np.random.default_rng(seed).choice(n, size=int(samples), replace=False)
+
+
+def _masked_quantile(values, mask, q):
+    """numpy.quantile(values[mask], q) (linear interpolation); values (n,), mask (n,) bool."""
+    n = jnp.sum(mask)
+    s = jnp.sort(jnp.where(mask, values, jnp.inf))
+    pos = q * (jnp.maximum(n, 1) - 1).astype(values.dtype)
+    lo = jnp.floor(pos).astype(jnp.int32)
+    hi = jnp.minimum(lo + 1, jnp.maximum(n - 1, 0))
+    frac = pos - lo.astype(values.dtype)
+    return s[lo] + frac * (s[hi] - s[lo])
+
+
+def spacing_quantile(points, mask, queries, query_mask, k=4, q=0.9, block=256):
+    """The ``q`` quantile of the distances from points[queries] to their k-th nearest other point.
+
+    Args:
+      points: (n, 3) float; mask: (n,) bool (False rows are padding, never neighbours).
+      queries: (m,) int indices into points; query_mask: (m,) bool (False: not counted).
+      k: neighbour rank (4); q: quantile (0.9); block: queries per block (memory O(block n)).
+
+    Returns:
+      () float, in the units of ``points``.
+    """
+    pts = lax.stop_gradient(points)
+    center = jnp.sum(jnp.where(mask[:, None], pts, 0), 0) / jnp.maximum(jnp.sum(mask), 1)
+    p = pts - center
+    pn = jnp.where(mask, jnp.sum(p * p, axis=1), jnp.inf)
+    m = queries.shape[0]
+    pad = (-m) % block
+    qi = jnp.concatenate([queries, jnp.zeros((pad,), queries.dtype)]).reshape(-1, block)
+    cand = min(_CANDIDATES, p.shape[0])
+
+    def kth(rows):
+        x = p[rows]
+        d2 = jnp.sum(x * x, 1)[:, None] + pn[None, :] - 2.0 * x @ p.T  # +inf on padding
+        _, idx = lax.top_k(-d2, cand)
+        exact = jnp.sum((x[:, None, :] - p[idx]) ** 2, axis=-1)
+        exact = jnp.where(mask[idx], exact, jnp.inf)
+        return jnp.sqrt(jnp.sort(exact, axis=1)[:, min(k, cand - 1)])  # rank 0 is the point itself
+
+    r = lax.map(kth, qi).reshape(-1)[:m]
+    return _masked_quantile(r, query_mask & jnp.isfinite(r), q)
+
+
+# ------------------------------------------------------------------ distances
+def _min_plus(f, axis, limit):
+    """g(i) = min_j f(j) + (i - j)^2 along ``axis``, exact wherever g(i) <= ``limit`` (traced).
+
+    Offsets K = 1, 2, ... are taken (both signs, one vector min each) while K^2 <= limit and some
+    cell of a line that holds a finite value is still above K^2 (its minimiser may lie further).
+    """
+    n = f.shape[axis]
+    pad = [(0, 0)] * f.ndim
+    pad[axis] = (n, n)
+    padded = jnp.pad(f, pad, constant_values=_BIG)
+    reachable = jnp.any(f < _BIG, axis=axis, keepdims=True)
+
+    def bound(g):
+        return jnp.minimum(jnp.max(jnp.where(reachable, g, 0)), limit)
+
+    def cond(state):
+        k, _, top = state
+        return (k < n) & (k * k <= top)
+
+    def body(state):
+        k, g, _ = state
+        g = jnp.minimum(g, jnp.minimum(lax.dynamic_slice_in_dim(padded, n + k, n, axis),
+                                       lax.dynamic_slice_in_dim(padded, n - k, n, axis)) + k * k)
+        return k + 1, g, bound(g)
+
+    _, g, _ = lax.while_loop(cond, body, (jnp.int32(1), f, bound(f)))
+    return g
+
+
+def capped_squared_distance(feature, cap):
+    """Squared distance (cells) of every cell to the nearest True cell of ``feature`` (3-D bool),
+    exact wherever it is <= ``cap`` (() int, traced); elsewhere some value > ``cap``.
+
+    The truncated transform behind dilations and erosions by a ball of radius sqrt(cap): its loops
+    stop at offset sqrt(cap), where the exact transform (:func:`jaxpose.depth.squared_distance`,
+    used for the depth) runs to the largest distance in the grid."""
+    d2 = jnp.where(feature, 0, _BIG).astype(jnp.int32)
+    for axis in range(3):
+        d2 = _min_plus(d2, axis, cap)
+    return d2
+
+
+# ------------------------------------------------------------------ morphology
+def _window(x, op, fill):
+    """op over the 3 x 3 x 3 neighbourhood of each cell (cells beyond the border = fill)."""
+    for axis in range(3):
+        n = x.shape[axis]
+        pad = [(0, 0)] * 3
+        pad[axis] = (1, 1)
+        p = jnp.pad(x, pad, constant_values=fill)
+        x = op(op(lax.slice_in_dim(p, 0, n, axis=axis), lax.slice_in_dim(p, 1, n + 1, axis=axis)),
+               lax.slice_in_dim(p, 2, n + 2, axis=axis))
+    return x
+
+
+def _cross(x, op, fill):
+    """op over each cell and its 6 face neighbours (cells beyond the border = fill)."""
+    out = x
+    for axis in range(3):
+        n = x.shape[axis]
+        pad = [(0, 0)] * 3
+        pad[axis] = (1, 1)
+        p = jnp.pad(x, pad, constant_values=fill)
+        out = op(op(out, lax.slice_in_dim(p, 0, n, axis=axis)), lax.slice_in_dim(p, 2, n + 2, axis=axis))
+    return out
+
+
+def erode6(solid):
+    """6-neighbour erosion (scipy's binary_erosion with its default cross, border outside)."""
+    out = solid
+    for axis in range(3):
+        n = solid.shape[axis]
+        pad = [(0, 0)] * 3
+        pad[axis] = (1, 1)
+        p = jnp.pad(solid, pad, constant_values=False)
+        out = out & lax.slice_in_dim(p, 0, n, axis=axis) & lax.slice_in_dim(p, 2, n + 2, axis=axis)
+    return out
+
+
+def _label(cells, seed, corners, jumps=2):
+    """Connected-component labels of ``cells`` (3-D bool): each cell's label is the smallest
+    ``seed`` value in its component (_BIG outside ``cells``); ``seed`` is a distinct int32 per cell
+    in [0, cells.size) (a flat index) or a shared smaller value. ``corners``: 26-connectivity
+    (else 6).
+
+    Rounds of (a) the smallest label among each cell and its neighbours, (b) hooking: that value
+    also lowers the label of the cell the label names (a scatter-min), (c) ``jumps`` pointer jumps
+    (a label names a cell of the same component, whose label is at most it); until nothing
+    changes (FastSV, Zhang et al. 2020: O(log n) rounds on most grids).
+    """
+    size = cells.size
+    neighbours = _window if corners else _cross
+    labels = jnp.where(cells, seed, _BIG).reshape(-1)
+    flat_cells = cells.reshape(-1)
+
+    def cond(state):
+        return state[1]
+
+    def body(state):
+        lab, _ = state
+        low = jnp.where(flat_cells, neighbours(lab.reshape(cells.shape), jnp.minimum, _BIG).reshape(-1), _BIG)
+        parent = jnp.where(flat_cells, jnp.minimum(lab, size - 1), size)  # size: dropped
+        new = lab.at[parent].min(low, mode="drop")
+        new = jnp.minimum(new, low)
+        for _ in range(jumps):
+            new = jnp.where(flat_cells, new[jnp.minimum(new, size - 1)], _BIG)
+        return new, jnp.any(new != lab)
+
+    labels, _ = lax.while_loop(cond, body, (labels, jnp.array(True)))
+    return labels.reshape(cells.shape)
+
+
+def _border(shape):
+    out = jnp.zeros(shape, bool)
+    for a in range(3):
+        idx = lax.broadcasted_iota(jnp.int32, shape, a)
+        out = out | (idx == 0) | (idx == shape[a] - 1)
+    return out
+
+
+def exterior_fill(solid):
+    """``solid`` with its enclosed cavities filled: the cells not 6-connected to the grid border
+    through cells outside the solid (``scipy.ndimage.binary_fill_holes``). (g, g, g) bool."""
+    flat = jnp.arange(solid.size, dtype=jnp.int32).reshape(solid.shape)
+    # border cells share label 0, so the exterior ends up labelled 0; cell 0 (a corner) joins it
+    # so that label 0 names a cell labelled 0 (a solid corner cell stays solid below)
+    free = ~solid | (flat == 0)
+    labels = _label(free, jnp.where(_border(solid.shape), 0, flat), corners=False)
+    return solid | (labels != 0)
+
+
+def components(solid):
+    """26-connected component labels of ``solid``: each cell's label is the smallest flat index
+    of its component (_BIG outside). (g, g, g) int32."""
+    return _label(solid, jnp.arange(solid.size, dtype=jnp.int32).reshape(solid.shape), corners=True)
+
+
+def keep_main(solid, keep_ratio):
+    """The components of ``solid`` that are the main body or at least ``keep_ratio`` of its size
+    (boundary cells: ``solid`` minus its 6-neighbour erosion), as :func:`jaxpose.occupancy.solid.keep_main`.
+
+    Returns:
+      kept (g, g, g) bool, components () int32, dropped () int32.
+    """
+    labels = components(solid)
+    boundary = solid & ~erode6(solid)
+    safe = jnp.where(solid, labels, 0).reshape(-1)
+    size = jnp.zeros(solid.size, jnp.int32).at[safe].add(boundary.reshape(-1).astype(jnp.int32))
+    roots = (labels.reshape(-1) == jnp.arange(solid.size, dtype=jnp.int32))
+    big = jnp.max(size)
+    keep_root = roots & (size.astype(jnp.float32) >= keep_ratio * big.astype(jnp.float32))
+    kept = solid & keep_root[safe].reshape(solid.shape)
+    return kept, jnp.sum(roots).astype(jnp.int32), jnp.sum(roots & ~keep_root).astype(jnp.int32)
+
+
+# ------------------------------------------------------------------ one pass
+def _occupied(points, mask, origin, pitch, cells):
+    idx = jnp.floor((points - origin) / pitch).astype(jnp.int32)
+    ok = mask & jnp.all((idx >= 0) & (idx < cells), axis=1)
+    idx = jnp.where(ok[:, None], idx, cells)  # out of range: dropped
+    occ = jnp.zeros((cells,) * 3, bool)
+    return occ.at[idx[:, 0], idx[:, 1], idx[:, 2]].set(True, mode="drop")
+
+
+def _closing(occ, radius, max_radius):
+    """Closing of the occupied voxels with the adaptive radius (module docs, step 3)."""
+    cap = max_radius * max_radius
+    out_d2 = capped_squared_distance(occ, cap)
+
+    def attempt(r):
+        dil = out_d2 <= r * r
+        filled = exterior_fill(dil)
+        closed = capped_squared_distance(~filled, r * r) > r * r
+        shell = capped_squared_distance(~dil, r * r) > r * r
+        return closed, jnp.sum(closed) >= 1.2 * jnp.sum(shell)
+
+    def cond(state):
+        return ~state[2]
+
+    def body(state):
+        r, _, _ = state
+        r = jnp.minimum(r + jnp.maximum(1, r // 4), max_radius)
+        closed, ok = attempt(r)
+        return r, closed, ok | (r >= max_radius)
+
+    closed, ok = attempt(radius)
+    r, closed, _ = lax.while_loop(cond, body, (radius, closed, ok | (radius >= max_radius)))
+    return closed | occ, r
+
+
+def _pass(points, mask, lo, hi, q, resolution, config):
+    """One grid: (solid, occupied, origin, pitch, radius) on the box [lo, hi]."""
+    cells = grid_cells(resolution, config.max_closing)
+    pitch = jnp.maximum(jnp.max(hi - lo) / resolution, q / config.max_closing)
+    radius = jnp.clip(jnp.ceil(q / pitch), 1, config.max_closing).astype(jnp.int32)
+    margin = 3 * radius + 3
+    origin = lo - (margin.astype(pitch.dtype) + _OFFSET) * pitch
+    occ = _occupied(points, mask, origin, pitch, cells)
+    solid, r = _closing(occ, radius, 3 * radius)
+    return solid, occ, origin, pitch, r
+
+
+def point_solid(points, mask, queries, config: RobustConfig, query_mask=None) -> PointSolid:
+    """The kept solid of a point cloud (module docs); pure JAX, no input checks.
+
+    Args:
+      points: (n, 3) float, coordinates of order 1 are best (float32 resolves them to ~1e-7).
+      mask: (n,) bool or None; False rows are padding.
+      queries: (m,) int, the points whose spacing is measured (:func:`spacing_subset`);
+        query_mask: (m,) bool or None (False: padding).
+      config: :class:`jaxpose.config.RobustConfig` (static).
+
+    Returns:
+      :class:`PointSolid`; its ``inside`` is empty when the points enclose no volume.
+    """
+    points = lax.stop_gradient(points)
+    n = points.shape[0]
+    mask = jnp.ones((n,), bool) if mask is None else jnp.asarray(mask, bool)
+    queries = jnp.asarray(queries, jnp.int32)
+    query_mask = jnp.ones(queries.shape, bool) if query_mask is None else jnp.asarray(query_mask, bool)
+    q = spacing_quantile(points, mask, queries, query_mask & mask[queries])
+    big = jnp.asarray(jnp.finfo(points.dtype).max, points.dtype)
+    lo = jnp.min(jnp.where(mask[:, None], points, big), axis=0)
+    hi = jnp.max(jnp.where(mask[:, None], points, -big), axis=0)
+    # pass 1: the main body over everything
+    solid1, _, origin1, pitch1, _ = _pass(points, mask, lo, hi, q, config.coarse, config)
+    kept1 = keep_main(solid1, config.keep_ratio)[0]
+    near = _window(kept1, jnp.logical_or, False)
+    cells1 = near.shape[0]
+    idx = jnp.clip(jnp.floor((points - origin1) / pitch1).astype(jnp.int32), -1, cells1)
+    inb = jnp.all((idx >= 0) & (idx < cells1), axis=1)
+    cl = jnp.clip(idx, 0, cells1 - 1)
+    on = mask & inb & near[cl[:, 0], cl[:, 1], cl[:, 2]]
+    found = jnp.any(on)
+    lo = jnp.where(found, jnp.min(jnp.where(on[:, None], points, big), axis=0), lo)
+    hi = jnp.where(found, jnp.max(jnp.where(on[:, None], points, -big), axis=0), hi)
+    # pass 2: the fine grid on the main body's box
+    solid, occ, origin, pitch, r = _pass(points, mask, lo, hi, q, config.resolution, config)
+    kept, count, dropped = keep_main(exterior_fill(solid), config.keep_ratio)
+    return PointSolid(kept, occ, origin, pitch, r, count, dropped)

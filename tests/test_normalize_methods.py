@@ -1,0 +1,226 @@
+"""jaxpose.normalize / normalize_batch with method="robust" (the default) and "ocsvm": one API,
+options of the other method refused, jit / vmap / grad, offsets far from the origin."""
+from __future__ import annotations
+
+import sys
+import warnings
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from conftest import faust_points, sphere_with_arm  # noqa: E402
+
+import jaxpose  # noqa: E402
+from jaxpose import Status  # noqa: E402
+from jaxpose._validate import InvalidInputError, InvalidPoseWarning, JaxposeError  # noqa: E402
+from jaxpose.config import RobustConfig  # noqa: E402
+from jaxpose.pose.estimators import robust_center_scale  # noqa: E402
+
+SMALL = dict(resolution=48, coarse=24)  # robust grids of 79^3 / 55^3 cells: the same algorithm, cheaper
+
+
+def _ellipsoid(m=2000, seed=0, axes=(1.0, 0.6, 0.4)):
+    rng = np.random.default_rng(seed)
+    u = rng.normal(size=(m, 3))
+    return u / np.linalg.norm(u, axis=1, keepdims=True) * np.asarray(axes)
+
+
+def _body(m=2000, seed=0):
+    """An ellipsoid with a ball-ended arm: the depth-weighted center differs from the centroid."""
+    rng = np.random.default_rng(seed)
+    e = _ellipsoid(m - m // 4, seed)
+    k = m // 4
+    t = rng.uniform(0, 1, k)
+    phi = rng.uniform(0, 2 * np.pi, k)
+    arm = np.c_[0.9 + 0.8 * t, 0.12 * np.cos(phi), 0.12 * np.sin(phi)]
+    return np.concatenate([e, arm])
+
+
+def test_default_method_is_robust_and_equals_the_numpy_estimator():
+    pts = _body()
+    pose = jaxpose.normalize(pts)
+    center, scale, _ = robust_center_scale(pts)  # the NumPy/SciPy robust solid, float64
+    assert isinstance(pose.center, np.ndarray) and pose.center.dtype == np.float64
+    assert bool(pose.valid) and int(pose.status) == Status.OK
+    np.testing.assert_allclose(pose.center, center, atol=1e-5 * scale)
+    assert float(pose.scale) == pytest.approx(scale, rel=1e-5)
+
+
+def test_robust_options_and_config_object_agree():
+    pts = _body(1500, seed=1)
+    a = jaxpose.normalize(pts, power=2.0, **SMALL)
+    b = jaxpose.normalize(pts, method="robust", power=2.0, config=RobustConfig(**SMALL))
+    np.testing.assert_array_equal(a.center, b.center)
+    c, s, _ = robust_center_scale(pts, power=2.0, resolution=48)  # coarse pass 48 there: same box here
+    assert float(a.scale) == pytest.approx(s, rel=2e-2)
+
+
+@pytest.mark.parametrize("method,key,value,owner", [
+    ("robust", "gamma", 20.0, "ocsvm"), ("robust", "nu", 0.3, "ocsvm"), ("robust", "tol", 1e-4, "ocsvm"),
+    ("robust", "max_points", 100, "ocsvm"), ("robust", "refine", 4, "ocsvm"), ("robust", "solver", "pg", "ocsvm"),
+    ("ocsvm", "power", 2.0, "robust"), ("ocsvm", "keep_ratio", 0.2, "robust"), ("ocsvm", "coarse", 32, "robust"),
+])
+def test_options_of_the_other_method_are_refused(method, key, value, owner):
+    pts = _body(200)
+    for call in (lambda: jaxpose.normalize(pts, method=method, **{key: value}),
+                 lambda: jaxpose.normalize_batch([pts, pts], method=method, **{key: value})):
+        with pytest.raises(InvalidInputError, match=f"{key} is an option of method='{owner}'"):
+            call()
+
+
+def test_bad_method_and_parameters_are_refused():
+    pts = _body(200)
+    with pytest.raises(InvalidInputError, match="method must be one of 'robust', 'ocsvm'.*keywords"):
+        jaxpose.normalize(pts, 47.0)
+    with pytest.raises(InvalidInputError, match="method must be one of"):
+        jaxpose.normalize_batch([pts], method="solid")
+    for power in (-1.0, np.nan, True, "4"):
+        with pytest.raises(InvalidInputError, match="power"):
+            jaxpose.normalize(pts, power=power)
+    with pytest.raises(InvalidInputError, match="RobustConfig"):
+        jaxpose.normalize(pts, config=jaxpose.PoseConfig())
+    with pytest.raises(InvalidInputError, match="PoseConfig"):
+        jaxpose.normalize(pts, method="ocsvm", config=RobustConfig())
+    with pytest.raises(InvalidInputError, match="unknown option"):
+        jaxpose.normalize(pts, resolutoin=32)
+    with pytest.raises(InvalidInputError, match="rotation"):
+        jaxpose.normalize(pts, rotation=True)
+
+
+def test_empty_solid_is_flagged_not_valid():
+    rng = np.random.default_rng(5)
+    sheet = np.c_[rng.uniform(-1, 1, (1500, 2)), np.zeros(1500)]  # an open sheet: no volume
+    with pytest.warns(InvalidPoseWarning, match="enclose no volume"):
+        pose = jaxpose.normalize(sheet, **SMALL)
+    assert not bool(pose.valid) and int(pose.status) == Status.EMPTY_SOLID
+    with pytest.raises(JaxposeError, match="enclose no volume"):
+        jaxpose.normalize(sheet, throw=True, **SMALL)
+
+
+@pytest.mark.parametrize("method", ["robust", "ocsvm"])
+def test_jit_of_center_runs_on_an_array(method):
+    pts = _body(1024, seed=2)
+    opts = SMALL if method == "robust" else {"resolution": 32}
+    f = jax.jit(lambda x: jaxpose.normalize(x, method=method, **opts).center)
+    traced = np.asarray(f(jnp.asarray(pts, jnp.float32)))
+    concrete = jaxpose.normalize(pts, method=method, **opts)
+    assert traced.shape == (3,) and np.all(np.isfinite(traced))
+    tol = 1e-4 if method == "robust" else 2e-3  # float32 rounding; the OCSVM solver's tolerance
+    np.testing.assert_allclose(traced, concrete.center, atol=tol * float(concrete.scale))
+
+
+def test_vmap_of_normalize_over_a_stack():
+    stack = jnp.asarray(np.stack([_body(800, seed=s) * (1 + s) for s in range(3)]), jnp.float32)
+    poses = jax.jit(jax.vmap(lambda x: jaxpose.normalize(x, **SMALL)))(stack)
+    assert poses.center.shape == (3, 3) and bool(jnp.all(poses.valid))
+    for s in range(3):
+        single = jaxpose.normalize(np.asarray(stack[s]), **SMALL)
+        np.testing.assert_allclose(np.asarray(poses.center[s]), single.center, atol=1e-4 * float(single.scale))
+
+
+def test_normalize_batch_of_32_padded_clouds_equals_single_calls():
+    rng = np.random.default_rng(0)
+    clouds = [_body(int(rng.integers(700, 1000)), seed=i) * rng.uniform(0.5, 2.0) + rng.normal(size=3)
+              for i in range(32)]
+    batch = jaxpose.normalize_batch(clouds, **SMALL)
+    assert batch.center.shape == (32, 3) and bool(np.all(np.asarray(batch.valid)))
+    for i, c in enumerate(clouds):
+        single = jaxpose.normalize(c, **SMALL)
+        np.testing.assert_allclose(batch.center[i], single.center, atol=1e-5 * float(single.scale), rtol=0)
+        assert abs(float(batch.scale[i]) - float(single.scale)) <= 1e-5 * float(single.scale)
+    mapped = jaxpose.normalize_batch(clouds[:3], strategy="map", **SMALL)
+    np.testing.assert_allclose(mapped.center, batch.center[:3], atol=1e-5 * float(np.min(batch.scale)), rtol=0)
+
+
+def _central_difference(fn, p, rel=0.01):
+    h = rel * p
+    return (np.asarray(fn(p + h)) - np.asarray(fn(p - h))) / (2 * h)
+
+
+def _check_power_gradient(pts, power=4.0, **opts):
+    x = jnp.asarray(pts, jnp.float32)
+    center = lambda p: jaxpose.normalize(x, power=p, **opts).center
+    jac = np.asarray(jax.jacfwd(center)(jnp.float32(power)))
+    grads = np.asarray([jax.grad(lambda p, k=k: center(p)[k])(jnp.float32(power)) for k in range(3)])
+    fd = _central_difference(center, power)
+    scale = float(jaxpose.normalize(pts, **opts).scale)
+    assert np.all(np.isfinite(jac)) and np.all(np.isfinite(grads))
+    np.testing.assert_allclose(grads, jac, rtol=1e-3)  # reverse and forward mode: float32 sums in another order
+    assert np.abs(fd).max() > 1e-5 * scale  # the center moves with the power well above float32 noise
+    big = np.abs(fd) > 0.1 * np.abs(fd).max()  # the components that carry the motion
+    np.testing.assert_allclose(grads[big], fd[big], rtol=0.1)
+    np.testing.assert_allclose(grads, fd, atol=0.1 * np.abs(fd).max() + 1e-6 * scale)
+    dscale = jax.grad(lambda p: jaxpose.normalize(x, power=p, **opts).scale)(jnp.float32(power))
+    assert float(dscale) == 0.0  # the volume does not depend on the weights
+
+
+def test_grad_in_power_matches_central_differences():
+    _check_power_gradient(_body(3000, seed=3), **SMALL)
+
+
+@pytest.mark.shared
+def test_grad_in_power_on_faust_matches_central_differences():
+    _check_power_gradient(faust_points(5000, index=3))
+
+
+@pytest.mark.parametrize("method", ["robust", "ocsvm"])
+@pytest.mark.parametrize("offset", [3e7, 1e9])
+def test_far_from_origin_concrete_float64(method, offset):
+    """A float64 input is moved on the host: float32 JAX gives the un-shifted pose. The OCSVM's
+    float32 solver answers a change in the last bit of its input (which the offset's rounding of
+    the input makes) by up to ~3e-4 of the scale; the robust solid by far less."""
+    pts = sphere_with_arm(1500, seed=4)
+    opts = SMALL if method == "robust" else {}
+    base = jaxpose.normalize(pts, method=method, **opts)
+    far = jaxpose.normalize(pts + offset, method=method, **opts)
+    tol = 1e-5 if method == "robust" else 1e-3
+    assert bool(far.valid)
+    assert np.abs(far.center - offset - base.center).max() <= tol * float(base.scale)
+    assert abs(float(far.scale) - float(base.scale)) <= tol * float(base.scale)
+    batch = jaxpose.normalize_batch([pts + offset, pts], method=method, **opts)
+    assert np.abs(batch.center[0] - offset - batch.center[1]).max() <= tol * float(base.scale)
+
+
+@pytest.mark.parametrize("method", ["robust", "ocsvm"])
+def test_far_from_origin_float64_x64(method, x64):
+    """x64: 1e-5 of the scale at 1e9 and 1e12 (robust), at 1e9 (ocsvm). At 1e12 float64 rounds the
+    input itself by 6e-5 (3e-7 of this shape's scale) and the OCSVM's solver (tol 1e-3) answers
+    that rounding by ~1.4e-5 of the scale: measured, within 1e-4."""
+    pts = 1000.0 * sphere_with_arm(1500, seed=4)
+    opts = SMALL if method == "robust" else {}
+    base = jaxpose.normalize(pts, method=method, **opts)
+    for offset in (1e9, 1e12):
+        far = jaxpose.normalize(pts + offset, method=method, **opts)
+        tol = 1e-4 if (method, offset) == ("ocsvm", 1e12) else 1e-5
+        assert bool(far.valid)
+        assert np.abs(far.center - offset - base.center).max() <= tol * float(base.scale)
+        assert abs(float(far.scale) - float(base.scale)) <= tol * float(base.scale)
+
+
+@pytest.mark.parametrize("method", ["robust", "ocsvm"])
+def test_traced_input_far_from_origin_is_flagged(method):
+    pts = sphere_with_arm(1024, seed=5)
+    opts = SMALL if method == "robust" else {"resolution": 32}
+    f = jax.jit(lambda x: jaxpose.normalize(x, method=method, **opts))
+    near = f(jnp.asarray(pts, jnp.float32))
+    assert bool(near.valid)
+    for offset in (3e7, 1e5):  # 1e5: float32 rounds the coordinates by ~4e-3 / 0.4 of the spread
+        far = f(jnp.asarray(pts + offset, jnp.float32))
+        assert not bool(far.valid) and int(far.status) == Status.FAR_FROM_ORIGIN
+    moderate = f(jnp.asarray(pts + 100.0, jnp.float32))  # rounding 8e-6 of 0.4: resolved, valid
+    assert bool(moderate.valid)
+    vmapped = jax.vmap(lambda x: jaxpose.normalize(x, method=method, **opts))(
+        jnp.asarray(np.stack([pts, pts + 3e7]), jnp.float32))
+    assert np.asarray(vmapped.status).tolist() == [0, int(Status.FAR_FROM_ORIGIN)]
+
+
+def test_status_messages_name_the_new_reasons():
+    assert "enclose no volume" in Status.EMPTY_SOLID.message
+    assert "far from the origin" in Status.FAR_FROM_ORIGIN.message
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert jaxpose.Status(9) is Status.FAR_FROM_ORIGIN

@@ -1,0 +1,150 @@
+"""The JAX robust solid of a point cloud against SciPy (morphology, labels, distances) and against
+the NumPy solid it replaces (jaxpose.occupancy.solid), voxel for voxel."""
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from scipy import ndimage
+from scipy.spatial import cKDTree
+
+from jaxpose.occupancy import points as po
+from jaxpose.occupancy import solid as host_solid
+from jaxpose.config import RobustConfig
+
+CONFIG = RobustConfig(resolution=48, coarse=24)  # small grids (79^3, 55^3): the same algorithm
+
+
+def _random_solid(shape=(40, 36, 30), seed=0, density=0.45):
+    rng = np.random.default_rng(seed)
+    return ndimage.binary_opening(rng.random(shape) < density)
+
+
+def _ellipsoid_with_stray(m=3000, seed=0):
+    """Samples of an ellipsoid's surface (semi-axes 1, 0.6, 0.4), a small far blob (a stray part)
+    and a thin rod touching the body (kept with it)."""
+    rng = np.random.default_rng(seed)
+    u = rng.normal(size=(m, 3))
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    body = u * np.array([1.0, 0.6, 0.4])
+    k = m // 40
+    blob = rng.normal(size=(k, 3)) * 0.03 + np.array([2.2, 0.0, 0.0])
+    return np.concatenate([body, blob])
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_exterior_fill_equals_scipy(seed):
+    s = _random_solid(seed=seed)
+    s[5:25, 5:25, 5:25] |= ~ndimage.binary_erosion(np.ones((20, 20, 20), bool))  # a hollow box: one cavity
+    out = np.asarray(jax.jit(po.exterior_fill)(jnp.asarray(s)))
+    assert np.array_equal(out, ndimage.binary_fill_holes(s))
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_components_partition_equals_scipy(seed):
+    s = _random_solid(seed=seed)
+    labels = np.asarray(jax.jit(po.components)(jnp.asarray(s)))
+    ref, n = ndimage.label(s, structure=np.ones((3, 3, 3), bool))
+    assert n > 20  # many components: the test means something
+    pairs = set(zip(labels[s].tolist(), ref[s].tolist()))
+    assert len(pairs) == n and len(set(labels[s].tolist())) == n  # one label per component, and only one
+    for lab in set(labels[s].tolist()):  # the label is the smallest flat index of its component
+        assert lab == np.flatnonzero((labels == lab).reshape(-1))[0]
+    assert np.all(labels[~s] == po._BIG)
+
+
+@pytest.mark.parametrize("ratio", [0.5, 0.05])
+def test_keep_main_equals_numpy(ratio):
+    s = _random_solid(seed=2, density=0.5)
+    kept, count, dropped = jax.jit(po.keep_main)(jnp.asarray(s), ratio)
+    ref, n, d = host_solid.keep_main(s, ratio)
+    assert np.array_equal(np.asarray(kept), ref) and int(count) == n and int(dropped) == d
+
+
+def test_erode6_is_scipy_binary_erosion():
+    s = _random_solid(seed=3, density=0.7)
+    assert np.array_equal(np.asarray(jax.jit(po.erode6)(jnp.asarray(s))), ndimage.binary_erosion(s))
+
+
+@pytest.mark.parametrize("cap", [1, 4, 9, 16])
+def test_capped_distance_exact_below_the_cap(cap):
+    feature = np.random.default_rng(4).random((30, 28, 26)) < 0.004
+    d2 = np.asarray(jax.jit(po.capped_squared_distance)(jnp.asarray(feature), cap))
+    ref = np.rint(ndimage.distance_transform_edt(~feature) ** 2)
+    near = ref <= cap
+    assert np.array_equal(d2[near], ref[near]) and np.all(d2[~near] > cap)
+
+
+def test_spacing_quantile_equals_kdtree():
+    pts = _ellipsoid_with_stray(1500)
+    queries = po.spacing_subset(len(pts), 1000, seed=0)  # a subset: queried against every point
+    q = po.spacing_quantile(jnp.asarray(pts, jnp.float32), jnp.ones(len(pts), bool), jnp.asarray(queries),
+                            jnp.ones(len(queries), bool))
+    ref = np.quantile(host_solid.neighbour_distances(pts, 4, samples=1000, seed=0)[:, 3], 0.9)
+    dist, _ = cKDTree(pts).query(pts[queries], k=5)
+    assert ref == pytest.approx(np.quantile(dist[:, 4], 0.9), rel=1e-12)
+    assert float(q) == pytest.approx(ref, rel=1e-5)
+
+
+def test_spacing_quantile_ignores_padding():
+    pts = _ellipsoid_with_stray(800)
+    padded = np.concatenate([pts, np.repeat(pts[:1], 200, axis=0)])  # copies of a point: 0 distances
+    mask = np.arange(len(padded)) < len(pts)
+    queries = np.arange(len(padded))
+    q = po.spacing_quantile(jnp.asarray(padded, jnp.float32), jnp.asarray(mask), jnp.asarray(queries),
+                            jnp.asarray(mask))
+    ref = np.quantile(host_solid.neighbour_distances(pts, 4)[:, 3], 0.9)
+    assert float(q) == pytest.approx(ref, rel=1e-5)
+
+
+def _jax_solid(points, config=CONFIG):
+    x = jnp.asarray(points, jnp.float32)
+    return jax.jit(po.point_solid, static_argnames="config")(
+        x, None, jnp.asarray(po.spacing_subset(len(points), config.spacing_samples)), config=config)
+
+
+def test_point_solid_equals_the_numpy_solid():
+    """The same voxels as jaxpose.occupancy.solid.robust_solid (float64 NumPy), the same components, pitch,
+    closing radius; the stray blob dropped in both."""
+    pts = _ellipsoid_with_stray()
+    ref = host_solid.robust_solid(pts, resolution=CONFIG.resolution, coarse=CONFIG.coarse)
+    sol = _jax_solid(pts)
+    assert float(sol.pitch) == pytest.approx(ref.pitch, rel=1e-6)
+    np.testing.assert_allclose(np.asarray(sol.origin), ref.origin, atol=1e-5 * ref.pitch)
+    inside = np.asarray(sol.inside)
+    nx, ny, nz = ref.inside.shape
+    assert not inside[nx:].any() and not inside[:, ny:].any() and not inside[:, :, nz:].any()
+    mismatch = np.sum(inside[:nx, :ny, :nz] != ref.inside)
+    assert mismatch <= 1e-3 * ref.inside.sum()  # float32 against float64 voxel assignment
+    assert int(sol.components) == ref.components and int(sol.dropped) == ref.dropped
+    assert int(sol.radius) == solid_radius(pts, ref.pitch)
+    # the blob at x = 2.2 is gone: nothing kept beyond x = 1.3
+    x = np.asarray(sol.origin)[0] + float(sol.pitch) * (np.nonzero(inside)[0] + 0.5)
+    assert x.max() < 1.3
+
+
+def solid_radius(points, pitch):
+    r4 = host_solid.neighbour_distances(points, 4, samples=host_solid.SPACING_SAMPLES)[:, 3]
+    return host_solid.closing_radius(r4, pitch)
+
+
+def test_point_solid_of_an_open_sheet_has_no_depth():
+    """A sheet closes to a layer one voxel thick (as in NumPy): no voxel is deeper than the surface."""
+    rng = np.random.default_rng(5)
+    sheet = np.c_[rng.uniform(-1, 1, (2000, 2)), np.zeros(2000)]
+    sol = _jax_solid(sheet)
+    ref = host_solid.robust_solid(sheet, resolution=CONFIG.resolution, coarse=CONFIG.coarse)
+    assert not bool(jnp.any(po.erode6(sol.inside))) and not ndimage.binary_erosion(ref.inside).any()
+    assert int(jnp.sum(sol.inside)) == pytest.approx(ref.inside.sum(), rel=1e-2)
+
+
+def test_vmap_equals_single():
+    a, b = _ellipsoid_with_stray(1200, seed=1), 0.5 * _ellipsoid_with_stray(1200, seed=2)[:, ::-1]
+    q = jnp.asarray(po.spacing_subset(1200, CONFIG.spacing_samples))
+    x = jnp.asarray(np.stack([a, b]), jnp.float32)
+    batched = jax.jit(jax.vmap(lambda p: po.point_solid(p, None, q, CONFIG)))(x)
+    for i, p in enumerate((a, b)):
+        single = _jax_solid(p)
+        assert np.array_equal(np.asarray(batched.inside[i]), np.asarray(single.inside))
+        assert float(batched.pitch[i]) == float(single.pitch)

@@ -32,7 +32,8 @@ def host_frame(points, name: str = "points"):
     big = float(np.max(np.abs(arr)))
     # the mean as an input point plus the mean of the differences from it: far from the origin the
     # differences are exact (Sterbenz), so the mean keeps every digit the offset leaves
-    base = anchor(arr) if np.all(np.isfinite(arr)) else np.zeros(arr.shape[1:])
+    with np.errstate(over="ignore", invalid="ignore"):  # coordinates near the float64 limit: refused below
+        base = anchor(arr) if np.all(np.isfinite(arr)) else np.zeros(arr.shape[1:])
     residual = arr - base
     spread0 = float(np.max(np.abs(residual))) if residual.size else 0.0
     unit = spread0 if 0 < spread0 < np.inf else 1.0

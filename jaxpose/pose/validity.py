@@ -132,7 +132,7 @@ def unresolved_offset(points, mask=None):
     mean = mean + jnp.sum(jnp.where(w[:, None], x - mean, 0), axis=0) / n
     d = jnp.where(w[:, None], x - mean, 0)
     rms = jnp.sqrt(jnp.sum(d * d) / n)
-    return jnp.finfo(x.dtype).eps * big > MAX_ROUNDING * rms
+    return (rms > 0) & (jnp.finfo(x.dtype).eps * big > MAX_ROUNDING * rms)  # rms 0: degenerate, said apart
 
 
 def flag_offset(pose, points, mask=None):

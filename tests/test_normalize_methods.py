@@ -208,13 +208,15 @@ def test_traced_input_far_from_origin_is_flagged(method):
     f = jax.jit(lambda x: jaxpose.normalize(x, method=method, **opts))
     near = f(jnp.asarray(pts, jnp.float32))
     assert bool(near.valid)
-    for offset in (3e7, 1e5):  # 1e5: float32 rounds the coordinates by ~4e-3 / 0.4 of the spread
+    for offset in (1e6, 1e5):  # float32 rounds the coordinates by 3e-2 / 4e-3 against a spread of ~0.5
         far = f(jnp.asarray(pts + offset, jnp.float32))
         assert not bool(far.valid) and int(far.status) == Status.FAR_FROM_ORIGIN
+    gone = f(jnp.asarray(pts + 3e7, jnp.float32))  # float32 spacing 2 there: every point becomes the same
+    assert not bool(gone.valid) and int(gone.status) == Status.DEGENERATE_INPUT
     moderate = f(jnp.asarray(pts + 100.0, jnp.float32))  # rounding 8e-6 of 0.4: resolved, valid
     assert bool(moderate.valid)
     vmapped = jax.vmap(lambda x: jaxpose.normalize(x, method=method, **opts))(
-        jnp.asarray(np.stack([pts, pts + 3e7]), jnp.float32))
+        jnp.asarray(np.stack([pts, pts + 1e6]), jnp.float32))
     assert np.asarray(vmapped.status).tolist() == [0, int(Status.FAR_FROM_ORIGIN)]
 
 

@@ -30,7 +30,8 @@ def fake_normalize(monkeypatch):
     (equivariant under translation, as the estimators expect: they run on a moved copy)."""
     calls = []
 
-    def normalize(points, gamma=47.0, nu=0.5, **options):
+    def normalize(points, method="ocsvm", *, gamma=47.0, nu=0.5, **options):
+        assert method == "ocsvm"
         calls.append(options)
         center = np.asarray(points).mean(axis=0) + np.array([gamma, 0.0, 0.0])
         return Pose.from_center_scale(center, 1.0 + nu)

@@ -10,8 +10,11 @@ stray parts separated from the body are dropped, and each voxel weighs its depth
 the power p (:data:`jaxpose.config.ROBUST`), so the deep part of the shape (a body's torso), which
 moves least under articulation, sets the center. The volume is nearly invariant under articulation of
 soft bodies. See ``docs/estimators.md`` for the measurements behind the choice. The solid is built on the host
-(NumPy); its depth, weights and moments are JAX (:func:`robust_moments`: one compiled function per
-grid bucket, differentiable in the power).
+(NumPy) for meshes and for concrete point clouds alike; its depth, weights and moments are JAX
+(:func:`robust_moments`: one compiled function per grid bucket, differentiable in the power). The
+pure-JAX point-cloud solid of :func:`jaxpose.normalize` (``jaxpose.occupancy.points``) computes the
+same solid (tested against this one) for traced, vmapped and differentiated inputs; for a concrete
+cloud on the CPU the host solid is several times cheaper (``docs/performance.md``).
 
 ``"ocsvm"`` is the paper's method (:func:`jaxpose.normalize` on ``count`` surface samples), the
 only one differentiable in (gamma, nu). The others are the classical baselines of
@@ -279,7 +282,6 @@ class _Shape:
         self._ocsvm = None
         self._voxels = None
         self._moments = None
-        self._robust_points = None
         self._robust = None
 
     def robust(self):
@@ -312,22 +314,6 @@ class _Shape:
             self._ocsvm = pose
         return self._ocsvm
 
-    def robust_points(self):
-        """The robust pose of a point cloud, by the JAX pipeline (:func:`jaxpose.normalize`)."""
-        if self._robust_points is None:
-            points = baselines.split_geometry(self.geometry)[0]
-            o = {k: self.options[k] for k in ("power", "resolution") if k in self.options}
-            with warnings.catch_warnings():  # an invalid pose is raised below, with its reason
-                warnings.simplefilter("ignore", InvalidPoseWarning)
-                pose = normalize(points, method="robust", **o)
-            if not bool(np.asarray(pose.valid)):
-                raise JaxposeError(f"the robust estimator gave no valid pose: {status_message(pose.status)}")
-            self._robust_points = pose
-        return self._robust_points
-
-    def is_points(self):
-        return baselines.split_geometry(self.geometry)[1] is None
-
     def center(self, name, strict):
         """The center of one name: a shared computation of this shape, or a baseline's closed form."""
         own = _SHAPE_CENTERS.get(name)
@@ -352,15 +338,13 @@ class _Shape:
 # the centers and scales that share this shape's intermediate results: name -> (shape, [center,] strict) -> value;
 # every other name is a closed form of jaxpose.baselines
 _SHAPE_CENTERS = {
-    "robust_depth": lambda shape, strict: (np.asarray(shape.robust_points().center, np.float64) if shape.is_points()
-                                           else shape.robust()[0]),
+    "robust_depth": lambda shape, strict: shape.robust()[0],
     "ocsvm": lambda shape, strict: np.asarray(shape.ocsvm().center, np.float64),
     "solid_centroid": lambda shape, strict: shape.solid_moments(strict)[1],
     "depth_weighted_solid": _Shape.depth_weighted_center,
 }
 _SHAPE_SCALES = {
-    "robust_volume": lambda shape, center, strict: (float(np.asarray(shape.robust_points().scale)) if shape.is_points()
-                                                    else shape.robust()[1] ** (1.0 / 3.0)),
+    "robust_volume": lambda shape, center, strict: shape.robust()[1] ** (1.0 / 3.0),
     "ocsvm": lambda shape, center, strict: float(np.asarray(shape.ocsvm().scale)),
     "gyration_radius": _Shape.gyration_radius,
 }

@@ -162,7 +162,9 @@ def test_a_worker_killed_from_outside_fails_its_input_and_the_run_goes_on(tmp_pa
         thread.join()
         os.close(writer)
     rows = by_name(result.rows)
-    assert len(set(killed)) == 2  # the first worker, then the one that tried it again
+    # the first worker, then the one that tried it again (a worker killed before it reports the task
+    # started is not counted as a try, so under load a third may be killed)
+    assert len(set(killed)) >= 2
     assert rows["stuck.ply"].status == "failed"
     assert "killed by SIGKILL" in rows["stuck.ply"].error and "tried twice" in rows["stuck.ply"].error
     assert (result.written, result.failed) == (4, 1)

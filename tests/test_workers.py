@@ -190,6 +190,82 @@ def test_a_slow_interpreter_start_is_outside_the_time_limit(tmp_path):
         pool.close(kill=True)
 
 
+def _hanging_start(folder):
+    """A folder whose sitecustomize (imported at every interpreter's start) never returns."""
+    (folder / "sitecustomize.py").write_text("import time\ntime.sleep(600)\n")
+    return str(folder)
+
+
+def _alive(pid):
+    try:
+        with open(f"/proc/{pid}/stat") as handle:
+            return handle.read().rpartition(")")[2].split()[0] != "Z"
+    except FileNotFoundError:
+        return False
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc"), reason="/proc")
+@pytest.mark.parametrize("timeout", [None, 1.0])
+def test_a_worker_stuck_in_its_start_up_is_killed_at_the_start_limit(tmp_path, timeout):
+    """A worker that hangs before it reports its task started (here in an import at interpreter
+    start) is killed once the start-up limit has passed, with or without a task time limit; its
+    task fails with WorkerLost(started=False)."""
+    from jaxpose.batch.pool import ProcessPool
+
+    pool = ProcessPool(1, timeout=timeout, environment={"PYTHONPATH": _hanging_start(tmp_path)}, start_timeout=3.0)
+    try:
+        task = pool.submit(abs, -2)
+        start = time.monotonic()
+        pid = pool.pids[0]
+        while not pool.wait({task}):
+            assert time.monotonic() - start < 60, "the stuck worker was never stopped"
+        waited = time.monotonic() - start
+        with pytest.raises(WorkerLost, match=r"had not started it 3 s after it was sent") as lost:
+            pool.result(task)
+        assert lost.value.started is False
+        assert 3.0 <= waited < 30.0
+        assert not _alive(pid)  # killed and reaped
+    finally:
+        pool.close(kill=True)
+
+
+def test_a_worker_lost_after_starting_its_task_says_so():
+    from jaxpose.batch.pool import ProcessPool
+
+    pool = ProcessPool(1, start_timeout=120.0)
+    try:
+        task = pool.submit(_die)
+        while not pool.wait({task}):
+            pass
+        with pytest.raises(WorkerLost, match="died while working on it") as lost:
+            pool.result(task)
+        assert lost.value.started is True
+    finally:
+        pool.close(kill=True)
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc"), reason="/proc")
+def test_a_run_whose_workers_hang_in_start_up_records_each_input_and_ends(tmp_path, monkeypatch):
+    """Every worker process hangs in its start-up: each input is recorded failed after three workers
+    lost before starting it (not counted as tries), and the run ends."""
+    from jaxpose.batch import pool
+
+    import trimesh
+
+    (tmp_path / "scans").mkdir()
+    for i in range(2):
+        trimesh.creation.box(extents=(1.0 + i, 0.6, 0.4)).export(tmp_path / "scans" / f"box{i}.ply")
+    monkeypatch.setattr(pool, "START_TIMEOUT_S", 2.0)
+    monkeypatch.setenv("PYTHONPATH", _hanging_start(tmp_path))
+    start = time.monotonic()
+    result = batch.run_batch([tmp_path / "scans"], tmp_path / "out", FAST, workers=2, progress=False)
+    assert time.monotonic() - start < 240
+    assert (result.written, result.failed, len(result.rows)) == (0, 2, 2)
+    for row in result.rows:
+        assert row.error.endswith("never run: 3 workers lost before starting it"), row.error
+        assert "had not started it 2 s after it was sent" in row.error
+
+
 def test_worker_environment_one_blas_thread_and_the_compilation_cache(tmp_path, monkeypatch):
     from jaxpose.batch import cache
     from jaxpose.batch.workers import process_environment

@@ -36,6 +36,8 @@ __all__ = ["CHECKS", "NormalizeOptions", "BatchResult", "normalize_files", "run_
 
 log = logging.getLogger(__name__)
 CHECKS = ("mtime", "hash")
+MAX_TRIES = 2  # workers an input may lose while running it (killed, out of memory) before it is recorded failed
+MAX_LOST_BEFORE_START = 3  # workers it may lose before they start it (a crash or hang in start-up): not tries
 
 
 # --------------------------------------------------------------------------- many files
@@ -363,6 +365,15 @@ def read_ahead(path) -> bool:
         os.close(fd)
 
 
+def _lost_workers(tries, before):
+    """How many workers an input cost, in words: "tried twice", or the count of each kind."""
+    workers = f"{before} worker{'s' if before != 1 else ''} lost before starting it"
+    if not tries:
+        return f"never run: {workers}"
+    said = f"tried {({1: 'once', 2: 'twice'}).get(tries, f'{tries} times')}"
+    return f"{said}, and {workers}" if before else said
+
+
 def _failed(error):
     from .. import __version__
 
@@ -395,7 +406,7 @@ class _Run:
                                      head_start=head_start, warm_up=warm_up)
         bar = tqdm(total=len(todo), unit="file", desc="normalize", dynamic_ncols=True, smoothing=0.05,
                    disable=None if self.progress is None else not self.progress)
-        queue, pending, retried = list(reversed(todo)), {}, set()
+        queue, pending, lost = list(reversed(todo)), {}, {}  # source -> (workers lost after / before starting it)
         window = 2 * executor.workers
         try:
             while queue or pending:
@@ -411,11 +422,13 @@ class _Run:
                     try:
                         result = executor.result(future)
                     except WorkerLost as exc:  # its worker died (the others go on): once more, then record
-                        if item.source not in retried:
-                            retried.add(item.source)
+                        tries, before = lost.get(item.source, (0, 0))
+                        tries, before = (tries + 1, before) if exc.started else (tries, before + 1)
+                        lost[item.source] = (tries, before)
+                        if tries < MAX_TRIES and before < MAX_LOST_BEFORE_START:
                             queue.append((item, key))
                             continue
-                        result = _failed(f"{exc}; tried twice")
+                        result = _failed(f"{exc}; {_lost_workers(tries, before)}")
                     except TaskTimeout as exc:
                         result = _failed(str(exc))
                     except Exception as exc:  # the task itself broke (not the input): recorded as well

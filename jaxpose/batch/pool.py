@@ -8,7 +8,10 @@ and its arguments (pickled) arrive on a pipe, the result (or the exception it ra
 another. The pool keeps the queue: a task is sent when a worker is free, and its clock starts
 when the worker reports that it has started it (its "started" message, sent once the task has
 been received and unpickled), so a worker still starting up or warming up, or not yet scheduled on
-a loaded machine, never counts against a task's limit. A worker is in a process group of its own (a terminal's Ctrl-C reaches the parent only,
+a loaded machine, never counts against a task's limit. Its start-up has a limit of its own
+(``start_timeout``, :data:`START_TIMEOUT_S` by default): a worker that has not reported a task
+started that long after it was sent (stuck in an import or in its warm-up) is killed, and the task
+fails with :class:`WorkerLost` (``started`` False). A worker is in a process group of its own (a terminal's Ctrl-C reaches the parent only,
 which stops the workers), and on Linux it dies with the parent, even when that is killed by SIGKILL.
 
 Example::
@@ -31,9 +34,10 @@ import sys
 import time
 from multiprocessing.connection import Connection, wait as wait_for
 
-__all__ = ["ProcessPool", "WorkerLost", "TaskTimeout", "POLL_S"]
+__all__ = ["ProcessPool", "WorkerLost", "TaskTimeout", "POLL_S", "START_TIMEOUT_S"]
 
 POLL_S = 0.5  # wait() returns at least this often, so the caller stays responsive to interrupts
+START_TIMEOUT_S = 300.0  # seconds a worker may take from a task's sending to its "started" (start-up, warm-up)
 _STARTED = "started"  # a worker's message when it begins a task; its result follows
 
 # the worker's first lines: the caller's import path, then this module's loop
@@ -42,7 +46,17 @@ _BOOT = ("import sys, json; sys.path[:] = json.loads(sys.argv[1]); "
 
 
 class WorkerLost(Exception):
-    """The process running a task died (out of memory, killed from outside, a native crash)."""
+    """The process running a task died (out of memory, killed from outside, a native crash), or
+    was killed because it did not start the task within the start-up limit.
+
+    Attributes:
+      started: whether the worker had reported the task started (False: it was lost while starting
+        up or warming up, before the task itself ran).
+    """
+
+    def __init__(self, message, started=True):
+        super().__init__(message)
+        self.started = started
 
 
 class TaskTimeout(Exception):
@@ -124,18 +138,22 @@ class ProcessPool:
       warm_up: a function (picklable by name) each new worker runs before its first task, outside
         the time limit: the imports every task needs, so that a worker's start-up is not counted
         against its first task.
+      start_timeout: seconds from a task's sending to its worker's "started" message (the
+        interpreter's start, its imports, the warm-up); past it the worker is killed and the task's
+        ``result`` raises :class:`WorkerLost` with ``started`` False. None: :data:`START_TIMEOUT_S`.
 
     A worker that dies makes its task's ``result`` raise :class:`WorkerLost`; the other tasks are
     not affected, and a new worker takes its place for the next task.
     """
 
-    def __init__(self, workers, environment=None, timeout=None, warm_up=None):
+    def __init__(self, workers, environment=None, timeout=None, warm_up=None, start_timeout=None):
         self.workers = int(workers)
         self.timeout = timeout
+        self.start_timeout = START_TIMEOUT_S if start_timeout is None else float(start_timeout)
         self.warm_up = warm_up
         self._environment = dict(environment or {})
         self._idle = []
-        self._busy = {}  # worker -> (future, monotonic start: None until it reports, messages to skip)
+        self._busy = {}  # worker -> (future, monotonic start: None until it reports, messages to skip, sent at)
         self._queue = collections.deque()  # (future, fn, args) not yet sent
 
     def submit(self, fn, *args) -> _Future:
@@ -160,53 +178,63 @@ class ProcessPool:
                 self._queue.appendleft((future, fn, args))
                 continue
             # a warm-up's two messages (started, its reply) are skipped; the task's "started" starts its clock
-            self._busy[worker] = (future, None, 2 if warm else 0)
+            self._busy[worker] = (future, None, 2 if warm else 0, time.monotonic())
 
     def wait(self, pending, timeout=POLL_S) -> set:
         """Wait up to `timeout` seconds for results; returns the finished futures among `pending`
         (any object with ``done()``).
 
-        Also enforces the time limit (a worker past it is killed) and sends queued tasks to free
-        workers.
+        Also enforces the time limit and the start-up limit (a worker past either is killed) and
+        sends queued tasks to free workers.
         """
         if self._busy:
-            delay = timeout
-            started = [start for _, start, _ in self._busy.values() if start is not None]
-            if self.timeout is not None and started:
-                delay = min(delay, max(0.0, min(started) + self.timeout - time.monotonic()))
+            delay = min(timeout, max(0.0, min(self._deadline(*entry) for entry in self._busy.values())
+                                     - time.monotonic()))
             by_pipe = {worker.results: worker for worker in self._busy}
             for pipe in wait_for(list(by_pipe), timeout=delay):
                 self._collect(by_pipe[pipe])
-            if self.timeout is not None:
-                now = time.monotonic()
-                for worker, (future, start, _) in list(self._busy.items()):
-                    if start is not None and now - start >= self.timeout:
-                        del self._busy[worker]
-                        worker.kill()
-                        future._set(error=TaskTimeout(
-                            f"stopped after the time limit of {self.timeout:g} s (its worker, pid {worker.pid}, "
-                            "was killed)"))
+            now = time.monotonic()
+            for worker, (future, start, skip, sent) in list(self._busy.items()):
+                if now < self._deadline(future, start, skip, sent):
+                    continue
+                del self._busy[worker]
+                worker.kill()
+                if start is None:
+                    future._set(error=WorkerLost(
+                        f"its worker process (pid {worker.pid}) had not started it {self.start_timeout:g} s after it "
+                        "was sent (stuck starting up: an import or its warm-up?) and was killed", started=False))
+                else:
+                    future._set(error=TaskTimeout(
+                        f"stopped after the time limit of {self.timeout:g} s (its worker, pid {worker.pid}, "
+                        "was killed)"))
             self._dispatch()
         else:
             time.sleep(0 if any(f.done() for f in pending) else min(timeout, 0.05))
         return {future for future in pending if future.done()}
 
+    def _deadline(self, future, start, skip, sent):
+        """When a busy worker is stopped: the time limit from "started", the start-up limit before."""
+        if start is None:
+            return sent + self.start_timeout
+        return float("inf") if self.timeout is None else start + self.timeout
+
     def _collect(self, worker):
         """Read the worker's messages that have arrived, up to its task's result."""
         while True:
-            future, start, skip = self._busy.pop(worker)
+            future, start, skip, sent = self._busy.pop(worker)
             try:
                 message = worker.results.recv()
             except (EOFError, OSError):  # the process died; a half-sent result reads as EOF too
                 how = worker.death()
                 worker.kill()
-                future._set(error=WorkerLost(f"its worker process (pid {worker.pid}) died while working on it: "
-                                             f"{how} (out of memory, or killed from outside?)"))
+                when = "while working on it" if start is not None else "before it started it"
+                future._set(error=WorkerLost(f"its worker process (pid {worker.pid}) died {when}: "
+                                             f"{how} (out of memory, or killed from outside?)", started=start is not None))
                 return
             if skip:  # the warm-up's (an error in it shows again in the task)
-                self._busy[worker] = (future, start, skip - 1)
+                self._busy[worker] = (future, start, skip - 1, sent)
             elif message == _STARTED:  # the worker has the task and begins it: its clock starts now
-                self._busy[worker] = (future, time.monotonic(), 0)
+                self._busy[worker] = (future, time.monotonic(), 0, sent)
             else:
                 break
             if not worker.results.poll():

@@ -79,17 +79,19 @@ class LocalExecutor:
     :func:`runs_like_a_worker`.
 
     Worker processes get :func:`process_environment` (one BLAS thread, the compilation cache);
-    each new one runs `warm_up` first, outside the time limit (:class:`jaxpose.batch.pool.ProcessPool`).
+    each new one runs `warm_up` first, outside the time limit but within `start_timeout`
+    (:class:`jaxpose.batch.pool.ProcessPool`).
     """
 
-    def __init__(self, workers, timeout=None, head_start=False, warm_up=None):
+    def __init__(self, workers, timeout=None, head_start=False, warm_up=None, start_timeout=None):
         self.workers = workers
         self.timeout = timeout
         self._head = None
         if workers == 1 and timeout is None:
             self._pool = cf.ThreadPoolExecutor(1, thread_name_prefix="jaxpose-worker")
         else:
-            self._pool = ProcessPool(workers, environment=process_environment(), timeout=timeout, warm_up=warm_up)
+            self._pool = ProcessPool(workers, environment=process_environment(), timeout=timeout, warm_up=warm_up,
+                                     start_timeout=start_timeout)
             if head_start and timeout is None:
                 self._head = cf.ThreadPoolExecutor(1, thread_name_prefix="jaxpose-head-start")
 

@@ -18,6 +18,7 @@ from .io.mesh import MESH_FORMATS, OUTPUT_FORMATS, POINT_FORMATS, encode, exampl
 from .io.atomic import write_atomic
 from .occupancy import solid
 from .pose import estimators
+from .pose.result import host
 from .rotation.rotation import DEFAULT_ROTATION, ROTATIONS, frame_of
 from .sample import SAMPLING
 
@@ -182,14 +183,17 @@ def normalize_mesh(
 
 
 def normalized_points(points, pose):
-    """R (x - center) / scale of points (n, 3), in float64, for a pose (anything with ``center``,
-    ``scale`` and optionally ``rotation``): x - center first, which is exact far from the origin
-    (a 4 x 4 matrix would round x / scale first). Returns (n, 3) float64."""
-    center = np.asarray(pose.center, np.float64).reshape(3)
-    y = (np.asarray(points, np.float64) - center) / float(np.asarray(pose.scale, np.float64))
-    if getattr(pose, "rotation", None) is not None:
-        y = y @ np.asarray(pose.rotation, np.float64).reshape(3, 3).T
-    return y
+    """R (x - center) / scale of points (n, 3) in float64 on the host: ``host(pose).apply``
+    (:meth:`jaxpose.Pose.apply`; x - center first, which is exact far from the origin, where a
+    4 x 4 matrix would round x / scale first). What :func:`normalize_mesh` writes.
+
+    Args:
+      points: (n, 3) coordinates; pose: a concrete :class:`jaxpose.Pose`.
+
+    Returns:
+      (n, 3) float64.
+    """
+    return host(pose).apply(np.asarray(points, np.float64))
 
 
 def _transformed(geometry, pose):
@@ -209,19 +213,10 @@ def _rotation_name(rotation):
 
 
 def pose_matrix(pose):
-    """The 4 x 4 matrix of x -> R (x - pose.center) / pose.scale in float64 (R = pose.rotation, or I).
-
-    (``pose.matrix`` follows JAX's default precision, float32 unless x64 is on; meshes
-    are transformed, and transforms reported, with this float64 one.)
+    """The 4 x 4 matrix of a concrete pose, in float64 on the host: ``host(pose).matrix``
+    (:attr:`jaxpose.Pose.matrix` of x -> R (x - center) / scale; meshes are transformed, and
+    transforms reported, in float64 whatever JAX's default precision).
 
     Returns matrix : (4, 4) float64
     """
-    center = np.asarray(pose.center, dtype=np.float64).reshape(3)
-    scale = float(np.asarray(pose.scale, dtype=np.float64))
-    matrix = np.eye(4)
-    rotation = getattr(pose, "rotation", None)
-    if rotation is not None:
-        matrix[:3, :3] = np.asarray(rotation, dtype=np.float64).reshape(3, 3)
-    matrix[:3, :3] /= scale
-    matrix[:3, 3] = -(matrix[:3, :3] @ center) if rotation is not None else -center / scale
-    return matrix
+    return host(pose).matrix

@@ -4,7 +4,8 @@ Each row says where an input went and by which similarity: ``x -> R (x - center)
 ``R`` the identity unless the run asked for a rotation. Every number is stored in float64 without
 loss (Parquet natively; CSV with Python's shortest round-trip ``repr``), so
 :meth:`Transform.apply` reproduces the written output from the input to the last bit and
-:meth:`Transform.invert` maps it back. The columns, in order (:data:`COLUMNS`):
+:meth:`Transform.invert` maps it back. A row's similarity is a :class:`jaxpose.Pose`
+(:attr:`Transform.pose`). The columns, in order (:data:`COLUMNS`):
 
 =================  =======  ===============================================================
 column             type     meaning
@@ -58,6 +59,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .._validate import InvalidInputError
+from ..pose.result import Pose, Status
 
 __all__ = ["COLUMNS", "ROTATION_COLUMNS", "Transform", "read_transforms", "merge_transforms", "write_transforms",
            "table_format", "default_table_name", "has_parquet"]
@@ -84,10 +86,21 @@ _FIELDS = tuple(name for name, _ in _BASE + _ROTATION + _TAIL)
 
 
 class Transform(NamedTuple("_Row", [(name, object) for name in _FIELDS])):
-    """One row of the transforms table (fields: the columns; rotation fields None without one).
+    """One row of the transforms table: the columns as fields (rotation fields None without one),
+    and :attr:`pose`, the row's similarity as a :class:`jaxpose.Pose` (the library's one
+    similarity type).
 
-    ``center`` (3,), ``rotation`` (3, 3) or None and ``matrix`` (4, 4) are float64 views of the
-    stored numbers; ``apply`` and ``invert`` map points of the input to the output and back.
+    ``center``, ``rotation``, ``matrix``, ``apply`` and ``invert`` are shorthands of that Pose,
+    kept so that code written against earlier tables runs unchanged: ``row.apply(x)`` is
+    ``row.pose.apply(x)`` (bit for bit the written output), ``row.invert(y)`` is
+    ``row.pose.inverse().apply(y)``, ``row.matrix`` is ``row.pose.matrix``; the last three
+    refuse a failed row.
+
+    Example::
+
+        >>> row = jaxpose.read_transforms("normalized/")[0]
+        >>> pose = row.pose                                   # a jaxpose.Pose, float64
+        >>> back = pose.inverse().apply(trimesh.load(row.output).vertices)
     """
 
     __slots__ = ()
@@ -102,39 +115,55 @@ class Transform(NamedTuple("_Row", [(name, object) for name in _FIELDS])):
         return self.status == "ok"
 
     @property
+    def pose(self) -> Pose:
+        """The row's similarity x -> R (x - center) / scale as a host :class:`jaxpose.Pose`
+        (NumPy: floats float64 as stored, flags bool, codes int64; :func:`jaxpose.pose.result.host`).
+
+        ``valid`` is the stored flag (False for a failed row, whose center and scale are NaN);
+        ``status`` is ``Status.OK`` for a valid row and ``Status.NOT_FINITE`` otherwise (the table
+        stores no other reason); ``rotation`` (3, 3) and ``ambiguity`` when the run asked for a
+        rotation, else None; ``iterations`` 0 and ``count`` None (not stored).
+        """
+        center = np.array([self.center_x, self.center_y, self.center_z], dtype=np.float64)
+        scale = np.asarray(self.scale, dtype=np.float64)
+        rotation = ambiguity = None
+        if self.r00 is not None:
+            rotation = np.array([[getattr(self, f"r{i}{j}") for j in range(3)] for i in range(3)], dtype=np.float64)
+            ambiguity = np.asarray(math.nan if self.ambiguity is None else self.ambiguity, dtype=np.float64)
+        finite = bool(np.all(np.isfinite(center)) and np.isfinite(scale) and scale > 0)
+        valid = self.ok and finite and self.valid is not False
+        status = Status.OK if valid else Status.NOT_FINITE
+        return Pose(center, scale, np.asarray(self.converged is not False), np.asarray(valid), np.asarray(0, np.int64),
+                    ambiguity, rotation, np.asarray(int(status), np.int64))
+
+    @property
     def center(self) -> np.ndarray:
-        return np.array([self.center_x, self.center_y, self.center_z], dtype=np.float64)
+        """(3,) float64: ``pose.center`` (NaN for a failed row)."""
+        return self.pose.center
 
     @property
     def rotation(self):
-        if self.r00 is None:
-            return None
-        return np.array([[getattr(self, f"r{i}{j}") for j in range(3)] for i in range(3)], dtype=np.float64)
+        """(3, 3) float64 or None: ``pose.rotation``."""
+        return self.pose.rotation
 
     @property
     def matrix(self) -> np.ndarray:
-        """The 4 x 4 float64 matrix of x -> R (x - center) / scale (the one the output was made with)."""
-        from ..mesh import pose_matrix
-
+        """(4, 4) float64: ``pose.matrix``, the matrix of x -> R (x - center) / scale."""
         self._require_ok()
-        return pose_matrix(self)
+        return self.pose.matrix
 
     def apply(self, points) -> np.ndarray:
-        """Input coordinates (n, 3) -> output coordinates (n, 3): R (x - center) / scale in float64,
+        """Input coordinates (n, 3) -> output coordinates (n, 3) float64: ``pose.apply(points)``,
         computed as the output was (:func:`jaxpose.mesh.normalized_points`), so bit-identical to it."""
-        from ..mesh import normalized_points
-
         self._require_ok()
-        return normalized_points(points, self)
+        return self.pose.apply(np.asarray(points, np.float64))
 
     def invert(self, points) -> np.ndarray:
-        """Output coordinates (n, 3) -> input coordinates (n, 3): x = scale R^T y + center, float64."""
+        """Output coordinates (n, 3) -> input coordinates (n, 3) float64: ``pose.inverse().apply(points)``
+        = scale R^T y + center (the center added last: exact to the last bit for outputs of inputs
+        far from the origin)."""
         self._require_ok()
-        y = np.asarray(points, dtype=np.float64)
-        rotation = self.rotation
-        if rotation is not None:
-            y = y @ rotation
-        return y * float(self.scale) + self.center
+        return self.pose.inverse().apply(np.asarray(points, np.float64))
 
     def _require_ok(self):
         if not self.ok:

@@ -8,6 +8,7 @@ that compute with JAX arrays import it when called. What the validity checks are
 from __future__ import annotations
 
 import enum
+import sys
 from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
@@ -94,6 +95,32 @@ def _xp(*values):
     return _jnp()
 
 
+def _is_jax(value) -> bool:
+    """A JAX array (concrete or traced); found without importing JAX."""
+    jax = sys.modules.get("jax")
+    return jax is not None and isinstance(value, jax.Array)
+
+
+def _similarity_xp(*values):
+    """Where a similarity is computed: jax.numpy when a value is traced, or when every array given
+    is a JAX array; otherwise NumPy in float64 on the host (a NumPy field or NumPy points: every
+    digit of a center far from the origin is kept). Python numbers do not count."""
+    given = [v for v in values if v is not None]
+    if any(is_traced(v) for v in given):
+        return _jnp()
+    arrays = [v for v in given if not isinstance(v, (bool, int, float))]
+    if arrays and all(_is_jax(v) for v in arrays):
+        return _jnp()
+    return np
+
+
+def _floats(xp, *values):
+    """The values as arrays of ``xp``: NumPy float64 on the host, JAX arrays as they are in JAX."""
+    if xp is np:
+        return [None if v is None else np.asarray(v, np.float64) for v in values]
+    return [None if v is None else xp.asarray(v) for v in values]
+
+
 def host(pose):
     """The pose with every field a NumPy value: floats float64, flags bool, codes int (None kept).
 
@@ -104,6 +131,8 @@ def host(pose):
     def convert(name, value):
         if value is None:
             return None
+        if isinstance(value, Pose):  # inverse_of
+            return host(value)
         if is_traced(value):
             raise TypeError(f"Pose.{name} is traced: host() is for concrete poses")
         a = np.asarray(value)
@@ -115,7 +144,9 @@ def host(pose):
 
 
 class Pose(NamedTuple):
-    """A similarity x -> R (x - center) / scale, with the diagnostics of how it was found. A pytree.
+    """A similarity x -> R (x - center) / scale, with the diagnostics of how it was found.
+    A pytree; the one similarity type of the library (the rows of the batch runner's transforms
+    table carry theirs as :attr:`jaxpose.batch.transforms.Transform.pose`).
 
     Types (one policy for every method): the JAX entry points (:func:`jaxpose.normalize`,
     :func:`jaxpose.normalize_batch`) return JAX arrays in JAX's default float dtype (float32, or
@@ -123,8 +154,16 @@ class Pose(NamedTuple):
     points (:func:`jaxpose.normalize_mesh`, :func:`jaxpose.pose.estimators.estimate`, the command line
     and the batch runner, every method, ``ocsvm`` included) return NumPy values: floats float64,
     ``valid`` / ``converged`` bool, ``status`` / ``iterations`` / ``count`` int64 (:func:`host`).
-    ``matrix``, ``apply`` and ``inverse`` compute in the fields' kind: NumPy fields give NumPy
-    float64 (no JAX import), JAX fields JAX arrays.
+
+    Where ``matrix``, ``apply`` and ``inverse`` compute: in JAX when a value is traced or when
+    every array involved (the fields, and the points given to ``apply``) is a JAX array; otherwise
+    on the host in NumPy float64 (no JAX import), so a float64 center far from the origin keeps
+    its digits even when other fields are JAX arrays (a concrete :func:`jaxpose.normalize` pose)
+    and float64 points are moved in float64. ``apply`` subtracts the center first (exact for
+    points near a far center). ``inverse()`` keeps the pose it inverts (``inverse_of``) and maps
+    back from it as scale R^T y + center, the center added last: in float64,
+    ``pose.inverse().apply(pose.apply(x))`` gives x back to the last bit far from the origin, and
+    ``pose.inverse().inverse()`` is ``pose``.
 
     Attributes:
       center: (3,) in the units of the input.
@@ -142,6 +181,15 @@ class Pose(NamedTuple):
         (``Status(int(pose.status)).message``).
       count: None, or () int: how many points the SVDD was fitted to (fewer than given above
         ``MAX_POINTS``).
+      inverse_of: None, or the Pose this one is the inverse of (set by :meth:`inverse`; its
+        ``apply`` and ``matrix`` are then computed from that pose's center, scale and rotation, so
+        that they do not round through 1 / scale and -R center / scale).
+
+    Example::
+
+        >>> pose = Pose.from_center_scale(np.array([1e6, 0.0, 0.0]), 2.0)
+        >>> y = pose.apply(x)                   # (x - center) / scale, float64 on the host
+        >>> x_again = pose.inverse().apply(y)   # y * scale + center
 
     Poses from :func:`normalize_batch` carry a leading batch axis on every field.
     """
@@ -155,6 +203,7 @@ class Pose(NamedTuple):
     rotation: jax.Array | None = None
     status: jax.Array = 0
     count: jax.Array | None = None
+    inverse_of: "Pose | None" = None
 
     @classmethod
     def from_center_scale(cls, center, scale, rotation=None, ambiguity=None) -> "Pose":
@@ -181,33 +230,67 @@ class Pose(NamedTuple):
 
     @property
     def matrix(self):
-        """(..., 4, 4) homogeneous matrix of x -> R (x - center) / scale (NumPy float64 for a host
-        pose, a JAX array for a JAX pose)."""
-        jnp = _xp(self.center, self.scale, self.rotation)
-        c, s = jnp.asarray(self.center), jnp.asarray(self.scale)
-        if self.rotation is None:
-            eye = jnp.broadcast_to(jnp.eye(3, dtype=c.dtype), c.shape[:-1] + (3, 3))
-            top = jnp.concatenate([eye / s[..., None, None], (-c / s[..., None])[..., None]], axis=-1)
+        """(..., 4, 4) homogeneous matrix of x -> R (x - center) / scale (NumPy float64 on the
+        host, a JAX array in JAX: see the class docs); for an inverse, [scale R^T, center] of the
+        pose it inverts."""
+        if self.inverse_of is not None:
+            return self.inverse_of._inverse_matrix()
+        xp = _similarity_xp(self.center, self.scale, self.rotation)
+        c, s, r = _floats(xp, self.center, self.scale, self.rotation)
+        if r is None:
+            lin = xp.broadcast_to(xp.eye(3, dtype=c.dtype), c.shape[:-1] + (3, 3)) / s[..., None, None]
+            shift = -c / s[..., None]
         else:
-            r = jnp.asarray(self.rotation, c.dtype) / s[..., None, None]
-            top = jnp.concatenate([r, -jnp.einsum("...ij,...j->...i", r, c)[..., None]], axis=-1)
-        bottom = jnp.broadcast_to(jnp.asarray([0, 0, 0, 1], c.dtype), c.shape[:-1] + (1, 4))
-        return jnp.concatenate([top, bottom], axis=-2)
+            lin = xp.asarray(r, c.dtype) / s[..., None, None]
+            shift = -xp.einsum("...ij,...j->...i", lin, c)
+        return _homogeneous(xp, lin, shift)
+
+    def _inverse_matrix(self):
+        xp = _similarity_xp(self.center, self.scale, self.rotation)
+        c, s, r = _floats(xp, self.center, self.scale, self.rotation)
+        eye = xp.broadcast_to(xp.eye(3, dtype=c.dtype), c.shape[:-1] + (3, 3))
+        lin = (eye if r is None else xp.swapaxes(xp.asarray(r, c.dtype), -1, -2)) * s[..., None, None]
+        return _homogeneous(xp, lin, c)
 
     def apply(self, x):
-        """Normalize points x : (n, 3) -> (n, 3) (NumPy for NumPy points and a host pose)."""
-        jnp = _xp(x, self.center, self.scale, self.rotation)
-        y = (jnp.asarray(x) - self.center) / self.scale
-        if self.rotation is None:
+        """Points x : (n, 3) -> R (x - center) / scale : (n, 3); for an inverse, scale R^T x +
+        center of the pose it inverts (rotated, scaled, then the center added).
+
+        The center is subtracted first (exact for points near a center far from the origin). On
+        the host (NumPy points, or a NumPy field) in float64, returning NumPy float64; in JAX when
+        traced or when the points and every field are JAX arrays (class docs).
+        """
+        forward = self.inverse_of
+        if forward is not None:
+            xp = _similarity_xp(x, forward.center, forward.scale, forward.rotation)
+            y, c, s, r = _floats(xp, x, forward.center, forward.scale, forward.rotation)
+            if r is not None:
+                y = y @ xp.asarray(r, y.dtype)
+            return y * s + c
+        xp = _similarity_xp(x, self.center, self.scale, self.rotation)
+        x, c, s, r = _floats(xp, x, self.center, self.scale, self.rotation)
+        y = (x - c) / s
+        if r is None:
             return y
-        return y @ jnp.asarray(self.rotation, y.dtype).T
+        return y @ xp.swapaxes(xp.asarray(r, y.dtype), -1, -2)
 
     def inverse(self) -> "Pose":
-        """The inverse similarity y -> scale R^T y + center, as a Pose (rotation R^T, center
-        -R center / scale, scale 1 / scale)."""
-        if self.rotation is None:
-            return self._replace(center=-self.center / self.scale, scale=1.0 / self.scale)
-        xp = _xp(self.rotation, self.center, self.scale)
-        r = xp.asarray(self.rotation)
-        center = -xp.einsum("...ij,...j->...i", r, self.center) / xp.asarray(self.scale)[..., None]
-        return self._replace(center=center, scale=1.0 / self.scale, rotation=xp.swapaxes(r, -1, -2))
+        """The inverse similarity y -> scale R^T y + center, as a Pose: center -R center / scale,
+        scale 1 / scale, rotation R^T (computed where :attr:`matrix` is), the diagnostics kept, and
+        ``inverse_of`` this pose, from which its ``apply`` and ``matrix`` compute (no rounding
+        through the inverted fields). The inverse of an inverse is the pose it inverts."""
+        if self.inverse_of is not None:
+            return self.inverse_of
+        xp = _similarity_xp(self.center, self.scale, self.rotation)
+        c, s, r = _floats(xp, self.center, self.scale, self.rotation)
+        if r is None:
+            return self._replace(center=-c / s[..., None], scale=1.0 / s, inverse_of=self)
+        center = -xp.einsum("...ij,...j->...i", r, c) / s[..., None]
+        return self._replace(center=center, scale=1.0 / s, rotation=xp.swapaxes(r, -1, -2), inverse_of=self)
+
+
+def _homogeneous(xp, lin, shift):
+    """(..., 4, 4) from the linear part (..., 3, 3) and the translation (..., 3)."""
+    top = xp.concatenate([lin, shift[..., None]], axis=-1)
+    bottom = xp.broadcast_to(xp.asarray([0, 0, 0, 1], lin.dtype), lin.shape[:-2] + (1, 4))
+    return xp.concatenate([top, bottom], axis=-2)

@@ -1,0 +1,203 @@
+"""One similarity type: the transforms table's rows carry a :class:`jaxpose.Pose` (``row.pose``) and
+their ``center``, ``matrix``, ``apply``, ``invert`` are that Pose's, bit for bit; the float64 round
+trip inverse(apply(x)) gives x back to the last bit far from the origin and is, everywhere, the
+closed form scale R^T y + center; a concrete pose with JAX fields moves float64 points in float64."""
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+import trimesh
+
+import jaxpose
+from jaxpose import mesh
+from jaxpose.batch import batch, transforms
+from jaxpose.batch.task import NormalizeOptions
+from jaxpose.errors import InvalidInputError
+from jaxpose.pose.result import Pose, Status, host
+
+from conftest import SHARED
+
+
+def _rotation(seed):
+    q, r = np.linalg.qr(np.random.default_rng(seed).normal(size=(3, 3)))
+    q = q * np.sign(np.diag(r))
+    return q * np.sign(np.linalg.det(q))
+
+
+def _closed_form_inverse(y, center, scale, rotation):
+    """scale R^T y + center, rotated, scaled, then the center added (the formula written out)."""
+    y = np.asarray(y, np.float64)
+    if rotation is not None:
+        y = y @ rotation
+    return y * scale + center
+
+
+def test_both_names_are_one_type():
+    assert jaxpose.Pose is Pose
+    assert jaxpose.pose.pose.Pose is Pose
+    assert jaxpose.read_transforms is transforms.read_transforms
+    assert jaxpose.transforms.Transform is transforms.Transform
+    row = transforms.Transform.from_record(dict(status="ok", center_x=1.0, center_y=2.0, center_z=3.0, scale=2.0,
+                                                valid=True, converged=True))
+    assert type(row.pose) is Pose
+    assert row.pose.center.dtype == np.float64 and row.pose.scale.dtype == np.float64
+    assert row.pose.rotation is None and bool(row.pose.valid) and int(row.pose.status) == Status.OK
+
+
+@pytest.mark.parametrize("suffix", [".parquet", ".csv"])
+def test_rows_read_back_are_the_poses_that_made_the_outputs(tmp_path, suffix):
+    """A real batch run (one worker process) on meshes far from and near the origin; the table read
+    back: row.pose is the pose normalize_mesh gives, and every shorthand of the row is the Pose's."""
+    folder = tmp_path / "scans"
+    folder.mkdir()
+    written = {}
+    for name, offset in (("near", 0.0), ("far", 1.0e6), ("farther", 3.0e7)):
+        shape = trimesh.creation.capsule(height=1.0, radius=0.4, count=[8, 8])
+        v = written[name] = shape.vertices + [offset + 0.3, -0.7 * offset, 0.4 * offset + 1.9]
+        lines = [f"{float(x)!r} {float(y)!r} {float(z)!r}" for x, y, z in v] + [f"3 {a} {b} {c}" for a, b, c in shape.faces]
+        (folder / f"{name}.off").write_text(f"OFF\n{len(v)} {len(shape.faces)} 0\n" + "\n".join(lines) + "\n")
+    (folder / "broken.ply").write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 99\n\x00")
+    for rotation in (False, True):
+        out, table = tmp_path / f"out{int(rotation)}", tmp_path / f"t{int(rotation)}{suffix}"
+        batch.run_batch([folder], out, NormalizeOptions(resolution=16, rotation=rotation), table=table, workers=1,
+                        progress=False)
+        rows = jaxpose.read_transforms(table)
+        assert sorted(r.status for r in rows) == ["failed", "ok", "ok", "ok"]
+        for row in rows:
+            pose = row.pose
+            assert isinstance(pose, jaxpose.Pose)
+            if not row.ok:
+                assert not bool(pose.valid) and int(pose.status) == Status.NOT_FINITE
+                assert np.isnan(pose.center).all() and np.isnan(row.center).all()
+                for use in (lambda: row.matrix, lambda: row.apply(np.zeros((1, 3))), lambda: row.invert(np.zeros((1, 3)))):
+                    with pytest.raises(InvalidInputError, match="the input failed"):
+                        use()
+                continue
+            _, made = mesh.normalize_mesh(row.input, resolution=16, rotation=rotation)
+            np.testing.assert_array_equal(pose.center, made.center)  # float64, every digit
+            assert float(pose.scale) == float(made.scale) and bool(pose.valid)
+            assert (pose.rotation is None) == (not rotation)
+            if rotation:
+                np.testing.assert_array_equal(pose.rotation, made.rotation)
+                np.testing.assert_array_equal(row.rotation, pose.rotation)
+            x = mesh.load(row.input).vertices
+            np.testing.assert_array_equal(x, written[Path(row.input).stem])  # read back in float64
+            y = row.apply(x)
+            np.testing.assert_array_equal(y, pose.apply(x))
+            np.testing.assert_array_equal(y, mesh.normalized_points(x, made))  # what normalize_mesh writes
+            np.testing.assert_allclose(mesh.load(row.output).vertices, y, rtol=0, atol=1e-10)  # OFF: 10 decimals
+            np.testing.assert_array_equal(row.matrix, pose.matrix)
+            np.testing.assert_array_equal(row.matrix, mesh.pose_matrix(made))
+            back = row.invert(y)
+            np.testing.assert_array_equal(back, pose.inverse().apply(y))
+            np.testing.assert_array_equal(back, _closed_form_inverse(y, pose.center, float(pose.scale), pose.rotation))
+            if abs(pose.center).max() > 1e5:  # far from the origin: x back to the last bit
+                np.testing.assert_array_equal(back, x)
+            else:
+                np.testing.assert_allclose(back, x, rtol=0, atol=8 * np.spacing(np.abs(x).max()))
+
+
+@pytest.mark.parametrize("offset", [0.0, 0.37, 1.0e3, 1.0e6, 1.0e9])
+@pytest.mark.parametrize("rotated", [False, True])
+def test_float64_round_trip(offset, rotated):
+    rng = np.random.default_rng(3)
+    center = np.array([offset + 0.123456789, -0.5 * offset + 0.3, 2.0 * offset - 1.7])
+    scale = 1.2345678901
+    rotation = _rotation(7) if rotated else None
+    x = center + rng.normal(size=(2000, 3)) * [1.5, 0.9, 0.4]
+    pose = Pose.from_center_scale(center, scale, rotation=rotation)
+    y = pose.apply(x)
+    expected_y = (x - center) / scale
+    np.testing.assert_array_equal(y, expected_y if rotation is None else expected_y @ rotation.T)
+    back = pose.inverse().apply(y)
+    np.testing.assert_array_equal(back, _closed_form_inverse(y, center, scale, rotation))
+    error = np.abs(back - x).max()
+    if offset >= 1e3:
+        assert error == 0.0, error  # x - center is exact and the center is added last
+    else:
+        assert error <= 8 * np.spacing(np.abs(x).max()), error
+    m = pose.matrix
+    np.testing.assert_allclose(pose.inverse().matrix @ m, np.eye(4), atol=1e-12 * max(1.0, offset))
+    np.testing.assert_array_equal(pose.inverse().inverse().center, center)  # the inverse keeps the pose
+    inv = pose.inverse()
+    r = np.eye(3) if rotation is None else rotation
+    np.testing.assert_allclose(inv.center, -r @ center / scale, rtol=1e-15)  # the inverse's own fields
+    np.testing.assert_allclose(float(inv.scale), 1 / scale, rtol=1e-15)
+    np.testing.assert_allclose(inv.matrix, np.block([[scale * r.T, center[:, None]], [np.zeros((1, 3)), 1.0]]),
+                               rtol=0, atol=0)
+
+
+def test_a_pose_with_jax_fields_moves_float64_points_in_float64():
+    """The bug: a concrete normalize() pose has a float64 NumPy center and JAX fields (rotation);
+    apply computed in JAX and cast the far center to float32."""
+    center = np.array([1.0e6 + 0.123456, -2.0e6 + 0.654321, 3.0e6 + 0.5])
+    rotation = jnp.asarray(_rotation(1), jnp.float32)
+    pose = Pose(center, np.float64(2.5), jnp.asarray(True), jnp.asarray(True), jnp.asarray(3), jnp.asarray(0.0),
+                rotation, jnp.asarray(0, jnp.int32))
+    x = center + np.random.default_rng(0).normal(size=(50, 3))
+    y = pose.apply(x)
+    assert isinstance(y, np.ndarray) and y.dtype == np.float64
+    np.testing.assert_array_equal(y, host(pose).apply(x))
+    np.testing.assert_allclose(y, (x - center) / 2.5 @ np.asarray(rotation, np.float64).T, rtol=0, atol=1e-15)
+    r64 = np.asarray(rotation, np.float64)  # a float32 rotation is orthogonal to 1e-7: R^T inverts it to that
+    np.testing.assert_array_equal(pose.inverse().apply(y), _closed_form_inverse(y, center, 2.5, r64))
+    np.testing.assert_allclose(pose.inverse().apply(y), x, rtol=0, atol=1e-6)
+    m = pose.matrix
+    assert isinstance(m, np.ndarray) and m.dtype == np.float64
+    np.testing.assert_array_equal(m, host(pose).matrix)
+
+
+def test_normalize_pose_far_from_the_origin_applies_in_float64(x64_off):
+    rng = np.random.default_rng(5)
+    v = rng.normal(size=(400, 3)) * [1.0, 0.6, 0.3]
+    v = v / np.linalg.norm(v, axis=1, keepdims=True) * [1.0, 0.6, 0.3]
+    x = v + [2.0e6, -1.0e6, 5.0e5]
+    pose = jaxpose.normalize(x, method="ocsvm", rotation=True)
+    assert bool(pose.valid) and pose.center.dtype == np.float64
+    y = pose.apply(x)
+    assert isinstance(y, np.ndarray) and y.dtype == np.float64
+    np.testing.assert_array_equal(y, host(pose).apply(x))
+    near = jaxpose.normalize(v, method="ocsvm", rotation=True)  # the same shape at the origin
+    np.testing.assert_allclose(y, host(near).apply(v), atol=1e-4)
+    r64 = np.asarray(pose.rotation, np.float64)  # float32: orthogonal to 1e-7
+    np.testing.assert_array_equal(pose.inverse().apply(y), _closed_form_inverse(y, pose.center, float(pose.scale), r64))
+    np.testing.assert_allclose(pose.inverse().apply(y), x, rtol=0, atol=1e-6)
+
+
+@pytest.fixture
+def x64_off():
+    assert not jax.config.jax_enable_x64
+    yield
+
+
+def test_traced_and_jax_poses_stay_in_jax():
+    rotation = jnp.asarray(_rotation(2), jnp.float32)
+    pose = Pose(jnp.array([1.0, -2.0, 3.0]), jnp.asarray(2.0), rotation=rotation)
+    x = jnp.asarray(np.random.default_rng(0).normal(size=(8, 3)), jnp.float32)
+    y = pose.apply(x)
+    assert isinstance(y, jax.Array) and y.dtype == jnp.float32  # JAX points, JAX fields: JAX
+    roundtrip = jax.jit(lambda p, z: p.inverse().apply(p.apply(z)))(pose, x)
+    assert isinstance(roundtrip, jax.Array)
+    np.testing.assert_allclose(np.asarray(roundtrip), np.asarray(x), atol=1e-5)
+    grad = jax.grad(lambda c: pose._replace(center=c).apply(x).sum())(pose.center)
+    np.testing.assert_allclose(np.asarray(grad), -np.asarray(rotation).sum(0) * 8 / 2.0, rtol=1e-5)
+    m = jax.jit(lambda p: p.inverse().matrix @ p.matrix)(pose)
+    np.testing.assert_allclose(np.asarray(m), np.eye(4), atol=1e-5)
+
+
+@pytest.mark.shared
+@pytest.mark.skipif(not (SHARED / "data" / "faust-dev").is_dir(), reason="../shared/data is not available")
+def test_dev_meshes_round_trip_far_and_near():
+    path = SHARED / "data" / "faust-dev" / "tr_reg_000.ply"
+    vertices = np.asarray(mesh.load(path).vertices, np.float64)
+    _, pose = mesh.normalize_mesh(path, rotation=True)
+    for offset in (0.0, 1.0e3, 1.0e6):
+        moved = pose._replace(center=pose.center + offset)
+        x = vertices + offset
+        back = moved.inverse().apply(moved.apply(x))
+        np.testing.assert_array_equal(back, _closed_form_inverse(moved.apply(x), moved.center, float(pose.scale),
+                                                                 pose.rotation))
+        error = np.abs(back - x).max()
+        assert error == 0.0 if offset else error <= 8 * np.spacing(np.abs(x).max()), (offset, error)

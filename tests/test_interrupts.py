@@ -15,6 +15,7 @@ import jaxpose
 from jaxpose import mesh
 from jaxpose.io.atomic import is_temporary
 from jaxpose.batch.journal import OutputFolder
+from jaxpose.batch.transforms import Transform
 
 ROOT = Path(__file__).resolve().parents[1]
 TIMING = ("seconds", "worker", "worker_peak_mb")
@@ -69,7 +70,7 @@ def assert_outputs_complete(out, scans=None):
         outputs.remove(unrecorded[0])
     for path in outputs:
         assert str(path) in by_output, f"{path} has no record"
-        row = jaxpose.batch.transforms.Transform.from_record(by_output[str(path)])
+        row = Transform.from_record(by_output[str(path)])
         expected = row.apply(mesh.load(row.input).vertices).astype(np.float32)
         np.testing.assert_array_equal(mesh.load(path).vertices.astype(np.float32), expected)
     return records

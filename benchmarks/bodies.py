@@ -1,7 +1,7 @@
 """Why the robust center and scale lose on four-legged animals, and what holds on every body (issue 34).
 
 ``python -m benchmarks.bodies [--variants plain,...] [--classes dog,horse,...] [--resolution 96]
-[--every K] [--json OUT]`` from a source checkout with ../shared beside it.
+[--every K] [--heads] [--json OUT]`` from a source checkout with ../shared beside it.
 
 The six dev classes (faust-dev as its two people, kids-dev's two children, tosca-dev's dog and
 horse), each rigid-core aligned (``jaxpose.evaluation.align_core``), every variant made as
@@ -18,6 +18,12 @@ largest inscribed ball that contains it; ``h``: the pitch):
 * scales: ``volume`` (h^3 times the voxel count, cube root), ``depth_volume^p``
   ((h^3 sum d^p)^(1/(3+p))), ``capped_volume`` (the divergence-theorem volume of the mesh with
   every hole capped by a fan, cube root; meshes), ``sqrt_area``.
+
+``--heads`` (plain meshes; the frame's research, docs/rotation.md): per class, every thick part
+beyond a saddle of the depth field that could be the head (:func:`head_candidates`), where the
+head is among them, the prototype head detector :func:`terminal_head` (the thickest part that
+ends the body) and the ``head`` frame's geometry built on the head (:func:`head_frames`: two
+rules for its axes, four for its front-back sign) against the class frame.
 """
 from __future__ import annotations
 
@@ -29,13 +35,17 @@ import time
 from pathlib import Path
 
 import numpy as np
-from scipy import ndimage
+from scipy import ndimage, sparse
+from scipy.sparse import csgraph
 
 from jaxpose import baselines, datasets
 from jaxpose.evaluation import align_core, class_angles, make_class
 from jaxpose.occupancy.solid import cap_holes, robust_solid
-from jaxpose.rotation.parts import find_parts
-from jaxpose.rotation.rotation import SYMMETRY_POWER, _grid_centers, _weights, frame_of, frame_solid, symmetry_scores
+from jaxpose.evaluation.rotation import sign_free_angles
+from jaxpose.rotation.parts import Parts, find_parts, merge_tree
+from jaxpose.rotation.rotation import (CELL, SYMMETRY_POWER, _grid_centers, _weights, frame_of, frame_solid,
+                                       front_back_cues, head_chest, symmetry_scores)
+from jaxpose.sample import lattice_points
 
 from .consistency import class_folder
 
@@ -139,6 +149,8 @@ def main(argv=None):
     p.add_argument("--resolution", type=int, default=96)
     p.add_argument("--every", type=int, default=1)
     p.add_argument("--thick", action="store_true", help="also the local-thickness candidates (slow)")
+    p.add_argument("--heads", action="store_true",
+                   help="the head candidates of each class and, on the animals, the head frame with the head given")
     p.add_argument("--json", default=None)
     args = p.parse_args(argv)
     if not SHARED.is_dir():
@@ -146,6 +158,11 @@ def main(argv=None):
         return 0
     with tempfile.TemporaryDirectory() as tmp:
         classes = dev_classes(tmp, args.classes.split(","), args.every)
+    if args.heads:
+        record = heads(classes)
+        if args.json:
+            Path(args.json).write_text(json.dumps(record, indent=1))
+        return 0
     out = {}
     for variant in args.variants.split(","):
         out[variant] = {}
@@ -174,9 +191,6 @@ def main(argv=None):
     return 0
 
 
-if __name__ == "__main__":
-    raise SystemExit(main())
-
 
 # ------------------------------------------------------------------ frames and the mirror plane
 def frame_rows(classes, variants=("plain",), methods=("head",)):
@@ -203,3 +217,266 @@ def frame_rows(classes, variants=("plain",), methods=("head",)):
                                          "ambiguity": [a for _, a, _ in found[m]],
                                          "mirror": [s.tolist() for _, _, s in found[m]]}
     return out
+
+
+# ------------------------------------------------------------------ the head of an animal (--heads)
+# Where the head's depth maximum lies in each animal class's aligned coordinates (the first pose's;
+# read off the merge trees of its 8 plain poses): the research oracle of ``--heads``, which asks
+# how good the head frame would be if the head were found. Never used by the library.
+HEAD_AT = {"dog": (0.0, -45.0, 97.0), "horse": (0.0, -105.0, 170.0)}
+_CUBE = np.ones((3, 3, 3), bool)
+
+
+def _voxel(sol, flat):
+    return np.array(np.unravel_index(int(flat), sol.inside.shape))
+
+
+def _world(sol, index):
+    return (np.asarray(sol.origin) + sol.pitch * (np.asarray(index, np.float64) + 0.5)) @ sol.frame
+
+
+def part_beyond(sol, blob, saddle):
+    """(shape) bool: the part of the solid beyond a saddle: the component holding ``blob`` of the
+    kept voxels on the blob's side of the plane through ``saddle`` ((3,) voxel index) normal to
+    the direction from the saddle to the blob's centroid."""
+    idx = np.argwhere(sol.inside)
+    u = np.argwhere(blob).mean(axis=0) - saddle
+    u /= np.linalg.norm(u)
+    half = np.zeros(sol.inside.shape, bool)
+    half[tuple(idx[(idx - saddle) @ u > 0.5].T)] = True
+    labels, _ = ndimage.label(half | blob, _CUBE)
+    return labels == labels[tuple(np.argwhere(blob)[0])]
+
+
+def head_candidates(sol, tree=None, neck=1.05, lowest=0.1):
+    """Every thick part a head could be: one row per local maximum of the depth field (its merge
+    tree, :func:`jaxpose.rotation.parts.merge_tree`) at least ``lowest`` times as deep as the
+    deepest and ``neck`` times as deep as its saddle, whose part beyond the saddle
+    (:func:`part_beyond`) does not hold the deepest voxel. Each row: ``constriction`` (birth /
+    death), ``thickness`` (birth over the deepest), ``part`` (the share of the solid's voxels
+    beyond the saddle), ``center`` (the maximum, world coordinates) and ``row`` (its tree row)."""
+    tree = merge_tree(sol.inside, sol.depth) if tree is None else tree
+    top = tree[:, 0].max()
+    root = tuple(_voxel(sol, tree[tree[:, 1] == 0][0][2]))
+    total = sol.inside.sum()
+    out = []
+    for row in tree:
+        birth, death, peak, saddle, _ = row
+        if death <= 0 or birth < neck * death or birth < lowest * top:
+            continue
+        labels, _ = ndimage.label(sol.depth > death, _CUBE)
+        blob = labels == labels[tuple(_voxel(sol, peak))]
+        part = part_beyond(sol, blob, _voxel(sol, saddle))
+        if part[root]:
+            continue
+        out.append({"constriction": birth / death, "thickness": birth / top, "part": part.sum() / total,
+                    "center": _world(sol, _voxel(sol, peak)), "row": row})
+    return out
+
+
+def parts_at(sol, row, head_peak=None):
+    """:class:`jaxpose.rotation.parts.Parts` with the head on one side of the saddle of one
+    merge-tree row: the side of its maximum (``head_peak`` None: the row's own peak, else the
+    peak of that side, the row's peak or the one it joins)."""
+    birth, death, peak, saddle, joins = row
+    head_peak = peak if head_peak is None else head_peak
+    other = joins if head_peak == peak else peak
+    labels, _ = ndimage.label(sol.depth > death, _CUBE)
+    head = labels == labels[tuple(_voxel(sol, head_peak))]
+    trunk = labels == labels[tuple(_voxel(sol, other))]
+    neck = np.asarray(sol.origin, np.float64) + sol.pitch * (_voxel(sol, saddle) + 0.5)
+    return Parts(head, trunk, neck, float(sol.depth.ravel()[int(head_peak)]), float(death), float(birth / death), 1.0)
+
+
+# The prototype of a head detector for every body (--heads): the head is the thickest part that
+# ends the body, whatever its neck's constriction. Not in the library (docs/rotation.md, "Bodies
+# other than people": it loses a third of the children's heads).
+DISK = 3.0  # a part is cut off across its saddle by a disk of this many saddle depths in radius
+BRANCH = 2.0  # a part ends the body when no two of its ends are more than this many part thicknesses apart
+
+
+def part_across(sol, blob, saddle, death, disk=DISK):
+    """(shape) bool: the part beyond a saddle, cut off by a disk: the component holding ``blob``
+    of the kept voxels less the disk through ``saddle`` ((3,) voxel index) normal to the direction
+    from the saddle to the blob's centroid, ``disk`` times ``death`` (the saddle's depth, units)
+    in radius and two voxels thick (no 26-connected path crosses it)."""
+    idx = np.argwhere(sol.inside)
+    u = np.argwhere(blob).mean(axis=0) - saddle
+    u /= np.linalg.norm(u)
+    rel = idx - saddle
+    h = rel @ u
+    cut = (np.abs(h) <= 1.0) & (np.linalg.norm(rel - h[:, None] * u, axis=1) * sol.pitch <= disk * death)
+    keep = np.zeros(sol.inside.shape, bool)
+    keep[tuple(idx[~cut].T)] = True
+    labels, _ = ndimage.label(keep | blob, _CUBE)
+    return labels == labels[tuple(np.argwhere(blob)[0])]
+
+
+def geodesic(mask, source, pitch):
+    """(shape) float: the length (units) of the shortest 26-connected path inside ``mask`` from the
+    voxel ``source`` ((3,) index) to each voxel (inf where none; 0 outside the mask)."""
+    vox = np.argwhere(mask)
+    index = -np.ones(mask.shape, np.int64)
+    index[tuple(vox.T)] = np.arange(len(vox))
+    padded = np.pad(index, 1, constant_values=-1)
+    rows, cols, lengths = [], [], []
+    for step in _NEIGHBOURS_HALF:
+        other = padded[tuple((vox + 1 + step).T)]
+        ok = other >= 0
+        rows.append(np.flatnonzero(ok))
+        cols.append(other[ok])
+        lengths.append(np.full(ok.sum(), np.linalg.norm(step) * pitch))
+    graph = sparse.coo_matrix((np.concatenate(lengths), (np.concatenate(rows), np.concatenate(cols))),
+                              shape=(len(vox), len(vox))).tocsr()
+    out = np.zeros(mask.shape)
+    out[tuple(vox.T)] = csgraph.dijkstra(graph, directed=False, indices=int(index[tuple(source)]))
+    return out
+
+
+_NEIGHBOURS_HALF = np.array([(a, b, c) for a in (-1, 0, 1) for b in (-1, 0, 1) for c in (-1, 0, 1)
+                             if (a, b, c) > (0, 0, 0)])  # each of the 26 neighbours once, up to sign
+
+
+def ends(sol, part, saddle, thickness, scale=BRANCH):
+    """How many ends the part has at the scale of its thickness: the maxima of the geodesic
+    distance from the saddle (the part's voxel nearest it) whose persistence (birth - death in
+    the merge tree of that distance's superlevel sets) is at least ``scale * thickness``; the
+    farthest end counts where it is that far from the saddle. 0 or 1: the part does not branch."""
+    vox = np.argwhere(part)
+    g = geodesic(part, vox[np.argmin(np.linalg.norm(vox - saddle, axis=1))], sol.pitch)
+    reach = part & np.isfinite(g)
+    tree = merge_tree(reach, np.where(reach, g + sol.pitch, 0.0))
+    return int(np.sum(tree[:, 0] - tree[:, 1] >= scale * thickness))
+
+
+def terminal_head(sol, tree=None, neck=1.05, lowest=0.1):
+    """The prototype head: of the parts beyond the saddles of the depth field (each row of its
+    merge tree at least ``neck`` times as deep as its saddle and ``lowest`` times as deep as the
+    deepest; on the side whose blob at the saddle's depth is the smaller), cut off by
+    :func:`part_across` without the other side's maximum, those that do not branch (:func:`ends`
+    <= 1), the thickest.
+
+    Returns:
+      (row, head peak (flat index), part (shape bool)) or None."""
+    tree = merge_tree(sol.inside, sol.depth) if tree is None else tree
+    top = tree[:, 0].max()
+    best = None
+    for row in tree:
+        birth, death, peak, saddle, joins = row
+        if death <= 0 or birth < neck * death or birth < lowest * top:
+            continue
+        labels, _ = ndimage.label(sol.depth > death, _CUBE)
+        blobs = {q: labels == labels[tuple(_voxel(sol, q))] for q in (peak, joins)}
+        for mine, other in ((peak, joins), (joins, peak)):
+            if blobs[mine].sum() > blobs[other].sum():  # the head is the smaller side
+                continue
+            thickness = sol.depth.ravel()[int(mine)]
+            if best is not None and thickness <= best[0]:
+                continue
+            part = part_across(sol, blobs[mine], _voxel(sol, saddle), death)
+            if part[tuple(_voxel(sol, other))] or ends(sol, part, _voxel(sol, saddle), thickness) > 1:
+                continue
+            best = (thickness, row, mine, part)
+    return None if best is None else best[1:]
+
+
+def head_frames(sol, vertices, faces, found):
+    """{(axis rule, sign rule): (3, 3) rotation} of the ``head`` frame's geometry
+    (:func:`jaxpose.rotation.rotation.head_chest`) from the parts ``found``: up from the chest to
+    the head; front-back across up the chest's thinner axis (``thin``, the library's rule) or the
+    one of the chest's two axes whose plane does not mirror the body best (``mirror``: the other
+    is left-right); its sign where the jaw lies (``jaw``, the library's), where the head's surface
+    reaches farther (``reach``), the sign of its third moment (``skew``), or where the part beyond
+    the neck lies from the skull's center (``part``: a snout, a face)."""
+    geo = head_chest(sol, found, lattice_points(vertices, faces, CELL * sol.pitch))
+    if geo is None:
+        return {}
+    across = np.eye(3) - np.outer(geo.up, geo.up)
+    _, vec = np.linalg.eigh(across @ geo.cov @ across)  # ascending: up, thinner, wider
+    w2 = _weights(geo.depth, SYMMETRY_POWER)
+    sym = symmetry_scores(sol, np.stack([vec[:, 1], vec[:, 2], geo.up]), (w2 @ geo.centers) / w2.sum())
+    part = part_beyond(sol, found.head, (found.neck - sol.origin) / sol.pitch - 0.5)
+    part_center = (np.asarray(sol.origin) + sol.pitch * (np.argwhere(part) + 0.5)).mean(axis=0)
+    out = {}
+    for axis_rule, fb in (("thin", vec[:, 1]), ("mirror", vec[:, 1] if sym[1] >= sym[0] else vec[:, 2])):
+        jaw, reach = front_back_cues(geo, fb)
+        z = (geo.surface - geo.skull) @ fb
+        for sign_rule, cue in (("jaw", jaw), ("reach", reach), ("skew", np.mean(z ** 3)),
+                               ("part", (part_center - geo.skull) @ fb)):
+            ahead = (fb if cue > 0 else -fb) @ sol.frame
+            down = -geo.up @ sol.frame
+            out[axis_rule, sign_rule] = np.stack([down, np.cross(ahead, down), ahead])
+    return out
+
+
+def heads(classes, out=print):
+    """``--heads``: per class (plain meshes), the head candidates of every pose, the head marked
+    (the maximum nearest :data:`HEAD_AT` on the animals, the library's head,
+    :func:`jaxpose.rotation.parts.find_parts`, on the people), and the angles to the class frame
+    of :func:`head_frames` with that head (poses where the library finds none are left out).
+    Returns {class: record}."""
+    record = {}
+    for name, meshes in classes.items():
+        rows, frames, proto_frames, found_by_prototype = [], {}, {}, []
+        for k, shape in enumerate(meshes):
+            v, f = baselines.split_geometry(shape)
+            sol = frame_solid(v, f)
+            tree = merge_tree(sol.inside, sol.depth)
+            cands = head_candidates(sol, tree)
+            if name in HEAD_AT:
+                rows_with_saddle = tree[tree[:, 1] > 0]
+                at = np.array([_world(sol, _voxel(sol, p)) for p in rows_with_saddle[:, 2]])
+                best = rows_with_saddle[np.argmin(np.linalg.norm(at - HEAD_AT[name], axis=1))]
+                for key, r in head_frames(sol, v, f, parts_at(sol, best)).items():
+                    frames.setdefault(key, []).append(r)
+                is_head = [c["row"][2] == best[2] for c in cands]
+            else:
+                lib = find_parts(sol)
+                is_head = [lib is not None and bool(lib.head[tuple(_voxel(sol, c["row"][2]))]) for c in cands]
+                for key, r in (head_frames(sol, v, f, lib) if lib is not None else {}).items():
+                    frames.setdefault(key, []).append(r)
+            proto = terminal_head(sol, tree)
+            if name in HEAD_AT:
+                truth = parts_at(sol, best).head
+            else:
+                truth = lib.head if lib is not None else np.zeros(sol.inside.shape, bool)
+            hit = proto is not None and bool(truth[tuple(_voxel(sol, proto[1]))])
+            found_by_prototype.append(hit)
+            if proto is not None:
+                for key, r in head_frames(sol, v, f, parts_at(sol, proto[0], proto[1])).items():
+                    proto_frames.setdefault(key, []).append(r)
+            for c, h in zip(cands, is_head):
+                rows.append({"pose": k, "head": bool(h), **{key: (val.tolist() if isinstance(val, np.ndarray) else val)
+                                                          for key, val in c.items()}})
+        record[name] = {"candidates": rows}
+        head = [r for r in rows if r["head"]]
+        thinnest = min([h["thickness"] for h in head] or [1])
+        other = [r for r in rows if not r["head"] and r["thickness"] >= thinnest]
+        thinner = [r for r in rows if not r["head"] and r["thickness"] < thinnest]
+        out(f"\n{name}: the head found among the candidates in {len({r['pose'] for r in head})} of {len(meshes)} poses")
+        for label, group in (("head", head), ("others at least as thick", other), ("others thinner", thinner)):
+            if group:
+                out(f"  {label:25s} constriction {_span(group, 'constriction')}  thickness {_span(group, 'thickness')}"
+                    f"  part {_span(group, 'part', 3)}  ({len(group)} rows)")
+        record[name]["prototype_found"] = found_by_prototype
+        out(f"  the prototype (terminal_head) finds that head in {sum(found_by_prototype)} of {len(meshes)} poses")
+        for label, group, field in (("head given", frames, "frames"),
+                                    ("prototype's head", proto_frames, "prototype_frames")):
+            record[name][field] = {}
+            for key, rs in group.items():
+                raw = class_angles(np.stack(rs))
+                free, _ = sign_free_angles(np.stack(rs))
+                record[name][field]["/".join(key)] = {"raw": raw.tolist(), "sign_free": free.tolist()}
+                out(f"  {label} ({len(rs)}), axes {key[0]:6s} sign {key[1]:5s}: raw {raw.mean():5.1f} / "
+                    f"{raw.max():5.1f}   sign-free {free.mean():5.1f} / {free.max():5.1f}   raw per pose "
+                    f"{np.round(raw).astype(int).tolist()}")
+    return record
+
+
+def _span(rows, key, digits=2):
+    values = [r[key] for r in rows]
+    return f"{min(values):.{digits}f}-{max(values):.{digits}f}"
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

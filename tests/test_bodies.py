@@ -5,6 +5,7 @@ import trimesh
 from scipy import ndimage
 
 from benchmarks import bodies
+from jaxpose.occupancy.solid import Solid
 
 
 def test_capped_volume_is_the_closed_form_and_caps_a_planar_hole():
@@ -35,3 +36,104 @@ def test_local_thickness_of_two_balls():
 def test_spreads_by_hand():
     sigma, cv = bodies.spreads([[0, 0, 0], [2, 0, 0]], [1.0, 3.0])
     assert sigma == pytest.approx(1.0) and cv == pytest.approx(0.5)
+
+
+def _dumbbell(pitch=0.05):
+    """Voxel solid of a trunk (ball, radius 1.0, at x = -1.2), a head (ball, radius 0.5, at x = 1.4)
+    and a neck (rod of radius 0.25 along x between them); depth by the distance transform."""
+    axes = [np.arange(a + 0.5 * pitch, b, pitch) for a, b in zip((-2.4, -1.2, -1.2), (2.0, 1.2, 1.2))]
+    x = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
+    trunk = np.linalg.norm(x - (-1.2, 0, 0), axis=-1) <= 1.0
+    head = np.linalg.norm(x - (1.4, 0, 0), axis=-1) <= 0.5
+    neck = (x[..., 0] >= -1.2) & (x[..., 0] <= 1.4) & (np.hypot(x[..., 1], x[..., 2]) <= 0.25)
+    inside = trunk | head | neck
+    depth = ndimage.distance_transform_edt(inside) * pitch
+    return Solid(inside, depth, np.array((-2.4, -1.2, -1.2)), pitch, None, np.eye(3), 1, 0), x, trunk, head, neck
+
+
+def test_head_candidates_of_a_dumbbell():
+    """One candidate: the head ball, born at its radius (0.5 of the trunk's 1.0), dying at the neck's
+    0.25 (constriction 2), its part beyond the saddle the head and at most the whole neck, never the
+    trunk; parts_at gives the head's and the trunk's voxels deeper than the neck."""
+    sol, x, trunk, head, neck = _dumbbell()
+    rows = bodies.head_candidates(sol)
+    assert len(rows) == 1
+    (row,) = rows
+    tol = 2 * sol.pitch  # the distance transform's voxel
+    assert row["thickness"] == pytest.approx(0.5, abs=tol)
+    assert row["constriction"] == pytest.approx(2.0, rel=0.25)
+    assert np.linalg.norm(row["center"] - (1.4, 0, 0)) < tol
+    total = sol.inside.sum()
+    assert head.sum() / total - 0.01 <= row["part"] <= (head | (neck & (x[..., 0] > -0.2))).sum() / total
+    found = bodies.parts_at(sol, row["row"])  # the head's voxels deeper than the neck: a ball of radius 0.25
+    core = np.linalg.norm(x - (1.4, 0, 0), axis=-1) <= 0.25 - tol
+    assert found.head[core].all() and not found.head[~head].any() and found.trunk[trunk & (sol.depth > 0.3)].all()
+
+
+def test_part_beyond_keeps_what_hangs_on_the_far_side():
+    """The part beyond the neck holds the head and not the trunk, whichever side the plane is cut from."""
+    sol, x, trunk, head, neck = _dumbbell()
+    blob = np.linalg.norm(x - (1.4, 0, 0), axis=-1) <= 0.2
+    saddle = np.array(np.unravel_index(np.argmin(np.where(neck, np.abs(x[..., 0] - 0.5), np.inf)), sol.inside.shape))
+    part = bodies.part_beyond(sol, blob, saddle)
+    assert part[head].all() and not part[trunk].any()
+
+
+def _quadruped(pitch=0.08):
+    """Voxel solid of a trunk (ball, radius 1.0, at x = -1.5), a rump (ball, radius 0.8, at x = 0.8)
+    joined to it by a waist (rod, radius 0.6), two hind legs (rods, radius 0.2, 2.5 long, down
+    from the rump at y = +-0.4) and a head (ball, radius 0.45, at x = -3.2) on a neck (rod, radius
+    0.25): the rump is thicker than the head and, like it, beyond a saddle, but it branches."""
+    axes = [np.arange(a + 0.5 * pitch, b, pitch) for a, b in zip((-3.8, -1.2, -3.0), (1.8, 1.2, 1.2))]
+    x = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
+
+    def ball(c, r):
+        return np.linalg.norm(x - np.array(c), axis=-1) <= r
+
+    def along_x(x0, x1, r):
+        return (x[..., 0] >= x0) & (x[..., 0] <= x1) & (np.hypot(x[..., 1], x[..., 2]) <= r)
+
+    def leg(y):
+        return (x[..., 2] >= -2.5) & (x[..., 2] <= 0.0) & (np.hypot(x[..., 0] - 0.8, x[..., 1] - y) <= 0.2)
+
+    head = ball((-3.2, 0, 0), 0.45)
+    inside = ball((-1.5, 0, 0), 1.0) | ball((0.8, 0, 0), 0.8) | along_x(-1.5, 0.8, 0.6) | leg(0.4) | leg(-0.4) \
+        | head | along_x(-3.2, -1.5, 0.25)
+    depth = ndimage.distance_transform_edt(inside) * pitch
+    return Solid(inside, depth, np.array((-3.8, -1.2, -3.0)), pitch, None, np.eye(3), 1, 0), x, head
+
+
+def test_terminal_head_takes_the_part_that_ends_the_body_not_the_thicker_rump():
+    """The rump (0.8 deep) is beyond a saddle and thicker than the head (0.45), but its two legs
+    are two ends 2.5 long, more than BRANCH rump depths apart; the head's part has one end: the
+    prototype takes the head."""
+    sol, x, head = _quadruped()
+    row, peak, part = bodies.terminal_head(sol)
+    tol = 2 * sol.pitch
+    center = sol.origin + sol.pitch * (np.array(np.unravel_index(int(peak), sol.inside.shape)) + 0.5)
+    assert np.linalg.norm(center - (-3.2, 0, 0)) < tol
+    assert part[head & (sol.depth > tol)].all() and part.sum() < 1.5 * head.sum()
+    rows = bodies.head_candidates(sol)
+    rump = [r for r in rows if np.linalg.norm(r["center"] - (0.8, 0, 0)) < tol]
+    assert len(rump) == 1 and rump[0]["thickness"] > 0.7  # a thicker candidate, passed over
+    labels, _ = ndimage.label(sol.depth > rump[0]["row"][1], np.ones((3, 3, 3), bool))
+    blob = labels == labels[tuple(np.array(np.unravel_index(int(rump[0]["row"][2]), sol.inside.shape)))]
+    saddle = np.array(np.unravel_index(int(rump[0]["row"][3]), sol.inside.shape))
+    rump_part = bodies.part_across(sol, blob, saddle, rump[0]["row"][1])
+    assert bodies.ends(sol, rump_part, saddle, sol.depth.ravel()[int(rump[0]["row"][2])]) >= 2
+
+
+def test_geodesic_along_a_rod_and_around_a_wall():
+    """Inside a straight rod the geodesic distance is the straight one (within the 26-neighbour
+    metric's 8 %); a wall with a gap makes the far side's distance the way round it."""
+    mask = np.zeros((40, 5, 5), bool)
+    mask[:, 1:4, 1:4] = True
+    g = bodies.geodesic(mask, (0, 2, 2), 0.5)
+    assert g[39, 2, 2] == pytest.approx(39 * 0.5)
+    room = np.ones((21, 21, 1), bool)
+    room[10, :18, 0] = False  # a wall along y with a gap at y >= 18
+    g = bodies.geodesic(room, (0, 0, 0), 1.0)
+    straight = 20.0
+    assert g[20, 0, 0] > 1.8 * straight
+    closed = room & (np.arange(21)[None, :, None] < 18)  # no gap: the far side cannot be reached
+    assert np.isinf(bodies.geodesic(closed, (0, 0, 0), 1.0)[20, 0, 0])

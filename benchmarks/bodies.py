@@ -22,7 +22,7 @@ largest inscribed ball that contains it; ``h``: the pitch):
 ``--heads`` (plain meshes; the frame's research, docs/rotation.md): per class, every thick part
 beyond a saddle of the depth field that could be the head (:func:`head_candidates`), where the
 head is among them, the prototype head detector :func:`terminal_head` (the thickest part that
-ends the body) and the ``head`` frame's geometry built on the head (:func:`head_frames`: two
+ends the body) and the ``head`` frame's geometry built on the head (:func:`head_frames`: three
 rules for its axes, four for its front-back sign) against the class frame.
 """
 from __future__ import annotations
@@ -37,6 +37,7 @@ from pathlib import Path
 import numpy as np
 from scipy import ndimage, sparse
 from scipy.sparse import csgraph
+from scipy.spatial import cKDTree
 
 from jaxpose import baselines, datasets
 from jaxpose.evaluation import align_core, class_angles, make_class
@@ -380,6 +381,30 @@ def terminal_head(sol, tree=None, neck=1.05, lowest=0.1):
     return None if best is None else best[1:]
 
 
+def mirror_error(points, center, normal):
+    """Mean distance (units) from each of the (n, 3) points reflected in the plane through
+    ``center`` normal to ``normal`` (unit) to the nearest of the points: 0 for a mirror-symmetric set."""
+    reflected = points - 2.0 * ((points - center) @ normal)[:, None] * normal
+    return float(cKDTree(points).query(reflected)[0].mean())
+
+
+def head_mirror_normal(surface, a, b, steps=36):
+    """The normal of the best mirror plane of the head's surface points (n, 3) through their
+    centroid among the directions cos t a + sin t b (a, b orthonormal, across up): ``steps`` over
+    half a turn, then ``steps // 3`` within one step of the best. A head is bilaterally symmetric
+    and rigid in every pose: the normal is its left-right axis."""
+    center = surface.mean(axis=0)
+
+    def best(angles):
+        dirs = np.cos(angles)[:, None] * a + np.sin(angles)[:, None] * b
+        errors = [mirror_error(surface, center, e) for e in dirs]
+        return angles[int(np.argmin(errors))], dirs[int(np.argmin(errors))]
+
+    t, _ = best(np.linspace(0.0, np.pi, steps, endpoint=False))
+    step = np.pi / steps
+    return best(t + np.linspace(-step, step, steps // 3 + 1))[1]
+
+
 def head_frames(sol, vertices, faces, found):
     """{(axis rule, sign rule): (3, 3) rotation} of the ``head`` frame's geometry
     (:func:`jaxpose.rotation.rotation.head_chest`) from the parts ``found``: up from the chest to
@@ -387,7 +412,8 @@ def head_frames(sol, vertices, faces, found):
     one of the chest's two axes whose plane does not mirror the body best (``mirror``: the other
     is left-right); its sign where the jaw lies (``jaw``, the library's), where the head's surface
     reaches farther (``reach``), the sign of its third moment (``skew``), or where the part beyond
-    the neck lies from the skull's center (``part``: a snout, a face)."""
+    the neck lies from the skull's center (``part``: a snout, a face); or left-right the normal of
+    the head's own best mirror plane across up (``head``, :func:`head_mirror_normal`)."""
     geo = head_chest(sol, found, lattice_points(vertices, faces, CELL * sol.pitch))
     if geo is None:
         return {}
@@ -397,8 +423,10 @@ def head_frames(sol, vertices, faces, found):
     sym = symmetry_scores(sol, np.stack([vec[:, 1], vec[:, 2], geo.up]), (w2 @ geo.centers) / w2.sum())
     part = part_beyond(sol, found.head, (found.neck - sol.origin) / sol.pitch - 0.5)
     part_center = (np.asarray(sol.origin) + sol.pitch * (np.argwhere(part) + 0.5)).mean(axis=0)
+    left_right = head_mirror_normal(geo.surface, vec[:, 1], vec[:, 2]) if len(geo.surface) >= 4 else vec[:, 2]
     out = {}
-    for axis_rule, fb in (("thin", vec[:, 1]), ("mirror", vec[:, 1] if sym[1] >= sym[0] else vec[:, 2])):
+    for axis_rule, fb in (("thin", vec[:, 1]), ("mirror", vec[:, 1] if sym[1] >= sym[0] else vec[:, 2]),
+                          ("head", np.cross(geo.up, left_right))):
         jaw, reach = front_back_cues(geo, fb)
         z = (geo.surface - geo.skull) @ fb
         for sign_rule, cue in (("jaw", jaw), ("reach", reach), ("skew", np.mean(z ** 3)),

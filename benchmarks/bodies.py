@@ -1,7 +1,7 @@
 """Why the robust center and scale lose on four-legged animals, and what holds on every body (issue 34).
 
 ``python -m benchmarks.bodies [--variants plain,...] [--classes dog,horse,...] [--resolution 96]
-[--every K] [--heads] [--json OUT]`` from a source checkout with ../shared beside it.
+[--every K] [--heads | --pitch] [--json OUT]`` from a source checkout with ../shared beside it.
 
 The six dev classes (faust-dev as its two people, kids-dev's two children, tosca-dev's dog and
 horse), each rigid-core aligned (``jaxpose.evaluation.align_core``), every variant made as
@@ -152,6 +152,8 @@ def main(argv=None):
     p.add_argument("--thick", action="store_true", help="also the local-thickness candidates (slow)")
     p.add_argument("--heads", action="store_true",
                    help="the head candidates of each class and, on the animals, the head frame with the head given")
+    p.add_argument("--pitch", action="store_true",
+                   help="the voxel-volume scale's cv with the pitch set by the extent and by the area")
     p.add_argument("--json", default=None)
     args = p.parse_args(argv)
     if not SHARED.is_dir():
@@ -159,8 +161,8 @@ def main(argv=None):
         return 0
     with tempfile.TemporaryDirectory() as tmp:
         classes = dev_classes(tmp, args.classes.split(","), args.every)
-    if args.heads:
-        record = heads(classes)
+    if args.heads or args.pitch:
+        record = heads(classes) if args.heads else pitch_study(classes, args.resolution)
         if args.json:
             Path(args.json).write_text(json.dumps(record, indent=1))
         return 0
@@ -504,6 +506,31 @@ def heads(classes, out=print):
 def _span(rows, key, digits=2):
     values = [r[key] for r in rows]
     return f"{min(values):.{digits}f}-{max(values):.{digits}f}"
+
+
+# ------------------------------------------------------------------ a pitch set by the area (--pitch)
+def pitch_study(classes, resolution=96, out=print):
+    """``--pitch``: the cv of the voxel-volume scale V^(1/3) per class (plain meshes) with the pitch
+    set by each shape's extent (the library: ``resolution`` voxels along the largest extent) and by
+    its area (the same median grid, each shape's resolution scaled by its extent / sqrt(area), so
+    that the pitch is a fixed share of sqrt(area) within the class), beside sqrt(area)'s cv.
+    Returns {class: {"extent", "area", "sqrt_area": cv}}."""
+    record = {}
+    for name, meshes in classes.items():
+        geometry = [baselines.split_geometry(m) for m in meshes]
+        area = np.array([m.area for m in meshes])
+        extent = np.array([np.ptp(v, axis=0).max() for v, _ in geometry])
+        ratio = extent / np.sqrt(area)
+        by_area = np.rint(resolution * ratio / np.median(ratio)).astype(int)
+        s_extent = [robust_solid(v, f, resolution=resolution).volume() ** (1 / 3) for v, f in geometry]
+        s_area = [robust_solid(v, f, resolution=int(r)).volume() ** (1 / 3) for (v, f), r in zip(geometry, by_area)]
+        cv = {"extent": spreads([[0, 0, 0]] * len(meshes), s_extent)[1],
+              "area": spreads([[0, 0, 0]] * len(meshes), s_area)[1],
+              "sqrt_area": spreads([[0, 0, 0]] * len(meshes), np.sqrt(area))[1]}
+        record[name] = cv
+        out(f"{name}: cv of V^(1/3), pitch by extent {cv['extent']:.5f}, by area {cv['area']:.5f}; "
+            f"sqrt(area) {cv['sqrt_area']:.5f} (resolutions {by_area.min()}-{by_area.max()})")
+    return record
 
 
 if __name__ == "__main__":

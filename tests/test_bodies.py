@@ -159,3 +159,15 @@ def test_head_mirror_normal_of_a_snouted_head():
     assert np.degrees(np.arccos(min(1.0, abs(n[1])))) < 0.5
     assert bodies.mirror_error(head, head.mean(axis=0), np.array([0.0, 1.0, 0.0])) == pytest.approx(0.0, abs=1e-12)
     assert bodies.mirror_error(head, head.mean(axis=0), np.array([1.0, 0.0, 0.0])) > 0.05
+
+
+def test_pitch_study_of_a_class_of_one_moved_shape():
+    """A class of one box moved about: its voxels are the same on each grid (the grid follows the
+    box), so every cv is 0 whatever sets the pitch."""
+    box = trimesh.creation.box(extents=(1.0, 2.0, 3.0))
+    moved = [box.copy().apply_translation(t) for t in ((0, 0, 0), (5, -2, 1), (-3, 7, 2))]
+    lines = []
+    record = bodies.pitch_study({"box": moved}, resolution=24, out=lines.append)
+    assert record["box"] == {"extent": pytest.approx(0.0, abs=1e-12), "area": pytest.approx(0.0, abs=1e-12),
+                             "sqrt_area": pytest.approx(0.0, abs=1e-12)}
+    assert len(lines) == 1 and lines[0].startswith("box: cv of V^(1/3)")

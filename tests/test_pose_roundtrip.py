@@ -178,6 +178,8 @@ def test_traced_and_jax_poses_stay_in_jax():
     x = jnp.asarray(np.random.default_rng(0).normal(size=(8, 3)), jnp.float32)
     y = pose.apply(x)
     assert isinstance(y, jax.Array) and y.dtype == jnp.float32  # JAX points, JAX fields: JAX
+    assert type(pose._replace(scale=np.float64(2.0)).apply(x)) is np.ndarray  # a NumPy scalar field: the host
+    assert isinstance(pose._replace(scale=2.0).apply(x), jax.Array)  # a Python number does not count
     roundtrip = jax.jit(lambda p, z: p.inverse().apply(p.apply(z)))(pose, x)
     assert isinstance(roundtrip, jax.Array)
     np.testing.assert_allclose(np.asarray(roundtrip), np.asarray(x), atol=1e-5)

@@ -108,7 +108,7 @@ def _similarity_xp(*values):
     given = [v for v in values if v is not None]
     if any(is_traced(v) for v in given):
         return _jnp()
-    arrays = [v for v in given if not isinstance(v, (bool, int, float))]
+    arrays = [v for v in given if type(v) not in (bool, int, float)]  # NumPy scalars count as NumPy
     if arrays and all(_is_jax(v) for v in arrays):
         return _jnp()
     return np

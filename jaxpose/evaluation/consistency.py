@@ -32,6 +32,7 @@ from .._validate import InvalidInputError, OpenMeshWarning
 from ..config import OCSVM
 from . import alignment
 from .measures import scale_spread, spread
+from .tables import class_tables
 from .variants import VARIANTS, make_class
 
 __all__ = ["METHODS", "LEGEND", "evaluate", "sweep", "format_table", "format_per_class", "SWEEP_VALUES", "SWEEP_FIXED"]
@@ -354,25 +355,14 @@ def format_per_class(result) -> str:
     apply. An average over classes (:func:`format_table`) can hide a class that loses; this cannot.
     """
     per_variant = result.get("variants") or {"plain": {"summary": result["summary"], "per_class": result["per_class"]}}
-    variants = list(per_variant)
-    first = per_variant[variants[0]]
-    methods = [row["method"] for row in first["summary"]]
-    objects = result.get("params", {}).get("objects", {})
-    width = max([len("method")] + [len(m) for m in methods]) + 2
-    lines = []
-    for name in first["per_class"]:
-        count = f" ({objects[name]} objects)" if name in objects else ""
-        top = f"{'':<{width}}" + "".join(f"{v:^24}" for v in variants)
-        head = f"{'method':<{width}}" + f"{'sigma_tr':>12}{'cv_scale':>12}" * len(variants)
-        lines += ["", f"class {name}{count}", top, head, "-" * len(head)]
-        columns = {}  # (variant, key) -> {method: value}
-        for v in variants:
-            cells = per_variant[v]["per_class"][name]
-            for key in ("sigma_tr", "cv_scale"):
-                columns[v, key] = {m: cells[m][key] for m in methods if m in cells and "error" not in cells[m]}
+
+    def rows(cells, methods):
+        columns = {(v, key): {m: block[m][key] for m in methods if m in block and "error" not in block[m]}
+                   for v, block in cells.items() for key in ("sigma_tr", "cv_scale")}
+        texts = {}
         for m in methods:
-            text = f"{m:<{width}}"
-            for v in variants:
+            text = ""
+            for v in cells:
                 for key in ("sigma_tr", "cv_scale"):
                     col = columns[v, key]
                     if m not in col:
@@ -381,6 +371,10 @@ def format_per_class(result) -> str:
                     low = min(col.values())
                     mark = "*" if col[m] <= low else ("~" if col[m] <= 1.05 * low else " ")
                     text += f"{col[m]:>11.5f}{mark}"
-            lines.append(text)
+            texts[m] = text
+        return texts
+
+    lines = class_tables(per_variant, result.get("params", {}).get("objects", {}),
+                         f"{'sigma_tr':>12}{'cv_scale':>12}", 24, rows)
     lines += ["", "* lowest of the column, ~ within 5 % of it"]
     return "\n".join(lines)

@@ -23,6 +23,7 @@ import numpy as np
 
 from .._validate import InvalidInputError, JaxposeError
 from . import alignment
+from .tables import class_tables
 from .variants import VARIANTS, make_class
 
 __all__ = ["PROPER_FLIPS", "angle", "chordal_mean", "class_angles", "sign_free_angles", "evaluate_rotation",
@@ -218,32 +219,26 @@ def format_rotation_per_class(result) -> str:
     the share of instances flagged. ``*`` marks the lowest raw mean of a column; n/a where a
     method does not apply.
     """
-    variants = list(result["variants"])
-    first = result["variants"][variants[0]]
-    methods = [row["method"] for row in first["summary"]]
-    objects = result.get("params", {}).get("objects", {})
-    width = max([len("method")] + [len(m) for m in methods]) + 2
-    lines = []
-    for name in first["per_class"]:
-        count = f" ({objects[name]} objects)" if name in objects else ""
-        top = f"{'':<{width}}" + "".join(f"{v:^22}" for v in variants)
-        head = f"{'method':<{width}}" + f"{'mean / max':>15}{'flag':>7}" * len(variants)
-        lines += ["", f"class {name}{count}", top, head, "-" * len(head)]
+    def rows(cells, methods):
         lows = {}
-        for v in variants:
-            cells = result["variants"][v]["per_class"][name]
-            means = [cells[m]["raw_mean"] for m in methods if "error" not in cells[m]]
+        for v, block in cells.items():
+            means = [block[m]["raw_mean"] for m in methods if "error" not in block[m]]
             lows[v] = min(means) if means else None
+        texts = {}
         for m in methods:
-            text = f"{m:<{width}}"
-            for v in variants:
-                cell = result["variants"][v]["per_class"][name][m]
+            text = ""
+            for v, block in cells.items():
+                cell = block[m]
                 if "error" in cell:
                     text += f"{'n/a':>15}{'':>7}"
                     continue
                 mark = "*" if cell["raw_mean"] <= lows[v] else " "
                 flag = "" if cell["flagged"] is None else f"{100 * cell['flagged']:.0f}%"
                 text += f"{cell['raw_mean']:>7.1f} / {cell['raw_max']:>5.1f}{mark}{flag:>7}"
-            lines.append(text)
+            texts[m] = text
+        return texts
+
+    lines = class_tables(result["variants"], result.get("params", {}).get("objects", {}),
+                         f"{'mean / max':>15}{'flag':>7}", 22, rows)
     lines += ["", "angles in degrees to the class frame (chordal mean), raw; * lowest mean of the column"]
     return "\n".join(lines)

@@ -1,0 +1,38 @@
+"""Per-class terminal tables: one table per class, methods as rows, each variant's columns side by side."""
+from __future__ import annotations
+
+from typing import Callable
+
+__all__ = ["class_tables"]
+
+
+def class_tables(per_variant: dict, objects: dict, head: str, variant_width: int,
+                 rows: Callable[[dict, list], dict]) -> list:
+    """The lines of one table per class (without a legend).
+
+    Args:
+      per_variant: {variant: {"summary": [{"method": ...}, ...], "per_class": {class: {method: cell}}}};
+        the first variant's summary orders the methods, its per_class the classes.
+      objects: {class: number of objects}, shown after the class name where given.
+      head: the column heads of one variant (repeated per variant).
+      variant_width: the width a variant's name is centered in.
+      rows: ``rows(cells, methods)`` -> {method: the text of its columns in every variant}, where
+        ``cells`` is {variant: {method: cell}} of one class.
+
+    Returns:
+      list of str: for each class a blank line, ``class NAME (N objects)``, the variants' names,
+      the column heads, a rule and a line per method.
+    """
+    variants = list(per_variant)
+    first = per_variant[variants[0]]
+    methods = [row["method"] for row in first["summary"]]
+    width = max([len("method")] + [len(m) for m in methods]) + 2
+    lines = []
+    for name in first["per_class"]:
+        count = f" ({objects[name]} objects)" if name in objects else ""
+        top = f"{'':<{width}}" + "".join(f"{v:^{variant_width}}" for v in variants)
+        header = f"{'method':<{width}}" + head * len(variants)
+        lines += ["", f"class {name}{count}", top, header, "-" * len(header)]
+        texts = rows({v: per_variant[v]["per_class"][name] for v in variants}, methods)
+        lines += [f"{m:<{width}}" + texts[m] for m in methods]
+    return lines

@@ -63,6 +63,19 @@ def _set(obj, **values):
         object.__setattr__(obj, key, value)
 
 
+def _base(cls, config, options, valid):
+    """The config a ``create`` starts from: ``config`` (default ``cls()``), which must be a ``cls``;
+    refuses, naming them, the keyword ``options`` not in ``valid`` (listed in that order)."""
+    base = cls() if config is None else config
+    if not isinstance(base, cls):
+        raise InvalidInputError(f"config must be a {cls.__name__}, got {type(base).__name__}")
+    unknown = sorted(set(options) - set(valid))
+    if unknown:
+        raise InvalidInputError(f"unknown option{'s' if len(unknown) > 1 else ''} {', '.join(unknown)}; "
+                                f"valid: {', '.join(valid)}")
+    return base
+
+
 def _real(value, name, low, high, closed=True):
     """``value`` as a float in [low, high] (or (low, high] with ``closed=False``); bools refused."""
     try:
@@ -282,13 +295,7 @@ class PoseConfig:
         to :class:`GridConfig`; ``block`` sets both. Raises InvalidInputError naming any unknown
         option or bad value.
         """
-        base = cls() if config is None else config
-        if not isinstance(base, cls):
-            raise InvalidInputError(f"config must be a PoseConfig, got {type(base).__name__}")
-        unknown = sorted(set(options) - set(cls.FLAT))
-        if unknown:
-            raise InvalidInputError(f"unknown option{'s' if len(unknown) > 1 else ''} {', '.join(unknown)}; "
-                                    f"valid: {', '.join(sorted(cls.FLAT))}")
+        base = _base(cls, config, options, sorted(cls.FLAT))
         if not options:
             return base
         svdd = {k: v for k, v in options.items() if k in _SOLVER_FIELDS}
@@ -349,13 +356,7 @@ class RobustConfig:
     def create(cls, config: "RobustConfig | None" = None, **options) -> "RobustConfig":
         """``config`` (default: the defaults) with the keyword ``options`` replaced; unknown names
         raise InvalidInputError."""
-        base = cls() if config is None else config
-        if not isinstance(base, cls):
-            raise InvalidInputError(f"config must be a RobustConfig, got {type(base).__name__}")
-        unknown = sorted(set(options) - set(cls.FLAT))
-        if unknown:
-            raise InvalidInputError(f"unknown option{'s' if len(unknown) > 1 else ''} {', '.join(unknown)}; "
-                                    f"valid: {', '.join(cls.FLAT)}")
+        base = _base(cls, config, options, cls.FLAT)
         return dataclasses.replace(base, **options) if options else base
 
     def flat(self) -> dict:

@@ -229,6 +229,17 @@ def _check_power(power):
     return power
 
 
+def _check_params(method, params, given):
+    """Check the method's concrete parameters (power; gamma, nu, max_points; traced ones pass) and
+    return how many points a set may have before it is subsampled (None: no limit; robust)."""
+    if method == "robust":
+        _check_power(params["power"])
+        return None
+    _validate.check_gamma(params["gamma"])
+    _validate.check_nu(params["nu"])
+    return _check_max_points(given.get("max_points", MAX_POINTS))
+
+
 def _given(**kwargs):
     return {k: v for k, v in kwargs.items() if v is not _UNSET}
 
@@ -293,13 +304,7 @@ def normalize(x, method: str = DEFAULT_METHOD, *, power=_UNSET, gamma=_UNSET, nu
     config, params = _options(method, config, given, rotation)
     _validate.check_points(x)
     rotation, seed = _check_rotation(rotation), _check_seed(seed)
-    if method == "robust":
-        _check_power(params["power"])
-        index = None
-    else:
-        _validate.check_gamma(params["gamma"])
-        _validate.check_nu(params["nu"])
-        index = subsample_index(np.shape(x)[0], _check_max_points(given.get("max_points", MAX_POINTS)), seed)
+    index = subsample_index(np.shape(x)[0], _check_params(method, params, given), seed)
     shift, size, mask = None, None, None
     if _validate.is_traced(x):  # pure-JAX path (jit, vmap, grad in points)
         points = jnp.asarray(x)
@@ -425,13 +430,7 @@ def normalize_batch(list_of_points: Iterable, method: str = DEFAULT_METHOD, *, p
     given = {**_given(power=power, gamma=gamma, nu=nu, max_points=max_points), **options}
     config, params = _options(method, config, given, rotation)
     rotation, seed = _check_rotation(rotation), _check_seed(seed)
-    if method == "robust":
-        _check_power(params["power"])
-        limit = None
-    else:
-        _validate.check_gamma(params["gamma"])
-        _validate.check_nu(params["nu"])
-        limit = _check_max_points(given.get("max_points", MAX_POINTS))
+    limit = _check_params(method, params, given)
     if pad_to is not None and (isinstance(pad_to, bool) or not isinstance(pad_to, numbers.Integral)):
         raise _validate.InvalidInputError(f"pad_to must be an int or None, got {pad_to!r}")
     if isinstance(list_of_points, (str, bytes)) or not isinstance(list_of_points, Iterable):

@@ -14,6 +14,7 @@ import numpy as np
 from . import sample
 from ._validate import InvalidInputError, check_gamma, check_int, check_nu
 from .config import OCSVM, PoseConfig
+from .io import mesh as io_mesh
 from .io.mesh import MESH_FORMATS, OUTPUT_FORMATS, POINT_FORMATS, encode, example_shape, export, load, output_format
 from .io.atomic import write_atomic
 from .occupancy import solid
@@ -22,23 +23,9 @@ from .pose.result import host
 from .rotation.rotation import DEFAULT_ROTATION, ROTATIONS, frame_of
 from .sample import SAMPLING
 
-__all__ = [
-    "SAMPLING",
-    "load",
-    "sample_surface",
-    "normalize_mesh",
-    "check_arguments",
-    "pose_matrix",
-    "normalized_points",
-    "MESH_FORMATS",
-    "POINT_FORMATS",
-    "OUTPUT_FORMATS",
-    "output_format",
-    "encode",
-    "export",
-    "write_atomic",
-    "example_shape",
-]
+# its own names, and the file I/O names it re-exports from jaxpose.io.mesh
+__all__ = ["SAMPLING", "sample_surface", "normalize_mesh", "check_arguments", "pose_matrix", "normalized_points",
+           *io_mesh.__all__]
 
 
 # --------------------------------------------------------------------------- sample

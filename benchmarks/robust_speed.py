@@ -1,13 +1,14 @@
 """The robust estimator through JAX (host solid, then depth, weights and moments in JAX) against the
-NumPy/SciPy path it replaced, side by side in one process, and its derivative in the power.
+NumPy/SciPy reference, side by side in one process, and its derivative in the power.
 
 ``python -m benchmarks.robust_speed [--json OUT] [--repeats 7] [--meshes PATH ...] [--no-gradients]``
 
 1. Speed: on one FAUST and one KIDS mesh (``../shared``; the built-in example shape without it),
    per mesh and interleaved (the cases share the machine's state): the NumPy reference (the robust
    solid, ``scipy.ndimage.distance_transform_edt``, the depth^4-weighted centroid in NumPy: the
-   package's code before the JAX pipeline, frozen here as :func:`numpy_robust`) and
-   ``estimators.robust_center_scale``; medians of warm runs, their ratio, the first call's extra
+   package's code before the JAX pipeline, frozen here as :func:`numpy_robust`), the JAX path
+   (the host solid, then ``moments.solid_moments``) and the package's host estimator
+   (``estimators.robust_center_scale``, NumPy); medians of warm runs, their ratio, the first call's extra
    time (compilation, once per grid bucket: a bucket not seen before is timed separately), and
    the parts: the host solid alone, the NumPy depth + centroid, the JAX depth + weights + moments.
 2. Agreement: the two centers (relative to the scale) and scales.
@@ -63,6 +64,22 @@ def numpy_moments(sol, power=POWER):
 
 
 def jax_robust(geometry, power=POWER):
+    """The robust center and scale through JAX: the host solid, then ``moments.solid_moments``
+    (depth, weights and moments in JAX), mapped to the world in float64."""
+    import jax
+
+    from jaxpose import moments
+    from jaxpose.occupancy import solid
+    from jaxpose.pose import estimators
+
+    sol = estimators._robust_solid(geometry, solid.RESOLUTION)
+    mom = jax.block_until_ready(moments.solid_moments(sol, power))
+    center = (sol.origin + sol.pitch * np.asarray(mom.center, np.float64)) @ sol.frame
+    return center, (float(mom.volume) * sol.pitch**3) ** (1.0 / 3.0)
+
+
+def host_robust(geometry, power=POWER):
+    """The package's robust estimator on the host (``estimators.robust_center_scale``: NumPy, no JAX)."""
     from jaxpose.pose import estimators
 
     center, scale, _ = estimators.robust_center_scale(geometry, power)
@@ -72,6 +89,7 @@ def jax_robust(geometry, power=POWER):
 def speed(name, geometry, repeats):
     import jax
 
+    from jaxpose import moments
     from jaxpose.pose import estimators
     from jaxpose.occupancy import solid
     from jaxpose.depth import to_bucket
@@ -81,12 +99,13 @@ def speed(name, geometry, repeats):
     cases = {
         "numpy": lambda: numpy_robust(geometry),
         "jax": lambda: jax_robust(geometry),
+        "host (package)": lambda: host_robust(geometry),
         "solid (host)": lambda: estimators._robust_solid(geometry, solid.RESOLUTION),
         "numpy depth+centroid": lambda: numpy_moments(sol),
-        "jax depth+weights+moments": lambda: jax.block_until_ready(estimators.solid_moments(sol, POWER)),
+        "jax depth+weights+moments": lambda: jax.block_until_ready(moments.solid_moments(sol, POWER)),
     }
     t = now()
-    jax.block_until_ready(estimators.solid_moments(sol, POWER))  # this bucket's first call: compiles
+    jax.block_until_ready(moments.solid_moments(sol, POWER))  # this bucket's first call: compiles
     compile_s = now() - t
     stats, last = interleaved(cases, repeats)
     (c0, s0), (c1, s1) = last["numpy"], last["jax"]
@@ -100,13 +119,14 @@ def gradients(name, geometry, step=0.01):
     import jax
     import jax.numpy as jnp
 
+    from jaxpose import moments
     from jaxpose.pose import estimators
     from jaxpose.occupancy import solid
 
     sol = estimators._robust_solid(geometry, solid.RESOLUTION)
 
     def center_scale(p):  # world units (the affine map of the voxel units, in JAX's float)
-        mom = estimators.solid_moments(sol, p)
+        mom = moments.solid_moments(sol, p)
         frame = jnp.asarray(sol.frame, mom.center.dtype)
         return (sol.origin + sol.pitch * mom.center) @ frame, sol.pitch * mom.volume ** (1.0 / 3.0)
 

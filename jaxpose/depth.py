@@ -41,6 +41,7 @@ import numpy as np
 from jax import lax
 
 from .errors import InvalidInputError
+from .weighted import depth_power_weights
 
 __all__ = ["squared_distance", "distance", "depth_weights", "host_distance", "to_bucket", "from_bucket", "MAX_SQUARED", "BUCKET"]
 
@@ -145,7 +146,9 @@ def distance(inside, extent=None, dtype=None):
 
 @jax.jit
 def depth_weights(inside, power, bias=0.0, extent=None):
-    """Weights (depth / largest depth)^power of the cells of an occupancy (0 outside it).
+    """Weights (depth / largest depth)^power of the cells of an occupancy (0 outside it):
+    :func:`jaxpose.weighted.depth_power_weights` of :func:`distance` (the host computes the same
+    weights from scipy's distance transform, which :func:`distance` equals).
 
     The depth of a True cell is its :func:`distance` minus ``bias`` cells (where the shape's
     surface lies relative to its outermost cells), at least 0. The pitch cancels in the ratio.
@@ -164,12 +167,7 @@ def depth_weights(inside, power, bias=0.0, extent=None):
     if extent is not None:  # cells beyond the extent are not part of the occupancy
         grids = [lax.broadcasted_iota(jnp.int32, inside.shape, a) for a in range(inside.ndim)]
         inside = inside & jnp.all(jnp.stack([g < jnp.asarray(extent)[a] for a, g in enumerate(grids)]), axis=0)
-    d = jnp.maximum(distance(inside, extent, dtype=power.dtype) - bias, 0.0)
-    top = jnp.max(d)
-    ratio = d / jnp.where(top > 0, top, 1.0)
-    positive = ratio > 0
-    w = jnp.where(positive, jnp.where(positive, ratio, 1.0) ** power, jnp.where(power == 0, 1.0, 0.0))
-    return jnp.where(inside, jnp.where(top > 0, w, 1.0), 0.0)
+    return depth_power_weights(distance(inside, extent, dtype=power.dtype), inside, power, bias)
 
 
 def to_bucket(grid, multiple=BUCKET, longest=BUCKET_LONG):

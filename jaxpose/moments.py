@@ -1,6 +1,9 @@
 """Weighted volume moments: of the SVDD region {f >= 0} (centroid, eq. 4; mean distance, eq. 5;
 volume; M2) and of any weighted occupancy on a grid (:func:`grid_moments`), one implementation
-(:func:`weighted_moments`).
+(:func:`weighted_moments`), and of a depth^p-weighted voxel solid (:func:`robust_moments`,
+:func:`solid_moments`: the robust estimator's moments in JAX). :class:`Moments`,
+:func:`weighted_moments` and :func:`grid_moments` are :mod:`jaxpose.weighted`'s, written once for
+NumPy and JAX.
 
 Quadrature. Each grid cell gets a fractional occupancy from the local signed distance to the
 boundary, f / |grad f|, against the cell's width along the normal, sum_k |n_k| h_k:
@@ -41,32 +44,24 @@ cell entering or leaving the band or the one-cell occupancy ramp).
 from __future__ import annotations
 
 from functools import partial
+import numbers
 from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from ._hyper import instantiate, is_zero
-from ._validate import InvalidInputError
+from ._validate import InvalidInputError, is_traced
 from .config import GridConfig
+from .depth import depth_weights, to_bucket
 from .occupancy.grid import (CHILD_OFFSETS, domain, evaluate_children, evaluate_grid, evaluate_on_grid, evaluate_on_grid_jvp,
                    morton_codes)
+from .weighted import Moments, grid_moments, solid_occupancy, weighted_moments
 
 __all__ = ["Moments", "volume_moments", "region_moments", "discretize", "occupancy", "moments_from_occupancy",
-           "weighted_moments", "grid_moments", "band_score", "select_cells", "LAST_BAND"]
-
-
-class Moments(NamedTuple):
-    """center : (3,) c_m (eq. 4); mean_distance : () d_m (eq. 5); volume : ();
-    second_moment : (3, 3) (1/V) int (x - c)(x - c)^T; cell : (3,) coarse grid spacing;
-    unrefined : () cells cut by the boundary left unrefined because ``band`` was too small."""
-
-    center: jax.Array
-    mean_distance: jax.Array
-    volume: jax.Array
-    second_moment: jax.Array
-    cell: jax.Array
-    unrefined: jax.Array = 0
+           "weighted_moments", "grid_moments", "robust_moments", "solid_moments", "band_score", "select_cells",
+           "LAST_BAND"]
 
 
 def occupancy(f, grad, h):
@@ -81,64 +76,10 @@ def occupancy(f, grad, h):
     return jnp.where(ok, jnp.clip(0.5 + f / safe, 0.0, 1.0), (f >= 0).astype(f.dtype))
 
 
-def weighted_moments(x, w):
-    """Weighted moments of points (the one implementation behind every estimator's moments).
-
-    Args:
-      x: 3 arrays, the points' coordinates along each axis, broadcastable to the shape of ``w``
-        (a cell list: ``x[:, 0], x[:, 1], x[:, 2]`` with w (n,); a grid: the axes' cell centers
-        shaped (nx, 1, 1), (1, ny, 1), (1, 1, nz) with w (nx, ny, nz), never stored per cell).
-      w: float >= 0, the weights.
-
-    Returns:
-      mass () = sum w; center (3,) = sum w x / mass; mean distance () = sum w |x - c| / mass;
-      second moment (3, 3) = sum w (x - c)(x - c)^T / mass. With mass 0 the center is 0.
-      Differentiable in x and w (the distance's square root is kept off 0 by the float's tiny).
-    """
-    mass = jnp.sum(w)
-    safe = jnp.where(mass > 0, mass, 1.0)
-    c = [jnp.sum(w * xa) / safe for xa in x]
-    d = [xa - ca for xa, ca in zip(x, c)]
-    tiny = jnp.finfo(w.dtype).tiny
-    md = jnp.sum(w * jnp.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2] + tiny)) / safe
-    second = jnp.stack([jnp.stack([jnp.sum(w * da * db) for db in d]) for da in d]) / safe
-    return mass, jnp.stack(c), md, second
-
-
 def moments_from_occupancy(x, w, h):
     """Moments of the weighted cells x : (n, 3), w : (n,) (occupied volume in cells of size h), h : (3,)."""
     mass, c, md, second = weighted_moments((x[:, 0], x[:, 1], x[:, 2]), w)
     return Moments(c, md, mass * jnp.prod(h), second, h, jnp.asarray(0))
-
-
-def grid_moments(occupancy, weights, origin, pitch):
-    """Moments of a weighted occupancy on a regular grid.
-
-    Args:
-      occupancy: (nx, ny, nz) float in [0, 1] (or bool), the share of each cell inside the shape.
-      weights: (nx, ny, nz) float >= 0, each cell's weight in the center and second moment (e.g.
-        1, or depth^p on the occupied cells); cells outside the shape should weigh 0.
-      origin: (3,) lower corner of cell (0, 0, 0); pitch: () cell edge (traced: differentiable).
-
-    Returns:
-      :class:`Moments`: center sum w x / sum w over the cell centers x = origin + pitch (i + 1/2),
-      mean distance and second moment with the same weights, volume = pitch^3 sum occupancy,
-      cell = (pitch,) * 3.
-
-    Example::
-
-        >>> occ = jnp.zeros((8, 8, 8)).at[2:6, 2:6, 2:6].set(1.0)
-        >>> grid_moments(occ, occ, jnp.zeros(3), 0.5).center  # [2, 2, 2]
-    """
-    weights = jnp.asarray(weights)
-    dtype = weights.dtype
-    shape = weights.shape
-    origin = jnp.asarray(origin, dtype)
-    x = [(origin[a] + pitch * (jnp.arange(n, dtype=dtype) + 0.5)).reshape([n if b == a else 1 for b in range(3)])
-         for a, n in enumerate(shape)]
-    _, c, md, second = weighted_moments(x, weights)
-    volume = jnp.sum(jnp.asarray(occupancy, dtype)) * pitch**3
-    return Moments(c, md, volume, second, jnp.full(3, pitch, dtype), jnp.asarray(0))
 
 
 # (linear widths, share of the curvature allowance) of the last level's band (module docs); others: (1.5, 1)
@@ -314,3 +255,53 @@ def region_moments(svdd, grid: GridConfig, outside: bool = True) -> Moments:
     w = _boundary_weights(occ * fac, field, x, hc, fac, int(grid.block), bool(outside))  # in coarse cells
     mom = moments_from_occupancy(x, w, h)
     return mom._replace(unrefined=unrefined)
+
+
+# --------------------------------------------------------------------------- a voxel solid, in JAX
+@jax.jit
+def robust_moments(inside, occupied, origin, pitch, power, bias, extent=None) -> Moments:
+    """Moments of a depth^p-weighted voxel solid in JAX: :func:`jaxpose.depth.depth_weights` (the
+    exact distance transform, then :func:`jaxpose.weighted.depth_power_weights`), then
+    :func:`jaxpose.weighted.grid_moments` (the host path,
+    :func:`jaxpose.pose.estimators.solid_center_volume`, runs the same functions on scipy's
+    distance transform in NumPy). Pure JAX, jittable, vmappable.
+
+    Args:
+      inside: (nx, ny, nz) bool, the solid's voxels; occupied: (nx, ny, nz) bool, voxels that
+        straddle the surface (they count half in the volume; all False for a mesh solid).
+      origin: (3,) lower corner of voxel (0, 0, 0); pitch: () voxel edge (units).
+      power: () depth exponent p >= 0; bias: () voxels subtracted from the distance transform.
+      extent: optional (3,) int, the grid within an array padded with False
+        (:func:`jaxpose.depth.to_bucket`).
+
+    Returns:
+      :class:`Moments` in the grid's frame: center sum_v d_v^p x_v / sum_v d_v^p, volume pitch^3
+      (#inside - #occupied / 2). Differentiable in ``power``, ``pitch`` and ``origin``; the
+      occupancy itself carries no derivative.
+    """
+    w = depth_weights(inside, power, bias, extent)
+    return grid_moments(solid_occupancy(inside, occupied, w.dtype), w, origin, pitch)
+
+
+_HALF = 0.5  # the moments are taken from the grid's middle (smaller numbers, fewer float32 digits lost)
+
+
+def solid_moments(sol, power) -> Moments:
+    """:func:`robust_moments` of a host :class:`jaxpose.occupancy.solid.Solid`, in voxel units from
+    the grid's corner (origin 0, pitch 1; computed on the grid's :func:`jaxpose.depth.to_bucket`;
+    JAX's default float): the robust estimator's moments where a derivative in ``power`` is wanted
+    (the host entry points take :func:`jaxpose.pose.estimators.solid_center_volume`, NumPy).
+
+    The world moments are ``sol.origin + sol.pitch * center`` (then ``@ sol.frame``), ``pitch^3 *
+    volume``. Differentiable in ``power`` (a traced power is not checked). Raises
+    InvalidInputError for a power that is not a finite number >= 0."""
+    if not is_traced(power) and not (isinstance(power, numbers.Real) and np.isfinite(power) and power >= 0):
+        raise InvalidInputError(f"power must be a finite number >= 0, got {power!r}")
+    inside, extent, axes = to_bucket(sol.inside)
+    occupied = np.zeros_like(inside) if sol.occupied is None else to_bucket(sol.occupied)[0]
+    dtype = jnp.result_type(float)
+    mom = robust_moments(inside, occupied, (-_HALF * extent).astype(dtype), np.ones((), dtype),
+                         jnp.asarray(power, dtype), np.asarray(sol.bias, dtype), extent)
+    back = np.argsort(axes)  # the bucket's axes back to the grid's
+    center = mom.center + jnp.asarray(_HALF * extent, mom.center.dtype)  # from the grid's corner
+    return mom._replace(center=center[back], second_moment=mom.second_moment[back][:, back])

@@ -77,7 +77,7 @@ def _cycles(graph):
 # The layers, bottom to top (docs/design.md): a module imports only from its own layer or those below.
 # A sub-package or top-level module not named here fails test_every_module_has_a_layer: give it one.
 LAYERS = (
-    ("errors", "_validate", "config", "_hyper", "geometry", "host", "sample", "orientation"),
+    ("errors", "_validate", "config", "_hyper", "geometry", "host", "sample", "orientation", "backend", "weighted"),
     ("io", "datasets"),  # datasets read folders of meshes through io
     ("depth",),  # the exact distance transform: the host solid's depth uses it too
     ("occupancy",),

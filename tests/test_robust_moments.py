@@ -1,4 +1,5 @@
-"""The robust estimator's JAX half (depth -> weights -> moments) against scipy and finite differences."""
+"""The robust estimator's depth -> weights -> moments, on the host (NumPy) and in JAX, against scipy and
+finite differences, and against each other."""
 from __future__ import annotations
 
 import jax
@@ -9,7 +10,7 @@ import trimesh
 from scipy import ndimage
 
 from jaxpose.pose import estimators
-from jaxpose import mesh
+from jaxpose import mesh, moments
 from jaxpose.occupancy import solid
 from jaxpose.errors import InvalidInputError
 from conftest import SHARED
@@ -24,6 +25,13 @@ def scipy_center_volume(sol, power):
     return ((w @ x) / w.sum()) @ sol.frame, n * sol.pitch**3
 
 
+def jax_center_volume(sol, power):
+    """The JAX path's center and volume (moments.solid_moments in JAX's float, mapped to the world)."""
+    mom = moments.solid_moments(sol, power)
+    center = (sol.origin + sol.pitch * np.asarray(mom.center, np.float64)) @ sol.frame
+    return center, float(mom.volume) * sol.pitch**3
+
+
 @pytest.fixture(scope="module")
 def shape_solid():
     geometry, _ = estimators.centered(mesh.example_shape())
@@ -33,10 +41,13 @@ def shape_solid():
 @pytest.mark.parametrize("power", [4.0, 1.0, 0.0])
 def test_mesh_solid_matches_scipy(shape_solid, power):
     center, volume = scipy_center_volume(shape_solid, power)
-    assert estimators.solid_moments(shape_solid, power).center.dtype == jnp.float32
-    world = estimators.solid_center_volume(shape_solid, power)
+    assert moments.solid_moments(shape_solid, power).center.dtype == jnp.float32
+    host = estimators.solid_center_volume(shape_solid, power)  # NumPy, float64
+    np.testing.assert_allclose(host[0], center, rtol=0, atol=1e-13)
+    assert host[1] == volume  # voxel counts: exact
+    world = jax_center_volume(shape_solid, power)  # JAX, float32
     np.testing.assert_allclose(world[0], center, atol=1e-6)
-    assert world[1] == volume  # voxel counts: exact
+    assert world[1] == volume
 
 
 def test_point_solid_counts_straddling_voxels_half():
@@ -44,23 +55,45 @@ def test_point_solid_counts_straddling_voxels_half():
     sol = solid.robust_solid(points, with_depth=False)
     assert sol.bias == solid.POINT_BIAS and sol.depth is None and sol.occupied.any()
     center, volume = scipy_center_volume(sol, 4.0)
-    got = estimators.solid_center_volume(sol, 4.0)
-    np.testing.assert_allclose(got[0], center, atol=1e-6)
-    assert got[1] == volume == sol.volume()
+    for got, atol in ((estimators.solid_center_volume(sol, 4.0), 1e-13), (jax_center_volume(sol, 4.0), 1e-6)):
+        np.testing.assert_allclose(got[0], center, rtol=0, atol=atol)
+        assert got[1] == volume == sol.volume()
 
 
 def test_float64(x64, shape_solid):
     center, volume = scipy_center_volume(shape_solid, 4.0)
-    assert estimators.solid_moments(shape_solid, 4.0).center.dtype == jnp.float64
-    world = estimators.solid_center_volume(shape_solid, 4.0)
-    np.testing.assert_allclose(world[0], center, rtol=0, atol=1e-13)
-    assert world[1] == volume
+    assert moments.solid_moments(shape_solid, 4.0).center.dtype == jnp.float64
+    for got in (jax_center_volume(shape_solid, 4.0), estimators.solid_center_volume(shape_solid, 4.0)):
+        np.testing.assert_allclose(got[0], center, rtol=0, atol=1e-13)
+        assert got[1] == volume
 
 
 def test_bad_power_is_refused(shape_solid):
+    for power in (-1.0, float("nan"), "4", True):
+        with pytest.raises(InvalidInputError, match="power"):
+            estimators.solid_center_volume(shape_solid, power)
     for power in (-1.0, float("nan"), "4"):
         with pytest.raises(InvalidInputError, match="power"):
-            estimators.solid_moments(shape_solid, power)
+            moments.solid_moments(shape_solid, power)
+
+
+@pytest.mark.shared
+def test_host_path_equals_the_jax_path_on_dev_shapes():
+    """The host estimator (NumPy, scipy's EDT) and the JAX one give the same robust center and scale
+    on real meshes of each dataset: within 1e-6 of the scale (float32 rounding of the JAX path)."""
+    files = [SHARED / "data" / p for p in ("faust-dev/tr_reg_000.ply", "faust-dev/tr_reg_017.ply",
+                                            "tosca-dev/dog/dog3.ply", "tosca-dev/horse/horse5.ply",
+                                            "kids-dev/kid_0001/pose_03.ply", "kids-dev/kid_0002/pose_01.ply")]
+    if not all(f.exists() for f in files):
+        pytest.skip("../shared data is not available")
+    for file in files:
+        geometry, _ = estimators.centered(mesh.load(file))
+        sol = estimators._robust_solid(geometry, solid.RESOLUTION)
+        (c_host, v_host), (c_jax, v_jax) = estimators.solid_center_volume(sol), jax_center_volume(sol, estimators.ROBUST_POWER)
+        scale = v_host ** (1.0 / 3.0)
+        assert v_host == v_jax  # voxel counts times pitch^3: the same float64 product
+        assert np.abs(c_host - c_jax).max() < 1e-6 * scale, file
+        assert np.abs(c_host - scipy_center_volume(sol, estimators.ROBUST_POWER)[0]).max() < 1e-12 * scale, file
 
 
 def test_vmap_over_a_batch_of_grids_equals_single_calls():
@@ -71,9 +104,9 @@ def test_vmap_over_a_batch_of_grids_equals_single_calls():
         grids[b] = np.sum(idx**2, axis=0) < r * r
     occupied = np.zeros_like(grids)
     origin, pitch = jnp.zeros(3), jnp.float32(0.1)
-    batched = jax.vmap(lambda g, o: estimators.robust_moments(g, o, origin, pitch, 4.0, 0.5))(grids, occupied)
+    batched = jax.vmap(lambda g, o: moments.robust_moments(g, o, origin, pitch, 4.0, 0.5))(grids, occupied)
     for b in range(3):
-        one = estimators.robust_moments(grids[b], occupied[b], origin, pitch, 4.0, 0.5)
+        one = moments.robust_moments(grids[b], occupied[b], origin, pitch, 4.0, 0.5)
         np.testing.assert_allclose(np.asarray(batched.center[b]), np.asarray(one.center), rtol=1e-6)
         assert float(batched.volume[b]) == pytest.approx(float(one.volume), rel=1e-6)
 
@@ -81,7 +114,7 @@ def test_vmap_over_a_batch_of_grids_equals_single_calls():
 def power_gradients(sol, power=estimators.ROBUST_POWER, step=0.01):
     """jax.grad of the center (3,) and scale in the power, and 1 % central differences."""
     def center_scale(p):  # world units (the affine map of the voxel units, in JAX's float)
-        mom = estimators.solid_moments(sol, p)
+        mom = moments.solid_moments(sol, p)
         frame = jnp.asarray(sol.frame, mom.center.dtype)
         return (sol.origin + sol.pitch * mom.center) @ frame, sol.pitch * mom.volume ** (1.0 / 3.0)
 

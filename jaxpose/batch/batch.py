@@ -20,6 +20,7 @@ tables together are the unsharded table (:func:`jaxpose.read_transforms` reads s
 """
 from __future__ import annotations
 
+import functools
 import hashlib
 import logging
 import numbers
@@ -403,7 +404,7 @@ class _Run:
             # the run takes a worker process on the rerun)
             head_start = not resumed and runs_like_a_worker() and _is_regular(todo[0][0].source)
             executor = LocalExecutor(min(executor_args["workers"], len(todo)), timeout=executor_args["timeout"],
-                                     head_start=head_start, warm_up=warm_up)
+                                     head_start=head_start, warm_up=functools.partial(warm_up, options))
         bar = tqdm(total=len(todo), unit="file", desc="normalize", dynamic_ncols=True, smoothing=0.05,
                    disable=None if self.progress is None else not self.progress)
         queue, pending, lost = list(reversed(todo)), {}, {}  # source -> (workers lost after / before starting it)

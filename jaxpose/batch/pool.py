@@ -135,7 +135,8 @@ class ProcessPool:
       environment: variables set in the workers' environment (on top of this process's).
       timeout: seconds a task may run in its worker (from the worker's message that it has started
         it, not from when it was sent); past it the worker is killed and the task's ``result`` raises :class:`TaskTimeout`. None: no limit.
-      warm_up: a function (picklable by name) each new worker runs before its first task, outside
+      warm_up: a function (picklable by reference: a module-level function or a functools.partial of
+        one) each new worker runs before its first task, outside
         the time limit: the imports every task needs, so that a worker's start-up is not counted
         against its first task.
       start_timeout: seconds from a task's sending to its worker's "started" message (the

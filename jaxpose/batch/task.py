@@ -70,6 +70,14 @@ class NormalizeOptions:
 
         return (DEFAULT_ROTATION if self.rotation is True else self.rotation) or None
 
+    @property
+    def uses_jax(self) -> bool:
+        """Whether normalizing a file with these options runs JAX: the ``ocsvm`` estimator (as the
+        center, the scale or the rotation); every other estimator runs on the host in NumPy."""
+        from ..pose.estimators import resolve
+
+        return "ocsvm" in (*resolve(self.method, self.center, self.scale), self.rotation_method)
+
     def mesh_arguments(self) -> dict:
         """The keyword arguments of :func:`jaxpose.normalize_mesh` these options stand for."""
         return dict(method=self.method, center=self.center, scale=self.scale, gamma=self.gamma, nu=self.nu,
@@ -192,13 +200,16 @@ def _load_remote(url, check, record):
             raise type(exc)(str(exc).replace(str(local), url)) from None
 
 
-def warm_up() -> None:
-    """Import what :func:`normalize_file` needs (readers, trimesh, JAX): a new worker process runs
-    this before its first input, so that its start-up does not count against that input's time
-    limit (a first compilation for a new grid size still does)."""
-    import jax.numpy  # noqa: F401
-
+def warm_up(options=None) -> None:
+    """Import what :func:`normalize_file` needs for `options` (:class:`NormalizeOptions`; default
+    the defaults): a new worker process runs this before its first input, so that its start-up
+    does not count against that input's time limit. The readers, trimesh and the estimators always;
+    JAX only for options that use it (:attr:`NormalizeOptions.uses_jax`: the robust default and the
+    classical estimators of a file run on the host without it). A first compilation still counts."""
     from .. import mesh  # noqa: F401
+
+    if options is not None and options.uses_jax:
+        import jax.numpy  # noqa: F401
 
 
 def _input_stat(path, check):

@@ -26,8 +26,8 @@ Memory. A grid of ``resolution`` voxels along the largest extent holds at most a
 :func:`check_resolution` refuses a resolution whose worst case exceeds
 :data:`jaxpose.config.MEMORY_BUDGET`.
 
-Depth. The Euclidean distance of each kept voxel to the outside (:func:`depth`, the exact transform
-of :mod:`jaxpose.depth`), minus ``Solid.bias`` voxels: half a voxel for mesh solids (their outer
+Depth. The Euclidean distance of each kept voxel to the outside (:func:`depth`, scipy's exact
+transform, which :mod:`jaxpose.depth` equals in JAX), minus ``Solid.bias`` voxels: half a voxel for mesh solids (their outer
 voxel centers lie inside the surface) and one voxel for point solids (their outer voxels straddle
 it).
 """
@@ -43,7 +43,6 @@ from scipy.sparse.csgraph import connected_components
 
 from .._validate import InvalidInputError
 from ..config import MEMORY_BUDGET, RobustConfig
-from ..depth import host_distance
 
 __all__ = ["Solid", "robust_solid", "cap_holes", "ray_vote_solid", "point_solid", "exterior_fill", "keep_main",
            "depth", "make_grid", "closing_radius", "neighbour_distances", "check_resolution", "RESOLUTION", "COARSE",
@@ -350,9 +349,10 @@ def keep_main(solid, keep_ratio=KEEP_RATIO):
 
 def depth(kept, pitch, bias=MESH_BIAS):
     """Euclidean distance to the outside in units: the exact distance transform
-    (:func:`jaxpose.depth.host_distance`) minus ``bias`` voxels (the mean offset of the true surface
-    from the solid's outermost voxel centers), at least 0. (shape) float64 NumPy."""
-    return np.maximum(host_distance(kept) - bias, 0.0) * pitch
+    (``scipy.ndimage.distance_transform_edt``, which :func:`jaxpose.depth.distance` equals) minus
+    ``bias`` voxels (the mean offset of the true surface from the solid's outermost voxel centers),
+    at least 0. (shape) float64 NumPy."""
+    return np.maximum(ndimage.distance_transform_edt(kept) - bias, 0.0) * pitch
 
 
 def _near(x, kept, origin, pitch, grow=1):

@@ -10,11 +10,13 @@ stray parts separated from the body are dropped, and each voxel weighs its depth
 the power p (:data:`jaxpose.config.ROBUST`), so the deep part of the shape (a body's torso), which
 moves least under articulation, sets the center. The volume is nearly invariant under articulation of
 soft bodies. See ``docs/estimators.md`` for the measurements behind the choice. The solid is built on the host
-(NumPy) for meshes and for concrete point clouds alike; its depth, weights and moments are JAX
-(:func:`robust_moments`: one compiled function per grid bucket, differentiable in the power). The
-pure-JAX point-cloud solid of :func:`jaxpose.normalize` (``jaxpose.occupancy.points``) computes the
-same solid (tested against this one) for traced, vmapped and differentiated inputs; for a concrete
-cloud on the CPU the host solid is several times cheaper (``docs/performance.md``).
+(NumPy) for meshes and for concrete point clouds alike, and so are its depth, weights and moments
+(:func:`solid_center_volume`: scipy's exact distance transform, then the functions of
+:mod:`jaxpose.weighted` that :func:`jaxpose.moments.robust_moments` runs in JAX): the robust
+estimator of a concrete input needs no JAX. The pure-JAX point-cloud solid of
+:func:`jaxpose.normalize` (``jaxpose.occupancy.points``) computes the same solid (tested against
+this one) for traced, vmapped and differentiated inputs; :func:`jaxpose.moments.solid_moments`
+differentiates a host solid's moments in the power.
 
 ``"ocsvm"`` is the paper's method (:func:`jaxpose.normalize` on ``count`` surface samples), the
 only one differentiable in (gamma, nu). The others are the classical baselines of
@@ -30,26 +32,20 @@ import numbers
 import time
 import warnings
 
-import jax
-import jax.numpy as jnp
 import numpy as np
 import trimesh
 from scipy import ndimage
 
 from .. import _validate, baselines, sample
 from ..occupancy import solid, voxels
-from .._validate import InvalidInputError, InvalidPoseWarning, JaxposeError, is_traced
+from .._validate import InvalidInputError, InvalidPoseWarning, JaxposeError
 from ..config import OCSVM, ROBUST
-from ..depth import depth_weights, to_bucket
 from ..host import anchor
-from ..moments import Moments, grid_moments
-from .pose import normalize
-from .result import Pose, host
-from .validity import status_message
-from .result import MIN_POINT_VOXELS
+from ..weighted import depth_power_weights, grid_axes, solid_occupancy, weighted_center
+from .result import MIN_POINT_VOXELS, Pose, host, status_message
 
 __all__ = ["METHODS", "CENTERS", "SCALES", "DEFAULT_METHOD", "ROBUST_POWER", "resolve", "estimate",
-           "estimate_many", "robust_center_scale", "robust_moments", "solid_moments", "solid_center_volume", "centered"]
+           "estimate_many", "robust_center_scale", "solid_center_volume", "centered"]
 
 METHODS = {
     "robust": ("robust_depth", "robust_volume"),
@@ -198,75 +194,34 @@ def _check_one_body(sol):
                            f"no single body sets the pose; normalize each body on its own, or {_OTHER}")
 
 
-@jax.jit
-def robust_moments(inside, occupied, origin, pitch, power, bias, extent=None) -> Moments:
-    """Moments of a depth^p-weighted voxel solid: depth (:func:`jaxpose.depth.depth_weights`), then
-    :func:`jaxpose.moments.grid_moments`. Pure JAX, jittable, vmappable.
-
-    Args:
-      inside: (nx, ny, nz) bool, the solid's voxels; occupied: (nx, ny, nz) bool, voxels that
-        straddle the surface (they count half in the volume; all False for a mesh solid).
-      origin: (3,) lower corner of voxel (0, 0, 0); pitch: () voxel edge (units).
-      power: () depth exponent p >= 0; bias: () voxels subtracted from the distance transform.
-      extent: optional (3,) int, the grid within an array padded with False
-        (:func:`jaxpose.depth.to_bucket`).
-
-    Returns:
-      :class:`jaxpose.moments.Moments` in the grid's frame: center sum_v d_v^p x_v / sum_v d_v^p,
-      volume pitch^3 (#inside - #occupied / 2). Differentiable in ``power``, ``pitch`` and
-      ``origin``; the occupancy itself carries no derivative.
-    """
-    w = depth_weights(inside, power, bias, extent)
-    occupancy = inside.astype(w.dtype) - 0.5 * (inside & occupied).astype(w.dtype)
-    return grid_moments(occupancy, w, origin, pitch)
-
-
-def solid_moments(sol, power=ROBUST_POWER) -> Moments:
-    """:func:`robust_moments` of a host :class:`jaxpose.occupancy.solid.Solid`, in voxel units from the grid's
-    corner (origin 0, pitch 1; computed on the grid's :func:`jaxpose.depth.to_bucket`; JAX's
-    default float).
-
-    The world moments are ``sol.origin + sol.pitch * center`` (then ``@ sol.frame``), ``pitch^3 *
-    volume``: :func:`solid_center_volume` applies them in float64 on the host, so a float32 center
-    keeps its digits wherever the grid lies (voxel units are exact integers plus one half).
-    Differentiable in ``power`` (a traced power is not checked). Raises InvalidInputError for a
-    power that is not a finite number >= 0."""
-    args, back = _bucketed(sol, power)
-    mom = robust_moments(*args)
-    center = mom.center + jnp.asarray(_HALF * args[-1], mom.center.dtype)  # from the grid's corner
-    return mom._replace(center=center[back], second_moment=mom.second_moment[back][:, back])
-
-
 def solid_center_volume(sol, power=ROBUST_POWER):
     """The depth^p-weighted center (3,) float64 NumPy, in world units, and the volume (float) of a
-    host :class:`jaxpose.occupancy.solid.Solid`: :func:`solid_moments`' center and volume (only they are
-    computed) mapped to the world in float64."""
-    args, back = _bucketed(sol, power)
-    center, volume = _center_volume(*args)
-    center = sol.origin + sol.pitch * (np.asarray(center, np.float64) + _HALF * args[-1])[back]
-    return center @ np.asarray(sol.frame, np.float64), float(volume) * sol.pitch**3
+    host :class:`jaxpose.occupancy.solid.Solid`, computed on the host in float64 without JAX.
 
+    The pipeline of :func:`jaxpose.moments.robust_moments` on the host's backend: scipy's exact
+    distance transform (``scipy.ndimage.distance_transform_edt``, which
+    :func:`jaxpose.depth.distance` equals), then the same
+    :func:`jaxpose.weighted.depth_power_weights`, :func:`jaxpose.weighted.solid_occupancy` and
+    weighted center of the cell centers (:func:`jaxpose.weighted.grid_axes`), taken from the grid's
+    middle and mapped to the world (``sol.origin``, ``sol.pitch``, ``sol.frame``). Use
+    :func:`jaxpose.moments.solid_moments` for a derivative in ``power``.
 
-_HALF = 0.5  # the moments are taken from the grid's middle (smaller numbers, fewer float32 digits lost)
-
-
-def _bucketed(sol, power):
-    """The arguments of :func:`robust_moments` for a host solid in voxel units from the grid's
-    middle (origin -extent / 2, exact), and the axes' order back."""
-    if not is_traced(power) and not (isinstance(power, numbers.Real) and np.isfinite(power) and power >= 0):
+    Raises:
+      InvalidInputError: a power that is not a finite number >= 0.
+    """
+    if isinstance(power, bool) or not (isinstance(power, numbers.Real) and np.isfinite(power) and power >= 0):
         raise InvalidInputError(f"power must be a finite number >= 0, got {power!r}")
-    inside, extent, axes = to_bucket(sol.inside)
-    occupied = np.zeros_like(inside) if sol.occupied is None else to_bucket(sol.occupied)[0]
-    dtype = jnp.result_type(float)
-    args = (inside, occupied, (-_HALF * extent).astype(dtype), np.ones((), dtype), jnp.asarray(power, dtype),
-            np.asarray(sol.bias, dtype), extent)
-    return args, np.argsort(axes)  # the bucket's axes back to the grid's
+    inside = np.asarray(sol.inside, bool)
+    occupied = np.zeros_like(inside) if sol.occupied is None else np.asarray(sol.occupied, bool)
+    w = depth_power_weights(ndimage.distance_transform_edt(inside), inside, float(power), float(sol.bias))
+    half = _HALF * np.asarray(inside.shape, np.float64)
+    _, center = weighted_center(grid_axes(inside.shape, -half, 1.0, np.float64), w)
+    volume = float(np.sum(solid_occupancy(inside, occupied, np.float64)))
+    center = sol.origin + sol.pitch * (center + half)
+    return center @ np.asarray(sol.frame, np.float64), volume * sol.pitch**3
 
 
-@jax.jit
-def _center_volume(*args):
-    mom = robust_moments(*args)
-    return mom.center, mom.volume
+_HALF = 0.5  # the moments are taken from the grid's middle (smaller numbers, as in jaxpose.moments.solid_moments)
 
 
 _SHARED = ("_robust_solid", "_ocsvm", "_voxels", "_moments")  # what does not depend on the power
@@ -303,6 +258,7 @@ class _Shape:
 
     def ocsvm(self):
         if self._ocsvm is None:
+            from .pose import normalize  # JAX: imported only by the estimators that use it
             o = self.options
             points = sample.sample_surface(self.geometry, o.get("count", OCSVM.count), seed=o.get("seed", OCSVM.seed),
                                            method=o.get("sampling", OCSVM.sampling))

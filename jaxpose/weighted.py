@@ -1,0 +1,149 @@
+"""Weighted moments of points or of a grid, and the depth^p weights of a solid: written once for
+NumPy and jax.numpy.
+
+Each function takes its array backend from its arguments (:func:`jaxpose.backend.array_namespace`):
+concrete NumPy arrays compute in NumPy on the host (in their own dtype, no JAX imported); JAX
+arrays and tracers compute in ``jax.numpy`` (``jit``, ``vmap``, ``grad``). The operations are the
+same in both, so an estimator's host path and its JAX path are one implementation, and their
+results differ only by the rounding of the float they run in.
+
+Example::
+
+    >>> occ = np.zeros((8, 8, 8)); occ[2:6, 2:6, 2:6] = 1.0
+    >>> grid_moments(occ, occ, np.zeros(3), 0.5).center      # NumPy: array([2., 2., 2.])
+    >>> grid_moments(jnp.asarray(occ), jnp.asarray(occ), jnp.zeros(3), 0.5).center  # JAX
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+from .backend import array_namespace
+
+__all__ = ["Moments", "weighted_center", "weighted_moments", "grid_axes", "grid_moments", "depth_power_weights",
+           "solid_occupancy"]
+
+
+class Moments(NamedTuple):
+    """center : (3,) c_m (eq. 4); mean_distance : () d_m (eq. 5); volume : ();
+    second_moment : (3, 3) (1/V) int (x - c)(x - c)^T; cell : (3,) coarse grid spacing;
+    unrefined : () cells cut by the boundary left unrefined because ``band`` was too small."""
+
+    center: object
+    mean_distance: object
+    volume: object
+    second_moment: object
+    cell: object
+    unrefined: object = 0
+
+
+def weighted_center(x, w):
+    """Mass and weighted center of points.
+
+    Args:
+      x: 3 arrays, the coordinates along each axis, broadcastable to the shape of ``w``
+        (:func:`weighted_moments`).
+      w: float >= 0, the weights.
+
+    Returns:
+      mass () = sum w, center (3,) = sum w x / mass (0 with mass 0).
+    """
+    xp = array_namespace(w, *x)
+    mass = xp.sum(w)
+    safe = xp.where(mass > 0, mass, 1.0)
+    return mass, xp.stack([xp.sum(w * xa) / safe for xa in x])
+
+
+def weighted_moments(x, w):
+    """Weighted moments of points (the one implementation behind every estimator's moments).
+
+    Args:
+      x: 3 arrays, the points' coordinates along each axis, broadcastable to the shape of ``w``
+        (a cell list: ``x[:, 0], x[:, 1], x[:, 2]`` with w (n,); a grid: the axes' cell centers
+        shaped (nx, 1, 1), (1, ny, 1), (1, 1, nz) with w (nx, ny, nz), never stored per cell).
+      w: float >= 0, the weights.
+
+    Returns:
+      mass () = sum w; center (3,) = sum w x / mass; mean distance () = sum w |x - c| / mass;
+      second moment (3, 3) = sum w (x - c)(x - c)^T / mass. With mass 0 the center is 0.
+      Differentiable in x and w (the distance's square root is kept off 0 by the float's tiny).
+    """
+    xp = array_namespace(w, *x)
+    mass, c = weighted_center(x, w)
+    safe = xp.where(mass > 0, mass, 1.0)
+    d = [xa - c[a] for a, xa in enumerate(x)]
+    tiny = xp.finfo(w.dtype).tiny
+    md = xp.sum(w * xp.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2] + tiny)) / safe
+    second = xp.stack([xp.stack([xp.sum(w * da * db) for db in d]) for da in d]) / safe
+    return mass, c, md, second
+
+
+def grid_axes(shape, origin, pitch, dtype):
+    """The cell centers of a regular grid per axis: 3 arrays origin_a + pitch (i + 1/2), shaped
+    (nx, 1, 1), (1, ny, 1), (1, 1, nz) (broadcastable to the grid, never stored per cell), in
+    ``dtype``; the backend of ``origin`` and ``pitch``."""
+    xp = array_namespace(origin, pitch)
+    origin = xp.asarray(origin, dtype)
+    return [(origin[a] + pitch * (xp.arange(n, dtype=dtype) + 0.5)).reshape([n if b == a else 1 for b in range(3)])
+            for a, n in enumerate(shape)]
+
+
+def grid_moments(occupancy, weights, origin, pitch):
+    """Moments of a weighted occupancy on a regular grid.
+
+    Args:
+      occupancy: (nx, ny, nz) float in [0, 1] (or bool), the share of each cell inside the shape.
+      weights: (nx, ny, nz) float >= 0, each cell's weight in the center and second moment (e.g.
+        1, or depth^p on the occupied cells); cells outside the shape should weigh 0.
+      origin: (3,) lower corner of cell (0, 0, 0); pitch: () cell edge (traced: differentiable).
+
+    Returns:
+      :class:`Moments`: center sum w x / sum w over the cell centers x = origin + pitch (i + 1/2),
+      mean distance and second moment with the same weights, volume = pitch^3 sum occupancy,
+      cell = (pitch,) * 3; in the weights' dtype and backend.
+
+    Example::
+
+        >>> occ = jnp.zeros((8, 8, 8)).at[2:6, 2:6, 2:6].set(1.0)
+        >>> grid_moments(occ, occ, jnp.zeros(3), 0.5).center  # [2, 2, 2]
+    """
+    xp = array_namespace(occupancy, weights, origin, pitch)
+    weights = xp.asarray(weights)
+    dtype = weights.dtype
+    x = grid_axes(weights.shape, xp.asarray(origin, dtype), pitch, dtype)
+    _, c, md, second = weighted_moments(x, weights)
+    volume = xp.sum(xp.asarray(occupancy, dtype)) * pitch**3
+    return Moments(c, md, volume, second, xp.full(3, pitch, dtype), xp.asarray(0))
+
+
+def depth_power_weights(distance, inside, power, bias=0.0):
+    """Weights (depth / largest depth)^power of the cells of a solid (0 outside it), from its
+    distance transform.
+
+    The depth of a True cell is its ``distance`` (to the nearest False cell, in cells) minus
+    ``bias`` cells, at least 0. The pitch cancels in the ratio.
+
+    Args:
+      distance: (n_0, ..., n_{d-1}) float, the exact distance transform of ``inside``
+        (``scipy.ndimage.distance_transform_edt`` on the host, :func:`jaxpose.depth.distance` in
+        JAX); its dtype is the result's.
+      inside: (n_0, ..., n_{d-1}) bool.
+      power: () float >= 0 (traced: differentiable). 0 gives weight 1 on every True cell (0^0 = 1).
+      bias: () float, cells subtracted from the distance.
+
+    Returns:
+      (n_0, ..., n_{d-1}) float weights in [0, 1]; 1 on every True cell when no cell is deeper than
+      ``bias``. Their derivative in ``power`` is log(ratio) * weight (0 where the depth is 0).
+    """
+    xp = array_namespace(distance, inside, power, bias)
+    d = xp.maximum(distance - bias, 0.0)
+    top = xp.max(d)
+    ratio = d / xp.where(top > 0, top, 1.0)
+    positive = ratio > 0
+    w = xp.where(positive, xp.where(positive, ratio, 1.0) ** power, xp.where(power == 0, 1.0, 0.0))
+    return xp.where(inside, xp.where(top > 0, w, 1.0), 0.0)
+
+
+def solid_occupancy(inside, occupied, dtype):
+    """The volume share of each cell of a voxel solid: 1 inside, 1/2 on inside cells that straddle
+    the surface (``occupied``: a point solid's cells holding points), 0 outside."""
+    return inside.astype(dtype) - 0.5 * (inside & occupied).astype(dtype)

@@ -46,7 +46,7 @@ def split_geometry(mesh_or_points):
             raise InvalidInputError(f"faces must have shape (f, 3), got {faces.shape}")
         if faces.min() < 0 or faces.max() >= len(vertices):
             raise InvalidInputError("faces index vertices that do not exist")
-        if not triangle_areas(vertices[faces]).sum() > 0.0:  # no silent switch to the points
+        if not _has_area(vertices, faces):  # no silent switch to the points
             raise InvalidInputError(
                 f"the mesh has no area: all its {len(faces)} faces are degenerate (zero area); to use its "
                 "vertices as points, pass trimesh.PointCloud(mesh.vertices)"
@@ -54,10 +54,23 @@ def split_geometry(mesh_or_points):
     return vertices, faces
 
 
+def _has_area(vertices, faces, block=4096):
+    """Whether the total area of the faces is > 0, i.e. some face has an area > 0: blocks of faces
+    in turn, so that a mesh with area (nearly every one) is answered from its first block."""
+    return any(triangle_areas(vertices[faces[i:i + block]]).sum() > 0.0 for i in range(0, len(faces), block))
+
+
 def triangle_areas(triangles):
-    """Areas |(b - a) x (c - a)| / 2 of triangles (f, 3, 3) float, in squared units -> (f,) float."""
-    cross = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
-    return 0.5 * np.linalg.norm(cross, axis=1)
+    """Areas |(b - a) x (c - a)| / 2 of triangles (f, 3, 3) float, in squared units -> (f,) float.
+
+    The cross product and its norm are written per component (the values of ``np.cross`` and
+    ``np.linalg.norm``, without their temporaries)."""
+    u = triangles[:, 1] - triangles[:, 0]
+    v = triangles[:, 2] - triangles[:, 0]
+    x = u[:, 1] * v[:, 2] - u[:, 2] * v[:, 1]
+    y = u[:, 2] * v[:, 0] - u[:, 0] * v[:, 2]
+    z = u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]
+    return 0.5 * np.sqrt(x * x + y * y + z * z)
 
 
 def is_closed(faces):

@@ -156,18 +156,22 @@ def cap_holes(vertices, faces):
 
 
 def _prepare(g, faces):
-    p0, p1, p2 = g[faces[:, 0]], g[faces[:, 1]], g[faces[:, 2]]
-    return (p0, p1, p2), np.minimum(np.minimum(p0, p1), p2), np.maximum(np.maximum(p0, p1), p2)
+    """The triangles in grid units, per corner and axis as contiguous (f,) arrays:
+    corners[v][axis], and their bounds lo[axis], hi[axis]."""
+    corners = [[np.ascontiguousarray(g[faces[:, v], axis]) for axis in range(3)] for v in range(3)]
+    lo = [np.minimum(np.minimum(corners[0][x], corners[1][x]), corners[2][x]) for x in range(3)]
+    hi = [np.maximum(np.maximum(corners[0][x], corners[1][x]), corners[2][x]) for x in range(3)]
+    return corners, lo, hi
 
 
 def _crossings(prep, shape, a, b, c):
     """Signed crossings of the grid lines along axis a by the prepared triangles (grid units):
     (start index along a, j, k, sign); line (j, k) passes through voxel centers i = 0..n_a - 1."""
     (p0, p1, p2), lo, hi = prep
-    j0 = np.maximum(np.ceil(lo[:, b]), 0).astype(np.int64)
-    j1 = np.minimum(np.floor(hi[:, b]), shape[b] - 1).astype(np.int64)
-    k0 = np.maximum(np.ceil(lo[:, c]), 0).astype(np.int64)
-    k1 = np.minimum(np.floor(hi[:, c]), shape[c] - 1).astype(np.int64)
+    j0 = np.maximum(np.ceil(lo[b]), 0).astype(np.int64)
+    j1 = np.minimum(np.floor(hi[b]), shape[b] - 1).astype(np.int64)
+    k0 = np.maximum(np.ceil(lo[c]), 0).astype(np.int64)
+    k1 = np.minimum(np.floor(hi[c]), shape[c] - 1).astype(np.int64)
     nj, nk = j1 - j0 + 1, k1 - k0 + 1
     hit = np.flatnonzero((nj > 0) & (nk > 0))
     count = nj[hit] * nk[hit]
@@ -176,9 +180,8 @@ def _crossings(prep, shape, a, b, c):
     nkr = nk[rep]
     jj = j0[rep] + local // nkr
     kk = k0[rep] + local % nkr
-    q0, q1, q2 = p0[rep], p1[rep], p2[rep]
-    u0, u1, u2 = q0[:, b], q1[:, b], q2[:, b]
-    w0, w1, w2 = q0[:, c], q1[:, c], q2[:, c]
+    u0, u1, u2 = p0[b][rep], p1[b][rep], p2[b][rep]
+    w0, w1, w2 = p0[c][rep], p1[c][rep], p2[c][rep]
     d = (u1 - u0) * (w2 - w0) - (u2 - u0) * (w1 - w0)  # twice the signed projected area
     ok = d != 0
     d = np.where(ok, d, 1.0)
@@ -186,17 +189,29 @@ def _crossings(prep, shape, a, b, c):
     l2 = ((u1 - u0) * (kk - w0) - (jj - u0) * (w1 - w0)) / d
     l0 = 1.0 - l1 - l2
     ok &= (l0 >= 0) & (l1 >= 0) & (l2 >= 0)
-    tt = l0 * q0[:, a] + l1 * q1[:, a] + l2 * q2[:, a]
+    tt = l0 * p0[a][rep] + l1 * p1[a][rep] + l2 * p2[a][rep]
     start = np.clip(np.floor(tt[ok]).astype(np.int64) + 1, 0, shape[a])
-    return start, jj[ok], kk[ok], np.where(d[ok] > 0, -1, 1).astype(np.int32)
+    return start, jj[ok], kk[ok], np.where(d[ok] > 0, -1, 1)
 
 
-def _votes(deltas):
-    """Non-zero one-sided windings (0..2) per voxel from a (n_a + 1, n_b, n_c) crossing delta."""
-    wf = np.cumsum(deltas, axis=0)
-    total = wf[-1]
-    wf = wf[:-1]
-    return (wf != 0).astype(np.uint8) + ((wf - total) != 0)
+def _add_crossings(delta, a, b, c, found):
+    """Add the signs of crossings (start, j, k, sign) of lines along axis a into ``delta`` (the
+    grid's own axis order, axis a one longer: the start index n_a is past the last voxel)."""
+    start, jj, kk, sign = found
+    strides = (delta.shape[1] * delta.shape[2], delta.shape[2], 1)
+    np.add.at(delta.reshape(-1), start * strides[a] + jj * strides[b] + kk * strides[c], sign.astype(delta.dtype))
+
+
+def _add_votes(delta, a, votes):
+    """Add the non-zero one-sided windings (0..2) per voxel of a crossing ``delta`` along axis a
+    into ``votes``: W_f, the running sum before each voxel center, and W_f - T (T the line's sum)."""
+    wf = np.cumsum(delta, axis=a, dtype=delta.dtype)
+    n = wf.shape[a] - 1
+    before = (slice(None),) * a
+    total = wf[before + (slice(n, n + 1),)]
+    wf = wf[before + (slice(0, n),)]
+    votes += wf != 0
+    votes += wf != total
 
 
 def ray_vote_solid(vertices, faces, origin, pitch, shape, min_votes=3, caps=None):
@@ -219,21 +234,22 @@ def ray_vote_solid(vertices, faces, origin, pitch, shape, min_votes=3, caps=None
     shape = tuple(int(s) for s in shape)
     g = (vertices - origin) / pitch - 0.5  # grid units: voxel center i at g = i
     votes = np.zeros(shape, np.uint8)
-    capped = np.zeros(shape, np.uint8)
     tri = _prepare(g, faces)
     tcap = _prepare(g, caps) if caps is not None and len(caps) else None
+    capped = None if tcap is None else np.zeros(shape, np.uint8)
     for a, b, c in _AXES:
-        delta = np.zeros((shape[a] + 1, shape[b], shape[c]), np.int32)
-        st, jj, kk, s = _crossings(tri, shape, a, b, c)
-        np.add.at(delta, (st, jj, kk), s)
-        back = np.argsort((a, b, c))
-        votes += np.transpose(_votes(delta), back)
-        if tcap is not None:
-            st, jj, kk, s = _crossings(tcap, shape, a, b, c)
-            np.add.at(delta, (st, jj, kk), s)
-            capped += np.transpose(_votes(delta), back)
+        found = _crossings(tri, shape, a, b, c)
+        more = None if tcap is None else _crossings(tcap, shape, a, b, c)
+        # windings are sums of at most this many signs: int16 holds them when there are fewer than 2^15
+        signs = len(found[0]) + (0 if more is None else len(more[0]))
+        delta = np.zeros([n + (axis == a) for axis, n in enumerate(shape)], np.int16 if signs < 2**15 else np.int32)
+        _add_crossings(delta, a, b, c, found)
+        _add_votes(delta, a, votes)
+        if more is not None:
+            _add_crossings(delta, a, b, c, more)
+            _add_votes(delta, a, capped)
     solid = votes >= min_votes
-    if tcap is not None:
+    if capped is not None:
         solid |= capped >= 4  # closed: all 6 agree up to ties
     return solid, votes
 
@@ -366,7 +382,7 @@ def _near(x, kept, origin, pitch, grow=1):
 
 # ------------------------------------------------------------------ driver
 def robust_solid(vertices, faces=None, *, resolution=RESOLUTION, coarse=COARSE, keep_ratio=KEEP_RATIO,
-                 min_votes=3, frame=None, with_depth=True) -> Solid:
+                 min_votes=3, frame=None, with_depth=True, capped=None) -> Solid:
     """The kept solid of a mesh or a point cloud (module docs).
 
     Args:
@@ -380,7 +396,9 @@ def robust_solid(vertices, faces=None, *, resolution=RESOLUTION, coarse=COARSE, 
       frame: optional (3, 3) rotation (rows = grid axes in world coordinates); the grid is laid out
         along them (for rotation-equivariant results, e.g. along the shape's principal axes).
       with_depth: compute ``Solid.depth`` on the host (False: None, for callers that take the
-        depth in JAX from ``inside`` and ``bias``).
+        depth from ``inside`` and ``bias`` themselves).
+      capped: meshes: ``cap_holes(vertices, faces)`` when the caller has computed it already (it
+        is not computed again; with a ``frame``, its vertices are turned like the input's).
 
     Returns:
       :class:`Solid`; its ``inside`` is empty when the shape encloses no volume (a flat or open
@@ -388,7 +406,7 @@ def robust_solid(vertices, faces=None, *, resolution=RESOLUTION, coarse=COARSE, 
     """
     resolution, coarse = check_resolution(resolution), check_resolution(coarse)
     v = np.asarray(vertices, np.float64)
-    frame = None if frame is None else np.asarray(frame, np.float64)
+    frame = frame_given = None if frame is None else np.asarray(frame, np.float64)
     v = v if frame is None else v @ frame.T
     frame = np.eye(3) if frame is None else frame
     n_input = len(v)
@@ -399,7 +417,11 @@ def robust_solid(vertices, faces=None, *, resolution=RESOLUTION, coarse=COARSE, 
         r_gap = neighbour_distances(v, 4, samples=SPACING_SAMPLES)[:, 3]
         caps = None
     else:
-        v, caps = cap_holes(v, np.asarray(faces, np.int64))
+        if capped is None:
+            v, caps = cap_holes(v, np.asarray(faces, np.int64))
+        else:
+            v = np.asarray(capped[0], np.float64) if frame_given is None else np.asarray(capped[0], np.float64) @ frame_given.T
+            caps = capped[1]
 
     def solid_at(origin, pitch, shape):
         if faces is None:

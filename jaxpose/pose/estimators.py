@@ -40,6 +40,7 @@ from .. import _validate, baselines, sample
 from ..occupancy import solid, voxels
 from .._validate import InvalidInputError, InvalidPoseWarning, JaxposeError
 from ..config import OCSVM, ROBUST
+from ..geometry import triangle_areas
 from ..host import anchor
 from ..weighted import depth_power_weights, grid_axes, solid_occupancy, weighted_center
 from .result import MIN_POINT_VOXELS, Pose, host, status_message
@@ -139,12 +140,13 @@ def _robust_solid(geometry, resolution):
     :data:`EQUAL_BODIES`, :data:`MIN_POINT_VOXELS`)."""
     resolution = solid.check_resolution(resolution)
     vertices, faces = baselines.split_geometry(geometry)
-    sol = solid.robust_solid(vertices, faces, resolution=resolution, with_depth=False)
+    capped = None if faces is None else solid.cap_holes(vertices, faces)
+    sol = solid.robust_solid(vertices, faces, resolution=resolution, with_depth=False, capped=capped)
     if not sol.inside.any():
         raise JaxposeError(f"the shape encloses no volume (a flat or open sheet, or a scan of one side): "
                            f"the robust solid is empty; {_OTHER}")
     if faces is not None:
-        _check_mostly_closed(vertices, faces)
+        _check_mostly_closed(faces, *capped)
     if faces is not None:  # a point cloud's closing can break thin parts into pieces of any size
         _check_one_body(sol)
     else:
@@ -162,18 +164,14 @@ MAX_CAP_SHARE = 0.6  # meshes: closing the holes may add at most this share of t
 EQUAL_BODIES = 0.1  # separate bodies whose sizes (voxels) differ by less than this share are equal
 
 
-def _area(v, f):
-    return 0.5 * np.linalg.norm(np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]), axis=1)
-
-
-def _check_mostly_closed(vertices, faces):
-    """Refuse a mesh whose hole caps (:func:`jaxpose.solid.cap_holes`) would make much of its
-    solid: an open sheet, a bowl-less scan; small holes (a few % to a third of the area) pass."""
+def _check_mostly_closed(faces, capped, caps):
+    """Refuse a mesh whose hole caps (``capped, caps = jaxpose.occupancy.solid.cap_holes(vertices,
+    faces)``) would make much of its solid: an open sheet, a bowl-less scan; small holes (a few %
+    to a third of the area) pass."""
     faces = np.asarray(faces, np.int64)
-    capped, caps = solid.cap_holes(np.asarray(vertices, np.float64), faces)
     if len(caps) == 0:
         return
-    share = float(_area(capped, caps).sum() / max(_area(capped, faces).sum(), 1e-300))
+    share = float(triangle_areas(capped[caps]).sum() / max(triangle_areas(capped[faces]).sum(), 1e-300))
     if share > MAX_CAP_SHARE:
         raise JaxposeError(f"the mesh is mostly open (a sheet, or a scan of one side): closing its holes would add "
                            f"{100 * share:.0f} % of its own area (at most {100 * MAX_CAP_SHARE:.0f} %), so the caps, "
@@ -202,7 +200,8 @@ def solid_center_volume(sol, power=ROBUST_POWER):
     distance transform (``scipy.ndimage.distance_transform_edt``, which
     :func:`jaxpose.depth.distance` equals), then the same
     :func:`jaxpose.weighted.depth_power_weights`, :func:`jaxpose.weighted.solid_occupancy` and
-    weighted center of the cell centers (:func:`jaxpose.weighted.grid_axes`), taken from the grid's
+    weighted center of the cell centers (:func:`jaxpose.weighted.grid_axes`), on the box of the
+    solid plus one cell (:func:`_crop`: the same distances, fewer cells), taken from the grid's
     middle and mapped to the world (``sol.origin``, ``sol.pitch``, ``sol.frame``). Use
     :func:`jaxpose.moments.solid_moments` for a derivative in ``power``.
 
@@ -213,15 +212,32 @@ def solid_center_volume(sol, power=ROBUST_POWER):
         raise InvalidInputError(f"power must be a finite number >= 0, got {power!r}")
     inside = np.asarray(sol.inside, bool)
     occupied = np.zeros_like(inside) if sol.occupied is None else np.asarray(sol.occupied, bool)
+    crop = _crop(inside)
+    inside, occupied = inside[crop], occupied[crop]
     w = depth_power_weights(ndimage.distance_transform_edt(inside), inside, float(power), float(sol.bias))
-    half = _HALF * np.asarray(inside.shape, np.float64)
-    _, center = weighted_center(grid_axes(inside.shape, -half, 1.0, np.float64), w)
+    half = _HALF * np.asarray(sol.inside.shape, np.float64)
+    corner = np.asarray([s.start for s in crop], np.float64) - half  # the crop's corner, from the grid's middle
+    _, center = weighted_center(grid_axes(inside.shape, corner, 1.0, np.float64), w)
     volume = float(np.sum(solid_occupancy(inside, occupied, np.float64)))
     center = sol.origin + sol.pitch * (center + half)
     return center @ np.asarray(sol.frame, np.float64), volume * sol.pitch**3
 
 
 _HALF = 0.5  # the moments are taken from the grid's middle (smaller numbers, as in jaxpose.moments.solid_moments)
+
+
+def _crop(inside):
+    """Slices of the box of the True cells of a grid plus one cell on each side (within the grid):
+    the distance transform of the crop equals the grid's on every True cell (a False cell outside
+    the crop is never nearer than the crop's own border layer, which is all False), and every
+    other cell weighs 0."""
+    if not inside.any():
+        return tuple(slice(0, n) for n in inside.shape)
+    crop = []
+    for axis, n in enumerate(inside.shape):
+        cells = np.flatnonzero(inside.any(axis=tuple(b for b in range(inside.ndim) if b != axis)))
+        crop.append(slice(max(int(cells[0]) - 1, 0), min(int(cells[-1]) + 2, n)))
+    return tuple(crop)
 
 
 _SHARED = ("_robust_solid", "_ocsvm", "_voxels", "_moments")  # what does not depend on the power

@@ -1,6 +1,6 @@
 """The array backend of a computation, chosen from its inputs, without importing JAX.
 
-Functions written once for both backends (:mod:`jaxpose.weighted`, :class:`jaxpose.Pose`) take
+Functions written once for both backends (:mod:`jaxpose.weighted`) take
 their namespace from their arguments: concrete NumPy values (and Python numbers) compute in NumPy
 on the host; a JAX array or a tracer (under ``jit``, ``vmap``, ``grad``) computes in
 ``jax.numpy``. JAX is imported only when a JAX value is given (it is then imported already).

@@ -1,6 +1,7 @@
 """The host entry points run the robust default on concrete meshes without importing JAX: the
 library call in a fresh interpreter (sys.modules), and the batch command's own process and its
-worker processes (``python -X importtime``'s record of every import, through the environment)."""
+worker processes, forked or fresh (``python -X importtime``'s record of every import, through the
+environment)."""
 from __future__ import annotations
 
 import os
@@ -10,6 +11,8 @@ import sys
 
 import numpy as np
 import trimesh
+
+import jaxpose
 
 from conftest import ROOT
 
@@ -56,10 +59,19 @@ def test_batch_command_and_its_workers_import_no_jax(tmp_path):
     folder.mkdir()
     _meshes(folder, 6)
     command = [sys.executable, "-m", "jaxpose", "normalize", str(folder), "-o", str(tmp_path / "out"), "--workers", "2"]
-    out = subprocess.run(command, capture_output=True, text=True, env=_env(PYTHONPROFILEIMPORTTIME="1"), timeout=300)
-    assert out.returncode == 0, out.stderr[-3000:]
-    assert len(list((tmp_path / "out").glob("shape_*"))) == 6
-    # the command's process and both workers (each imports trimesh) ran; none of them imported JAX
-    assert _imported(out.stderr, "trimesh") >= 3
-    assert _imported(out.stderr, "jaxpose.batch.pool") >= 3
-    assert _imported(out.stderr, "jax") == 0
+    for forked, threads in ((True, None), (False, "2")):  # OMP_NUM_THREADS=2: fresh interpreters (not forked)
+        env = _env(PYTHONPROFILEIMPORTTIME="1")
+        for name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+            env.pop(name, None)
+        if threads:
+            env["OMP_NUM_THREADS"] = threads
+        out = subprocess.run([*command[:-3], str(tmp_path / f"out{forked}"), *command[-2:]], capture_output=True,
+                             text=True, env=env, timeout=300)
+        assert out.returncode == 0, out.stderr[-3000:]
+        rows = jaxpose.read_transforms(tmp_path / f"out{forked}")
+        assert len(rows) == 6 and all(r.ok for r in rows)
+        assert len({r.worker for r in rows}) >= 2  # the workers did some of it
+        # forked workers import nothing (the command's process imported trimesh for them); fresh ones
+        # import trimesh each; none of the processes imported JAX
+        assert _imported(out.stderr, "trimesh") == (1 if forked else 3)
+        assert _imported(out.stderr, "jax") == 0

@@ -403,8 +403,11 @@ class _Run:
             # file (it cannot block), the workers' numerics, and a fresh folder (an input that crashed
             # the run takes a worker process on the rerun)
             head_start = not resumed and runs_like_a_worker() and _is_regular(todo[0][0].source)
+            # workers forked from this process (no interpreter start, no imports) where it computes as
+            # they would and runs no JAX (the host estimators; jaxpose.batch.pool)
+            fork = runs_like_a_worker() and not options.uses_jax
             executor = LocalExecutor(min(executor_args["workers"], len(todo)), timeout=executor_args["timeout"],
-                                     head_start=head_start, warm_up=functools.partial(warm_up, options))
+                                     head_start=head_start, warm_up=functools.partial(warm_up, options), fork=fork)
         bar = tqdm(total=len(todo), unit="file", desc="normalize", dynamic_ncols=True, smoothing=0.05,
                    disable=None if self.progress is None else not self.progress)
         queue, pending, lost = list(reversed(todo)), {}, {}  # source -> (workers lost after / before starting it)

@@ -3,7 +3,9 @@ killed from outside, costs that task alone while the other workers go on.
 
 Each worker is a fresh Python interpreter started with ``python -c`` (not :mod:`multiprocessing`'s
 spawn), so the caller's ``__main__`` is never imported again in it: a plain script without
-``if __name__ == "__main__":`` may use the pool. A worker runs one task at a time: the function
+``if __name__ == "__main__":`` may use the pool. With ``fork=True`` (the command line) the first
+workers are instead copies of the caller made before it starts any thread, which saves each one
+its interpreter start and imports. A worker runs one task at a time: the function
 and its arguments (pickled) arrive on a pipe, the result (or the exception it raised) goes back on
 another. The pool keeps the queue: a task is sent when a worker is free, and its clock starts
 when the worker reports that it has started it (its "started" message, sent once the task has
@@ -31,6 +33,7 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 from multiprocessing.connection import Connection, wait as wait_for
 
@@ -79,18 +82,64 @@ class _Future:
         self.value, self.error, self.finished = value, error, True
 
 
-class _Worker:
-    """One worker process and its two pipes (tasks in, results out)."""
+class _Forked:
+    """A worker forked from this process, with the part of ``subprocess.Popen``'s interface the pool
+    uses (``pid``, ``poll``, ``wait``, ``kill``; a return code -N for a process killed by signal N)."""
 
-    def __init__(self, environment):
+    def __init__(self, pid):
+        self.pid = pid
+        self.returncode = None
+
+    def poll(self):
+        if self.returncode is None:
+            pid, status = os.waitpid(self.pid, os.WNOHANG)
+            if pid:
+                self.returncode = os.waitstatus_to_exitcode(status)
+        return self.returncode
+
+    def wait(self, timeout=None):
+        if timeout is None:
+            if self.returncode is None:
+                self.returncode = os.waitstatus_to_exitcode(os.waitpid(self.pid, 0)[1])
+            return self.returncode
+        deadline = time.monotonic() + timeout
+        while self.poll() is None:
+            if time.monotonic() >= deadline:
+                raise subprocess.TimeoutExpired(f"worker {self.pid}", timeout)
+            time.sleep(0.01)
+        return self.returncode
+
+    def kill(self):
+        if self.poll() is None:
+            try:
+                os.kill(self.pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+
+
+class _Worker:
+    """One worker process and its two pipes (tasks in, results out): a fresh interpreter, or with
+    `fork` a copy of this process (the pool's own pipes to its `others` closed in it)."""
+
+    def __init__(self, environment, fork=False, others=()):
         task_read, task_write = os.pipe()
         result_read, result_write = os.pipe()
         try:
-            self.process = subprocess.Popen(
-                [sys.executable, "-c", _BOOT, json.dumps(sys.path), str(task_read), str(result_write),
-                 str(os.getpid())],
-                stdin=subprocess.DEVNULL, pass_fds=(task_read, result_write), env={**os.environ, **environment},
-                process_group=0)
+            if fork:
+                parent = os.getpid()
+                sys.stdout.flush()  # nothing buffered here is written twice
+                sys.stderr.flush()
+                pid = os.fork()
+                if pid == 0:  # the worker; it never returns from here
+                    _forked_worker(task_read, result_write, parent, environment,
+                                   [task_write, result_read, *(fd for w in others for fd in w.fds())])
+                self.process = _Forked(pid)
+            else:
+                self.process = subprocess.Popen(
+                    [sys.executable, "-c", _BOOT, json.dumps(sys.path), str(task_read), str(result_write),
+                     str(os.getpid())],
+                    stdin=subprocess.DEVNULL, pass_fds=(task_read, result_write), env={**os.environ, **environment},
+                    process_group=0)
         except BaseException:
             for fd in (task_read, task_write, result_read, result_write):
                 os.close(fd)
@@ -103,6 +152,10 @@ class _Worker:
     @property
     def pid(self):
         return self.process.pid
+
+    def fds(self):
+        """This process's ends of the worker's pipes."""
+        return [self.tasks.fileno(), self.results.fileno()]
 
     def death(self) -> str:
         """How the process ended, in words (it is waited for)."""
@@ -142,12 +195,18 @@ class ProcessPool:
       start_timeout: seconds from a task's sending to its worker's "started" message (the
         interpreter's start, its imports, the warm-up); past it the worker is killed and the task's
         ``result`` raises :class:`WorkerLost` with ``started`` False. None: :data:`START_TIMEOUT_S`.
+      fork: start the workers at once as copies of this process (``os.fork``: no interpreter
+        start-up, no imports in them; `warm_up` runs here first), when that is safe: this process
+        runs no other thread and has not imported JAX (whose runtime threads a fork would not
+        copy). Otherwise, and for every worker started later (one replacing a lost worker), a
+        fresh interpreter. Give it only where this process computes as a fresh worker would (the
+        same environment before NumPy was imported: :func:`jaxpose.batch.workers.runs_like_a_worker`).
 
     A worker that dies makes its task's ``result`` raise :class:`WorkerLost`; the other tasks are
     not affected, and a new worker takes its place for the next task.
     """
 
-    def __init__(self, workers, environment=None, timeout=None, warm_up=None, start_timeout=None):
+    def __init__(self, workers, environment=None, timeout=None, warm_up=None, start_timeout=None, fork=False):
         self.workers = int(workers)
         self.timeout = timeout
         self.start_timeout = START_TIMEOUT_S if start_timeout is None else float(start_timeout)
@@ -156,6 +215,17 @@ class ProcessPool:
         self._idle = []
         self._busy = {}  # worker -> (future, monotonic start: None until it reports, messages to skip, sent at)
         self._queue = collections.deque()  # (future, fn, args) not yet sent
+        if fork and threading.active_count() == 1 and "jax" not in sys.modules:
+            if self.warm_up is not None:
+                self.warm_up()
+            if "jax" not in sys.modules:  # a warm-up may import it
+                for _ in range(self.workers):
+                    self._idle.append(_Worker(self._environment, fork=True, others=self._idle))
+
+    @property
+    def forked(self) -> int:
+        """How many of the live workers were forked from this process."""
+        return sum(isinstance(w.process, _Forked) for w in [*self._busy, *self._idle])
 
     def submit(self, fn, *args) -> _Future:
         """Queue ``fn(*args)`` (picklable, importable by name in a fresh interpreter)."""
@@ -278,6 +348,29 @@ class ProcessPool:
 
 
 # --------------------------------------------------------------------------- in the worker
+def _forked_worker(task_fd, result_fd, parent, environment, close):
+    """The worker's side of a fork: a process of its own group, the signal handlers and mask of a
+    fresh interpreter, no stdin, only its own pipe ends; then :func:`_serve`, and ``os._exit``
+    (the parent's ``atexit`` handlers and buffered files are never run or flushed here)."""
+    code = 1
+    try:
+        for fd in close:
+            os.close(fd)
+        os.setpgid(0, 0)
+        for number in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGPIPE):
+            signal.signal(number, signal.default_int_handler if number == signal.SIGINT else
+                          signal.SIG_IGN if number == signal.SIGPIPE else signal.SIG_DFL)
+        signal.pthread_sigmask(signal.SIG_SETMASK, set())
+        null = os.open(os.devnull, os.O_RDONLY)
+        os.dup2(null, 0)
+        os.close(null)
+        os.environ.update(environment)
+        _serve(task_fd, result_fd, parent)
+        code = 0
+    finally:
+        os._exit(code)
+
+
 def _serve(task_fd, result_fd, parent):
     """The worker's loop: receive (fn, args), send "started", then (True, value) or (False, exception)."""
     _die_with_parent(parent)

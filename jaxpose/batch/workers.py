@@ -80,10 +80,12 @@ class LocalExecutor:
 
     Worker processes get :func:`process_environment` (one BLAS thread, the compilation cache);
     each new one runs `warm_up` first, outside the time limit but within `start_timeout`
-    (:class:`jaxpose.batch.pool.ProcessPool`).
+    (:class:`jaxpose.batch.pool.ProcessPool`). With `fork` (a process that
+    :func:`runs_like_a_worker`) the first workers are forked from this one when that is safe
+    (:class:`~jaxpose.batch.pool.ProcessPool`), after `warm_up` ran here.
     """
 
-    def __init__(self, workers, timeout=None, head_start=False, warm_up=None, start_timeout=None):
+    def __init__(self, workers, timeout=None, head_start=False, warm_up=None, start_timeout=None, fork=False):
         self.workers = workers
         self.timeout = timeout
         self._head = None
@@ -91,7 +93,7 @@ class LocalExecutor:
             self._pool = cf.ThreadPoolExecutor(1, thread_name_prefix="jaxpose-worker")
         else:
             self._pool = ProcessPool(workers, environment=process_environment(), timeout=timeout, warm_up=warm_up,
-                                     start_timeout=start_timeout)
+                                     start_timeout=start_timeout, fork=fork)
             if head_start and timeout is None:
                 self._head = cf.ThreadPoolExecutor(1, thread_name_prefix="jaxpose-head-start")
 

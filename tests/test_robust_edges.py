@@ -69,3 +69,104 @@ def test_command_line_says_why_and_what_to_use(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "separate bodies" in err and "--method surface_centroid" in err and "Traceback" not in err
     assert not (tmp_path / "out.ply").exists()
+
+
+# --------------------------------------------------------------------------- separate bodies in one cloud
+def _body(m, seed):
+    """A sphere of radius 0.4 with a thin arm (0.04 across) along +x: (m, 3) surface samples."""
+    from conftest import sphere_with_arm
+
+    return sphere_with_arm(m, seed=seed)
+
+
+def _with_stray(points, seed):
+    """``points`` plus 3 % uniform outliers in a box three times their extent and a small stray
+    cluster (5 % of the points) well away from them."""
+    rng = np.random.default_rng(seed)
+    lo, hi = points.min(0), points.max(0)
+    mid, ext = (lo + hi) / 2, (hi - lo).max()
+    scattered = mid + rng.uniform(-1.5, 1.5, size=(len(points) * 3 // 100, 3)) * ext
+    blob = rng.normal(size=(len(points) // 20, 3))
+    blob = mid + [1.2 * ext, 0, 0] + 0.08 * ext * blob / np.linalg.norm(blob, axis=1, keepdims=True)
+    return np.vstack([points, scattered, blob])
+
+
+def _copies(points, count):
+    ext = (points.max(0) - points.min(0)).max()
+    return np.vstack([points + [1.6 * ext * k, 0.3 * ext * k, 0] for k in range(count)])
+
+
+@pytest.mark.parametrize("count", [2, 3])
+def test_separate_equal_bodies_in_one_cloud_are_refused_and_flagged(count):
+    """Copies of a sampled body side by side, given as one cloud: refused on the host
+    (normalize_mesh, a PointCloud) and flagged by the pure-JAX normalize (SEPARATE_BODIES)."""
+    cloud = _copies(_body(2000, seed=7), count)
+    with pytest.raises(JaxposeError, match=f"point cloud is {count} separate bodies"):
+        jaxpose.normalize_mesh(trimesh.PointCloud(cloud))
+    with pytest.warns(jaxpose.InvalidPoseWarning, match="several separate bodies"):
+        pose = jaxpose.normalize(cloud)
+    assert not bool(pose.valid) and int(pose.status) == jaxpose.Status.SEPARATE_BODIES
+    with pytest.raises(JaxposeError, match="several separate bodies"):
+        jaxpose.normalize(cloud, throw=True)
+
+
+def test_separate_bodies_are_flagged_under_jit_and_vmap():
+    """The traced path: one body and two copies of half as many samples in one vmapped call."""
+    import jax
+    import jax.numpy as jnp
+
+    one, two = _body(4000, seed=8), _copies(_body(2000, seed=9), 2)
+    batch = jnp.asarray(np.stack([one, two]), jnp.float32)
+    poses = jax.jit(jax.vmap(lambda x: jaxpose.normalize(x)))(batch)
+    assert np.asarray(poses.status).tolist() == [0, int(jaxpose.Status.SEPARATE_BODIES)]
+    assert np.asarray(poses.valid).tolist() == [True, False]
+    with pytest.warns(jaxpose.InvalidPoseWarning, match="point set 2: .*several separate bodies"):
+        listed = jaxpose.normalize_batch([one, one[:3000], two])  # padded to one length, vmapped
+    assert np.asarray(listed.status).tolist() == [0, 0, int(jaxpose.Status.SEPARATE_BODIES)]
+
+
+def test_one_body_with_outliers_and_a_stray_cluster_is_not_flagged():
+    """Scattered outliers and a small stray cluster are not a second body: both paths give the
+    body's pose (the stray parts dropped)."""
+    body = _body(3000, seed=10)
+    noisy = _with_stray(body, seed=11)
+    clean = jaxpose.normalize(body)
+    pose = jaxpose.normalize(noisy)
+    assert bool(pose.valid), jaxpose.Status(int(pose.status)).name
+    np.testing.assert_allclose(pose.center, clean.center, atol=0.02 * float(clean.scale))
+    _, host_pose = jaxpose.normalize_mesh(trimesh.PointCloud(noisy))
+    np.testing.assert_allclose(host_pose.center, clean.center, atol=0.02 * float(clean.scale))
+
+
+def test_a_body_whose_thin_limb_the_closing_cuts_is_one_body():
+    """Two equal balls joined by a thin rod whose samples lie further apart than a voxel: the
+    closing cuts the rod, leaving two equal solid components (what the mesh check would refuse),
+    but the points are linked through the rod: one body, not flagged."""
+    from jaxpose.occupancy import solid
+
+    rng = np.random.default_rng(12)
+    balls = np.vstack([_cloud(3000, seed=13), _cloud(3000, seed=14) + [3.2, 0, 0]])  # unit spheres
+    t = np.linspace(1.0, 2.2, 15) + rng.uniform(-0.02, 0.02, 15)  # 1.5 voxels apart on average
+    rod = np.c_[t, 0.01 * rng.normal(size=(15, 2))]
+    cloud = np.vstack([balls, rod])
+    sol = solid.robust_solid(cloud, None, with_depth=False)
+    assert sol.components - sol.dropped >= 2  # the closing's two balls, kept as equal parts
+    assert len(solid.linked_parts(sol.occupied, sol.radius)) == 1
+    _, pose = jaxpose.normalize_mesh(trimesh.PointCloud(cloud))
+    assert abs(float(pose.center[0]) - 1.6) < 0.05
+    assert bool(jaxpose.normalize(cloud).valid)
+
+
+@pytest.mark.shared
+def test_two_faust_bodies_in_one_cloud_are_flagged_and_one_with_outliers_is_not():
+    from conftest import faust_points
+
+    body = faust_points(6000, index=2)
+    two = _copies(body, 2)
+    with pytest.raises(JaxposeError, match="point cloud is 2 separate bodies"):
+        jaxpose.normalize_mesh(trimesh.PointCloud(two))
+    with pytest.warns(jaxpose.InvalidPoseWarning, match="several separate bodies"):
+        assert int(jaxpose.normalize(two).status) == jaxpose.Status.SEPARATE_BODIES
+    noisy = _with_stray(body, seed=14)
+    assert bool(jaxpose.normalize(noisy).valid)
+    jaxpose.normalize_mesh(trimesh.PointCloud(noisy))  # not refused

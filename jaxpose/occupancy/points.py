@@ -20,6 +20,9 @@ static, pitch and origin traced):
 5. Two passes: a coarse one (``coarse`` voxels along the largest extent) over every point finds
    the main body; the points within one voxel of it give the box of the fine pass
    (``resolution``), whose solid is filled and kept again.
+   Separate bodies (:func:`linked_parts`): the fine pass's occupied voxels dilated by ``LINK``
+   closing radii (the radius the spacing gives, before growth), 26-connected components sized by
+   the occupied voxels they hold; ``PointSolid.second_part`` is the second largest over the largest.
 6. What :func:`jaxpose.pose.pose.robust_pipeline` takes from it: the depth of each kept voxel, its exact
    distance to the outside minus ``POINT_BIAS`` = one voxel (occupied voxels straddle the surface)
    (:func:`jaxpose.depth.depth_weights`), and the volume h^3 (kept voxels - kept occupied voxels / 2)
@@ -48,10 +51,10 @@ import numpy as np
 from jax import lax
 
 from ..config import RobustConfig
-from .solid import POINT_BIAS
+from .solid import LINK, POINT_BIAS
 
 __all__ = ["PointSolid", "point_solid", "spacing_subset", "spacing_quantile", "grid_cells", "exterior_fill",
-           "components", "keep_main", "erode6", "capped_squared_distance", "POINT_BIAS"]
+           "components", "keep_main", "linked_parts", "erode6", "capped_squared_distance", "POINT_BIAS", "LINK"]
 
 _OFFSET = 1e-3 * math.sqrt(2.0)  # grid offset in pitches, as jaxpose.solid's: grid lines miss axis-aligned points
 _BIG = np.int32(2**30)  # "no feature in reach" for squared distances; "no label" for components
@@ -67,6 +70,8 @@ class PointSolid(NamedTuple):
       origin: (3,) lower corner of voxel (0, 0, 0); pitch: () voxel edge, in units.
       radius: () int32, the closing radius used (voxels).
       components: () int32, components found; dropped: () int32, dropped as stray parts.
+      second_part: () float, the second largest separate part of the points over the largest
+        (:func:`linked_parts`; 0 when they are one part).
     """
 
     inside: jax.Array
@@ -76,6 +81,7 @@ class PointSolid(NamedTuple):
     radius: jax.Array
     components: jax.Array
     dropped: jax.Array
+    second_part: jax.Array
 
 
 def grid_cells(resolution: int, max_closing: int) -> int:
@@ -292,6 +298,30 @@ def keep_main(solid, keep_ratio):
     return kept, jnp.sum(roots).astype(jnp.int32), jnp.sum(roots & ~keep_root).astype(jnp.int32)
 
 
+def _blocks(x, op):
+    """op over the 2 x 2 x 2 blocks of a (g, g, g) grid (padded with zeros to an even size)."""
+    pad = x.shape[0] % 2
+    x = jnp.pad(x, [(0, pad)] * 3)
+    h = x.shape[0] // 2
+    return op(x.reshape(h, 2, h, 2, h, 2), axis=(1, 3, 5))
+
+
+def linked_parts(occupied, near):
+    """The second largest separate part of a point cloud over the largest, as
+    :func:`jaxpose.occupancy.solid.linked_parts`: the 26-connected components of ``near`` (the
+    occupied voxels dilated by the linkage, at least 2 voxels; it holds ``occupied``), sized by the
+    occupied voxels each holds. The components are taken on 2 x 2 x 2 blocks (a block is in
+    ``near`` when any of its voxels is: 1/8 of the cells to label), which links parts at most 2
+    voxels further apart than the linkage does. () float32, 0 when the points are one part (or none)."""
+    cells = _blocks(near, jnp.any)
+    count = _blocks(occupied.astype(jnp.int32), jnp.sum).astype(jnp.int32)  # int64 sums under x64
+    labels = components(cells).reshape(-1)
+    size = jnp.zeros(cells.size, jnp.int32).at[jnp.where(cells.reshape(-1), labels, 0)].add(count.reshape(-1))
+    largest = jnp.argmax(size)
+    second = jnp.max(jnp.where(jnp.arange(cells.size) == largest, 0, size))
+    return second.astype(jnp.float32) / jnp.maximum(size[largest], 1).astype(jnp.float32)
+
+
 # ------------------------------------------------------------------ one pass
 def _occupied(points, mask, origin, pitch, cells):
     idx = jnp.floor((points - origin) / pitch).astype(jnp.int32)
@@ -302,7 +332,8 @@ def _occupied(points, mask, origin, pitch, cells):
 
 
 def _closing(occ, radius, max_radius):
-    """Closing of the occupied voxels with the adaptive radius (module docs, step 3)."""
+    """Closing of the occupied voxels with the adaptive radius (module docs, step 3); also the
+    squared distances to the occupied voxels (exact up to ``max_radius``)."""
     cap = max_radius * max_radius
     out_d2 = capped_squared_distance(occ, cap)
 
@@ -324,19 +355,20 @@ def _closing(occ, radius, max_radius):
 
     closed, ok = attempt(radius)
     r, closed, _ = lax.while_loop(cond, body, (radius, closed, ok | (radius >= max_radius)))
-    return closed | occ, r
+    return closed | occ, r, out_d2
 
 
 def _pass(points, mask, lo, hi, q, resolution, config):
-    """One grid: (solid, occupied, origin, pitch, radius) on the box [lo, hi]."""
+    """One grid on the box [lo, hi]: (solid, occupied, origin, pitch, radius used, the occupied
+    voxels dilated by ``LINK`` times the starting radius)."""
     cells = grid_cells(resolution, config.max_closing)
     pitch = jnp.maximum(jnp.max(hi - lo) / resolution, q / config.max_closing)
     radius = jnp.clip(jnp.ceil(q / pitch), 1, config.max_closing).astype(jnp.int32)
     margin = 3 * radius + 3
     origin = lo - (margin.astype(pitch.dtype) + _OFFSET) * pitch
     occ = _occupied(points, mask, origin, pitch, cells)
-    solid, r = _closing(occ, radius, 3 * radius)
-    return solid, occ, origin, pitch, r
+    solid, r, d2 = _closing(occ, radius, 3 * radius)  # d2 exact up to 3 radius >= LINK radius
+    return solid, occ, origin, pitch, r, d2 <= (LINK * radius) ** 2
 
 
 def point_solid(points, mask, queries, config: RobustConfig, query_mask=None) -> PointSolid:
@@ -362,7 +394,7 @@ def point_solid(points, mask, queries, config: RobustConfig, query_mask=None) ->
     lo = jnp.min(jnp.where(mask[:, None], points, big), axis=0)
     hi = jnp.max(jnp.where(mask[:, None], points, -big), axis=0)
     # pass 1: the main body over everything
-    solid1, _, origin1, pitch1, _ = _pass(points, mask, lo, hi, q, config.coarse, config)
+    solid1, _, origin1, pitch1, _, _ = _pass(points, mask, lo, hi, q, config.coarse, config)
     kept1 = keep_main(solid1, config.keep_ratio)[0]
     near = _window(kept1, jnp.logical_or, False)
     cells1 = near.shape[0]
@@ -374,6 +406,6 @@ def point_solid(points, mask, queries, config: RobustConfig, query_mask=None) ->
     lo = jnp.where(found, jnp.min(jnp.where(on[:, None], points, big), axis=0), lo)
     hi = jnp.where(found, jnp.max(jnp.where(on[:, None], points, -big), axis=0), hi)
     # pass 2: the fine grid on the main body's box
-    solid, occ, origin, pitch, r = _pass(points, mask, lo, hi, q, config.resolution, config)
+    solid, occ, origin, pitch, r, near = _pass(points, mask, lo, hi, q, config.resolution, config)
     kept, count, dropped = keep_main(exterior_fill(solid), config.keep_ratio)
-    return PointSolid(kept, occ, origin, pitch, r, count, dropped)
+    return PointSolid(kept, occ, origin, pitch, r, count, dropped, linked_parts(occ, near))

@@ -45,7 +45,7 @@ from .._validate import InvalidInputError
 from ..config import MEMORY_BUDGET, RobustConfig
 
 __all__ = ["Solid", "robust_solid", "cap_holes", "ray_vote_solid", "point_solid", "exterior_fill", "keep_main",
-           "depth", "make_grid", "closing_radius", "neighbour_distances", "check_resolution", "RESOLUTION", "COARSE",
+           "depth", "make_grid", "closing_radius", "linked_parts", "LINK", "neighbour_distances", "check_resolution", "RESOLUTION", "COARSE",
            "KEEP_RATIO", "SPACING_SAMPLES", "VOXEL_BYTES", "MESH_BIAS", "POINT_BIAS"]
 
 _DEFAULTS = RobustConfig()  # the defaults are written once, in jaxpose.config.RobustConfig
@@ -57,6 +57,7 @@ SPACING_SAMPLES = _DEFAULTS.spacing_samples  # point clouds: the spacing is meas
 VOXEL_BYTES = 64  # peak memory per voxel of the fine grid (measured 50-58 bytes)
 MESH_BIAS = 0.5  # voxels between a mesh solid's outer voxel centers and its surface (depth offset)
 POINT_BIAS = 1.0  # the same for a point solid (its outer voxels straddle the surface)
+LINK = 2  # point clouds: separate parts are told apart at a dilation of this many closing radii (linked_parts)
 _MAX_MARGIN = 3 * MAX_CLOSING + 3  # voxels around the box (point clouds; meshes: 3)
 _OFFSET = 1e-3 * np.sqrt(2.0)  # grid offset in pitches: grid lines miss the vertices of axis-aligned models
 _AXES = ((0, 1, 2), (1, 2, 0), (2, 0, 1))  # ray axis a, then (b, c) with (a, b, c) cyclic
@@ -77,6 +78,8 @@ class Solid(NamedTuple):
       components: number of components found; dropped: how many were dropped as stray parts.
       bias: voxels subtracted from the distance transform in ``depth`` (:data:`MESH_BIAS`,
         :data:`POINT_BIAS`).
+      radius: point solids: the closing radius the points' spacing gives at ``pitch`` (voxels,
+        before any growth; :func:`linked_parts` links at ``LINK`` times it); None for meshes.
     """
 
     inside: np.ndarray
@@ -88,6 +91,7 @@ class Solid(NamedTuple):
     components: int
     dropped: int
     bias: float = MESH_BIAS
+    radius: int | None = None
 
     def centers(self):
         """(n, 3) world coordinates of the kept voxel centers, in ``np.nonzero(inside)`` order."""
@@ -337,6 +341,29 @@ def point_solid(points, origin, pitch, shape, radius, max_radius=None):
         radius = min(radius + max(1, radius // 4), max_radius)
 
 
+def linked_parts(occupied, radius, link=None):
+    """Sizes of the separate parts of a point cloud: the 26-connected components of its occupied
+    voxels dilated by ``link`` voxels (default ``LINK`` x ``radius``, the closing radius: points up to
+    about 2 link voxels apart are linked), each sized by the occupied voxels it holds.
+
+    A dilation of the scattered points, not the closing: a closing erodes back and can cut a thin
+    limb into pieces, a dilation only joins.
+
+    Args:
+      occupied: (nx, ny, nz) bool, voxels holding a point; radius: int >= 1, voxels.
+
+    Returns:
+      (k,) int64, the parts' sizes in descending order (k = 0 for an empty grid).
+    """
+    link = LINK * int(radius) if link is None else int(link)
+    if not occupied.any():
+        return np.zeros(0, np.int64)
+    near = ndimage.distance_transform_edt(~occupied) <= link
+    labels, _ = ndimage.label(near, structure=np.ones((3, 3, 3), bool))
+    sizes = np.bincount(labels[occupied])[1:]
+    return np.sort(sizes[sizes > 0])[::-1].astype(np.int64)
+
+
 # ------------------------------------------------------------------ components, depth
 def exterior_fill(solid):
     """The solid with its enclosed cavities filled (the complement components that do not reach
@@ -448,4 +475,5 @@ def robust_solid(vertices, faces=None, *, resolution=RESOLUTION, coarse=COARSE, 
     kept, components, dropped = keep_main(exterior_fill(solid), keep_ratio)
     bias = MESH_BIAS if faces is not None else POINT_BIAS
     dep = depth(kept, pitch, bias=bias) if with_depth else None
-    return Solid(kept, dep, origin, pitch, occupied, frame, components, dropped, bias)
+    radius = closing_radius(r_gap, pitch) if faces is None else None
+    return Solid(kept, dep, origin, pitch, occupied, frame, components, dropped, bias, radius)

@@ -43,7 +43,7 @@ from ..config import OCSVM, ROBUST
 from ..geometry import triangle_areas
 from ..host import anchor
 from ..weighted import depth_power_weights, grid_axes, solid_occupancy, weighted_center
-from .result import MIN_POINT_VOXELS, Pose, host, status_message
+from .result import MIN_POINT_VOXELS, SECOND_BODY, Pose, host, status_message
 
 __all__ = ["METHODS", "CENTERS", "SCALES", "DEFAULT_METHOD", "ROBUST_POWER", "resolve", "estimate",
            "estimate_many", "robust_center_scale", "solid_center_volume", "centered"]
@@ -123,7 +123,9 @@ def robust_center_scale(geometry, power=ROBUST_POWER, resolution=solid.RESOLUTIO
       JaxposeError: the shape has no robust pose, with the reason: it encloses no volume (a flat
         sheet), it is mostly open (hole caps would add more than :data:`MAX_CAP_SHARE` of its
         area), it is several separate bodies of equal size (:data:`EQUAL_BODIES`), a point cloud
-        too sparse for a closing (its solid under :data:`MIN_POINT_VOXELS` voxels across).
+        too sparse for a closing (its solid under :data:`MIN_POINT_VOXELS` voxels across), a point
+        cloud of several separate bodies (a second part of at least :data:`SECOND_BODY` of the
+        largest, :func:`jaxpose.occupancy.solid.linked_parts`).
     """
     sol = _robust_solid(geometry, resolution)
     center, volume = solid_center_volume(sol, power)
@@ -157,6 +159,7 @@ def _robust_solid(geometry, resolution):
                                f"(the 90th percentile of the 4-neighbour distance / {solid.MAX_CLOSING}) its solid "
                                f"spans {across} voxels (at least {MIN_POINT_VOXELS} are needed); use more points, or "
                                "the vertex_mean or ocsvm method")
+        _check_one_cloud(sol)
     return sol
 
 
@@ -176,6 +179,20 @@ def _check_mostly_closed(faces, capped, caps):
         raise JaxposeError(f"the mesh is mostly open (a sheet, or a scan of one side): closing its holes would add "
                            f"{100 * share:.0f} % of its own area (at most {100 * MAX_CAP_SHARE:.0f} %), so the caps, "
                            f"not the shape, would make the robust solid; {_OTHER}")
+
+
+def _check_one_cloud(sol):
+    """Refuse a point cloud of several separate bodies: a part apart from the largest holds at
+    least :data:`SECOND_BODY` of its occupied voxels (:func:`jaxpose.occupancy.solid.linked_parts`,
+    a dilation of the points, so a thin limb that the closing cuts off stays linked). Stray
+    parts smaller than that pass (they are dropped, or kept with the body as for meshes)."""
+    sizes = solid.linked_parts(sol.occupied, sol.radius)
+    if len(sizes) >= 2 and sizes[1] >= SECOND_BODY * sizes[0]:
+        several = int(np.sum(sizes >= SECOND_BODY * sizes[0]))
+        raise JaxposeError(f"the point cloud is {several} separate bodies: apart from the largest, "
+                           f"{'a part holds' if several == 2 else 'parts hold'} {100 * sizes[1] / sizes[0]:.0f} % of "
+                           f"its occupied voxels (at least {100 * SECOND_BODY:.0f} %): no single body sets the pose; "
+                           "normalize each body on its own")
 
 
 def _check_one_body(sol):

@@ -51,7 +51,7 @@ from ..occupancy.svdd.secant import with_secants
 from ..orientation import region_frame
 from .frame import host_frame, prescale
 from .sizes import MAX_POINTS, bucket, pad, subsample_index
-from .result import MIN_POINT_VOXELS, Pose, Status
+from .result import MIN_POINT_VOXELS, SECOND_BODY, Pose, Status
 from .validity import flag_offset, pose_status
 
 __all__ = ["Pose", "METHODS", "DEFAULT_METHOD", "normalize", "normalize_batch", "pose_pipeline", "robust_pipeline",
@@ -139,7 +139,9 @@ def robust_pipeline(points, mask, queries, query_mask, power, config: RobustConf
       in the units of ``points``; ``converged`` True, ``iterations`` the closing radius in voxels,
       ``status`` EMPTY_SOLID when the points enclose no volume (no voxel of the solid lies deeper
       than its surface layer: an open sheet, a scan of one side), SPARSE_CLOUD when the solid spans
-      fewer than ``MIN_POINT_VOXELS`` voxels (too sparse for a closing), DEGENERATE_INPUT, NOT_FINITE,
+      fewer than ``MIN_POINT_VOXELS`` voxels (too sparse for a closing), SEPARATE_BODIES when a
+      separate part of the points holds at least ``SECOND_BODY`` of the largest's occupied voxels
+      (:func:`jaxpose.occupancy.points.linked_parts`), DEGENERATE_INPUT, NOT_FINITE,
       FAR_FROM_ORIGIN (see :mod:`jaxpose.pose.validity`); ``count`` the points used.
     """
     n = points.shape[0]
@@ -167,9 +169,11 @@ def robust_pipeline(points, mask, queries, query_mask, power, config: RobustConf
     idx = [jnp.arange(c.shape[0]) for c in cells]
     across = jnp.max(jnp.stack([jnp.max(jnp.where(c, i, -1)) - jnp.min(jnp.where(c, i, c.shape[0])) + 1
                                 for c, i in zip(cells, idx)]))
-    status = jnp.select([bad_power, degenerate, ~(volume > 0) | shallow, across < MIN_POINT_VOXELS, ~finite],
+    several = sol.second_part >= SECOND_BODY
+    status = jnp.select([bad_power, degenerate, ~(volume > 0) | shallow, across < MIN_POINT_VOXELS, several, ~finite],
                         [jnp.int32(int(c)) for c in (Status.BAD_PARAMETERS, Status.DEGENERATE_INPUT,
-                                                      Status.EMPTY_SOLID, Status.SPARSE_CLOUD, Status.NOT_FINITE)],
+                                                      Status.EMPTY_SOLID, Status.SPARSE_CLOUD,
+                                                      Status.SEPARATE_BODIES, Status.NOT_FINITE)],
                         jnp.int32(0))
     pose = Pose(center, scale, jnp.asarray(True), status == 0, sol.radius, None, None, status,
                 jnp.sum(mask).astype(jnp.int32))

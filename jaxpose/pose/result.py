@@ -18,12 +18,14 @@ from .._validate import is_traced
 if TYPE_CHECKING:  # annotations only
     import jax
 
-__all__ = ["Pose", "host", "Status", "status_message", "MAX_SPACING", "MAX_CELL", "MIN_SPREAD", "MAX_ROUNDING", "MIN_POINT_VOXELS"]
+__all__ = ["Pose", "host", "Status", "status_message", "MAX_SPACING", "MAX_CELL", "MIN_SPREAD", "MAX_ROUNDING", "MIN_POINT_VOXELS",
+           "SECOND_BODY"]
 
 MAX_SPACING = 2.0  # median nearest-neighbour distance of the samples, in kernel widths
 MAX_CELL = 2.0  # finest grid cell edge, in kernel widths
 MIN_SPREAD = 0.25  # region mean distance / samples' median distance from its centroid
 MIN_POINT_VOXELS = 12  # robust, point clouds: the closed solid spans at least this many voxels along its largest extent
+SECOND_BODY = 0.5  # robust, point clouds: a separate part with at least this share of the largest's occupied voxels
 MAX_ROUNDING = 1e-3  # rounding of the largest coordinate (eps |x|max) / the points' RMS spread (traced input)
 
 
@@ -48,6 +50,7 @@ class Status(enum.IntEnum):
     EMPTY_SOLID = 8
     FAR_FROM_ORIGIN = 9
     SPARSE_CLOUD = 10
+    SEPARATE_BODIES = 11
 
     @property
     def message(self) -> str:
@@ -76,6 +79,9 @@ _MESSAGES = {
     Status.SPARSE_CLOUD: (f"the point cloud is too sparse for a closing: at the voxel size its spacing allows (the "
                           f"90th percentile of the 4-neighbour distance / max_closing) its solid spans fewer than "
                           f"{MIN_POINT_VOXELS} voxels; use more points, or the vertex_mean or ocsvm method"),
+    Status.SEPARATE_BODIES: (f"the point cloud is several separate bodies: apart from the largest, a part holds at "
+                             f"least {SECOND_BODY:g} of its occupied voxels (parts linked at a dilation of twice the "
+                             "closing radius), so no single body sets the pose; normalize each body on its own"),
     Status.COLLAPSED_REGION: (f"the region collapsed: its mean distance is below {MIN_SPREAD:g} of the samples' "
                               "median distance from its centroid (nu near 1, or too few samples)"),
 }

@@ -226,4 +226,3 @@ def test_point_counts_share_compilations():
         jax.config.update("jax_enable_compilation_cache", cache)
         monitoring.unregister_event_duration_listener(listener)
     assert compiles == [] and all(bool(p.valid) for p in poses)
-

@@ -9,7 +9,9 @@ differently. Cases, interleaved in one process (:func:`benchmarks.common.interle
 * ``batch``: ``jaxpose.normalize_batch(clouds, method=...)``: padded, masked, ``jax.vmap`` over
   the batch in one compiled call (``strategy="vmap"``);
 * ``loop``: ``[jaxpose.normalize(c, method=...) for c in clouds]``: one jitted call per cloud
-  (the same compiled program each time: the clouds share a row bucket).
+  (the same compiled program each time: the clouds share a row bucket);
+* ``map`` (for comparison): ``normalize_batch(..., strategy="map")``: the same padded batch in one
+  compiled call, the clouds one after another (``lax.map``) instead of in lock-step.
 
 Reported: seconds per cloud (median of the warm rounds), their ratio loop / batch (the target is
 >= 2), the first call's extra time (compilation) apart, and the largest difference between the two
@@ -50,6 +52,7 @@ def run(count=32, points=5000, method="robust", repeats=2, seed=0):
     cases = {
         "batch": lambda: jaxpose.normalize_batch(data, method=method, strategy="vmap").center,
         "loop": lambda: np.stack([jaxpose.normalize(c, method=method).center for c in data]),
+        "map": lambda: jaxpose.normalize_batch(data, method=method, strategy="map").center,
     }
     start = now()
     timings, last = interleaved(cases, repeats)
@@ -61,6 +64,7 @@ def run(count=32, points=5000, method="robust", repeats=2, seed=0):
         "source": source, "clouds": count, "points": points, "method": method, "repeats": repeats,
         "backend": jax.default_backend(), "device": str(jax.devices()[0]), "cpu": platform.processor() or platform.machine(),
         "timings": timings, "per_cloud_s": per, "ratio_loop_over_batch": per["loop"] / per["batch"],
+        "ratio_loop_over_map": per["loop"] / per["map"],
         "compile_s": {k: v.get("compile_s") for k, v in timings.items()},
         "max_difference_over_scale": float(diff.max()), "wall_s": wall, "maxrss_mb": maxrss_mb(),
     }
@@ -71,10 +75,11 @@ def report(r):
              "", f"backend {r['backend']} ({r['device']}), {r['repeats']} warm rounds, interleaved", "",
              "| case | s per cloud (warm median) | whole call (s) | first call extra (compile, s) |",
              "|---|---|---|---|"]
-    for k in ("batch", "loop"):
+    for k in ("batch", "loop", "map"):
         t = r["timings"][k]
         lines.append(f"| {k} | {r['per_cloud_s'][k]:.4f} | {t['median_s']:.3f} | {t.get('compile_s', float('nan')):.2f} |")
-    lines += ["", f"loop / batch, per cloud: **{r['ratio_loop_over_batch']:.2f}x** (target >= 2)",
+    lines += ["", f"loop / batch, per cloud: **{r['ratio_loop_over_batch']:.2f}x** (target >= 2); "
+              f"loop / map: {r['ratio_loop_over_map']:.2f}x",
               f"largest |batch - loop| center difference: {r['max_difference_over_scale']:.2e} of the scale",
               f"peak memory {r['maxrss_mb']:.0f} MB, wall {r['wall_s']:.0f} s"]
     return "\n".join(lines)

@@ -132,8 +132,10 @@ def test_normalize_batch_of_32_padded_clouds_equals_single_calls():
         single = jaxpose.normalize(c, **SMALL)
         np.testing.assert_allclose(batch.center[i], single.center, atol=1e-5 * float(single.scale), rtol=0)
         assert abs(float(batch.scale[i]) - float(single.scale)) <= 1e-5 * float(single.scale)
-    mapped = jaxpose.normalize_batch(clouds[:3], strategy="map", **SMALL)
-    np.testing.assert_allclose(mapped.center, batch.center[:3], atol=1e-5 * float(np.min(batch.scale)), rtol=0)
+    for strategy in ("map", "vmap"):  # "auto" is one of them (map on CPU)
+        other = jaxpose.normalize_batch(clouds[:3], strategy=strategy, **SMALL)
+        np.testing.assert_allclose(other.center, batch.center[:3], atol=1e-5 * float(np.min(batch.scale)), rtol=0)
+        np.testing.assert_allclose(other.scale, batch.scale[:3], atol=1e-5 * float(np.min(batch.scale)), rtol=0)
 
 
 def _central_difference(fn, p, rel=0.01):

@@ -413,9 +413,10 @@ def normalize_batch(list_of_points: Iterable, method: str = DEFAULT_METHOD, *, p
         :func:`normalize` (shared by all objects; each set above ``max_points`` is subsampled).
       pad_to: optional row count (>= the largest set) to share one compilation across calls.
       strategy: "vmap" (all objects in lock-step: one program over the batch), "map"
-        (``lax.map``, one object after another inside the compiled call) or "auto" ("vmap" for
-        robust; for ocsvm "map" on CPU, where every object would run as many solver iterations
-        as the slowest, "vmap" elsewhere).
+        (``lax.map``, one object after another inside the compiled call) or "auto" ("map" on
+        CPU, "vmap" elsewhere: on CPU lock-step brings no parallelism, and every object runs as
+        many solver iterations (ocsvm) or closing, labelling and distance rounds (robust) as the
+        slowest; ``docs/performance.md``).
 
     Returns:
       :class:`Pose` whose fields have a leading axis of len(list_of_points).
@@ -430,7 +431,7 @@ def normalize_batch(list_of_points: Iterable, method: str = DEFAULT_METHOD, *, p
     if strategy not in ("auto", "map", "vmap"):
         raise _validate.InvalidInputError(f"strategy must be 'auto', 'map' or 'vmap', got {strategy!r}")
     if strategy == "auto":
-        strategy = "map" if method == "ocsvm" and jax.default_backend() == "cpu" else "vmap"
+        strategy = "map" if jax.default_backend() == "cpu" else "vmap"
     given = {**_given(power=power, gamma=gamma, nu=nu, max_points=max_points), **options}
     config, params = _options(method, config, given, rotation)
     rotation, seed = _check_rotation(rotation), _check_seed(seed)

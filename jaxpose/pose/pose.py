@@ -43,8 +43,7 @@ import numpy as np
 from .. import _validate
 from .._hyper import hyper_jvp
 from ..config import OCSVM, ROBUST, PoseConfig, RobustConfig
-from ..depth import depth_weights
-from ..moments import grid_moments, region_moments
+from ..moments import region_moments, robust_moments
 from ..occupancy.points import POINT_BIAS, erode6, point_solid, spacing_subset
 from ..occupancy.svdd import solve_svdd
 from ..occupancy.svdd.secant import with_secants
@@ -149,10 +148,8 @@ def robust_pipeline(points, mask, queries, query_mask, power, config: RobustConf
     sol = point_solid(points, mask, queries, config, query_mask)
     power = jnp.asarray(power, points.dtype)
     inside = sol.inside
-    weights = depth_weights(inside, power, POINT_BIAS)
-    occupancy = inside.astype(weights.dtype) - 0.5 * (inside & sol.occupied).astype(weights.dtype)
-    unit = jnp.ones((), weights.dtype)
-    mom = grid_moments(occupancy, weights, jnp.zeros(3, weights.dtype), unit)  # voxel units from the corner
+    corner, unit = jnp.zeros(3, power.dtype), jnp.ones((), power.dtype)  # voxel units from the corner
+    mom = robust_moments(inside, sol.occupied, corner, unit, power, POINT_BIAS)
     center = sol.origin + sol.pitch * mom.center
     volume = mom.volume * sol.pitch**3
     scale = jnp.cbrt(jnp.maximum(volume, 0.0))

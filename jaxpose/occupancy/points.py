@@ -42,7 +42,6 @@ Example::
 """
 from __future__ import annotations
 
-import math
 from typing import NamedTuple
 
 import jax
@@ -51,12 +50,11 @@ import numpy as np
 from jax import lax
 
 from ..config import RobustConfig
-from .solid import LINK, POINT_BIAS
+from .solid import GRID_OFFSET, LINK, POINT_BIAS
 
 __all__ = ["PointSolid", "point_solid", "spacing_subset", "spacing_quantile", "grid_cells", "exterior_fill",
            "components", "keep_main", "linked_parts", "erode6", "capped_squared_distance", "POINT_BIAS", "LINK"]
 
-_OFFSET = 1e-3 * math.sqrt(2.0)  # grid offset in pitches, as jaxpose.solid's: grid lines miss axis-aligned points
 _BIG = np.int32(2**30)  # "no feature in reach" for squared distances; "no label" for components
 _CANDIDATES = 8  # nearest-neighbour candidates per query from the matrix product, then exact
 
@@ -212,14 +210,7 @@ def _cross(x, op, fill):
 
 def erode6(solid):
     """6-neighbour erosion (scipy's binary_erosion with its default cross, border outside)."""
-    out = solid
-    for axis in range(3):
-        n = solid.shape[axis]
-        pad = [(0, 0)] * 3
-        pad[axis] = (1, 1)
-        p = jnp.pad(solid, pad, constant_values=False)
-        out = out & lax.slice_in_dim(p, 0, n, axis=axis) & lax.slice_in_dim(p, 2, n + 2, axis=axis)
-    return out
+    return _cross(solid, jnp.logical_and, False)
 
 
 def _label(cells, seed, corners, jumps=2):
@@ -365,7 +356,7 @@ def _pass(points, mask, lo, hi, q, resolution, config):
     pitch = jnp.maximum(jnp.max(hi - lo) / resolution, q / config.max_closing)
     radius = jnp.clip(jnp.ceil(q / pitch), 1, config.max_closing).astype(jnp.int32)
     margin = 3 * radius + 3
-    origin = lo - (margin.astype(pitch.dtype) + _OFFSET) * pitch
+    origin = lo - (margin.astype(pitch.dtype) + GRID_OFFSET) * pitch
     occ = _occupied(points, mask, origin, pitch, cells)
     solid, r, d2 = _closing(occ, radius, 3 * radius)  # d2 exact up to 3 radius >= LINK radius
     return solid, occ, origin, pitch, r, d2 <= (LINK * radius) ** 2

@@ -46,7 +46,7 @@ from ..config import MEMORY_BUDGET, RobustConfig
 
 __all__ = ["Solid", "robust_solid", "cap_holes", "ray_vote_solid", "point_solid", "exterior_fill", "keep_main",
            "depth", "make_grid", "closing_radius", "linked_parts", "LINK", "neighbour_distances", "check_resolution", "RESOLUTION", "COARSE",
-           "KEEP_RATIO", "SPACING_SAMPLES", "VOXEL_BYTES", "MESH_BIAS", "POINT_BIAS"]
+           "KEEP_RATIO", "SPACING_SAMPLES", "VOXEL_BYTES", "MESH_BIAS", "POINT_BIAS", "GRID_OFFSET"]
 
 _DEFAULTS = RobustConfig()  # the defaults are written once, in jaxpose.config.RobustConfig
 RESOLUTION = _DEFAULTS.resolution  # voxels along the main body's largest extent
@@ -59,7 +59,7 @@ MESH_BIAS = 0.5  # voxels between a mesh solid's outer voxel centers and its sur
 POINT_BIAS = 1.0  # the same for a point solid (its outer voxels straddle the surface)
 LINK = 2  # point clouds: separate parts are told apart at a dilation of this many closing radii (linked_parts)
 _MAX_MARGIN = 3 * MAX_CLOSING + 3  # voxels around the box (point clouds; meshes: 3)
-_OFFSET = 1e-3 * np.sqrt(2.0)  # grid offset in pitches: grid lines miss the vertices of axis-aligned models
+GRID_OFFSET = 1e-3 * np.sqrt(2.0)  # grid offset in pitches: grid lines miss the vertices of axis-aligned models (and points)
 _AXES = ((0, 1, 2), (1, 2, 0), (2, 0, 1))  # ray axis a, then (b, c) with (a, b, c) cyclic
 
 
@@ -117,7 +117,7 @@ def make_grid(lo, hi, pitch, margin=3):
     Returns origin (3,) (the lower corner of voxel 0) and shape (3,) ints.
     """
     lo, hi = np.asarray(lo, float), np.asarray(hi, float)
-    origin = lo - (margin + _OFFSET) * pitch
+    origin = lo - (margin + GRID_OFFSET) * pitch
     shape = np.ceil((hi - origin) / pitch).astype(int) + margin
     return origin, shape
 

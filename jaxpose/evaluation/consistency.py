@@ -300,7 +300,9 @@ LEGEND = (
     "              lower is better",
     "ms/object     run time per object after the first call; first s: that first call on one object, JIT\n"
     "              compilation included",
-    "n/a           the method does not apply to this input (e.g. a closed-surface estimator on a point cloud)",
+    "n/a           the method does not apply to this input (e.g. a closed-surface estimator on a point cloud)\n"
+    "              or refused an object of it (e.g. a point cloud too sparse to hold together; the --json\n"
+    "              output names the error)",
 )
 
 

@@ -192,7 +192,10 @@ def _check_one_cloud(sol):
         raise JaxposeError(f"the point cloud is {several} separate bodies: apart from the largest, "
                            f"{'a part holds' if several == 2 else 'parts hold'} {100 * sizes[1] / sizes[0]:.0f} % of "
                            f"its occupied voxels (at least {100 * SECOND_BODY:.0f} %): no single body sets the pose; "
-                           "normalize each body on its own")
+                           "normalize each body on its own, or, if it is one body sampled too sparsely for its "
+                           "parts to link (a few points per part, such as the corners of a model built from boxes), "
+                           "sample its surface densely or use the vertex_mean or ocsvm method (method='vertex_mean'; on the "
+                           "command line --method vertex_mean)")
 
 
 def _check_one_body(sol):

@@ -81,7 +81,9 @@ _MESSAGES = {
                           f"{MIN_POINT_VOXELS} voxels; use more points, or the vertex_mean or ocsvm method"),
     Status.SEPARATE_BODIES: (f"the point cloud is several separate bodies: apart from the largest, a part holds at "
                              f"least {SECOND_BODY:g} of its occupied voxels (parts linked at a dilation of twice the "
-                             "closing radius), so no single body sets the pose; normalize each body on its own"),
+                             "closing radius), so no single body sets the pose; normalize each body on its own, or, if it is "
+                             "one body sampled too sparsely for its parts to link, sample its surface densely or use the "
+                             "vertex_mean or ocsvm method"),
     Status.COLLAPSED_REGION: (f"the region collapsed: its mean distance is below {MIN_SPREAD:g} of the samples' "
                               "median distance from its centroid (nu near 1, or too few samples)"),
 }

@@ -41,6 +41,7 @@ _ANGLES = (25.0, 60.0)  # degrees, articulation magnitude
 _STRETCH = (1.3, 1.6)  # extrusion factor
 _OUTLIER_RADIUS = 0.07  # relative to the reference's largest extent
 _OUTLIER_GAP = 0.12
+_EDGE = 0.05  # longest edge of a reference's parts after subdivision, relative to its largest extent
 
 
 # ---------------------------------------------------------------- the references, scaled
@@ -52,7 +53,11 @@ def _bounds(parts):
 
 @functools.lru_cache(maxsize=None)
 def _reference(class_name):
-    """Parts of a class's reference, mapped to a centred box with largest extent 1."""
+    """Parts of a class's reference, mapped to a centred box with largest extent 1.
+
+    Every part's triangles are split until no edge is longer than ``_EDGE``, so that the
+    vertices sample each surface densely (a box is not only its 8 corners), as a scan's do.
+    """
     parts = _BUILDERS[class_name]()
     lo, hi = _bounds(parts)
     center, scale = (lo + hi) / 2.0, 1.0 / float(np.max(hi - lo))
@@ -60,7 +65,11 @@ def _reference(class_name):
     def fit(x):
         return None if x is None else (x - center) * scale
 
-    return tuple(dataclasses.replace(p, vertices=fit(p.vertices), joint=fit(p.joint)) for p in parts)
+    def dense(part):
+        vertices, faces = trimesh.remesh.subdivide_to_size(fit(part.vertices), part.faces, max_edge=_EDGE)
+        return dataclasses.replace(part, vertices=vertices, faces=np.asarray(faces, np.int64), joint=fit(part.joint))
+
+    return tuple(dense(p) for p in parts)
 
 
 # ---------------------------------------------------------------- deformations

@@ -1,6 +1,6 @@
 """Worker processes forked from the caller (ProcessPool(fork=True), the command line's workers):
 they answer like fresh ones, are replaced by fresh interpreters, and keep nothing of the caller's
-exit handlers or signal handlers. Run in a fresh interpreter (this one has JAX and threads)."""
+exit handlers, signal handlers or open files. Run in a fresh interpreter (this one has JAX and threads)."""
 from __future__ import annotations
 
 import os
@@ -24,6 +24,7 @@ def run(pool, fn, *args):
         assert time.monotonic() < deadline
     return pool.result(future)
 
+held = open(marker + ".held", "w")  # a file of the caller's (as the run's lock and journal are)
 pool = ProcessPool(2, fork=True)
 assert pool.forked == 2, pool.forked
 futures = [pool.submit(os.getpid) for _ in range(6)]
@@ -32,6 +33,11 @@ while len(done) < 6:
     done |= pool.wait(set(futures) - done)
 pids = {pool.result(f) for f in futures}
 assert pids == set(pool.pids) and os.getpid() not in pids and len(pids) == 2, (pids, pool.pids)
+if sys.platform.startswith("linux"):  # each worker holds stdin (null), stdout, stderr and its two pipes
+    for pid in pids:
+        links = [os.readlink(f"/proc/{pid}/fd/{fd}") for fd in os.listdir(f"/proc/{pid}/fd")]
+        assert len(links) == 5 and links.count(os.devnull) == 1, links
+        assert sum(link.startswith("pipe:") for link in links) >= 2 and not any(l.endswith(".held") for l in links), links
 assert run(pool, divmod, 7, 2) == (3, 1)
 try:
     run(pool, int, "x")

@@ -119,9 +119,9 @@ class _Forked:
 
 class _Worker:
     """One worker process and its two pipes (tasks in, results out): a fresh interpreter, or with
-    `fork` a copy of this process (the pool's own pipes to its `others` closed in it)."""
+    `fork` a copy of this process holding no file of it but its own pipe ends."""
 
-    def __init__(self, environment, fork=False, others=()):
+    def __init__(self, environment, fork=False):
         task_read, task_write = os.pipe()
         result_read, result_write = os.pipe()
         try:
@@ -131,8 +131,7 @@ class _Worker:
                 sys.stderr.flush()
                 pid = os.fork()
                 if pid == 0:  # the worker; it never returns from here
-                    _forked_worker(task_read, result_write, parent, environment,
-                                   [task_write, result_read, *(fd for w in others for fd in w.fds())])
+                    _forked_worker(task_read, result_write, parent, environment)
                 self.process = _Forked(pid)
             else:
                 self.process = subprocess.Popen(
@@ -152,10 +151,6 @@ class _Worker:
     @property
     def pid(self):
         return self.process.pid
-
-    def fds(self):
-        """This process's ends of the worker's pipes."""
-        return [self.tasks.fileno(), self.results.fileno()]
 
     def death(self) -> str:
         """How the process ended, in words (it is waited for)."""
@@ -220,7 +215,7 @@ class ProcessPool:
                 self.warm_up()
             if "jax" not in sys.modules:  # a warm-up may import it
                 for _ in range(self.workers):
-                    self._idle.append(_Worker(self._environment, fork=True, others=self._idle))
+                    self._idle.append(_Worker(self._environment, fork=True))
 
     @property
     def forked(self) -> int:
@@ -348,14 +343,17 @@ class ProcessPool:
 
 
 # --------------------------------------------------------------------------- in the worker
-def _forked_worker(task_fd, result_fd, parent, environment, close):
+def _forked_worker(task_fd, result_fd, parent, environment):
     """The worker's side of a fork: a process of its own group, the signal handlers and mask of a
-    fresh interpreter, no stdin, only its own pipe ends; then :func:`_serve`, and ``os._exit``
-    (the parent's ``atexit`` handlers and buffered files are never run or flushed here)."""
+    fresh interpreter, no stdin, no file of the parent's but stdout, stderr and its own two pipe ends
+    (not the pool's pipes to other workers, not the run's lock or journal); then :func:`_serve`, and
+    ``os._exit`` (the parent's ``atexit`` handlers and buffered files are never run or flushed here)."""
     code = 1
     try:
-        for fd in close:
-            os.close(fd)
+        low, high = sorted((task_fd, result_fd))
+        os.closerange(3, low)
+        os.closerange(low + 1, high)
+        os.closerange(high + 1, os.sysconf("SC_OPEN_MAX"))
         os.setpgid(0, 0)
         for number in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGPIPE):
             signal.signal(number, signal.default_int_handler if number == signal.SIGINT else

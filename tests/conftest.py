@@ -1,6 +1,7 @@
 """Shared fixtures: deterministic point sets and a float64 switch."""
 from __future__ import annotations
 
+import gc
 import os
 import pathlib
 import sys
@@ -29,6 +30,50 @@ if str(ROOT) not in sys.path:  # benchmarks/ is importable from a source checkou
     sys.path.insert(0, str(ROOT))
 SHARED = ROOT.parent / "shared"
 FAUST = SHARED / "data" / "faust-dev"
+
+
+# XLA:CPU maps every compiled kernel's code and data into memory separately (about three memory
+# maps a kernel, ~20 for a small jitted function) and keeps them while the program is cached, and
+# a pytest-xdist worker runs hundreds of tests. Past the kernel's per-process limit
+# (vm.max_map_count, 65530 by default) LLVM's section allocation fails ("LLVM compilation error:
+# Cannot allocate memory") and the next compilation kills the worker with a segmentation fault or
+# an abort in backend_compile_and_load (docs/performance.md, "Test workers and memory maps"). After
+# a test that leaves the process above half the limit, the compiled programs are released.
+MAP_FRACTION = 0.5
+
+
+def memory_maps() -> int:
+    """The number of memory maps of this process (0 where /proc is not there)."""
+    try:
+        with open("/proc/self/maps", "rb") as f:
+            return sum(1 for _ in f)
+    except OSError:
+        return 0
+
+
+def max_map_count() -> int | None:
+    """The kernel's per-process limit on memory maps, None where unknown (not Linux)."""
+    try:
+        return int(pathlib.Path("/proc/sys/vm/max_map_count").read_text())
+    except (OSError, ValueError):
+        return None
+
+
+def release_compiled_programs(limit=None, fraction=MAP_FRACTION) -> bool:
+    """Clear JAX's caches of compiled programs (their memory maps go with them) when this process
+    holds more than `fraction` of `limit` memory maps (default: vm.max_map_count). -> cleared?"""
+    limit = max_map_count() if limit is None else limit
+    if not limit or memory_maps() <= fraction * limit:
+        return False
+    jax.clear_caches()
+    gc.collect()
+    return True
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_teardown(item, nextitem):
+    yield  # after the test's fixtures are torn down
+    release_compiled_programs()
 
 
 def _float64():

@@ -110,7 +110,6 @@ def test_off_polygons(name):
 
 @pytest.mark.parametrize("text", [
     "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 5\n",      # index out of range: trimesh raises
-    "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n4 0 1 2\n",      # fewer indices than the count
     "OFF\n3 1 0\n0 0 0\n1 0\n0 1 0\n3 0 1 2\n",        # a vertex line with 2 values
     "OFF\n3 0 0\n0 0 0\n1 0 0\n0 1 0\n",               # no faces: a point cloud
     "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0x1\n3 0 1 2\n",    # a number float() and strtod read differently
@@ -119,6 +118,81 @@ def test_off_polygons(name):
 def test_off_refused(text):
     with pytest.raises(Unsupported):
         readers.read(text.encode(), "off")
+
+
+# OFF files in the layout most writers produce: read on the bytes (readers._off_plain)
+TRIANGLES = "0 0 0\n1 0 0\n1 1 0\n0 1 0.5\n3 0 1 2\n3 0 2 3\n"
+OFF_PLAIN = {
+    "lf": "OFF\n4 2 0\n" + TRIANGLES,
+    "crlf": ("OFF\n4 2 0\n" + TRIANGLES).replace("\n", "\r\n"),
+    "no_final_newline": "OFF\n4 2 0\n" + TRIANGLES.rstrip("\n"),
+    "two_counts_blank_head": "\n \nOFF \n4 2\n" + TRIANGLES,
+    "coff_vertex_colors": "COFF\n4 2 0\n0 0 0 255 0 0 255\n1 0 0 0 255 0 255\n1 1 0 0 0 255 255\n0 1 0 9 9 9 255\n"
+                          "3 0 1 2\n3 0 2 3\n",
+    "face_colors": "OFF\n4 2 0\n" + TRIANGLES.replace("2\n", "2 255 0 0\n").replace(" 3\n", " 3 0 255 0\n"),
+    "signs_exponents": "OFF\n4 2 0\n-0 +1e-3 .5\n1. -2.5E+2 0.1234567890123456789\n1e300 1 0\n0 1 -7\n"
+                       "3 0 1 2\n3 00 2 3\n",
+    "lines_after_the_faces": "OFF\n4 2 0\n" + TRIANGLES + "3 1 2 3\nanything at all\n",
+}
+# the same meshes in layouts read line by line (the careful path), and files that are broken
+OFF_NOT_PLAIN = {
+    "comment": "# made by hand\nOFF\n4 2 0\n" + TRIANGLES,  # (trimesh garbles comments after data)
+    "two_spaces": "OFF\n4 2 0\n" + TRIANGLES.replace("1 1 0", "1  1 0"),
+    "tab": "OFF\n4 2 0\n" + TRIANGLES.replace("1 1 0", "1\t1 0"),
+    "leading_space": "OFF\n4 2 0\n" + TRIANGLES.replace("1 1 0", " 1 1 0"),
+    "trailing_space": "OFF\n4 2 0\n" + TRIANGLES.replace("3 0 1 2", "3 0 1 2 "),
+    "blank_line": "OFF\n4 2 0\n" + TRIANGLES.replace("1 1 0\n", "1 1 0\n\n"),
+    "lone_cr": "OFF\r4 2 0\r" + TRIANGLES.replace("\n", "\r"),
+    "counts_on_header_line": "OFF 4 2 0\n" + TRIANGLES,
+    "vertex_lines_of_several_lengths": "OFF\n4 2 0\n" + TRIANGLES.replace("1 0 0", "1 0 0 7"),
+    "quads": "OFF\n4 1 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n",
+    "non_ascii_comment": "# caf\u00e9\nOFF\n4 2 0\n" + TRIANGLES,
+}
+
+
+@pytest.mark.parametrize("name", sorted(OFF_PLAIN))
+def test_off_plain_layouts(name):
+    """Read on the bytes, and equal to trimesh's mesh."""
+    data = OFF_PLAIN[name].encode()
+    assert readers._off_plain(data) is not None
+    check_same(data, "off")
+
+
+@pytest.mark.parametrize("name", sorted(OFF_NOT_PLAIN))
+def test_off_other_layouts_read_line_by_line(name):
+    data = OFF_NOT_PLAIN[name].encode()
+    assert readers._off_plain(data) is None
+    check_same(data, "off")
+
+
+@pytest.mark.parametrize("text", [
+    "OFF\n4 2 0\n0 0 0\n1 0\n1 1 0 5\n0 1 0\n3 0 1 2\n3 0 2 3\n",  # 2 and 4 values: 6 in all
+    "OFF\n4 2 0\n0 0 0\n1 0 0\n1.2.3 1 0\n0 1 0\n3 0 1 2\n3 0 2 3\n",  # not one number
+    "OFF\n4 2 0\n0 0 0\n1 0 0\n1-2 1 0\n0 1 0\n3 0 1 2\n3 0 2 3\n",
+    "OFF\n4 2 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n3 0 2 3 4\n",  # a longer face line
+    "OFF\n4 2 0\n0 0 0\n1 0 0\n1 1 0\n0 1 e\n3 0 1 2\n3 0 2 3\n",
+])
+def test_off_plain_refuses_what_is_not_plain(text):
+    """Values that are not one number each, or lines of several lengths: not read on the bytes."""
+    assert readers._off_plain(text.encode()) is None
+
+
+@pytest.mark.parametrize("cut", ["vertex", "face_line", "mid_face", "all_faces"])
+def test_off_truncated_is_an_error(tmp_path, mesh, cut):
+    """A truncated OFF file is an error naming it, where trimesh reads part of it: fewer vertex or
+    face lines than the counts line says, or a last face cut short."""
+    from jaxpose import mesh as jmesh
+    from jaxpose.errors import InvalidInputError
+
+    data = exported(mesh, "off")
+    lines = data.splitlines(keepends=True)
+    nv = len(mesh.vertices)
+    kept = {"vertex": lines[:nv], "face_line": lines[:-1], "mid_face": lines[:-1] + [lines[-1][:4]],
+            "all_faces": lines[:nv + 2]}[cut]
+    path = tmp_path / "cut.off"
+    path.write_bytes(b"".join(kept))
+    with pytest.raises(InvalidInputError, match="cut.off: .*(truncated|fewer indices than its count.*truncated)"):
+        jmesh.load(path)
 
 
 # --------------------------------------------------------------------------- PLY

@@ -25,12 +25,26 @@ def test_off_bytes_equal_trimesh(exponent):
     assert writers.off_bytes(vertices, faces) == expected
 
 
+@pytest.mark.parametrize("top", [0, 9, 10, 99999, 100000, 999999])
+def test_off_face_lines_every_index_width(top):
+    """Face lines as Python formats them, for indices of 1 to 6 digits."""
+    rng = np.random.default_rng(top)
+    faces = rng.integers(0, top + 1, size=(300, 3))
+    faces[0] = [top, 0, top]
+    expected = "".join(f"3 {a} {b} {c}\n" for a, b, c in faces.tolist()).encode()
+    assert writers._triangles(faces) == expected
+
+
 def test_off_bytes_refuses_what_it_cannot_format():
     faces = np.array([[0, 1, 2]])
     with pytest.raises(Unsupported):
         writers.off_bytes(np.array([[0.0, 0, 0], [1, 0, 0], [5e5, 1, 0]]), faces)
     with pytest.raises(Unsupported):
         writers.off_bytes(np.array([[0.0, 0, 0], [1, 0, 0], [np.nan, 1, 0]]), faces)
+    with pytest.raises(Unsupported):
+        writers.off_bytes(np.zeros((3, 3)), np.array([[0, 1, 3]]))  # no vertex 3
+    with pytest.raises(Unsupported):
+        writers._triangles(np.array([[0, 1, 10**7]]))  # 8 digits: trimesh writes it
 
 
 def test_library_encode_uses_it(tmp_path):

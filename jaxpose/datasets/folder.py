@@ -44,6 +44,8 @@ def _read_fast(path: Path):
         loaded = readers.read(path.read_bytes(), ext)
     except (readers.Unsupported, OSError):
         return None
+    except InvalidInputError as exc:  # broken where trimesh would read part of it
+        raise InvalidInputError(f"cannot read mesh {path}: {exc}") from None
     mesh = trimesh.Trimesh(**loaded.kwargs(), process=False)
     name = mesh.metadata.get("name", path.name)  # an ASCII STL's solid names it, as in trimesh
     mesh.metadata.update(name=name, node=name)

@@ -175,6 +175,8 @@ def _read(path):
             return readers.read(data, ext)
         except readers.Unsupported:  # trimesh reads it
             pass
+        except InvalidInputError as exc:  # broken where trimesh would read part of it
+            raise InvalidInputError(f"{path}: {exc}") from None
     try:
         geometry = trimesh.load(io.BytesIO(data), file_type=ext, process=False)
     except Exception as exc:  # every reader has its own errors for corrupt files

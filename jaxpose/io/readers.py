@@ -39,6 +39,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..errors import InvalidInputError
+
 __all__ = ["Loaded", "Unsupported", "READERS", "read", "read_off", "read_ply", "read_obj", "read_stl"]
 
 
@@ -241,9 +243,17 @@ def _comment_strip(text):
 def read_off(data: bytes) -> Loaded:
     """An OFF file's mesh, as ``trimesh.load(..., file_type="off", process=False)``.
 
+    The common layout (:func:`_off_plain`: no comments, one space between values, triangles) is
+    parsed on the bytes in a few C-level passes; anything else line by line.
+
     Raises:
       Unsupported: anything this reader does not reproduce exactly (read it with trimesh).
+      InvalidInputError: fewer vertex or face lines than the counts line says, or a face line
+        with fewer indices than its count (trimesh drops or shortens those without a word).
     """
+    plain = _off_plain(data)
+    if plain is not None:
+        return plain
     text = _text(data)
     if "#" in text:
         text = _comment_strip(text)
@@ -260,8 +270,10 @@ def read_off(data: bytes) -> Loaded:
         raise Unsupported("a malformed count line")
     nv, nf = int(header[0]), int(header[1])
     block = lines[1:nv + 1]
-    if nv == 0 or len(block) != nv:
-        raise Unsupported("missing vertices")
+    if nv == 0:
+        raise Unsupported("no vertices")
+    if len(block) < nv:
+        raise InvalidInputError(f"truncated OFF file: {len(block)} vertex lines of the {nv} its counts line says")
     tokens, counts = _tokens(block)
     if np.any(counts < 3):
         raise Unsupported("a vertex line with fewer than 3 values")
@@ -269,22 +281,103 @@ def read_off(data: bytes) -> Loaded:
     vertices = _floats(_take(tokens, (starts[:, None] + np.arange(3)).ravel())) if np.any(counts != 3) \
         else _floats(tokens)
     block = lines[nv + 1:nv + nf + 1]
-    if not block:
+    if nf == 0:
         raise Unsupported("no faces")
+    if len(block) < nf:
+        raise InvalidInputError(f"truncated OFF file: {len(block)} face lines of the {nf} its counts line says")
     triangles = _triangle_lines(block)
     if triangles is not None:
         return _checked(vertices.reshape(-1, 3), triangles)
     tokens, counts = _tokens(block)
     starts = _starts(counts)
     sizes = _ints(_take(tokens, starts))
-    if np.any(sizes < 3) or np.any(sizes + 1 > counts):
-        raise Unsupported("a face with fewer than 3 corners, or fewer indices than its count")
+    if np.any(sizes + 1 > counts):
+        line = int(np.argmax(sizes + 1 > counts))
+        raise InvalidInputError(f"OFF face line {line + 1} holds fewer indices than its count "
+                                f"({block[line]!r}): a truncated or malformed file")
+    if np.any(sizes < 3):
+        raise Unsupported("a face with fewer than 3 corners")
     if np.all(counts == counts[0]) and np.all(sizes + 1 == counts):  # "3 a b c" lines, nothing more
         del tokens[::int(counts[0])]
         flat = _ints(tokens)
     else:
         flat = _ints(_take(tokens, _runs(starts + 1, sizes)))
     return _checked(vertices.reshape(-1, 3), _triangulate(flat, sizes))
+
+
+_OFF_HEAD = re.compile(rb"[ \t\n]*C?OFF[ \t]*\n[ \t]*([0-9]+)[ \t]+([0-9]+)(?:[ \t]+[0-9]+)?[ \t]*\n")
+_FLOAT_CHARS = b"0123456789+-.eE \n"
+_INT_CHARS = b"0123456789 \n"
+
+
+def _off_plain(data: bytes):
+    """:func:`read_off` of a file in the layout most writers produce, or None for any other file.
+
+    The layout: ASCII, no ``#``, ``\\n`` or ``\\r\\n`` line ends, an ``OFF`` / ``COFF`` line, a
+    counts line ``nv nf [ne]``, then nv vertex lines and nf face lines of k values each (the same k
+    on every vertex line, and on every face line), one space between values and none around them,
+    every face ``3 a b c ...``; whatever follows the faces is ignored, as trimesh ignores it.
+    Numbers go through one ``numpy.fromstring`` per block (Python's own correctly rounded string
+    to double conversion, as ``float``): each value character is one of ``0-9+-.eE`` and the blocks'
+    space positions prove each line has k non-empty values, so a count of k values per line
+    means every value was one number (``fromstring`` raises on anything else).
+    """
+    if not data.isascii() or b"#" in data:
+        return None
+    if b"\r" in data:
+        data = data.replace(b"\r\n", b"\n")
+        if b"\r" in data:
+            return None
+    head = _OFF_HEAD.match(data)
+    if head is None:
+        return None
+    nv, nf = int(head.group(1)), int(head.group(2))
+    if nv == 0 or nf == 0:
+        return None
+    body = data[head.end():]
+    if not body.endswith(b"\n"):
+        body += b"\n"
+    chars = np.frombuffer(body, np.uint8)
+    newlines = np.flatnonzero(chars == 10)
+    if len(newlines) < nv + nf:
+        return None
+    split = int(newlines[nv - 1]) + 1
+    vertex_block, face_block = body[:split], body[split:int(newlines[nv + nf - 1]) + 1]
+    if vertex_block.translate(None, _FLOAT_CHARS) or face_block.translate(None, _INT_CHARS):
+        return None
+    vertex_values = _plain_values(vertex_block, newlines[:nv], np.float64)
+    face_values = _plain_values(face_block, newlines[nv:nv + nf] - split, np.int64)
+    if vertex_values is None or face_values is None or vertex_values.shape[1] < 3 or face_values.shape[1] < 4 \
+            or np.any(face_values[:, 0] != 3):
+        return None
+    return _checked(vertex_values[:, :3], _in_range(face_values[:, 1:4]))
+
+
+def _plain_values(block: bytes, newlines, dtype):
+    """The values of a block of lines that each hold k non-empty values split by single spaces, as
+    an (lines, k) array of `dtype`; None where the lines differ in k, hold an empty value (two
+    spaces, a space at a line's start or end, a blank line) or a value that is not one number.
+    newlines: each line's ``\\n`` position in `block`."""
+    spaces = np.flatnonzero(np.frombuffer(block, np.uint8) == 32)
+    lines = len(newlines)
+    if len(spaces) % lines:
+        return None
+    per = len(spaces) // lines  # spaces per line, if each line holds its share
+    starts = np.empty(lines, np.int64)
+    starts[0], starts[1:] = 0, newlines[:-1] + 1
+    if per:
+        at = spaces.reshape(lines, per)  # sorted: row i is line i's spaces exactly when these hold
+        if np.any(at[:, 0] <= starts) or np.any(at[:, -1] >= newlines - 1) or (per > 1 and np.any(np.diff(at, axis=1) < 2)):
+            return None
+    elif np.any(newlines <= starts):
+        return None
+    try:
+        values = np.fromstring(block, dtype=dtype, sep=" ")
+    except ValueError:  # a value that is not one number
+        return None
+    if len(values) != lines * (per + 1):
+        return None
+    return values.reshape(lines, per + 1)
 
 
 # --------------------------------------------------------------------------- PLY
@@ -603,11 +696,17 @@ def read(data: bytes, file_type: str) -> Loaded:
 
     Raises:
       Unsupported: no fast reader for the format, or one that cannot reproduce trimesh exactly.
+      InvalidInputError: a file that is certainly broken, where trimesh would read part of it
+        without a word: an OFF file with fewer vertex or face lines than its counts line says, or
+        a face line with fewer indices than its count (the message names no file: the caller's
+        does).
     """
     reader = READERS.get(file_type)
     if reader is None:
         raise Unsupported(f"no fast reader for {file_type!r}")
     try:
         return reader(bytes(data))
+    except InvalidInputError:
+        raise
     except (ValueError, IndexError, TypeError, OverflowError, MemoryError) as exc:  # a file none of the checks foresaw
         raise Unsupported(f"{type(exc).__name__}: {exc}") from None

@@ -177,6 +177,45 @@ def test_off_plain_refuses_what_is_not_plain(text):
     assert readers._off_plain(text.encode()) is None
 
 
+def _token_positions(block):
+    chars = np.frombuffer(block, np.uint8)
+    ends = np.flatnonzero((chars == 32) | (chars == 10))
+    starts = np.concatenate([[0], ends[:-1] + 1])
+    return chars, starts, ends
+
+
+@pytest.mark.parametrize("decimals", [0, 1, 3, 6, 10, 13])
+@pytest.mark.parametrize("scale", [1e-3, 1.0, 1e4])
+def test_off_fixed_decimals_are_floats(decimals, scale):
+    """Fixed-decimal values read as integers over 10^F: bit for bit Python's float of each token
+    (signs, -0, no digit before the point, no digit after it, up to 15 digits)."""
+    rng = np.random.default_rng(decimals)
+    tokens = [f"{v:.{decimals}f}" for v in rng.normal(size=3000) * scale]
+    tokens = [t if sum(c.isdigit() for c in t) <= 15 else "1." + "0" * decimals for t in tokens]
+    tokens[::7] = [t.replace("0.", ".", 1) if t.startswith(("0.", "-0.")) and decimals else t for t in tokens[::7]]
+    if decimals == 0:
+        tokens = [t + "." for t in tokens]  # "12."
+    tokens[1::11] = ["-0." + "0" * decimals] * len(tokens[1::11])
+    block = "".join(f"{a} {b} {c}\n" for a, b, c in zip(*[iter(tokens)] * 3)).encode()
+    got = readers._decimals(*_token_positions(block))
+    assert got is not None
+    np.testing.assert_array_equal(got.view(np.int64), np.array([float(t) for t in tokens]).view(np.int64))
+
+
+@pytest.mark.parametrize("tokens", [
+    "1.5 2.25 3.5",    # several decimal counts
+    "1 2 3",           # no point
+    "1.5 -2.5 3.5e1",  # an exponent
+    "1.5 +2.5 3.5",    # a plus sign
+    "1.5 2-5 3.5",
+    "1.5 2.5.5 3.5",
+    "1.5 . 3.5",       # no digit
+    "1.5 -.5 1234567890123.45",  # 16 digits: not exact as an integer here
+])
+def test_off_fixed_decimals_refuse_other_tokens(tokens):
+    assert readers._decimals(*_token_positions(tokens.encode() + b"\n")) is None
+
+
 @pytest.mark.parametrize("cut", ["vertex", "face_line", "mid_face", "all_faces"])
 def test_off_truncated_is_an_error(tmp_path, mesh, cut):
     """A truncated OFF file is an error naming it, where trimesh reads part of it: fewer vertex or

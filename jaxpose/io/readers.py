@@ -358,19 +358,24 @@ def _plain_values(block: bytes, newlines, dtype):
     an (lines, k) array of `dtype`; None where the lines differ in k, hold an empty value (two
     spaces, a space at a line's start or end, a blank line) or a value that is not one number.
     newlines: each line's ``\\n`` position in `block`."""
-    spaces = np.flatnonzero(np.frombuffer(block, np.uint8) == 32)
+    chars = np.frombuffer(block, np.uint8)
+    spaces = np.flatnonzero(chars == 32)
     lines = len(newlines)
     if len(spaces) % lines:
         return None
     per = len(spaces) // lines  # spaces per line, if each line holds its share
     starts = np.empty(lines, np.int64)
     starts[0], starts[1:] = 0, newlines[:-1] + 1
+    at = spaces.reshape(lines, per)  # sorted: row i is line i's spaces exactly when these hold
     if per:
-        at = spaces.reshape(lines, per)  # sorted: row i is line i's spaces exactly when these hold
         if np.any(at[:, 0] <= starts) or np.any(at[:, -1] >= newlines - 1) or (per > 1 and np.any(np.diff(at, axis=1) < 2)):
             return None
     elif np.any(newlines <= starts):
         return None
+    if dtype == np.float64:
+        values = _decimals(chars, np.column_stack((starts, at + 1)).ravel(), np.column_stack((at, newlines)).ravel())
+        if values is not None:
+            return values.reshape(lines, per + 1)
     try:
         values = np.fromstring(block, dtype=dtype, sep=" ")
     except ValueError:  # a value that is not one number
@@ -378,6 +383,42 @@ def _plain_values(block: bytes, newlines, dtype):
     if len(values) != lines * (per + 1):
         return None
     return values.reshape(lines, per + 1)
+
+
+def _decimals(chars, starts, ends):
+    """float64 of the tokens chars[starts[i]:ends[i]] when every one is ``[-]digits.digits`` with the
+    same number F <= 22 of decimals and at most 15 digits in all (``printf("%.6f")`` and the like);
+    None for any other tokens. Each value is the integer M of its digits (below 2^53, so exact in a
+    double) divided by 10^F (exact too): one correctly rounded division, hence the double nearest
+    the decimal, which is what ``float`` and strtod give. (T,) int64 positions -> (T,) float64."""
+    first = chars[starts[0]:ends[0]].tobytes()
+    decimals = len(first) - first.rfind(b".") - 1
+    if b"." not in first or decimals > 22:
+        return None
+    lengths = ends - starts
+    negative = chars[starts] == 45  # "-"
+    digits = lengths - 1 - negative
+    width = int(lengths.max())
+    if np.any(digits < 1) or np.any(digits > 15) or width > 17:
+        return None
+    padded = np.concatenate((np.full(width, 48, np.uint8), chars))
+    table = np.lib.stride_tricks.sliding_window_view(padded, width)[ends]  # token i right-aligned in row i
+    dot = width - decimals - 1
+    if dot < 0:
+        return None
+    table[np.arange(width) < (width - digits - 1)[:, None]] = 48  # what precedes a token's digits: "0"
+    if np.any(table[:, dot] != 46):  # "."
+        return None
+    table[:, dot] = 48
+    table -= 48
+    if np.any(table > 9):  # a character that is not a digit (below "0" it wrapped around)
+        return None
+    powers = np.zeros(width)
+    powers[dot + 1:] = 10.0 ** np.arange(decimals - 1, -1, -1)
+    powers[:dot] = 10.0 ** np.arange(dot + decimals - 1, decimals - 1, -1)
+    whole = np.einsum("ij,j->i", table, powers)  # exact: sums of integers below 10^15 < 2^53
+    values = whole / 10.0**decimals
+    return np.negative(values, out=values, where=negative)
 
 
 # --------------------------------------------------------------------------- PLY

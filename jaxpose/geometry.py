@@ -7,12 +7,32 @@ anything with ``vertices`` and optional ``faces``) or an ``(n, 3)`` array of poi
 from __future__ import annotations
 
 import warnings
+from typing import NamedTuple
 
 import numpy as np
 
 from ._validate import InvalidInputError, OpenMeshWarning, check_points
 
-__all__ = ["split_geometry", "triangle_areas", "is_closed", "require_faces", "warn_if_open"]
+__all__ = ["Surface", "split_geometry", "triangle_areas", "is_closed", "require_faces", "warn_if_open"]
+
+
+class Surface(NamedTuple):
+    """A triangle mesh as two arrays, without a trimesh object: what a file read by the fast
+    readers becomes where nothing else of trimesh is needed (:func:`jaxpose.io.mesh.read`), and
+    what the functions of a mesh accept and give back in its place.
+
+    Attributes:
+      vertices: (n, 3) float64.
+      faces: (m, 3) int64, every index in [0, n).
+
+    Example::
+
+        surface = Surface(np.eye(3), np.array([[0, 1, 2]]))
+        vertices, faces = split_geometry(surface)
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
 
 
 def split_geometry(mesh_or_points):

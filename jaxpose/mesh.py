@@ -14,8 +14,9 @@ import numpy as np
 from . import sample
 from ._validate import InvalidInputError, check_gamma, check_int, check_nu
 from .config import OCSVM, PoseConfig
+from .geometry import Surface
 from .io import mesh as io_mesh
-from .io.mesh import MESH_FORMATS, OUTPUT_FORMATS, POINT_FORMATS, encode, example_shape, export, load, output_format
+from .io.mesh import MESH_FORMATS, OUTPUT_FORMATS, POINT_FORMATS, encode, example_shape, export, load, output_format, read
 from .io.atomic import write_atomic
 from .occupancy import solid
 from .pose import estimators
@@ -119,7 +120,8 @@ def normalize_mesh(
     """Normalize the position and size (and orientation) of a mesh or point cloud; the input is untouched.
 
     Args:
-      mesh_or_path: a path (anything trimesh reads), Trimesh, PointCloud or (n, 3) points.
+      mesh_or_path: a path (anything trimesh reads), Trimesh, PointCloud,
+        :class:`~jaxpose.geometry.Surface` or (n, 3) points.
       method: one of :data:`jaxpose.pose.estimators.METHODS`; default ``"robust"``, the depth^p-weighted
         centroid (p: ``power``) of a robust solid and its volume's cube root (works on closed meshes, meshes with
         holes or stray parts, and point clouds; the most consistent under articulation, see
@@ -140,8 +142,9 @@ def normalize_mesh(
         are the same as without it.
 
     Returns:
-      normalized: a transformed copy (Trimesh or PointCloud), pose: :class:`jaxpose.Pose` (its
-      center in float64, exact under translation: :func:`jaxpose.pose.estimators.centered`).
+      normalized: a transformed copy (Trimesh or PointCloud; a Surface for a Surface), pose:
+      :class:`jaxpose.Pose` (its center in float64, exact under translation:
+      :func:`jaxpose.pose.estimators.centered`).
 
     Raises:
       InvalidInputError: any bad argument (named, with its range), before the file is read; an
@@ -185,6 +188,8 @@ def normalized_points(points, pose):
 
 def _transformed(geometry, pose):
     """A copy of the geometry with vertices :func:`normalized_points`."""
+    if isinstance(geometry, Surface):
+        return Surface(normalized_points(geometry.vertices, pose), geometry.faces)
     normalized = geometry.copy()
     normalized.vertices = normalized_points(geometry.vertices, pose)
     return normalized

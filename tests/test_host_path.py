@@ -10,6 +10,7 @@ import subprocess
 import sys
 
 import numpy as np
+import pytest
 import trimesh
 
 import jaxpose
@@ -71,7 +72,57 @@ def test_batch_command_and_its_workers_import_no_jax(tmp_path):
         rows = jaxpose.read_transforms(tmp_path / f"out{forked}")
         assert len(rows) == 6 and all(r.ok for r in rows)
         assert len({r.worker for r in rows}) >= 2  # the workers did some of it
-        # forked workers import nothing (the command's process imported trimesh for them); fresh ones
-        # import trimesh each; none of the processes imported JAX
-        assert _imported(out.stderr, "trimesh") == (1 if forked else 3)
+        # plain OFF and PLY files are read, normalized and written as arrays: no process imported
+        # trimesh (nor JAX)
+        assert _imported(out.stderr, "trimesh") == 0
         assert _imported(out.stderr, "jax") == 0
+
+
+SURFACE_FILES = {
+    "off": lambda m: m.export(file_type="off").encode(),
+    "ply": lambda m: m.export(file_type="ply"),
+    "ply_ascii": lambda m: m.export(file_type="ply", encoding="ascii"),
+    "obj": lambda m: m.export(file_type="obj", include_normals=False, include_texture=False).encode(),
+}
+
+
+@pytest.mark.parametrize("name", sorted(SURFACE_FILES))
+@pytest.mark.parametrize("method", ["robust", "surface_centroid", "solid", "bbox", "robust+rotation"])
+def test_normalize_file_as_arrays_equals_through_trimesh(tmp_path, monkeypatch, name, method):
+    """A plain mesh file goes through the batch as a Surface (no trimesh object): the same output
+    bytes, in every output format, and the same table columns as through load's Trimesh."""
+    from jaxpose import mesh as jmesh
+    from jaxpose.batch.task import NormalizeOptions, normalize_file
+    from jaxpose.geometry import Surface
+
+    shape = trimesh.creation.icosphere(subdivisions=2)
+    shape.vertices = shape.vertices * [1.0, 0.6, 1.7] + [3.0, -2.0, 0.25]
+    path = tmp_path / f"shape.{name.split('_')[0]}"
+    path.write_bytes(SURFACE_FILES[name](shape))
+    assert isinstance(jmesh.read(path), Surface)
+    method, _, rotation = method.partition("+")
+    options = NormalizeOptions(method=method, rotation=bool(rotation))
+    for file_type in jmesh.MESH_FORMATS:
+        fast = normalize_file(str(path), options, file_type)
+        with monkeypatch.context() as patch:
+            patch.setattr(jmesh, "read", jmesh.load)  # trimesh objects all along
+            slow = normalize_file(str(path), options, file_type)
+        assert fast.record["status"] == slow.record["status"] == "ok", (fast.record, slow.record)
+        assert fast.data == slow.data, file_type
+        same = ("seconds", "worker_peak_mb")
+        assert {k: v for k, v in fast.record.items() if k not in same} == \
+            {k: v for k, v in slow.record.items() if k not in same}
+
+
+def test_read_gives_trimesh_where_the_file_holds_more(tmp_path):
+    """Colors (and a binary STL's header) stay with trimesh: read gives load's Trimesh."""
+    from jaxpose import mesh as jmesh
+
+    shape = trimesh.creation.icosphere(subdivisions=1)
+    shape.visual.vertex_colors = np.random.default_rng(1).integers(0, 255, (len(shape.vertices), 4))
+    (tmp_path / "colors.ply").write_bytes(shape.export(file_type="ply"))
+    (tmp_path / "plain.stl").write_bytes(shape.export(file_type="stl"))
+    for name in ("colors.ply", "plain.stl"):
+        got = jmesh.read(tmp_path / name)
+        assert isinstance(got, trimesh.Trimesh)
+        np.testing.assert_array_equal(got.vertices, jmesh.load(tmp_path / name).vertices)

@@ -493,6 +493,20 @@ def test_library_load_is_unchanged(tmp_path, monkeypatch, mesh, name):
         assert a == b, file_type
 
 
+def test_library_merge_hashes_mirrored_vertices_apart():
+    """Vertices mirrored through the anchor, (a, b, c) and (-a, -b, c), as a symmetric shape has:
+    distinct hashes, so the array merge decides (no fall back to trimesh)."""
+    from jaxpose.io import mesh as jmesh
+
+    rng = np.random.default_rng(3)
+    half = rng.integers(-10**9, 10**9, size=(5000, 3))
+    keys = np.concatenate([half, half * [-1, -1, 1], half * [1, -1, -1], half * [-1, 1, -1], [[0, 0, 0]]])
+    keys = np.unique(keys, axis=0)
+    assert len(np.unique(jmesh._hash_keys(keys))) == len(keys)
+    shape = trimesh.creation.icosphere(subdivisions=3)
+    assert jmesh._merged(shape.vertices, shape.faces) is not None
+
+
 def test_library_merge_hash_collision_falls_back(monkeypatch):
     """Two different keys with one hash: the array merge says it cannot tell (trimesh merges)."""
     from jaxpose.io import mesh as jmesh
@@ -502,7 +516,7 @@ def test_library_merge_hash_collision_falls_back(monkeypatch):
     keep, inverse = jmesh._merged(vertices, faces)
     np.testing.assert_array_equal(keep, [0, 1, 2])
     np.testing.assert_array_equal(inverse[faces], [[0, 1, 2], [0, 1, 2]])
-    monkeypatch.setattr(jmesh, "_HASH", np.zeros(3, np.uint64))  # every key hashes to 0
+    monkeypatch.setattr(jmesh, "_hash_keys", lambda keys: np.zeros(len(keys), np.uint64))  # every key: 0
     assert jmesh._merged(vertices, faces) is None
     assert jmesh._merged(vertices[:3], faces[:1]) is None
 

@@ -1,4 +1,4 @@
-"""The fast OFF writer against trimesh's exporter: the same bytes."""
+"""The fast OFF and PLY writers against trimesh's exporters: the same bytes."""
 from __future__ import annotations
 
 import numpy as np
@@ -55,3 +55,19 @@ def test_library_encode_uses_it(tmp_path):
     far = shape.copy()
     far.vertices += 1e6  # beyond the fast writer: trimesh writes it
     assert mesh.encode(far, "off") == far.export(file_type="off").encode()
+
+
+@pytest.mark.parametrize("exponent", [-8, 0, 5, 30])
+def test_ply_bytes_equal_trimesh(exponent):
+    rng = np.random.default_rng(exponent + 50)
+    vertices = np.concatenate([AWKWARD, rng.normal(size=(2000, 3)) * 10.0**exponent])
+    faces = rng.integers(0, len(vertices), size=(3000, 3))
+    expected = trimesh.Trimesh(vertices, faces, process=False).export(file_type="ply")
+    assert writers.ply_bytes(vertices, faces) == expected
+
+
+def test_ply_bytes_refuses_what_it_cannot_write():
+    with pytest.raises(Unsupported):
+        writers.ply_bytes(np.zeros((3, 3)), np.array([[0, 1, 3]]))  # no vertex 3
+    with pytest.raises(Unsupported):
+        writers.ply_bytes(np.zeros((3, 2)), np.array([[0, 1, 2]]))

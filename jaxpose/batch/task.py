@@ -152,7 +152,7 @@ def normalize_file(source, options=None, file_type=None, check="mtime") -> FileR
         else:
             before = _input_stat(source, check) if isinstance(source, (str, os.PathLike)) else {}
             record.update({k: v for k, v in before.items() if k != "input_inode"})
-            geometry = mesh.load(source)
+            geometry = mesh.read(source) if isinstance(source, (str, os.PathLike)) else mesh.load(source)
             if before.get("input_inode") is not None:
                 _check_unchanged(source, before)
         record.update(kind="mesh" if hasattr(geometry, "faces") else "points",
@@ -195,7 +195,7 @@ def _load_remote(url, check, record):
         local = Path(folder) / ("input" + path.suffix.lower())
         local.write_bytes(data)
         try:
-            return mesh.load(local)
+            return mesh.read(local)
         except JaxposeError as exc:  # its message names the temporary file: name the URL
             raise type(exc)(str(exc).replace(str(local), url)) from None
 

@@ -3,22 +3,28 @@
 The only module that uses trimesh for file I/O. Loading never modifies the input
 file; exporting is atomic (temporary file in the target directory, then
 ``os.replace``) and refuses to overwrite unless ``force=True``.
+
+trimesh is imported where it is used (:func:`_trimesh`): a file that the fast readers read and
+nothing else of trimesh needs (:func:`read`: a :class:`~jaxpose.geometry.Surface`) is read,
+normalized and written (OFF, PLY) without it, so that a command's start-up does not import it.
 """
 from __future__ import annotations
 
 import io
 import os
+import sys
 from pathlib import Path
 
 import numpy as np
-import trimesh
 
 from . import formats, readers, writers
 from .._validate import InvalidInputError, check_points
+from ..geometry import Surface
 from .atomic import write_atomic
 
 __all__ = [
     "load",
+    "read",
     "MESH_FORMATS",
     "POINT_FORMATS",
     "OUTPUT_FORMATS",
@@ -43,13 +49,52 @@ def load(path_or_mesh):
     geometry : trimesh.Trimesh | trimesh.PointCloud
     """
     if isinstance(path_or_mesh, (str, os.PathLike)):
-        geometry = _read(Path(path_or_mesh))
-        source = str(path_or_mesh)
-        if isinstance(geometry, readers.Loaded):
-            return _from_loaded(geometry, source)
-    else:
-        geometry = path_or_mesh
-        source = "input"
+        geometry = read(path_or_mesh)
+        return _trimesh_of(geometry) if isinstance(geometry, Surface) else geometry
+    return _checked(path_or_mesh, "input")
+
+
+def read(path):
+    """What :func:`load` gives for a file, without trimesh where it is not needed: a
+    :class:`~jaxpose.geometry.Surface` of the same vertices and faces for a mesh that the fast
+    readers read and that holds nothing else trimesh would keep (colors, UV, an STL's names), else
+    :func:`load`'s Trimesh or PointCloud.
+
+    Raises:
+      InvalidInputError: as :func:`load`.
+    """
+    geometry = _read(Path(path))
+    if isinstance(geometry, readers.Loaded):
+        return _from_loaded(geometry, str(path))
+    return _checked(geometry, str(path))
+
+
+def _trimesh():
+    import trimesh
+
+    return trimesh
+
+
+def _is(geometry, name):
+    """isinstance(geometry, trimesh.<name>), without importing trimesh (nothing is a trimesh object
+    before it is imported)."""
+    module = sys.modules.get("trimesh")
+    return module is not None and isinstance(geometry, getattr(module, name))
+
+
+def _trimesh_of(surface):
+    return _trimesh().Trimesh(vertices=surface.vertices, faces=surface.faces, process=False)
+
+
+def _checked(geometry, source):
+    """A geometry object or array as :func:`load` returns it (a Surface kept as a Surface)."""
+    if isinstance(geometry, Surface):
+        vertices, faces = (np.asarray(a) for a in geometry)
+        check_points(vertices, name=f"vertices of {source}", min_points=1)
+        if faces.ndim != 2 or faces.shape[1] != 3 or not len(faces) or faces.min() < 0 or faces.max() >= len(vertices):
+            raise InvalidInputError(f"{source}: faces must be (m >= 1, 3) indices of its vertices")
+        return geometry
+    trimesh = _trimesh()
     if isinstance(geometry, trimesh.Scene):
         geometry = _flatten(geometry, source)
     if not isinstance(geometry, (trimesh.Trimesh, trimesh.PointCloud)):
@@ -91,7 +136,25 @@ def _merge_vertices(geometry):
 
 
 _MERGE_DIGITS = 8  # trimesh's tol.merge, 1e-8
-_HASH = np.array([0x9E3779B97F4A7C15, 0xC2B2AE3D27D4EB4F, 0x165667B19E3779F9], np.uint64)
+_MIX = (np.uint64(0xBF58476D1CE4E5B9), np.uint64(0x94D049BB133111EB))
+
+
+def _hash_keys(keys):
+    """A 64-bit hash of each row of integer keys (n, 3): splitmix64's finalizer, chained over the
+    columns (a shape's mirrored vertices, (a, b, c) and (-a, -b, c), hash apart). (n,) uint64."""
+    def mix(x):
+        x = x ^ (x >> np.uint64(30))
+        x = x * _MIX[0]
+        x = x ^ (x >> np.uint64(27))
+        x = x * _MIX[1]
+        return x ^ (x >> np.uint64(31))
+
+    columns = keys.view(np.uint64)
+    with np.errstate(over="ignore"):
+        hashed = mix(columns[:, 0].copy())
+        for column in range(1, columns.shape[1]):
+            hashed = mix(hashed + columns[:, column])
+    return hashed
 
 
 def _merged(vertices, faces):
@@ -108,8 +171,7 @@ def _merged(vertices, faces):
     referenced[faces] = True
     used = np.nonzero(referenced)[0]
     keys = np.column_stack([(vertices - anchor(vertices)) * (10**_MERGE_DIGITS)]).round().astype(np.int64)[used]
-    with np.errstate(over="ignore"):
-        hashed = np.bitwise_xor.reduce(keys.view(np.uint64) * _HASH, axis=1)
+    hashed = _hash_keys(keys)
     order = np.argsort(hashed, kind="stable")  # equal hashes: first occurrence first
     starts = np.ones(len(order), bool)
     starts[1:] = hashed[order[1:]] != hashed[order[:-1]]
@@ -129,21 +191,24 @@ def _merged(vertices, faces):
 
 
 def _from_loaded(loaded, source):
-    """What :func:`load` makes of a fast reader's mesh, on arrays: its checks and vertex merge, then
-    one ``trimesh.Trimesh``. Normals from the file are dropped, as the merge drops them on trimesh's
-    path (moving the vertices clears trimesh's cache)."""
+    """What :func:`read` makes of a fast reader's mesh, on arrays: its checks and vertex merge, then
+    a Surface, or one ``trimesh.Trimesh`` where the file holds more (colors, UV, names). Normals
+    from the file are dropped, as the merge drops them on trimesh's path (moving the vertices
+    clears trimesh's cache)."""
     if not np.all(np.isfinite(loaded.vertices)):
         raise InvalidInputError(f"{source}: vertices with NaN or inf coordinates")
     extras = {k: v for k, v in loaded.extras.items() if k not in ("vertex_normals", "face_normals")}
     merged = None if "visual" in extras else _merged(loaded.vertices, loaded.faces)  # UV: trimesh's merge
     if merged is None:
-        geometry = trimesh.Trimesh(**loaded.kwargs(), process=False)
+        geometry = _trimesh().Trimesh(**loaded.kwargs(), process=False)
         _merge_vertices(geometry)
         return geometry
     keep, inverse = merged
+    if not extras:
+        return Surface(loaded.vertices[keep], inverse[loaded.faces])
     if "vertex_colors" in extras:
         extras["vertex_colors"] = extras["vertex_colors"][keep]
-    return trimesh.Trimesh(vertices=loaded.vertices[keep], faces=inverse[loaded.faces], process=False, **extras)
+    return _trimesh().Trimesh(vertices=loaded.vertices[keep], faces=inverse[loaded.faces], process=False, **extras)
 
 
 def _read(path):
@@ -151,15 +216,15 @@ def _read(path):
         raise InvalidInputError(f"no such file: {path}")
     if not (path.is_file() or path.is_fifo()):  # a named pipe delivers a stream: read it
         raise InvalidInputError(f"not a file: {path}")
-    ext = "".join(path.suffixes[-2:]).lower().lstrip(".") if path.suffix else ""
-    known = set(trimesh.available_formats())
-    if ext not in known:
-        ext = path.suffix.lower().lstrip(".")
-    if ext not in known:
-        raise InvalidInputError(
-            f"{path}: unsupported format {path.suffix or '(no extension)'!r}; "
-            f"readable: {', '.join(sorted(known))}"
-        )
+    ext = path.suffix.lower().lstrip(".")
+    if ext not in readers.READERS:  # (trimesh's formats: its list, and names of two suffixes)
+        known = set(_trimesh().available_formats())
+        ext = "".join(path.suffixes[-2:]).lower().lstrip(".") if path.suffix else ""
+        if ext not in known:
+            ext = path.suffix.lower().lstrip(".")
+        if ext not in known:
+            raise InvalidInputError(f"{path}: unsupported format {path.suffix or '(no extension)'!r}; "
+                                    f"readable: {', '.join(sorted(known))}")
     try:
         data = path.read_bytes()  # read-only: the file is never touched
     except OSError as exc:
@@ -177,6 +242,7 @@ def _read(path):
             pass
         except InvalidInputError as exc:  # broken where trimesh would read part of it
             raise InvalidInputError(f"{path}: {exc}") from None
+    trimesh = _trimesh()
     try:
         geometry = trimesh.load(io.BytesIO(data), file_type=ext, process=False)
     except Exception as exc:  # every reader has its own errors for corrupt files
@@ -189,13 +255,14 @@ def _read(path):
 
 
 def _has_vertices(geometry):
-    if isinstance(geometry, trimesh.Scene):
+    if _is(geometry, "Scene"):
         return any(len(getattr(g, "vertices", ())) for g in geometry.geometry.values())
     return len(getattr(geometry, "vertices", ())) > 0
 
 
 def _flatten(scene, source):
     """Scene -> one Trimesh (meshes concatenated, transforms applied) or PointCloud."""
+    trimesh = _trimesh()
     parts = scene.dump()
     meshes = [g for g in parts if isinstance(g, trimesh.Trimesh) and len(g.faces) > 0]
     if meshes:
@@ -234,27 +301,35 @@ def output_format(path, geometry=None) -> str:
                                 f"writable: {', '.join(OUTPUT_FORMATS)}")
     if ext not in OUTPUT_FORMATS:
         raise InvalidInputError(f"{path}: cannot write {path.suffix!r} files; writable: {', '.join(OUTPUT_FORMATS)}")
-    if isinstance(geometry, trimesh.PointCloud) and ext not in POINT_FORMATS:
+    if _is(geometry, "PointCloud") and ext not in POINT_FORMATS:
         raise InvalidInputError(f"{path}: a point cloud cannot be written as {ext.upper()} (it holds triangles "
                                 f"only); use one of {', '.join('.' + e for e in POINT_FORMATS)}")
-    if isinstance(geometry, trimesh.Trimesh) and ext not in MESH_FORMATS:
+    if (isinstance(geometry, Surface) or _is(geometry, "Trimesh")) and ext not in MESH_FORMATS:
         raise InvalidInputError(f"{path}: a mesh cannot be written as {ext.upper()} (it holds points only); "
                                 f"use one of {', '.join('.' + e for e in MESH_FORMATS)}")
     return ext
 
 
 def encode(geometry, file_type) -> bytes:
-    """The bytes of a Trimesh or PointCloud in a format of :data:`OUTPUT_FORMATS` (no I/O).
+    """The bytes of a Trimesh, PointCloud or Surface in a format of :data:`OUTPUT_FORMATS` (no I/O).
 
     Raises:
       InvalidInputError: the geometry cannot be written in that format.
     """
     output_format(f"geometry.{file_type}", geometry)
-    if file_type == "off" and isinstance(geometry, trimesh.Trimesh):
+    surface = isinstance(geometry, Surface)
+    if file_type == "off" and (surface or _is(geometry, "Trimesh")):
         try:
             return writers.off_bytes(geometry.vertices, geometry.faces)  # trimesh's bytes, sooner
         except writers.Unsupported:
             pass
+    if file_type == "ply" and surface:
+        try:
+            return writers.ply_bytes(geometry.vertices, geometry.faces)  # trimesh's bytes of a plain mesh
+        except writers.Unsupported:
+            pass
+    if surface:
+        geometry = _trimesh_of(geometry)
     try:
         data = geometry.export(file_type=file_type)
     except Exception as exc:
@@ -280,6 +355,7 @@ def example_shape():
 
     Returns mesh : trimesh.Trimesh (watertight parts, concatenated)
     """
+    trimesh = _trimesh()
     body = trimesh.creation.capsule(height=1.0, radius=0.5, count=[24, 24])
     arm = trimesh.creation.cylinder(radius=0.08, height=1.6, sections=16)
     arm.apply_transform(trimesh.transformations.rotation_matrix(np.pi / 2, [0.0, 1.0, 0.0]))

@@ -1,4 +1,4 @@
-"""Fast writers: trimesh's text OFF, byte for byte, formatted with NumPy.
+"""Fast writers: trimesh's text OFF and binary PLY of a plain mesh, byte for byte, with NumPy.
 
 ``off_bytes(vertices, faces)`` is ``trimesh.exchange.off.export_off(mesh).encode()`` (coordinates
 as ``"{:.10f}"``, faces as ``3 a b c``), built with array arithmetic instead of one Python format
@@ -8,9 +8,14 @@ exact product (Dekker's product), and rounded half to even from there, as Python
 rounds the exact binary value. Coordinates of 2^52 / 10^10 (about 450,000) and
 more raise :class:`Unsupported` (the caller then writes with trimesh).
 
+``ply_bytes(vertices, faces)`` is ``trimesh.exchange.ply.export_ply(mesh)`` of a mesh with no
+colors, normals or attributes (trimesh's header, float32 coordinates, ``uchar int`` face lists):
+what the batch writes without making a trimesh object.
+
 Example::
 
     data = off_bytes(mesh.vertices, mesh.faces)   # == mesh.export(file_type="off").encode()
+    data = ply_bytes(mesh.vertices, mesh.faces)   # == mesh.export(file_type="ply") of a plain mesh
 """
 from __future__ import annotations
 
@@ -18,7 +23,7 @@ import numpy as np
 
 from .readers import Unsupported
 
-__all__ = ["off_bytes", "fixed_decimals"]
+__all__ = ["off_bytes", "ply_bytes", "fixed_decimals"]
 
 DIGITS = 10  # trimesh's export_off
 _SPLIT = 134217729.0  # 2^27 + 1, Veltkamp's splitter for doubles
@@ -150,3 +155,29 @@ def off_bytes(vertices, faces) -> bytes:
     coordinates = matrix[keep].tobytes()
     head = f"OFF\n{len(vertices)} {len(faces)} 0\n".encode()
     return head + coordinates + _triangles(faces)
+
+
+_PLY_HEAD = ("ply\nformat binary_little_endian 1.0\ncomment https://github.com/mikedh/trimesh\n"
+             "element vertex {}\nproperty float x\nproperty float y\nproperty float z\n"
+             "element face {}\nproperty list uchar int vertex_indices\nend_header\n")
+_PLY_FACE = np.dtype([("count", "<u1"), ("index", "<i4", (3,))])
+
+
+def ply_bytes(vertices, faces) -> bytes:
+    """trimesh's binary PLY export of a mesh without colors, normals or attributes, exactly: its
+    header, the vertices as little-endian float32, each face as ``3`` (uchar) and three int32.
+    vertices (n, 3) float, faces (m, 3) int in [0, n).
+
+    Raises:
+      Unsupported: not a mesh of that kind, or 2^31 vertices or more.
+    """
+    vertices = np.asarray(vertices, np.float64)
+    faces = np.asarray(faces, np.int64)
+    if vertices.ndim != 2 or vertices.shape[1] != 3 or faces.ndim != 2 or faces.shape[1] != 3 \
+            or not len(faces) or faces.min() < 0 or faces.max() >= min(len(vertices), 2**31):
+        raise Unsupported("not a mesh this writer writes")
+    packed = np.zeros(len(faces), _PLY_FACE)
+    packed["count"] = 3
+    packed["index"] = faces
+    return (_PLY_HEAD.format(len(vertices), len(faces)).encode() + vertices.astype("<f4").tobytes()
+            + packed.tobytes())

@@ -33,14 +33,13 @@ import time
 import warnings
 
 import numpy as np
-import trimesh
 from scipy import ndimage
 
 from .. import _validate, baselines, sample
 from ..occupancy import solid, voxels
 from .._validate import InvalidInputError, InvalidPoseWarning, JaxposeError
 from ..config import OCSVM, ROBUST
-from ..geometry import triangle_areas
+from ..geometry import Surface, triangle_areas
 from ..host import anchor
 from ..weighted import depth_power_weights, grid_axes, solid_occupancy, weighted_center
 from .result import MIN_POINT_VOXELS, SECOND_BODY, Pose, host, status_message
@@ -88,11 +87,11 @@ def centered(geometry):
     bounding box sits at the origin, and that vertex.
 
     Args:
-      geometry: Trimesh, PointCloud or (n, 3) points.
+      geometry: Trimesh, :class:`~jaxpose.geometry.Surface`, PointCloud or (n, 3) points.
 
     Returns:
-      moved: Trimesh (same faces, ``process=False``) or PointCloud, in float64; shift (3,) float64
-      with ``moved.vertices == vertices - shift``. Far from the origin the subtraction is exact
+      moved: Trimesh (same faces, ``process=False``), a Surface for a Surface, or PointCloud, in
+      float64; shift (3,) float64 with ``moved.vertices == vertices - shift``. Far from the origin the subtraction is exact
       (Sterbenz), so ``shift`` plus a result computed on ``moved`` keeps every digit.
 
     Raises:
@@ -101,6 +100,10 @@ def centered(geometry):
     vertices, faces = baselines.split_geometry(geometry)
     shift = anchor(vertices)
     moved = vertices - shift
+    if isinstance(geometry, Surface):  # (no trimesh object where none was given)
+        return Surface(moved, faces), shift
+    import trimesh
+
     if faces is None:
         return trimesh.PointCloud(moved), shift
     return trimesh.Trimesh(moved, faces, process=False), shift

@@ -273,7 +273,8 @@ def read_off(data: bytes) -> Loaded:
     if nv == 0:
         raise Unsupported("no vertices")
     if len(block) < nv:
-        raise InvalidInputError(f"truncated OFF file: {len(block)} vertex lines of the {nv} its counts line says")
+        raise InvalidInputError(f"cannot read OFF file: truncated, {len(block)} vertex lines of the {nv} its "
+                                f"counts line says")
     tokens, counts = _tokens(block)
     if np.any(counts < 3):
         raise Unsupported("a vertex line with fewer than 3 values")
@@ -284,7 +285,8 @@ def read_off(data: bytes) -> Loaded:
     if nf == 0:
         raise Unsupported("no faces")
     if len(block) < nf:
-        raise InvalidInputError(f"truncated OFF file: {len(block)} face lines of the {nf} its counts line says")
+        raise InvalidInputError(f"cannot read OFF file: truncated, {len(block)} face lines of the {nf} its "
+                                f"counts line says")
     triangles = _triangle_lines(block)
     if triangles is not None:
         return _checked(vertices.reshape(-1, 3), triangles)
@@ -293,7 +295,7 @@ def read_off(data: bytes) -> Loaded:
     sizes = _ints(_take(tokens, starts))
     if np.any(sizes + 1 > counts):
         line = int(np.argmax(sizes + 1 > counts))
-        raise InvalidInputError(f"OFF face line {line + 1} holds fewer indices than its count "
+        raise InvalidInputError(f"cannot read OFF file: face line {line + 1} holds fewer indices than its count "
                                 f"({block[line]!r}): a truncated or malformed file")
     if np.any(sizes < 3):
         raise Unsupported("a face with fewer than 3 corners")

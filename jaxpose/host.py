@@ -58,5 +58,7 @@ def anchor(vertices):
     the origin the difference rounds by at most half an ulp of the coordinate.
     """
     v = np.asarray(vertices, np.float64)
-    middle = 0.5 * (v.min(axis=0) + v.max(axis=0))
-    return v[int(np.argmin(np.sum((v - middle) ** 2, axis=1)))].copy()
+    columns = [v[:, axis] for axis in range(v.shape[1])]  # (per column: NumPy's axis-0 min of (n, 3) is slow)
+    middle = [0.5 * (c.min() + c.max()) for c in columns]
+    squared = sum((c - m) * (c - m) for c, m in zip(columns, middle))
+    return v[int(np.argmin(squared))].copy()

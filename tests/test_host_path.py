@@ -126,3 +126,20 @@ def test_read_gives_trimesh_where_the_file_holds_more(tmp_path):
         got = jmesh.read(tmp_path / name)
         assert isinstance(got, trimesh.Trimesh)
         np.testing.assert_array_equal(got.vertices, jmesh.load(tmp_path / name).vertices)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_anchor_is_the_vertex_nearest_the_box_middle(seed):
+    """host.anchor (column by column) against the plain axis-0 formula it replaces: the same vertex,
+    on far-off coordinates, signed zeros, and ties (the first of equally near vertices)."""
+    from jaxpose.host import anchor
+
+    rng = np.random.default_rng(seed)
+    vertices = rng.normal(size=(5000, 3)) * 10.0 ** rng.integers(-3, 4) + rng.normal(size=3) * 1e6 * (seed % 2)
+    if seed == 2:
+        vertices = np.round(vertices)  # many vertices equally near the middle
+        vertices[:10] = [[0.0, -0.0, 0.0], [-0.0, 0.0, -0.0]] * 5
+    middle = 0.5 * (vertices.min(axis=0) + vertices.max(axis=0))
+    expected = vertices[int(np.argmin(np.sum((vertices - middle) ** 2, axis=1)))]
+    np.testing.assert_array_equal(anchor(vertices).view(np.int64), expected.view(np.int64))  # signed zeros too
+    assert anchor(vertices).flags.owndata

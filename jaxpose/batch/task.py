@@ -203,7 +203,8 @@ def _load_remote(url, check, record):
 def warm_up(options=None) -> None:
     """Import what :func:`normalize_file` needs for `options` (:class:`NormalizeOptions`; default
     the defaults): a new worker process runs this before its first input, so that its start-up
-    does not count against that input's time limit. The readers, trimesh and the estimators always;
+    does not count against that input's time limit. The readers and the estimators always (not
+    trimesh: a plain OFF, PLY or OBJ file goes through as arrays, :func:`jaxpose.io.mesh.read`);
     JAX only for options that use it (:attr:`NormalizeOptions.uses_jax`: the robust default and the
     classical estimators of a file run on the host without it). A first compilation still counts."""
     from .. import mesh  # noqa: F401

@@ -74,7 +74,7 @@ class LocalExecutor:
 
     With `head_start` (worker processes, no time limit) the first task runs in a thread of this
     process, which has its modules imported already, while the worker processes start (each
-    imports NumPy, SciPy and trimesh first): the first result comes that much sooner. Give it only
+    imports NumPy and SciPy first): the first result comes that much sooner. Give it only
     for a task that cannot block (a regular file, not a FIFO) in a process that
     :func:`runs_like_a_worker`.
 

@@ -170,15 +170,16 @@ def _merged(vertices, faces):
     referenced = np.zeros(len(vertices), bool)
     referenced[faces] = True
     used = np.nonzero(referenced)[0]
-    keys = np.column_stack([(vertices - anchor(vertices)) * (10**_MERGE_DIGITS)]).round().astype(np.int64)[used]
+    keys = ((vertices[used] - anchor(vertices)) * (10**_MERGE_DIGITS)).round().astype(np.int64)
     hashed = _hash_keys(keys)
+    inverse = np.zeros(len(vertices), np.int64)
+    ranked = np.sort(hashed)
+    if np.all(ranked[1:] != ranked[:-1]):  # no duplicates (the usual file: a sort says so sooner)
+        inverse[used] = np.arange(len(used))
+        return used, inverse
     order = np.argsort(hashed, kind="stable")  # equal hashes: first occurrence first
     starts = np.ones(len(order), bool)
     starts[1:] = hashed[order[1:]] != hashed[order[:-1]]
-    inverse = np.zeros(len(vertices), np.int64)
-    if np.all(starts):  # no duplicates
-        inverse[used] = np.arange(len(used))
-        return used, inverse
     if np.any(~starts[1:] & np.any(keys[order[1:]] != keys[order[:-1]], axis=1)):
         return None  # a hash shared by different keys
     first = order[starts]

@@ -37,8 +37,8 @@ FAUST = SHARED / "data" / "faust-dev"
 # a pytest-xdist worker runs hundreds of tests. Past the kernel's per-process limit
 # (vm.max_map_count, 65530 by default) LLVM's section allocation fails ("LLVM compilation error:
 # Cannot allocate memory") and the next compilation kills the worker with a segmentation fault or
-# an abort in backend_compile_and_load (docs/performance.md, "Test workers and memory maps"). After
-# a test that leaves the process above half the limit, the compiled programs are released.
+# an abort in backend_compile_and_load (docs/testing.md). After a test that leaves the process
+# above half the limit, the compiled programs are released.
 MAP_FRACTION = 0.5
 
 

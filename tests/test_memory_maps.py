@@ -1,6 +1,6 @@
 """The test processes' guard against running out of memory maps (conftest.release_compiled_programs):
 every program XLA:CPU compiles holds memory maps while it is cached, and a worker past
-vm.max_map_count crashes in its next compilation (docs/performance.md)."""
+vm.max_map_count crashes in its next compilation (docs/testing.md)."""
 from __future__ import annotations
 
 import jax

@@ -1,7 +1,7 @@
 """Why the robust center and scale lose on four-legged animals, and what holds on every body (issue 34).
 
 ``python -m benchmarks.bodies [--variants plain,...] [--classes dog,horse,...] [--resolution 96]
-[--every K] [--heads | --pitch] [--json OUT]`` from a source checkout with ../shared beside it.
+[--every K] [--heads | --pitch | --volume-parts | --subvoxel] [--core-weight vertices|area] [--json OUT]`` from a source checkout with ../shared beside it.
 
 The six dev classes (faust-dev as its two people, kids-dev's two children, tosca-dev's dog and
 horse), each rigid-core aligned (``jaxpose.evaluation.align_core``), every variant made as
@@ -54,8 +54,9 @@ SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
 CLASSES = ("person_a", "person_b", "kid_0001", "kid_0002", "dog", "horse")
 
 
-def dev_classes(tmp, names=CLASSES, every=1):
-    """{class: [aligned Trimesh]} of the six dev classes (``every``: keep every k-th instance)."""
+def dev_classes(tmp, names=CLASSES, every=1, core_weight="vertices"):
+    """{class: [aligned Trimesh]} of the six dev classes (``every``: keep every k-th instance;
+    ``core_weight``: ``align_core``'s ``weight``, the stable core as a share of the vertices or of the area)."""
     out = {}
     for dataset in ("faust-dev", "kids-dev", "tosca-dev"):
         want = [n for n in names if n in _members(dataset)]
@@ -63,7 +64,7 @@ def dev_classes(tmp, names=CLASSES, every=1):
             continue
         loaded = datasets.load_folder(class_folder(dataset, tmp))
         for name in want:
-            out[name] = align_core(loaded[name])[::every]
+            out[name] = align_core(loaded[name], weight=core_weight)[::every]
     return out
 
 
@@ -154,13 +155,25 @@ def main(argv=None):
                    help="the head candidates of each class and, on the animals, the head frame with the head given")
     p.add_argument("--pitch", action="store_true",
                    help="the voxel-volume scale's cv with the pitch set by the extent and by the area")
+    p.add_argument("--volume-parts", action="store_true",
+                   help="where a class's volume changes between poses: its solid split by the nearest of 12 vertex clusters")
+    p.add_argument("--subvoxel", action="store_true",
+                   help="the volume's cv with the boundary voxels counted by sub-samples against the surface")
+    p.add_argument("--core-weight", choices=("vertices", "area"), default="vertices",
+                   help="align each class on the stable share of its vertices (jaxpose evaluate's default) or of its area")
     p.add_argument("--json", default=None)
     args = p.parse_args(argv)
     if not SHARED.is_dir():
         print(f"no {SHARED}: nothing to measure", file=sys.stderr)
         return 0
     with tempfile.TemporaryDirectory() as tmp:
-        classes = dev_classes(tmp, args.classes.split(","), args.every)
+        classes = dev_classes(tmp, args.classes.split(","), args.every, args.core_weight)
+    if args.volume_parts or args.subvoxel:
+        study = volume_parts if args.volume_parts else subvoxel_study
+        record = {name: study(meshes, args.resolution, name) for name, meshes in classes.items()}
+        if args.json:
+            Path(args.json).write_text(json.dumps(record, indent=1))
+        return 0
     if args.heads or args.pitch:
         record = heads(classes) if args.heads else pitch_study(classes, args.resolution)
         if args.json:
@@ -531,6 +544,79 @@ def pitch_study(classes, resolution=96, out=print):
         out(f"{name}: cv of V^(1/3), pitch by extent {cv['extent']:.5f}, by area {cv['area']:.5f}; "
             f"sqrt(area) {cv['sqrt_area']:.5f} (resolutions {by_area.min()}-{by_area.max()})")
     return record
+
+
+# ------------------------------------------------------------------ where the volume changes (--volume-parts, --subvoxel)
+def _voxel_index(sol):
+    """(m, 3) int grid indices of the solid's inside voxels and (3,) the world position of index 0."""
+    index = np.argwhere(sol.inside)
+    return index, (sol.centers() - index * sol.pitch).mean(axis=0)
+
+
+def volume_parts(meshes, resolution=96, name="", parts=12, out=print):
+    """``--volume-parts``: split a class into ``parts`` clusters of its vertices (k-means, seed 0, of
+    the vertices' median positions over the poses); in each pose give every voxel of the robust
+    solid to the cluster of its nearest vertex and sum each cluster's volume and surface area.
+    Per cluster: its share of the volume, the cv of its volume and of its area over the poses, and
+    its share of the total volume's variance (cov(part, total) / var(total); they sum to 1).
+    Returns {"clusters": [...], "total_cv": float}."""
+    from scipy.cluster.vq import kmeans2
+
+    geometry = [baselines.split_geometry(m) for m in meshes]
+    median = np.median([v for v, _ in geometry], axis=0)
+    middle, label = kmeans2(median, parts, seed=0, minit="++")
+    volume, area = np.zeros((len(meshes), parts)), np.zeros((len(meshes), parts))
+    for k, (mesh, (v, f)) in enumerate(zip(meshes, geometry)):
+        sol = robust_solid(v, f, resolution=resolution)
+        _, near = cKDTree(v).query(sol.centers())
+        np.add.at(volume[k], label[near], sol.pitch ** 3)
+        np.add.at(area[k], label[np.asarray(f)[:, 0]], mesh.area_faces)
+    total = volume.sum(axis=1)
+    share = ((volume - volume.mean(0)) * (total - total.mean())[:, None]).sum(0) / np.sum((total - total.mean()) ** 2)
+    rows = [{"middle": middle[c].round(1).tolist(), "volume_share": float(volume[:, c].mean() / total.mean()),
+             "volume_cv": float(volume[:, c].std() / volume[:, c].mean()),
+             "area_cv": float(area[:, c].std() / area[:, c].mean()), "variance_share": float(share[c])}
+            for c in range(parts)]
+    out(f"{name}: total voxel volume cv {total.std() / total.mean():.4f}; clusters by their share of its variance")
+    for row in sorted(rows, key=lambda r: -r["variance_share"]):
+        out(f"  at {row['middle']}: volume {row['volume_share']:.3f} of the body, cv {row['volume_cv']:.3f}; "
+            f"area cv {row['area_cv']:.3f}; variance share {row['variance_share']:+.3f}")
+    return {"clusters": rows, "total_cv": float(total.std() / total.mean())}
+
+
+def subvoxel_study(meshes, resolution=96, name="", sub=3, out=print):
+    """``--subvoxel``: the cv of V^(1/3) with the voxels within 2 of the solid's boundary (both sides)
+    counted by ``sub``^3 sub-samples, each inside where it lies behind the plane of the nearest of
+    dense surface samples (spacing 0.15 pitch, the hole caps included), beside the voxel count and
+    the capped closed-form volume. Returns {"voxels", "subvoxel", "capped": cv}."""
+    import trimesh
+
+    cuts = (np.arange(sub) + 0.5) / sub - 0.5
+    offsets = np.stack(np.meshgrid(cuts, cuts, cuts, indexing="ij"), -1).reshape(-1, 3)
+    counted, refined, capped = [], [], []
+    for mesh in meshes:
+        v, f = baselines.split_geometry(mesh)
+        sol = robust_solid(v, f, resolution=resolution)
+        h, inside = sol.pitch, sol.inside
+        _, zero = _voxel_index(sol)
+        vc, caps = cap_holes(np.asarray(v, np.float64), np.asarray(f, np.int64))
+        closed = trimesh.Trimesh(vc, np.vstack([f, caps]) if len(caps) else f, process=False)
+        points, face = trimesh.sample.sample_surface(closed, int(closed.area / (0.15 * h) ** 2), seed=0)
+        normals = closed.face_normals[face]
+        band = (inside & ~ndimage.binary_erosion(inside, iterations=2)) | (ndimage.binary_dilation(inside, iterations=2) & ~inside)
+        index = np.argwhere(band)
+        query = (zero + index[:, None, :] * h + offsets[None] * h).reshape(-1, 3)
+        _, near = cKDTree(points).query(query)
+        behind = np.einsum("ij,ij->i", query - points[near], normals[near]) < 0
+        fraction = behind.reshape(len(index), -1).mean(axis=1)
+        counted.append(sol.volume())
+        refined.append((inside.sum() - band[inside].sum() + fraction.sum()) * h ** 3)
+        capped.append(abs(capped_volume(v, f)))
+    cv = {key: spreads([[0, 0, 0]] * len(meshes), np.asarray(values) ** (1 / 3))[1]
+          for key, values in (("voxels", counted), ("subvoxel", refined), ("capped", capped))}
+    out(f"{name}: cv of V^(1/3): voxel count {cv['voxels']:.5f}, sub-voxel boundary {cv['subvoxel']:.5f}, "
+        f"capped closed form {cv['capped']:.5f}")
+    return cv
 
 
 if __name__ == "__main__":

@@ -171,3 +171,42 @@ def test_pitch_study_of_a_class_of_one_moved_shape():
     assert record["box"] == {"extent": pytest.approx(0.0, abs=1e-12), "area": pytest.approx(0.0, abs=1e-12),
                              "sqrt_area": pytest.approx(0.0, abs=1e-12)}
     assert len(lines) == 1 and lines[0].startswith("box: cv of V^(1/3)")
+
+
+def test_volume_parts_finds_the_part_that_grows():
+    """A 4 x 2 x 2 box whose right half is stretched by 0-15 % along x from pose to pose (turned off
+    the grid's axes, so that no face lies along a voxel layer): of two clusters, the right one holds
+    most of the change of the volume."""
+    from trimesh.remesh import subdivide
+
+    v, f = trimesh.creation.box(extents=(4.0, 2.0, 2.0)).vertices, trimesh.creation.box().faces
+    for _ in range(3):
+        v, f = subdivide(v, f)
+    stretch = np.array([1.0, 1.05, 1.1, 1.15])
+    turn = trimesh.transformations.rotation_matrix(0.7, (1.0, 2.0, 3.0))[:3, :3]
+    meshes = []
+    for s in stretch:
+        w = v.copy()
+        w[w[:, 0] > 0, 0] *= s
+        meshes.append(trimesh.Trimesh(w @ turn.T, f, process=False))
+    record = bodies.volume_parts(meshes, resolution=64, parts=2, out=lambda line: None)
+    right = max(record["clusters"], key=lambda c: (turn.T @ c["middle"])[0])
+    left = min(record["clusters"], key=lambda c: (turn.T @ c["middle"])[0])
+    # k-means cuts the median shape a little right of the joint (x = 0.2): about 0.9 / 0.1 expected
+    assert right["variance_share"] > 0.8 and abs(left["variance_share"]) < 0.2
+    assert right["volume_cv"] > 5 * left["volume_cv"]
+    volumes = 8.0 * (1.0 + stretch)  # the left half 8, the right 8 s
+    assert record["total_cv"] == pytest.approx(volumes.std() / volumes.mean(), rel=0.05)
+
+
+def test_subvoxel_study_of_spheres_of_known_radii():
+    """Spheres of radius 1.0-1.3: the cv of V^(1/3) is the radii's cv for the closed form
+    (exactly: the polyhedron's volume is r^3 times a constant), and within a few percent of it for
+    the voxel count and the sub-voxel count."""
+    radii = np.array([1.0, 1.1, 1.2, 1.3])
+    meshes = [trimesh.creation.icosphere(subdivisions=3, radius=r) for r in radii]
+    truth = radii.std() / radii.mean()
+    cv = bodies.subvoxel_study(meshes, resolution=32, out=lambda line: None)
+    assert cv["capped"] == pytest.approx(truth, rel=1e-9)
+    assert cv["subvoxel"] == pytest.approx(truth, rel=0.02)
+    assert cv["voxels"] == pytest.approx(truth, rel=0.05)

@@ -207,6 +207,7 @@ def test_evaluate_wiring(tmp_path, capsys, fake_evaluation):
         30.0, 0.2, 3, True, False)
     assert kwargs["variants"] == ["plain", "outliers", "big_outliers", "points", "holes"]  # all, as the README shows
     assert kwargs["methods"] is None
+    assert kwargs["core_weight"] == "vertices"  # the stable core as a share of the vertices unless told
     assert json.loads(out.read_text())["params"] == {"gamma": 30.0}
     assert_clean_failure(cli.main(["evaluate", "--json", str(out)]), capsys, "exists")
     assert cli.main(["evaluate", "--data", str(tmp_path), "--sweep", "--json", str(out), "--force",
@@ -217,6 +218,12 @@ def test_evaluate_wiring(tmp_path, capsys, fake_evaluation):
     assert fake_evaluation["kwargs"]["sweep"] is True
     assert cli.main(["evaluate", "--per-class"]) == 0
     assert "TABLE" in (printed := capsys.readouterr().out) and "PER CLASS" in printed
+    assert cli.main(["evaluate", "--align-core", "--core-weight", "area"]) == 0
+    assert fake_evaluation["kwargs"]["core_weight"] == "area"
+    capsys.readouterr()
+    assert cli.main(["evaluate", "--core-weight", "area"]) == 2  # it says how --align-core chooses; alone it is refused
+    err = capsys.readouterr().err
+    assert "add --align-core" in err and "Traceback" not in err, err
 
 
 def test_evaluate_plots(tmp_path, capsys, fake_evaluation, monkeypatch):

@@ -121,6 +121,88 @@ def test_align_core_ignores_moved_vertices():
     assert np.abs(naive[1].vertices[still] - v[still]).max() > 1e-3
 
 
+def _trunk_and_head(head_subdivisions, instances=4, seed=2):
+    """A class of one body: a 4 x 1 x 1 box (the trunk, area 18) and a 0.6 box beside it (the head,
+    area 2.16) that turns about its own neck in each instance; every instance moved rigidly. The
+    head's faces are subdivided ``head_subdivisions`` times (more vertices, the same surface).
+    Returns (meshes, trunk vertex indices, head vertex indices)."""
+    from trimesh.remesh import subdivide
+
+    rng = np.random.default_rng(seed)
+    trunk = trimesh.creation.box(extents=(4.0, 1.0, 1.0))
+    head = trimesh.creation.box(extents=(0.6, 0.6, 0.6))
+    hv, hf = head.vertices + (2.6, 0.0, 0.0), head.faces
+    for _ in range(head_subdivisions):
+        hv, hf = subdivide(hv, hf)
+    v = np.vstack([trunk.vertices, hv])
+    f = np.vstack([trunk.faces, hf + len(trunk.vertices)])
+    is_head = np.arange(len(v)) >= len(trunk.vertices)
+    meshes = []
+    for k in range(instances):
+        w = v.copy()
+        turn = trimesh.transformations.rotation_matrix(0.5 * k, (0, 0, 1), point=(2.2, 0.0, 0.0))
+        w[is_head] = trimesh.transform_points(w[is_head], turn)
+        rot, t = _rigid(rng) if k else (np.eye(3), np.zeros(3))
+        meshes.append(trimesh.Trimesh(w @ rot.T + t, f, process=False))
+    return meshes, np.flatnonzero(~is_head), np.flatnonzero(is_head)
+
+
+def test_align_core_by_area_finds_the_larger_rigid_part_whatever_the_meshing():
+    # the trunk is 89 % of the surface; subdivided 3 times, the head holds 96 % of the vertices
+    meshes, trunk, head = _trunk_and_head(3)
+    assert len(head) > 0.9 * (len(head) + len(trunk))
+    first = meshes[0].vertices
+    by_area = align_core(meshes, weight="area")
+    by_count = align_core(meshes)  # weight="vertices": the densely meshed head is the core
+    for k in range(1, len(meshes)):
+        np.testing.assert_allclose(by_area[k].vertices[trunk], first[trunk], atol=1e-9)
+        np.testing.assert_allclose(by_count[k].vertices[head], first[head], atol=1e-9)
+        assert np.abs(by_count[k].vertices[trunk] - first[trunk]).max() > 0.1
+    # the same body meshed coarsely: the same transforms by area (the same motions were drawn)
+    coarse = align_core(_trunk_and_head(0)[0], weight="area")
+    for a, b in zip(by_area, coarse):
+        np.testing.assert_allclose(a.metadata["core_transform"], b.metadata["core_transform"], atol=1e-9)
+
+
+def test_weighted_kabsch_matches_scipy():
+    from scipy.spatial.transform import Rotation
+
+    rng = np.random.default_rng(3)
+    x = rng.normal(size=(40, 3))
+    rot, t = _rigid(rng)
+    y = x @ rot.T + t + rng.normal(scale=0.05, size=x.shape)
+    w = rng.uniform(0.1, 2.0, size=40)
+    r, t_fit = evaluation.kabsch(x, y, w)
+    cx, cy = w @ x / w.sum(), w @ y / w.sum()  # the weighted fit's centroids map onto each other
+    oracle, _ = Rotation.align_vectors(y - cy, x - cx, weights=w)
+    np.testing.assert_allclose(r, oracle.as_matrix(), atol=1e-10)
+    np.testing.assert_allclose(t_fit, cy - r @ cx, atol=1e-10)
+    # equal weights: the unweighted fit
+    np.testing.assert_allclose(evaluation.kabsch(x, y, np.full(40, 0.7))[0], evaluation.kabsch(x, y)[0], atol=1e-12)
+
+
+def test_vertex_weights_are_the_area_share():
+    from jaxpose.evaluation.alignment import vertex_weights
+
+    mesh = trimesh.creation.icosphere(subdivisions=1)
+    mesh.vertices[:, 0] *= 2.0
+    other = mesh.copy()
+    other.vertices[:, 1] *= 1.5
+    w = vertex_weights([mesh, other], "area")
+    expected = np.zeros(len(mesh.vertices))
+    for m in (mesh, other):
+        for face, area in zip(m.faces, m.area_faces):
+            expected[face] += area / 3.0
+    np.testing.assert_allclose(w, expected / expected.sum(), rtol=1e-12)
+    np.testing.assert_allclose(vertex_weights([mesh], "vertices"), 1.0 / len(mesh.vertices))
+    with pytest.raises(InvalidInputError, match="unknown core weight"):
+        align_core([mesh, other], weight="faces")
+    with pytest.raises(InvalidInputError, match="needs meshes with faces"):
+        align_core([mesh.vertices, other.vertices], weight="area")
+    with pytest.raises(InvalidInputError, match="unknown core weight"):
+        evaluate({"a": [mesh, other]}, align_core=True, core_weight="volume", methods=["vertex_mean"])
+
+
 def test_align_core_keeps_faces_and_checks_counts():
     box = trimesh.creation.box()
     moved = box.copy()

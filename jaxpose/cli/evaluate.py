@@ -25,6 +25,9 @@ def add_parser(sub):
     p.add_argument("--classes", help="built-in dataset: comma-separated subset of its 12 classes (default all)")
     p.add_argument("--instances", type=int, default=None, help="built-in dataset: objects per class (default 10)")
     p.add_argument("--align-core", action="store_true", help="align the rigid core of each class before measuring")
+    p.add_argument("--core-weight", choices=("vertices", "area"), default="vertices",
+                   help="with --align-core: the stable core is a share of the vertices (default) or of the surface "
+                        "area (the same whatever the meshing density)")
     add_svm_options(p)
     p.set_defaults(**dict.fromkeys(("gamma", "nu", "count")))  # None when not given: refused where nothing uses them
     p.add_argument("--methods", help="comma-separated methods, name or name:power (default: all)")
@@ -72,6 +75,8 @@ def _evaluate_usage(args):
                      f"{'' if args.rotation else ' or --sweep'}, or drop {'them' if len(given) > 1 else 'it'})")
     if args.data and (args.classes or args.instances is not None):
         raise _Usage("--classes and --instances choose from the built-in dataset; --data takes every class of DIR")
+    if args.core_weight != "vertices" and not args.align_core:
+        raise _Usage(f"--core-weight {args.core_weight} says how --align-core chooses the core; add --align-core")
     checked = NormalizeOptions(method="ocsvm", seed=args.seed, **given)  # gamma > 0, nu in [0, 1], count >= 4, seed
     return methods, variants, {"gamma": checked.gamma, "nu": checked.nu, "count": checked.count}
 
@@ -120,8 +125,8 @@ def run(args):
     if args.rotation:
         return _evaluate_rotation(args, classes, variants, ocsvm)
     with _ProgressBar() as progress:
-        result = evaluation.evaluate(classes, seed=args.seed, align_core=args.align_core, progress=progress,
-                                     sweep=args.sweep, methods=methods, variants=variants, **ocsvm)
+        result = evaluation.evaluate(classes, seed=args.seed, align_core=args.align_core, core_weight=args.core_weight,
+                                     progress=progress, sweep=args.sweep, methods=methods, variants=variants, **ocsvm)
     _write_result(args, result, "evaluation_figures")  # the files first: a reader that leaves early loses nothing
     print(evaluation.format_table(result))
     if args.per_class:
@@ -136,7 +141,8 @@ def _evaluate_rotation(args, classes, variants, ocsvm):
     methods = None if args.rotation == "all" else [m for m in args.rotation.split(",") if m]
     with _ProgressBar() as progress:
         result = evaluation.evaluate_rotation(classes, methods=methods, variants=variants, align_core=args.align_core,
-                                              seed=args.seed, progress=progress, frames=True, ocsvm=ocsvm)
+                                              core_weight=args.core_weight, seed=args.seed, progress=progress,
+                                              frames=True, ocsvm=ocsvm)
     _write_result(args, result, "rotation_figures")
     print(evaluation.format_rotation_table(result))
     if args.per_class:

@@ -102,7 +102,7 @@ def _mean_or_none(values):
 
 
 def evaluate_rotation(classes, methods=None, variants=("plain",), align_core=False, seed=0, progress=None,
-                      frames=False, **options) -> dict:
+                      frames=False, core_weight="vertices", **options) -> dict:
     """Within-class agreement of canonical frames for each rotation method and input variant.
 
     Args:
@@ -110,6 +110,7 @@ def evaluate_rotation(classes, methods=None, variants=("plain",), align_core=Fal
       methods: names of :data:`jaxpose.rotation.rotation.ROTATIONS` (default: all of them).
       variants: names of :data:`jaxpose.evaluation.variants.VARIANTS`, made from the aligned meshes.
       align_core: first rigidly align each class (:func:`jaxpose.evaluation.align_core`).
+      core_weight: ``"vertices"`` or ``"area"``, ``align_core``'s ``weight``.
       seed: seeds the variants (and the OCSVM samples).
       progress: optional callable(done, total, message).
       frames: also return each instance's rotation (``per_class[...][method]["rotations"]``).
@@ -137,8 +138,9 @@ def evaluate_rotation(classes, methods=None, variants=("plain",), align_core=Fal
     variants = tuple(variants)
     if not variants or any(v not in VARIANTS for v in variants):
         raise InvalidInputError(f"unknown variants {list(variants)}; valid: {', '.join(VARIANTS)}")
+    alignment.check_core_weight(core_weight)
     if align_core:
-        classes = {name: alignment.align_core(meshes) for name, meshes in classes.items()}
+        classes = {name: alignment.align_core(meshes, weight=core_weight) for name, meshes in classes.items()}
     ocsvm = {"seed": seed, **options.pop("ocsvm", {})}
     total, done, out = len(variants) * len(classes), 0, {}
     for variant in variants:
@@ -184,7 +186,7 @@ def evaluate_rotation(classes, methods=None, variants=("plain",), align_core=Fal
         out[variant] = {"summary": rows, "per_class": per_class}
     if progress is not None:
         progress(total, total, "done")
-    params = {"align_core": bool(align_core), "seed": int(seed), "methods": list(methods),
+    params = {"align_core": bool(align_core), "core_weight": core_weight, "seed": int(seed), "methods": list(methods),
               "variants": list(variants), "classes": list(classes),
               "objects": {c: len(m) for c, m in classes.items()}}
     return {"params": params, "variants": out}
@@ -192,7 +194,9 @@ def evaluate_rotation(classes, methods=None, variants=("plain",), align_core=Fal
 
 def format_rotation_table(result) -> str:
     """The summaries of :func:`evaluate_rotation` as terminal tables, one per variant (degrees)."""
-    lines = [f"{len(result['params']['classes'])} classes, align_core={result['params']['align_core']}, "
+    core = result["params"].get("core_weight", "vertices")
+    core = f" (core by {core})" if result["params"]["align_core"] and core != "vertices" else ""
+    lines = [f"{len(result['params']['classes'])} classes, align_core={result['params']['align_core']}{core}, "
              "angles to the class frame (chordal mean), degrees, mean / max over instances"]
 
     def num(v, fmt="{:.1f}"):

@@ -2,6 +2,7 @@
 options of the other method refused, jit / vmap / grad, offsets far from the origin."""
 from __future__ import annotations
 
+import functools
 import sys
 import warnings
 from pathlib import Path
@@ -101,12 +102,22 @@ def test_empty_solid_is_flagged_not_valid():
         jaxpose.normalize(sheet, throw=True, **SMALL)
 
 
+def _opts(method):
+    return SMALL if method == "robust" else {"resolution": 32}
+
+
+@functools.cache
+def _jitted(method):
+    """jax.jit of normalize for `method`, shared by the tests that trace it on (1024, 3) float32
+    arrays: one compilation per method."""
+    return jax.jit(lambda x: jaxpose.normalize(x, method=method, **_opts(method)))
+
+
 @pytest.mark.parametrize("method", ["robust", "ocsvm"])
 def test_jit_of_center_runs_on_an_array(method):
     pts = _body(1024, seed=2)
-    opts = SMALL if method == "robust" else {"resolution": 32}
-    f = jax.jit(lambda x: jaxpose.normalize(x, method=method, **opts).center)
-    traced = np.asarray(f(jnp.asarray(pts, jnp.float32)))
+    opts = _opts(method)
+    traced = np.asarray(_jitted(method)(jnp.asarray(pts, jnp.float32)).center)
     concrete = jaxpose.normalize(pts, method=method, **opts)
     assert traced.shape == (3,) and np.all(np.isfinite(traced))
     tol = 1e-4 if method == "robust" else 2e-3  # float32 rounding; the OCSVM solver's tolerance
@@ -216,8 +227,8 @@ def test_far_from_origin_float64_x64(method, x64):
 @pytest.mark.parametrize("method", ["robust", "ocsvm"])
 def test_traced_input_far_from_origin_is_flagged(method):
     pts = sphere_with_arm(1024, seed=5)
-    opts = SMALL if method == "robust" else {"resolution": 32}
-    f = jax.jit(lambda x: jaxpose.normalize(x, method=method, **opts))
+    opts = _opts(method)
+    f = _jitted(method)
     near = f(jnp.asarray(pts, jnp.float32))
     assert bool(near.valid)
     for offset in (1e6, 1e5):  # float32 rounds the coordinates by 3e-2 / 4e-3 against a spread of ~0.5

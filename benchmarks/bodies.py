@@ -1,7 +1,7 @@
 """Why the robust center and scale lose on four-legged animals, and what holds on every body (issue 34).
 
 ``python -m benchmarks.bodies [--variants plain,...] [--classes dog,horse,...] [--resolution 96]
-[--every K] [--heads | --pitch | --volume-parts | --subvoxel] [--core-weight vertices|area] [--json OUT]`` from a source checkout with ../shared beside it.
+[--every K] [--heads | --pitch | --volume-parts | --subvoxel | --grid-offsets] [--core-weight vertices|area] [--json OUT]`` from a source checkout with ../shared beside it.
 
 The six dev classes (faust-dev as its two people, kids-dev's two children, tosca-dev's dog and
 horse), each rigid-core aligned (``jaxpose.evaluation.align_core``), every variant made as
@@ -159,6 +159,8 @@ def main(argv=None):
                    help="where a class's volume changes between poses: its solid split by the nearest of 12 vertex clusters")
     p.add_argument("--subvoxel", action="store_true",
                    help="the volume's cv with the boundary voxels counted by sub-samples against the surface")
+    p.add_argument("--grid-offsets", action="store_true",
+                   help="the robust center's sigma_tr and volume's cv on four grids shifted by half a voxel, and their mean")
     p.add_argument("--core-weight", choices=("vertices", "area"), default="vertices",
                    help="align each class on the stable share of its vertices (jaxpose evaluate's default) or of its area")
     p.add_argument("--json", default=None)
@@ -168,8 +170,8 @@ def main(argv=None):
         return 0
     with tempfile.TemporaryDirectory() as tmp:
         classes = dev_classes(tmp, args.classes.split(","), args.every, args.core_weight)
-    if args.volume_parts or args.subvoxel:
-        study = volume_parts if args.volume_parts else subvoxel_study
+    if args.volume_parts or args.subvoxel or args.grid_offsets:
+        study = volume_parts if args.volume_parts else subvoxel_study if args.subvoxel else grid_offsets
         record = {name: study(meshes, args.resolution, name) for name, meshes in classes.items()}
         if args.json:
             Path(args.json).write_text(json.dumps(record, indent=1))
@@ -617,6 +619,38 @@ def subvoxel_study(meshes, resolution=96, name="", sub=3, out=print):
     out(f"{name}: cv of V^(1/3): voxel count {cv['voxels']:.5f}, sub-voxel boundary {cv['subvoxel']:.5f}, "
         f"capped closed form {cv['capped']:.5f}")
     return cv
+
+
+#: Grid shifts (in pitches) of ``--grid-offsets``: the library's grid and three shifted by half a
+#: voxel along two axes each (together they sample every half-voxel parity once per axis pair).
+GRID_SHIFTS = ((0.0, 0.0, 0.0), (0.5, 0.5, 0.0), (0.5, 0.0, 0.5), (0.0, 0.5, 0.5))
+
+
+def grid_offsets(meshes, resolution=96, name="", out=print):
+    """``--grid-offsets``: the robust center (depth^4) and volume of each shape on the library's
+    grid and on grids shifted by :data:`GRID_SHIFTS` (``jaxpose.occupancy.solid.GRID_OFFSET``
+    moved for the call, restored after), per grid the class's sigma_tr and cv of V^(1/3), and the
+    same for the mean over the four grids of each shape's center and volume.
+    Returns {"sigma_tr": [per grid], "cv": [per grid], "mean_sigma_tr", "mean_cv"}."""
+    from jaxpose.occupancy import solid as solid_module
+    from jaxpose.pose.estimators import solid_center_volume
+
+    base = solid_module.GRID_OFFSET
+    centers = np.zeros((len(GRID_SHIFTS), len(meshes), 3))
+    volumes = np.zeros((len(GRID_SHIFTS), len(meshes)))
+    try:
+        for j, shift in enumerate(GRID_SHIFTS):
+            solid_module.GRID_OFFSET = base + np.asarray(shift)
+            for k, mesh in enumerate(meshes):
+                v, f = baselines.split_geometry(mesh)
+                centers[j, k], volumes[j, k] = solid_center_volume(robust_solid(v, f, resolution=resolution), 4)
+    finally:
+        solid_module.GRID_OFFSET = base
+    one = [spreads(c, v ** (1 / 3)) for c, v in zip(centers, volumes)]
+    mean = spreads(centers.mean(0), volumes.mean(0) ** (1 / 3))
+    out(f"{name}: sigma_tr per grid {' '.join(f'{s:.5g}' for s, _ in one)}, mean of the grids {mean[0]:.5g}; "
+        f"cv per grid {' '.join(f'{c:.5f}' for _, c in one)}, mean of the grids {mean[1]:.5f}")
+    return {"sigma_tr": [s for s, _ in one], "cv": [c for _, c in one], "mean_sigma_tr": mean[0], "mean_cv": mean[1]}
 
 
 if __name__ == "__main__":

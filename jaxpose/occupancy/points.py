@@ -50,6 +50,7 @@ import numpy as np
 from jax import lax
 
 from ..config import RobustConfig
+from . import bits
 from .solid import GRID_OFFSET, LINK, POINT_BIAS
 
 __all__ = ["PointSolid", "point_solid", "spacing_subset", "spacing_quantile", "grid_cells", "exterior_fill",
@@ -256,13 +257,13 @@ def _border(shape):
 
 def exterior_fill(solid):
     """``solid`` with its enclosed cavities filled: the cells not 6-connected to the grid border
-    through cells outside the solid (``scipy.ndimage.binary_fill_holes``). (g, g, g) bool."""
-    flat = jnp.arange(solid.size, dtype=jnp.int32).reshape(solid.shape)
-    # border cells share label 0, so the exterior ends up labelled 0; cell 0 (a corner) joins it
-    # so that label 0 names a cell labelled 0 (a solid corner cell stays solid below)
-    free = ~solid | (flat == 0)
-    labels = _label(free, jnp.where(_border(solid.shape), 0, flat), corners=False)
-    return solid | (labels != 0)
+    through cells outside the solid (``scipy.ndimage.binary_fill_holes``). (a, b, c) bool.
+
+    A flood from the free border cells on the grid packed 32 cells to a word (:func:`.bits.flood`)."""
+    free = ~solid
+    c = solid.shape[-1]
+    outside = bits.flood(bits.pack(free & _border(solid.shape)), bits.pack(free), c)
+    return solid | ~bits.unpack(outside, c)
 
 
 def components(solid):

@@ -1,0 +1,110 @@
+"""Boolean grids packed 32 cells to a word, and the flood fill that runs on them.
+
+A (..., c) bool grid is packed along its last axis into (..., ceil(c / 32)) uint32 words: cell k
+of a line is bit k % 32 of word k // 32 (the padding bits of the last word are 0). A bitwise
+AND / OR over words then does 32 cells at once, and a shift along the packed axis moves every
+cell of a line in a few word operations.
+
+:func:`flood` spreads seed cells through the free cells of a 3-D grid, 6-connected: each round
+spreads them along the packed axis through whole runs of free cells (log-step doubling,
+Kogge-Stone) and one cell along the two other axes, until nothing changes. The rounds needed
+follow the turns of the longest path, not its length.
+
+Example::
+
+    >>> reached = unpack(flood(pack(seeds & free), pack(free)), free.shape[-1])
+"""
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax import lax
+
+__all__ = ["pack", "unpack", "shift_bits", "flood"]
+
+_WORD = 32
+_BIT = np.arange(_WORD, dtype=np.uint32)
+
+
+def pack(x) -> jax.Array:
+    """(..., c) bool -> (..., ceil(c / 32)) uint32; cell k is bit k % 32 of word k // 32."""
+    c = x.shape[-1]
+    words = -(-c // _WORD)
+    x = jnp.pad(jnp.asarray(x, bool), [(0, 0)] * (x.ndim - 1) + [(0, words * _WORD - c)])
+    x = x.reshape(x.shape[:-1] + (words, _WORD)).astype(jnp.uint32)
+    return jnp.sum(x << _BIT, axis=-1, dtype=jnp.uint32)  # distinct bits: the sum is their OR
+
+
+def unpack(w, c: int) -> jax.Array:
+    """(..., words) uint32 -> (..., c) bool, the inverse of :func:`pack`."""
+    bits = (w[..., None] >> _BIT) & jnp.uint32(1)
+    return bits.reshape(w.shape[:-1] + (-1,))[..., :c].astype(bool)
+
+
+def _shift_words(w, k: int):
+    """Words moved k places to higher (k > 0) or lower (k < 0) index along the last axis, zeros in."""
+    n = w.shape[-1]
+    if k == 0:
+        return w
+    if abs(k) >= n:
+        return jnp.zeros_like(w)
+    zeros = jnp.zeros(w.shape[:-1] + (abs(k),), w.dtype)
+    return jnp.concatenate([zeros, w[..., : n - k]], -1) if k > 0 else jnp.concatenate([w[..., -k:], zeros], -1)
+
+
+def shift_bits(w, s: int):
+    """Packed lines with cell k moved to k + s (static int, either sign), zeros shifted in."""
+    k, r = divmod(abs(s), _WORD)
+    sign = 1 if s > 0 else -1
+    w = _shift_words(w, sign * k)
+    if r == 0:
+        return w
+    up, down = np.uint32(r), np.uint32(_WORD - r)
+    if s > 0:
+        return (w << up) | (_shift_words(w, 1) >> down)
+    return (w >> up) | (_shift_words(w, -1) << down)
+
+
+def _step(w, axis: int, d: int):
+    """Words moved one place along an unpacked ``axis`` (d = +1 or -1), zeros in."""
+    n = w.shape[axis]
+    pad = [(0, 0)] * w.ndim
+    pad[axis] = (1, 0) if d > 0 else (0, 1)
+    p = jnp.pad(w, pad)
+    return lax.slice_in_dim(p, 0, n, axis=axis) if d > 0 else lax.slice_in_dim(p, 1, n + 1, axis=axis)
+
+
+def _runs(seeds, free, c: int):
+    """``seeds`` spread through the runs of ``free`` along the packed axis (lines of c cells), both ways."""
+    for sign in (1, -1):
+        reach, open_ = seeds, free  # open_: cells whose next s cells (this way) are all free
+        s = 1
+        while s < c:
+            reach = reach | (open_ & shift_bits(reach, sign * s))
+            open_ = open_ & shift_bits(open_, sign * s)
+            s *= 2
+        seeds = reach
+    return seeds
+
+
+def flood(seeds, free, c: int):
+    """The free cells 6-connected to ``seeds`` through free cells, on packed (a, b, words) grids.
+
+    Args:
+      seeds: (a, b, words) uint32, packed seed cells (a subset of ``free``).
+      free: (a, b, words) uint32, packed free cells.
+      c: cells per line along the packed axis.
+
+    Returns:
+      (a, b, words) uint32, the packed cells reached (seeds included).
+    """
+
+    def body(state):
+        reach, _ = state
+        new = _runs(reach, free, c)
+        new = new | (free & (_step(new, 0, 1) | _step(new, 0, -1) | _step(new, 1, 1) | _step(new, 1, -1)))
+        return new, jnp.any(new != reach)
+
+    reach, _ = lax.while_loop(lambda state: state[1], body, (seeds, jnp.array(True)))
+    return reach

@@ -33,6 +33,7 @@ from __future__ import annotations
 
 from functools import partial
 import numbers
+import os
 import warnings
 from typing import Iterable
 
@@ -53,7 +54,7 @@ from .sizes import MAX_POINTS, bucket, pad, subsample_index
 from .result import MIN_POINT_VOXELS, SECOND_BODY, Pose, Status
 from .validity import flag_offset, pose_status
 
-__all__ = ["Pose", "METHODS", "DEFAULT_METHOD", "normalize", "normalize_batch", "pose_pipeline", "robust_pipeline",
+__all__ = ["Pose", "METHODS", "DEFAULT_METHOD", "normalize", "normalize_batch", "chained_map", "pose_pipeline", "robust_pipeline",
            "pose_from_svdd"]
 
 METHODS = ("robust", "ocsvm")
@@ -410,10 +411,11 @@ def normalize_batch(list_of_points: Iterable, method: str = DEFAULT_METHOD, *, p
         :func:`normalize` (shared by all objects; each set above ``max_points`` is subsampled).
       pad_to: optional row count (>= the largest set) to share one compilation across calls.
       strategy: "vmap" (all objects in lock-step: one program over the batch), "map"
-        (``lax.map``, one object after another inside the compiled call) or "auto" ("map" on
-        CPU, "vmap" elsewhere: on CPU lock-step brings no parallelism, and every object runs as
-        many solver iterations (ocsvm) or closing, labelling and distance rounds (robust) as the
-        slowest; ``docs/performance.md``).
+        (``lax.map``, one object after another inside the compiled call; on CPU the batch is cut
+        into as many independent ``lax.map`` chains as the process has cores, which XLA runs
+        concurrently, :func:`chained_map`) or "auto" ("map" on CPU, "vmap" elsewhere: on CPU
+        lock-step brings no parallelism, and every object runs as many solver iterations (ocsvm)
+        or closing, labelling and distance rounds (robust) as the slowest; ``docs/performance.md``).
 
     Returns:
       :class:`Pose` whose fields have a leading axis of len(list_of_points).
@@ -455,28 +457,54 @@ def normalize_batch(list_of_points: Iterable, method: str = DEFAULT_METHOD, *, p
         raise _validate.InvalidInputError(f"pad_to={m} is smaller than the largest point set ({largest} points)")
     pts, mask = pad(arrays, m, dtype)
     n = len(arrays)
+    chains = min(n, _cores()) if strategy == "map" and jax.default_backend() == "cpu" else 1
     if method == "robust":
         queries, query_mask = _queries([len(a) for a in arrays], config.spacing_samples, seed)
         power = jnp.broadcast_to(jnp.asarray(params["power"], pts.dtype), (n,))
-        pose = _robust_batched(pts, mask, queries, query_mask, power, config=config, strategy=strategy)
+        pose = _robust_batched(pts, mask, queries, query_mask, power, config=config, strategy=strategy, chains=chains)
         return _finish(pose, shift, size, throw)
     gamma = jnp.broadcast_to(jnp.asarray(params["gamma"], pts.dtype), (n,))
     nu = jnp.broadcast_to(jnp.asarray(params["nu"], pts.dtype), (n,))
-    pose = _batched(pts, mask, gamma, nu, config=config, strategy=strategy, rotation=rotation)
+    pose = _batched(pts, mask, gamma, nu, config=config, strategy=strategy, rotation=rotation, chains=chains)
     return _finish(pose, shift, size, throw, gamma, nu, config.svdd.tol)
 
 
-@partial(jax.jit, static_argnames=("config", "strategy", "rotation"))
-def _batched(points, mask, gamma, nu, config, strategy, rotation=False):
+def _cores() -> int:
+    """CPU cores this process may run on."""
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+
+
+def chained_map(fn, xs, chains: int):
+    """``jax.lax.map(fn, xs)`` as ``chains`` independent ``lax.map`` chains over consecutive
+    slices of the leading axis, concatenated: the same results in the same order.
+
+    The chains share no data, so XLA's CPU runtime runs them concurrently on its thread pool
+    (one loop each); each holds one object's intermediates at a time. chains: static int >= 1
+    (more than the batch: one object per chain).
+
+    Example::
+
+        >>> chained_map(lambda x: x * 2, jnp.arange(5.0), 2)   # [0, 2, 4, 6, 8]
+    """
+    n = jax.tree.leaves(xs)[0].shape[0]
+    cuts = np.unique(np.linspace(0, n, max(1, min(int(chains), n)) + 1).round().astype(int))
+    if len(cuts) <= 2:
+        return jax.lax.map(fn, xs)
+    parts = [jax.lax.map(fn, jax.tree.map(lambda x, a=a, b=b: x[a:b], xs)) for a, b in zip(cuts[:-1], cuts[1:])]
+    return jax.tree.map(lambda *p: jnp.concatenate(p), *parts)
+
+
+@partial(jax.jit, static_argnames=("config", "strategy", "rotation", "chains"))
+def _batched(points, mask, gamma, nu, config, strategy, rotation=False, chains=1):
     fn = lambda p, mk, g, n: pose_pipeline(p, mk, g, n, config, rotation)
     if strategy == "map":
-        return jax.lax.map(lambda args: fn(*args), (points, mask, gamma, nu))
+        return chained_map(lambda args: fn(*args), (points, mask, gamma, nu), chains)
     return jax.vmap(fn)(points, mask, gamma, nu)
 
 
-@partial(jax.jit, static_argnames=("config", "strategy"))
-def _robust_batched(points, mask, queries, query_mask, power, config, strategy):
+@partial(jax.jit, static_argnames=("config", "strategy", "chains"))
+def _robust_batched(points, mask, queries, query_mask, power, config, strategy, chains=1):
     fn = lambda p, mk, q, qm, pw: robust_pipeline(p, mk, q, qm, pw, config)
     if strategy == "map":
-        return jax.lax.map(lambda args: fn(*args), (points, mask, queries, query_mask, power))
+        return chained_map(lambda args: fn(*args), (points, mask, queries, query_mask, power), chains)
     return jax.vmap(fn)(points, mask, queries, query_mask, power)

@@ -100,13 +100,23 @@ def test_erode6_is_scipy_binary_erosion():
     assert np.array_equal(np.asarray(jax.jit(po.erode6)(jnp.asarray(s))), ndimage.binary_erosion(s))
 
 
-@pytest.mark.parametrize("cap", [1, 4, 9, 16])
-def test_capped_distance_exact_below_the_cap(cap):
-    feature = np.random.default_rng(4).random((30, 28, 26)) < 0.004
-    d2 = np.asarray(jax.jit(po.capped_squared_distance)(jnp.asarray(feature), cap))
-    ref = np.rint(ndimage.distance_transform_edt(~feature) ** 2)
-    near = ref <= cap
-    assert np.array_equal(d2[near], ref[near]) and np.all(d2[~near] > cap)
+@pytest.mark.parametrize("r2", [0, 1, 2, 4, 9, 16, 27, 36])
+def test_dilate_ball_equals_scipy_distances(r2):
+    """Cells within sqrt(r2) of a feature (squared Euclidean distance <= r2), packed lines of 2
+    words (the last one partial); the grid's border counts as no feature."""
+    feature = np.random.default_rng(4).random((30, 28, 45)) < 0.004
+    out = bits.unpack(jax.jit(bits.dilate_ball, static_argnums=2)(bits.pack(jnp.asarray(feature)), r2, 6), 45)
+    ref = ndimage.distance_transform_edt(~feature) ** 2 <= r2 + 1e-9
+    assert 0 < ref.sum() < ref.size and np.array_equal(np.asarray(out), ref)
+
+
+def test_dilate_ball_vmapped_radii():
+    feature = np.random.default_rng(5).random((3, 16, 15, 20)) < 0.01
+    r2 = jnp.array([1, 5, 12])
+    out = jax.jit(jax.vmap(lambda f, r: bits.unpack(bits.dilate_ball(bits.pack(f), r, 4), 20)))(jnp.asarray(feature), r2)
+    for k in range(3):
+        ref = ndimage.distance_transform_edt(~feature[k]) ** 2 <= int(r2[k]) + 1e-9
+        assert np.array_equal(np.asarray(out[k]), ref)
 
 
 def test_spacing_quantile_equals_kdtree():

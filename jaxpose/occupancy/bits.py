@@ -10,6 +10,10 @@ spreads them along the packed axis through whole runs of free cells (log-step do
 Kogge-Stone) and one cell along the two other axes, until nothing changes. The rounds needed
 follow the turns of the longest path, not its length.
 
+:func:`dilate_ball` dilates by the Euclidean ball {dx^2 + dy^2 + dz^2 <= r^2} (r^2 traced): the
+lines dilated along the packed axis by w = 0 .. rmax cells once, then for each (dy, dz) of the
+disk the line dilated by w = floor(sqrt(r^2 - dy^2 - dz^2)), moved by (dy, dz), OR-ed in.
+
 Example::
 
     >>> reached = unpack(flood(pack(seeds & free), pack(free)), free.shape[-1])
@@ -21,7 +25,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax import lax
 
-__all__ = ["pack", "unpack", "shift_bits", "flood"]
+__all__ = ["pack", "unpack", "shift_bits", "flood", "dilate_ball"]
 
 _WORD = 32
 _BIT = np.arange(_WORD, dtype=np.uint32)
@@ -108,3 +112,36 @@ def flood(seeds, free, c: int):
 
     reach, _ = lax.while_loop(lambda state: state[1], body, (seeds, jnp.array(True)))
     return reach
+
+
+def dilate_ball(w, r2, rmax: int):
+    """The cells within Euclidean distance sqrt(r2) of a set cell, on a packed (a, b, words) grid.
+
+    Args:
+      w: (a, b, words) uint32, packed cells.
+      r2: () int, the squared radius in cells (traced), 0 <= r2 <= rmax^2.
+      rmax: static int, the largest radius r2 may reach.
+
+    Returns:
+      (a, b, words) uint32: cell x set iff some set cell y has |x - y|^2 <= r2 (cells beyond the
+      grid count as unset; bits past the line's end may be set: :func:`unpack` drops them).
+      Equals ``scipy.ndimage.distance_transform_edt(~x) ** 2 <= r2``.
+    """
+    rows = [w]
+    for k in range(1, rmax + 1):
+        rows.append(rows[-1] | shift_bits(w, k) | shift_bits(w, -k))
+    rows.append(jnp.zeros_like(w))  # index rmax + 1: nothing (offsets outside the disk)
+    lines = jnp.pad(jnp.stack(rows), [(0, 0), (rmax, rmax), (rmax, rmax), (0, 0)])
+    isqrt = jnp.asarray(np.floor(np.sqrt(np.arange(rmax * rmax + 1) + 0.5)).astype(np.int32))
+    r2 = jnp.clip(jnp.asarray(r2, jnp.int32), 0, rmax * rmax)
+    r = isqrt[r2]
+    side = 2 * r + 1
+    a, b, words = w.shape
+
+    def add(i, out):
+        dy, dz = i // side - r, i % side - r
+        rest = r2 - dy * dy - dz * dz
+        k = jnp.where(rest >= 0, isqrt[jnp.clip(rest, 0, rmax * rmax)], rmax + 1)
+        return out | lax.dynamic_slice(lines, (k, rmax - dy, rmax - dz, 0), (1, a, b, words))[0]
+
+    return lax.fori_loop(0, side * side, add, jnp.zeros_like(w))

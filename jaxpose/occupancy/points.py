@@ -10,7 +10,8 @@ static, pitch and origin traced):
 2. Pitch h = max(extent / resolution, q / ``max_closing``); closing radius r = max(1, ceil(q / h))
    voxels; a margin of 3 r + 3 voxels around the box; grid origin lo - (margin + 1e-3 sqrt 2) h.
 3. Occupied voxels: each point's voxel (scatter). Closing: dilate by r (squared distance to the
-   occupied voxels <= r^2), fill enclosed cavities (:func:`exterior_fill`), erode by r. A closing
+   occupied voxels <= r^2, :func:`.bits.dilate_ball` on the grid packed 32 voxels to a word), fill
+   enclosed cavities (:func:`exterior_fill`), erode by r. A closing
    is accepted when it holds >= 1.2 x the voxels of the eroded shell alone (no cavity: the fill
    leaked through a gap wider than the dilation); otherwise r grows by max(1, r // 4) up to 3 r
    (``lax.while_loop``). The solid is the closing or the occupied voxels.
@@ -54,9 +55,9 @@ from . import bits
 from .solid import GRID_OFFSET, LINK, POINT_BIAS
 
 __all__ = ["PointSolid", "point_solid", "spacing_subset", "spacing_quantile", "grid_cells", "exterior_fill",
-           "components", "keep_main", "linked_parts", "erode6", "capped_squared_distance", "POINT_BIAS", "LINK"]
+           "components", "keep_main", "linked_parts", "erode6", "POINT_BIAS", "LINK"]
 
-_BIG = np.int32(2**30)  # "no feature in reach" for squared distances; "no label" for components
+_BIG = np.int32(2**30)  # "no label" for components
 _CANDIDATES = 8  # nearest-neighbour candidates per query from the matrix product, then exact
 
 
@@ -139,49 +140,6 @@ def spacing_quantile(points, mask, queries, query_mask, k=4, q=0.9, block=256):
 
     r = lax.map(kth, qi).reshape(-1)[:m]
     return _masked_quantile(r, query_mask & jnp.isfinite(r), q)
-
-
-# ------------------------------------------------------------------ distances
-def _min_plus(f, axis, limit):
-    """g(i) = min_j f(j) + (i - j)^2 along ``axis``, exact wherever g(i) <= ``limit`` (traced).
-
-    Offsets K = 1, 2, ... are taken (both signs, one vector min each) while K^2 <= limit and some
-    cell of a line that holds a finite value is still above K^2 (its minimiser may lie further).
-    """
-    n = f.shape[axis]
-    pad = [(0, 0)] * f.ndim
-    pad[axis] = (n, n)
-    padded = jnp.pad(f, pad, constant_values=_BIG)
-    reachable = jnp.any(f < _BIG, axis=axis, keepdims=True)
-
-    def bound(g):
-        return jnp.minimum(jnp.max(jnp.where(reachable, g, 0)), limit)
-
-    def cond(state):
-        k, _, top = state
-        return (k < n) & (k * k <= top)
-
-    def body(state):
-        k, g, _ = state
-        g = jnp.minimum(g, jnp.minimum(lax.dynamic_slice_in_dim(padded, n + k, n, axis),
-                                       lax.dynamic_slice_in_dim(padded, n - k, n, axis)) + k * k)
-        return k + 1, g, bound(g)
-
-    _, g, _ = lax.while_loop(cond, body, (jnp.int32(1), f, bound(f)))
-    return g
-
-
-def capped_squared_distance(feature, cap):
-    """Squared distance (cells) of every cell to the nearest True cell of ``feature`` (3-D bool),
-    exact wherever it is <= ``cap`` (() int, traced); elsewhere some value > ``cap``.
-
-    The truncated transform behind dilations and erosions by a ball of radius sqrt(cap): its loops
-    stop at offset sqrt(cap), where the exact transform (:func:`jaxpose.depth.squared_distance`,
-    used for the depth) runs to the largest distance in the grid."""
-    d2 = jnp.where(feature, 0, _BIG).astype(jnp.int32)
-    for axis in range(3):
-        d2 = _min_plus(d2, axis, cap)
-    return d2
 
 
 # ------------------------------------------------------------------ morphology
@@ -323,17 +281,20 @@ def _occupied(points, mask, origin, pitch, cells):
     return occ.at[idx[:, 0], idx[:, 1], idx[:, 2]].set(True, mode="drop")
 
 
-def _closing(occ, radius, max_radius):
-    """Closing of the occupied voxels with the adaptive radius (module docs, step 3); also the
-    squared distances to the occupied voxels (exact up to ``max_radius``)."""
-    cap = max_radius * max_radius
-    out_d2 = capped_squared_distance(occ, cap)
+def _closing(occ, radius, max_radius, rmax):
+    """Closing of the occupied voxels with the adaptive radius (module docs, step 3), radii up to
+    ``max_radius`` (traced) <= ``rmax`` (static); also the packed occupied voxels."""
+    c = occ.shape[-1]
+    packed = bits.pack(occ)
+
+    def ball(p, r):  # cells within r of a cell of p (squared distance <= r^2)
+        return bits.unpack(bits.dilate_ball(p, r * r, rmax), c)
 
     def attempt(r):
-        dil = out_d2 <= r * r
+        dil = ball(packed, r)
         filled = exterior_fill(dil)
-        closed = capped_squared_distance(~filled, r * r) > r * r
-        shell = capped_squared_distance(~dil, r * r) > r * r
+        closed = ~ball(bits.pack(~filled), r)
+        shell = ~ball(bits.pack(~dil), r)
         return closed, jnp.sum(closed) >= 1.2 * jnp.sum(shell)
 
     def cond(state):
@@ -347,7 +308,7 @@ def _closing(occ, radius, max_radius):
 
     closed, ok = attempt(radius)
     r, closed, _ = lax.while_loop(cond, body, (radius, closed, ok | (radius >= max_radius)))
-    return closed | occ, r, out_d2
+    return closed | occ, r, packed
 
 
 def _pass(points, mask, lo, hi, q, resolution, config):
@@ -359,8 +320,10 @@ def _pass(points, mask, lo, hi, q, resolution, config):
     margin = 3 * radius + 3
     origin = lo - (margin.astype(pitch.dtype) + GRID_OFFSET) * pitch
     occ = _occupied(points, mask, origin, pitch, cells)
-    solid, r, d2 = _closing(occ, radius, 3 * radius)  # d2 exact up to 3 radius >= LINK radius
-    return solid, occ, origin, pitch, r, d2 <= (LINK * radius) ** 2
+    rmax = max(3, LINK) * config.max_closing
+    solid, r, packed = _closing(occ, radius, 3 * radius, rmax)
+    near = bits.unpack(bits.dilate_ball(packed, (LINK * radius) ** 2, rmax), cells)
+    return solid, occ, origin, pitch, r, near
 
 
 def point_solid(points, mask, queries, config: RobustConfig, query_mask=None) -> PointSolid:

@@ -95,6 +95,38 @@ def test_keep_main_equals_numpy(ratio):
     assert np.array_equal(np.asarray(kept), ref) and int(count) == n and int(dropped) == d
 
 
+def _blobs(count, shape=(24, 22, 40), seed=0):
+    """``count`` separate boxes of random sizes, two of them touching only at a corner (one
+    26-connected component)."""
+    rng = np.random.default_rng(seed)
+    s = np.zeros(shape, bool)
+    s[1:4, 1:4, 1:4] = True
+    s[4:6, 4:6, 4:6] = True  # corner contact with the first box: the same component
+    for k in range(count - 1):
+        a, b, c = 1 + 5 * (k % 4), 8 + 5 * (k // 4 % 3), 8 + 6 * (k // 12)
+        s[a:a + rng.integers(1, 4), b:b + rng.integers(1, 4), c:c + rng.integers(1, 5)] = True
+    return s
+
+
+@pytest.mark.parametrize("count", [0, 1, 2, 7, 8, 9, 13])
+@pytest.mark.parametrize("ratio", [0.5, 0.05])
+def test_keep_main_few_and_many_components(count, ratio):
+    """None, one, a few and many components (corner contacts joined): as the NumPy keep_main."""
+    s = _blobs(count, seed=count) if count else np.zeros((10, 9, 33), bool)
+    ref, n, d = host_solid.keep_main(s, ratio) if count else (s, 0, 0)
+    assert n == count
+    kept, found, dropped = jax.jit(po.keep_main)(jnp.asarray(s), ratio)
+    assert np.array_equal(np.asarray(kept), ref) and int(found) == n and int(dropped) == d
+
+
+def test_keep_main_vmapped():
+    grids = np.stack([_blobs(3, seed=1), _blobs(12, seed=2), _blobs(1, seed=3)])
+    kept, found, dropped = jax.jit(jax.vmap(lambda g: po.keep_main(g, 0.5)))(jnp.asarray(grids))
+    for k in range(3):
+        ref, n, d = host_solid.keep_main(grids[k], 0.5)
+        assert np.array_equal(np.asarray(kept[k]), ref) and int(found[k]) == n and int(dropped[k]) == d
+
+
 def test_erode6_is_scipy_binary_erosion():
     s = _random_solid(seed=3, density=0.7)
     assert np.array_equal(np.asarray(jax.jit(po.erode6)(jnp.asarray(s))), ndimage.binary_erosion(s))

@@ -1,4 +1,5 @@
 """normalize_batch: equals normalize per object, compiles once, rejects bad input."""
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -144,3 +145,27 @@ def test_bad_options_are_rejected():
         jaxpose.normalize_batch(sets, method="ocsvm", strategy="pmap")
     with pytest.raises(InvalidInputError, match="solver"):
         jaxpose.normalize_batch(sets, method="ocsvm", solver="newton")
+
+
+@pytest.mark.parametrize("chains", [1, 2, 3, 7])
+def test_chained_map_equals_lax_map(chains):
+    """The batch cut into independent lax.map chains: the same values in the same order (a pytree
+    with a None leaf, as Pose has), also with more chains than objects."""
+    xs = (jnp.arange(5.0), jnp.arange(10.0).reshape(5, 2))
+    fn = lambda a: {"s": a[0] * 2 + a[1].sum(), "none": None, "v": a[1][::-1]}
+    got = jax.jit(lambda x: pose_module.chained_map(fn, x, chains))(xs)
+    ref = jax.lax.map(fn, xs)
+    assert got["none"] is None
+    assert np.array_equal(got["s"], ref["s"]) and np.array_equal(got["v"], ref["v"])
+
+
+def test_robust_map_in_chains_equals_one_chain(monkeypatch):
+    """normalize_batch's map strategy on CPU runs one chain per core: forced to 1 and to 3 chains,
+    the robust poses are identical."""
+    sets = _sets()[:3]
+    monkeypatch.setattr(pose_module, "_cores", lambda: 1)
+    one = jaxpose.normalize_batch(sets, strategy="map", resolution=32, coarse=16)
+    monkeypatch.setattr(pose_module, "_cores", lambda: 3)
+    three = jaxpose.normalize_batch(sets, strategy="map", resolution=32, coarse=16)
+    assert np.array_equal(one.center, three.center) and np.array_equal(one.scale, three.scale)
+    assert np.array_equal(np.asarray(one.status), np.asarray(three.status))

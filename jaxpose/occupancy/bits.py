@@ -142,6 +142,7 @@ def dilate_ball(w, r2, rmax: int):
         dy, dz = i // side - r, i % side - r
         rest = r2 - dy * dy - dz * dz
         k = jnp.where(rest >= 0, isqrt[jnp.clip(rest, 0, rmax * rmax)], rmax + 1)
-        return out | lax.dynamic_slice(lines, (k, rmax - dy, rmax - dz, 0), (1, a, b, words))[0]
+        start = (k, rmax - dy, rmax - dz, jnp.int32(0))
+        return out | lax.dynamic_slice(lines, start, (1, a, b, words))[0]
 
     return lax.fori_loop(0, side * side, add, jnp.zeros_like(w))

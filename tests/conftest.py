@@ -37,9 +37,12 @@ FAUST = SHARED / "data" / "faust-dev"
 # a pytest-xdist worker runs hundreds of tests. Past the kernel's per-process limit
 # (vm.max_map_count, 65530 by default) LLVM's section allocation fails ("LLVM compilation error:
 # Cannot allocate memory") and the next compilation kills the worker with a segmentation fault or
-# an abort in backend_compile_and_load (docs/testing.md). After a test that leaves the process
-# above half the limit, the compiled programs are released.
+# an abort in backend_compile_and_load (docs/testing.md). The compiled programs are released after
+# the last test of a file that leaves the process above half the limit (the next file compiles
+# its own), or after any test above three quarters (a file's tests share programs; one test has
+# added at most ~8,000 maps).
 MAP_FRACTION = 0.5
+MAP_FRACTION_IN_FILE = 0.75
 
 
 def memory_maps() -> int:
@@ -73,7 +76,8 @@ def release_compiled_programs(limit=None, fraction=MAP_FRACTION) -> bool:
 @pytest.hookimpl(hookwrapper=True)
 def pytest_runtest_teardown(item, nextitem):
     yield  # after the test's fixtures are torn down
-    release_compiled_programs()
+    same_file = nextitem is not None and nextitem.path == item.path
+    release_compiled_programs(fraction=MAP_FRACTION_IN_FILE if same_file else MAP_FRACTION)
 
 
 def _float64():

@@ -169,3 +169,25 @@ def test_robust_map_in_chains_equals_one_chain(monkeypatch):
     three = jaxpose.normalize_batch(sets, strategy="map", resolution=32, coarse=16)
     assert np.array_equal(one.center, three.center) and np.array_equal(one.scale, three.scale)
     assert np.array_equal(np.asarray(one.status), np.asarray(three.status))
+
+
+@pytest.mark.parametrize("cores, batch, expected", [(1, 4, 1), (3, 4, 3), (64, 4, 4), (64, 9, pose_module.MAX_CHAINS),
+                                                   (2, 1, 1)])
+def test_map_chains_are_bounded_by_cores_batch_and_max_chains(monkeypatch, cores, batch, expected):
+    """Each chain is one more copy of the pipeline to compile: at most MAX_CHAINS, whatever the cores."""
+    seen = []
+
+    class Stop(Exception):
+        pass
+
+    def record(*args, chains, **kwargs):
+        seen.append(chains)
+        raise Stop
+
+    monkeypatch.setattr(pose_module, "_cores", lambda: cores)
+    monkeypatch.setattr(pose_module, "_robust_batched", record)
+    sets = [sphere_with_arm(100, seed=i) for i in range(batch)]
+    with pytest.raises(Stop):
+        jaxpose.normalize_batch(sets, strategy="map")
+    expected = expected if jax.default_backend() == "cpu" else 1
+    assert seen == [min(expected, pose_module.MAX_CHAINS)]

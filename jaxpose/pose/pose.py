@@ -412,7 +412,8 @@ def normalize_batch(list_of_points: Iterable, method: str = DEFAULT_METHOD, *, p
       pad_to: optional row count (>= the largest set) to share one compilation across calls.
       strategy: "vmap" (all objects in lock-step: one program over the batch), "map"
         (``lax.map``, one object after another inside the compiled call; on CPU the batch is cut
-        into as many independent ``lax.map`` chains as the process has cores, which XLA runs
+        into as many independent ``lax.map`` chains as the process has cores, at most
+        ``MAX_CHAINS`` (each chain is one more copy of the pipeline to compile), which XLA runs
         concurrently, :func:`chained_map`) or "auto" ("map" on CPU, "vmap" elsewhere: on CPU
         lock-step brings no parallelism, and every object runs as many solver iterations (ocsvm)
         or closing, labelling and distance rounds (robust) as the slowest; ``docs/performance.md``).
@@ -457,7 +458,7 @@ def normalize_batch(list_of_points: Iterable, method: str = DEFAULT_METHOD, *, p
         raise _validate.InvalidInputError(f"pad_to={m} is smaller than the largest point set ({largest} points)")
     pts, mask = pad(arrays, m, dtype)
     n = len(arrays)
-    chains = min(n, _cores()) if strategy == "map" and jax.default_backend() == "cpu" else 1
+    chains = min(n, _cores(), MAX_CHAINS) if strategy == "map" and jax.default_backend() == "cpu" else 1
     if method == "robust":
         queries, query_mask = _queries([len(a) for a in arrays], config.spacing_samples, seed)
         power = jnp.broadcast_to(jnp.asarray(params["power"], pts.dtype), (n,))
@@ -467,6 +468,9 @@ def normalize_batch(list_of_points: Iterable, method: str = DEFAULT_METHOD, *, p
     nu = jnp.broadcast_to(jnp.asarray(params["nu"], pts.dtype), (n,))
     pose = _batched(pts, mask, gamma, nu, config=config, strategy=strategy, rotation=rotation, chains=chains)
     return _finish(pose, shift, size, throw, gamma, nu, config.svdd.tol)
+
+
+MAX_CHAINS = 4  # chains of normalize_batch's "map" on CPU: compile time grows with each chain
 
 
 def _cores() -> int:

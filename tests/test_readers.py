@@ -120,7 +120,7 @@ def test_off_refused(text):
         readers.read(text.encode(), "off")
 
 
-# OFF files in the layout most writers produce: read on the bytes (readers._off_plain)
+# OFF files in the layout most writers produce: read on the bytes (readers.off._off_plain)
 TRIANGLES = "0 0 0\n1 0 0\n1 1 0\n0 1 0.5\n3 0 1 2\n3 0 2 3\n"
 OFF_PLAIN = {
     "lf": "OFF\n4 2 0\n" + TRIANGLES,
@@ -154,14 +154,14 @@ OFF_NOT_PLAIN = {
 def test_off_plain_layouts(name):
     """Read on the bytes, and equal to trimesh's mesh."""
     data = OFF_PLAIN[name].encode()
-    assert readers._off_plain(data) is not None
+    assert readers.off._off_plain(data) is not None
     check_same(data, "off")
 
 
 @pytest.mark.parametrize("name", sorted(OFF_NOT_PLAIN))
 def test_off_other_layouts_read_line_by_line(name):
     data = OFF_NOT_PLAIN[name].encode()
-    assert readers._off_plain(data) is None
+    assert readers.off._off_plain(data) is None
     check_same(data, "off")
 
 
@@ -174,7 +174,7 @@ def test_off_other_layouts_read_line_by_line(name):
 ])
 def test_off_plain_refuses_what_is_not_plain(text):
     """Values that are not one number each, or lines of several lengths: not read on the bytes."""
-    assert readers._off_plain(text.encode()) is None
+    assert readers.off._off_plain(text.encode()) is None
 
 
 def _token_positions(block):
@@ -197,7 +197,7 @@ def test_off_fixed_decimals_are_floats(decimals, scale):
         tokens = [t + "." for t in tokens]  # "12."
     tokens[1::11] = ["-0." + "0" * decimals] * len(tokens[1::11])
     block = "".join(f"{a} {b} {c}\n" for a, b, c in zip(*[iter(tokens)] * 3)).encode()
-    got = readers._decimals(*_token_positions(block))
+    got = readers.off._decimals(*_token_positions(block))
     assert got is not None
     np.testing.assert_array_equal(got.view(np.int64), np.array([float(t) for t in tokens]).view(np.int64))
 
@@ -213,7 +213,7 @@ def test_off_fixed_decimals_are_floats(decimals, scale):
     "1.5 -.5 1234567890123.45",  # 16 digits: not exact as an integer here
 ])
 def test_off_fixed_decimals_refuse_other_tokens(tokens):
-    assert readers._decimals(*_token_positions(tokens.encode() + b"\n")) is None
+    assert readers.off._decimals(*_token_positions(tokens.encode() + b"\n")) is None
 
 
 @pytest.mark.parametrize("cut", ["vertex", "face_line", "mid_face", "all_faces"])

@@ -1,0 +1,112 @@
+"""OBJ: ``v``, ``vt``, ``vn`` and faces of every reference form, as trimesh reads them."""
+from __future__ import annotations
+
+import re
+
+import numpy as np
+
+from .base import Loaded, Unsupported, _checked, _floats, _ints, _text, _tokens, _triangulate, _triangulate_inline
+
+__all__ = ["read_obj"]
+
+
+_INDEX = r"-?[0-9]+"
+_OBJ_FORMS = {form: re.compile(rf"{ref}(?: {ref})*") for form, ref in (
+    ((0, False), _INDEX), ((1, False), f"{_INDEX}/{_INDEX}"), ((2, True), f"{_INDEX}//{_INDEX}"),
+    ((2, False), f"{_INDEX}/{_INDEX}/{_INDEX}"))}
+
+def read_obj(data: bytes) -> Loaded:
+    """An OBJ file's mesh, as ``trimesh.load(..., file_type="obj", process=False)``.
+
+    Raises:
+      Unsupported: anything this reader does not reproduce exactly (read it with trimesh).
+    """
+    text = _text(data)
+    text = "\n{}\n".format(text.strip().replace("\r\n", "\n")).replace("\\\n", "")
+    if "usemtl" in text or "+e" in text or "-e" in text or "\r" in text:
+        raise Unsupported("materials, or text trimesh's OBJ loader rewrites")
+    lines = text.split("\n")
+    keyed = {}
+    for key in ("v", "vt", "vn", "f"):
+        prefix = key + " "
+        keyed[key] = [line[len(prefix):] for line in lines if line.startswith(prefix)]
+    if sum(1 for line in lines if line[:1] == "f") != len(keyed["f"]):
+        raise Unsupported("a line starting with f that is not a face")
+    if not keyed["v"] or not keyed["f"]:
+        raise Unsupported("no vertices or no faces")
+    arrays = {}
+    for key in ("v", "vt", "vn"):
+        if keyed[key]:
+            tokens, counts = _tokens(keyed[key])
+            if np.any(counts != counts[0]) or counts[0] == 0:
+                raise Unsupported(f"{key} lines of several lengths")
+            arrays[key] = _floats(tokens).reshape(len(counts), int(counts[0]))
+    v = arrays["v"]
+    if v.shape[1] < 3:
+        raise Unsupported("vertices with fewer than 3 values")
+    colors = v[:, 3:6] if v.shape[1] >= 6 else None
+    v = v[:, :3]
+    vt = arrays["vt"][:, :2] if "vt" in arrays else None
+    vn = arrays.get("vn")
+
+    faces_lines = [line.strip() for line in keyed["f"]]
+    references, refs = _tokens(faces_lines)  # refs: corners per face
+    if np.any(refs < 3):
+        raise Unsupported("a face with fewer than 3 corners")
+    form = references[0].count("/"), "//" in references[0]  # v, v/vt, v//vn, v/vt/vn
+    joined = " ".join(references)
+    if form not in _OBJ_FORMS or not _OBJ_FORMS[form].fullmatch(joined):
+        raise Unsupported("faces with several kinds of references")
+    per = form[0] + 1 - form[1]  # values per corner
+    flat = _ints(joined.replace("/", " ").split(), negative=True).reshape(-1, per)
+    flat[flat > 0] -= 1  # 1-based; negative ones stay (trimesh: from the end of all vertices)
+    tex = flat[:, 1] if per in (2, 3) and not form[1] else None
+    norm = flat[:, per - 1] if (per == 2 and form[1]) or per == 3 else None
+    if np.all(refs == refs[0]):  # trimesh's vectorized path: (n, k), triangulated by Trimesh later
+        shape = (-1, int(refs[0]))
+        faces, tex, norm = (None if a is None else a.reshape(shape) for a in (flat[:, 0], tex, norm))
+    else:  # trimesh's loop: every face split in file order
+        faces, tex, norm = (None if a is None else _triangulate_inline(a, refs) for a in (flat[:, 0], tex, norm))
+    if np.any(faces < -len(v)) or np.any(faces >= len(v)):
+        raise Unsupported("a face referencing a vertex that is not there")
+    return _obj_mesh(v, vt, vn, colors, faces, tex, norm)
+
+
+def _obj_mesh(v, vt, vn, colors, faces, tex, norm):
+    """trimesh's OBJ loader from the parsed arrays: unmerge by UV / normal indices, keep referenced
+    vertices, triangulate what is still polygons."""
+    extras = {}
+    if tex is not None or (vn is not None and norm is not None):
+        from trimesh.visual.texture import unmerge_faces
+
+        if tex is not None and norm is not None:
+            faces, mask_v, mask_vt, mask_vn = unmerge_faces(faces, tex, norm, maintain_faces=False)
+        elif tex is not None:
+            (faces, mask_v, mask_vt), mask_vn = unmerge_faces(faces, tex, maintain_faces=False), None
+        else:
+            (faces, mask_v, mask_vn), mask_vt = unmerge_faces(faces, norm, maintain_faces=False), None
+        if mask_vt is not None and vt is not None:  # (trimesh: no UV where there are none)
+            if np.any(mask_vt >= len(vt)) or np.any(mask_vt < -len(vt)):
+                raise Unsupported("faces referencing UV coordinates that are not there")
+            uv = vt[mask_vt]
+            if len(uv) == len(mask_v):
+                from trimesh.visual.texture import TextureVisuals
+
+                extras["visual"] = TextureVisuals(uv=uv)
+    else:
+        mask = np.zeros(len(v), bool)
+        mask[faces] = True
+        inverse = np.zeros(len(v), np.int64)
+        inverse[mask] = np.arange(int(mask.sum()))
+        faces, mask_v, mask_vn = inverse[faces], mask, None
+    vertices = v[mask_v]
+    if colors is not None:
+        extras["vertex_colors"] = colors[mask_v]
+    if mask_vn is not None and vn is not None:
+        if np.any(mask_vn >= len(vn)) or np.any(mask_vn < -len(vn)) or vn.shape[1] != 3:
+            raise Unsupported("faces referencing normals that are not there")
+        extras["vertex_normals"] = vn[mask_vn]
+    faces = np.asarray(faces, np.int64)
+    if faces.shape[1] != 3:  # the Trimesh constructor's triangulate_quads
+        faces = _triangulate(faces.reshape(-1), np.full(len(faces), faces.shape[1], np.int64))
+    return _checked(vertices, faces, extras)

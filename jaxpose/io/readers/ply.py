@@ -1,0 +1,162 @@
+"""PLY: ``ascii``, ``binary_little_endian`` and ``binary_big_endian``, as trimesh reads them."""
+from __future__ import annotations
+
+import numpy as np
+
+from .base import Loaded, Unsupported, _checked, _floats, _runs, _starts, _take, _text, _tokens, _triangulate
+
+__all__ = ["read_ply"]
+
+
+_PLY_TYPES = {
+    "char": "i1", "uchar": "u1", "short": "i2", "ushort": "u2", "int": "i4", "int8": "i1", "int16": "i2",
+    "int32": "i4", "int64": "i8", "uint": "u4", "uint8": "u1", "uint16": "u2", "uint32": "u4", "uint64": "u8",
+    "float": "f4", "float16": "f2", "float32": "f4", "float64": "f8", "double": "f8",
+}
+_PLY_INDEX = ("vertex_index", "vertex_indices")
+_PLY_TEXTURE = {"texture_u", "texture_v", "u", "v", "s", "t"}
+_PLY_COLORS = ("red", "green", "blue", "alpha")
+
+
+def _ply_header(data):
+    """(elements {name: (count, [(property, type, count type or None)])}, ascii, endian, data start)."""
+    lines, position = [], 0
+    while True:
+        end = data.find(b"\n", position)
+        if end < 0 or len(lines) > 10000:
+            raise Unsupported("no end of the header")
+        lines.append(data[position:end])
+        position = end + 1
+        if b"end_header" in lines[-1].split():
+            break
+    if b"ply" not in lines[0].lower() or len(lines) < 3:
+        raise Unsupported("not a PLY file")
+    try:
+        words = [line.decode("utf-8").split() for line in lines[1:]]
+    except UnicodeDecodeError:
+        raise Unsupported("a header that is not UTF-8") from None
+    fmt = words[0]
+    if len(fmt) != 3 or fmt[0] != "format" or fmt[1] not in ("ascii", "binary_little_endian", "binary_big_endian"):
+        raise Unsupported("an unknown format line")
+    elements, current = {}, None
+    for word in words[1:-1]:
+        if not word or "texturefile" in " ".join(word).lower():
+            raise Unsupported("an empty header line or a texture file")
+        if word[0] == "element" and len(word) == 3 and word[2].isascii() and word[2].isdigit():
+            if word[1] in elements:
+                raise Unsupported("an element declared twice")
+            current = elements[word[1]] = (int(word[2]), [])
+        elif word[0] == "property" and current is not None and len(word) == 3 and word[1] in _PLY_TYPES:
+            current[1].append((word[2], _PLY_TYPES[word[1]], None))
+        elif (word[0] == "property" and current is not None and len(word) == 5 and word[1] == "list"
+              and word[2] in _PLY_TYPES and word[3] in _PLY_TYPES and word[2][0] in "ui"):
+            current[1].append((word[4], _PLY_TYPES[word[3]], _PLY_TYPES[word[2]]))
+        elif word[0] in ("comment", "obj_info") or (word[0] == "end_header" and len(word) == 1):
+            continue
+        else:
+            raise Unsupported(f"a header line this reader does not know: {' '.join(word)}")
+        names = [p[0] for p in current[1]]
+        if len(set(names)) != len(names):
+            raise Unsupported("a property declared twice")
+    if words[-1] != ["end_header"]:
+        raise Unsupported("an unusual end_header line")
+    return elements, fmt[1] == "ascii", ">" if "big" in fmt[1] else "<", position
+
+
+def _ply_check(elements):
+    if set(elements) != {"vertex", "face"} or list(elements)[0] != "vertex":
+        raise Unsupported("elements other than vertex then face")
+    vertex, face = elements["vertex"][1], elements["face"][1]
+    names = {p[0] for p in vertex}
+    if not {"x", "y", "z"} <= names or names & _PLY_TEXTURE or any(p[2] for p in vertex):
+        raise Unsupported("vertices without x, y, z, or with texture coordinates or lists")
+    lists = [p for p in face if p[2]]
+    if len(lists) != 1 or lists[0][0] not in _PLY_INDEX or lists[0][1][0] not in "ui":
+        raise Unsupported("faces without one vertex_indices list, or with other lists")
+    if elements["vertex"][0] == 0 or elements["face"][0] == 0:
+        raise Unsupported("no vertices or no faces")
+
+
+def _ply_extras(vertex, face):
+    """trimesh's vertex normals and colors of the columns {name: (n,) array}."""
+    extras = {}
+    if all(k in vertex for k in ("nx", "ny", "nz")):
+        extras["vertex_normals"] = np.column_stack([vertex[k] for k in ("nx", "ny", "nz")])
+    for name, columns in (("face_colors", face), ("vertex_colors", vertex)):
+        found = [columns[k] for k in _PLY_COLORS if k in columns]
+        if len(found) >= 3:
+            extras[name] = np.column_stack(found)
+    return extras
+
+
+def read_ply(data: bytes) -> Loaded:
+    """A PLY file's mesh, as ``trimesh.load(..., file_type="ply", process=False)``.
+
+    Raises:
+      Unsupported: anything this reader does not reproduce exactly (read it with trimesh).
+    """
+    elements, ascii, endian, start = _ply_header(data)
+    _ply_check(elements)
+    if ascii:
+        vertex, face, flat, counts = _ply_ascii(data[start:], elements, endian)
+    else:
+        vertex, face, flat, counts = _ply_binary(data, start, elements, endian)
+    vertices = np.column_stack([vertex[k] for k in "xyz"])
+    faces = _triangulate(flat, counts)
+    return _checked(vertices, faces, _ply_extras(vertex, face))
+
+
+def _ply_binary(data, start, elements, endian):
+    (nv, vprops), (nf, fprops) = elements["vertex"], elements["face"]
+    vtype = np.dtype([(name, endian + kind) for name, kind, _ in vprops])
+    face_start = start + nv * vtype.itemsize
+    # trimesh's rule: every list as long as the face element's first one
+    before = np.dtype([(name, endian + kind) for name, kind, _ in fprops[:[p[2] is not None for p in fprops].index(True)]])
+    name, kind, count_kind = next(p for p in fprops if p[2])
+    at = face_start + before.itemsize
+    size = np.frombuffer(data[at:at + np.dtype(count_kind).itemsize], endian + count_kind)
+    if len(size) != 1 or not 3 <= int(size[0]) <= 1000:
+        raise Unsupported("a face list of fewer than 3 corners")
+    size = int(size[0])
+    ftype = np.dtype([(p[0], endian + p[1]) if p[2] is None else
+                      (p[0], [("f0", endian + p[2]), ("f1", endian + p[1], (size,))]) for p in fprops])
+    if len(data) - start != nv * vtype.itemsize + nf * ftype.itemsize:
+        raise Unsupported("a file length that does not match its header (or lists of several lengths)")
+    vertex = np.frombuffer(data, vtype, nv, start)
+    face = np.frombuffer(data, ftype, nf, face_start)
+    if np.any(face[name]["f0"] != size):
+        raise Unsupported("face lists of several lengths")
+    columns = {p[0]: face[p[0]] for p in fprops if p[2] is None}
+    return ({k: vertex[k] for k in vertex.dtype.names}, columns, face[name]["f1"].reshape(-1),
+            np.full(nf, size, np.int64))
+
+
+def _ply_ascii(data, elements, endian):
+    lines = _text(data).splitlines()
+    (nv, vprops), (nf, fprops) = elements["vertex"], elements["face"]
+    if len(lines) < nv + nf:
+        raise Unsupported("fewer lines than the header's counts")
+    block = lines[:nv]
+    tokens, counts = _tokens(block)
+    if np.any(counts != len(vprops)):
+        raise Unsupported("a vertex line with more or fewer values than properties")
+    values = _floats(tokens).reshape(nv, len(vprops))
+    vertex = {name: values[:, i].astype(endian + kind) for i, (name, kind, _) in enumerate(vprops)}
+    block = lines[nv:nv + nf]
+    tokens, counts = _tokens(block)
+    position = [p[2] is not None for p in fprops].index(True)
+    scalars = len(fprops) - 1
+    if np.any(counts < scalars + 1):
+        raise Unsupported("a face line with fewer values than properties")
+    starts = _starts(counts)
+    values = _floats(_take(tokens, starts + position))
+    sizes = values.astype(endian + fprops[position][2]).astype(np.int64)
+    if np.any(values != sizes) or np.any(sizes < 3) or np.any(counts != scalars + 1 + sizes):
+        raise Unsupported("a face list whose count is not its length")
+    face = {}
+    for i, (name, kind, _) in enumerate(fprops):  # the scalars before and after the list
+        if i != position:
+            at = starts + i + (0 if i < position else sizes)
+            face[name] = _floats(_take(tokens, at)).astype(endian + kind)
+    flat = _floats(_take(tokens, _runs(starts + position + 1, sizes))).astype(endian + fprops[position][1])
+    return vertex, face, flat, sizes

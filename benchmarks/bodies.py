@@ -444,7 +444,7 @@ def head_frames(sol, vertices, faces, found):
     out = {}
     for axis_rule, fb in (("thin", vec[:, 1]), ("mirror", vec[:, 1] if sym[1] >= sym[0] else vec[:, 2]),
                           ("head", np.cross(geo.up, left_right))):
-        jaw, reach = front_back_cues(geo, fb)
+        jaw, reach, _ = front_back_cues(geo, fb)
         z = (geo.surface - geo.skull) @ fb
         for sign_rule, cue in (("jaw", jaw), ("reach", reach), ("skew", np.mean(z ** 3)),
                                ("part", (part_center - geo.skull) @ fb)):

@@ -38,7 +38,7 @@ def cues(sol, frame, found, vertices, faces):
     lattice = sample.lattice_points(vertices, faces, rotation.CELL * sol.pitch)
     geo = rotation.head_chest(sol, found, lattice)
     fb = frame.rotation[2] @ sol.frame.T  # the frame's front-back axis in grid coordinates
-    jaw, reach = rotation.front_back_cues(geo, fb)
+    jaw, reach, _ = rotation.front_back_cues(geo, fb)
 
     def each_once(points):  # the jaw with every point counted once (no cells)
         every = rotation.head_surface(points @ sol.frame.T, sol, found, geo.up, geo.eps, cell=None)

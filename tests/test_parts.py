@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from jaxpose.rotation.parts import NECK, THICK, find_parts, merge_tree
+from jaxpose.rotation.parts import BRANCH, NECK, THICK, ends, find_head, find_parts, merge_tree
 from jaxpose.occupancy.solid import Solid
 
 
@@ -102,3 +102,79 @@ def test_no_head_without_a_thick_saddle():
     assert 1.0 < tree[1, 0] / tree[1, 1] < NECK and find_parts(pair) is None
     empty = voxel_solid([lambda x: np.zeros(x.shape[:-1], bool)], 0.5)
     assert merge_tree(empty.inside, empty.depth).shape == (0, 5) and find_parts(empty) is None
+
+
+def capsule(p, q, r):
+    """A capsule: the points within r of the segment p-q."""
+    p, q = np.asarray(p, float), np.asarray(q, float)
+
+    def inside(x):
+        t = np.clip(((x - p) @ (q - p)) / ((q - p) @ (q - p)), 0.0, 1.0)
+        return np.linalg.norm(x - (p + t[..., None] * (q - p)), axis=-1) <= r
+    return inside
+
+
+def four_legged(pitch=0.05):
+    """A four-legged body of known parts: a trunk (radius 0.45) along x, four legs and a tail
+    (radii 0.12 and 0.06), and a head (a ball of radius 0.2, less than half the trunk's depth)
+    on a neck (radius 0.12) at the front, centered at (1.6, 0, 0.65)."""
+    legs = [capsule((x, y, -0.1), (x, y, -1.2), 0.12) for x in (-0.8, 0.6) for y in (-0.25, 0.25)]
+    return voxel_solid([capsule((-1.2, 0, 0), (0.8, 0, 0), 0.45), *legs, capsule((-1.2, 0, 0), (-2.0, 0, 0.3), 0.06),
+                        capsule((0.8, 0, 0.1), (1.5, 0, 0.6), 0.12), ball((1.6, 0, 0.65), 0.2)], pitch,
+                       lo=(-2.2, -0.6, -1.4), hi=(2.0, 0.6, 1.0))
+
+
+def test_find_head_finds_a_head_thinner_than_half_the_trunk():
+    """The four-legged body's head is 0.2 deep, its trunk 0.45: find_parts asks a head at least
+    THICK times as deep as the trunk and finds none; find_head finds the part that ends the body
+    (cut off at its neck, one far end), the thickest such: the head (not a leg, not the tail),
+    centered at the ball's center, its depth the ball's radius, its neck on the neck's axis."""
+    sol = four_legged()
+    assert 0.2 < THICK * 0.45 and find_parts(sol) is None
+    found = find_head(sol)
+    assert found is not None and found.terminal
+    head = sol.origin + sol.pitch * (np.stack(np.nonzero(found.head), 1) + 0.5)
+    np.testing.assert_allclose(head.mean(axis=0), [1.6, 0, 0.65], atol=0.1)
+    assert abs(found.head_depth - 0.2) < 1.5 * sol.pitch
+    # the neck lies on the neck's axis, between the trunk and the head
+    axis = np.array([0.7, 0.0, 0.5]) / np.linalg.norm([0.7, 0.0, 0.5])
+    rel = found.neck - np.array([0.8, 0, 0.1])
+    assert np.linalg.norm(rel - (rel @ axis) * axis) < 0.12 + sol.pitch and 0.0 < rel @ axis < np.linalg.norm([0.7, 0, 0.5]) + 0.2
+
+
+def test_ends_counts_the_far_ends_of_a_part():
+    """A ball on a rod has one far end from its saddle; a rump with two legs and a tail three;
+    a bump shorter than BRANCH part depths does not count."""
+    pitch = 0.05
+    sol = four_legged(pitch)
+    inside = sol.inside
+    rump = inside & (np.stack(np.meshgrid(*[sol.origin[i] + pitch * (np.arange(n) + 0.5) for i, n in
+                                            enumerate(inside.shape)], indexing="ij"), -1)[..., 0] < -0.3)
+    saddle = np.rint((np.array([-0.3, 0.0, 0.0]) - sol.origin) / pitch - 0.5).astype(int)
+    assert ends(sol, rump, saddle, 0.12) == 3  # two hind legs and the tail, at the scale of a leg
+    head = inside & (np.linalg.norm(sol.origin + pitch * (np.argwhere(np.ones(inside.shape, bool)) + 0.5)
+                                    - [1.6, 0, 0.65], axis=1).reshape(inside.shape) < 0.35)
+    near = np.rint((np.array([1.35, 0.0, 0.5]) - sol.origin) / pitch - 0.5).astype(int)
+    assert ends(sol, head, near, 0.2) <= 1
+    assert BRANCH * 0.2 > 0.35
+
+
+def test_find_head_keeps_the_neck_of_a_person_and_rejects_a_branching_part():
+    """Where find_parts' head ends the body (the dumbbell's small ball), find_head returns it,
+    checked (terminal); where find_parts' part branches (two legs and a tail beyond the narrowest
+    thick saddle, the head thinner than half the trunk), find_head takes the part that ends the body."""
+    pitch = 0.05
+    sol = voxel_solid([ball((-1.2, 0, 0), 1.0), ball((1.2, 0, 0), 0.7), rod(-1.2, 1.2, 0.3)], pitch)
+    a, b = find_parts(sol), find_head(sol)
+    assert b.terminal and np.array_equal(a.head, b.head) and b.constriction == a.constriction
+    # a rump (ball, 0.4) beyond a waist (0.3) on a trunk (0.45): find_parts takes the rump
+    legs = [capsule((-1.5, y, -0.2), (-1.5, y, -1.2), 0.1) for y in (-0.2, 0.2)]
+    body = voxel_solid([capsule((-0.6, 0, 0), (0.8, 0, 0), 0.45), capsule((-1.3, 0, 0), (-0.6, 0, 0), 0.3),
+                        ball((-1.5, 0, 0), 0.4), *legs, capsule((-1.5, 0, 0), (-2.1, 0, 0.3), 0.06),
+                        capsule((0.8, 0, 0.1), (1.5, 0, 0.6), 0.1), ball((1.6, 0, 0.65), 0.18)], pitch,
+                       lo=(-2.3, -0.6, -1.4), hi=(2.0, 0.6, 1.0))
+    rump = find_parts(body)
+    assert rump is not None and rump.neck[0] < -0.5 and rump.head_depth > 0.3  # the waist; the rump beyond it
+    found = find_head(body)
+    head = body.origin + pitch * (np.stack(np.nonzero(found.head), 1) + 0.5)
+    assert found.terminal and np.allclose(head.mean(axis=0), [1.6, 0, 0.65], atol=0.1)

@@ -138,16 +138,76 @@ def test_a_head_without_a_face_is_flagged():
         assert rotation.frame_of(person(jaw=False), "head", resolution=resolution).flag
 
 
-def test_head_frame_without_a_head_is_the_core_frame_flagged(body_frame):
-    """The toy body's head is thinner than half its trunk: no neck, so the core frame (also the
-    default of rotation=True), flagged: no head vouches for it, though its own cues hold."""
-    m, core = body_frame
-    got = rotation.frame_of(m, "head", resolution=48)
+def test_head_frame_without_a_head_is_the_core_frame_flagged():
+    """A capsule has no saddle, so no head: the head frame (also the default of rotation=True) is
+    the core frame, flagged: no head vouches for it."""
+    m = trimesh.creation.capsule(height=1.0, radius=0.3)
+    m.apply_transform(np.diag([1.0, 0.8, 1.0, 1.0]))  # not round: the core frame's own cues may hold
+    sol = rotation.frame_solid(*baselines.split_geometry(m), 48)
+    assert parts.find_head(sol) is None
+    got, core = rotation.frame_of(m, "head", resolution=48), rotation.frame_of(m, "core", resolution=48)
     np.testing.assert_array_equal(got.rotation, core.rotation)
-    assert core.ambiguity == 0.0 and got.ambiguity == 1.0 and got.flag and np.isnan(got.symmetry).sum() == 0
+    assert got.ambiguity == 1.0 and got.flag
     assert rotation.DEFAULT_ROTATION == "head"
-    example = mesh.example_shape()  # a capsule with an arm: no neck either
-    np.testing.assert_array_equal(rotation.frame_of(example, "head").rotation, rotation.frame_of(example, "core").rotation)
+
+
+def test_a_head_thinner_than_half_the_trunk_is_found_where_it_ends_the_body(body_frame):
+    """The toy body's head (a ball of radius 0.15 on a trunk 0.35 deep) is thinner than half its
+    trunk: find_parts finds no neck, find_head the ball (the part that ends the body), and the
+    head frame's axis 0 points from it to the feet (-z, within 20 degrees)."""
+    m, _ = body_frame
+    v, f = baselines.split_geometry(m)
+    sol = rotation.frame_solid(v, f, 48)
+    assert parts.find_parts(sol) is None
+    found = parts.find_head(sol)
+    head = (sol.origin + sol.pitch * (np.stack(np.nonzero(found.head), 1) + 0.5)) @ sol.frame
+    assert found.terminal and np.linalg.norm(head.mean(axis=0) - [0.0, 0.0, 0.95]) < 0.1
+    assert -rotation.frame_of(m, "head", resolution=48).rotation[0, 2] > np.cos(20 * RAD)
+
+
+def animal():
+    """A toy four-legged animal, nearly mirror-symmetric about y: a trunk (a box 0.6 deep) along
+    x on four legs, a tail, a neck rising ahead (+x) to a head (a ball of radius 0.12: less than
+    half the trunk's depth) with a muzzle (a box) pointing ahead. Its frame: left-right y, up
+    along the neck (from its base (0.55, 0, 1.2) to the head's center (0.8, 0, 1.5)), front +x."""
+    trunk = trimesh.creation.box(extents=(1.2, 0.5, 0.6))
+    trunk.apply_translation([0.0, 0.0, 1.0])
+    pieces = [trunk]
+    for x in (-0.45, 0.45):
+        for y in (-0.15, 0.16):
+            leg = trimesh.creation.box(extents=(0.12, 0.12, 0.8))
+            leg.apply_translation([x, y, 0.4])
+            pieces.append(leg)
+    pieces.append(trimesh.creation.cylinder(radius=0.03, segment=[(-0.6, 0, 1.1), (-0.95, 0, 0.8)]))
+    pieces.append(trimesh.creation.cylinder(radius=0.07, segment=[(0.55, 0, 1.2), (0.76, 0, 1.46)]))
+    head, muzzle = trimesh.creation.icosphere(subdivisions=3, radius=0.12), trimesh.creation.box(extents=(0.4, 0.13, 0.13))
+    head.apply_translation([0.8, 0.0, 1.5])
+    muzzle.apply_translation([1.05, 0.0, 1.45])
+    return trimesh.util.concatenate(pieces + [head, muzzle])
+
+
+@pytest.mark.parametrize("resolution", [48, 56])
+def test_head_frame_of_a_four_legged_animal(resolution):
+    """The toy animal's head is found where it ends the body (find_parts finds none), left-right
+    from its own mirror plane (y; the chest is deeper than wide, so the chest's thinner axis would
+    be left-right), up along the neck (axis 0 within 15 degrees of the neck's axis, toward the
+    feet), front toward the muzzle (+x), unflagged; rotating or flipping the input turns the frame
+    with it (to 1e-4 rad), with the same ambiguity."""
+    m = animal()
+    v, f = baselines.split_geometry(m)
+    sol = rotation.frame_solid(v, f, resolution)
+    assert parts.find_parts(sol) is None and parts.find_head(sol).terminal
+    base = rotation.frame_of(m, "head", resolution=resolution)
+    r = base.rotation
+    assert np.linalg.det(r) == pytest.approx(1.0) and not base.flag
+    neck = np.array([0.25, 0.0, 0.3]) / np.linalg.norm([0.25, 0.0, 0.3])
+    assert abs(r[1, 1]) > np.cos(5 * RAD)
+    assert -r[0] @ neck > np.cos(15 * RAD) and r[2, 0] > 0.6
+    rng = np.random.default_rng(3)
+    for q in [random_rotation(rng) for _ in range(2)] + [np.diag([1.0, -1.0, -1.0])]:
+        got = rotation.frame_of(moved(m, q), "head", resolution=resolution)
+        assert angle(got.rotation, r @ q.T) * RAD < 1e-4
+        assert got.ambiguity == pytest.approx(base.ambiguity, abs=1e-9)
 
 
 @pytest.mark.parametrize("shape", [trimesh.creation.icosphere(subdivisions=3), trimesh.creation.box()])
@@ -191,14 +251,15 @@ def test_pose_with_rotation_matrix_apply_inverse():
 
 
 def test_normalize_mesh_rotation_keeps_center_scale(body_frame):
-    m, base = body_frame
+    m, _ = body_frame
     out0, p0 = mesh.normalize_mesh(m, resolution=48)
     out1, p1 = mesh.normalize_mesh(m, resolution=48, rotation=True)
     assert p0.rotation is None and p0.ambiguity is None
     np.testing.assert_array_equal(p0.center, p1.center)
     assert float(p0.scale) == float(p1.scale)
-    np.testing.assert_allclose(p1.rotation, base.rotation, atol=1e-12)
-    np.testing.assert_allclose(out1.vertices, out0.vertices @ base.rotation.T, atol=1e-9)
+    default = rotation.frame_of(m, rotation.DEFAULT_ROTATION, resolution=48)
+    np.testing.assert_allclose(p1.rotation, default.rotation, atol=1e-12)
+    np.testing.assert_allclose(out1.vertices, out0.vertices @ default.rotation.T, atol=1e-9)
     _, p2 = mesh.normalize_mesh(m, resolution=48, rotation="pca_vertices")
     np.testing.assert_allclose(p2.rotation, baselines.pca_vertices_frame(m).rotation)
     _, p3 = mesh.normalize_mesh(person(), resolution=48, rotation="head")
@@ -301,13 +362,16 @@ TOSCA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "tosca-
 
 @pytest.mark.shared
 @pytest.mark.skipif(not TOSCA.is_dir(), reason="needs ../shared/data/tosca-dev")
-def test_head_frame_flags_the_animal_frames_it_gets_wrong():
-    """On four-legged animals the head frame takes the chest's thinner axis (their left-right) for
-    front-back: the mirror test (left-right must be the normal of the body's best mirror plane)
-    flags it. Every frame more than 30 degrees off its class frame is flagged (issue 36.6)."""
+def test_head_frame_on_four_legged_animals():
+    """On TOSCA's dog and horse (rigid-core aligned: the class frame is their head's) the head
+    frame finds the head where it ends the body and takes left-right from its own mirror plane:
+    the dog's frames within 10 degrees of its class frame on average (issue 34's target; 107
+    before); on both classes every frame more than 30 degrees off is flagged (issue 36.6)."""
     from jaxpose.datasets import load_folder
 
     res = evaluate_rotation(load_folder(TOSCA), methods=("head",), align_core=True)
-    for name, cells in res["variants"]["plain"]["per_class"].items():
-        raw, amb = np.array(cells["head"]["raw"]), np.array(cells["head"]["ambiguity"])
-        assert (raw > 30).any() and np.all(amb[raw > 30] > 0), name
+    cells = res["variants"]["plain"]["per_class"]
+    assert np.mean(cells["dog"]["head"]["raw"]) <= 10.0
+    for name, cell in cells.items():
+        raw, amb = np.array(cell["head"]["raw"]), np.array(cell["head"]["ambiguity"])
+        assert np.all(amb[raw > 30] > 0), name

@@ -9,25 +9,45 @@ takes the maximum with the largest birth / death among those at least :data:`THI
 deep as the deepest (hands and feet are thinner; a waist between chest and pelvis, or a knee,
 joins parts of nearly its own depth) and at least :data:`NECK` times as deep as its saddle. The
 two components of {D > death} that meet there are the head and the trunk; the smaller one is the
-head (a child's head is as deep as its trunk). How it does on real bodies: docs/rotation.md.
+head (a child's head is as deep as its trunk).
+
+:func:`find_head` asks, besides, that the head end the body. An animal's head is thinner than
+half its trunk and its neck no more constricted than its waist, so the most constricted thick
+saddle may cut off its rump (its legs and tail beyond). A head does not branch: cut off across its
+saddle (:func:`part_across`), the geodesic distance from the saddle has one far end in it
+(:func:`ends`), where a rump has legs and a tail, a chest arms; and it is a small end, at most
+:data:`SHARE` of the solid (the dev bodies' heads: 4-18 %; a rump, a third). Where :func:`find_parts`' head
+is cut off and branches, or where it finds none, the head is the thickest part beyond any saddle
+(at least :data:`SADDLE` times as deep as it) that is cut off and ends the body
+(:func:`terminal_part`). How it does on real bodies: docs/rotation.md.
 
 Example::
 
     sol = jaxpose.occupancy.solid.robust_solid(vertices, faces)
     parts = find_parts(sol)            # None when no saddle joins two thick parts
     parts.head, parts.neck, parts.constriction
+    head = find_head(sol)              # the same where that head ends the body; else a part that does
 """
 from __future__ import annotations
 
 from typing import NamedTuple
 
 import numpy as np
-from scipy import ndimage
+from scipy import ndimage, sparse
+from scipy.sparse import csgraph
 
-__all__ = ["THICK", "NECK", "Parts", "merge_tree", "find_parts"]
+__all__ = ["THICK", "NECK", "SADDLE", "DISK", "WIDER", "BRANCH", "SHARE", "LOWEST", "Parts", "merge_tree", "find_parts", "find_head",
+           "part_across", "geodesic", "ends", "terminal_part"]
 
 THICK = 0.5  # a head is at least half as deep as the deepest part of the body (its trunk)
 NECK = 1.1  # a neck is at least 10 % thinner than the shallower of the two parts it joins
+SADDLE = 1.05  # find_head: a part beyond a saddle at least 5 % thinner than the part
+DISK = 3.0  # a part is cut off across its saddle by a disk of this many saddle depths in radius
+WIDER = 4.0  # terminal_part: where DISK leaves a part joined, a disk this wide (an oblique neck) is tried
+BRANCH = 2.0  # a part ends the body when no two of its far ends stand apart by this many part depths
+SHARE = 0.25  # a head holds at most this share of the solid beyond its saddle (a rump, a half trunk: more)
+LOWEST = 0.1  # find_head: parts thinner than this share of the deepest are not heads (fingers, toes)
+_CUBE = np.ones((3, 3, 3), bool)
 _NEIGHBOURS = np.array([(a, b, c) for a in (-1, 0, 1) for b in (-1, 0, 1) for c in (-1, 0, 1) if (a, b, c) != (0, 0, 0)])
 
 
@@ -40,6 +60,8 @@ class Parts(NamedTuple):
       head_depth: depth of the head's deepest voxel (units); neck_depth: the saddle's depth.
       constriction: birth / death of the shallower of the two maxima the neck joins (>= 1).
       runner_up: the largest birth / death of any other thick maximum (1 when there is none).
+      terminal: True where the head was found to end the body (:func:`find_head`: cut off across its
+        saddle and not branching), False where that was not checked or could not be told.
     """
 
     head: np.ndarray
@@ -49,6 +71,7 @@ class Parts(NamedTuple):
     neck_depth: float
     constriction: float
     runner_up: float
+    terminal: bool = False
 
 
 def merge_tree(inside, depth):
@@ -105,7 +128,7 @@ def merge_tree(inside, depth):
     return rows[np.argsort(-(rows[:, 0] - rows[:, 1]), kind="stable")]
 
 
-def find_parts(sol, thick=THICK):
+def find_parts(sol, thick=THICK, tree=None):
     """The head, trunk and neck of a solid (module docs), or None when no saddle joins two parts
     at least ``thick`` times as deep as the deepest with a saddle at least :data:`NECK` times
     thinner than the shallower of them (a ball, a box, a capsule: nothing to call a head; voxels
@@ -113,11 +136,12 @@ def find_parts(sol, thick=THICK):
 
     Args:
       sol: :class:`jaxpose.occupancy.solid.Solid` (``inside``, ``depth``, ``origin``, ``pitch``).
+      thick: the share of the deepest a head needs; tree: the solid's :func:`merge_tree` to reuse.
 
     Returns:
       :class:`Parts` in the grid's frame, or None.
     """
-    tree = merge_tree(sol.inside, sol.depth)
+    tree = merge_tree(sol.inside, sol.depth) if tree is None else tree
     if len(tree) < 2:
         return None
     thick_joins = tree[(tree[:, 1] > 0) & (tree[:, 0] >= NECK * tree[:, 1]) & (tree[:, 0] >= thick * tree[:, 0].max())]
@@ -127,12 +151,166 @@ def find_parts(sol, thick=THICK):
     best = int(np.argmax(ratio))
     birth, death, peak, saddle, joins = thick_joins[best]
     runner_up = float(np.max(np.delete(ratio, best))) if len(ratio) > 1 else 1.0
-    labels, _ = ndimage.label(sol.depth > death, structure=np.ones((3, 3, 3), bool))
+    return _split(sol, thick_joins[best], None, runner_up)
+
+
+def _split(sol, row, head_peak, runner_up, terminal=False):
+    """:class:`Parts` at one merge-tree row's saddle: the head the smaller side (``head_peak`` None)
+    or the side of that peak (a flat index: the row's peak or the one it joins)."""
+    birth, death, peak, saddle, joins = row
+    labels, _ = ndimage.label(sol.depth > death, structure=_CUBE)
     labels = labels.ravel()
     a, b = labels == labels[int(joins)], labels == labels[int(peak)]
-    head, trunk = (b, a) if b.sum() <= a.sum() else (a, b)
-    head_depth = float(birth) if head is b else float(sol.depth.ravel()[int(joins)])
-    neck = np.asarray(sol.origin, np.float64) + sol.pitch * (np.array(np.unravel_index(int(saddle), sol.inside.shape)) + 0.5)
+    if head_peak is None:
+        head_peak = peak if b.sum() <= a.sum() else joins
+    head, trunk = (b, a) if head_peak == peak else (a, b)
+    neck = np.asarray(sol.origin, np.float64) + sol.pitch * (_index(sol, saddle) + 0.5)
     shape = sol.inside.shape
-    return Parts(head.reshape(shape), trunk.reshape(shape), neck, head_depth, float(death), float(ratio[best]),
-                 runner_up)
+    return Parts(head.reshape(shape), trunk.reshape(shape), neck, float(sol.depth.ravel()[int(head_peak)]),
+                 float(death), float(birth / death), runner_up, terminal)
+
+
+def _index(sol, flat):
+    return np.array(np.unravel_index(int(flat), sol.inside.shape))
+
+
+def part_across(sol, blob, saddle, depth, other, disk=DISK):
+    """The part beyond a saddle, cut off by a disk, or None where the disk does not cut it off.
+
+    The disk lies through ``saddle`` ((3,) voxel index) normal to the direction from it to the
+    centroid of ``blob`` ((nx, ny, nz) bool, the part's thick core), ``disk`` times ``depth`` (the
+    saddle's depth, units) in radius and two voxels thick, so that no 26-connected path crosses it.
+
+    Returns:
+      (nx, ny, nz) bool, the component holding ``blob`` of the solid less the disk; None where it
+      holds the voxel ``other`` ((3,) index: the maximum on the saddle's other side) too: the part
+      is joined to the rest beyond the disk (a head resting on the knees, a limb on the trunk).
+    """
+    idx = np.argwhere(sol.inside)
+    u = np.argwhere(blob).mean(axis=0) - saddle
+    u /= np.linalg.norm(u)
+    rel = idx - saddle
+    h = rel @ u
+    cut = (np.abs(h) <= 1.0) & (np.linalg.norm(rel - h[:, None] * u, axis=1) * sol.pitch <= disk * depth)
+    keep = np.zeros(sol.inside.shape, bool)
+    keep[tuple(idx[~cut].T)] = True
+    labels, _ = ndimage.label(keep | blob, _CUBE)
+    part = labels == labels[tuple(np.argwhere(blob)[0])]
+    return None if part[tuple(other)] else part
+
+
+def geodesic(mask, source, pitch):
+    """(nx, ny, nz) float: the length (units) of the shortest 26-connected path inside ``mask``
+    from the voxel ``source`` ((3,) index) to each voxel (inf where none; 0 outside the mask)."""
+    vox = np.argwhere(mask)
+    index = -np.ones(mask.shape, np.int64)
+    index[tuple(vox.T)] = np.arange(len(vox))
+    padded = np.pad(index, 1, constant_values=-1)
+    rows, cols, lengths = [], [], []
+    for step in _NEIGHBOURS[:13]:  # each of the 26 neighbours once, up to sign
+        other = padded[tuple((vox + 1 + step).T)]
+        ok = other >= 0
+        rows.append(np.flatnonzero(ok))
+        cols.append(other[ok])
+        lengths.append(np.full(ok.sum(), np.linalg.norm(step) * pitch))
+    graph = sparse.coo_matrix((np.concatenate(lengths), (np.concatenate(rows), np.concatenate(cols))),
+                              shape=(len(vox), len(vox))).tocsr()
+    out = np.zeros(mask.shape)
+    out[tuple(vox.T)] = csgraph.dijkstra(graph, directed=False, indices=int(index[tuple(source)]))
+    return out
+
+
+def ends(sol, part, saddle, depth, scale=BRANCH):
+    """How many far ends a part has at the scale of its depth.
+
+    The maxima of the geodesic distance g from the saddle (the part's voxel nearest ``saddle``,
+    (3,) voxel index) inside ``part``: a part's tips. Each maximum's persistence (birth - death in
+    the :func:`merge_tree` of g's superlevel sets: how far the tip stands out beyond where its
+    branch joins a farther one) against ``scale`` times ``depth`` (the part's depth, units): a
+    bump of the surface does not count, a limb or a tail does; the farthest end counts where it
+    lies that far from the saddle. 0 or 1: the part does not branch (a head, a hand without
+    fingers at that scale); 2 or more: it does (a rump with its legs and tail, a chest with arms).
+    """
+    vox = np.argwhere(part)
+    g = geodesic(part, vox[np.argmin(np.linalg.norm(vox - saddle, axis=1))], sol.pitch)
+    reach = part & np.isfinite(g)
+    tree = merge_tree(reach, np.where(reach, g + sol.pitch, 0.0))
+    return int(np.sum(tree[:, 0] - tree[:, 1] >= scale * depth))
+
+
+def _terminal(sol, row, head_peak, disks=(DISK,)):
+    """Whether the side of ``head_peak`` at one merge-tree row's saddle is a head that ends the
+    body: True where it is cut off (:func:`part_across`, by the first of ``disks`` that cuts it
+    off), holds at most :data:`SHARE` of the solid and does not branch (:func:`ends`); False where
+    it is cut off and is larger or branches; None where it cannot be cut off."""
+    birth, death, peak, saddle, joins = row
+    labels, _ = ndimage.label(sol.depth > death, _CUBE)
+    blob = labels == labels[tuple(_index(sol, head_peak))]
+    other = _index(sol, joins if head_peak == peak else peak)
+    part = None
+    for disk in disks:
+        part = part_across(sol, blob, _index(sol, saddle), death, other, disk)
+        if part is not None:
+            break
+    if part is None:
+        return None
+    if part.sum() > SHARE * sol.inside.sum():  # half a trunk (a rump, a chest with arms), not an end
+        return False
+    return ends(sol, part, _index(sol, saddle), float(sol.depth.ravel()[int(head_peak)])) <= 1
+
+
+def terminal_part(sol, tree=None):
+    """The thickest part that ends the body: of the sides of the saddles of the depth field (each
+    merge-tree row whose maximum is at least :data:`SADDLE` times as deep as its saddle and
+    :data:`LOWEST` times as deep as the deepest; the side whose component at the saddle's depth
+    is the smaller), those cut off across the saddle (by a disk of :data:`DISK` saddle depths, or
+    of :data:`WIDER` where that leaves the part joined: a neck met at a slant) and not branching
+    (:func:`_terminal`), the deepest; None where there is none. (:func:`find_head` checks
+    :func:`find_parts`' head with :data:`DISK` only: a head it cannot cut off is kept.)
+
+    Returns:
+      :class:`Parts` (``constriction`` the saddle's row's birth / death; ``runner_up`` 1;
+      ``terminal`` True).
+    """
+    tree = merge_tree(sol.inside, sol.depth) if tree is None else tree
+    if len(tree) < 2:
+        return None
+    top = tree[:, 0].max()
+    flat_depth = sol.depth.ravel()
+    sides = []
+    for row in tree:
+        birth, death, peak, saddle, joins = row
+        if death <= 0 or birth < SADDLE * death or birth < LOWEST * top:
+            continue
+        labels, _ = ndimage.label(sol.depth > death, _CUBE)
+        labels = labels.ravel()
+        small = peak if np.sum(labels == labels[int(peak)]) <= np.sum(labels == labels[int(joins)]) else joins
+        sides.append((flat_depth[int(small)], row, small))
+    for _, row, small in sorted(sides, key=lambda s: -s[0]):
+        if _terminal(sol, row, small, (DISK, WIDER)):
+            return _split(sol, row, small, 1.0, terminal=True)
+    return None
+
+
+def find_head(sol, tree=None):
+    """The head of a body (module docs): :func:`find_parts`' head where it ends the body
+    (``terminal`` True) or cannot be cut off to tell (``terminal`` False); else (it branches or is
+    too large, or there is no thick neck) :func:`terminal_part`.
+
+    Args:
+      sol: :class:`jaxpose.occupancy.solid.Solid`; tree: its :func:`merge_tree` to reuse.
+
+    Returns:
+      :class:`Parts` in the grid's frame, or None (no saddle beyond which a part ends the body:
+      a ball, a box, a capsule).
+    """
+    tree = merge_tree(sol.inside, sol.depth) if tree is None else tree
+    found = find_parts(sol, tree=tree)
+    if found is not None:
+        thick = tree[(tree[:, 1] > 0) & (tree[:, 0] >= NECK * tree[:, 1]) & (tree[:, 0] >= THICK * tree[:, 0].max())]
+        row = thick[np.argmax(thick[:, 0] / thick[:, 1])]
+        head_peak = row[2] if found.head.ravel()[int(row[2])] else row[4]
+        ends_body = _terminal(sol, row, head_peak)
+        if ends_body is not False:
+            return found._replace(terminal=bool(ends_body))
+    return terminal_part(sol, tree)

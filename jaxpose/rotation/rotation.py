@@ -43,38 +43,50 @@ are in :mod:`jaxpose.orientation` (re-exported here).
 same solid: a frame tied to the head and the chest, the parts that move least with a person's
 limbs and waist.
 
-1. Parts. The head, the neck and the trunk (:func:`jaxpose.rotation.parts.find_parts`: the two thick parts
-   of the depth field that meet at its most constricted saddle). No neck (a ball, a box, a shape
-   whose parts are all thin beside its thickest, an animal whose head is thinner than half its
-   trunk): the ``core`` frame, flagged (ambiguity 1): a frame of the trunk's mass turns with the
-   waist and follows a person's build in its signs, and no head vouches for it (rotation="core"
-   asks for it unflagged where its own cues hold).
+1. Parts. The head, the neck and the trunk (:func:`jaxpose.rotation.parts.find_head`: the two thick
+   parts of the depth field that meet at its most constricted saddle where that head ends the
+   body; else the thickest part beyond a saddle that ends the body: an animal's head, thinner than
+   half its trunk). No head (a ball, a box, a capsule): the ``core`` frame, flagged (ambiguity 1):
+   a frame of the trunk's mass turns with the waist and follows a person's build in its signs, and
+   no head vouches for it (rotation="core" asks for it unflagged where its own cues hold).
 2. Up. From the chest (the solid on the trunk's side of the neck within ``CHEST`` head depths of
    it, each voxel weighted by depth^``CHEST_POWER``) to the head's centroid; it points to the head.
-3. Front-back and left-right. The chest's second moments across up: a chest is wider than it is
-   deep, so the thinner direction is front-back; left-right completes det = +1.
+3. Left-right (:func:`left_right`). A head is rigid and bilaterally symmetric in every pose: the
+   normal of its surface's best mirror plane across up (:func:`head_mirror`) is its left-right
+   axis, whatever the body's build (a person's chest is wider than deep, a dog's or a horse's
+   deeper than wide). A body's frame is its head's and its chest's together: where the head's
+   normal lies within ``TURN`` degrees of one of the chest's two second-moment axes across up,
+   left-right is the bisector of the two; where it does not, the head is turned against the chest
+   and left-right is the chest axis whose plane mirrors the depth^2 solid better. Front-back is
+   up x left-right.
 4. Rows. As the ``core`` frame's for a person: axis 0 from the head toward the feet (-up),
    axis 2 back to front, axis 1 = axis 2 x axis 0 (det +1).
-5. Front-back's sign: the face. The head's surface is the input's points above the neck within
-   ``FACE`` head depths of the head blob's balls (:func:`head_surface`; a mesh's vertices and
-   points on its faces every ``CELL`` pitches), pooled in cells of ``CELL`` pitches, each cell that
-   holds points one point at their mean: area at that scale, not the sampling density. The
-   skull's center is the head blob's depth^2-weighted centroid. The neck holds the skull from
-   behind and below, and the face hangs in front of it: the head's surface below the skull's
-   center (jaw, mouth, chin) lies ahead of that center. Axis 2 points to where that surface's
-   centroid lies (:func:`front_back_cues`). A pose cannot turn this around; the neck's
-   bend only tilts it. A second reading checks it: the surface reaches farther ahead of the
-   center than behind it (its 98th plus its 2nd percentile along the axis). Where the two
-   disagree, what was found may not be a head (a hand on it, holes in it): the frame is the
-   ``core`` frame, flagged (ambiguity 1).
+5. Front-back's sign: the face, or a muzzle. The head's surface is the input's points above the
+   neck within ``FACE`` head depths of the head blob's balls (:func:`head_surface`; a mesh's
+   vertices and points on its faces every ``CELL`` pitches), pooled in cells of ``CELL`` pitches,
+   each cell that holds points one point at their mean: area at that scale, not the sampling
+   density. The skull's center is the head blob's depth^2-weighted centroid. The neck holds the
+   skull from behind and below, and the face hangs in front of it: the head's surface below the
+   skull's center (jaw, mouth, chin) lies ahead of that center (:func:`front_back_cues`). A pose
+   cannot turn this around; the neck's bend only tilts it. A second reading checks it: the
+   surface reaches farther ahead of the center than behind it (its 98th plus its 2nd percentile
+   along the axis). A snout is the other face: where the part beyond the neck (the solid's
+   component beyond the plane through the neck) reaches at least ``MUZZLE`` head depths ahead of
+   the skull and farther than the jaw hangs, it decides (a person's head is round about its
+   skull; a horse's muzzle is a head depth long). Where the jaw decides and its two readings
+   disagree, what was found may not be a head (a hand on it, holes in it), or a long neck's
+   surface hangs below the skull: the part beyond the neck breaks the tie where it reaches at
+   least ``FACE_MIN`` head depths ahead or behind (flagged, ambiguity 1), else the frame is the
+   ``core`` frame, flagged.
 6. Ambiguity (the formula of :func:`jaxpose.orientation.ambiguity`): the neck's distinctness
-   (constriction - runner-up) / constriction and the chest's gap across up, each against
-   ``GAP_MIN``, the jaw's offset in head depths against ``FACE_MIN``, and the mirror test: a
-   bilateral body's left-right axis is the normal of its best mirror plane, so the mirror score
-   (:func:`symmetry_scores`, depth^``SYMMETRY_POWER`` weights, about the planes through their
-   centroid) of axis 1 less the larger of the other two, against ``SYMMETRY_MIN``. An animal's
-   chest is deeper than it is wide: there the chest's thinner axis is its left-right axis, the
-   frame turns it front to back, and this test says so.
+   (constriction - runner-up) / constriction (not asked of a head found to end the body) and the
+   head's mirror contrast (:func:`head_mirror`), each against ``GAP_MIN``; the deciding reading's
+   lead in head depths (less the other reading of step 5 where it disagrees) against
+   ``FACE_MIN``; and the mirror test: a bilateral body's left-right axis is the normal of its best
+   mirror plane, so the mirror score (:func:`symmetry_scores`, depth^``SYMMETRY_POWER`` weights,
+   about the planes through their centroid) of axis 1 less the larger of the other two, against
+   ``SYMMETRY_MIN`` (a body bent sideways, a crouching child: flagged, though the head's frame
+   may be right).
 
 The cells make the sign a property of the shape: with each vertex counted once instead,
 a registered mesh, meshed finer on the face than on the skull, reads a stronger cue that a
@@ -93,6 +105,7 @@ from typing import NamedTuple
 
 import numpy as np
 from scipy import ndimage
+from scipy.spatial import cKDTree
 
 from .. import baselines, sample
 from . import parts
@@ -105,12 +118,13 @@ from ..occupancy.voxels import GRID_SHIFT
 
 __all__ = ["Frame", "ROTATIONS", "DEFAULT_ROTATION", "GAP_MIN", "SIGN_MIN", "SYMMETRY_MIN", "FOOT", "FEET_DEPTH",
            "FOOT_MIN", "AXES_POWER", "SYMMETRY_POWER", "CHEST", "CHEST_POWER", "FACE", "CELL", "FACE_MIN",
-           "pre_frame", "frame_solid", "core_frame", "HeadChest", "head_chest", "head_surface", "front_back_cues",
+           "MUZZLE", "TURN", "MIRROR_STEPS", "mirror_error", "head_mirror", "left_right", "pre_frame", "frame_solid",
+           "core_frame", "HeadChest", "head_chest", "head_surface", "front_back_cues",
            "head_frame", "feet_offset", "symmetry_scores", "ambiguity", "complete_signs", "frame_of", "region_frame",
            "proper"]
 
 ROTATIONS = ("core", "head", "ocsvm", "pca_vertices", "pca_surface", "inertia")
-DEFAULT_ROTATION = "head"  # rotation=True: the head frame, the core frame (flagged) where no neck is found
+DEFAULT_ROTATION = "head"  # rotation=True: the head frame, the core frame (flagged) where no head is found
 FOOT = 0.05  # the feet: this share of the length at the legs' end (ankles at about 4 % of a person's height)
 FEET_DEPTH = 0.5  # feet are thinner than half the trunk's depth (ankle ~4 cm, head ~9 cm, trunk ~11 cm)
 FOOT_MIN = 0.01  # feet offset (in lengths) below which it is called undetermined: about one voxel
@@ -119,7 +133,10 @@ CHEST = 2.0  # head: the chest is the solid on the trunk's side of the neck with
 CHEST_POWER = 2.0  # head: depth exponent of the chest's weights
 FACE = 0.5  # head: its surface is the input's points within this many head depths of the head blob's balls
 CELL = 0.5  # head: the head's surface is read in cells of this many pitches, each holding points counted once
-FACE_MIN = 0.1  # head: the jaw's offset (head depths) below which front-back is called undetermined
+FACE_MIN = 0.1  # head: the face's offset (head depths) below which front-back is called undetermined
+MUZZLE = 0.5  # head: the part beyond the neck this many head depths ahead of the skull is a muzzle (a snout)
+TURN = 30.0  # head: degrees; the head's mirror normal farther than this from both chest axes turns against the chest
+MIRROR_STEPS = 36  # head: the head's mirror plane is searched over half a turn in this many steps, then refined
 SYMMETRY_POWER = 2.0  # depth exponent of the mirror test's weights
 
 
@@ -310,6 +327,8 @@ class HeadChest(NamedTuple):
       skull: (3,) the head blob's depth^2-weighted centroid (the center of the skull).
       surface: (k, 3) the head's surface, one point per cell holding input points (:func:`head_surface`).
       eps: the offset (``GRID_SHIFT`` of a pitch) that keeps planes and spheres off voxel centers.
+      beyond: (3,) the centroid of the part beyond the neck: the solid's component holding the head
+        blob on the head's side of the plane through the neck normal to the neck-to-head line.
     """
 
     parts: parts.Parts
@@ -326,6 +345,7 @@ class HeadChest(NamedTuple):
     skull: np.ndarray
     surface: np.ndarray
     eps: float
+    beyond: np.ndarray
 
 
 def head_surface(points, sol, found, up, eps, cell=CELL):
@@ -391,20 +411,90 @@ def head_chest(sol, found, points):
     ws = d[blob] ** 2
     skull = (ws @ y[blob]) / ws.sum()
     surface = head_surface(np.asarray(points, np.float64) @ sol.frame.T, sol, found, up, eps)
-    return HeadChest(found, y, d, idx, chest, cc, cov, hc, up, vec[:, 1], lam[1:], skull, surface, eps)
+    side = np.zeros(sol.inside.shape, bool)
+    side[tuple(idx[(y - neck) @ toward > eps].T)] = True
+    labels, _ = ndimage.label(side | found.head, np.ones((3, 3, 3), bool))
+    beyond = labels[tuple(idx.T)] == labels[tuple(idx[blob][0])]
+    return HeadChest(found, y, d, idx, chest, cc, cov, hc, up, vec[:, 1], lam[1:], skull, surface, eps,
+                     y[beyond].mean(axis=0))
 
 
 def front_back_cues(geo, front_back):
-    """(2,) the face's offsets along ``front_back`` (module docs, step 5), in units: the centroid
-    of the head's surface below the skull's center (jaw, mouth, chin) ahead of that center, and
-    the whole surface's reach ahead of the center plus its reach behind it (its 98th plus its 2nd
-    percentile: nose and chin against the back of the skull); 0 where the head has no surface
-    points (below its center)."""
+    """(3,) the face's offsets along ``front_back`` (module docs, step 5), in units: the centroid
+    of the head's surface below the skull's center (jaw, mouth, chin) ahead of that center; the
+    whole surface's reach ahead of the center plus its reach behind it (its 98th plus its 2nd
+    percentile: nose and chin against the back of the skull); and the centroid of the part beyond
+    the neck ahead of the skull's center (a muzzle). The first two are 0 where the head has no
+    surface points (below its center)."""
+    muzzle = (geo.beyond - geo.skull) @ front_back
     if not len(geo.surface):
-        return np.zeros(2)
+        return np.array([0.0, 0.0, muzzle])
     rel = geo.surface - geo.skull
     z, low = rel @ front_back, rel @ geo.up < 0
-    return np.array([z[low].mean() if low.any() else 0.0, np.quantile(z, 0.02) + np.quantile(z, 0.98)])
+    return np.array([z[low].mean() if low.any() else 0.0, np.quantile(z, 0.02) + np.quantile(z, 0.98), muzzle])
+
+
+def mirror_error(points, center, normal):
+    """Mean distance (units) from each of the (n, 3) points reflected in the plane through
+    ``center`` normal to ``normal`` (unit) to the nearest of the points: 0 for a mirror-symmetric set."""
+    reflected = points - 2.0 * ((points - center) @ normal)[:, None] * normal
+    return float(cKDTree(points).query(reflected)[0].mean())
+
+
+def head_mirror(surface, a, b, steps=MIRROR_STEPS):
+    """The normal of the best mirror plane of the head's surface (k, 3) through its centroid,
+    among the directions cos t a + sin t b (a, b orthonormal, across up), and its contrast.
+
+    Searched over half a turn in ``steps`` steps, then twice within one step of the best (each time
+    ``steps // 3`` finer steps). A head is rigid and bilaterally symmetric in every pose: the
+    normal is its left-right axis. The contrast (e_perp - e) / e_perp compares the best plane's
+    :func:`mirror_error` e with that about the plane at right angles across up (e_perp): 0 where
+    the head mirrors as well either way (a ball), near 1 for a clear plane.
+
+    Returns:
+      ((3,) unit normal, contrast).
+    """
+    tree, center = cKDTree(surface), surface.mean(axis=0)
+
+    def error(t):
+        e = np.cos(t) * a + np.sin(t) * b
+        return float(tree.query(surface - 2.0 * ((surface - center) @ e)[:, None] * e)[0].mean())
+
+    angles, step = np.linspace(0.0, np.pi, steps, endpoint=False), np.pi / steps
+    for _ in range(3):
+        errors = [error(t) for t in angles]
+        best = angles[int(np.argmin(errors))]
+        angles = best + np.linspace(-step, step, steps // 3 + 1)
+        step = 2.0 * step / (steps // 3)
+    e, e_perp = error(best), error(best + 0.5 * np.pi)
+    return np.cos(best) * a + np.sin(best) * b, (e_perp - e) / max(e_perp, 1e-300)
+
+
+def left_right(sol, geo):
+    """The left-right axis of the ``head`` frame (module docs, step 3), grid coordinates.
+
+    A body's frame is its head's and its chest's together. The head's own mirror plane
+    (:func:`head_mirror`) gives the head's left-right; the one of the chest's two axes across up
+    nearest it, the chest's. Where the two lie within ``TURN`` degrees of each other, left-right
+    is their bisector; where they do not, the head is turned against the chest and left-right is
+    the one of the chest's two axes whose plane mirrors the depth^``SYMMETRY_POWER`` solid better
+    (:func:`symmetry_scores`), as also for a head with fewer than 4 surface points.
+
+    Returns:
+      ((3,) unit, the head's mirror contrast (0 where it has no surface), whether the head took part).
+    """
+    thin = geo.front_back
+    wide = np.cross(geo.up, thin)
+    contrast = 0.0
+    if len(geo.surface) >= 4:
+        normal, contrast = head_mirror(geo.surface, thin, wide)
+        near = thin if abs(normal @ thin) >= abs(normal @ wide) else wide
+        if np.degrees(np.arccos(min(1.0, abs(normal @ near)))) <= TURN:
+            both = normal + np.sign(normal @ near) * near
+            return both / np.linalg.norm(both), contrast, True
+    w2 = _weights(geo.depth, SYMMETRY_POWER)
+    sym = symmetry_scores(sol, np.stack([thin, wide, geo.up]), (w2 @ geo.centers) / w2.sum())
+    return (thin if sym[0] >= sym[1] else wide), contrast, False
 
 
 def head_frame(sol, vertices, faces=None) -> Frame:
@@ -419,36 +509,48 @@ def head_frame(sol, vertices, faces=None) -> Frame:
 
     Returns:
       :class:`Frame`: ``eigenvalues`` the chest's second moments along the final axes (units^2);
-      ``gaps`` the neck's distinctness (constriction - runner-up) / constriction and the chest's
-      relative gap across ``up``; ``margins`` (neck gap / GAP_MIN, 0, the jaw's offset in head
-      depths / FACE_MIN); ``mirror`` 1 (left-right, completed by det); ``symmetry`` the mirror
-      scores about the planes normal to the three axes (step 6). A solid with no neck, or one
-      whose face's two readings disagree, gets :func:`core_frame` flagged (ambiguity 1).
+      ``gaps`` the neck's distinctness (constriction - runner-up) / constriction (1 for a head
+      found to end the body, :func:`jaxpose.rotation.parts.find_head`) and the head's mirror contrast (:func:`head_mirror`);
+      ``margins`` (neck gap / GAP_MIN, 0, the face's lead in head depths / FACE_MIN); ``mirror`` 1
+      (left-right, completed by det); ``symmetry`` the mirror scores about the planes normal to the
+      three axes (step 6). A solid with no head, or whose jaw decides and disagrees with the
+      surface's reach, gets :func:`core_frame` flagged (ambiguity 1).
 
     Example:
       >>> v, f = baselines.split_geometry(person)                     # doctest: +SKIP
       >>> head_frame(frame_solid(v, f), v, f).rotation[2]  # back to front, world coordinates  # doctest: +SKIP
     """
-    found = parts.find_parts(sol)
+    found = parts.find_head(sol)
     geo = None if found is None else head_chest(sol, found, sample.lattice_points(vertices, faces, CELL * sol.pitch))
-    if geo is None:  # no neck, or no chest below it: the core frame, flagged (no head vouches for it)
+    if geo is None:  # no head, or no chest below it: the core frame, flagged (no head vouches for it)
         return core_frame(sol)._replace(ambiguity=1.0)
-    jaw, reach = front_back_cues(geo, geo.front_back)
-    if jaw * reach <= 0:  # the face's readings disagree (what was found may not be a head): the core frame
+    lr, contrast, _ = left_right(sol, geo)
+    fb = np.cross(geo.up, lr)
+    fb /= np.linalg.norm(fb)
+    jaw, reach, muzzle = front_back_cues(geo, fb)
+    settled = True
+    if abs(muzzle) >= max(abs(jaw), MUZZLE * found.head_depth):  # a snout: it reaches farther than the face hangs
+        cue, other = muzzle, jaw
+    elif jaw * reach > 0:
+        cue, other = jaw, muzzle
+    elif abs(muzzle) >= FACE_MIN * found.head_depth:  # the face's readings disagree; the part beyond the neck breaks the tie
+        cue, other, settled = muzzle, (jaw if jaw * muzzle < 0 else reach), False
+    else:  # the face's readings disagree (what was found may not be a head): the core frame
         return core_frame(sol)._replace(ambiguity=1.0)
-    fb = geo.front_back if jaw > 0 else -geo.front_back
+    fb = fb if cue > 0 else -fb
     axes = np.stack([-geo.up, np.cross(fb, -geo.up), fb])  # axis 0 points to the feet, as the core frame's
     down, fb_w = -geo.up @ sol.frame, fb @ sol.frame
     rot = np.stack([down, np.cross(fb_w, down), fb_w])  # det +1 also where the grid frame is improper
-    gaps = np.array([(found.constriction - found.runner_up) / found.constriction,
-                     (geo.spread[1] - geo.spread[0]) / max(geo.spread[1], 1e-300)])
-    sign = abs(jaw) / found.head_depth / FACE_MIN
+    neck = 1.0 if found.terminal else (found.constriction - found.runner_up) / found.constriction
+    gaps = np.array([neck, contrast])
+    lead = abs(cue) - (abs(other) if cue * other < 0 else 0.0)  # the other reading, where it disagrees, takes from it
+    sign = max(lead, 0.0) / found.head_depth / FACE_MIN
     moments = np.einsum("ai,ij,aj->a", axes, geo.cov, axes)
     w2 = _weights(geo.depth, SYMMETRY_POWER)
     sym = symmetry_scores(sol, axes, (w2 @ geo.centers) / w2.sum())
     contrast = sym[1] - max(sym[0], sym[2])  # left-right must be the normal of the body's best mirror plane
-    return Frame(rot, ambiguity(gaps, sign, contrast), moments, gaps, np.array([gaps[0] / GAP_MIN, 0.0, sign]), 1,
-                 sym)
+    amb = ambiguity(gaps, sign, contrast) if settled else 1.0
+    return Frame(rot, amb, moments, gaps, np.array([gaps[0] / GAP_MIN, 0.0, sign]), 1, sym)
 
 
 def _undetermined():

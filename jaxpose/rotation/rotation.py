@@ -51,6 +51,8 @@ limbs and waist.
    no head vouches for it (rotation="core" asks for it unflagged where its own cues hold).
 2. Up. From the chest (the solid on the trunk's side of the neck within ``CHEST`` head depths of
    it, each voxel weighted by depth^``CHEST_POWER``) to the head's centroid; it points to the head.
+   A head with a snout (step 5) has an up of its own, across the snout in its mirror plane (a
+   long neck bends against it); there up is the bisector of the two.
 3. Left-right (:func:`left_right`). A head is rigid and bilaterally symmetric in every pose: the
    normal of its surface's best mirror plane across up (:func:`head_mirror`) is its left-right
    axis, whatever the body's build (a person's chest is wider than deep, a dog's or a horse's
@@ -525,11 +527,20 @@ def head_frame(sol, vertices, faces=None) -> Frame:
     if geo is None:  # no head, or no chest below it: the core frame, flagged (no head vouches for it)
         return core_frame(sol)._replace(ambiguity=1.0)
     lr, contrast, _ = left_right(sol, geo)
-    fb = np.cross(geo.up, lr)
+    up = geo.up
+    fb = np.cross(up, lr)
     fb /= np.linalg.norm(fb)
     jaw, reach, muzzle = front_back_cues(geo, fb)
     settled = True
     if abs(muzzle) >= max(abs(jaw), MUZZLE * found.head_depth):  # a snout: it reaches farther than the face hangs
+        snout = geo.beyond - geo.skull
+        snout -= (snout @ lr) * lr  # in the head's mirror plane
+        own = np.cross(lr, snout)  # the head's own up: across its snout, in its mirror plane
+        own *= np.sign(own @ up) / np.linalg.norm(own)
+        up = (up + own) / np.linalg.norm(up + own)  # the head's and the chest's together
+        fb = np.cross(up, lr)
+        fb /= np.linalg.norm(fb)
+        muzzle = snout @ fb
         cue, other = muzzle, jaw
     elif jaw * reach > 0:
         cue, other = jaw, muzzle
@@ -538,8 +549,8 @@ def head_frame(sol, vertices, faces=None) -> Frame:
     else:  # the face's readings disagree (what was found may not be a head): the core frame
         return core_frame(sol)._replace(ambiguity=1.0)
     fb = fb if cue > 0 else -fb
-    axes = np.stack([-geo.up, np.cross(fb, -geo.up), fb])  # axis 0 points to the feet, as the core frame's
-    down, fb_w = -geo.up @ sol.frame, fb @ sol.frame
+    axes = np.stack([-up, np.cross(fb, -up), fb])  # axis 0 points to the feet, as the core frame's
+    down, fb_w = -up @ sol.frame, fb @ sol.frame
     rot = np.stack([down, np.cross(fb_w, down), fb_w])  # det +1 also where the grid frame is improper
     neck = 1.0 if found.terminal else (found.constriction - found.runner_up) / found.constriction
     gaps = np.array([neck, contrast])

@@ -35,17 +35,16 @@ import time
 from pathlib import Path
 
 import numpy as np
-from scipy import ndimage, sparse
-from scipy.sparse import csgraph
+from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from jaxpose import baselines, datasets
 from jaxpose.evaluation import align_core, class_angles, make_class
 from jaxpose.occupancy.solid import cap_holes, robust_solid
 from jaxpose.evaluation.rotation import sign_free_angles
-from jaxpose.rotation.parts import Parts, find_parts, merge_tree
+from jaxpose.rotation.parts import Parts, ends, find_parts, merge_tree
 from jaxpose.rotation.rotation import (CELL, SYMMETRY_POWER, _grid_centers, _weights, frame_of, frame_solid,
-                                       front_back_cues, head_chest, symmetry_scores)
+                                       front_back_cues, head_chest, mirror_error, symmetry_scores)
 from jaxpose.sample import lattice_points
 
 from .consistency import class_folder
@@ -307,8 +306,10 @@ def parts_at(sol, row, head_peak=None):
 
 
 # The prototype of a head detector for every body (--heads): the head is the thickest part that
-# ends the body, whatever its neck's constriction. Not in the library (docs/rotation.md, "Bodies
-# other than people": it loses a third of the children's heads).
+# ends the body, whatever its neck's constriction. As measured then (docs/rotation.md, "Bodies
+# other than people": alone it loses a third of the children's heads); the library's
+# jaxpose.rotation.parts.find_head keeps find_parts' head where it ends the body and falls back
+# to this search (with its own geodesic and ends, imported here).
 DISK = 3.0  # a part is cut off across its saddle by a disk of this many saddle depths in radius
 BRANCH = 2.0  # a part ends the body when no two of its ends are more than this many part thicknesses apart
 
@@ -328,43 +329,6 @@ def part_across(sol, blob, saddle, death, disk=DISK):
     keep[tuple(idx[~cut].T)] = True
     labels, _ = ndimage.label(keep | blob, _CUBE)
     return labels == labels[tuple(np.argwhere(blob)[0])]
-
-
-def geodesic(mask, source, pitch):
-    """(shape) float: the length (units) of the shortest 26-connected path inside ``mask`` from the
-    voxel ``source`` ((3,) index) to each voxel (inf where none; 0 outside the mask)."""
-    vox = np.argwhere(mask)
-    index = -np.ones(mask.shape, np.int64)
-    index[tuple(vox.T)] = np.arange(len(vox))
-    padded = np.pad(index, 1, constant_values=-1)
-    rows, cols, lengths = [], [], []
-    for step in _NEIGHBOURS_HALF:
-        other = padded[tuple((vox + 1 + step).T)]
-        ok = other >= 0
-        rows.append(np.flatnonzero(ok))
-        cols.append(other[ok])
-        lengths.append(np.full(ok.sum(), np.linalg.norm(step) * pitch))
-    graph = sparse.coo_matrix((np.concatenate(lengths), (np.concatenate(rows), np.concatenate(cols))),
-                              shape=(len(vox), len(vox))).tocsr()
-    out = np.zeros(mask.shape)
-    out[tuple(vox.T)] = csgraph.dijkstra(graph, directed=False, indices=int(index[tuple(source)]))
-    return out
-
-
-_NEIGHBOURS_HALF = np.array([(a, b, c) for a in (-1, 0, 1) for b in (-1, 0, 1) for c in (-1, 0, 1)
-                             if (a, b, c) > (0, 0, 0)])  # each of the 26 neighbours once, up to sign
-
-
-def ends(sol, part, saddle, thickness, scale=BRANCH):
-    """How many ends the part has at the scale of its thickness: the maxima of the geodesic
-    distance from the saddle (the part's voxel nearest it) whose persistence (birth - death in
-    the merge tree of that distance's superlevel sets) is at least ``scale * thickness``; the
-    farthest end counts where it is that far from the saddle. 0 or 1: the part does not branch."""
-    vox = np.argwhere(part)
-    g = geodesic(part, vox[np.argmin(np.linalg.norm(vox - saddle, axis=1))], sol.pitch)
-    reach = part & np.isfinite(g)
-    tree = merge_tree(reach, np.where(reach, g + sol.pitch, 0.0))
-    return int(np.sum(tree[:, 0] - tree[:, 1] >= scale * thickness))
 
 
 def terminal_head(sol, tree=None, neck=1.05, lowest=0.1):
@@ -396,13 +360,6 @@ def terminal_head(sol, tree=None, neck=1.05, lowest=0.1):
                 continue
             best = (thickness, row, mine, part)
     return None if best is None else best[1:]
-
-
-def mirror_error(points, center, normal):
-    """Mean distance (units) from each of the (n, 3) points reflected in the plane through
-    ``center`` normal to ``normal`` (unit) to the nearest of the points: 0 for a mirror-symmetric set."""
-    reflected = points - 2.0 * ((points - center) @ normal)[:, None] * normal
-    return float(cKDTree(points).query(reflected)[0].mean())
 
 
 def head_mirror_normal(surface, a, b, steps=36):

@@ -136,6 +136,11 @@ def test_find_head_finds_a_head_thinner_than_half_the_trunk():
     head = sol.origin + sol.pitch * (np.stack(np.nonzero(found.head), 1) + 0.5)
     np.testing.assert_allclose(head.mean(axis=0), [1.6, 0, 0.65], atol=0.1)
     assert abs(found.head_depth - 0.2) < 1.5 * sol.pitch
+    # the part beyond the neck: the head and the neck's end, none of the trunk (about 0.2^3 4 pi / 3
+    # for the ball plus at most the neck's length, 0.86, of pi 0.12^2)
+    beyond = sol.origin + sol.pitch * (np.stack(np.nonzero(found.beyond), 1) + 0.5)
+    assert found.beyond[found.head].all() and np.all(beyond[:, 0] > 0.8)
+    assert 4.19 * 0.2 ** 3 < found.beyond.sum() * sol.pitch ** 3 < 4.19 * 0.2 ** 3 + 3.15 * 0.12 ** 2 * 0.86
     # the neck lies on the neck's axis, between the trunk and the head
     axis = np.array([0.7, 0.0, 0.5]) / np.linalg.norm([0.7, 0.0, 0.5])
     rel = found.neck - np.array([0.8, 0, 0.1])

@@ -62,6 +62,8 @@ class Parts(NamedTuple):
       runner_up: the largest birth / death of any other thick maximum (1 when there is none).
       terminal: True where the head was found to end the body (:func:`find_head`: cut off across its
         saddle and not branching), False where that was not checked or could not be told.
+      beyond: (nx, ny, nz) bool, the part beyond the neck as cut off there (:func:`part_across`),
+        where ``terminal``; else None.
     """
 
     head: np.ndarray
@@ -72,6 +74,7 @@ class Parts(NamedTuple):
     constriction: float
     runner_up: float
     terminal: bool = False
+    beyond: np.ndarray | None = None
 
 
 def merge_tree(inside, depth):
@@ -154,7 +157,7 @@ def find_parts(sol, thick=THICK, tree=None):
     return _split(sol, thick_joins[best], None, runner_up)
 
 
-def _split(sol, row, head_peak, runner_up, terminal=False):
+def _split(sol, row, head_peak, runner_up, beyond=None):
     """:class:`Parts` at one merge-tree row's saddle: the head the smaller side (``head_peak`` None)
     or the side of that peak (a flat index: the row's peak or the one it joins)."""
     birth, death, peak, saddle, joins = row
@@ -167,7 +170,7 @@ def _split(sol, row, head_peak, runner_up, terminal=False):
     neck = np.asarray(sol.origin, np.float64) + sol.pitch * (_index(sol, saddle) + 0.5)
     shape = sol.inside.shape
     return Parts(head.reshape(shape), trunk.reshape(shape), neck, float(sol.depth.ravel()[int(head_peak)]),
-                 float(death), float(birth / death), runner_up, terminal)
+                 float(death), float(birth / death), runner_up, beyond is not None, beyond)
 
 
 def _index(sol, flat):
@@ -240,9 +243,10 @@ def ends(sol, part, saddle, depth, scale=BRANCH):
 
 def _terminal(sol, row, head_peak, disks=(DISK,)):
     """Whether the side of ``head_peak`` at one merge-tree row's saddle is a head that ends the
-    body: True where it is cut off (:func:`part_across`, by the first of ``disks`` that cuts it
-    off), holds at most :data:`SHARE` of the solid and does not branch (:func:`ends`); False where
-    it is cut off and is larger or branches; None where it cannot be cut off."""
+    body: (True, the part) where it is cut off (:func:`part_across`, by the first of ``disks`` that
+    cuts it off), holds at most :data:`SHARE` of the solid and does not branch (:func:`ends`);
+    (False, None) where it is cut off and is larger or branches; (None, None) where it cannot be
+    cut off."""
     birth, death, peak, saddle, joins = row
     labels, _ = ndimage.label(sol.depth > death, _CUBE)
     blob = labels == labels[tuple(_index(sol, head_peak))]
@@ -253,10 +257,12 @@ def _terminal(sol, row, head_peak, disks=(DISK,)):
         if part is not None:
             break
     if part is None:
-        return None
+        return None, None
     if part.sum() > SHARE * sol.inside.sum():  # half a trunk (a rump, a chest with arms), not an end
-        return False
-    return ends(sol, part, _index(sol, saddle), float(sol.depth.ravel()[int(head_peak)])) <= 1
+        return False, None
+    if ends(sol, part, _index(sol, saddle), float(sol.depth.ravel()[int(head_peak)])) > 1:
+        return False, None
+    return True, part
 
 
 def terminal_part(sol, tree=None):
@@ -270,7 +276,7 @@ def terminal_part(sol, tree=None):
 
     Returns:
       :class:`Parts` (``constriction`` the saddle's row's birth / death; ``runner_up`` 1;
-      ``terminal`` True).
+      ``terminal`` True, ``beyond`` the part as cut off).
     """
     tree = merge_tree(sol.inside, sol.depth) if tree is None else tree
     if len(tree) < 2:
@@ -287,8 +293,9 @@ def terminal_part(sol, tree=None):
         small = peak if np.sum(labels == labels[int(peak)]) <= np.sum(labels == labels[int(joins)]) else joins
         sides.append((flat_depth[int(small)], row, small))
     for _, row, small in sorted(sides, key=lambda s: -s[0]):
-        if _terminal(sol, row, small, (DISK, WIDER)):
-            return _split(sol, row, small, 1.0, terminal=True)
+        verdict, part = _terminal(sol, row, small, (DISK, WIDER))
+        if verdict:
+            return _split(sol, row, small, 1.0, part)
     return None
 
 
@@ -310,7 +317,7 @@ def find_head(sol, tree=None):
         thick = tree[(tree[:, 1] > 0) & (tree[:, 0] >= NECK * tree[:, 1]) & (tree[:, 0] >= THICK * tree[:, 0].max())]
         row = thick[np.argmax(thick[:, 0] / thick[:, 1])]
         head_peak = row[2] if found.head.ravel()[int(row[2])] else row[4]
-        ends_body = _terminal(sol, row, head_peak)
-        if ends_body is not False:
-            return found._replace(terminal=bool(ends_body))
+        verdict, part = _terminal(sol, row, head_peak)
+        if verdict is not False:
+            return found._replace(terminal=bool(verdict), beyond=part)
     return terminal_part(sol, tree)

@@ -72,9 +72,10 @@ limbs and waist.
    skull's center (jaw, mouth, chin) lies ahead of that center (:func:`front_back_cues`). A pose
    cannot turn this around; the neck's bend only tilts it. A second reading checks it: the
    surface reaches farther ahead of the center than behind it (its 98th plus its 2nd percentile
-   along the axis). A snout is the other face: where the part beyond the neck (the solid's
-   component beyond the plane through the neck) reaches at least ``MUZZLE`` head depths ahead of
-   the skull and farther than the jaw hangs, it decides (a person's head is round about its
+   along the axis). A snout is the other face: where the part beyond the neck (the head as cut
+   off across its neck, :func:`jaxpose.rotation.parts.find_head`; none where it could not be cut
+   off) reaches at least ``MUZZLE`` head depths ahead of the skull and farther than the jaw
+   hangs, it decides (a person's head is round about its
    skull; a horse's muzzle is a head depth long). Where the jaw decides and its two readings
    disagree, what was found may not be a head (a hand on it, holes in it), or a long neck's
    surface hangs below the skull: the part beyond the neck breaks the tie where it reaches at
@@ -329,8 +330,8 @@ class HeadChest(NamedTuple):
       skull: (3,) the head blob's depth^2-weighted centroid (the center of the skull).
       surface: (k, 3) the head's surface, one point per cell holding input points (:func:`head_surface`).
       eps: the offset (``GRID_SHIFT`` of a pitch) that keeps planes and spheres off voxel centers.
-      beyond: (3,) the centroid of the part beyond the neck: the solid's component holding the head
-        blob on the head's side of the plane through the neck normal to the neck-to-head line.
+      beyond: (3,) the centroid of the part beyond the neck as cut off there
+        (:attr:`jaxpose.rotation.parts.Parts.beyond`); the skull where the head could not be cut off.
     """
 
     parts: parts.Parts
@@ -413,12 +414,8 @@ def head_chest(sol, found, points):
     ws = d[blob] ** 2
     skull = (ws @ y[blob]) / ws.sum()
     surface = head_surface(np.asarray(points, np.float64) @ sol.frame.T, sol, found, up, eps)
-    side = np.zeros(sol.inside.shape, bool)
-    side[tuple(idx[(y - neck) @ toward > eps].T)] = True
-    labels, _ = ndimage.label(side | found.head, np.ones((3, 3, 3), bool))
-    beyond = labels[tuple(idx.T)] == labels[tuple(idx[blob][0])]
-    return HeadChest(found, y, d, idx, chest, cc, cov, hc, up, vec[:, 1], lam[1:], skull, surface, eps,
-                     y[beyond].mean(axis=0))
+    beyond = skull if found.beyond is None else y[found.beyond[tuple(idx.T)]].mean(axis=0)
+    return HeadChest(found, y, d, idx, chest, cc, cov, hc, up, vec[:, 1], lam[1:], skull, surface, eps, beyond)
 
 
 def front_back_cues(geo, front_back):
@@ -426,7 +423,7 @@ def front_back_cues(geo, front_back):
     of the head's surface below the skull's center (jaw, mouth, chin) ahead of that center; the
     whole surface's reach ahead of the center plus its reach behind it (its 98th plus its 2nd
     percentile: nose and chin against the back of the skull); and the centroid of the part beyond
-    the neck ahead of the skull's center (a muzzle). The first two are 0 where the head has no
+    the neck ahead of the skull's center (a muzzle; 0 where the head was not cut off). The first two are 0 where the head has no
     surface points (below its center)."""
     muzzle = (geo.beyond - geo.skull) @ front_back
     if not len(geo.surface):

@@ -59,7 +59,8 @@ class Parts(NamedTuple):
       neck: (3,) the saddle voxel's center, in the grid's frame (``solid.origin + pitch (i + 0.5)``).
       head_depth: depth of the head's deepest voxel (units); neck_depth: the saddle's depth.
       constriction: birth / death of the shallower of the two maxima the neck joins (>= 1).
-      runner_up: the largest birth / death of any other thick maximum (1 when there is none).
+      runner_up: the largest birth / death of any other thick maximum (1 when there is none; 0
+        for a head found only as the thickest part that ends the body, :func:`terminal_part`).
       terminal: True where the head was found to end the body (:func:`find_head`: cut off across its
         saddle and not branching), False where that was not checked or could not be told.
       beyond: (nx, ny, nz) bool, the part beyond the neck as cut off there (:func:`part_across`),
@@ -275,7 +276,8 @@ def terminal_part(sol, tree=None):
     :func:`find_parts`' head with :data:`DISK` only: a head it cannot cut off is kept.)
 
     Returns:
-      :class:`Parts` (``constriction`` the saddle's row's birth / death; ``runner_up`` 1;
+      :class:`Parts` (``constriction`` the saddle's row's birth / death; ``runner_up`` 0: no neck
+      was compared;
       ``terminal`` True, ``beyond`` the part as cut off).
     """
     tree = merge_tree(sol.inside, sol.depth) if tree is None else tree
@@ -295,7 +297,7 @@ def terminal_part(sol, tree=None):
     for _, row, small in sorted(sides, key=lambda s: -s[0]):
         verdict, part = _terminal(sol, row, small, (DISK, WIDER))
         if verdict:
-            return _split(sol, row, small, 1.0, part)
+            return _split(sol, row, small, 0.0, part)
     return None
 
 

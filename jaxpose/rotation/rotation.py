@@ -59,8 +59,9 @@ limbs and waist.
    deeper than wide). A body's frame is its head's and its chest's together: where the head's
    normal lies within ``TURN`` degrees of one of the chest's two second-moment axes across up,
    left-right is the bisector of the two; where it does not, the head is turned against the chest
-   and left-right is the chest axis whose plane mirrors the depth^2 solid better. Front-back is
-   up x left-right.
+   and left-right is the chest axis whose plane mirrors the depth^2 solid better; where neither
+   mirrors clearly better, the chest's flatter direction is front-back (a person's build), flagged.
+   Front-back is up x left-right.
 4. Rows. As the ``core`` frame's for a person: axis 0 from the head toward the feet (-up),
    axis 2 back to front, axis 1 = axis 2 x axis 0 (det +1).
 5. Front-back's sign: the face, or a muzzle. The head's surface is the input's points above the
@@ -121,7 +122,7 @@ from ..occupancy.voxels import GRID_SHIFT
 
 __all__ = ["Frame", "ROTATIONS", "DEFAULT_ROTATION", "GAP_MIN", "SIGN_MIN", "SYMMETRY_MIN", "FOOT", "FEET_DEPTH",
            "FOOT_MIN", "AXES_POWER", "SYMMETRY_POWER", "CHEST", "CHEST_POWER", "FACE", "CELL", "FACE_MIN",
-           "MUZZLE", "TURN", "MIRROR_STEPS", "mirror_error", "head_mirror", "left_right", "pre_frame", "frame_solid",
+           "MUZZLE", "TURN", "HEAD_MIRROR", "MIRROR_STEPS", "mirror_error", "head_mirror", "left_right", "pre_frame", "frame_solid",
            "core_frame", "HeadChest", "head_chest", "head_surface", "front_back_cues",
            "head_frame", "feet_offset", "symmetry_scores", "ambiguity", "complete_signs", "frame_of", "region_frame",
            "proper"]
@@ -139,6 +140,7 @@ CELL = 0.5  # head: the head's surface is read in cells of this many pitches, ea
 FACE_MIN = 0.1  # head: the face's offset (head depths) below which front-back is called undetermined
 MUZZLE = 0.5  # head: the part beyond the neck this many head depths ahead of the skull is a muzzle (a snout)
 TURN = 30.0  # head: degrees; the head's mirror normal farther than this from both chest axes turns against the chest
+HEAD_MIRROR = 0.25  # head: a head found only as the part that ends the body must mirror itself at least this clearly
 MIRROR_STEPS = 36  # head: the head's mirror plane is searched over half a turn in this many steps, then refined
 SYMMETRY_POWER = 2.0  # depth exponent of the mirror test's weights
 
@@ -477,22 +479,29 @@ def left_right(sol, geo):
     nearest it, the chest's. Where the two lie within ``TURN`` degrees of each other, left-right
     is their bisector; where they do not, the head is turned against the chest and left-right is
     the one of the chest's two axes whose plane mirrors the depth^``SYMMETRY_POWER`` solid better
-    (:func:`symmetry_scores`), as also for a head with fewer than 4 surface points.
+    (:func:`symmetry_scores`), as also for a head with fewer than 4 surface points; where those
+    two scores are within ``SYMMETRY_MIN`` of each other, no mirror decides, and left-right is the
+    chest's wider axis (a person's chest is flatter front to back than across; a habit of one
+    build, so :func:`head_frame` flags it).
 
     Returns:
-      ((3,) unit, the head's mirror contrast (0 where it has no surface), whether the head took part).
+      ((3,) unit, the head's mirror contrast (0 where it has no surface), True where the head took
+      part, False where the body's mirror plane chose, None where neither decided).
     """
     thin = geo.front_back
     wide = np.cross(geo.up, thin)
-    contrast = 0.0
-    if len(geo.surface) >= 4:
-        normal, contrast = head_mirror(geo.surface, thin, wide)
-        near = thin if abs(normal @ thin) >= abs(normal @ wide) else wide
-        if np.degrees(np.arccos(min(1.0, abs(normal @ near)))) <= TURN:
-            both = normal + np.sign(normal @ near) * near
-            return both / np.linalg.norm(both), contrast, True
     w2 = _weights(geo.depth, SYMMETRY_POWER)
+    if len(geo.surface) < 4:
+        sym = symmetry_scores(sol, np.stack([thin, wide, geo.up]), (w2 @ geo.centers) / w2.sum())
+        return (thin if sym[0] >= sym[1] else wide), 0.0, (False if abs(sym[0] - sym[1]) >= SYMMETRY_MIN else None)
+    normal, contrast = head_mirror(geo.surface, thin, wide)
+    near = thin if abs(normal @ thin) >= abs(normal @ wide) else wide
+    if np.degrees(np.arccos(min(1.0, abs(normal @ near)))) <= TURN:
+        both = normal + np.sign(normal @ near) * near
+        return both / np.linalg.norm(both), contrast, True
     sym = symmetry_scores(sol, np.stack([thin, wide, geo.up]), (w2 @ geo.centers) / w2.sum())
+    if abs(sym[0] - sym[1]) < SYMMETRY_MIN:  # no mirror decides: the chest's flatter direction is front-back
+        return wide, contrast, None
     return (thin if sym[0] >= sym[1] else wide), contrast, False
 
 
@@ -523,12 +532,14 @@ def head_frame(sol, vertices, faces=None) -> Frame:
     geo = None if found is None else head_chest(sol, found, sample.lattice_points(vertices, faces, CELL * sol.pitch))
     if geo is None:  # no head, or no chest below it: the core frame, flagged (no head vouches for it)
         return core_frame(sol)._replace(ambiguity=1.0)
-    lr, contrast, _ = left_right(sol, geo)
+    lr, contrast, chosen = left_right(sol, geo)
+    if found.runner_up == 0.0 and contrast < HEAD_MIRROR:  # found as an end of the body, not mirror-symmetric: a hand?
+        return core_frame(sol)._replace(ambiguity=1.0)
     up = geo.up
     fb = np.cross(up, lr)
     fb /= np.linalg.norm(fb)
     jaw, reach, muzzle = front_back_cues(geo, fb)
-    settled = True
+    settled = chosen is not None  # no mirror chose left-right: flagged
     if abs(muzzle) >= max(abs(jaw), MUZZLE * found.head_depth):  # a snout: it reaches farther than the face hangs
         snout = geo.beyond - geo.skull
         snout -= (snout @ lr) * lr  # in the head's mirror plane

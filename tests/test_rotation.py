@@ -149,6 +149,10 @@ def test_head_frame_without_a_head_is_the_core_frame_flagged():
     np.testing.assert_array_equal(got.rotation, core.rotation)
     assert got.ambiguity == 1.0 and got.flag
     assert rotation.DEFAULT_ROTATION == "head"
+    example = mesh.example_shape()  # a capsule with an arm: the arm ends the body but reads no face
+    got = rotation.frame_of(example, "head")
+    np.testing.assert_array_equal(got.rotation, rotation.frame_of(example, "core").rotation)
+    assert got.flag
 
 
 def test_a_head_thinner_than_half_the_trunk_is_found_where_it_ends_the_body(body_frame):

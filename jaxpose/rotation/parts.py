@@ -16,7 +16,9 @@ half its trunk and its neck no more constricted than its waist, so the most cons
 saddle may cut off its rump (its legs and tail beyond). A head does not branch: cut off across its
 saddle (:func:`part_across`), the geodesic distance from the saddle has one far end in it
 (:func:`ends`), where a rump has legs and a tail, a chest arms; and it is a small end, at most
-:data:`SHARE` of the solid (the dev bodies' heads: 4-18 %; a rump, a third). Where :func:`find_parts`' head
+:data:`SHARE` of the solid (the dev bodies' heads: 4-20 %; a dog's rump 27-29 %, a horse's half
+trunk 31-35 %). :func:`find_parts`' head, beyond a strongly constricted neck, is allowed a second
+end (a hand resting on it). Where :func:`find_parts`' head
 is cut off and branches, or where it finds none, the head is the thickest part beyond any saddle
 (at least :data:`SADDLE` times as deep as it) that is cut off and ends the body
 (:func:`terminal_part`). How it does on real bodies: docs/rotation.md.
@@ -242,12 +244,12 @@ def ends(sol, part, saddle, depth, scale=BRANCH):
     return int(np.sum(tree[:, 0] - tree[:, 1] >= scale * depth))
 
 
-def _terminal(sol, row, head_peak, disks=(DISK,)):
+def _terminal(sol, row, head_peak, disks=(DISK,), most=1):
     """Whether the side of ``head_peak`` at one merge-tree row's saddle is a head that ends the
     body: (True, the part) where it is cut off (:func:`part_across`, by the first of ``disks`` that
-    cuts it off), holds at most :data:`SHARE` of the solid and does not branch (:func:`ends`);
-    (False, None) where it is cut off and is larger or branches; (None, None) where it cannot be
-    cut off."""
+    cuts it off), holds at most :data:`SHARE` of the solid and has at most ``most`` far ends
+    (:func:`ends`); (False, None) where it is cut off and is larger or branches more; (None, None)
+    where it cannot be cut off."""
     birth, death, peak, saddle, joins = row
     labels, _ = ndimage.label(sol.depth > death, _CUBE)
     blob = labels == labels[tuple(_index(sol, head_peak))]
@@ -261,7 +263,7 @@ def _terminal(sol, row, head_peak, disks=(DISK,)):
         return None, None
     if part.sum() > SHARE * sol.inside.sum():  # half a trunk (a rump, a chest with arms), not an end
         return False, None
-    if ends(sol, part, _index(sol, saddle), float(sol.depth.ravel()[int(head_peak)])) > 1:
+    if ends(sol, part, _index(sol, saddle), float(sol.depth.ravel()[int(head_peak)])) > most:
         return False, None
     return True, part
 
@@ -303,8 +305,10 @@ def terminal_part(sol, tree=None):
 
 def find_head(sol, tree=None):
     """The head of a body (module docs): :func:`find_parts`' head where it ends the body
-    (``terminal`` True) or cannot be cut off to tell (``terminal`` False); else (it branches or is
-    too large, or there is no thick neck) :func:`terminal_part`.
+    (``terminal`` True) or cannot be cut off to tell (``terminal`` False); else (it is half a trunk,
+    more than :data:`SHARE` of the solid, or carries limbs: three or more far ends, a rump's two
+    legs and tail; two are allowed it, a hand resting on a head), or where there is no thick neck,
+    :func:`terminal_part`.
 
     Args:
       sol: :class:`jaxpose.occupancy.solid.Solid`; tree: its :func:`merge_tree` to reuse.
@@ -319,7 +323,7 @@ def find_head(sol, tree=None):
         thick = tree[(tree[:, 1] > 0) & (tree[:, 0] >= NECK * tree[:, 1]) & (tree[:, 0] >= THICK * tree[:, 0].max())]
         row = thick[np.argmax(thick[:, 0] / thick[:, 1])]
         head_peak = row[2] if found.head.ravel()[int(row[2])] else row[4]
-        verdict, part = _terminal(sol, row, head_peak)
+        verdict, part = _terminal(sol, row, head_peak, most=2)  # a hand resting on the head: two ends
         if verdict is not False:
             return found._replace(terminal=bool(verdict), beyond=part)
     return terminal_part(sol, tree)

@@ -166,8 +166,9 @@ def test_ends_counts_the_far_ends_of_a_part():
 
 def test_find_head_keeps_the_neck_of_a_person_and_rejects_a_branching_part():
     """Where find_parts' head ends the body (the dumbbell's small ball), find_head returns it,
-    checked (terminal); where find_parts' part branches (two legs and a tail beyond the narrowest
-    thick saddle, the head thinner than half the trunk), find_head takes the part that ends the body."""
+    checked (terminal); where find_parts' part branches into limbs (two legs and a tail, each
+    longer than BRANCH rump depths, beyond the narrowest thick saddle; the head thinner than half
+    the trunk), find_head takes the part that ends the body."""
     pitch = 0.05
     sol = voxel_solid([ball((-1.2, 0, 0), 1.0), ball((1.2, 0, 0), 0.7), rod(-1.2, 1.2, 0.3)], pitch)
     a, b = find_parts(sol), find_head(sol)
@@ -175,9 +176,9 @@ def test_find_head_keeps_the_neck_of_a_person_and_rejects_a_branching_part():
     # a rump (ball, 0.4) beyond a waist (0.3) on a trunk (0.45): find_parts takes the rump
     legs = [capsule((-1.5, y, -0.2), (-1.5, y, -1.2), 0.1) for y in (-0.2, 0.2)]
     body = voxel_solid([capsule((-0.6, 0, 0), (0.8, 0, 0), 0.45), capsule((-1.3, 0, 0), (-0.6, 0, 0), 0.3),
-                        ball((-1.5, 0, 0), 0.4), *legs, capsule((-1.5, 0, 0), (-2.1, 0, 0.3), 0.06),
+                        ball((-1.5, 0, 0), 0.4), *legs, capsule((-1.5, 0, 0), (-2.6, 0, 0.4), 0.06),
                         capsule((0.8, 0, 0.1), (1.5, 0, 0.6), 0.1), ball((1.6, 0, 0.65), 0.18)], pitch,
-                       lo=(-2.3, -0.6, -1.4), hi=(2.0, 0.6, 1.0))
+                       lo=(-2.8, -0.6, -1.4), hi=(2.0, 0.6, 1.0))
     rump = find_parts(body)
     assert rump is not None and rump.neck[0] < -0.5 and rump.head_depth > 0.3  # the waist; the rump beyond it
     found = find_head(body)

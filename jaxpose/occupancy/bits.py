@@ -25,7 +25,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax import lax
 
-__all__ = ["pack", "unpack", "shift_bits", "flood", "dilate_ball"]
+__all__ = ["pack", "unpack", "shift_bits", "spread_runs", "erode6", "flood", "dilate_ball"]
 
 _WORD = 32
 _BIT = np.arange(_WORD, dtype=np.uint32)
@@ -79,8 +79,9 @@ def _step(w, axis: int, d: int):
     return lax.slice_in_dim(p, 0, n, axis=axis) if d > 0 else lax.slice_in_dim(p, 1, n + 1, axis=axis)
 
 
-def _runs(seeds, free, c: int):
-    """``seeds`` spread through the runs of ``free`` along the packed axis (lines of c cells), both ways."""
+def spread_runs(seeds, free, c: int):
+    """``seeds`` spread through the runs of ``free`` along the packed axis (lines of c cells), both
+    ways: the free cells joined to a seed by free cells of their line. Packed (..., words) uint32."""
     for sign in (1, -1):
         reach, open_ = seeds, free  # open_: cells whose next s cells (this way) are all free
         s = 1
@@ -90,6 +91,15 @@ def _runs(seeds, free, c: int):
             s *= 2
         seeds = reach
     return seeds
+
+
+def erode6(w):
+    """6-neighbour erosion of a packed (a, b, words) grid: the cells whose 6 face neighbours are
+    all set (cells beyond the grid count as unset), as ``scipy.ndimage.binary_erosion``."""
+    out = w & shift_bits(w, 1) & shift_bits(w, -1)
+    for axis in (0, 1):
+        out = out & _step(w, axis, 1) & _step(w, axis, -1)
+    return out
 
 
 def flood(seeds, free, c: int):
@@ -106,7 +116,7 @@ def flood(seeds, free, c: int):
 
     def body(state):
         reach, _ = state
-        new = _runs(reach, free, c)
+        new = spread_runs(reach, free, c)
         new = new | (free & (_step(new, 0, 1) | _step(new, 0, -1) | _step(new, 1, 1) | _step(new, 1, -1)))
         return new, jnp.any(new != reach)
 

@@ -15,8 +15,9 @@ static, pitch and origin traced):
    is accepted when it holds >= 1.2 x the voxels of the eroded shell alone (no cavity: the fill
    leaked through a gap wider than the dilation); otherwise r grows by max(1, r // 4) up to 3 r
    (``lax.while_loop``). The solid is the closing or the occupied voxels.
-4. Stray parts (:func:`keep_main`): 26-connected components (min-label propagation and pointer
-   jumping in a ``lax.while_loop``), sized by their boundary voxels (6-neighbour erosion); the
+4. Stray parts (:func:`keep_main`): 26-connected components (labelled by runs of voxels,
+   :mod:`jaxpose.occupancy.runs`; voxel by voxel, min-label propagation and pointer jumping in a
+   ``lax.while_loop``, when the solid has more runs than the run arrays hold), sized by their boundary voxels (6-neighbour erosion); the
    largest and those at least ``keep_ratio`` of it are kept.
 5. Two passes: a coarse one (``coarse`` voxels along the largest extent) over every point finds
    the main body; the points within one voxel of it give the box of the fine pass
@@ -43,6 +44,7 @@ Example::
 """
 from __future__ import annotations
 
+from functools import partial
 from typing import NamedTuple
 
 import jax
@@ -51,7 +53,8 @@ import numpy as np
 from jax import lax
 
 from ..config import RobustConfig
-from . import bits
+from . import bits, runs
+from .runs import run_labels
 from .solid import GRID_OFFSET, LINK, POINT_BIAS
 
 __all__ = ["PointSolid", "point_solid", "spacing_subset", "spacing_quantile", "grid_cells", "exterior_fill",
@@ -233,10 +236,36 @@ def components(solid):
 def keep_main(solid, keep_ratio):
     """The components of ``solid`` that are the main body or at least ``keep_ratio`` of its size
     (boundary cells: ``solid`` minus its 6-neighbour erosion), as :func:`jaxpose.occupancy.solid.keep_main`.
+    The components are labelled by runs (:mod:`.runs`); a grid with more runs than
+    :func:`.runs.default_cap` is labelled cell by cell (:func:`components`).
 
     Returns:
       kept (g, g, g) bool, components () int32, dropped () int32.
     """
+    c = solid.shape[-1]
+    packed = bits.pack(solid)
+    found = runs.find_runs(packed, c, runs.default_cap(solid.shape))
+    return runs.either(~found.fits, partial(_keep_cells, keep_ratio=keep_ratio),
+                       partial(_keep_runs, keep_ratio=keep_ratio), solid, packed, found)
+
+
+def _keep_runs(solid, packed, found, keep_ratio):
+    """:func:`keep_main` on the runs of ``solid`` (``found.fits``)."""
+    c = solid.shape[-1]
+    cap = found.first.shape[0]
+    labels = run_labels(found, solid.shape)
+    size = runs.run_counts(found, bits.erode6(packed) ^ packed, c)  # boundary cells per run
+    total = jnp.zeros(cap, jnp.int32).at[labels].add(size, mode="drop")
+    roots = found.valid & (labels == jnp.arange(cap, dtype=jnp.int32))
+    big = jnp.max(total)
+    keep_root = roots & (total.astype(jnp.float32) >= keep_ratio * big.astype(jnp.float32))
+    kept = bits.unpack(runs.paint(found, keep_root[jnp.minimum(labels, cap - 1)], packed, c), c)
+    return kept, jnp.sum(roots).astype(jnp.int32), jnp.sum(roots & ~keep_root).astype(jnp.int32)
+
+
+def _keep_cells(solid, packed, found, keep_ratio):
+    """:func:`keep_main` cell by cell (any grid)."""
+    del packed, found
     labels = components(solid)
     boundary = solid & ~erode6(solid)
     safe = jnp.where(solid, labels, 0).reshape(-1)
@@ -265,10 +294,30 @@ def linked_parts(occupied, near):
     voxels further apart than the linkage does. () float32, 0 when the points are one part (or none)."""
     cells = _blocks(near, jnp.any)
     count = _blocks(occupied.astype(jnp.int32), jnp.sum).astype(jnp.int32)  # int64 sums under x64
+    packed = bits.pack(cells)
+    found = runs.find_runs(packed, cells.shape[-1], runs.default_cap(cells.shape))
+    return runs.either(~found.fits, _parts_cells, _parts_runs, cells, count, found)
+
+
+def _parts_runs(cells, count, found):
+    """:func:`linked_parts` on the runs of the blocks (``found.fits``)."""
+    cap = found.first.shape[0]
+    labels = run_labels(found, cells.shape)
+    size = jnp.zeros(cap, jnp.int32).at[labels].add(runs.run_sums(found, count), mode="drop")
+    return _second_over_largest(size)
+
+
+def _parts_cells(cells, count, found):
+    """:func:`linked_parts` block by block (any grid)."""
+    del found
     labels = components(cells).reshape(-1)
     size = jnp.zeros(cells.size, jnp.int32).at[jnp.where(cells.reshape(-1), labels, 0)].add(count.reshape(-1))
+    return _second_over_largest(size)
+
+
+def _second_over_largest(size):
     largest = jnp.argmax(size)
-    second = jnp.max(jnp.where(jnp.arange(cells.size) == largest, 0, size))
+    second = jnp.max(jnp.where(jnp.arange(size.shape[0]) == largest, 0, size))
     return second.astype(jnp.float32) / jnp.maximum(size[largest], 1).astype(jnp.float32)
 
 

@@ -9,13 +9,14 @@ over axes, so the minimum separates):
 starting from f = 0 on False cells and "none in reach" elsewhere, each axis in turn replaces f by
 g(i) = min_j f(j) + (i - j)^2 along it (the first pass gives the squared distance to the nearest
 False cell in the same line, the second within the same plane, the third in the grid). The
-minimiser j of a cell satisfies (i - j)^2 <= g(i) <= f(i), so a ``lax.while_loop`` over the
-offsets k = 1, 2, ... (both signs, one vector min each) is exact once k^2 exceeds every value
-still to be improved: a traced bound, about the largest distance along that axis, never more than
-the axis length.
+first pass is the distance to the nearest False cell before or after each cell in its line (two
+running extrema). For the others, the minimiser j of a cell satisfies (i - j)^2 <= g(i) <= f(i),
+so a ``lax.while_loop`` over the offsets k = 1, 2, ... (both signs, one vector min each) is exact
+once k^2 exceeds every value still to be improved: a traced bound, the largest distance within
+the plane (second pass) or the grid (third), never more than the axis length.
 
 Memory: a few arrays the size of the grid (the shifted copies are padded along one axis), never
-grid x grid. Cost: O(largest depth) vector operations over the grid per axis.
+grid x grid. Cost: O(log n) vector operations for the first axis, O(largest depth) for the others.
 
 Conventions (those of scipy). Cells beyond the grid border are not outside: a line with no False
 cell takes its distances from the other lines. A grid with no False cell at all gets scipy's
@@ -57,15 +58,27 @@ def _check_shape(shape):
         raise InvalidInputError(f"grid shape {tuple(shape)} is too large for int32 squared distances")
 
 
+def _line_distance(outside, axis):
+    """The first pass in closed form: the squared distance along ``axis`` from each cell to the
+    nearest ``outside`` cell of its line (MAX_SQUARED when the line has none), from the index of
+    the last outside cell before each cell and the first after it (running max / min, as
+    log-step scans: ``lax.cummax`` is a sliding window on CPU)."""
+    n = outside.shape[axis]
+    idx = lax.broadcasted_iota(jnp.int32, outside.shape, axis)
+    before = lax.associative_scan(jnp.maximum, jnp.where(outside, idx, -n - 1), axis=axis)
+    after = lax.associative_scan(jnp.minimum, jnp.where(outside, idx, 2 * n + 1), reverse=True, axis=axis)
+    d = jnp.minimum(idx - before, after - idx)  # > n when there is none on either side
+    return jnp.where(d < n, d * d, jnp.int32(MAX_SQUARED))
+
+
 def _min_plus(f, axis, valid):
     """g(i) = min_j f(j) + (i - j)^2 along ``axis``, exact (module docs) on the ``valid`` cells.
 
     Offsets k = 1, 2, ... (both signs, one vector min each) until no valid cell can improve: a cell
     whose value is below k^2 is final, since any j at |i - j| >= k adds at least k^2. Lines with no
     finite value stay MAX_SQUARED whatever the offsets, and cells beyond the extent are never the
-    minimiser of a cell within it (they hold no background): neither holds the loop. When every
-    finite value is an exact square of a distance along the axis already (a second pass), the
-    bound k^2 <= max f, fixed before the loop, is the same test without a reduction per offset.
+    minimiser of a cell within it (they hold no background): neither holds the loop. The bound
+    k^2 <= max f, fixed before the loop, ends it without a reduction when every value is small.
     """
     n = f.shape[axis]
     if n == 1:
@@ -81,8 +94,7 @@ def _min_plus(f, axis, valid):
 
     def cond(state):
         k, g = state
-        more = (k * k <= top) & ((top < MAX_SQUARED) | jnp.any(reachable & (g >= k * k)))
-        return (k < n) & more
+        return (k < n) & (k * k <= top) & jnp.any(reachable & (g >= k * k))
 
     def body(state):
         k, g = state
@@ -119,8 +131,8 @@ def squared_distance(inside, extent=None):
     else:
         extent = jnp.asarray(extent, jnp.int32)
         valid = jnp.all(jnp.stack([g < extent[a] for a, g in enumerate(grids)]), axis=0)
-    d2 = jnp.where(inside | ~valid, jnp.int32(MAX_SQUARED), jnp.int32(0))  # 0 on the outside cells
-    for axis in range(inside.ndim):
+    d2 = _line_distance(valid & ~inside, 0)  # the first pass; cells beyond the extent never reach in
+    for axis in range(1, inside.ndim):
         d2 = _min_plus(d2, axis, valid)
     # no False cell anywhere: scipy's value, the distance to the virtual cell (-1, 0, ..., 0)
     virtual = (grids[0] + 1) ** 2 + sum((g * g for g in grids[1:]), jnp.int32(0))

@@ -82,7 +82,7 @@ def _positions(words, c: int, cap: int):
     lines, nw = words.shape
     flat = words.reshape(-1)
     n = lax.population_count(flat).astype(jnp.int32)
-    offset = jnp.cumsum(n) - n
+    offset = jnp.cumsum(n, dtype=jnp.int32) - n
     k = jnp.arange(flat.shape[0], dtype=jnp.int32)
     base = (k // nw) * c + (k % nw) * _WORD
     out = jnp.full((cap,), lines * c, jnp.int32)
@@ -96,7 +96,7 @@ def _positions(words, c: int, cap: int):
         return i + 1, w & (w - np.uint32(1)), out
 
     out = lax.while_loop(lambda s: jnp.any(s[1] != 0), body, (jnp.int32(0), flat, out))[2]
-    return out, jnp.sum(n)
+    return out, jnp.sum(n, dtype=jnp.int32)
 
 
 def _below(p, nw: int):
@@ -106,7 +106,7 @@ def _below(p, nw: int):
 
 
 def _popcount(x):
-    return jnp.sum(lax.population_count(x).astype(jnp.int32), axis=-1)
+    return jnp.sum(lax.population_count(x).astype(jnp.int32), axis=-1, dtype=jnp.int32)
 
 
 def find_runs(packed, c: int, cap: int) -> Runs:
@@ -118,7 +118,7 @@ def find_runs(packed, c: int, cap: int) -> Runs:
     first, count = _positions(starts, c, cap)
     last, _ = _positions(ends, c, cap)
     per_line = _popcount(starts)
-    line_start = jnp.cumsum(per_line) - per_line
+    line_start = jnp.cumsum(per_line, dtype=jnp.int32) - per_line
     valid = jnp.arange(cap) < count
     return Runs(first, last, valid, count, count <= cap, line_start, starts, ends)
 
@@ -176,7 +176,7 @@ def run_counts(runs: Runs, packed, c: int):
 def run_sums(runs: Runs, values):
     """(cap,) the sums of ``values`` (a, b, c) over the cells of each run (0 on unused slots)."""
     a, b, c = values.shape
-    acc = jnp.cumsum(values, axis=-1).reshape(-1)
+    acc = jnp.cumsum(values, axis=-1, dtype=values.dtype).reshape(-1)
     size = acc.shape[0]
     upto = acc[jnp.minimum(runs.last, size - 1)]
     before = jnp.where(runs.first % c == 0, 0, acc[jnp.clip(runs.first - 1, 0, size - 1)])

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from jaxpose.rotation.parts import BRANCH, NECK, THICK, ends, find_head, find_parts, merge_tree
+from jaxpose.rotation.parts import BRANCH, NECK, THICK, ends, find_head, find_parts, merge_tree, part_across
 from jaxpose.occupancy.solid import Solid
 
 
@@ -184,3 +184,47 @@ def test_find_head_keeps_the_neck_of_a_person_and_rejects_a_branching_part():
     found = find_head(body)
     head = body.origin + pitch * (np.stack(np.nonzero(found.head), 1) + 0.5)
     assert found.terminal and np.allclose(head.mean(axis=0), [1.6, 0, 0.65], atol=0.1)
+
+
+def capsule(a, b, r):  # the points within r of the segment a-b
+    a, b = np.array(a, float), np.array(b, float)
+
+    def inside(x):
+        t = np.clip(((x - a) @ (b - a)) / ((b - a) @ (b - a)), 0.0, 1.0)
+        return np.linalg.norm(x - a - t[..., None] * (b - a), axis=-1) <= r
+    return inside
+
+
+def test_part_across_without_thin_bridges():
+    """A trunk ball (radius 1.0) and a head ball (0.6) on a neck rod (0.3), and a bridge (radius 0.1,
+    2 voxels) from the top of the head around the disk to the top of the trunk. Cut as it is, the
+    bridge joins the head to the trunk beyond the disk: not cut off. Cut without the voxels at
+    most 0.15 deep (a point solid's closing bridges, terminal_part), the head is cut off: the head ball beyond the disk, none of the trunk ball, and the bridge's voxels split between
+    the two sides by their nearest deep voxel (the neck rod, 0.3 deep, is no bridge)."""
+    pitch = 0.05
+    bridge = [capsule((1.2, 0.4, 0.0), (1.0, 1.0, 0.0), 0.1), capsule((1.0, 1.0, 0.0), (-0.8, 1.0, 0.0), 0.1),
+              capsule((-0.8, 1.0, 0.0), (-0.8, 0.6, 0.0), 0.1)]
+    mesh = voxel_solid([ball((-1.2, 0, 0), 1.0), ball((1.2, 0, 0), 0.6), rod(-1.2, 1.2, 0.3)] + bridge, pitch)
+    found = find_parts(mesh)
+    x = mesh.origin + pitch * (np.stack(np.nonzero(mesh.inside), 1) + 0.5)
+    head_center, trunk_center = np.argmin(np.linalg.norm(x - [1.2, 0, 0], axis=1)), np.argmin(np.linalg.norm(x - [-1.2, 0, 0], axis=1))
+    idx = np.stack(np.nonzero(mesh.inside), 1)
+    assert found is not None and found.head[tuple(idx[head_center])]  # the head is the small ball
+    assert abs(found.neck_depth - 0.3) < 1.5 * pitch
+    saddle = np.rint((found.neck - mesh.origin) / pitch - 0.5).astype(int)
+    other = idx[trunk_center]
+    assert part_across(mesh, found.head, saddle, found.neck_depth, other) is None  # the bridge joins them
+    assert part_across(mesh, found.head, saddle, found.neck_depth, other, thin=pitch) is None  # deeper than that
+
+    part = part_across(mesh, found.head, saddle, found.neck_depth, other, thin=3 * pitch)
+    assert part is not None
+    in_head = np.linalg.norm(x - [1.2, 0, 0], axis=1) <= 0.6
+    beyond_disk = x[:, 0] > found.neck[0] + 2 * pitch  # the neck meets the head ball: the disk cuts its edge
+    in_trunk = np.linalg.norm(x - [-1.2, 0, 0], axis=1) <= 1.0
+    assert part[tuple(idx[in_head & beyond_disk].T)].all() and not part[tuple(idx[in_trunk].T)].any()
+    on_bridge = np.zeros(len(x), bool)
+    for c in bridge:
+        on_bridge |= c(x)
+    on_bridge &= ~in_head & ~in_trunk
+    assert 0 < part[tuple(idx[on_bridge].T)].sum() < on_bridge.sum()  # split between the two sides
+    assert not (part & ~mesh.inside).any()

@@ -180,7 +180,7 @@ def _index(sol, flat):
     return np.array(np.unravel_index(int(flat), sol.inside.shape))
 
 
-def part_across(sol, blob, saddle, depth, other, disk=DISK):
+def part_across(sol, blob, saddle, depth, other, disk=DISK, thin=0.0):
     """The part beyond a saddle, cut off by a disk, or None where the disk does not cut it off.
 
     The disk lies through ``saddle`` ((3,) voxel index) normal to the direction from it to the
@@ -191,6 +191,11 @@ def part_across(sol, blob, saddle, depth, other, disk=DISK):
       (nx, ny, nz) bool, the component holding ``blob`` of the solid less the disk; None where it
       holds the voxel ``other`` ((3,) index: the maximum on the saddle's other side) too: the part
       is joined to the rest beyond the disk (a head resting on the knees, a limb on the trunk).
+
+    With ``thin`` > 0 (units) the solid is cut without its voxels at most that deep (``blob`` is
+    always kept), and each of them then goes with the part of its nearest deeper voxel: a point
+    solid's closing bridges gaps between parts up to about its closing radius wide (a muzzle
+    over a foreleg, a tail on a thigh) that the input does not join (:func:`terminal_part`).
     """
     idx = np.argwhere(sol.inside)
     u = np.argwhere(blob).mean(axis=0) - saddle
@@ -200,9 +205,15 @@ def part_across(sol, blob, saddle, depth, other, disk=DISK):
     cut = (np.abs(h) <= 1.0) & (np.linalg.norm(rel - h[:, None] * u, axis=1) * sol.pitch <= disk * depth)
     keep = np.zeros(sol.inside.shape, bool)
     keep[tuple(idx[~cut].T)] = True
-    labels, _ = ndimage.label(keep | blob, _CUBE)
+    keep |= blob
+    deep = keep & ((sol.depth > thin) | blob)  # the solid without its bridges
+    labels, _ = ndimage.label(deep, _CUBE)
     part = labels == labels[tuple(np.argwhere(blob)[0])]
-    return None if part[tuple(other)] else part
+    if part[tuple(other)]:
+        return None
+    if thin > 0.0:  # each shallow voxel goes with its nearest deep voxel
+        part = keep & part[tuple(ndimage.distance_transform_edt(~deep, return_distances=False, return_indices=True))]
+    return part
 
 
 def geodesic(mask, source, pitch):
@@ -244,7 +255,7 @@ def ends(sol, part, saddle, depth, scale=BRANCH):
     return int(np.sum(tree[:, 0] - tree[:, 1] >= scale * depth))
 
 
-def _terminal(sol, row, head_peak, disks=(DISK,), most=1):
+def _terminal(sol, row, head_peak, disks=(DISK,), most=1, thin=0.0):
     """Whether the side of ``head_peak`` at one merge-tree row's saddle is a head that ends the
     body: (True, the part) where it is cut off (:func:`part_across`, by the first of ``disks`` that
     cuts it off), holds at most :data:`SHARE` of the solid and has at most ``most`` far ends
@@ -256,7 +267,7 @@ def _terminal(sol, row, head_peak, disks=(DISK,), most=1):
     other = _index(sol, joins if head_peak == peak else peak)
     part = None
     for disk in disks:
-        part = part_across(sol, blob, _index(sol, saddle), death, other, disk)
+        part = part_across(sol, blob, _index(sol, saddle), death, other, disk, thin)
         if part is not None:
             break
     if part is None:
@@ -296,8 +307,9 @@ def terminal_part(sol, tree=None):
         labels = labels.ravel()
         small = peak if np.sum(labels == labels[int(peak)]) <= np.sum(labels == labels[int(joins)]) else joins
         sides.append((flat_depth[int(small)], row, small))
+    thin = 0.0 if sol.radius is None else sol.radius * sol.pitch  # a point solid: without its closing's bridges
     for _, row, small in sorted(sides, key=lambda s: -s[0]):
-        verdict, part = _terminal(sol, row, small, (DISK, WIDER))
+        verdict, part = _terminal(sol, row, small, (DISK, WIDER), thin=thin)
         if verdict:
             return _split(sol, row, small, 0.0, part)
     return None

@@ -4,23 +4,32 @@ from __future__ import annotations
 import gc
 import os
 import pathlib
+import shutil
 import sys
 import tempfile
 
-# One persistent compilation cache is shared by the processes the tests start: command-line
-# subprocesses and their workers (JAXPOSE_CACHE_DIR, read by jaxpose.batch.cache) and notebook kernels
-# (JAX_COMPILATION_CACHE_DIR) load what another compiled instead of compiling it again. The test
-# processes themselves (pytest-xdist workers inherit these variables) compile for themselves:
-# XLA:CPU's executable serialization, the cache's write, once crashed a worker with a
-# segmentation fault.
-_CACHE = pathlib.Path(tempfile.gettempdir()) / f"jaxpose-tests-jax-cache-{os.getuid()}"
-os.environ.setdefault("JAXPOSE_CACHE_DIR", str(_CACHE))
-os.environ.setdefault("JAX_COMPILATION_CACHE_DIR", os.environ["JAXPOSE_CACHE_DIR"])
+# One persistent compilation cache per test run, shared by every process of the run: the test
+# processes (pytest-xdist workers inherit the variables set here by the process that starts them),
+# command-line subprocesses and their workers (JAXPOSE_CACHE_DIR, read by jaxpose.batch.cache) and
+# notebook kernels (JAX_COMPILATION_CACHE_DIR). A program compiled once in the run, by another
+# worker or before the memory-map guard below released it, is loaded instead of compiled again.
+# The folder is new for each run and removed at its end: a folder that outlived the run would
+# make a second run on one machine faster than CI's fresh one (docs/testing.md). A
+# JAXPOSE_CACHE_DIR set by the caller is used as it is (an empty value turns the cache off).
+RUN_CACHE = None
+if "JAXPOSE_CACHE_DIR" not in os.environ:
+    RUN_CACHE = tempfile.mkdtemp(prefix="jaxpose-tests-jax-cache-")
+    os.environ["JAXPOSE_CACHE_DIR"] = RUN_CACHE
+if os.environ["JAXPOSE_CACHE_DIR"]:
+    os.environ.setdefault("JAX_COMPILATION_CACHE_DIR", os.environ["JAXPOSE_CACHE_DIR"])
 os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "0.2")
 
 import jax  # noqa: E402
 
-jax.config.update("jax_enable_compilation_cache", False)  # this process only (see above)
+if os.environ.get("JAX_COMPILATION_CACHE_DIR"):  # also where a plugin imported JAX before this file
+    jax.config.update("jax_compilation_cache_dir", os.environ["JAX_COMPILATION_CACHE_DIR"])
+    jax.config.update("jax_persistent_cache_min_compile_time_secs",
+                      float(os.environ["JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS"]))
 
 import numpy as np
 import pytest
@@ -78,6 +87,11 @@ def pytest_runtest_teardown(item, nextitem):
     yield  # after the test's fixtures are torn down
     same_file = nextitem is not None and nextitem.path == item.path
     release_compiled_programs(fraction=MAP_FRACTION_IN_FILE if same_file else MAP_FRACTION)
+
+
+def pytest_unconfigure(config):
+    if RUN_CACHE is not None:  # this process made the run's cache folder: the run is over
+        shutil.rmtree(RUN_CACHE, ignore_errors=True)
 
 
 def _float64():

@@ -133,17 +133,17 @@ def _edges(runs: Runs, shape):
     line = runs.first // c
     x, y = line // b, line % b
     z0, z1 = runs.first % c, runs.last % c
-    out = []
-    for dx, dy in _EDGE_DIRECTIONS:
-        x2, y2 = x + dx, y + dy
-        ok = runs.valid & (x2 >= 0) & (x2 < a) & (y2 >= 0) & (y2 < b)
-        other = jnp.where(ok, x2 * b + y2, 0)
-        base = runs.line_start[other]
-        lo = base + _popcount(runs.ends[other] & _below(z0 - 1, nw))
-        hi = base + _popcount(runs.starts[other] & _below(z1 + 2, nw)) - 1
-        ok = ok & (lo <= hi)
-        out += [jnp.where(ok, lo, me), jnp.where(ok, hi, me)]
-    return jnp.stack(out, axis=1)
+    dx, dy = (jnp.asarray([d[k] for d in _EDGE_DIRECTIONS], jnp.int32)[:, None] for k in (0, 1))  # (8, 1)
+    x2, y2 = x[None, :] + dx, y[None, :] + dy  # (8, cap): all directions at once (one set of operations)
+    ok = runs.valid[None, :] & (x2 >= 0) & (x2 < a) & (y2 >= 0) & (y2 < b)
+    other = jnp.where(ok, x2 * b + y2, 0)
+    base = runs.line_start[other]
+    below_first = _below(jnp.broadcast_to(z0 - 1, other.shape).reshape(-1), nw).reshape(other.shape + (nw,))
+    below_last = _below(jnp.broadcast_to(z1 + 2, other.shape).reshape(-1), nw).reshape(other.shape + (nw,))
+    lo = base + _popcount(runs.ends[other] & below_first)
+    hi = base + _popcount(runs.starts[other] & below_last) - 1
+    ok = ok & (lo <= hi)
+    return jnp.concatenate([jnp.where(ok, lo, me[None, :]), jnp.where(ok, hi, me[None, :])]).T
 
 
 def run_labels(runs: Runs, shape, jumps: int = 2):
@@ -185,13 +185,23 @@ def run_sums(runs: Runs, values):
 
 def paint(runs: Runs, chosen, packed, c: int):
     """The cells of the ``chosen`` (cap,) bool runs, packed like ``packed`` (the grid the runs were
-    found in): their first cells spread along the last axis through the grid's runs."""
+    found in): a toggle bit at each chosen run's first cell and just after its last (never the
+    first cell of another run: runs are apart), then a running XOR along each line (within a word
+    by 5 shift-XOR steps, across words by the parity of the words before)."""
     a, b, nw = packed.shape
-    z0 = runs.first % c
-    word = jnp.where(runs.valid & chosen, (runs.first // c) * nw + z0 // _WORD, a * b * nw)
-    seeds = jnp.zeros(a * b * nw, jnp.uint32).at[word].add(jnp.uint32(1) << (z0 % _WORD).astype(jnp.uint32),
-                                                           mode="drop")  # distinct bits: the sum is their OR
-    return bits.spread_runs(seeds.reshape(a, b, nw), packed, c)
+    lines = a * b
+    line, z0, z1 = runs.first // c, runs.first % c, runs.last % c + 1
+    pick = runs.valid & chosen
+    at = jnp.concatenate([jnp.where(pick, line * nw + z0 // _WORD, lines * nw),
+                          jnp.where(pick & (z1 < c), line * nw + z1 // _WORD, lines * nw)])
+    bit = jnp.uint32(1) << (jnp.concatenate([z0, z1]) % _WORD).astype(jnp.uint32)
+    toggles = jnp.zeros(lines * nw, jnp.uint32).at[at].add(bit, mode="drop").reshape(a, b, nw)  # distinct bits
+    x = toggles
+    for s in (1, 2, 4, 8, 16):
+        x = x ^ (x << np.uint32(s))
+    odd = (lax.population_count(toggles) & np.uint32(1)).astype(bool)
+    carry = jnp.cumsum(odd.astype(jnp.int32), axis=-1, dtype=jnp.int32) - odd.astype(jnp.int32)
+    return jnp.where(carry % 2 == 1, ~x, x) & packed
 
 
 def either(use_dense, dense, sparse, *args):

@@ -8,7 +8,7 @@ import pytest
 import trimesh
 
 import jaxpose
-from jaxpose import baselines, cli, mesh, sample
+from jaxpose import baselines, cli, geometry, mesh, sample
 from jaxpose.rotation import parts, rotation
 from jaxpose.evaluation import evaluate_rotation, format_rotation_per_class, format_rotation_table
 from jaxpose.evaluation.rotation import angle, chordal_mean, sign_free_angles
@@ -212,6 +212,23 @@ def test_head_frame_of_a_four_legged_animal(resolution):
         got = rotation.frame_of(moved(m, q), "head", resolution=resolution)
         assert angle(got.rotation, r @ q.T) * RAD < 1e-4
         assert got.ambiguity == pytest.approx(base.ambiguity, abs=1e-9)
+
+
+def test_a_head_found_as_an_end_of_an_incomplete_surface_is_flagged():
+    """The toy animal's head is found only as an end of the body (no thick neck). From its closed
+    mesh the frame is unflagged (above); with its smallest face removed (a hole: the mesh is
+    no longer closed) the same frame is given, flagged; from a sample of its surface (a point
+    cloud) too, flagged: where the surface is incomplete a limb, a tail or a rump can end the
+    body as a head does."""
+    m = animal()
+    closed = rotation.frame_of(m, "head", resolution=48)
+    assert geometry.is_closed(m.faces) and not closed.flag
+    holed = trimesh.Trimesh(m.vertices, np.delete(m.faces, np.argmin(m.area_faces), axis=0), process=False)
+    assert not geometry.is_closed(holed.faces)
+    got = rotation.frame_of(holed, "head", resolution=48)
+    assert got.flag and angle(got.rotation, closed.rotation) < 5.0
+    points = jaxpose.sample_surface(m, 20000, seed=0)
+    assert rotation.frame_of(np.asarray(points), "head", resolution=48).flag
 
 
 @pytest.mark.parametrize("shape", [trimesh.creation.icosphere(subdivisions=3), trimesh.creation.box()])

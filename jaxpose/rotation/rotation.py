@@ -90,7 +90,12 @@ limbs and waist.
    mirror plane, so the mirror score (:func:`symmetry_scores`, depth^``SYMMETRY_POWER`` weights,
    about the planes through their centroid) of axis 1 less the larger of the other two, against
    ``SYMMETRY_MIN`` (a body bent sideways, a crouching child: flagged, though the head's frame
-   may be right).
+   may be right). Flagged outright (ambiguity 1): on an incomplete surface (a point cloud, or a
+   mesh that is not closed: :func:`jaxpose.geometry.is_closed`) a head found only as an end of
+   the body (no thick neck: it may be a limb, a tail or a rump where the surface is missing); on a
+   point cloud a head that could not be cut off at its neck (the cloud's closed solid may join it
+   to another part); and a snout's up more than ``UP_SPLIT`` degrees from the chest's (their
+   bisector is neither).
 
 The cells make the sign a property of the shape: with each vertex counted once instead,
 a registered mesh, meshed finer on the face than on the skull, reads a stronger cue that a
@@ -112,6 +117,7 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from .. import baselines, sample
+from ..geometry import is_closed
 from . import parts
 from ..occupancy import solid
 from .._validate import InvalidInputError, JaxposeError
@@ -122,7 +128,7 @@ from ..occupancy.voxels import GRID_SHIFT
 
 __all__ = ["Frame", "ROTATIONS", "DEFAULT_ROTATION", "GAP_MIN", "SIGN_MIN", "SYMMETRY_MIN", "FOOT", "FEET_DEPTH",
            "FOOT_MIN", "AXES_POWER", "SYMMETRY_POWER", "CHEST", "CHEST_POWER", "FACE", "CELL", "FACE_MIN",
-           "MUZZLE", "TURN", "HEAD_MIRROR", "MIRROR_STEPS", "mirror_error", "head_mirror", "left_right", "pre_frame", "frame_solid",
+           "MUZZLE", "TURN", "HEAD_MIRROR", "UP_SPLIT", "MIRROR_STEPS", "mirror_error", "head_mirror", "left_right", "pre_frame", "frame_solid",
            "core_frame", "HeadChest", "head_chest", "head_surface", "front_back_cues",
            "head_frame", "feet_offset", "symmetry_scores", "ambiguity", "complete_signs", "frame_of", "region_frame",
            "proper"]
@@ -141,6 +147,7 @@ FACE_MIN = 0.1  # head: the face's offset (head depths) below which front-back i
 MUZZLE = 0.5  # head: the part beyond the neck this many head depths ahead of the skull is a muzzle (a snout)
 TURN = 30.0  # head: degrees; the head's mirror normal farther than this from both chest axes turns against the chest
 HEAD_MIRROR = 0.25  # head: a head found only as the part that ends the body must mirror itself at least this clearly
+UP_SPLIT = 60.0  # head: degrees; a snout's up farther than this from the chest's: flagged
 MIRROR_STEPS = 36  # head: the head's mirror plane is searched over half a turn in this many steps, then refined
 SYMMETRY_POWER = 2.0  # depth exponent of the mirror test's weights
 
@@ -532,6 +539,11 @@ def head_frame(sol, vertices, faces=None) -> Frame:
     geo = None if found is None else head_chest(sol, found, sample.lattice_points(vertices, faces, CELL * sol.pitch))
     if geo is None:  # no head, or no chest below it: the core frame, flagged (no head vouches for it)
         return core_frame(sol)._replace(ambiguity=1.0)
+    # an incomplete surface (a point cloud; a mesh that is not closed): a part found only as an end
+    # of the body may be a limb, a tail or a rump where the surface is missing, and on a point
+    # cloud's closed solid a head that cannot be cut off may be joined to one: flagged
+    cloud = faces is None
+    settled = not ((cloud or not is_closed(np.asarray(faces))) and found.runner_up == 0.0) and not (cloud and not found.terminal)
     lr, contrast, chosen = left_right(sol, geo)
     if found.runner_up == 0.0 and contrast < HEAD_MIRROR:  # found as an end of the body, not mirror-symmetric: a hand?
         return core_frame(sol)._replace(ambiguity=1.0)
@@ -539,12 +551,13 @@ def head_frame(sol, vertices, faces=None) -> Frame:
     fb = np.cross(up, lr)
     fb /= np.linalg.norm(fb)
     jaw, reach, muzzle = front_back_cues(geo, fb)
-    settled = chosen is not None  # no mirror chose left-right: flagged
+    settled = settled and chosen is not None  # no mirror chose left-right: flagged
     if abs(muzzle) >= max(abs(jaw), MUZZLE * found.head_depth):  # a snout: it reaches farther than the face hangs
         snout = geo.beyond - geo.skull
         snout -= (snout @ lr) * lr  # in the head's mirror plane
         own = np.cross(lr, snout)  # the head's own up: across its snout, in its mirror plane
         own *= np.sign(own @ up) / np.linalg.norm(own)
+        settled = settled and own @ up >= np.cos(np.radians(UP_SPLIT))  # two ups far apart: their bisector is neither
         up = (up + own) / np.linalg.norm(up + own)  # the head's and the chest's together
         fb = np.cross(up, lr)
         fb /= np.linalg.norm(fb)

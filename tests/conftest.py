@@ -89,6 +89,17 @@ def pytest_runtest_teardown(item, nextitem):
     release_compiled_programs(fraction=MAP_FRACTION_IN_FILE if same_file else MAP_FRACTION)
 
 
+# The longest tests first: a real pip install into a fresh virtual environment and the executed
+# notebooks (each a minute or more). `--dist worksteal` gives each worker a contiguous share of the
+# collected order and lets an idle worker take from the end of the other's queue, so what starts
+# early is shared out and what sits at the end of a share is not (docs/testing.md).
+FIRST = ("test_fresh_venv.py", "test_notebooks.py")
+
+
+def pytest_collection_modifyitems(session, config, items):
+    items.sort(key=lambda item: item.path.name not in FIRST)  # stable: the order is otherwise kept
+
+
 def pytest_unconfigure(config):
     if RUN_CACHE is not None:  # this process made the run's cache folder: the run is over
         shutil.rmtree(RUN_CACHE, ignore_errors=True)

@@ -39,6 +39,7 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 
 from jaxpose import baselines, datasets
+from jaxpose.rotation import parts
 from jaxpose.evaluation import align_core, class_angles, make_class
 from jaxpose.occupancy.solid import cap_holes, robust_solid
 from jaxpose.evaluation.rotation import sign_free_angles
@@ -315,20 +316,11 @@ BRANCH = 2.0  # a part ends the body when no two of its ends are more than this 
 
 
 def part_across(sol, blob, saddle, death, disk=DISK):
-    """(shape) bool: the part beyond a saddle, cut off by a disk: the component holding ``blob``
-    of the kept voxels less the disk through ``saddle`` ((3,) voxel index) normal to the direction
-    from the saddle to the blob's centroid, ``disk`` times ``death`` (the saddle's depth, units)
-    in radius and two voxels thick (no 26-connected path crosses it)."""
-    idx = np.argwhere(sol.inside)
-    u = np.argwhere(blob).mean(axis=0) - saddle
-    u /= np.linalg.norm(u)
-    rel = idx - saddle
-    h = rel @ u
-    cut = (np.abs(h) <= 1.0) & (np.linalg.norm(rel - h[:, None] * u, axis=1) * sol.pitch <= disk * death)
-    keep = np.zeros(sol.inside.shape, bool)
-    keep[tuple(idx[~cut].T)] = True
-    labels, _ = ndimage.label(keep | blob, _CUBE)
-    return labels == labels[tuple(np.argwhere(blob)[0])]
+    """(shape) bool: the part beyond a saddle, cut off by a disk (the library's
+    :func:`jaxpose.rotation.parts.part_across` without the join check): the component holding
+    ``blob`` of the kept voxels less the disk through ``saddle`` ((3,) voxel index), ``disk``
+    times ``death`` (the saddle's depth, units) in radius."""
+    return parts.part_across(sol, blob, saddle, death, None, disk)
 
 
 def terminal_head(sol, tree=None, neck=1.05, lowest=0.1):

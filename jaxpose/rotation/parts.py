@@ -180,7 +180,7 @@ def _index(sol, flat):
     return np.array(np.unravel_index(int(flat), sol.inside.shape))
 
 
-def part_across(sol, blob, saddle, depth, other, disk=DISK, thin=0.0):
+def part_across(sol, blob, saddle, depth, other=None, disk=DISK, thin=0.0):
     """The part beyond a saddle, cut off by a disk, or None where the disk does not cut it off.
 
     The disk lies through ``saddle`` ((3,) voxel index) normal to the direction from it to the
@@ -189,8 +189,9 @@ def part_across(sol, blob, saddle, depth, other, disk=DISK, thin=0.0):
 
     Returns:
       (nx, ny, nz) bool, the component holding ``blob`` of the solid less the disk; None where it
-      holds the voxel ``other`` ((3,) index: the maximum on the saddle's other side) too: the part
-      is joined to the rest beyond the disk (a head resting on the knees, a limb on the trunk).
+      holds the voxel ``other`` ((3,) index: the maximum on the saddle's other side; None: not
+      checked) too: the part is joined to the rest beyond the disk (a head resting on the knees, a
+      limb on the trunk).
 
     With ``thin`` > 0 (units) the solid is cut without its voxels at most that deep (``blob`` is
     always kept), and each of them then goes with the part of its nearest deeper voxel: a point
@@ -209,7 +210,7 @@ def part_across(sol, blob, saddle, depth, other, disk=DISK, thin=0.0):
     deep = keep & ((sol.depth > thin) | blob)  # the solid without its bridges
     labels, _ = ndimage.label(deep, _CUBE)
     part = labels == labels[tuple(np.argwhere(blob)[0])]
-    if part[tuple(other)]:
+    if other is not None and part[tuple(other)]:
         return None
     if thin > 0.0:  # each shallow voxel goes with its nearest deep voxel
         part = keep & part[tuple(ndimage.distance_transform_edt(~deep, return_distances=False, return_indices=True))]

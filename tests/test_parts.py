@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from jaxpose.rotation.parts import BRANCH, NECK, THICK, ends, find_head, find_parts, merge_tree, part_across
+from jaxpose.rotation.parts import (BRANCH, NECK, SHARE, THICK, TRUNK, ends, find_head, find_parts, merge_tree,
+                                   part_across, waist)
 from jaxpose.occupancy.solid import Solid
 
 
@@ -228,3 +229,79 @@ def test_part_across_without_thin_bridges():
     on_bridge &= ~in_head & ~in_trunk
     assert 0 < part[tuple(idx[on_bridge].T)].sum() < on_bridge.sum()  # split between the two sides
     assert not (part & ~mesh.inside).any()
+
+
+def _waisted_animal():
+    """A body whose trunk has a waist: a chest (capsule, radius 0.45) along x, a waist (0.36) and a
+    rump (ball, 0.42) that ends in one blob (a point solid's closing fills the flanks between hind
+    legs), two front legs (0.1) and a head (ball, 0.18: less than half the trunk's depth) on a neck
+    (0.1) ahead. As (center or segment, radius) primitives: ("ball", c, r) or ("capsule", p, q, r)."""
+    return [("capsule", (-0.6, 0, 0), (0.8, 0, 0), 0.45), ("capsule", (-1.3, 0, 0), (-0.6, 0, 0), 0.36),
+            ("ball", (-1.5, 0, 0), 0.42), ("capsule", (0.5, -0.2, -0.2), (0.5, -0.2, -1.2), 0.1),
+            ("capsule", (0.5, 0.2, -0.2), (0.5, 0.2, -1.2), 0.1), ("capsule", (0.8, 0, 0.1), (1.5, 0, 0.6), 0.1),
+            ("ball", (1.6, 0, 0.65), 0.18)]
+
+
+def _inside(prim):
+    return ball(prim[1], prim[2]) if prim[0] == "ball" else capsule(prim[1], prim[2], prim[3])
+
+
+def _surface_points(prims, n, seed):
+    """About ``n`` points on the surface of the union of the primitives: points on each primitive's
+    surface (a ball's sphere; a capsule's cylinder and end spheres), uniform in area, kept where no
+    other primitive holds them."""
+    rng = np.random.default_rng(seed)
+    pieces, areas = [], []
+    for p in prims:
+        if p[0] == "ball":
+            pieces.append(("sphere", np.array(p[1], float), None, p[2]))
+            areas.append(4 * np.pi * p[2] ** 2)
+        else:
+            a, b, r = np.array(p[1], float), np.array(p[2], float), p[3]
+            pieces += [("cylinder", a, b, r), ("sphere", a, None, r), ("sphere", b, None, r)]
+            areas += [2 * np.pi * r * np.linalg.norm(b - a), 4 * np.pi * r ** 2, 4 * np.pi * r ** 2]
+    counts = rng.multinomial(n, np.array(areas) / np.sum(areas))
+    out = []
+    for (kind, a, b, r), k in zip(pieces, counts):
+        d = rng.normal(size=(k, 3))
+        if kind == "sphere":
+            out.append(a + r * d / np.linalg.norm(d, axis=1, keepdims=True))
+            continue
+        axis = (b - a) / np.linalg.norm(b - a)
+        d -= (d @ axis)[:, None] * axis
+        out.append(a + rng.uniform(0, 1, (k, 1)) * (b - a) + r * d / np.linalg.norm(d, axis=1, keepdims=True))
+    x = np.concatenate(out)
+    covered = np.zeros(len(x), bool)
+    for p in prims:  # strictly inside another primitive: not on the union's surface
+        q = (p[0], p[1], p[2] - 1e-6) if p[0] == "ball" else (p[0], p[1], p[2], p[3] - 1e-6)
+        covered |= _inside(q)(x)
+    return x[~covered]
+
+
+@pytest.mark.parametrize("as_points", [False, True])
+def test_a_part_beyond_a_waist_is_no_head(as_points):
+    """A waist is no neck: the trunk's depth (0.45) over the waist's (0.36) is less than TRUNK. The
+    body's most constricted thick saddle is that waist, and the rump beyond it passes every other
+    test of a head (cut off there it holds at most SHARE of the solid and has one far end: its
+    legs are filled in), so find_parts takes the rump and find_head took it; find_head now takes
+    the head ball, the thickest part beyond a neck that ends the body. On the voxel solid of the
+    body and on the robust solid of a sample of its surface (a point cloud: closing and all)."""
+    prims = _waisted_animal()
+    if as_points:
+        from jaxpose.occupancy.solid import robust_solid
+        sol = robust_solid(_surface_points(prims, 40000, seed=1), None, resolution=64)
+    else:
+        sol = voxel_solid([_inside(p) for p in prims], 0.04, lo=(-2.1, -0.6, -1.4), hi=(2.0, 0.6, 1.0))
+    assert 0.36 * TRUNK > 0.45 and 0.42 > NECK * 0.36 and 0.42 > THICK * 0.45
+    rump = find_parts(sol)
+    assert rump is not None and rump.neck[0] < -0.6 and waist(rump.neck_depth, sol.depth.max())
+    # the rump would pass as a head but for the waist: cut off at its saddle, small, one end
+    saddle = np.rint((rump.neck - sol.origin) / sol.pitch - 0.5).astype(int)
+    beyond = part_across(sol, rump.head, saddle, rump.neck_depth)
+    assert beyond is not None and beyond.sum() <= SHARE * sol.inside.sum()
+    assert ends(sol, beyond, saddle, rump.head_depth) <= 1
+    found = find_head(sol)
+    head = sol.origin + sol.pitch * (np.stack(np.nonzero(found.head), 1) + 0.5)
+    assert found.terminal and not waist(found.neck_depth, sol.depth.max())
+    np.testing.assert_allclose(head.mean(axis=0), [1.6, 0, 0.65], atol=0.1)
+    assert abs(found.head_depth - 0.18) < 2 * sol.pitch

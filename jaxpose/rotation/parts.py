@@ -18,9 +18,13 @@ saddle (:func:`part_across`), the geodesic distance from the saddle has one far 
 (:func:`ends`), where a rump has legs and a tail, a chest arms; and it is a small end, at most
 :data:`SHARE` of the solid (the dev bodies' heads: 4-20 %; a dog's rump 27-29 %, a horse's half
 trunk 31-35 %). :func:`find_parts`' head, beyond a strongly constricted neck, is allowed a second
-end (a hand resting on it). Where :func:`find_parts`' head
-is cut off and branches, or where it finds none, the head is the thickest part beyond any saddle
-(at least :data:`SADDLE` times as deep as it) that is cut off and ends the body
+end (a hand resting on it). And a neck is thin against the trunk, not only against the head: the
+body's deepest part is at least :data:`TRUNK` times as deep as it (:func:`waist`). A saddle
+deeper than that is a waist between two halves of a trunk (a chest and a pelvis, a chest and a
+rump; on a point solid, whose closing fills in the flanks between the legs, also a rump that
+ends in one blob), whatever it carries. Where :func:`find_parts`' head lies beyond a waist, is
+cut off and branches, or where it finds none, the head is the thickest part beyond any saddle
+(at least :data:`SADDLE` times as deep as it, and no waist) that is cut off and ends the body
 (:func:`terminal_part`). How it does on real bodies: docs/rotation.md.
 
 Example::
@@ -38,11 +42,12 @@ import numpy as np
 from scipy import ndimage, sparse
 from scipy.sparse import csgraph
 
-__all__ = ["THICK", "NECK", "SADDLE", "DISK", "WIDER", "BRANCH", "SHARE", "LOWEST", "Parts", "merge_tree", "find_parts", "find_head",
-           "part_across", "geodesic", "ends", "terminal_part"]
+__all__ = ["THICK", "NECK", "TRUNK", "SADDLE", "DISK", "WIDER", "BRANCH", "SHARE", "LOWEST", "Parts", "merge_tree", "find_parts", "find_head",
+           "part_across", "geodesic", "ends", "waist", "terminal_part"]
 
 THICK = 0.5  # a head is at least half as deep as the deepest part of the body (its trunk)
 NECK = 1.1  # a neck is at least 10 % thinner than the shallower of the two parts it joins
+TRUNK = 1.5  # find_head: a neck is thin against the trunk too: the deepest part at least this many times its depth
 SADDLE = 1.05  # find_head: a part beyond a saddle at least 5 % thinner than the part
 DISK = 3.0  # a part is cut off across its saddle by a disk of this many saddle depths in radius
 WIDER = 4.0  # terminal_part: where DISK leaves a part joined, a disk this wide (an oblique neck) is tried
@@ -256,6 +261,20 @@ def ends(sol, part, saddle, depth, scale=BRANCH):
     return int(np.sum(tree[:, 0] - tree[:, 1] >= scale * depth))
 
 
+def waist(death, top, trunk=TRUNK):
+    """Whether a saddle ``death`` deep (units) on a body whose deepest part is ``top`` deep is a
+    waist, not a neck: deeper than ``top / trunk``. A neck carries a head on a trunk at least
+    ``trunk`` times as deep as the neck (a child's head is as deep as its trunk, but its neck is
+    thin); a waist joins two parts of a trunk of nearly its depth.
+
+    Example::
+
+        waist(0.36, 0.45)   # True: 0.45 < 1.5 x 0.36, a waist between a chest and a rump
+        waist(0.25, 0.45)   # False: a neck
+    """
+    return float(death) * trunk > float(top)
+
+
 def _terminal(sol, row, head_peak, disks=(DISK,), most=1, thin=0.0):
     """Whether the side of ``head_peak`` at one merge-tree row's saddle is a head that ends the
     body: (True, the part) where it is cut off (:func:`part_across`, by the first of ``disks`` that
@@ -286,7 +305,8 @@ def terminal_part(sol, tree=None):
     :data:`LOWEST` times as deep as the deepest; the side whose component at the saddle's depth
     is the smaller), those cut off across the saddle (by a disk of :data:`DISK` saddle depths, or
     of :data:`WIDER` where that leaves the part joined: a neck met at a slant) and not branching
-    (:func:`_terminal`), the deepest; None where there is none. (:func:`find_head` checks
+    (:func:`_terminal`), the deepest; None where there is none. A saddle that is a :func:`waist`
+    is no neck: the sides of its row are not taken. (:func:`find_head` checks
     :func:`find_parts`' head with :data:`DISK` only: a head it cannot cut off is kept.)
 
     Returns:
@@ -302,7 +322,7 @@ def terminal_part(sol, tree=None):
     sides = []
     for row in tree:
         birth, death, peak, saddle, joins = row
-        if death <= 0 or birth < SADDLE * death or birth < LOWEST * top:
+        if death <= 0 or birth < SADDLE * death or birth < LOWEST * top or waist(death, top):
             continue
         labels, _ = ndimage.label(sol.depth > death, _CUBE)
         labels = labels.ravel()
@@ -317,11 +337,11 @@ def terminal_part(sol, tree=None):
 
 
 def find_head(sol, tree=None):
-    """The head of a body (module docs): :func:`find_parts`' head where it ends the body
-    (``terminal`` True) or cannot be cut off to tell (``terminal`` False); else (it is half a trunk,
-    more than :data:`SHARE` of the solid, or carries limbs: three or more far ends, a rump's two
-    legs and tail; two are allowed it, a hand resting on a head), or where there is no thick neck,
-    :func:`terminal_part`.
+    """The head of a body (module docs): :func:`find_parts`' head where its neck is no
+    :func:`waist` and it ends the body (``terminal`` True) or cannot be cut off to tell
+    (``terminal`` False); else (it lies beyond a waist, is half a trunk, more than :data:`SHARE`
+    of the solid, or carries limbs: three or more far ends, a rump's two legs and tail; two are
+    allowed it, a hand resting on a head), or where there is no thick neck, :func:`terminal_part`.
 
     Args:
       sol: :class:`jaxpose.occupancy.solid.Solid`; tree: its :func:`merge_tree` to reuse.
@@ -332,7 +352,7 @@ def find_head(sol, tree=None):
     """
     tree = merge_tree(sol.inside, sol.depth) if tree is None else tree
     found = find_parts(sol, tree=tree)
-    if found is not None:
+    if found is not None and not waist(found.neck_depth, tree[:, 0].max()):
         thick = tree[(tree[:, 1] > 0) & (tree[:, 0] >= NECK * tree[:, 1]) & (tree[:, 0] >= THICK * tree[:, 0].max())]
         row = thick[np.argmax(thick[:, 0] / thick[:, 1])]
         head_peak = row[2] if found.head.ravel()[int(row[2])] else row[4]

@@ -54,8 +54,10 @@ limbs and waist.
    A head with a snout (step 5) has an up of its own, across the snout in its mirror plane (a
    long neck bends against it); there up is the bisector of the two.
 3. Left-right (:func:`left_right`). A head is rigid and bilaterally symmetric in every pose: the
-   normal of its surface's best mirror plane across up (:func:`head_mirror`) is its left-right
-   axis, whatever the body's build (a person's chest is wider than deep, a dog's or a horse's
+   normal of its surface's best mirror plane across up (:func:`head_mirror`; on a point cloud the
+   surface more than ``MIRROR_BEYOND`` head depths beyond the neck: its closed solid's neck lies
+   low on the neck, and the neck may turn against the head) is its left-right axis, whatever the
+   body's build (a person's chest is wider than deep, a dog's or a horse's
    deeper than wide). A body's frame is its head's and its chest's together: where the head's
    normal lies within ``TURN`` degrees of one of the chest's two second-moment axes across up,
    left-right is the bisector of the two; where it does not, the head is turned against the chest
@@ -128,7 +130,7 @@ from ..occupancy.voxels import GRID_SHIFT
 
 __all__ = ["Frame", "ROTATIONS", "DEFAULT_ROTATION", "GAP_MIN", "SIGN_MIN", "SYMMETRY_MIN", "FOOT", "FEET_DEPTH",
            "FOOT_MIN", "AXES_POWER", "SYMMETRY_POWER", "CHEST", "CHEST_POWER", "FACE", "CELL", "FACE_MIN",
-           "MUZZLE", "TURN", "HEAD_MIRROR", "UP_SPLIT", "MIRROR_STEPS", "mirror_error", "head_mirror", "left_right", "pre_frame", "frame_solid",
+           "MUZZLE", "TURN", "HEAD_MIRROR", "UP_SPLIT", "MIRROR_STEPS", "MIRROR_BEYOND", "mirror_error", "head_mirror", "left_right", "pre_frame", "frame_solid",
            "core_frame", "HeadChest", "head_chest", "head_surface", "front_back_cues",
            "head_frame", "feet_offset", "symmetry_scores", "ambiguity", "complete_signs", "frame_of", "region_frame",
            "proper"]
@@ -149,6 +151,7 @@ TURN = 30.0  # head: degrees; the head's mirror normal farther than this from bo
 HEAD_MIRROR = 0.25  # head: a head found only as the part that ends the body must mirror itself at least this clearly
 UP_SPLIT = 60.0  # head: degrees; a snout's up farther than this from the chest's: flagged
 MIRROR_STEPS = 36  # head: the head's mirror plane is searched over half a turn in this many steps, then refined
+MIRROR_BEYOND = 1.0  # head, point clouds: the mirror plane is read from the surface this many head depths beyond the neck
 SYMMETRY_POWER = 2.0  # depth exponent of the mirror test's weights
 
 
@@ -478,13 +481,18 @@ def head_mirror(surface, a, b, steps=MIRROR_STEPS):
     return np.cos(best) * a + np.sin(best) * b, (e_perp - e) / max(e_perp, 1e-300)
 
 
-def left_right(sol, geo):
+def left_right(sol, geo, beyond=None):
     """The left-right axis of the ``head`` frame (module docs, step 3), grid coordinates.
 
     A body's frame is its head's and its chest's together. The head's own mirror plane
     (:func:`head_mirror`) gives the head's left-right; the one of the chest's two axes across up
-    nearest it, the chest's. Where the two lie within ``TURN`` degrees of each other, left-right
-    is their bisector; where they do not, the head is turned against the chest and left-right is
+    nearest it, the chest's. With ``beyond`` (head depths; :func:`head_frame`: :data:`MIRROR_BEYOND`
+    on a point cloud) the head's mirror plane is read from its surface more than that far beyond
+    the neck along up (all of it where fewer than 4 points lie there): the closed solid of a point
+    cloud fills in the throat, so its neck's saddle lies lower on the neck than the mesh's, and
+    the neck below the head, which may turn against it, would tilt the plane. Where the two lie
+    within ``TURN`` degrees of each other, left-right is their bisector; where they do not, the
+    head is turned against the chest and left-right is
     the one of the chest's two axes whose plane mirrors the depth^``SYMMETRY_POWER`` solid better
     (:func:`symmetry_scores`), as also for a head with fewer than 4 surface points; where those
     two scores are within ``SYMMETRY_MIN`` of each other, no mirror decides, and left-right is the
@@ -501,7 +509,10 @@ def left_right(sol, geo):
     if len(geo.surface) < 4:
         sym = symmetry_scores(sol, np.stack([thin, wide, geo.up]), (w2 @ geo.centers) / w2.sum())
         return (thin if sym[0] >= sym[1] else wide), 0.0, (False if abs(sym[0] - sym[1]) >= SYMMETRY_MIN else None)
-    normal, contrast = head_mirror(geo.surface, thin, wide)
+    head = geo.surface
+    if beyond is not None:
+        head = head[(head - geo.parts.neck) @ geo.up > beyond * geo.parts.head_depth]
+    normal, contrast = head_mirror(head if len(head) >= 4 else geo.surface, thin, wide)
     near = thin if abs(normal @ thin) >= abs(normal @ wide) else wide
     if np.degrees(np.arccos(min(1.0, abs(normal @ near)))) <= TURN:
         both = normal + np.sign(normal @ near) * near
@@ -544,7 +555,7 @@ def head_frame(sol, vertices, faces=None) -> Frame:
     # cloud's closed solid a head that cannot be cut off may be joined to one: flagged
     cloud = faces is None
     settled = not ((cloud or not is_closed(np.asarray(faces))) and found.runner_up == 0.0) and not (cloud and not found.terminal)
-    lr, contrast, chosen = left_right(sol, geo)
+    lr, contrast, chosen = left_right(sol, geo, MIRROR_BEYOND if cloud else None)
     if found.runner_up == 0.0 and contrast < HEAD_MIRROR:  # found as an end of the body, not mirror-symmetric: a hand?
         return core_frame(sol)._replace(ambiguity=1.0)
     up = geo.up

@@ -187,15 +187,6 @@ def test_find_head_keeps_the_neck_of_a_person_and_rejects_a_branching_part():
     assert found.terminal and np.allclose(head.mean(axis=0), [1.6, 0, 0.65], atol=0.1)
 
 
-def capsule(a, b, r):  # the points within r of the segment a-b
-    a, b = np.array(a, float), np.array(b, float)
-
-    def inside(x):
-        t = np.clip(((x - a) @ (b - a)) / ((b - a) @ (b - a)), 0.0, 1.0)
-        return np.linalg.norm(x - a - t[..., None] * (b - a), axis=-1) <= r
-    return inside
-
-
 def test_part_across_without_thin_bridges():
     """A trunk ball (radius 1.0) and a head ball (0.6) on a neck rod (0.3), and a bridge (radius 0.1,
     2 voxels) from the top of the head around the disk to the top of the trunk. Cut as it is, the

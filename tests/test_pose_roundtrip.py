@@ -11,6 +11,7 @@ import pytest
 import trimesh
 
 import jaxpose
+import jaxpose.pose.pose  # the module whose name the test reads (a package's submodule is an attribute once imported)
 from jaxpose import mesh
 from jaxpose.batch import batch, transforms
 from jaxpose.batch.task import NormalizeOptions

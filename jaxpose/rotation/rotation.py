@@ -130,7 +130,7 @@ from ..occupancy.voxels import GRID_SHIFT
 
 __all__ = ["Frame", "ROTATIONS", "DEFAULT_ROTATION", "GAP_MIN", "SIGN_MIN", "SYMMETRY_MIN", "FOOT", "FEET_DEPTH",
            "FOOT_MIN", "AXES_POWER", "SYMMETRY_POWER", "CHEST", "CHEST_POWER", "FACE", "CELL", "FACE_MIN",
-           "MUZZLE", "TURN", "HEAD_MIRROR", "UP_SPLIT", "MIRROR_STEPS", "MIRROR_BEYOND", "mirror_error", "head_mirror", "left_right", "pre_frame", "frame_solid",
+           "MUZZLE", "TURN", "HEAD_MIRROR", "UP_SPLIT", "MIRROR_STEPS", "MIRROR_BEYOND", "GAP", "hole_points", "mirror_error", "head_mirror", "left_right", "pre_frame", "frame_solid",
            "core_frame", "HeadChest", "head_chest", "head_surface", "front_back_cues",
            "head_frame", "feet_offset", "symmetry_scores", "ambiguity", "complete_signs", "frame_of", "region_frame",
            "proper"]
@@ -153,6 +153,7 @@ UP_SPLIT = 60.0  # head: degrees; a snout's up farther than this from the chest'
 MIRROR_STEPS = 36  # head: the head's mirror plane is searched over half a turn in this many steps, then refined
 MIRROR_BEYOND = 1.0  # head, point clouds: the mirror plane is read from the surface this many head depths beyond the neck
 SYMMETRY_POWER = 2.0  # depth exponent of the mirror test's weights
+GAP = 1.0  # head: the solid's boundary farther than this many pitches from an open mesh's surface lies in a hole
 
 
 # ------------------------------------------------------------------ the core frame
@@ -399,6 +400,45 @@ def head_surface(points, sol, found, up, eps, cell=CELL):
     return p[near.any(axis=1)]
 
 
+def hole_points(sol, points, gap=GAP, cell=CELL):
+    """Points of the solid's boundary where the input's surface is missing (an open mesh's holes).
+
+    The solid's boundary is the voxel faces between its kept voxels and the outside; each face is
+    sampled on a lattice of ``cell`` pitches (a 2 x 2 grid of points at the default 0.5: the
+    density of the mesh's own points in :func:`head_surface`'s cells). On a surface that is
+    present every such point lies within about half a pitch of one of the input's points (the
+    faces are at most half a pitch from the surface); one farther than ``gap`` pitches from all of
+    them lies in a hole, where the solid (closed by its votes) stands in for the missing surface.
+
+    Args:
+      sol: the solid of :func:`frame_solid`; points: (m, 3) the input's surface points, world
+        coordinates (:func:`jaxpose.sample.lattice_points`).
+      gap: pitches; cell: the boundary's sampling step in pitches.
+
+    Returns:
+      (k, 3) world coordinates (k = 0 on a closed surface).
+    """
+    y = np.asarray(points, np.float64) @ sol.frame.T
+    n = max(1, int(round(1.0 / cell)))
+    offsets = (np.arange(n) + 0.5) / n - 0.5  # the sample points within a face, in pitches
+    pad = np.pad(sol.inside, 1)
+    out = []
+    for a in range(3):
+        b, c = [x for x in range(3) if x != a]
+        for s in (-1, 1):
+            face = np.argwhere(sol.inside & ~np.roll(pad, -s, axis=a)[1:-1, 1:-1, 1:-1]).astype(np.float64)
+            face[:, a] += 0.5 * s
+            for u in offsets:
+                for v in offsets:
+                    q = face.copy()
+                    q[:, b] += u
+                    q[:, c] += v
+                    out.append(q)
+    q = sol.origin + sol.pitch * (np.concatenate(out) + 0.5)
+    far = cKDTree(y).query(q, distance_upper_bound=gap * sol.pitch)[0] > gap * sol.pitch
+    return q[far] @ sol.frame
+
+
 def head_chest(sol, found, points):
     """The head, chest, axes and head surface of the ``head`` frame (module docs, steps 2-5) on a
     solid from :func:`frame_solid`, its :func:`jaxpose.rotation.parts.find_parts` and the input's (m, 3)
@@ -547,14 +587,19 @@ def head_frame(sol, vertices, faces=None) -> Frame:
       >>> head_frame(frame_solid(v, f), v, f).rotation[2]  # back to front, world coordinates  # doctest: +SKIP
     """
     found = parts.find_head(sol)
-    geo = None if found is None else head_chest(sol, found, sample.lattice_points(vertices, faces, CELL * sol.pitch))
+    cloud = faces is None
+    closed = not cloud and is_closed(np.asarray(faces))
+    if found is not None:
+        points = sample.lattice_points(vertices, faces, CELL * sol.pitch)
+        if not cloud and not closed:  # an open mesh: its holes read from the solid's boundary
+            points = np.concatenate([points, hole_points(sol, points)])
+    geo = None if found is None else head_chest(sol, found, points)
     if geo is None:  # no head, or no chest below it: the core frame, flagged (no head vouches for it)
         return core_frame(sol)._replace(ambiguity=1.0)
     # an incomplete surface (a point cloud; a mesh that is not closed): a part found only as an end
     # of the body may be a limb, a tail or a rump where the surface is missing, and on a point
     # cloud's closed solid a head that cannot be cut off may be joined to one: flagged
-    cloud = faces is None
-    settled = not ((cloud or not is_closed(np.asarray(faces))) and found.runner_up == 0.0) and not (cloud and not found.terminal)
+    settled = not ((cloud or not closed) and found.runner_up == 0.0) and not (cloud and not found.terminal)
     lr, contrast, chosen = left_right(sol, geo, MIRROR_BEYOND if cloud else None)
     if found.runner_up == 0.0 and contrast < HEAD_MIRROR:  # found as an end of the body, not mirror-symmetric: a hand?
         return core_frame(sol)._replace(ambiguity=1.0)

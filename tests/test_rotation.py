@@ -231,6 +231,65 @@ def test_a_head_found_as_an_end_of_an_incomplete_surface_is_flagged():
     assert rotation.frame_of(np.asarray(points), "head", resolution=48).flag
 
 
+def test_hole_points_lie_in_the_holes_of_an_open_mesh():
+    """On a closed box the solid's boundary lies on the surface everywhere: no hole points. With
+    the two triangles of its top face removed, the hole points lie on that face (within a voxel
+    of the plane z = 0.5, inside its square) and cover it (every 0.1 x 0.1 square of it but the
+    rim holds some)."""
+    box = trimesh.creation.box(extents=(1.0, 1.0, 1.0))
+    v, f = baselines.split_geometry(box)
+    sol = rotation.frame_solid(v, f, 32)
+    points = sample.lattice_points(v, f, rotation.CELL * sol.pitch)
+    assert len(rotation.hole_points(sol, points)) == 0
+    top = np.all(v[f][:, :, 2] > 0.49, axis=1)
+    assert top.sum() == 2
+    open_f = f[~top]
+    sol = rotation.frame_solid(v, open_f, 32)
+    got = rotation.hole_points(sol, sample.lattice_points(v, open_f, rotation.CELL * sol.pitch))
+    assert len(got) > 0
+    assert np.all(np.abs(got[:, 2] - 0.5) < sol.pitch) and np.all(np.abs(got[:, :2]) < 0.5 + sol.pitch)
+    cells = np.unique(np.floor((got[:, :2] + 0.5) / 0.1).astype(int), axis=0)
+    inner = {(i, j) for i in range(1, 9) for j in range(1, 9)}
+    assert inner <= set(map(tuple, cells))
+
+
+def _cells(points, pitch):
+    """One point per cell of CELL pitches holding points (their mean), as head_surface pools them."""
+    key = np.floor(points / (rotation.CELL * pitch)).astype(np.int64)
+    _, inverse = np.unique(key - key.min(axis=0), axis=0, return_inverse=True)
+    inverse = inverse.ravel()
+    return np.stack([np.bincount(inverse, weights=points[:, j]) for j in range(3)], axis=1) / np.bincount(inverse)[:, None]
+
+
+def test_a_hole_in_one_side_of_a_head_is_read_from_the_solid():
+    """A head (an ellipsoid 0.6 x 0.3 x 0.4 with a nose ahead, +x) mirrors about y = 0. With a
+    band of its left side cut away (|x| < 0.15, y > 0.03: a fifth of its faces) its surface's best
+    mirror plane across x is lost (the remaining points lean the other way: more than 45 degrees
+    off); completed by the solid's boundary in the hole (the ray votes fill it:
+    ``hole_points``), the plane is y = 0 again (within 5 degrees)."""
+    head = trimesh.creation.icosphere(subdivisions=4, radius=1.0)
+    head.apply_scale([0.3, 0.15, 0.2])
+    nose = trimesh.creation.box(extents=(0.2, 0.08, 0.08))
+    nose.apply_translation([0.35, 0.0, -0.05])
+    m = trimesh.util.concatenate([head, nose])
+    c = m.triangles_center
+    cut = (c[:, 1] > 0.03) & (np.abs(c[:, 0]) < 0.15)
+    assert 0.15 < cut.mean() < 0.3
+    holed = trimesh.Trimesh(m.vertices, m.faces[~cut], process=False)
+    holed.remove_unreferenced_vertices()
+    v, f = baselines.split_geometry(holed)
+    sol = rotation.frame_solid(v, f, 48)
+    points = sample.lattice_points(v, f, rotation.CELL * sol.pitch)
+    filled = rotation.hole_points(sol, points)
+    assert len(filled) and np.all(filled[:, 1] > 0.0) and np.all(np.abs(filled[:, 0]) < 0.15 + sol.pitch)
+    a, b = np.array([0.0, 1.0, 0.0]), np.array([0.0, 0.0, 1.0])  # the directions across x
+    full = sample.lattice_points(*baselines.split_geometry(m), rotation.CELL * sol.pitch)
+    for surface, within in ((full, True), (points, False), (np.concatenate([points, filled]), True)):
+        normal, _ = rotation.head_mirror(_cells(surface, sol.pitch), a, b)
+        off = np.degrees(np.arccos(min(1.0, abs(normal[1]))))
+        assert (off < 5.0) if within else (off > 45.0), off
+
+
 @pytest.mark.parametrize("shape", [trimesh.creation.icosphere(subdivisions=3), trimesh.creation.box()])
 def test_symmetric_shapes_are_flagged(shape):
     for method in ("core", "head", "pca_vertices", "pca_surface"):

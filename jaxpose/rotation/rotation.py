@@ -70,7 +70,10 @@ limbs and waist.
    neck within ``FACE`` head depths of the head blob's balls (:func:`head_surface`; a mesh's
    vertices and points on its faces every ``CELL`` pitches), pooled in cells of ``CELL`` pitches,
    each cell that holds points one point at their mean: area at that scale, not the sampling
-   density. The skull's center is the head blob's depth^2-weighted centroid. The neck holds the
+   density. Where a mesh is open, its holes are read from the solid's boundary, which the ray
+   votes close (:func:`hole_points`): a point whose mirror image falls in a hole is then no
+   evidence against the head's mirror plane, and a face with a hole in it still hangs where it did.
+   The skull's center is the head blob's depth^2-weighted centroid. The neck holds the
    skull from behind and below, and the face hangs in front of it: the head's surface below the
    skull's center (jaw, mouth, chin) lies ahead of that center (:func:`front_back_cues`). A pose
    cannot turn this around; the neck's bend only tilts it. A second reading checks it: the
@@ -601,7 +604,9 @@ def head_frame(sol, vertices, faces=None) -> Frame:
     # cloud's closed solid a head that cannot be cut off may be joined to one: flagged
     settled = not ((cloud or not closed) and found.runner_up == 0.0) and not (cloud and not found.terminal)
     lr, contrast, chosen = left_right(sol, geo, MIRROR_BEYOND if cloud else None)
-    if found.runner_up == 0.0 and contrast < HEAD_MIRROR:  # found as an end of the body, not mirror-symmetric: a hand?
+    # not mirror-symmetric: a hand? Asked of a head found only as an end of the body, and of every
+    # head of an open mesh (a hole can fill a neck or cut a part off; the holes are read from the solid)
+    if (found.runner_up == 0.0 or not (cloud or closed)) and contrast < HEAD_MIRROR:
         return core_frame(sol)._replace(ambiguity=1.0)
     up = geo.up
     fb = np.cross(up, lr)

@@ -235,7 +235,7 @@ def test_hole_points_lie_in_the_holes_of_an_open_mesh():
     """On a closed box the solid's boundary lies on the surface everywhere: no hole points. With
     the two triangles of its top face removed, the hole points lie on that face (within a voxel
     of the plane z = 0.5, inside its square) and cover it (every 0.1 x 0.1 square of it but the
-    rim holds some)."""
+    rim holds some); asked only within a ball (``near``), the same points, those in the ball."""
     box = trimesh.creation.box(extents=(1.0, 1.0, 1.0))
     v, f = baselines.split_geometry(box)
     sol = rotation.frame_solid(v, f, 32)
@@ -251,6 +251,10 @@ def test_hole_points_lie_in_the_holes_of_an_open_mesh():
     cells = np.unique(np.floor((got[:, :2] + 0.5) / 0.1).astype(int), axis=0)
     inner = {(i, j) for i in range(1, 9) for j in range(1, 9)}
     assert inner <= set(map(tuple, cells))
+    center = np.array([0.2, -0.1, 0.5]) @ sol.frame.T  # near=: the same points, those within the ball
+    ball = rotation.hole_points(sol, sample.lattice_points(v, open_f, rotation.CELL * sol.pitch), near=(center, 0.3))
+    inside = np.linalg.norm(got @ sol.frame.T - center, axis=1) < 0.3
+    assert 0 < len(ball) < len(got) and np.array_equal(ball, got[inside])
 
 
 def _cells(points, pitch):

@@ -367,6 +367,17 @@ class HeadChest(NamedTuple):
     beyond: np.ndarray
 
 
+def _head_reach(sol, found, eps):
+    """The head blob's voxel centers (k, 3) and depths (k,) (its balls), the reach ``FACE`` head
+    depths (+ eps) beyond them, their center (3,) and the radius about it that holds every ball
+    grown by the reach (grid coordinates, units)."""
+    balls = sol.origin + sol.pitch * (np.argwhere(found.head) + 0.5)
+    radii = sol.depth[found.head]
+    reach = FACE * found.head_depth + eps
+    center = balls.mean(axis=0)
+    return balls, radii, reach, center, np.max(np.linalg.norm(balls - center, axis=1) + radii) + reach
+
+
 def head_surface(points, sol, found, up, eps, cell=CELL):
     """The head's surface as points (module docs, step 5): each cell that holds input points, once.
 
@@ -385,11 +396,7 @@ def head_surface(points, sol, found, up, eps, cell=CELL):
     Returns:
       (k, 3) grid coordinates (k = 0 where no point is on the head).
     """
-    balls = sol.origin + sol.pitch * (np.argwhere(found.head) + 0.5)  # the head blob's voxel centers
-    radii = sol.depth[found.head]
-    reach = FACE * found.head_depth + eps
-    center = balls.mean(axis=0)
-    bound = np.max(np.linalg.norm(balls - center, axis=1) + radii) + reach
+    balls, radii, reach, center, bound = _head_reach(sol, found, eps)
     p = points[(np.linalg.norm(points - center, axis=1) < bound) & ((points - found.neck) @ up > eps)]
     if cell is not None and len(p):
         key = np.floor((p - sol.origin) / (cell * sol.pitch) + GRID_SHIFT).astype(np.int64)
@@ -403,7 +410,7 @@ def head_surface(points, sol, found, up, eps, cell=CELL):
     return p[near.any(axis=1)]
 
 
-def hole_points(sol, points, gap=GAP, cell=CELL):
+def hole_points(sol, points, gap=GAP, cell=CELL, near=None):
     """Points of the solid's boundary where the input's surface is missing (an open mesh's holes).
 
     The solid's boundary is the voxel faces between its kept voxels and the outside; each face is
@@ -417,11 +424,15 @@ def hole_points(sol, points, gap=GAP, cell=CELL):
       sol: the solid of :func:`frame_solid`; points: (m, 3) the input's surface points, world
         coordinates (:func:`jaxpose.sample.lattice_points`).
       gap: pitches; cell: the boundary's sampling step in pitches.
+      near: optional ((3,) center, radius) in grid coordinates: only the boundary within that
+        ball (the same points as without it, inside the ball; cheaper).
 
     Returns:
       (k, 3) world coordinates (k = 0 on a closed surface).
     """
     y = np.asarray(points, np.float64) @ sol.frame.T
+    if near is not None:
+        y = y[np.linalg.norm(y - near[0], axis=1) < near[1] + (gap + 1.0) * sol.pitch]
     n = max(1, int(round(1.0 / cell)))
     offsets = (np.arange(n) + 0.5) / n - 0.5  # the sample points within a face, in pitches
     pad = np.pad(sol.inside, 1)
@@ -438,6 +449,10 @@ def hole_points(sol, points, gap=GAP, cell=CELL):
                     q[:, c] += v
                     out.append(q)
     q = sol.origin + sol.pitch * (np.concatenate(out) + 0.5)
+    if near is not None:
+        q = q[np.linalg.norm(q - near[0], axis=1) < near[1]]
+    if not len(y):
+        return q @ sol.frame
     far = cKDTree(y).query(q, distance_upper_bound=gap * sol.pitch)[0] > gap * sol.pitch
     return q[far] @ sol.frame
 
@@ -595,7 +610,8 @@ def head_frame(sol, vertices, faces=None) -> Frame:
     if found is not None:
         points = sample.lattice_points(vertices, faces, CELL * sol.pitch)
         if not cloud and not closed:  # an open mesh: its holes read from the solid's boundary
-            points = np.concatenate([points, hole_points(sol, points)])
+            _, _, _, center, bound = _head_reach(sol, found, GRID_SHIFT * sol.pitch)
+            points = np.concatenate([points, hole_points(sol, points, near=(center, bound))])
     geo = None if found is None else head_chest(sol, found, points)
     if geo is None:  # no head, or no chest below it: the core frame, flagged (no head vouches for it)
         return core_frame(sol)._replace(ambiguity=1.0)

@@ -73,7 +73,7 @@ def test_region_slices_into_given_axes():
 
     fig = Figure()
     axes = fig.subplots(2, 3)
-    pts = sphere_with_arm(60)
+    pts = sphere_with_arm(80)  # the size of the test above: its compiled fit and pose are reused
     assert plot.region_slices(pts, 10.0, 0.1, pixels=16, resolution=16, ax=axes[1]) is fig
     with pytest.raises(InvalidInputError, match="2 axes for 3 planes"):
         plot.region_slices(pts, 10.0, 0.1, pixels=16, resolution=16, ax=axes[0][:2])

@@ -207,7 +207,8 @@ def solid_radius(points, pitch):
 def test_point_solid_of_an_open_sheet_has_no_depth():
     """A sheet closes to a layer one voxel thick (as in NumPy): no voxel is deeper than the surface."""
     rng = np.random.default_rng(5)
-    sheet = np.c_[rng.uniform(-1, 1, (2000, 2)), np.zeros(2000)]
+    m = len(_ellipsoid_with_stray())  # the row count of the test above: its compiled solid is reused
+    sheet = np.c_[rng.uniform(-1, 1, (m, 2)), np.zeros(m)]
     sol = _jax_solid(sheet)
     ref = host_solid.robust_solid(sheet, resolution=CONFIG.resolution, coarse=CONFIG.coarse)
     assert not bool(jnp.any(po.erode6(sol.inside))) and not ndimage.binary_erosion(ref.inside).any()
@@ -215,8 +216,9 @@ def test_point_solid_of_an_open_sheet_has_no_depth():
 
 
 def test_vmap_equals_single():
-    a, b = _ellipsoid_with_stray(1200, seed=1), 0.5 * _ellipsoid_with_stray(1200, seed=2)[:, ::-1]
-    q = jnp.asarray(po.spacing_subset(1200, CONFIG.spacing_samples))
+    # the size of the tests above: the single solids reuse their compiled program
+    a, b = _ellipsoid_with_stray(3000, seed=1), 0.5 * _ellipsoid_with_stray(3000, seed=2)[:, ::-1]
+    q = jnp.asarray(po.spacing_subset(3000, CONFIG.spacing_samples))
     x = jnp.asarray(np.stack([a, b]), jnp.float32)
     batched = jax.jit(jax.vmap(lambda p: po.point_solid(p, None, q, CONFIG)))(x)
     for i, p in enumerate((a, b)):

@@ -10,13 +10,15 @@ starting from f = 0 on False cells and "none in reach" elsewhere, each axis in t
 g(i) = min_j f(j) + (i - j)^2 along it (the first pass gives the squared distance to the nearest
 False cell in the same line, the second within the same plane, the third in the grid). The
 first pass is the distance to the nearest False cell before or after each cell in its line (two
-running extrema). For the others, the minimiser j of a cell satisfies (i - j)^2 <= g(i) <= f(i),
+running extrema, each a ``lax.scan`` over the slices across the axis). For the others, the
+minimiser j of a cell satisfies (i - j)^2 <= g(i) <= f(i),
 so a ``lax.while_loop`` over the offsets k = 1, 2, ... (both signs, one vector min each) is exact
 once k^2 exceeds every value still to be improved: a traced bound, the largest distance within
 the plane (second pass) or the grid (third), never more than the axis length.
 
 Memory: a few arrays the size of the grid (the shifted copies are padded along one axis), never
-grid x grid. Cost: O(log n) vector operations for the first axis, O(largest depth) for the others.
+grid x grid. Cost: n slice operations for the first axis, O(largest depth) vector operations
+for the others.
 
 Conventions (those of scipy). Cells beyond the grid border are not outside: a line with no False
 cell takes its distances from the other lines. A grid with no False cell at all gets scipy's
@@ -61,14 +63,25 @@ def _check_shape(shape):
 def _line_distance(outside, axis):
     """The first pass in closed form: the squared distance along ``axis`` from each cell to the
     nearest ``outside`` cell of its line (MAX_SQUARED when the line has none), from the index of
-    the last outside cell before each cell and the first after it (running max / min, as
-    log-step scans: ``lax.cummax`` is a sliding window on CPU)."""
+    the last outside cell before each cell and the first after it: a running max and a running
+    min, each a ``lax.scan`` over the slices across ``axis`` (one vector extremum per slice; a
+    small program, where ``lax.cummax`` is a sliding window on CPU and a log-step scan unrolls)."""
     n = outside.shape[axis]
-    idx = lax.broadcasted_iota(jnp.int32, outside.shape, axis)
-    before = lax.associative_scan(jnp.maximum, jnp.where(outside, idx, -n - 1), axis=axis)
-    after = lax.associative_scan(jnp.minimum, jnp.where(outside, idx, 2 * n + 1), reverse=True, axis=axis)
+    outside = jnp.moveaxis(outside, axis, 0)
+    idx = lax.broadcasted_iota(jnp.int32, outside.shape, 0)
+
+    def running(op, fill, reverse):
+        def step(carry, x):
+            carry = op(carry, x)
+            return carry, carry
+
+        init = jnp.full(outside.shape[1:], fill, jnp.int32)
+        return lax.scan(step, init, jnp.where(outside, idx, fill), reverse=reverse)[1]
+
+    before = running(jnp.maximum, -n - 1, False)
+    after = running(jnp.minimum, 2 * n + 1, True)
     d = jnp.minimum(idx - before, after - idx)  # > n when there is none on either side
-    return jnp.where(d < n, d * d, jnp.int32(MAX_SQUARED))
+    return jnp.moveaxis(jnp.where(d < n, d * d, jnp.int32(MAX_SQUARED)), 0, axis)
 
 
 def _min_plus(f, axis, valid):

@@ -57,8 +57,13 @@ def _shift_words(w, k: int):
     return jnp.concatenate([zeros, w[..., : n - k]], -1) if k > 0 else jnp.concatenate([w[..., -k:], zeros], -1)
 
 
-def shift_bits(w, s: int):
-    """Packed lines with cell k moved to k + s (static int, either sign), zeros shifted in."""
+def shift_bits(w, s):
+    """Packed lines with cell k moved to k + s, zeros shifted in. ``s``: a Python int (either
+    sign; word moves and bit shifts by constants) or a traced int32 scalar (the same cells, from
+    dynamic slices of the lines padded with zero words: one compiled shift for every amount, as
+    in the rolled loops of :func:`spread_runs` and :func:`dilate_ball`)."""
+    if not isinstance(s, (int, np.integer)):
+        return _shift_traced(w, s)
     k, r = divmod(abs(s), _WORD)
     sign = 1 if s > 0 else -1
     w = _shift_words(w, sign * k)
@@ -68,6 +73,23 @@ def shift_bits(w, s: int):
     if s > 0:
         return (w << up) | (_shift_words(w, 1) >> down)
     return (w >> up) | (_shift_words(w, -1) << down)
+
+
+def _shift_traced(w, s):
+    """:func:`shift_bits` by a traced amount ``s`` (int scalar, either sign)."""
+    n = w.shape[-1]
+    s = jnp.asarray(s, jnp.int32)
+    k = jnp.minimum(jnp.abs(s) // _WORD, n + 1)  # whole words; n + 1 or more: nothing left
+    r = (jnp.abs(s) % _WORD).astype(jnp.uint32)
+    zeros = jnp.zeros(w.shape[:-1] + (n + 1,), w.dtype)
+    padded = jnp.concatenate([zeros, w, zeros], -1)  # the line at words n + 1 .. 2 n
+    up = s > 0
+    start = jnp.where(up, n + 1 - k, n + 1 + k)
+    main = lax.dynamic_slice_in_dim(padded, start, n, -1)  # words moved by k
+    spill = lax.dynamic_slice_in_dim(padded, jnp.where(up, start - 1, start + 1), n, -1)  # by k + 1
+    left = jnp.uint32(_WORD) - jnp.maximum(r, jnp.uint32(1))  # r = 0 takes ``main`` alone below
+    moved = jnp.where(up, (main << r) | (spill >> left), (main >> r) | (spill << left))
+    return jnp.where(r == 0, main, moved)
 
 
 def _step(w, axis: int, d: int):
@@ -81,15 +103,19 @@ def _step(w, axis: int, d: int):
 
 def spread_runs(seeds, free, c: int):
     """``seeds`` spread through the runs of ``free`` along the packed axis (lines of c cells), both
-    ways: the free cells joined to a seed by free cells of their line. Packed (..., words) uint32."""
+    ways: the free cells joined to a seed by free cells of their line. Packed (..., words) uint32.
+
+    Log-step doubling per direction (a ``lax.fori_loop`` over the steps s = 1, 2, 4, ... < c):
+    ``reach |= open & shift(reach, s)``, ``open &= shift(open, s)``, where ``open`` holds the
+    cells whose next s cells (this way) are all free."""
+    steps = (c - 1).bit_length()
     for sign in (1, -1):
-        reach, open_ = seeds, free  # open_: cells whose next s cells (this way) are all free
-        s = 1
-        while s < c:
-            reach = reach | (open_ & shift_bits(reach, sign * s))
-            open_ = open_ & shift_bits(open_, sign * s)
-            s *= 2
-        seeds = reach
+        def step(i, state, sign=sign):
+            reach, open_ = state
+            s = sign * (jnp.int32(1) << i)
+            return reach | (open_ & shift_bits(reach, s)), open_ & shift_bits(open_, s)
+
+        seeds = lax.fori_loop(0, steps, step, (seeds, free))[0]
     return seeds
 
 
@@ -137,11 +163,13 @@ def dilate_ball(w, r2, rmax: int):
       grid count as unset; bits past the line's end may be set: :func:`unpack` drops them).
       Equals ``scipy.ndimage.distance_transform_edt(~x) ** 2 <= r2``.
     """
-    rows = [w]
-    for k in range(1, rmax + 1):
-        rows.append(rows[-1] | shift_bits(w, k) | shift_bits(w, -k))
-    rows.append(jnp.zeros_like(w))  # index rmax + 1: nothing (offsets outside the disk)
-    lines = jnp.pad(jnp.stack(rows), [(0, 0), (rmax, rmax), (rmax, rmax), (0, 0)])
+    def widen(row, k):  # the lines dilated by k cells along the packed axis, from those by k - 1
+        row = row | shift_bits(w, k) | shift_bits(w, -k)
+        return row, row
+
+    wider = lax.scan(widen, w, jnp.arange(1, rmax + 1, dtype=jnp.int32))[1]
+    rows = jnp.concatenate([w[None], wider, jnp.zeros_like(w)[None]])  # index rmax + 1: nothing
+    lines = jnp.pad(rows, [(0, 0), (rmax, rmax), (rmax, rmax), (0, 0)])
     isqrt = jnp.asarray(np.floor(np.sqrt(np.arange(rmax * rmax + 1) + 0.5)).astype(np.int32))
     r2 = jnp.clip(jnp.asarray(r2, jnp.int32), 0, rmax * rmax)
     r = isqrt[r2]

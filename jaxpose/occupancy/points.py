@@ -332,31 +332,33 @@ def _occupied(points, mask, origin, pitch, cells):
 
 def _closing(occ, radius, max_radius, rmax):
     """Closing of the occupied voxels with the adaptive radius (module docs, step 3), radii up to
-    ``max_radius`` (traced) <= ``rmax`` (static); also the packed occupied voxels."""
+    ``max_radius`` (traced) <= ``rmax`` (static); also the packed occupied voxels.
+
+    One ``lax.while_loop`` whose body is one attempt (the first at ``radius``, each later one at a
+    grown radius), so the attempt is compiled once; the two dilations of the complements (the
+    closing's erosion and the shell's) are one vmapped :func:`.bits.dilate_ball`."""
     c = occ.shape[-1]
     packed = bits.pack(occ)
 
-    def ball(p, r):  # cells within r of a cell of p (squared distance <= r^2)
-        return bits.unpack(bits.dilate_ball(p, r * r, rmax), c)
-
     def attempt(r):
-        dil = ball(packed, r)
+        r2 = r * r
+        dil = bits.unpack(bits.dilate_ball(packed, r2, rmax), c)
         filled = exterior_fill(dil)
-        closed = ~ball(bits.pack(~filled), r)
-        shell = ~ball(bits.pack(~dil), r)
+        holes = bits.pack(jnp.stack([~filled, ~dil]))
+        closed, shell = ~bits.unpack(jax.vmap(bits.dilate_ball, (0, None, None))(holes, r2, rmax), c)
         return closed, jnp.sum(closed) >= 1.2 * jnp.sum(shell)
 
     def cond(state):
         return ~state[2]
 
     def body(state):
-        r, _, _ = state
-        r = jnp.minimum(r + jnp.maximum(1, r // 4), max_radius)
+        r, _, _, first = state
+        r = jnp.where(first, r, jnp.minimum(r + jnp.maximum(1, r // 4), max_radius))
         closed, ok = attempt(r)
-        return r, closed, ok | (r >= max_radius)
+        return r, closed, ok | (r >= max_radius), jnp.array(False)
 
-    closed, ok = attempt(radius)
-    r, closed, _ = lax.while_loop(cond, body, (radius, closed, ok | (radius >= max_radius)))
+    start = (radius, jnp.zeros_like(occ), jnp.array(False), jnp.array(True))
+    r, closed, _, _ = lax.while_loop(cond, body, start)
     return closed | occ, r, packed
 
 

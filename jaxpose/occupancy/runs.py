@@ -115,8 +115,8 @@ def find_runs(packed, c: int, cap: int) -> Runs:
     starts = packed & ~bits.shift_bits(packed, 1)
     ends = packed & ~bits.shift_bits(packed, -1)
     starts, ends = starts.reshape(a * b, nw), ends.reshape(a * b, nw)
-    first, count = _positions(starts, c, cap)
-    last, _ = _positions(ends, c, cap)
+    # both in one vmapped call: one loop compiled (they hold as many bits, in the same words or the next)
+    (first, last), (count, _) = jax.vmap(_positions, (0, None, None))(jnp.stack([starts, ends]), c, cap)
     per_line = _popcount(starts)
     line_start = jnp.cumsum(per_line, dtype=jnp.int32) - per_line
     valid = jnp.arange(cap) < count

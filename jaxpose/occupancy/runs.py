@@ -76,13 +76,27 @@ def default_cap(shape) -> int:
     return int(min(a * b * (-(-c // 2)), 16384))
 
 
+def _cumsum(x):
+    """Inclusive running sum along the last axis (integers): log-step doubling in a
+    ``lax.fori_loop`` (a small program, where ``jnp.cumsum`` compiles to a tree of reduce-window
+    stages)."""
+    n = x.shape[-1]
+
+    def step(i, x):
+        s = jnp.int32(1) << i
+        padded = jnp.concatenate([jnp.zeros(x.shape[:-1] + (n,), x.dtype), x], -1)
+        return x + lax.dynamic_slice_in_dim(padded, n - s, n, -1)
+
+    return lax.fori_loop(0, (n - 1).bit_length(), step, x)
+
+
 def _positions(words, c: int, cap: int):
     """Flat cell index (line * c + cell) of every set bit of packed lines (lines, words), in flat
     order, into (cap,) int32 (unused slots: lines * c); and the number of set bits."""
     lines, nw = words.shape
     flat = words.reshape(-1)
     n = lax.population_count(flat).astype(jnp.int32)
-    offset = jnp.cumsum(n, dtype=jnp.int32) - n
+    offset = _cumsum(n) - n
     k = jnp.arange(flat.shape[0], dtype=jnp.int32)
     base = (k // nw) * c + (k % nw) * _WORD
     out = jnp.full((cap,), lines * c, jnp.int32)
@@ -118,7 +132,7 @@ def find_runs(packed, c: int, cap: int) -> Runs:
     # both in one vmapped call: one loop compiled (they hold as many bits, in the same words or the next)
     (first, last), (count, _) = jax.vmap(_positions, (0, None, None))(jnp.stack([starts, ends]), c, cap)
     per_line = _popcount(starts)
-    line_start = jnp.cumsum(per_line, dtype=jnp.int32) - per_line
+    line_start = _cumsum(per_line) - per_line
     valid = jnp.arange(cap) < count
     return Runs(first, last, valid, count, count <= cap, line_start, starts, ends)
 
@@ -174,9 +188,9 @@ def run_counts(runs: Runs, packed, c: int):
 
 
 def run_sums(runs: Runs, values):
-    """(cap,) the sums of ``values`` (a, b, c) over the cells of each run (0 on unused slots)."""
+    """(cap,) the sums of the integers ``values`` (a, b, c) over the cells of each run (0 on unused slots)."""
     a, b, c = values.shape
-    acc = jnp.cumsum(values, axis=-1, dtype=values.dtype).reshape(-1)
+    acc = _cumsum(values).reshape(-1)
     size = acc.shape[0]
     upto = acc[jnp.minimum(runs.last, size - 1)]
     before = jnp.where(runs.first % c == 0, 0, acc[jnp.clip(runs.first - 1, 0, size - 1)])
@@ -200,7 +214,7 @@ def paint(runs: Runs, chosen, packed, c: int):
     for s in (1, 2, 4, 8, 16):
         x = x ^ (x << np.uint32(s))
     odd = (lax.population_count(toggles) & np.uint32(1)).astype(bool)
-    carry = jnp.cumsum(odd.astype(jnp.int32), axis=-1, dtype=jnp.int32) - odd.astype(jnp.int32)
+    carry = _cumsum(odd.astype(jnp.int32)) - odd.astype(jnp.int32)
     return jnp.where(carry % 2 == 1, ~x, x) & packed
 
 

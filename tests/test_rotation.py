@@ -459,3 +459,28 @@ def test_head_frame_on_four_legged_animals():
     for name, cell in cells.items():
         raw, amb = np.array(cell["head"]["raw"]), np.array(cell["head"]["ambiguity"])
         assert np.all(amb[raw > 30] > 0), name
+
+def test_a_stray_part_turns_neither_the_grid_nor_the_frame():
+    """A separate piece off the body (a ball above and ahead of the toy person's head, dropped by the
+    solid) turns the input's principal axes (``pre_frame``) by several degrees; ``frame_solid``
+    lays its grid along the body's own and builds the same solid as without the piece, so the
+    head frame is the one of the body alone. A piece that touches the solid (the head's jaw, a
+    separate mesh of its own) is kept in the axes."""
+    m = person()
+    stray = trimesh.creation.icosphere(subdivisions=2, radius=0.08)
+    stray.apply_translation([0.5, 0.25, 1.5])
+    both = trimesh.util.concatenate([m, stray])
+    v, f = baselines.split_geometry(both)
+    turned = rotation.pre_frame(v, f)
+    alone = rotation.pre_frame(*baselines.split_geometry(m))
+    assert angle(proper_rows(turned), proper_rows(alone)) > 3.0
+    sol, ref = rotation.frame_solid(v, f, 48), rotation.frame_solid(*baselines.split_geometry(m), 48)
+    np.testing.assert_allclose(sol.frame, alone, atol=1e-12)
+    assert sol.pitch == ref.pitch and np.array_equal(sol.inside, ref.inside)
+    got, want = rotation.frame_of(both, "head", resolution=48), rotation.frame_of(m, "head", resolution=48)
+    assert angle(got.rotation, want.rotation) < 1e-6 and got.ambiguity == want.ambiguity
+
+
+def proper_rows(r):
+    """``r`` with its last row negated where it is a reflection (``pre_frame`` need not be proper)."""
+    return r * np.array([1.0, 1.0, np.sign(np.linalg.det(r))])[:, None]

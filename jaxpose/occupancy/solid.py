@@ -398,8 +398,9 @@ def depth(kept, pitch, bias=MESH_BIAS):
     return np.maximum(ndimage.distance_transform_edt(kept) - bias, 0.0) * pitch
 
 
-def _near(x, kept, origin, pitch, grow=1):
-    """(m,) bool: the voxel of each point x (m, 3) lies within ``grow`` voxels of ``kept``."""
+def near_solid(x, kept, origin, pitch, grow=1):
+    """(m,) bool: the voxel of each point x (m, 3) (the grid's frame, units) lies within ``grow``
+    voxels of ``kept`` ((nx, ny, nz) bool; lower corner ``origin``, edge ``pitch``)."""
     near = ndimage.binary_dilation(kept, structure=np.ones((3, 3, 3), bool), iterations=grow) if grow else kept
     idx = np.floor((x - origin) / pitch).astype(np.int64)
     np.clip(idx, -1, np.array(kept.shape), out=idx)
@@ -465,7 +466,7 @@ def robust_solid(vertices, faces=None, *, resolution=RESOLUTION, coarse=COARSE, 
     pitch1 = coarsest(float((hi - lo).max()) / coarse)
     origin1, shape1 = make_grid(lo, hi, pitch1, margin(pitch1))
     kept1 = keep_main(solid_at(origin1, pitch1, shape1)[0], keep_ratio)[0]
-    on1 = _near(v[:n_input], kept1, origin1, pitch1, grow=1) if kept1.any() else None
+    on1 = near_solid(v[:n_input], kept1, origin1, pitch1, grow=1) if kept1.any() else None
     if on1 is not None and on1.any():  # the exact box of the input on the main body
         lo, hi = v[:n_input][on1].min(0), v[:n_input][on1].max(0)
     # pass 2: the fine grid on the main body's box

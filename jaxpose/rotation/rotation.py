@@ -118,7 +118,8 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from scipy import ndimage
+from scipy import ndimage, sparse
+from scipy.sparse import csgraph
 from scipy.spatial import cKDTree
 
 from .. import baselines, sample
@@ -200,10 +201,40 @@ def pre_frame(vertices, faces=None):
     return axes * np.where(skew >= 0, 1.0, -1.0)[:, None]
 
 
+OFF_SOLID = 2  # voxels: a mesh's piece with no vertex this close to the solid is a stray part (frame_solid)
+
+
 def frame_solid(vertices, faces=None, resolution=None):
-    """The robust solid (:func:`jaxpose.occupancy.solid.robust_solid`) on a grid along :func:`pre_frame`."""
+    """The robust solid (:func:`jaxpose.occupancy.solid.robust_solid`) on a grid along the
+    :func:`pre_frame` of its main body.
+
+    The grid's axes are the principal axes of the input. A mesh's separate pieces (connected by
+    faces) that lie wholly off the solid (no vertex within :data:`OFF_SOLID` voxels of it: stray
+    parts the solid dropped) are left out of them: the axes are taken again from the other pieces
+    and the solid is built on those, so that a stray part turns neither the grid nor, through it,
+    the frame read from the solid. (A point cloud has no pieces to tell apart: its axes are all
+    its points'.)
+    """
     resolution = solid.RESOLUTION if resolution is None else int(resolution)
-    return solid.robust_solid(vertices, faces, resolution=resolution, frame=pre_frame(vertices, faces))
+    v = np.asarray(vertices, np.float64)
+    sol = solid.robust_solid(v, faces, resolution=resolution, frame=pre_frame(v, faces))
+    if faces is None or not len(faces) or not sol.inside.any():
+        return sol
+    f = np.asarray(faces, np.int64)
+    n = len(v)
+    edges = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
+    graph = sparse.coo_matrix((np.ones(len(edges), bool), (edges[:, 0], edges[:, 1])), shape=(n, n))
+    _, piece = csgraph.connected_components(graph, directed=False)
+    on = solid.near_solid(v @ sol.frame.T, sol.inside, sol.origin, sol.pitch, grow=OFF_SOLID)
+    kept = np.zeros(piece.max() + 1, bool)
+    kept[piece[on]] = True
+    keep = kept[piece[f[:, 0]]]
+    if keep.all() or not keep.any():
+        return sol
+    used = np.unique(f[keep])
+    index = np.zeros(n, np.int64)
+    index[used] = np.arange(len(used))
+    return solid.robust_solid(v, faces, resolution=resolution, frame=pre_frame(v[used], index[f[keep]]))
 
 
 def _grid_centers(sol):

@@ -217,10 +217,13 @@ def frame_solid(vertices, faces=None, resolution=None):
     """
     resolution = solid.RESOLUTION if resolution is None else int(resolution)
     v = np.asarray(vertices, np.float64)
-    sol = solid.robust_solid(v, faces, resolution=resolution, frame=pre_frame(v, faces))
-    if faces is None or not len(faces) or not sol.inside.any():
-        return sol
+    if faces is None or not len(faces):
+        return solid.robust_solid(v, faces, resolution=resolution, frame=pre_frame(v, faces))
     f = np.asarray(faces, np.int64)
+    capped = solid.cap_holes(v, f)  # computed once for both grids
+    sol = solid.robust_solid(v, f, resolution=resolution, frame=pre_frame(v, f), capped=capped)
+    if not sol.inside.any():
+        return sol
     n = len(v)
     edges = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
     graph = sparse.coo_matrix((np.ones(len(edges), bool), (edges[:, 0], edges[:, 1])), shape=(n, n))
@@ -234,7 +237,7 @@ def frame_solid(vertices, faces=None, resolution=None):
     used = np.unique(f[keep])
     index = np.zeros(n, np.int64)
     index[used] = np.arange(len(used))
-    return solid.robust_solid(v, faces, resolution=resolution, frame=pre_frame(v[used], index[f[keep]]))
+    return solid.robust_solid(v, f, resolution=resolution, frame=pre_frame(v[used], index[f[keep]]), capped=capped)
 
 
 def _grid_centers(sol):

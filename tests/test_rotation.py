@@ -11,7 +11,8 @@ import jaxpose
 from jaxpose import baselines, cli, geometry, mesh, sample
 from jaxpose.rotation import parts, rotation
 from jaxpose.evaluation import evaluate_rotation, format_rotation_per_class, format_rotation_table
-from jaxpose.evaluation.rotation import angle, chordal_mean, sign_free_angles
+from jaxpose.evaluation.rotation import _summary_of_class, angle, chordal_mean, sign_free_angles
+from jaxpose.orientation import Frame
 from jaxpose.pose.pose import Pose
 from jaxpose.occupancy.voxels import GRID_SHIFT
 from conftest import box_surface, clusters
@@ -386,6 +387,27 @@ def test_measures():
     assert angle(flipped[0], flipped[1]) == pytest.approx(180.0)
 
 
+def _turn_z(degrees):
+    t = np.radians(degrees)
+    return np.array([[np.cos(t), -np.sin(t), 0.0], [np.sin(t), np.cos(t), 0.0], [0.0, 0.0, 1.0]])
+
+
+@pytest.mark.parametrize("outlier_flagged", [False, True])
+def test_a_frame_far_off_and_unflagged_is_counted(outlier_flagged):
+    # five frames turned about z: four within 4 degrees of each other, one 90 degrees off; the
+    # chordal mean lies among the four (within the fifth's pull), so exactly one is over 30 degrees
+    turns = [0.0, 2.0, -2.0, 1.0, 90.0]
+    flags = [0.0, 0.3, 0.0, 0.0, 0.5 if outlier_flagged else 0.0]
+    frames = [Frame(_turn_z(t), a, np.ones(3), np.ones(2), np.ones(3), 2, np.full(3, np.nan))
+              for t, a in zip(turns, flags)]
+    cell = _summary_of_class(frames)
+    raw = np.array(cell["raw"])
+    assert np.sum(raw > 30) == 1 and raw[4] > 30  # the oracle: the angles themselves
+    assert cell["unflagged_over_30"] == (0 if outlier_flagged else 1)
+    assert cell["flagged"] == pytest.approx(0.4 if outlier_flagged else 0.2)
+    assert cell["flagged_over_30"] == (1.0 if outlier_flagged else 0.0)
+
+
 def _class(m, n=3, seed=5):
     rng = np.random.default_rng(seed)
     return [moved(m, random_rotation(rng), rng.normal(size=3)) for _ in range(n)]
@@ -399,6 +421,7 @@ def test_evaluate_rotation_and_cli(tmp_path, capsys, body_frame):
     rows = {r["method"]: r for r in res["variants"]["plain"]["summary"]}
     assert rows["core"]["raw_max"] < 1e-3 and rows["pca_vertices"]["raw_max"] < 1e-3
     assert rows["core"]["flagged"] == 0.0 and rows["inertia"]["flagged"] is None
+    assert rows["core"]["unflagged_over_30"] == 0 and rows["inertia"]["unflagged_over_30"] is None
     assert "error" in {r["method"]: r for r in res["variants"]["points"]["summary"]}["inertia"]
     assert "variant points" in format_rotation_table(res)
     per_class = format_rotation_per_class(res).splitlines()

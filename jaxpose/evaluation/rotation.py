@@ -31,7 +31,7 @@ __all__ = ["PROPER_FLIPS", "angle", "chordal_mean", "class_angles", "sign_free_a
 
 PROPER_FLIPS = np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]], dtype=np.float64)
 ROTATION_KEYS = ("raw_mean", "raw_max", "sign_free_mean", "sign_free_max", "flagged", "unflagged_mean",
-                 "unflagged_max", "flagged_over_30")
+                 "unflagged_max", "flagged_over_30", "unflagged_over_30")
 
 
 def angle(a, b):
@@ -85,7 +85,8 @@ def _summary_of_class(frames):
     out = {"raw": raw.tolist(), "sign_free": free.tolist(), "ambiguity": amb.tolist(),
            "raw_mean": float(raw.mean()), "raw_max": float(raw.max()),
            "sign_free_mean": float(free.mean()), "sign_free_max": float(free.max()),
-           "flagged": None, "unflagged_mean": None, "unflagged_max": None, "flagged_over_30": None}
+           "flagged": None, "unflagged_mean": None, "unflagged_max": None, "flagged_over_30": None,
+           "unflagged_over_30": None}
     if np.all(np.isfinite(amb)):
         flag = amb > 0
         out["flagged"] = float(flag.mean())
@@ -93,6 +94,7 @@ def _summary_of_class(frames):
             out["unflagged_mean"], out["unflagged_max"] = float(raw[~flag].mean()), float(raw[~flag].max())
         if (raw > 30).any():
             out["flagged_over_30"] = float(flag[raw > 30].mean())
+        out["unflagged_over_30"] = int(np.sum((raw > 30) & ~flag))
     return out
 
 
@@ -121,10 +123,12 @@ def evaluate_rotation(classes, methods=None, variants=("plain",), align_core=Fal
       cell}}}}}``. A row holds ``method``, the class averages of ``raw_mean``, ``raw_max``,
       ``sign_free_mean``, ``sign_free_max`` (degrees), ``flagged`` (share of instances),
       ``unflagged_mean`` / ``unflagged_max`` (raw, unflagged instances), ``flagged_over_30`` (share
-      of the instances above 30 degrees that are flagged), ``raw_worst`` (the largest raw angle of
-      any instance) and ``seconds`` (per instance); None
-      where a method does not apply (with ``error``). A cell holds the per-instance ``raw``,
-      ``sign_free`` angles and ``ambiguity``.
+      of the instances above 30 degrees that are flagged), ``unflagged_over_30`` (the number of
+      instances above 30 degrees left unflagged, summed over the classes: frames that are wrong and
+      do not say so), ``raw_worst`` (the largest raw angle of any instance) and ``seconds`` (per
+      instance); None
+      where a method does not apply (with ``error``). A cell holds the same keys for one class
+      and the per-instance ``raw``, ``sign_free`` angles and ``ambiguity``.
     """
     from ..rotation.rotation import ROTATIONS, frame_of, frame_solid
     from .. import baselines
@@ -182,6 +186,8 @@ def evaluate_rotation(classes, methods=None, variants=("plain",), align_core=Fal
             else:
                 row.update({key: _mean_or_none([c[key] for c in cells]) for key in ROTATION_KEYS})
                 row["raw_worst"] = float(max(c["raw_max"] for c in cells))
+                misses = [c["unflagged_over_30"] for c in cells if c["unflagged_over_30"] is not None]
+                row["unflagged_over_30"] = int(sum(misses)) if misses else None
             rows.append(row)
         out[variant] = {"summary": rows, "per_class": per_class}
     if progress is not None:
@@ -204,24 +210,27 @@ def format_rotation_table(result) -> str:
 
     for variant, block in result["variants"].items():
         head = (f"{'method':<14}{'raw mean':>10}{'raw max':>10}{'free mean':>11}{'free max':>10}"
-                f"{'flagged':>9}{'unflagged':>15}{'s/shape':>9}")
+                f"{'flagged':>9}{'unflagged':>15}{'>30':>5}{'s/shape':>9}")
         lines += ["", f"variant {variant}", head, "-" * len(head)]
         for row in block["summary"]:
             unflagged = "" if row["unflagged_mean"] is None else \
                 f"{row['unflagged_mean']:.1f} / {row['unflagged_max']:.1f}"
             flagged = "" if row["flagged"] is None else f"{100 * row['flagged']:.0f}%"
+            miss = "" if row["unflagged_over_30"] is None else str(row["unflagged_over_30"])
             lines.append(f"{row['method']:<14}{num(row['raw_mean']):>10}{num(row['raw_max']):>10}"
                          f"{num(row['sign_free_mean']):>11}{num(row['sign_free_max']):>10}{flagged:>9}"
-                         f"{unflagged:>15}{row['seconds']:>9.3f}")
+                         f"{unflagged:>15}{miss:>5}{row['seconds']:>9.3f}")
+    lines += ["", "unflagged: raw mean / max of the unflagged instances; >30: instances over 30 degrees off left unflagged"]
     return "\n".join(lines)
 
 
 def format_rotation_per_class(result) -> str:
     """The per-class cells of :func:`evaluate_rotation` as terminal tables, one per class.
 
-    Rows: methods; columns per variant: the raw mean / max angle to the class frame (degrees) and
-    the share of instances flagged. ``*`` marks the lowest raw mean of a column; n/a where a
-    method does not apply.
+    Rows: methods; columns per variant: the raw mean / max angle to the class frame (degrees), the
+    share of instances flagged and the number of instances more than 30 degrees off left
+    unflagged (``>30``; blank for a method without a flag). ``*`` marks the lowest raw mean of a
+    column; n/a where a method does not apply.
     """
     def rows(cells, methods):
         lows = {}
@@ -234,15 +243,17 @@ def format_rotation_per_class(result) -> str:
             for v, block in cells.items():
                 cell = block[m]
                 if "error" in cell:
-                    text += f"{'n/a':>15}{'':>7}"
+                    text += f"{'n/a':>16}{'':>7}{'':>5}"
                     continue
                 mark = "*" if cell["raw_mean"] <= lows[v] else " "
                 flag = "" if cell["flagged"] is None else f"{100 * cell['flagged']:.0f}%"
-                text += f"{cell['raw_mean']:>7.1f} / {cell['raw_max']:>5.1f}{mark}{flag:>7}"
+                miss = "" if cell["unflagged_over_30"] is None else str(cell["unflagged_over_30"])
+                text += f"{cell['raw_mean']:>7.1f} / {cell['raw_max']:>5.1f}{mark}{flag:>7}{miss:>5}"
             texts[m] = text
         return texts
 
     lines = class_tables(result["variants"], result.get("params", {}).get("objects", {}),
-                         f"{'mean / max':>15}{'flag':>7}", 22, rows)
-    lines += ["", "angles in degrees to the class frame (chordal mean), raw; * lowest mean of the column"]
+                         f"{'mean / max':>16}{'flag':>7}{'>30':>5}", 28, rows)
+    lines += ["", "angles in degrees to the class frame (chordal mean), raw; * lowest mean of the column; "
+              "flag: share flagged; >30: instances over 30 degrees off left unflagged"]
     return "\n".join(lines)

@@ -157,6 +157,22 @@ def test_smo_stops_at_max_iter_between_checks(max_iter):
     assert float(longer.objective) < float(s.objective)
 
 
+def test_tol_and_max_iter_share_one_program():
+    """The stopping rule's numbers are traced values: fits that differ only in tol or max_iter
+    reuse one compiled program (here the one the test above compiled), and still stop by them."""
+    from jaxpose.occupancy.svdd.fit import _solve_svdd
+
+    pts = clusters(300)
+    fit_svdd(pts, GAMMA, 0.5, tol=1e-12, max_iter=1, solver="smo")
+    programs = _solve_svdd._cache_size()
+    capped = fit_svdd(pts, GAMMA, 0.5, tol=1e-12, max_iter=7, solver="smo")
+    loose = fit_svdd(pts, GAMMA, 0.5, tol=1e-1, max_iter=100_000, solver="smo")
+    assert _solve_svdd._cache_size() == programs
+    assert int(capped.iterations) == 7 and not bool(capped.converged)
+    assert bool(loose.converged) and 0 < int(loose.iterations) < 100_000
+    assert float(loose.kkt_violation) <= 1e-1 < float(capped.kkt_violation)
+
+
 def test_default_solver_is_chosen_by_size():
     """solver=None: "pg" up to PG_MAX_M points, "auto" above (on CPU): the same solution as asking
     for that solver by name, bit for bit (both sides of the threshold, float32)."""

@@ -1,6 +1,7 @@
 """``fit_svdd``: validate, pick a solver, solve, and attach the implicit derivative."""
 from __future__ import annotations
 
+import dataclasses
 from functools import partial
 
 import jax
@@ -102,12 +103,21 @@ def fit_svdd(points, gamma, nu, *, mask=None, init_alpha=None, config: SolverCon
     return result
 
 
-@partial(jax.jit, static_argnames=("config",))
 def solve_svdd(points, gamma, nu, mask, init_alpha, config: SolverConfig) -> SVDD:
-    """:func:`fit_svdd` without input checks, compiled per ``config`` (static) and shape.
+    """:func:`fit_svdd` without input checks, compiled per shape and per the solver's static options
+    (``check_every``, ``kernel``, ``block``, ``solver``); the stopping numbers ``config.tol`` and
+    ``config.max_iter`` are traced values, so configs that differ only in them share one program.
 
     Args as :func:`fit_svdd`; ``mask`` and ``init_alpha`` may be None. Pure JAX.
     """
+    static = dataclasses.replace(config, tol=SolverConfig.tol, max_iter=SolverConfig.max_iter)
+    return _solve_svdd(points, gamma, nu, mask, init_alpha, config.tol, config.max_iter, static)
+
+
+@partial(jax.jit, static_argnames=("config",))
+def _solve_svdd(points, gamma, nu, mask, init_alpha, tol, max_iter, config: SolverConfig) -> SVDD:
+    """:func:`solve_svdd` with the stopping rule's ``tol`` (() float) and ``max_iter`` (() int)
+    traced, apart from ``config`` (whose own tol and max_iter are not read)."""
     dtype = points.dtype
     m = points.shape[0]
     solver = pick_solver(config.solver, m)
@@ -118,19 +128,20 @@ def solve_svdd(points, gamma, nu, mask, init_alpha, config: SolverConfig) -> SVD
     cold = init_alpha is None
     if cold:
         init_alpha = jnp.where(mask, 1.0, 0.0).astype(dtype) / jnp.sum(mask)
+    tol = jnp.asarray(tol, dtype)  # as a literal tol would be: compared in the points' precision
     sg = jax.lax.stop_gradient
     args = (sg(points), sg(gamma), sg(caps), mask, sg(jnp.asarray(init_alpha, dtype)))
     if solver == "pg":
-        a, _, it, viol = solve_pg(*args, config)
+        a, _, it, viol = solve_pg(*args, config, tol, max_iter)
     else:
-        budget = config.max_iter if solver == "smo" else min(config.max_iter // 2, SMO_BUDGET * m)
-        a, _, it, viol = solve_smo(*args, config, budget, density_start_=cold)
+        budget = max_iter if solver == "smo" else jnp.minimum(max_iter // 2, SMO_BUDGET * m)
+        a, _, it, viol = solve_smo(*args, config, tol, budget, density_start_=cold)
         if solver == "auto":  # SMO's tail is slow where most support vectors are free: finish by PG
             def finish(a):
-                r = solve_pg(args[0], args[1], args[2], mask, a, config, max_iter=config.max_iter - budget)
+                r = solve_pg(args[0], args[1], args[2], mask, a, config, tol, max_iter - budget)
                 return r[0], it + r[2], r[3]
 
-            a, it, viol = jax.lax.cond(viol > config.tol, finish, lambda a: (a, it, viol), a)
+            a, it, viol = jax.lax.cond(viol > tol, finish, lambda a: (a, it, viol), a)
     matvec = lambda v: kernel_ops(args[0], args[1], config.kernel, config.block)[0](v)  # built only if used
     a, viol = polish(args[0], args[1], args[2], mask, a, viol, matvec)
     a = implicit_alpha(a, points, gamma, caps, mask)
@@ -145,6 +156,6 @@ def solve_svdd(points, gamma, nu, mask, init_alpha, config: SolverConfig) -> SVD
         objective=jnp.vdot(a, Ka),
         iterations=it,
         kkt_violation=viol,
-        converged=viol <= config.tol,
+        converged=viol <= tol,
         mask=mask,
     )

@@ -25,14 +25,15 @@ from .problem import kernel_ops, kkt_violation
 __all__ = ["solve_pg"]
 
 
-def solve_pg(points, gamma, caps, mask, init_alpha, config, max_iter=None, restart=True):
+def solve_pg(points, gamma, caps, mask, init_alpha, config, tol=None, max_iter=None, restart=True):
     """Solve the dual from ``init_alpha`` by projected gradient (no derivatives).
 
     Args:
       points: (m, 3); gamma: (); caps: (m,) upper bounds; mask: (m,) bool;
       init_alpha: (m,) start, projected onto the feasible set first;
-      config: :class:`jaxpose.config.SolverConfig` (tol, check_every, kernel, block);
-      max_iter: iteration cap (default ``config.max_iter``); restart: gradient restart.
+      config: :class:`jaxpose.config.SolverConfig` (check_every, kernel, block);
+      tol, max_iter: the stopping rule's tolerance and iteration cap (default ``config.tol`` and
+        ``config.max_iter``; may be traced); restart: gradient restart.
 
     Returns:
       alpha (m,), K alpha (m,), iterations (), relative KKT violation ().
@@ -40,8 +41,9 @@ def solve_pg(points, gamma, caps, mask, init_alpha, config, max_iter=None, resta
     """
     import jaxopt  # deferred: jaxopt warns on import
 
+    tol = config.tol if tol is None else tol
     max_iter = config.max_iter if max_iter is None else max_iter
-    tol, check_every = config.tol, config.check_every
+    check_every = config.check_every
     dtype = points.dtype
     matvec = kernel_ops(points, gamma, config.kernel, config.block)[0]
     m = points.shape[0]

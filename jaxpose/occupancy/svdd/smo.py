@@ -37,19 +37,19 @@ def first_index(x, value):
     return jnp.min(jnp.where(x == value, jnp.arange(x.shape[0]), x.shape[0] - 1))
 
 
-def solve_smo(points, gamma, caps, mask, init_alpha, config, max_iter, density_start_=True):
+def solve_smo(points, gamma, caps, mask, init_alpha, config, tol, max_iter, density_start_=True):
     """Solve the dual by SMO (no derivatives).
 
     Args:
       points: (m, 3); gamma: (); caps: (m,); mask: (m,) bool;
       init_alpha: (m,) warm start (projected), used when ``density_start_`` is False;
-      config: :class:`jaxpose.config.SolverConfig` (tol, kernel, block);
-      max_iter: cap on pair updates (never exceeded).
+      config: :class:`jaxpose.config.SolverConfig` (kernel, block);
+      tol: () the stopping rule's tolerance; max_iter: () cap on pair updates (never exceeded);
+        both may be traced.
 
     Returns:
       alpha (m,), K alpha (m,), pair updates (), relative KKT violation () from an exact K alpha.
     """
-    tol = config.tol
     dtype = points.dtype
     inf = jnp.asarray(jnp.inf, dtype)
     matvec, column = kernel_ops(points, gamma, config.kernel, config.block)

@@ -42,7 +42,7 @@ def _body(m=2000, seed=0):
 
 
 def test_default_method_is_robust_and_equals_the_numpy_estimator():
-    pts = _body()
+    pts = _body(5000)  # the size is incidental: the default program of the power-gradient tests (5120 rows)
     pose = jaxpose.normalize(pts)
     center, scale, _ = robust_center_scale(pts)  # the NumPy/SciPy robust solid, float64
     assert isinstance(pose.center, np.ndarray) and pose.center.dtype == np.float64
@@ -107,6 +107,13 @@ def _opts(method):
 
 
 @functools.cache
+def _vmapped(method):
+    """jax.jit(jax.vmap(normalize)) for `method`, shared by the tests that map it over a stack of
+    three (1024, 3) float32 clouds: one compilation per method."""
+    return jax.jit(jax.vmap(lambda x: jaxpose.normalize(x, method=method, **_opts(method))))
+
+
+@functools.cache
 def _jitted(method):
     """jax.jit of normalize for `method`, shared by the tests that trace it on (1024, 3) float32
     arrays: one compilation per method."""
@@ -127,7 +134,7 @@ def test_jit_of_center_runs_on_an_array(method):
 def test_vmap_of_normalize_over_a_stack():
     # 1024 points: the single calls' program is the one the batch test below uses (one bucket)
     stack = jnp.asarray(np.stack([_body(1024, seed=s) * (1 + s) for s in range(3)]), jnp.float32)
-    poses = jax.jit(jax.vmap(lambda x: jaxpose.normalize(x, **SMALL)))(stack)
+    poses = _vmapped("robust")(stack)  # the default method, SMALL
     assert poses.center.shape == (3, 3) and bool(jnp.all(poses.valid))
     for s in range(3):
         single = jaxpose.normalize(np.asarray(stack[s]), **SMALL)
@@ -175,7 +182,9 @@ def _check_power_gradient(pts, power=4.0, **opts):
 
 
 def test_grad_in_power_matches_central_differences():
-    _check_power_gradient(_body(3000, seed=3), **SMALL)
+    # 5000 points and the default grid: the size and options of the FAUST case below, whose four
+    # programs (forward, jacfwd, the grad's two) this one compiles and that one reuses
+    _check_power_gradient(_body(5000, seed=3))
 
 
 @pytest.mark.shared
@@ -230,7 +239,6 @@ def test_far_from_origin_float64_x64(method, x64):
 @pytest.mark.parametrize("method", ["robust", "ocsvm"])
 def test_traced_input_far_from_origin_is_flagged(method):
     pts = sphere_with_arm(1024, seed=5)
-    opts = _opts(method)
     f = _jitted(method)
     near = f(jnp.asarray(pts, jnp.float32))
     assert bool(near.valid)
@@ -241,9 +249,9 @@ def test_traced_input_far_from_origin_is_flagged(method):
     assert not bool(gone.valid) and int(gone.status) == Status.DEGENERATE_INPUT
     moderate = f(jnp.asarray(pts + 100.0, jnp.float32))  # rounding 8e-6 of 0.4: resolved, valid
     assert bool(moderate.valid)
-    vmapped = jax.vmap(lambda x: jaxpose.normalize(x, method=method, **opts))(
-        jnp.asarray(np.stack([pts, pts + 1e6]), jnp.float32))
-    assert np.asarray(vmapped.status).tolist() == [0, int(Status.FAR_FROM_ORIGIN)]
+    # under vmap: three clouds, the stack of test_vmap_of_normalize_over_a_stack (its program, robust)
+    vmapped = _vmapped(method)(jnp.asarray(np.stack([pts, pts + 1e6, pts + 1e5]), jnp.float32))
+    assert np.asarray(vmapped.status).tolist() == [0, int(Status.FAR_FROM_ORIGIN), int(Status.FAR_FROM_ORIGIN)]
 
 
 def test_status_messages_name_the_new_reasons():

@@ -175,15 +175,19 @@ def test_tol_and_max_iter_share_one_program():
 
 def test_default_solver_is_chosen_by_size():
     """solver=None: "pg" up to PG_MAX_M points, "auto" above (on CPU): the same solution as asking
-    for that solver by name, bit for bit (both sides of the threshold, float32)."""
+    for that solver by name, bit for bit (both sides of the threshold, float32), by one program."""
     from jaxpose.occupancy.svdd import PG_MAX_M, pick_solver
+    from jaxpose.occupancy.svdd.fit import _solve_svdd
 
     assert pick_solver("smo", 10) == "smo" and pick_solver(None, PG_MAX_M) == "pg"
     expected = "auto" if jax.default_backend() == "cpu" else "pg"
     assert pick_solver(None, PG_MAX_M + 1) == expected
     for m, name in ((400, "pg"), (PG_MAX_M + 100, expected)):
         pts = jnp.asarray(sphere_with_arm(m), jnp.float32)
-        default, named = fit_svdd(pts, GAMMA, 0.5), fit_svdd(pts, GAMMA, 0.5, solver=name)
+        default = fit_svdd(pts, GAMMA, 0.5)
+        programs = _solve_svdd._cache_size()
+        named = fit_svdd(pts, GAMMA, 0.5, solver=name)
+        assert _solve_svdd._cache_size() == programs  # None and the solver it stands for share it
         np.testing.assert_array_equal(np.asarray(default.alpha), np.asarray(named.alpha))
         assert int(default.iterations) == int(named.iterations)
 

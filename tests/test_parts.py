@@ -5,8 +5,9 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from jaxpose.rotation.parts import (BRANCH, NECK, SHARE, THICK, TRUNK, ends, find_head, find_parts, merge_tree,
-                                   part_across, waist)
+from jaxpose.orientation import GAP_MIN
+from jaxpose.rotation.parts import (BRANCH, DISK, NECK, SHARE, THICK, TRUNK, WIDER, ends, find_head, find_parts,
+                                   merge_tree, part_across, waist)
 from jaxpose.occupancy.solid import Solid
 
 
@@ -296,3 +297,95 @@ def test_a_part_beyond_a_waist_is_no_head(as_points):
     assert found.terminal and not waist(found.neck_depth, sol.depth.max())
     np.testing.assert_allclose(head.mean(axis=0), [1.6, 0, 0.65], atol=0.1)
     assert abs(found.head_depth - 0.18) < 2 * sol.pitch
+
+
+def _cone(p, q, r0, r1):
+    """The points within r0 + t (r1 - r0) of the segment p-q at its parameter t."""
+    p, q = np.asarray(p, float), np.asarray(q, float)
+
+    def inside(x):
+        t = np.clip(((x - p) @ (q - p)) / ((q - p) @ (q - p)), 0.0, 1.0)
+        return np.linalg.norm(x - (p + t[..., None] * (q - p)), axis=-1) <= r0 + t * (r1 - r0)
+    return inside
+
+
+def _web(p, q, down, reach, half):
+    """A plate 2 half thick along the segment p-q, reaching ``reach`` from it along ``down``."""
+    p, q, down = np.asarray(p, float), np.asarray(q, float), np.asarray(down, float)
+    a = (q - p) / np.linalg.norm(q - p)
+    across = np.cross(a, down)
+
+    def inside(x):
+        r = x - p
+        t, s, w = r @ a, r @ down, r @ across
+        return (t >= 0) & (t <= np.linalg.norm(q - p)) & (s >= 0) & (s <= reach) & (np.abs(w) <= half)
+    return inside
+
+
+def test_a_neck_is_cut_where_it_is_narrowest():
+    """A hole's cap across a throat and a jaw fills the notch between them: a web under the neck
+    (a plate 0.07 thick, too thin to be a part, reaching 0.55 from the neck's axis) from the trunk
+    to 0.1 beyond the neck's narrowest section (a cone tapering from 0.14 to 0.10 at the head).
+    The neck's saddle lies at that section; no disk there (DISK or WIDER saddle depths: 0.36 at
+    most) cuts the head off, the web joins it to the trunk around the disk, so the head would be
+    no part that ends the body and the thickest one left, a leg, would be taken. A disk slid
+    beyond the web toward the head's peak cuts it off: find_head takes the head ball (centered at
+    its center, as without the web), cut off with the web's end and none of the trunk."""
+    pitch = 0.04
+    legs = [capsule((x, y, -0.1), (x, y, -1.2), 0.12) for x in (-0.8, 0.6) for y in (-0.25, 0.25)]
+    axis = np.array([0.7, 0.0, 0.5]) / np.linalg.norm([0.7, 0.0, 0.5])
+    root, end = np.array([0.8, 0.0, 0.1]), np.array([1.6, 0.0, 0.65]) - 0.17 * axis
+    body = [capsule((-1.2, 0, 0), (0.8, 0, 0), 0.45), *legs, capsule((-1.2, 0, 0), (-2.0, 0, 0.3), 0.06),
+            _cone(root, end, 0.14, 0.10), ball((1.6, 0, 0.65), 0.2)]
+    web = _web(root, end + 0.1 * axis, [axis[2], 0.0, -axis[0]], 0.55, 0.035)
+    box = dict(lo=(-2.2, -0.6, -1.4), hi=(2.0, 0.6, 1.0))
+    plain, webbed = voxel_solid(body, pitch, **box), voxel_solid(body + [web], pitch, **box)
+    assert 0.2 < THICK * 0.45 and find_parts(webbed) is None  # the head is found as an end of the body
+    centers = []
+    for sol in (plain, webbed):
+        found = find_head(sol)
+        assert found is not None and found.terminal
+        head = sol.origin + pitch * (np.stack(np.nonzero(found.head), 1) + 0.5)
+        centers.append(head.mean(axis=0))
+        assert abs(found.neck_depth - 0.10) < 1.5 * pitch and np.linalg.norm(found.neck - end) < 0.15
+        beyond = sol.origin + pitch * (np.stack(np.nonzero(found.beyond), 1) + 0.5)
+        assert np.all(np.linalg.norm(beyond - [1.6, 0, 0.65], axis=1) < 0.2 + 0.55)  # none of the trunk
+        assert found.beyond.sum() * pitch ** 3 < 4.19 * 0.2 ** 3 + 0.55 * 0.2 * 0.07 + 3.15 * 0.14 ** 2 * 0.3
+    np.testing.assert_allclose(centers, [[1.6, 0, 0.65]] * 2, atol=0.1)
+    # on the webbed body no disk at the saddle cuts the head off: the web joins it to the trunk
+    found = find_head(webbed)
+    saddle = np.rint((found.neck - webbed.origin) / pitch - 0.5).astype(int)
+    trunk = np.argwhere(webbed.depth == webbed.depth.max())[0]
+    for disk in (DISK, WIDER):
+        assert part_across(plain, find_head(plain).head, saddle, found.neck_depth, trunk, disk) is not None
+        assert part_across(webbed, found.head, saddle, found.neck_depth, trunk, disk) is None
+    assert 0.55 > WIDER * 0.10 + 2 * pitch
+
+
+def test_a_second_end_only_beyond_a_distinct_neck():
+    """find_parts' head may have two far ends (a hand resting on a head) where its neck is the
+    body's clearly most constricted saddle. A rump that a hole took the tail from (a ball of
+    0.36 with two legs, no tail) on a saddle of 0.29 is hardly more constricted than the head's
+    neck (a ball of 0.3 on a neck of 0.245): (c - runner-up) / c below GAP_MIN, so find_parts'
+    rump vouches for nothing and must end the body as any part must (one far end): find_head
+    takes the head. With a thin waist (0.2: constriction 1.8 against the head's 1.2) find_parts'
+    rump is the distinct neck's part and keeps its allowance of two ends."""
+    pitch = 0.04
+    legs = [capsule((-1.5, y, -0.2), (-1.5, y, -1.3), 0.1) for y in (-0.2, 0.2)]
+    heads = []
+    for waist_radius in (0.29, 0.2):
+        sol = voxel_solid([capsule((-0.6, 0, 0), (0.8, 0, 0), 0.45), capsule((-1.5, 0, 0), (-0.6, 0, 0), waist_radius),
+                           ball((-1.5, 0, 0), 0.36), *legs, capsule((0.8, 0, 0), (1.6, 0, 0), 0.245),
+                           ball((1.75, 0, 0), 0.3)], pitch, lo=(-2.0, -0.6, -1.45), hi=(2.2, 0.6, 0.6))
+        rump = find_parts(sol)
+        at = sol.origin + pitch * (np.stack(np.nonzero(rump.head), 1) + 0.5)
+        assert np.allclose(at.mean(axis=0), [-1.5, 0, 0], atol=0.1)  # find_parts takes the rump
+        assert not waist(rump.neck_depth, sol.depth.max()) and rump.runner_up > 1.1
+        saddle = np.rint((rump.neck - sol.origin) / pitch - 0.5).astype(int)
+        beyond = part_across(sol, rump.head, saddle, rump.neck_depth)
+        assert beyond.sum() <= SHARE * sol.inside.sum() and ends(sol, beyond, saddle, rump.head_depth) == 2
+        gap = (rump.constriction - rump.runner_up) / rump.constriction
+        assert (gap < GAP_MIN) == (waist_radius == 0.29)
+        found = find_head(sol)
+        heads.append((sol.origin + pitch * (np.stack(np.nonzero(found.head), 1) + 0.5)).mean(axis=0))
+    np.testing.assert_allclose(heads, [[1.75, 0, 0], [-1.5, 0, 0]], atol=0.1)

@@ -25,7 +25,13 @@ rump; on a point solid, whose closing fills in the flanks between the legs, also
 ends in one blob), whatever it carries. Where :func:`find_parts`' head lies beyond a waist, is
 cut off and branches, or where it finds none, the head is the thickest part beyond any saddle
 (at least :data:`SADDLE` times as deep as it, and no waist) that is cut off and ends the body
-(:func:`terminal_part`). How it does on real bodies: docs/rotation.md.
+(:func:`terminal_part`). The allowance of a second end is the distinct neck's: where find_parts'
+neck is hardly more constricted than the runner-up (their relative gap below
+:data:`jaxpose.orientation.GAP_MIN`, which the frame's ambiguity already calls undetermined), its
+part must end the body as any other (one far end: a rump a hole took the tail from has two). A
+part that no disk at its saddle cuts off may be cut where its neck is narrowest, beyond the saddle
+toward its peak (:func:`_terminal`'s ``slide``: a notch beside the neck filled by a hole's cap
+widens the section through the saddle). How it does on real bodies: docs/rotation.md.
 
 Example::
 
@@ -41,6 +47,8 @@ from typing import NamedTuple
 import numpy as np
 from scipy import ndimage, sparse
 from scipy.sparse import csgraph
+
+from ..orientation import GAP_MIN
 
 __all__ = ["THICK", "NECK", "TRUNK", "SADDLE", "DISK", "WIDER", "BRANCH", "SHARE", "LOWEST", "Parts", "merge_tree", "find_parts", "find_head",
            "part_across", "geodesic", "ends", "waist", "terminal_part"]
@@ -185,7 +193,7 @@ def _index(sol, flat):
     return np.array(np.unravel_index(int(flat), sol.inside.shape))
 
 
-def part_across(sol, blob, saddle, depth, other=None, disk=DISK, thin=0.0):
+def part_across(sol, blob, saddle, depth, other=None, disk=DISK, thin=0.0, shift=0.0):
     """The part beyond a saddle, cut off by a disk, or None where the disk does not cut it off.
 
     The disk lies through ``saddle`` ((3,) voxel index) normal to the direction from it to the
@@ -202,19 +210,35 @@ def part_across(sol, blob, saddle, depth, other=None, disk=DISK, thin=0.0):
     always kept), and each of them then goes with the part of its nearest deeper voxel: a point
     solid's closing bridges gaps between parts up to about its closing radius wide (a muzzle
     over a foreleg, a tail on a thigh) that the input does not join (:func:`terminal_part`).
+
+    With ``shift`` > 0 (voxels) the disk lies that far beyond the saddle toward the blob's
+    centroid, ``disk`` times the depth at its center (at least ``depth``) in radius, and only the
+    blob's voxels beyond it are kept (:func:`_terminal`: a neck cut where it is narrowest); None
+    also where no voxel of the blob lies beyond it.
     """
     idx = np.argwhere(sol.inside)
     u = np.argwhere(blob).mean(axis=0) - saddle
     u /= np.linalg.norm(u)
-    rel = idx - saddle
+    center = saddle + shift * u
+    if shift > 0.0:
+        inner = np.clip(np.rint(center).astype(np.int64), 0, np.array(sol.inside.shape) - 1)
+        depth = max(float(depth), float(sol.depth[tuple(inner)]))
+    rel = idx - center
     h = rel @ u
     cut = (np.abs(h) <= 1.0) & (np.linalg.norm(rel - h[:, None] * u, axis=1) * sol.pitch <= disk * depth)
     keep = np.zeros(sol.inside.shape, bool)
     keep[tuple(idx[~cut].T)] = True
-    keep |= blob
-    deep = keep & ((sol.depth > thin) | blob)  # the solid without its bridges
+    if shift > 0.0:
+        seed = blob & keep & (((np.indices(blob.shape).reshape(3, -1).T - center) @ u).reshape(blob.shape) > 1.0)
+        if not seed.any():
+            return None
+    else:
+        keep |= blob
+        seed = blob
+    deep = keep & ((sol.depth > thin) | seed)  # the solid without its bridges
     labels, _ = ndimage.label(deep, _CUBE)
-    part = labels == labels[tuple(np.argwhere(blob)[0])]
+    first = np.argwhere(seed)[np.argmax(sol.depth[seed])] if shift > 0.0 else np.argwhere(seed)[0]  # shifted: the deepest
+    part = labels == labels[tuple(first)]
     if other is not None and part[tuple(other)]:
         return None
     if thin > 0.0:  # each shallow voxel goes with its nearest deep voxel
@@ -275,12 +299,16 @@ def waist(death, top, trunk=TRUNK):
     return float(death) * trunk > float(top)
 
 
-def _terminal(sol, row, head_peak, disks=(DISK,), most=1, thin=0.0):
+def _terminal(sol, row, head_peak, disks=(DISK,), most=1, thin=0.0, slide=False):
     """Whether the side of ``head_peak`` at one merge-tree row's saddle is a head that ends the
     body: (True, the part) where it is cut off (:func:`part_across`, by the first of ``disks`` that
     cuts it off), holds at most :data:`SHARE` of the solid and has at most ``most`` far ends
     (:func:`ends`); (False, None) where it is cut off and is larger or branches more; (None, None)
-    where it cannot be cut off."""
+    where it cannot be cut off. With ``slide`` (mesh solids, ``thin`` 0), where no disk at the
+    saddle cuts the part off, a disk of :data:`DISK` local depths is tried one voxel after another
+    beyond the saddle toward the part's peak (up to a voxel short of it): a neck is cut where it
+    is narrowest, which a filled notch beside it (a hole's cap across a throat and a jaw) moves
+    beyond the saddle of the depth field."""
     birth, death, peak, saddle, joins = row
     labels, _ = ndimage.label(sol.depth > death, _CUBE)
     blob = labels == labels[tuple(_index(sol, head_peak))]
@@ -290,6 +318,14 @@ def _terminal(sol, row, head_peak, disks=(DISK,), most=1, thin=0.0):
         part = part_across(sol, blob, _index(sol, saddle), death, other, disk, thin)
         if part is not None:
             break
+    if part is None and slide and thin == 0.0:
+        at = _index(sol, saddle)
+        u = np.argwhere(blob).mean(axis=0) - at
+        span = float((_index(sol, head_peak) - at) @ u / np.linalg.norm(u))
+        for shift in np.arange(1.0, span - 1.0 + 1e-9):
+            part = part_across(sol, blob, at, death, other, DISK, shift=float(shift))
+            if part is not None:
+                break
     if part is None:
         return None, None
     if part.sum() > SHARE * sol.inside.sum():  # half a trunk (a rump, a chest with arms), not an end
@@ -306,8 +342,10 @@ def terminal_part(sol, tree=None):
     is the smaller), those cut off across the saddle (by a disk of :data:`DISK` saddle depths, or
     of :data:`WIDER` where that leaves the part joined: a neck met at a slant) and not branching
     (:func:`_terminal`), the deepest; None where there is none. A saddle that is a :func:`waist`
-    is no neck: the sides of its row are not taken. (:func:`find_head` checks
-    :func:`find_parts`' head with :data:`DISK` only: a head it cannot cut off is kept.)
+    is no neck: the sides of its row are not taken. Where no disk at the saddle cuts a side off,
+    on a mesh solid a disk slid beyond the saddle toward its peak may (:func:`_terminal`).
+    (:func:`find_head` checks :func:`find_parts`' head beyond a distinct neck with :data:`DISK`
+    only: a head it cannot cut off is kept.)
 
     Returns:
       :class:`Parts` (``constriction`` the saddle's row's birth / death; ``runner_up`` 0: no neck
@@ -330,7 +368,7 @@ def terminal_part(sol, tree=None):
         sides.append((flat_depth[int(small)], row, small))
     thin = 0.0 if sol.radius is None else sol.radius * sol.pitch  # a point solid: without its closing's bridges
     for _, row, small in sorted(sides, key=lambda s: -s[0]):
-        verdict, part = _terminal(sol, row, small, (DISK, WIDER), thin=thin)
+        verdict, part = _terminal(sol, row, small, (DISK, WIDER), thin=thin, slide=True)
         if verdict:
             return _split(sol, row, small, 0.0, part)
     return None
@@ -341,7 +379,10 @@ def find_head(sol, tree=None):
     :func:`waist` and it ends the body (``terminal`` True) or cannot be cut off to tell
     (``terminal`` False); else (it lies beyond a waist, is half a trunk, more than :data:`SHARE`
     of the solid, or carries limbs: three or more far ends, a rump's two legs and tail; two are
-    allowed it, a hand resting on a head), or where there is no thick neck, :func:`terminal_part`.
+    allowed it, a hand resting on a head, where its neck is distinct: (constriction - runner-up) /
+    constriction at least :data:`jaxpose.orientation.GAP_MIN`; else one, and it may be cut off
+    beyond its saddle as :func:`terminal_part`'s parts), or where there is no thick neck,
+    :func:`terminal_part`.
 
     Args:
       sol: :class:`jaxpose.occupancy.solid.Solid`; tree: its :func:`merge_tree` to reuse.
@@ -356,7 +397,10 @@ def find_head(sol, tree=None):
         thick = tree[(tree[:, 1] > 0) & (tree[:, 0] >= NECK * tree[:, 1]) & (tree[:, 0] >= THICK * tree[:, 0].max())]
         row = thick[np.argmax(thick[:, 0] / thick[:, 1])]
         head_peak = row[2] if found.head.ravel()[int(row[2])] else row[4]
-        verdict, part = _terminal(sol, row, head_peak, most=2)  # a hand resting on the head: two ends
+        if (found.constriction - found.runner_up) / found.constriction >= GAP_MIN:  # a distinct neck
+            verdict, part = _terminal(sol, row, head_peak, most=2)  # a hand resting on the head: two ends
+        else:  # a neck no more constricted than another saddle vouches for nothing: an end of the body
+            verdict, part = _terminal(sol, row, head_peak, slide=True)
         if verdict is not False:
             return found._replace(terminal=bool(verdict), beyond=part)
     return terminal_part(sol, tree)

@@ -215,6 +215,29 @@ def test_head_frame_of_a_four_legged_animal(resolution):
         assert got.ambiguity == pytest.approx(base.ambiguity, abs=1e-9)
 
 
+def test_a_snout_is_read_from_where_the_neck_holds_the_head():
+    """The toy animal with a jowl (a box 0.26 on a side under its head, a little ahead of the
+    ball's center: as a hole's cap fills the notch between throat and jaw) and a muzzle reaching
+    to x = 1.43. The jowl is the head's deepest region, so the skull's center (the head blob's
+    depth^2 centroid) sits low and ahead: the muzzle reaches less than ``MUZZLE`` head depths
+    ahead of it, and the head's surface below it (the jowl, the throat) lies behind it, the jaw
+    reading backward. The part beyond the neck reaches 0.8 head depths ahead of the neck that holds
+    it: front is toward the muzzle (+x), as on the animal without the jowl (on main: -x). Rotating
+    the input turns the frame with it."""
+    jowl, tip = trimesh.creation.box(extents=(0.26, 0.26, 0.26)), trimesh.creation.box(extents=(0.25, 0.13, 0.13))
+    jowl.apply_translation([0.86, 0.0, 1.38])
+    tip.apply_translation([1.3, 0.0, 1.45])
+    m = trimesh.util.concatenate([animal(), jowl, tip])
+    v, f = baselines.split_geometry(m)
+    sol = rotation.frame_solid(v, f, 48)
+    found = parts.find_head(sol)
+    assert found.terminal
+    r = rotation.frame_of(m, "head", resolution=48).rotation
+    assert abs(r[1, 1]) > np.cos(10 * RAD) and r[2, 0] > 0.4
+    q = random_rotation(np.random.default_rng(4))
+    assert angle(rotation.frame_of(moved(m, q), "head", resolution=48).rotation, r @ q.T) < 1.0
+
+
 def test_a_head_found_as_an_end_of_an_incomplete_surface_is_flagged():
     """The toy animal's head is found only as an end of the body (no thick neck). From its closed
     mesh the frame is unflagged (above); with its smallest face removed (a hole: the mesh is

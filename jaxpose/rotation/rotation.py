@@ -82,7 +82,12 @@ limbs and waist.
    off across its neck, :func:`jaxpose.rotation.parts.find_head`; none where it could not be cut
    off) reaches at least ``MUZZLE`` head depths ahead of the skull and farther than the jaw
    hangs, it decides (a person's head is round about its
-   skull; a horse's muzzle is a head depth long). Where the jaw decides and its two readings
+   skull; a horse's muzzle is a head depth long). Where it does not, but the same part reaches at
+   least ``MUZZLE`` head depths ahead of the neck that holds the head (its saddle), farther than
+   the jaw hangs, and at least ``FACE_MIN`` head depths ahead of the skull's center too (a round
+   head set ahead of its neck is no snout), that reading gives front-back's sign (the axes stay the chest's): the
+   skull's center is the deepest blob's, and a filled notch (a hole's cap across throat and jaw)
+   moves it, with the jaw reading; the neck's saddle, where the head is held, it leaves. Where the jaw decides and its two readings
    disagree, what was found may not be a head (a hand on it, holes in it), or a long neck's
    surface hangs below the skull: the part beyond the neck breaks the tie where it reaches at
    least ``FACE_MIN`` head depths ahead or behind (flagged, ambiguity 1), else the frame is the
@@ -662,6 +667,7 @@ def head_frame(sol, vertices, faces=None) -> Frame:
     fb = np.cross(up, lr)
     fb /= np.linalg.norm(fb)
     jaw, reach, muzzle = front_back_cues(geo, fb)
+    held = (geo.beyond - found.neck) @ fb  # the part beyond the neck ahead of the neck that holds it
     settled = settled and chosen is not None  # no mirror chose left-right: flagged
     if abs(muzzle) >= max(abs(jaw), MUZZLE * found.head_depth):  # a snout: it reaches farther than the face hangs
         snout = geo.beyond - geo.skull
@@ -674,6 +680,9 @@ def head_frame(sol, vertices, faces=None) -> Frame:
         fb /= np.linalg.norm(fb)
         muzzle = snout @ fb
         cue, other = muzzle, jaw
+    elif (found.beyond is not None and abs(held) >= max(abs(jaw), MUZZLE * found.head_depth)
+          and muzzle * held > 0 and abs(muzzle) >= FACE_MIN * found.head_depth):
+        cue, other = held, jaw  # a snout read from where the neck holds the head (and ahead of the skull): its sign only
     elif jaw * reach > 0:
         cue, other = jaw, muzzle
     elif abs(muzzle) >= FACE_MIN * found.head_depth:  # the face's readings disagree; the part beyond the neck breaks the tie

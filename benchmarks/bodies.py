@@ -44,8 +44,9 @@ from jaxpose.evaluation import align_core, class_angles, make_class
 from jaxpose.occupancy.solid import cap_holes, robust_solid
 from jaxpose.evaluation.rotation import sign_free_angles
 from jaxpose.rotation.parts import Parts, ends, find_parts, geodesic, merge_tree
-from jaxpose.rotation.rotation import (CELL, SYMMETRY_POWER, _grid_centers, _weights, frame_of, frame_solid,
-                                       front_back_cues, head_chest, mirror_error, symmetry_scores)
+from jaxpose.rotation.core import _grid_centers, _weights
+from jaxpose.rotation.rotation import (CELL, SYMMETRY_POWER, frame_of, frame_solid, front_back_cues, head_chest, mirror_error,
+                                       symmetry_scores)
 from jaxpose.sample import lattice_points
 
 from .consistency import class_folder

@@ -134,7 +134,7 @@ def normalize_mesh(
       resolution: for the robust solid, voxels along the body's largest extent (96); for
         ``ocsvm``, the grid resolution of :func:`jaxpose.normalize`.
       rotation: False (default: translation and scale only, exactly as without the option), True
-        (the ``head`` frame of :mod:`jaxpose.rotation.rotation`: the head and chest of the robust solid, or
+        (the ``head`` frame of :mod:`jaxpose.rotation.head`: the head and chest of the robust solid, or
         its depth^4-weighted ``core`` frame, flagged, where no neck is found; meshes and point clouds) or a
         name of :data:`jaxpose.rotation.rotation.ROTATIONS` (``head``, ``core``, ``ocsvm``,
         ``pca_vertices``, ``pca_surface``, ``inertia``). Sets ``Pose.rotation`` (rows =

@@ -2,7 +2,7 @@
 
 A frame is a proper rotation R (3, 3) whose rows are a shape's canonical axes in world
 coordinates (det R = +1); canonical coordinates are R (x - c) / s. The frames of
-:mod:`jaxpose.rotation.rotation` (``core``) and of :mod:`jaxpose.baselines` (``pca_*``, ``inertia``) are
+:mod:`jaxpose.rotation.core` (``core``) and of :mod:`jaxpose.baselines` (``pca_*``, ``inertia``) are
 :class:`Frame` values built with the pieces here; :func:`region_frame` is the traced frame of
 :func:`jaxpose.normalize` (``rotation=True``).
 
@@ -21,7 +21,7 @@ g2 / GAP_MIN, m, k / SYMMETRY_MIN), 0, 1)``: 0 when every cue clears its thresho
 them is zero; ``flag = ambiguity > 0``. The thresholds are set a priori (module constants), not
 fitted: a gap of 10 % (near-equal moments swap under small deformations), a third moment of
 0.02 r^3 (what moving about 2 % of the volume across the body changes it by), a feet offset of
-1 % of the length (about one voxel; :data:`jaxpose.rotation.rotation.FOOT_MIN`) and a symmetry contrast of 0.05.
+1 % of the length (about one voxel; :data:`jaxpose.rotation.core.FOOT_MIN`) and a symmetry contrast of 0.05.
 
 Example::
 

@@ -130,7 +130,8 @@ def evaluate_rotation(classes, methods=None, variants=("plain",), align_core=Fal
       where a method does not apply (with ``error``). A cell holds the same keys for one class
       and the per-instance ``raw``, ``sign_free`` angles and ``ambiguity``.
     """
-    from ..rotation.rotation import ROTATIONS, frame_of, frame_solid
+    from ..rotation.core import frame_solid
+    from ..rotation.rotation import ROTATIONS, frame_of
     from .. import baselines
 
     if not isinstance(classes, dict) or not classes or any(len(m) < 2 for m in classes.values()):

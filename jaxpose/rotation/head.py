@@ -48,7 +48,8 @@ limbs and waist.
    the jaw hangs, and at least ``FACE_MIN`` head depths ahead of the skull's center too (a round
    head set ahead of its neck is no snout), that reading gives front-back's sign (the axes stay the chest's): the
    skull's center is the deepest blob's, and a filled notch (a hole's cap across throat and jaw)
-   moves it, with the jaw reading; the neck's saddle, where the head is held, it leaves. Where the jaw decides and its two readings
+   moves it, with the jaw reading; the neck's saddle, where the head is held, it leaves. Where
+   the jaw and the reach both read the other way, the frame is flagged. Where the jaw decides and its two readings
    disagree, what was found may not be a head (a hand on it, holes in it), or a long neck's
    surface hangs below the skull: the part beyond the neck breaks the tie where it reaches at
    least ``FACE_MIN`` head depths ahead or behind (flagged, ambiguity 1), else the frame is the
@@ -417,6 +418,7 @@ def head_frame(sol, vertices, faces=None) -> Frame:
     elif (found.beyond is not None and abs(held) >= max(abs(jaw), MUZZLE * found.head_depth)
           and muzzle * held > 0 and abs(muzzle) >= FACE_MIN * found.head_depth):
         cue, other = held, jaw  # a snout read from where the neck holds the head (and ahead of the skull): its sign only
+        settled = settled and not (jaw * reach > 0 and jaw * held < 0)  # the face's two readings against it: flagged
     elif jaw * reach > 0:
         cue, other = jaw, muzzle
     elif abs(muzzle) >= FACE_MIN * found.head_depth:  # the face's readings disagree; the part beyond the neck breaks the tie

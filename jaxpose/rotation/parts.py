@@ -229,7 +229,9 @@ def part_across(sol, blob, saddle, depth, other=None, disk=DISK, thin=0.0, shift
     keep = np.zeros(sol.inside.shape, bool)
     keep[tuple(idx[~cut].T)] = True
     if shift > 0.0:
-        seed = blob & keep & (((np.indices(blob.shape).reshape(3, -1).T - center) @ u).reshape(blob.shape) > 1.0)
+        cells = np.argwhere(blob & keep)
+        seed = np.zeros(blob.shape, bool)
+        seed[tuple(cells[(cells - center) @ u > 1.0].T)] = True  # the blob beyond the disk
         if not seed.any():
             return None
     else:
@@ -321,7 +323,7 @@ def _terminal(sol, row, head_peak, disks=(DISK,), most=1, thin=0.0, slide=False)
     if part is None and slide and thin == 0.0:
         at = _index(sol, saddle)
         u = np.argwhere(blob).mean(axis=0) - at
-        span = float((_index(sol, head_peak) - at) @ u / np.linalg.norm(u))
+        span = float((_index(sol, head_peak) - at) @ u / max(float(np.linalg.norm(u)), 1e-12))
         for shift in np.arange(1.0, span - 1.0 + 1e-9):
             part = part_across(sol, blob, at, death, other, DISK, shift=float(shift))
             if part is not None:
@@ -400,7 +402,7 @@ def find_head(sol, tree=None):
         if (found.constriction - found.runner_up) / found.constriction >= GAP_MIN:  # a distinct neck
             verdict, part = _terminal(sol, row, head_peak, most=2)  # a hand resting on the head: two ends
         else:  # a neck no more constricted than another saddle vouches for nothing: an end of the body
-            verdict, part = _terminal(sol, row, head_peak, slide=True)
+            verdict, part = _terminal(sol, row, head_peak, slide=sol.radius is None)  # a mesh solid's
         if verdict is not False:
             return found._replace(terminal=bool(verdict), beyond=part)
     return terminal_part(sol, tree)

@@ -146,7 +146,9 @@ class SolverConfig:
 
     Attributes:
       tol: stop when the relative KKT violation is at most ``tol`` (> 0, finite).
-      max_iter: iteration cap (>= 1); ``SVDD.converged`` is False when it is hit.
+      max_iter: iteration cap (>= 1); ``SVDD.converged`` is False when it is hit. SMO stops at
+        it exactly; projected gradient at the first check at or past it (in steps of
+        ``check_every``: at most ``max_iter + check_every - 1`` iterations).
       check_every: projected-gradient steps between two checks of the stopping rule (>= 1).
       kernel: ``"auto"`` (dense up to 12,000 points), ``"dense"`` or ``"blocked"``
         (memory O(m * block), the kernel matrix is never stored).

@@ -326,9 +326,9 @@ def test_a_neck_is_cut_where_it_is_narrowest():
     """A hole's cap across a throat and a jaw fills the notch between them: a web under the neck
     (a plate 0.07 thick, too thin to be a part, reaching 0.55 from the neck's axis) from the trunk
     to 0.1 beyond the neck's narrowest section (a cone tapering from 0.14 to 0.10 at the head).
-    The neck's saddle lies at that section; no disk there (DISK or WIDER saddle depths: 0.36 at
+    The neck's saddle lies at that section; no disk there (DISK or WIDER saddle depths: 0.40 at
     most) cuts the head off, the web joins it to the trunk around the disk, so the head would be
-    no part that ends the body and the thickest one left, a leg, would be taken. A disk slid
+    no part that ends the body (without the slide find_head finds no head). A disk slid
     beyond the web toward the head's peak cuts it off: find_head takes the head ball (centered at
     its center, as without the web), cut off with the web's end and none of the trunk."""
     pitch = 0.04

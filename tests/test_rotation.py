@@ -222,7 +222,8 @@ def test_a_snout_is_read_from_where_the_neck_holds_the_head():
     depth^2 centroid) sits low and ahead: the muzzle reaches less than ``MUZZLE`` head depths
     ahead of it, and the head's surface below it (the jowl, the throat) lies behind it, the jaw
     reading backward. The part beyond the neck reaches 0.8 head depths ahead of the neck that holds
-    it: front is toward the muzzle (+x), as on the animal without the jowl (on main: -x). Rotating
+    it: front is toward the muzzle (+x), as on the animal without the jowl (without this reading:
+    -x, from the jaw). Rotating
     the input turns the frame with it."""
     jowl, tip = trimesh.creation.box(extents=(0.26, 0.26, 0.26)), trimesh.creation.box(extents=(0.25, 0.13, 0.13))
     jowl.apply_translation([0.86, 0.0, 1.38])
@@ -418,7 +419,8 @@ def _turn_z(degrees):
 @pytest.mark.parametrize("outlier_flagged", [False, True])
 def test_a_frame_far_off_and_unflagged_is_counted(outlier_flagged):
     # five frames turned about z: four within 4 degrees of each other, one 90 degrees off; the
-    # chordal mean lies among the four (within the fifth's pull), so exactly one is over 30 degrees
+    # chordal mean is pulled about 14 degrees toward the fifth (the four 12-16 off, the fifth 76),
+    # so exactly one is over 30 degrees
     turns = [0.0, 2.0, -2.0, 1.0, 90.0]
     flags = [0.0, 0.3, 0.0, 0.0, 0.5 if outlier_flagged else 0.0]
     frames = [Frame(_turn_z(t), a, np.ones(3), np.ones(2), np.ones(3), 2, np.full(3, np.nan))

@@ -27,9 +27,10 @@ from .tables import class_tables
 from .variants import VARIANTS, make_class
 
 __all__ = ["PROPER_FLIPS", "angle", "chordal_mean", "class_angles", "sign_free_angles", "evaluate_rotation",
-           "format_rotation_table", "format_rotation_per_class", "ROTATION_KEYS"]
+           "format_rotation_table", "format_rotation_per_class", "ROTATION_KEYS", "FAR"]
 
 PROPER_FLIPS = np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]], dtype=np.float64)
+FAR = 30.0  # degrees: a frame farther than this from its class's frame is a wrong frame (``*_over_30``)
 ROTATION_KEYS = ("raw_mean", "raw_max", "sign_free_mean", "sign_free_max", "flagged", "unflagged_mean",
                  "unflagged_max", "flagged_over_30", "unflagged_over_30")
 
@@ -92,9 +93,9 @@ def _summary_of_class(frames):
         out["flagged"] = float(flag.mean())
         if (~flag).any():
             out["unflagged_mean"], out["unflagged_max"] = float(raw[~flag].mean()), float(raw[~flag].max())
-        if (raw > 30).any():
-            out["flagged_over_30"] = float(flag[raw > 30].mean())
-        out["unflagged_over_30"] = int(np.sum((raw > 30) & ~flag))
+        if (raw > FAR).any():
+            out["flagged_over_30"] = float(flag[raw > FAR].mean())
+        out["unflagged_over_30"] = int(np.sum((raw > FAR) & ~flag))
     return out
 
 
@@ -185,7 +186,8 @@ def evaluate_rotation(classes, methods=None, variants=("plain",), align_core=Fal
                 row.update(dict.fromkeys(ROTATION_KEYS), raw_worst=None,
                            error=next(c["error"] for c in cells if "error" in c))
             else:
-                row.update({key: _mean_or_none([c[key] for c in cells]) for key in ROTATION_KEYS})
+                row.update({key: _mean_or_none([c[key] for c in cells]) for key in ROTATION_KEYS
+                            if key != "unflagged_over_30"})
                 row["raw_worst"] = float(max(c["raw_max"] for c in cells))
                 misses = [c["unflagged_over_30"] for c in cells if c["unflagged_over_30"] is not None]
                 row["unflagged_over_30"] = int(sum(misses)) if misses else None

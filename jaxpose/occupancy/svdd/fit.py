@@ -134,13 +134,13 @@ def _solve_svdd(points, gamma, nu, mask, init_alpha, tol, max_iter, config: Solv
     sg = jax.lax.stop_gradient
     args = (sg(points), sg(gamma), sg(caps), mask, sg(jnp.asarray(init_alpha, dtype)))
     if solver == "pg":
-        a, _, it, viol = solve_pg(*args, config, tol, max_iter)
+        a, _, it, viol = solve_pg(*args, config, tol=tol, max_iter=max_iter)
     else:
         budget = max_iter if solver == "smo" else jnp.minimum(max_iter // 2, SMO_BUDGET * m)
         a, _, it, viol = solve_smo(*args, config, tol, budget, density_start_=cold)
         if solver == "auto":  # SMO's tail is slow where most support vectors are free: finish by PG
             def finish(a):
-                r = solve_pg(args[0], args[1], args[2], mask, a, config, tol, max_iter - budget)
+                r = solve_pg(args[0], args[1], args[2], mask, a, config, tol=tol, max_iter=max_iter - budget)
                 return r[0], it + r[2], r[3]
 
             a, it, viol = jax.lax.cond(viol > tol, finish, lambda a: (a, it, viol), a)

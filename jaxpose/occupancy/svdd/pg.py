@@ -25,7 +25,7 @@ from .problem import kernel_ops, kkt_violation
 __all__ = ["solve_pg"]
 
 
-def solve_pg(points, gamma, caps, mask, init_alpha, config, tol=None, max_iter=None, restart=True):
+def solve_pg(points, gamma, caps, mask, init_alpha, config, *, tol=None, max_iter=None, restart=True):
     """Solve the dual from ``init_alpha`` by projected gradient (no derivatives).
 
     Args:

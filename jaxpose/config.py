@@ -33,7 +33,7 @@ import numbers
 from .errors import InvalidInputError
 
 __all__ = ["SAMPLING", "OCSVMOptions", "OCSVM", "RobustOptions", "ROBUST", "RobustConfig", "SolverConfig", "GridConfig", "PoseConfig", "BLOCK", "KERNELS", "SOLVERS", "DERIVATIVES", "MEMORY_BUDGET",
-           "CELL_BYTES"]
+           "CELL_BYTES", "ITERATION_LIMIT"]
 
 SAMPLING = ("even", "random")  # how surface samples are drawn (jaxpose.sample.sample_surface)
 BLOCK = 2048  # rows per block: kernel products and grid cells (memory O(BLOCK * m))
@@ -140,13 +140,17 @@ OCSVM = OCSVMOptions()  # the defaults, read by every function that takes these 
 ROBUST = RobustOptions()
 
 
+ITERATION_LIMIT = 2**31 - 1  # SolverConfig: the solvers' iteration counters are int32
+
+
 @dataclasses.dataclass(frozen=True)
 class SolverConfig:
     """How the SVDD dual is solved (see :func:`jaxpose.fit_svdd`).
 
     Attributes:
       tol: stop when the relative KKT violation is at most ``tol`` (> 0, finite).
-      max_iter: iteration cap (>= 1); ``SVDD.converged`` is False when it is hit. SMO stops at
+      max_iter: iteration cap (>= 1, and ``max_iter + check_every`` at most
+        :data:`ITERATION_LIMIT`); ``SVDD.converged`` is False when it is hit. SMO stops at
         it exactly; projected gradient at the first check at or past it (in steps of
         ``check_every``: at most ``max_iter + check_every - 1`` iterations).
       check_every: projected-gradient steps between two checks of the stopping rule (>= 1).
@@ -175,6 +179,9 @@ class SolverConfig:
              check_every=_int(self.check_every, "check_every", 1),
              kernel=_choice(self.kernel, "kernel", KERNELS), block=_int(self.block, "block", 1),
              solver=_choice(self.solver, "solver", SOLVERS))
+        if self.max_iter + self.check_every > ITERATION_LIMIT:  # the solvers count iterations in int32
+            raise InvalidInputError(f"max_iter + check_every must be at most {ITERATION_LIMIT}, got "
+                                    f"{self.max_iter} + {self.check_every}")
 
 
 @dataclasses.dataclass(frozen=True)

@@ -41,6 +41,7 @@ def test_flat_options_reach_the_right_object():
     (dict(resolution=4), "resolution must be >= 8"), (dict(resolution=8.0), "resolution must be an int"),
     (dict(refine=3), "power of 2"), (dict(band=-1), "band"), (dict(tol=0.0), "tol"), (dict(tol=np.nan), "tol"),
     (dict(max_iter=0), "max_iter"), (dict(check_every=0), "check_every"), (dict(block=True), "block"),
+    (dict(max_iter=2**31 - 10), "max_iter \\+ check_every must be at most 2147483647"),
     (dict(kernel="x"), "kernel must be one of"), (dict(solver="newton"), "solver must be one of"),
     (dict(derivative="fd"), "derivative"), (dict(nu_delta=0.7), "nu_delta"), (dict(foo=1), "unknown option foo"),
 ])

@@ -9,7 +9,8 @@ from jaxpose import InvalidPoseWarning, JaxposeError, Status
 from jaxpose.pose.validity import MAX_CELL, MAX_SPACING, median_distance, median_spacing, status_message
 from conftest import sphere_with_arm
 
-# test_gradients' small grid (its compilation): 8 coarse cells per axis, refined once
+# test_gradients.py's small grid (the same options; other point counts, so not its compiled program):
+# 8 coarse cells per axis, refined once
 SMALL = dict(resolution=8, refine=2, band=256, tol=1e-4)
 
 

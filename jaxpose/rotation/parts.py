@@ -92,6 +92,11 @@ class Parts(NamedTuple):
     terminal: bool = False
     beyond: np.ndarray | None = None
 
+    @property
+    def neck_gap(self) -> float:
+        """How distinct the neck is: (constriction - runner_up) / constriction, in [0, 1]."""
+        return (self.constriction - self.runner_up) / self.constriction
+
 
 def merge_tree(inside, depth):
     """The merge tree of the superlevel sets of ``depth`` on the ``inside`` voxels (26-connected).
@@ -306,7 +311,7 @@ def _terminal(sol, row, head_peak, disks=(DISK,), most=1, thin=0.0, slide=False)
     body: (True, the part) where it is cut off (:func:`part_across`, by the first of ``disks`` that
     cuts it off), holds at most :data:`SHARE` of the solid and has at most ``most`` far ends
     (:func:`ends`); (False, None) where it is cut off and is larger or branches more; (None, None)
-    where it cannot be cut off. With ``slide`` (mesh solids, ``thin`` 0), where no disk at the
+    where it cannot be cut off. With ``slide``, on a mesh solid (``sol.radius`` None), where no disk at the
     saddle cuts the part off, a disk of :data:`DISK` local depths is tried one voxel after another
     beyond the saddle toward the part's peak (up to a voxel short of it): a neck is cut where it
     is narrowest, which a filled notch beside it (a hole's cap across a throat and a jaw) moves
@@ -320,7 +325,7 @@ def _terminal(sol, row, head_peak, disks=(DISK,), most=1, thin=0.0, slide=False)
         part = part_across(sol, blob, _index(sol, saddle), death, other, disk, thin)
         if part is not None:
             break
-    if part is None and slide and thin == 0.0:
+    if part is None and slide and sol.radius is None:  # a mesh solid
         at = _index(sol, saddle)
         u = np.argwhere(blob).mean(axis=0) - at
         span = float((_index(sol, head_peak) - at) @ u / max(float(np.linalg.norm(u)), 1e-12))
@@ -399,10 +404,10 @@ def find_head(sol, tree=None):
         thick = tree[(tree[:, 1] > 0) & (tree[:, 0] >= NECK * tree[:, 1]) & (tree[:, 0] >= THICK * tree[:, 0].max())]
         row = thick[np.argmax(thick[:, 0] / thick[:, 1])]
         head_peak = row[2] if found.head.ravel()[int(row[2])] else row[4]
-        if (found.constriction - found.runner_up) / found.constriction >= GAP_MIN:  # a distinct neck
+        if found.neck_gap >= GAP_MIN:  # a distinct neck
             verdict, part = _terminal(sol, row, head_peak, most=2)  # a hand resting on the head: two ends
         else:  # a neck no more constricted than another saddle vouches for nothing: an end of the body
-            verdict, part = _terminal(sol, row, head_peak, slide=sol.radius is None)  # a mesh solid's
+            verdict, part = _terminal(sol, row, head_peak, slide=True)
         if verdict is not False:
             return found._replace(terminal=bool(verdict), beyond=part)
     return terminal_part(sol, tree)

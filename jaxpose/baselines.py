@@ -14,7 +14,7 @@ Centers : ``surface_centroid``, ``vertex_mean``, ``bbox_center``, ``min_ball``,
 Scales  : ``mean_distance``, ``unit_cube``, ``unit_sphere``, ``gyration_radius`` (closed form,
           closed meshes), ``sqrt_area`` (meshes).
 Frames  : ``pca_vertices``, ``pca_surface``, ``inertia`` (trimesh's principal axes): the usual
-          canonical orientations, as :class:`jaxpose.rotation.rotation.Frame` (see :func:`frame`).
+          canonical orientations, as :class:`jaxpose.orientation.Frame` (see :func:`frame`).
 Dispatch: ``center(mesh, method)``, ``scale(mesh, method, center=None)``, ``frame(mesh, method)``.
 
 The solid quantities need a closed surface: on an open mesh they warn (:class:`OpenMeshWarning`)
@@ -366,7 +366,7 @@ def _skew_frame(x):
 def pca_vertices_frame(mesh_or_points):
     """PCA of the vertices, signs by third moments (two most skewed axes; the third by det = +1).
 
-    Returns :class:`jaxpose.rotation.rotation.Frame`.
+    Returns :class:`jaxpose.orientation.Frame`.
     """
     vertices, _ = split_geometry(mesh_or_points)
     return _skew_frame(vertices)
@@ -376,7 +376,7 @@ def pca_surface_frame(mesh_or_points, count=FRAME_SAMPLES):
     """PCA of ``count`` even area-weighted surface samples (seed 0: a rotated copy gets the rotated
     samples), signs as :func:`pca_vertices_frame`. Point clouds: their points.
 
-    Returns :class:`jaxpose.rotation.rotation.Frame`.
+    Returns :class:`jaxpose.orientation.Frame`.
     """
     vertices, faces = split_geometry(mesh_or_points)
     if faces is None:
@@ -388,7 +388,7 @@ def inertia_frame(mesh_or_points):
     """trimesh's principal inertia axes (``principal_inertia_transform``; smallest moment of inertia
     first, trimesh's signs, the last row negated if needed for det = +1). Meshes only.
 
-    Returns :class:`jaxpose.rotation.rotation.Frame` (no ambiguity measure: NaN).
+    Returns :class:`jaxpose.orientation.Frame` (no ambiguity measure: NaN).
     """
     import trimesh
 
@@ -400,7 +400,7 @@ def inertia_frame(mesh_or_points):
 
 
 def frame(mesh_or_points, method="pca_surface"):
-    """Frame by name, one of :data:`FRAMES`.  Returns :class:`jaxpose.rotation.rotation.Frame`."""
+    """Frame by name, one of :data:`FRAMES`.  Returns :class:`jaxpose.orientation.Frame`."""
     if method not in FRAMES:
         raise InvalidInputError(f"unknown frame method {method!r}; valid: {', '.join(FRAMES)}")
     return _FRAMES[method](mesh_or_points)

@@ -9,7 +9,7 @@ import trimesh
 
 import jaxpose
 from jaxpose import baselines, cli, geometry, mesh, sample
-from jaxpose.rotation import parts, rotation
+from jaxpose.rotation import head, parts, rotation
 from jaxpose.evaluation import evaluate_rotation, format_rotation_per_class, format_rotation_table
 from jaxpose.evaluation.rotation import _summary_of_class, angle, chordal_mean, sign_free_angles
 from jaxpose.orientation import Frame
@@ -233,6 +233,13 @@ def test_a_snout_is_read_from_where_the_neck_holds_the_head():
     sol = rotation.frame_solid(v, f, 48)
     found = parts.find_head(sol)
     assert found.terminal
+    # the premise: the muzzle reading (ahead of the skull) is short of a snout, the reading from the neck is one
+    geo = head.head_chest(sol, found, sample.lattice_points(v, f, head.CELL * sol.pitch))
+    lr = head.left_right(sol, geo)[0]
+    fb = np.cross(geo.up, lr) / np.linalg.norm(np.cross(geo.up, lr))
+    jaw, _, muzzle = head.front_back_cues(geo, fb)
+    held = (geo.beyond - found.neck) @ fb
+    assert abs(muzzle) < head.MUZZLE * found.head_depth <= abs(held) and abs(jaw) < abs(held)
     r = rotation.frame_of(m, "head", resolution=48).rotation
     assert abs(r[1, 1]) > np.cos(10 * RAD) and r[2, 0] > 0.4
     q = random_rotation(np.random.default_rng(4))

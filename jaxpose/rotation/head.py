@@ -392,11 +392,11 @@ def head_frame(sol, vertices, faces=None) -> Frame:
     # an incomplete surface (a point cloud; a mesh that is not closed): a part found only as an end
     # of the body may be a limb, a tail or a rump where the surface is missing, and on a point
     # cloud's closed solid a head that cannot be cut off may be joined to one: flagged
-    settled = not ((cloud or not closed) and found.runner_up == 0.0) and not (cloud and not found.terminal)
+    settled = not ((cloud or not closed) and found.end_only) and not (cloud and not found.terminal)
     lr, contrast, chosen = left_right(sol, geo, MIRROR_BEYOND if cloud else None)
     # not mirror-symmetric: a hand? Asked of a head found only as an end of the body, and of every
     # head of an open mesh (a hole can fill a neck or cut a part off; the holes are read from the solid)
-    if (found.runner_up == 0.0 or not (cloud or closed)) and contrast < HEAD_MIRROR:
+    if (found.end_only or not (cloud or closed)) and contrast < HEAD_MIRROR:
         return core_frame(sol)._replace(ambiguity=1.0)
     up = geo.up
     fb = np.cross(up, lr)

@@ -97,6 +97,12 @@ class Parts(NamedTuple):
         """How distinct the neck is: (constriction - runner_up) / constriction, in [0, 1]."""
         return (self.constriction - self.runner_up) / self.constriction
 
+    @property
+    def end_only(self) -> bool:
+        """True where the head was found only as the thickest part that ends the body
+        (:func:`terminal_part`: no thick neck vouches for it; ``runner_up`` 0)."""
+        return self.runner_up == 0.0
+
 
 def merge_tree(inside, depth):
     """The merge tree of the superlevel sets of ``depth`` on the ``inside`` voxels (26-connected).

@@ -234,6 +234,52 @@ def test_off_truncated_is_an_error(tmp_path, mesh, cut):
         jmesh.load(path)
 
 
+@pytest.mark.parametrize("cut", ["face_line", "mid_face", "counts", "negative"])
+def test_ply_truncated_is_an_error(tmp_path, mesh, cut):
+    """A truncated ASCII PLY file is an error naming it, where trimesh reads part of it without a
+    word (a mesh short of faces, or a point cloud of the face lines): fewer lines than the header's
+    counts, a last face cut short, a negative count."""
+    from jaxpose import mesh as jmesh
+    from jaxpose.errors import InvalidInputError
+
+    data = exported(mesh, "ply", encoding="ascii")
+    lines = data.splitlines(keepends=True)
+    nv = len(mesh.vertices)
+    header = data[:data.index(b"end_header")]
+    kept = {"face_line": data[:-len(lines[-1])], "mid_face": data[:-len(lines[-1])] + lines[-1][:5],
+            "counts": data.replace(f"element vertex {nv}".encode(), f"element vertex {nv + 50}".encode()),
+            "negative": data.replace(f"element vertex {nv}".encode(), f"element vertex -{nv}".encode())}[cut]
+    assert header and kept != data
+    path = tmp_path / "cut.ply"
+    path.write_bytes(kept)
+    with pytest.raises(InvalidInputError, match="cut.ply: .*(truncated|negative count)"):
+        jmesh.load(path)
+
+
+PLY_TET_HEAD = ("ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+                "element face 4\nproperty list uchar int vertex_indices\nend_header\n")
+
+
+@pytest.mark.parametrize("name, text, match", [
+    ("index.ply", PLY_TET_HEAD + "0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 7\n",
+     "index.ply: faces must be .* indices of its vertices .*vertex 7 of 4"),
+    ("zero.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 0 3 4\n",
+     "zero.obj: .*index 0 .*count from 1"),
+    ("flat.obj", "v 0 0\nv 1 0\nv 0 1\nf 1 2 3\n", "flat.obj: vertices must have 3 coordinates"),
+])
+def test_broken_references_are_errors(tmp_path, name, text, match):
+    """Faces that reference a vertex that is not there (trimesh's loader left a raw IndexError for
+    the merge), OBJ's index 0 (trimesh reads the last vertex) and 2-coordinate vertices are errors
+    naming the file."""
+    from jaxpose import mesh as jmesh
+    from jaxpose.errors import InvalidInputError
+
+    path = tmp_path / name
+    path.write_text(text)
+    with pytest.raises(InvalidInputError, match=match):
+        jmesh.load(path)
+
+
 # --------------------------------------------------------------------------- PLY
 @pytest.mark.parametrize("encoding", ["binary", "ascii"])
 def test_ply_exported(mesh, encoding):

@@ -106,10 +106,18 @@ def _checked(geometry, source):
             raise InvalidInputError(f"{source}: cannot use a {type(geometry).__name__} as a mesh")
     if len(geometry.vertices) == 0:
         raise InvalidInputError(f"{source}: empty geometry (no vertices)")
+    if np.shape(geometry.vertices)[1:] != (3,):
+        raise InvalidInputError(f"{source}: vertices must have 3 coordinates, got shape {np.shape(geometry.vertices)}")
     if not np.all(np.isfinite(geometry.vertices)):
         raise InvalidInputError(f"{source}: vertices with NaN or inf coordinates")
     if isinstance(geometry, trimesh.Trimesh) and len(geometry.faces) == 0:
         geometry = trimesh.PointCloud(np.asarray(geometry.vertices))
+    if isinstance(geometry, trimesh.Trimesh):
+        faces = np.asarray(geometry.faces)
+        if faces.min() < 0 or faces.max() >= len(geometry.vertices):
+            raise InvalidInputError(f"{source}: faces must be (m >= 1, 3) indices of its vertices (a face references "
+                                    f"vertex {int(faces.max() if faces.max() >= len(geometry.vertices) else faces.min())} "
+                                    f"of {len(geometry.vertices)})")
     if source != "input" and isinstance(geometry, trimesh.Trimesh):
         _merge_vertices(geometry)  # STL and friends store each triangle's corners apart
     return geometry

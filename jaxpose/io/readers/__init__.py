@@ -52,9 +52,10 @@ def read(data: bytes, file_type: str) -> Loaded:
     Raises:
       Unsupported: no fast reader for the format, or one that cannot reproduce trimesh exactly.
       InvalidInputError: a file that is certainly broken, where trimesh would read part of it
-        without a word: an OFF file with fewer vertex or face lines than its counts line says, or
-        a face line with fewer indices than its count (the message names no file: the caller's
-        does).
+        (or a wrong mesh) without a word: an OFF or ASCII PLY file with fewer vertex or face lines
+        than its counts say, a face line with fewer indices than its count, a PLY element with a
+        negative count, an OBJ face referencing vertex 0 (OBJ counts from 1) (the message names
+        no file: the caller's does).
     """
     reader = READERS.get(file_type)
     if reader is None:

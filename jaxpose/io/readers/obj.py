@@ -5,6 +5,7 @@ import re
 
 import numpy as np
 
+from ...errors import InvalidInputError
 from .base import Loaded, Unsupported, _checked, _floats, _ints, _text, _tokens, _triangulate, _triangulate_inline
 
 __all__ = ["read_obj"]
@@ -20,6 +21,7 @@ def read_obj(data: bytes) -> Loaded:
 
     Raises:
       Unsupported: anything this reader does not reproduce exactly (read it with trimesh).
+      InvalidInputError: a face referencing index 0 (trimesh reads it as the last vertex).
     """
     text = _text(data)
     text = "\n{}\n".format(text.strip().replace("\r\n", "\n")).replace("\\\n", "")
@@ -59,6 +61,9 @@ def read_obj(data: bytes) -> Loaded:
         raise Unsupported("faces with several kinds of references")
     per = form[0] + 1 - form[1]  # values per corner
     flat = _ints(joined.replace("/", " ").split(), negative=True).reshape(-1, per)
+    if np.any(flat == 0):  # trimesh reads a 0 as the last vertex
+        raise InvalidInputError("cannot read OBJ file: a face references index 0 (OBJ indices count from 1, or "
+                                "from -1 backwards)")
     flat[flat > 0] -= 1  # 1-based; negative ones stay (trimesh: from the end of all vertices)
     tex = flat[:, 1] if per in (2, 3) and not form[1] else None
     norm = flat[:, per - 1] if (per == 2 and form[1]) or per == 3 else None

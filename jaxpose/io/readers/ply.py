@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...errors import InvalidInputError
 from .base import Loaded, Unsupported, _checked, _floats, _runs, _starts, _take, _text, _tokens, _triangulate
 
 __all__ = ["read_ply"]
@@ -40,6 +41,8 @@ def _ply_header(data):
         raise Unsupported("an unknown format line")
     elements, current = {}, None
     for word in words[1:-1]:
+        if word[:1] == ["element"] and len(word) == 3 and word[2].startswith("-") and word[2][1:].isdigit():
+            raise InvalidInputError(f"cannot read PLY file: element {word[1]} has a negative count ({word[2]})")
         if not word or "texturefile" in " ".join(word).lower():
             raise Unsupported("an empty header line or a texture file")
         if word[0] == "element" and len(word) == 3 and word[2].isascii() and word[2].isdigit():
@@ -94,6 +97,9 @@ def read_ply(data: bytes) -> Loaded:
 
     Raises:
       Unsupported: anything this reader does not reproduce exactly (read it with trimesh).
+      InvalidInputError: an ASCII file with fewer lines than its header's counts, or a face line
+        with fewer values than its count, or a negative element count (trimesh reads part of such
+        a file without a word).
     """
     elements, ascii, endian, start = _ply_header(data)
     _ply_check(elements)
@@ -134,8 +140,9 @@ def _ply_binary(data, start, elements, endian):
 def _ply_ascii(data, elements, endian):
     lines = _text(data).splitlines()
     (nv, vprops), (nf, fprops) = elements["vertex"], elements["face"]
-    if len(lines) < nv + nf:
-        raise Unsupported("fewer lines than the header's counts")
+    if len(lines) < nv + nf:  # trimesh reads one element per line: it would read part of the file
+        raise InvalidInputError(f"cannot read PLY file: truncated, {len(lines)} lines of the {nv + nf} ({nv} vertex, "
+                                f"{nf} face) its header says")
     block = lines[:nv]
     tokens, counts = _tokens(block)
     if np.any(counts != len(vprops)):
@@ -151,6 +158,11 @@ def _ply_ascii(data, elements, endian):
     starts = _starts(counts)
     values = _floats(_take(tokens, starts + position))
     sizes = values.astype(endian + fprops[position][2]).astype(np.int64)
+    short = (values == sizes) & (counts < scalars + 1 + sizes)
+    if np.any(short):  # trimesh would read the face shortened, or drop it
+        line = int(np.argmax(short))
+        raise InvalidInputError(f"cannot read PLY file: face line {line + 1} holds fewer values than its count "
+                                f"({block[line]!r}): a truncated or malformed file")
     if np.any(values != sizes) or np.any(sizes < 3) or np.any(counts != scalars + 1 + sizes):
         raise Unsupported("a face list whose count is not its length")
     face = {}

@@ -130,6 +130,48 @@ def test_float64_round_trip(offset, rotated):
                                rtol=0, atol=0)
 
 
+def test_a_batch_of_poses_moves_each_set_by_its_pose():
+    """A batch of poses (fields with a leading axis, as normalize_batch returns them) applies to
+    (B, n, 3) points set by set (it raised NumPy's broadcast error): each row as the row's own
+    pose moves it, and back."""
+    rng = np.random.default_rng(4)
+    centers, scales = rng.normal(size=(2, 3)) * 1e3, np.array([0.5, 3.0])
+    rotations = np.stack([_rotation(1), _rotation(2)])
+    x = rng.normal(size=(2, 7, 3))
+    for rotation in (None, rotations):
+        batch = Pose.from_center_scale(centers, scales, rotation=rotation)
+        y = batch.apply(x)
+        for i in range(2):
+            one = Pose.from_center_scale(centers[i], scales[i], rotation=None if rotation is None else rotation[i])
+            np.testing.assert_array_equal(y[i], one.apply(x[i]))
+            np.testing.assert_array_equal(batch.inverse().apply(y)[i], one.inverse().apply(y[i]))
+        np.testing.assert_allclose(batch.inverse().apply(y), x, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("make, match", [
+    (lambda p: p.apply(np.zeros((5, 2))), r"points must have shape \(n, 3\).*\(5, 2\)"),
+    (lambda p: p.apply(np.zeros((5, 4))), r"points must have shape \(n, 3\)"),
+    (lambda p: p.inverse().apply(np.zeros((2, 5, 3))), r"points must have shape \(n, 3\)"),
+    (lambda p: p.apply("abc"), "points must be real numbers"),
+    (lambda p: p.apply(None), "points must be real numbers"),
+    (lambda p: p.apply([[0.0, np.nan, 1.0]]), "NaN or inf"),
+    (lambda p: Pose.from_center_scale(np.ones((2, 3)), np.ones(2)).apply(np.ones((5, 3))), r"\(2, n, 3\)"),
+    (lambda p: Pose.from_center_scale([1.0, 2.0], 1.0), r"center must have shape \(\.\.\., 3\)"),
+    (lambda p: Pose.from_center_scale([1.0, 2.0, 3.0], [1.0, 2.0]), "scale its leading shape"),
+    (lambda p: Pose.from_center_scale("abc", 1.0), "center must be real numbers"),
+    (lambda p: Pose.from_center_scale([1.0, 2.0, 3.0], 1.0, rotation=np.eye(2)), r"rotation must have shape \(3, 3\)"),
+    (lambda p: Pose.from_center_scale([1.0, 2.0, 3.0], 1.0, rotation=np.ones((3, 3))), "proper rotation"),
+    (lambda p: Pose.from_center_scale([1.0, 2.0, 3.0], 1.0, rotation=-np.eye(3)), "proper rotation"),
+])
+def test_bad_points_and_fields_are_refused(make, match):
+    """Points and fields of the wrong shape or kind are InvalidInputError at the Pose's boundary,
+    not NumPy's broadcast errors (or a pose whose inverse is silently wrong: a non-orthogonal
+    rotation is inverted by its transpose)."""
+    pose = Pose.from_center_scale(np.array([1e6, 2.0, 3.0]), 2.0)
+    with pytest.raises(InvalidInputError, match=match):
+        make(pose)
+
+
 def test_a_pose_with_jax_fields_moves_float64_points_in_float64():
     """The bug: a concrete normalize() pose has a float64 NumPy center and JAX fields (rotation);
     apply computed in JAX and cast the far center to float32."""

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
-from .._validate import is_traced
+from .._validate import InvalidInputError, is_traced
 
 if TYPE_CHECKING:  # annotations only
     import jax
@@ -129,6 +129,34 @@ def _floats(xp, *values):
     return [None if v is None else xp.asarray(v) for v in values]
 
 
+def _shape_of(value, name):
+    """The shape of a real array (or array-like); InvalidInputError for anything else."""
+    if is_traced(value):
+        return tuple(value.shape)
+    try:
+        arr = np.asarray(value)
+    except Exception as exc:  # ragged lists and the like
+        raise InvalidInputError(f"{name} must be an array of real numbers: {exc}") from None
+    if not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)) or arr.dtype == bool:
+        raise InvalidInputError(f"{name} must be real numbers, got {value!r:.80}")
+    return arr.shape
+
+
+def _check_points(x, batch):
+    """Points given to :meth:`Pose.apply` of a pose with batch axes ``batch`` (its center's
+    leading axes): (n, 3) (or one point (3,)) for one pose, batch + (n, 3) for a batch; concrete
+    points finite. Returns ``x`` unchanged."""
+    shape = _shape_of(x, "points")
+    ok = shape[-1:] == (3,) and (len(shape) == len(batch) + 2 and shape[:len(batch)] == batch
+                                 or not batch and len(shape) == 1)
+    if not ok:
+        want = f"({''.join(f'{b}, ' for b in batch)}n, 3)"
+        raise InvalidInputError(f"points must have shape {want} for this pose, got {shape}")
+    if not is_traced(x) and not np.all(np.isfinite(np.asarray(x))):
+        raise InvalidInputError("points have NaN or inf coordinates")
+    return x
+
+
 def host(pose):
     """The pose with every field a NumPy value: floats float64, flags bool, codes int (None kept).
 
@@ -221,6 +249,12 @@ class Pose(NamedTuple):
         Concrete values stay NumPy float64 (every digit of a center far from the origin is kept);
         traced values stay JAX arrays.
         """
+        batch = _shape_of(center, "center")[:-1]
+        if _shape_of(center, "center")[-1:] != (3,) or _shape_of(scale, "scale") != batch:
+            raise InvalidInputError(f"center must have shape (..., 3) and scale its leading shape, got "
+                                    f"{_shape_of(center, 'center')} and {_shape_of(scale, 'scale')}")
+        if rotation is not None:
+            _check_rotation(rotation, batch)
         xp = _jnp() if is_traced(center) or is_traced(scale) else np
         center = xp.asarray(center, dtype=None if xp is not np else np.float64)
         scale = xp.asarray(scale, center.dtype)
@@ -266,17 +300,26 @@ class Pose(NamedTuple):
 
         The center is subtracted first (exact for points near a center far from the origin). On
         the host (NumPy points, or a NumPy field) in float64, returning NumPy float64; in JAX when
-        traced or when the points and every field are JAX arrays (class docs).
+        traced or when the points and every field are JAX arrays (class docs). A batch of poses
+        (fields with leading axes B, from :func:`jaxpose.normalize_batch`) moves points
+        (B, n, 3), each set by its pose.
+
+        Raises:
+          InvalidInputError: points of another shape, not real, or (concrete) not finite.
         """
         forward = self.inverse_of
         if forward is not None:
+            _check_points(x, tuple(np.shape(forward.center)[:-1]))
             xp = _similarity_xp(x, forward.center, forward.scale, forward.rotation)
             y, c, s, r = _floats(xp, x, forward.center, forward.scale, forward.rotation)
             if r is not None:
                 y = y @ xp.asarray(r, y.dtype)
+            c, s = _per_set(c, s)
             return y * s + c
+        _check_points(x, tuple(np.shape(self.center)[:-1]))
         xp = _similarity_xp(x, self.center, self.scale, self.rotation)
         x, c, s, r = _floats(xp, x, self.center, self.scale, self.rotation)
+        c, s = _per_set(c, s)
         y = (x - c) / s
         if r is None:
             return y
@@ -295,6 +338,28 @@ class Pose(NamedTuple):
             return self._replace(center=-c / s[..., None], scale=1.0 / s, inverse_of=self)
         center = -xp.einsum("...ij,...j->...i", r, c) / s[..., None]
         return self._replace(center=center, scale=1.0 / s, rotation=xp.swapaxes(r, -1, -2), inverse_of=self)
+
+
+def _per_set(center, scale):
+    """A batch's center (B, 3) and scale (B,) as (B, 1, 3) and (B, 1, 1), to broadcast over each
+    set's points (B, n, 3); one pose's as they are."""
+    if center.ndim > 1:
+        return center[..., None, :], scale[..., None, None]
+    return center, scale
+
+
+def _check_rotation(rotation, batch):
+    """A rotation (batch + (3, 3)) that is proper (R R^T = I to 1e-5, det R > 0) where concrete."""
+    shape = _shape_of(rotation, "rotation")
+    if shape != batch + (3, 3):
+        raise InvalidInputError(f"rotation must have shape {batch + (3, 3)}, got {shape}")
+    if is_traced(rotation):
+        return
+    r = np.asarray(rotation, np.float64)
+    eye = np.broadcast_to(np.eye(3), r.shape)
+    if not (np.all(np.isfinite(r)) and np.abs(r @ np.swapaxes(r, -1, -2) - eye).max() <= 1e-5
+            and np.all(np.linalg.det(r) > 0)):
+        raise InvalidInputError("rotation must be a proper rotation (orthonormal rows, determinant +1)")
 
 
 def _homogeneous(xp, lin, shift):

@@ -173,6 +173,20 @@ def test_spacing_quantile_ignores_padding():
     assert float(q) == pytest.approx(ref, rel=1e-5)
 
 
+def test_spacing_quantile_of_a_few_points_ignores_padding():
+    """A set of k = 4 points has no 4th other point: padded (as normalize_batch pads a small set
+    beside larger ones) it measured the padding's infinite distance, and the pose came out NaN;
+    it is the farthest other point, padded or not (scipy's 3rd neighbour)."""
+    pts = _ellipsoid_with_stray(800)[:4]
+    ref = np.quantile(cKDTree(pts).query(pts, k=4)[0][:, 3], 0.9)
+    for rows in (4, 16):
+        padded = np.concatenate([pts, np.zeros((rows - 4, 3))])
+        mask = np.arange(rows) < 4
+        q = po.spacing_quantile(jnp.asarray(padded, jnp.float32), jnp.asarray(mask), jnp.arange(rows),
+                                jnp.asarray(mask))
+        assert float(q) == pytest.approx(ref, rel=1e-5), rows
+
+
 def _jax_solid(points, config=CONFIG):
     x = jnp.asarray(points, jnp.float32)
     return jax.jit(po.point_solid, static_argnames="config")(

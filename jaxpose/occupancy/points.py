@@ -114,7 +114,8 @@ def _masked_quantile(values, mask, q):
 
 
 def spacing_quantile(points, mask, queries, query_mask, k=4, q=0.9, block=256):
-    """The ``q`` quantile of the distances from points[queries] to their k-th nearest other point.
+    """The ``q`` quantile of the distances from points[queries] to their k-th nearest other point
+    (the farthest other point in a set of k points or fewer, padded or not).
 
     Args:
       points: (n, 3) float; mask: (n,) bool (False rows are padding, never neighbours).
@@ -132,6 +133,8 @@ def spacing_quantile(points, mask, queries, query_mask, k=4, q=0.9, block=256):
     pad = (-m) % block
     qi = jnp.concatenate([queries, jnp.zeros((pad,), queries.dtype)]).reshape(-1, block)
     cand = min(_CANDIDATES, p.shape[0])
+    # fewer than k other points: the farthest of them (padding never counts as a neighbour)
+    rank = jnp.clip(jnp.sum(mask) - 1, 1, min(k, cand - 1))
 
     def kth(rows):
         x = p[rows]
@@ -139,7 +142,7 @@ def spacing_quantile(points, mask, queries, query_mask, k=4, q=0.9, block=256):
         _, idx = lax.top_k(-d2, cand)
         exact = jnp.sum((x[:, None, :] - p[idx]) ** 2, axis=-1)
         exact = jnp.where(mask[idx], exact, jnp.inf)
-        return jnp.sqrt(jnp.sort(exact, axis=1)[:, min(k, cand - 1)])  # rank 0 is the point itself
+        return jnp.sqrt(jnp.sort(exact, axis=1)[:, rank])  # rank 0 is the point itself
 
     r = lax.map(kth, qi).reshape(-1)[:m]
     return _masked_quantile(r, query_mask & jnp.isfinite(r), q)

@@ -469,13 +469,16 @@ def robust_solid(vertices, faces=None, *, resolution=RESOLUTION, coarse=COARSE, 
     on1 = near_solid(v[:n_input], kept1, origin1, pitch1, grow=1) if kept1.any() else None
     if on1 is not None and on1.any():  # the exact box of the input on the main body
         lo, hi = v[:n_input][on1].min(0), v[:n_input][on1].max(0)
-        # a sharp tip (a tetrahedron's corner, a cone's apex) lies more than a voxel from the
-        # coarse solid; where the box then misses some of the solid's voxel centers, it takes in
-        # their voxels, so that the fine grid still holds the whole main body
-        centers = origin1 + (np.argwhere(kept1) + 0.5) * pitch1
-        c_lo, c_hi = centers.min(0), centers.max(0)
-        if np.any(c_lo < lo) or np.any(c_hi > hi):
-            lo, hi = np.minimum(lo, c_lo - pitch1 / 2), np.maximum(hi, c_hi + pitch1 / 2)
+        # a mesh's sharp tip (a tetrahedron's corner, a cone's apex) lies more than a voxel from
+        # the coarse solid; where the box then misses some of the solid's voxel centers (inside
+        # the surface, so within its vertices' box), it takes in their voxels, so that the fine
+        # grid still holds the whole main body. (A point cloud's points seed its solid: each lies
+        # in it, and its closed voxels reach past the points' box by design.)
+        if faces is not None:
+            centers = origin1 + (np.argwhere(kept1) + 0.5) * pitch1
+            c_lo, c_hi = centers.min(0), centers.max(0)
+            if np.any(c_lo < lo) or np.any(c_hi > hi):
+                lo, hi = np.minimum(lo, c_lo - pitch1 / 2), np.maximum(hi, c_hi + pitch1 / 2)
     # pass 2: the fine grid on the main body's box
     pitch = coarsest(float((hi - lo).max()) / resolution)
     origin, shape = make_grid(lo, hi, pitch, margin(pitch))

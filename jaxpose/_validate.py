@@ -23,6 +23,7 @@ __all__ = [
     "check_nu",
     "check_array",
     "check_int",
+    "check_bool",
     "compute_dtype",
     "is_traced",
 ]
@@ -122,3 +123,11 @@ def check_int(value, name, minimum):
     if value < minimum:
         raise InvalidInputError(f"{name} must be >= {minimum}, got {value}")
     return int(value)
+
+
+def check_bool(value, name):
+    """``value`` as a bool (Python or NumPy bools only); a clear error otherwise (a string such as
+    ``"no"`` would be truthy)."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise InvalidInputError(f"{name} must be True or False, got {value!r}")
+    return bool(value)

@@ -284,7 +284,10 @@ class PoseConfig:
             if not 0.0 < delta < 0.5:
                 raise InvalidInputError(f"{name} must be in (0, 0.5), got {getattr(self, name)!r}")
             deltas[name] = delta
-        nu_tol = None if self.nu_tol is None else SolverConfig(tol=self.nu_tol).tol
+        try:
+            nu_tol = None if self.nu_tol is None else SolverConfig(tol=self.nu_tol).tol
+        except InvalidInputError:  # its message would name tol
+            raise InvalidInputError(f"nu_tol must be finite and > 0, got {self.nu_tol!r}") from None
         iters = None if self.secant_iterations is None else _int(self.secant_iterations, "secant_iterations", 1)
         _set(self, nu_tol=nu_tol, secant_iterations=iters, **deltas)
 

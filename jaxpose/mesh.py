@@ -12,7 +12,7 @@ import numbers
 import numpy as np
 
 from . import sample
-from ._validate import InvalidInputError, check_gamma, check_int, check_nu
+from ._validate import InvalidInputError, check_bool, check_gamma, check_int, check_nu
 from .config import OCSVM, PoseConfig
 from .geometry import Surface
 from .io import mesh as io_mesh
@@ -66,8 +66,7 @@ def check_arguments(gamma=OCSVM.gamma, nu=OCSVM.nu, count=OCSVM.count, seed=OCSV
     seed = check_int(seed, "seed", minimum=0)
     if sampling not in SAMPLING:
         raise InvalidInputError(f"unknown sampling {sampling!r}; valid: {', '.join(SAMPLING)}")
-    if not isinstance(strict, (bool, np.bool_)):
-        raise InvalidInputError(f"strict must be True or False, got {strict!r}")
+    check_bool(strict, "strict")
     c_name, s_name = estimators.resolve(method, center, scale)
     uses_ocsvm = "ocsvm" in (c_name, s_name)
     unknown = sorted(set(options) - set(PoseConfig.FLAT))

@@ -141,6 +141,27 @@ def test_decision_function_bad_input():
     assert np.all(np.isfinite(np.asarray(f))) and float(f[0]) > 0 > float(f[1])
 
 
+@pytest.mark.parametrize("call, fragment", [
+    (lambda: normalize(P, throw="yes"), "throw must be True or False"),
+    (lambda: normalize(P, method="ocsvm", throw=1), "throw must be True or False"),
+    (lambda: jaxpose.normalize_batch([P], throw="no"), "throw must be True or False"),
+    (lambda: fit_svdd(P, gamma=1.0, nu=0.5, throw="no"), "throw must be True or False"),
+    (lambda: normalize(P, method="ocsvm", nu_tol=0.0), "nu_tol must be finite and > 0"),
+])
+def test_flags_and_named_options_are_checked(call, fragment):
+    """A string flag was truthy (throw="no" raised), and nu_tol's error named tol: each is refused
+    by its own name before anything is compiled."""
+    with pytest.raises(InvalidInputError, match=fragment):
+        call()
+
+
+def test_bad_parameters_message_names_every_method():
+    """BAD_PARAMETERS is also the robust method's status for a traced power out of range: its
+    message names power beside gamma and nu (it named gamma and nu only)."""
+    message = jaxpose.Status.BAD_PARAMETERS.message
+    assert all(name in message for name in ("gamma", "nu", "power"))
+
+
 def test_normalize_batch_bad_input():
     with pytest.raises(InvalidInputError, match="at least one"):
         jaxpose.normalize_batch([], method="ocsvm")

@@ -305,7 +305,8 @@ def normalize(x, method: str = DEFAULT_METHOD, *, power=_UNSET, gamma=_UNSET, nu
     given = {**_given(power=power, gamma=gamma, nu=nu, max_points=max_points), **options}
     config, params = _options(method, config, given, rotation)
     _validate.check_points(x)
-    rotation, seed = _check_rotation(rotation), _check_seed(seed)
+    rotation, throw = _validate.check_bool(rotation, "rotation"), _validate.check_bool(throw, "throw")
+    seed = _check_seed(seed)
     index = subsample_index(np.shape(x)[0], _check_params(method, params, given), seed)
     shift, size, mask = None, None, None
     if _validate.is_traced(x):  # pure-JAX path (jit, vmap, grad in points)
@@ -337,12 +338,6 @@ def _queries(counts, samples, seed):
     for i, s in enumerate(subsets):
         queries[i, : len(s)], query_mask[i, : len(s)] = s, True
     return jnp.asarray(queries), jnp.asarray(query_mask)
-
-
-def _check_rotation(rotation):
-    if not isinstance(rotation, (bool, np.bool_)):
-        raise _validate.InvalidInputError(f"rotation must be True or False, got {rotation!r}")
-    return bool(rotation)
 
 
 def _check_max_points(max_points):
@@ -434,7 +429,8 @@ def normalize_batch(list_of_points: Iterable, method: str = DEFAULT_METHOD, *, p
         strategy = "map" if jax.default_backend() == "cpu" else "vmap"
     given = {**_given(power=power, gamma=gamma, nu=nu, max_points=max_points), **options}
     config, params = _options(method, config, given, rotation)
-    rotation, seed = _check_rotation(rotation), _check_seed(seed)
+    rotation, throw = _validate.check_bool(rotation, "rotation"), _validate.check_bool(throw, "throw")
+    seed = _check_seed(seed)
     limit = _check_params(method, params, given)
     if pad_to is not None and (isinstance(pad_to, bool) or not isinstance(pad_to, numbers.Integral)):
         raise _validate.InvalidInputError(f"pad_to must be an int or None, got {pad_to!r}")

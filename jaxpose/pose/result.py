@@ -60,7 +60,8 @@ class Status(enum.IntEnum):
 
 _MESSAGES = {
     Status.OK: "valid",
-    Status.BAD_PARAMETERS: "gamma or nu is out of range (gamma finite and > 0, nu in [0, 1])",
+    Status.BAD_PARAMETERS: ("a parameter is out of range (ocsvm: gamma finite and > 0, nu in [0, 1]; robust: power "
+                            "finite and >= 0)"),
     Status.DEGENERATE_INPUT: "the points have no extent (all identical) or are not finite",
     Status.SPARSE_SAMPLES: (f"the samples are too sparse for gamma: their median spacing exceeds {MAX_SPACING:g} "
                             "kernel widths 1/sqrt(2 gamma), so the region is a cloud of separate balls; use more "

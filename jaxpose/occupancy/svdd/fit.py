@@ -80,6 +80,7 @@ def fit_svdd(points, gamma, nu, *, mask=None, init_alpha=None, config: SolverCon
     points = _validate.check_points(points)
     _validate.check_gamma(gamma)
     _validate.check_nu(nu)
+    throw = _validate.check_bool(throw, "throw")
     m = points.shape[0] if hasattr(points, "shape") else len(points)
     if mask is not None:
         if tuple(getattr(mask, "shape", (len(mask),))) != (m,):

@@ -62,7 +62,7 @@ def check_arguments(gamma=OCSVM.gamma, nu=OCSVM.nu, count=OCSVM.count, seed=OCSV
     """
     check_gamma(gamma)
     check_nu(nu)
-    count = check_int(count, "count", minimum=4)  # validated whatever the method
+    count = sample.check_count(count)  # validated whatever the method
     seed = check_int(seed, "seed", minimum=0)
     if sampling not in SAMPLING:
         raise InvalidInputError(f"unknown sampling {sampling!r}; valid: {', '.join(SAMPLING)}")

@@ -3,11 +3,23 @@ from __future__ import annotations
 
 import numpy as np
 
-from .config import SAMPLING
+from .config import MEMORY_BUDGET, SAMPLING
 from ._validate import InvalidInputError, check_int
 from .geometry import split_geometry, triangle_areas
 
-__all__ = ["SAMPLING", "sample_surface", "lattice_points"]
+__all__ = ["SAMPLING", "SAMPLE_BYTES", "check_count", "sample_surface", "lattice_points"]
+
+SAMPLE_BYTES = 128  # peak bytes per sample: face index, barycentric pair, its triangle's corners, the point
+
+
+def check_count(count):
+    """A sample count: an int >= 4 whose samples fit ``config.MEMORY_BUDGET`` at ``SAMPLE_BYTES``
+    each (a larger count was a raw MemoryError, or swapping); InvalidInputError otherwise."""
+    count = check_int(count, "count", minimum=4)
+    if count * SAMPLE_BYTES > MEMORY_BUDGET:
+        raise InvalidInputError(f"count={count} samples need about {count * SAMPLE_BYTES / 2**30:.3g} GiB; the limit is "
+                                f"{MEMORY_BUDGET / 2**30:g} GiB: use at most {MEMORY_BUDGET // SAMPLE_BYTES}")
+    return count
 
 
 def sample_surface(geometry, count, seed=0, method="even"):
@@ -21,14 +33,14 @@ def sample_surface(geometry, count, seed=0, method="even"):
     replacement when there are enough.
 
     geometry : Trimesh | PointCloud | (n, 3) array (loaded: for paths, :func:`jaxpose.mesh.sample_surface`),
-    count : int >= 4, seed : int
+    count : int >= 4 (at most :func:`check_count`'s limit), seed : int
     Returns samples : (count, 3) float64, in the units of the geometry
 
     Example::
 
         points = sample_surface(trimesh.creation.icosphere(), 2000, seed=0)   # (2000, 3) on the sphere
     """
-    count = check_int(count, "count", minimum=4)
+    count = check_count(count)
     seed = check_int(seed, "seed", minimum=0)
     if method not in SAMPLING:
         raise InvalidInputError(f"unknown sampling {method!r}; valid: {', '.join(SAMPLING)}")

@@ -5,6 +5,7 @@ import pytest
 import trimesh
 
 from jaxpose import sample
+from jaxpose.config import MEMORY_BUDGET
 from jaxpose._validate import InvalidInputError
 
 
@@ -75,11 +76,22 @@ def test_point_cloud_sampling():
         ({"count": 10, "seed": -1}, "seed"),
         ({"count": 10, "seed": 1.5}, "seed"),
         ({"count": 10, "method": "poisson"}, "sampling"),
+        ({"count": 10**12}, r"count=1000000000000 samples need about .* GiB; the limit is 2 GiB"),  # was a MemoryError
     ],
 )
 def test_sample_surface_validation(kwargs, message):
     with pytest.raises(InvalidInputError, match=message):
         sample.sample_surface(lumpy(), **kwargs)
+
+
+def test_normalize_mesh_refuses_a_count_beyond_memory():
+    """The count of normalize_mesh (and --count) is checked against the memory budget before any
+    work (it was a raw MemoryError from the sampler); the largest count allowed still passes."""
+    from jaxpose.mesh import check_arguments
+
+    check_arguments(count=sample.check_count(MEMORY_BUDGET // sample.SAMPLE_BYTES))
+    with pytest.raises(InvalidInputError, match="count=.* the limit is"):
+        check_arguments(count=MEMORY_BUDGET // sample.SAMPLE_BYTES + 1)
 
 
 def test_lattice_points_cover_the_faces_and_move_with_the_mesh():

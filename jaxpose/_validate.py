@@ -24,6 +24,7 @@ __all__ = [
     "check_array",
     "check_int",
     "check_bool",
+    "check_real",
     "compute_dtype",
     "is_traced",
 ]
@@ -131,3 +132,12 @@ def check_bool(value, name):
     if not isinstance(value, (bool, np.bool_)):
         raise InvalidInputError(f"{name} must be True or False, got {value!r}")
     return bool(value)
+
+
+def check_real(value, name, minimum, strict=False):
+    """``value`` as a finite float >= ``minimum`` (> with ``strict``); bools, non-numbers, NaN and
+    inf refused by name."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Real, np.floating, np.integer)) \
+            or not np.isfinite(float(value)) or not (float(value) > minimum if strict else float(value) >= minimum):
+        raise InvalidInputError(f"{name} must be a finite number {'>' if strict else '>='} {minimum:g}, got {value!r}")
+    return float(value)

@@ -42,10 +42,11 @@ import numpy as np
 from . import _validate
 from .config import OCSVM, ROBUST, PoseConfig, RobustConfig
 from .mesh import sample_surface
+from .sample import check_count
 from .occupancy.points import spacing_subset
 from .pose.pose import pose_pipeline, robust_pipeline
 
-__all__ = ["tune", "objective", "spread_of", "METHODS"]
+__all__ = ["tune", "check_options", "objective", "spread_of", "METHODS"]
 
 METHODS = ("ocsvm", "robust")
 
@@ -154,6 +155,34 @@ def spread_of(samplers, gamma, nu, class_loss, seed):
     return objective(samplers, _start_theta(float(gamma), float(nu)), class_loss, seed)[1]
 
 
+def check_options(method="ocsvm", steps=12, lr=0.1, reg=0.05, scale_weight=0.0, holdout=0.0, seed=0, count=400,
+                  gamma0=OCSVM.gamma, nu0=OCSVM.nu, power0=ROBUST.power) -> dict:
+    """:func:`tune`'s scalar arguments checked (before any class is loaded or anything compiled),
+    as {name: value}: steps, seed int >= 0; lr, power0 finite > 0; reg, scale_weight finite >= 0;
+    holdout in [0, 1); count a sample count (:func:`jaxpose.sample.check_count`); gamma0, nu0 as
+    :func:`jaxpose.normalize`'s with nu0 in (0.02, 0.98) (ocsvm).
+
+    Raises:
+      InvalidInputError: naming the first bad argument.
+    """
+    if method not in METHODS:
+        raise _validate.InvalidInputError(f"method must be one of {', '.join(map(repr, METHODS))}, got {method!r}")
+    out = dict(method=method, steps=_validate.check_int(steps, "steps", 0), lr=_validate.check_real(lr, "lr", 0, True),
+               reg=_validate.check_real(reg, "reg", 0), scale_weight=_validate.check_real(scale_weight, "scale_weight", 0),
+               holdout=_validate.check_real(holdout, "holdout", 0), seed=_validate.check_int(seed, "seed", 0),
+               count=check_count(count))
+    if not out["holdout"] < 1:
+        raise _validate.InvalidInputError(f"holdout must be in [0, 1), got {holdout!r}")
+    if method == "robust":
+        out["power0"] = _validate.check_real(power0, "power0", 0, True)
+    else:
+        _validate.check_gamma(gamma0)
+        _validate.check_nu(nu0)
+        _start_theta(float(gamma0), float(nu0))  # nu0 inside the tuned interval
+        out.update(gamma0=float(gamma0), nu0=float(nu0))
+    return out
+
+
 def tune(classes, gamma0=OCSVM.gamma, nu0=OCSVM.nu, steps=12, lr=0.1, scale_weight=0.0, holdout=0.0, holdout_classes=None,
          seed=0, count=400, reg=0.05, progress=None, method="ocsvm", power0=ROBUST.power, **normalize_options) -> dict:
     """Tune (gamma, nu) or the robust power by gradient descent on the mean within-class center
@@ -188,23 +217,17 @@ def tune(classes, gamma0=OCSVM.gamma, nu0=OCSVM.nu, steps=12, lr=0.1, scale_weig
     """
     import optax
 
-    if method not in METHODS:
-        raise _validate.InvalidInputError(f"method must be one of {', '.join(map(repr, METHODS))}, got {method!r}")
+    checked = check_options(method, steps, lr, reg, scale_weight, holdout, seed, count, gamma0, nu0, power0)
+    steps, lr, reg, scale_weight, holdout, seed, count = (checked[k] for k in ("steps", "lr", "reg", "scale_weight",
+                                                                             "holdout", "seed", "count"))
     if method == "robust":
         config = RobustConfig.create(**normalize_options)
-        if not (isinstance(power0, (int, float)) and not isinstance(power0, bool) and math.isfinite(power0)
-                and power0 > 0):
-            raise _validate.InvalidInputError(f"power0 must be a finite number > 0, got {power0!r}")
-        theta0 = jnp.asarray([math.log(float(power0))])
-        start = {"power": float(power0)}
+        theta0 = jnp.asarray([math.log(checked["power0"])])
+        start = {"power": checked["power0"]}
     else:
         config = PoseConfig.create(**normalize_options)
-        _validate.check_gamma(gamma0)
-        _validate.check_nu(nu0)
-        theta0 = _start_theta(float(gamma0), float(nu0))
-        start = {"gamma": float(gamma0), "nu": float(nu0)}
-    if int(steps) < 0 or float(reg) < 0:
-        raise _validate.InvalidInputError(f"steps and reg must be >= 0, got {steps}, {reg}")
+        theta0 = _start_theta(checked["gamma0"], checked["nu0"])
+        start = {"gamma": checked["gamma0"], "nu": checked["nu0"]}
     train, test = _split(dict(classes), float(holdout), int(seed))
     train_s = _sampler(train, count, "classes")
     test_s = {**(_sampler(test, count, "classes") if test else {}),

@@ -92,6 +92,33 @@ def test_tune_zero_steps_and_validation():
         tuning.tune({"a": [np.random.default_rng(0).normal(size=(30, 3)), np.random.default_rng(1).normal(size=(31, 3))]}, steps=0, **FAST)
 
 
+@pytest.mark.parametrize("kw, fragment", [
+    (dict(lr=float("nan")), "lr must be a finite number > 0"),  # ran every step at gamma = nu = nan
+    (dict(lr=0.0), "lr must be a finite number > 0"),
+    (dict(scale_weight=float("nan")), "scale_weight must be a finite number >= 0"),  # a nan loss, kept the start
+    (dict(holdout=-0.5), "holdout must be a finite number >= 0"),  # silently no held-out classes
+    (dict(steps=2.5), "steps must be an int"),
+    (dict(seed=-1), "seed must be >= 0"),
+    (dict(count=10**12), "count=.* the limit is"),
+    (dict(method="robust", power0=float("inf")), "power0 must be a finite number > 0"),
+])
+def test_tune_refuses_bad_numbers_before_any_work(kw, fragment):
+    """Each scalar argument is checked by name before any class is sampled or anything compiled
+    (check_options: the command line's usage errors, exit 2, before it loads the classes)."""
+    with pytest.raises(jaxpose.InvalidInputError, match=fragment):
+        tuning.check_options(**kw)
+    with pytest.raises(jaxpose.InvalidInputError, match=fragment):
+        tuning.tune({"a": "not loaded: the check comes first"}, **kw)
+
+
+def test_cli_tune_bad_numbers_are_usage_errors(capsys):
+    for argv, fragment in ((["--lr", "nan"], "lr must be"), (["--holdout", "-0.5"], "holdout must be"),
+                           (["--scale-weight", "nan"], "scale_weight must be"), (["--steps", "-1"], "steps must be")):
+        assert tuning_cli.run(argv) == 2, argv
+        err = capsys.readouterr().err
+        assert fragment in err and "loading classes" not in err, err
+
+
 def test_gradient_matches_finite_difference_of_objective():
     classes = {"box": _classes()["box"]}
     config = jaxpose.PoseConfig.create(**FAST)

@@ -127,11 +127,14 @@ def run(argv) -> int:
 
 def _run(args) -> int:
     from ..mesh import write_atomic
-    from ..tuning import tune
+    from ..tuning import check_options, tune
 
     say = lambda s: print(s, file=sys.stderr, flush=True)
     try:
         options = _method_options(args)
+        check_options(args.method, args.steps, args.lr, args.reg, args.scale_weight,
+                      args.holdout if args.holdout is not None else 0.0, args.seed, args.count,
+                      **{k: v for k, v in options.items() if k in ("gamma0", "nu0", "power0")})
     except InvalidInputError as exc:  # a usage error: before any work
         print(f"jaxpose tune: error: {exc}", file=sys.stderr)
         return 2

@@ -100,6 +100,9 @@ def no_work(monkeypatch):
     (["--variants", "plain,wobbly"], "unknown variants"),
     (["--methods", "median"], "unknown method"),
     (["--classes", "unicorn"], "unknown class"),
+    (["--methods", "robust:-1"], "the power after ':' must be a finite number >= 0"),  # were rows of n/a
+    (["--methods", "robust:nan"], "the power after ':' must be a finite number >= 0"),
+    (["--methods", "vertex_mean:2"], "vertex_mean takes no power"),  # was the vertex mean, labelled :2
 ])
 def test_evaluate_usage_errors_exit_2_before_the_work(capsys, no_work, args, fragment):
     assert cli.main(["evaluate", *args]) == 2

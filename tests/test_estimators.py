@@ -125,6 +125,20 @@ def test_center_and_scale_are_chosen_independently():
         estimators.estimate(box, gamma2=1.0)
 
 
+def test_method_powers_are_checked():
+    """"name:p": p a finite number >= 0, on a method whose center is depth weighted; estimate_many
+    refuses the others before any work (robust:-1 was an n/a row, vertex_mean:2 the vertex mean)."""
+    assert estimators.parse_method("robust") == ("robust", None)
+    assert estimators.parse_method("depth_weighted_solid:4") == ("depth_weighted_solid", 4.0)
+    for spec, fragment in (("robust:-1", "finite number >= 0"), ("robust:inf", "finite number >= 0"),
+                           ("robust:x", "must be a number"), ("solid:2", "solid takes no power"),
+                           ("median:2", "unknown method")):
+        with pytest.raises(InvalidInputError, match=fragment):
+            estimators.parse_method(spec)
+        with pytest.raises(InvalidInputError, match=fragment):
+            estimators.estimate_many(_box(), ["vertex_mean", spec])
+
+
 def test_depth_weighted_solid_and_estimate_many_agree():
     mesh = trimesh.creation.capsule(height=2.0, radius=0.5)
     with warnings.catch_warnings():

@@ -72,20 +72,13 @@ def _check_classes(classes):
 
 
 def _check_methods(methods):
-    from ..pose.estimators import METHODS as NAMED
+    from ..pose.estimators import parse_method
 
     methods = METHODS if methods is None else tuple(methods)
     if not methods:
         raise InvalidInputError("methods must not be empty")
     for spec in methods:
-        name, _, power = str(spec).partition(":")
-        if name not in NAMED:
-            raise InvalidInputError(f"unknown method {spec!r}; valid: {', '.join(NAMED)} (optionally name:power)")
-        if power:
-            try:
-                float(power)
-            except ValueError:
-                raise InvalidInputError(f"method {spec!r}: the power after ':' must be a number") from None
+        parse_method(spec)
     return methods
 
 

@@ -44,7 +44,7 @@ from ..host import anchor
 from ..weighted import depth_power_weights, grid_axes, solid_occupancy, weighted_center
 from .result import MIN_POINT_VOXELS, SECOND_BODY, Pose, host, status_message
 
-__all__ = ["METHODS", "CENTERS", "SCALES", "DEFAULT_METHOD", "ROBUST_POWER", "resolve", "estimate",
+__all__ = ["METHODS", "CENTERS", "SCALES", "DEFAULT_METHOD", "ROBUST_POWER", "POWERED", "resolve", "parse_method", "estimate",
            "estimate_many", "robust_center_scale", "solid_center_volume", "centered"]
 
 METHODS = {
@@ -80,6 +80,35 @@ def resolve(method=None, center=None, scale=None):
     if s not in SCALES:
         raise InvalidInputError(f"unknown scale {s!r}; valid: {', '.join(SCALES)}")
     return c, s
+
+
+POWERED = ("robust_depth", "depth_weighted_solid")  # the centers whose depth weights take a power
+
+
+def parse_method(spec):
+    """A method with an optional depth power, ``"name"`` or ``"name:p"`` (``"robust:2"``), as
+    (name, p or None); p a finite number >= 0, given only to a method whose center is depth
+    weighted (:data:`POWERED`).
+
+    Raises:
+      InvalidInputError: an unknown name, a power that is not such a number, or a power given to a
+        method that has none (it was ignored: ``vertex_mean:2`` measured the vertex mean).
+    """
+    name, colon, power = str(spec).partition(":")
+    if name not in METHODS:
+        raise InvalidInputError(f"unknown method {spec!r}; valid: {', '.join(METHODS)} (optionally name:power)")
+    if not colon:
+        return name, None
+    try:
+        value = float(power)
+    except ValueError:
+        raise InvalidInputError(f"method {spec!r}: the power after ':' must be a number") from None
+    _validate.check_real(value, f"method {spec!r}: the power after ':'", 0)
+    if METHODS[name][0] not in POWERED:
+        powered = ", ".join(m for m, (c, _) in METHODS.items() if c in POWERED)
+        raise InvalidInputError(f"method {spec!r}: {name} takes no power (its center has no depth weights); "
+                                f"a power goes with {powered}")
+    return name, value
 
 
 def centered(geometry):
@@ -402,7 +431,8 @@ def estimate_many(geometry, methods, strict=False, timings=False, **options):
 
     Args:
       geometry: as :func:`estimate`; methods: names of :data:`METHODS`, each optionally with a depth
-        power as ``"name:p"`` (``"depth_weighted_solid:4"``); strict, options: as :func:`estimate`.
+        power as ``"name:p"`` (``"depth_weighted_solid:4"``, :func:`parse_method`); strict, options:
+        as :func:`estimate`.
 
       timings: also return each method's seconds (shared work counted where first done).
 
@@ -414,9 +444,8 @@ def estimate_many(geometry, methods, strict=False, timings=False, **options):
     geometry, shift = centered(geometry)
     shapes, out = {}, {}
     for spec in methods:
-        name, _, power = str(spec).partition(":")
+        name, key = parse_method(spec)
         c_name, s_name = resolve(name)
-        key = float(power) if power else None
         if key not in shapes:  # one shared input per power (the solids do not depend on it)
             base = next(iter(shapes.values()), None)
             shapes[key] = shape = _Shape(geometry, options if key is None else {**options, "power": key})

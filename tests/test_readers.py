@@ -256,6 +256,21 @@ def test_ply_truncated_is_an_error(tmp_path, mesh, cut):
         jmesh.load(path)
 
 
+@pytest.mark.parametrize("name", ["noise.stl", "noise.ply", "noise.off", "noise.obj"])
+def test_binary_noise_is_an_error_about_the_file(tmp_path, name):
+    """Random bytes under a mesh suffix: an error naming the file and its format, never about
+    the reader's machinery (a garbage STL read 'No module named charset_normalizer': trimesh's
+    optional module for text it could not parse)."""
+    from jaxpose import mesh as jmesh
+    from jaxpose.errors import InvalidInputError
+
+    path = tmp_path / name
+    path.write_bytes(np.random.default_rng(0).integers(0, 256, 3000, dtype=np.uint8).tobytes())
+    with pytest.raises(InvalidInputError, match=f"{name}: ") as info:
+        jmesh.load(path)
+    assert "No module named" not in str(info.value), info.value
+
+
 PLY_TET_HEAD = ("ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
                 "element face 4\nproperty list uchar int vertex_indices\nend_header\n")
 

@@ -256,6 +256,9 @@ def _read(path):
         geometry = trimesh.load(io.BytesIO(data), file_type=ext, process=False)
     except Exception as exc:  # every reader has its own errors for corrupt files
         detail = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        if isinstance(exc, ImportError):  # trimesh's optional modules, wanted for a content it could not parse
+            detail = (f"the content is not {ext.upper()} as jaxpose and trimesh read it (trimesh wanted its optional "
+                      f"module {exc.name!r} to try further)")
         raise InvalidInputError(f"{path}: cannot read {ext.upper()} file: {detail}") from None
     if not _has_vertices(geometry):
         raise InvalidInputError(f"{path}: empty geometry: no vertices read as {ext.upper()} (the file is empty, "

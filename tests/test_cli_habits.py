@@ -66,6 +66,26 @@ def test_single_output_folders_are_made_as_for_datasets(tmp_path, box, capsys):
     assert "is a file" in _err(capsys)
 
 
+@pytest.mark.parametrize("args, fragment", [
+    (["--workers", "0"], "workers must be >= 1"),
+    (["--dask-local", "0"], "dask_local must be >= 1"),
+    (["--timeout", "-1"], "timeout (seconds) must be a finite number > 0"),
+    (["--timeout", "nan"], "timeout (seconds) must be a finite number > 0"),
+    (["--shard", "3/2"], "shard must have 0 <= index < count"),
+])
+def test_many_files_bad_values_are_usage_errors(tmp_path, capsys, args, fragment):
+    """A dataset run's values out of range exit 2 (usage: a bad value), as malformed ones do; they
+    were failures (exit 1) found by the run. Nothing is made."""
+    folder = tmp_path / "scans"
+    folder.mkdir()
+    out = tmp_path / "normalized"
+    with pytest.raises(SystemExit) as info:  # argparse's usage error, as for a malformed value
+        cli.main(["normalize", str(folder), "-o", str(out), *args])
+    assert info.value.code == 2, args
+    assert fragment in _err(capsys)
+    assert not out.exists()
+
+
 def test_dask_without_dask_is_refused_before_any_work(tmp_path, box, capsys, monkeypatch):
     monkeypatch.setitem(sys.modules, "distributed", None)  # import distributed fails
     folder = tmp_path / "scans"

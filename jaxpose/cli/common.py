@@ -4,9 +4,29 @@ from __future__ import annotations
 import sys
 
 from ..config import OCSVM
+from ..errors import InvalidInputError
 from ..io.atomic import check_creatable, check_output_file  # shared by the commands
 
-__all__ = ["add_svm_options", "fail", "check_output_file", "check_creatable"]
+__all__ = ["add_svm_options", "fail", "checked", "check_output_file", "check_creatable"]
+
+
+def checked(convert, check):
+    """An argparse ``type``: the text converted (``int``, ``float``, ...), then the library's own
+    ``check`` of the value, so that a value out of range is a usage error (exit 2, naming it) before
+    any work, as a malformed one is."""
+    import argparse
+
+    def parse(text):
+        try:
+            value = convert(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"invalid {getattr(convert, '__name__', 'value')} value: {text!r}") from None
+        try:
+            return check(value)
+        except InvalidInputError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+
+    return parse
 
 
 def add_svm_options(p, count=OCSVM.count):

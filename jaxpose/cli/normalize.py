@@ -11,7 +11,7 @@ import os
 import sys
 from pathlib import Path
 
-from .common import add_svm_options, fail
+from .common import add_svm_options, checked, fail
 
 __all__ = ["add_parser", "run", "transform_path", "EXAMPLE"]
 
@@ -20,6 +20,7 @@ EXAMPLE = "example"
 
 def add_parser(sub):
     """Register ``normalize`` on the sub-command parsers `sub`; :func:`run` runs it."""
+    from .._validate import check_int, check_real
     from ..batch.batch import CHECKS
     from ..pose.estimators import CENTERS, DEFAULT_METHOD, METHODS, SCALES
     from ..mesh import OUTPUT_FORMATS, SAMPLING
@@ -51,10 +52,12 @@ def add_parser(sub):
     many.add_argument("--format", choices=OUTPUT_FORMATS, help="output format (default: each input's)")
     many.add_argument("--table", help="the transforms table, .parquet or .csv (default OUTDIR/transforms.parquet; "
                                       ".csv without pyarrow)")
-    many.add_argument("--workers", type=int, metavar="N", help="local worker processes (default: the cores)")
+    many.add_argument("--workers", type=checked(int, lambda n: check_int(n, "workers", 1)), metavar="N",
+                      help="local worker processes (default: the cores)")
     many.add_argument("--scheduler", metavar="ADDRESS", help="run on this dask.distributed scheduler "
                                                               "(pip install 'jaxpose[dask]')")
-    many.add_argument("--dask-local", type=int, metavar="N", help="run on a new local Dask cluster of N workers")
+    many.add_argument("--dask-local", type=checked(int, lambda n: check_int(n, "dask_local", 1)), metavar="N",
+                      help="run on a new local Dask cluster of N workers")
     many.add_argument("--check", choices=CHECKS, default=None,
                       help="how a rerun recognizes finished inputs: mtime (size and modification time, "
                            "default) or hash (SHA-256)")
@@ -63,7 +66,8 @@ def add_parser(sub):
                       help="only shard I of N (0 <= I < N), by a stable hash of each input's relative path: N "
                            "machines given the same arguments take every input once; the table is "
                            "transforms.shard-I-of-N.parquet")
-    many.add_argument("--timeout", type=float, metavar="SECONDS",
+    many.add_argument("--timeout", type=checked(float, lambda t: check_real(t, "timeout (seconds)", 0, strict=True)),
+                      metavar="SECONDS",
                       help="an input taking longer (reading, normalizing) is recorded as failed and its worker "
                            "process replaced; local runs")
     # the OCSVM's options: None when not given, so that a method that ignores them can refuse them
@@ -79,9 +83,14 @@ _MANY_ONLY = ("glob", "format", "table", "workers", "scheduler", "dask_local", "
 def _shard(text):
     import argparse
 
+    from ..batch.inputs import check_shard
+    from ..errors import InvalidInputError
+
     index, _, count = text.partition("/")
     try:
-        return int(index), int(count)
+        return check_shard((int(index), int(count)))
+    except InvalidInputError as exc:  # I >= N: a usage error, as a malformed one is (before ValueError: its base)
+        raise argparse.ArgumentTypeError(str(exc)) from None
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected I/N such as 0/4, got {text!r}") from None
 

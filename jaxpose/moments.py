@@ -55,6 +55,7 @@ from ._hyper import instantiate, is_zero
 from ._validate import InvalidInputError, is_traced
 from .config import GridConfig
 from .depth import depth_weights, to_bucket
+from .occupancy.svdd.problem import SVDD
 from .occupancy.grid import (CHILD_OFFSETS, domain, evaluate_children, evaluate_grid, evaluate_on_grid, evaluate_on_grid_jvp,
                    morton_codes)
 from .weighted import Moments, grid_moments, solid_occupancy, weighted_moments
@@ -108,6 +109,9 @@ def volume_moments(svdd, grid: GridConfig | None = None, **options) -> Moments:
     Returns:
       :class:`Moments`. ``unrefined`` > 0 says the band was too narrow for the boundary.
 
+    Raises:
+      InvalidInputError: ``svdd`` is not an SVDD, or a bad grid option.
+
     Cost: resolution^3 evaluations of f plus 8 per refined cell and level. Differentiable in the
     SVDD's fields (module docs); compiled once per grid and shape.
 
@@ -116,6 +120,8 @@ def volume_moments(svdd, grid: GridConfig | None = None, **options) -> Moments:
         >>> mom = jaxpose.volume_moments(jaxpose.fit_svdd(points, 5.0, 0.3), resolution=32)
         >>> mom.center, mom.mean_distance
     """
+    if not isinstance(svdd, SVDD):
+        raise InvalidInputError(f"svdd must be an SVDD from fit_svdd, got {type(svdd).__name__}")
     if grid is None:
         grid = GridConfig(**options)
     elif options:

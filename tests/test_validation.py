@@ -136,9 +136,21 @@ def test_decision_function_bad_input():
             decision_function(svdd, x)
     with pytest.raises(InvalidInputError, match="SVDD"):
         decision_function(P, P)
+    with pytest.raises(InvalidInputError, match="SVDD"):  # was an AttributeError
+        jaxpose.volume_moments(None)
     assert decision_function(svdd, np.zeros((0, 3))).shape == (0,)
     f = decision_function(svdd, [[0.0, 0.0, 0.0], [50.0, 0.0, 0.0]])  # lists are fine
     assert np.all(np.isfinite(np.asarray(f))) and float(f[0]) > 0 > float(f[1])
+
+
+def test_sensitivity_of_float64_points_without_x64_makes_no_dtype_warning():
+    """pose_sensitivity of NumPy float64 points with x64 off asked JAX for float64 parameters,
+    which warns (an error under this suite's filters) before the pose is even traced; it takes the
+    points' compute dtype. Checked up to the first thing the trace refuses (an unknown option), so
+    that nothing is compiled."""
+    assert not jax.config.jax_enable_x64
+    with pytest.raises(InvalidInputError, match="unknown option"):
+        jaxpose.pose_sensitivity(np.asarray(P, np.float64), 25.0, 0.3, not_an_option=1)
 
 
 @pytest.mark.parametrize("call, fragment", [

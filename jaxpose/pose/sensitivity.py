@@ -45,8 +45,7 @@ def pose_sensitivity(points, gamma=OCSVM.gamma, nu=OCSVM.nu, **options) -> dict:
     _validate.check_gamma(gamma)
     _validate.check_nu(nu)
     points = np.asarray(_validate.check_points(points))
-    dtype = jnp.result_type(points.dtype if np.issubdtype(points.dtype, np.floating) else float)
-    theta = jnp.asarray([gamma, nu], dtype)
+    theta = jnp.asarray([gamma, nu], _validate.compute_dtype(points))  # float64 points without x64: float32
 
     def f(t):
         p = pose(points, t[0], t[1], **options)

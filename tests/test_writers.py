@@ -71,3 +71,18 @@ def test_ply_bytes_refuses_what_it_cannot_write():
         writers.ply_bytes(np.zeros((3, 3)), np.array([[0, 1, 3]]))  # no vertex 3
     with pytest.raises(Unsupported):
         writers.ply_bytes(np.zeros((3, 2)), np.array([[0, 1, 2]]))
+
+
+@pytest.mark.parametrize("name", ["out.ply", "out.off", "out.obj", "out.stl", "out.xyz"])
+def test_non_finite_coordinates_are_not_written(tmp_path, name):
+    """A mesh or point cloud with NaN or inf coordinates is refused, and nothing is written (it
+    was written: a file that jaxpose's readers refuse)."""
+    from jaxpose import mesh
+    from jaxpose.errors import InvalidInputError
+
+    box = trimesh.creation.box()
+    box.vertices[3] = [np.nan, 0.0, np.inf]
+    geometry = trimesh.PointCloud(box.vertices) if name.endswith(".xyz") else box
+    with pytest.raises(InvalidInputError, match="NaN or inf"):
+        mesh.export(geometry, tmp_path / name)
+    assert list(tmp_path.iterdir()) == []

@@ -326,9 +326,12 @@ def encode(geometry, file_type) -> bytes:
     """The bytes of a Trimesh, PointCloud or Surface in a format of :data:`OUTPUT_FORMATS` (no I/O).
 
     Raises:
-      InvalidInputError: the geometry cannot be written in that format.
+      InvalidInputError: the geometry cannot be written in that format, or has NaN or inf
+        coordinates (written, it would be a file that jaxpose refuses to read).
     """
     output_format(f"geometry.{file_type}", geometry)
+    if not np.all(np.isfinite(np.asarray(geometry.vertices, np.float64))):  # a file no reader takes back
+        raise InvalidInputError(f"cannot write {type(geometry).__name__} with NaN or inf coordinates")
     surface = isinstance(geometry, Surface)
     if file_type == "off" and (surface or _is(geometry, "Trimesh")):
         try:

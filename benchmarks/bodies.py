@@ -1,7 +1,7 @@
 """Why the robust center and scale lose on four-legged animals, and what holds on every body (issue 34).
 
 ``python -m benchmarks.bodies [--variants plain,...] [--classes dog,horse,...] [--resolution 96]
-[--every K] [--heads | --pitch | --volume-parts | --subvoxel | --grid-offsets] [--core-weight vertices|area] [--json OUT]`` from a source checkout with ../shared beside it.
+[--every K] [--heads | --pitch | --volume-parts | --subvoxel | --grid-offsets | --grid-frame] [--core-weight vertices|area] [--json OUT]`` from a source checkout with ../shared beside it.
 
 The six dev classes (faust-dev as its two people, kids-dev's two children, tosca-dev's dog and
 horse), each rigid-core aligned (``jaxpose.evaluation.align_core``), every variant made as
@@ -162,6 +162,8 @@ def main(argv=None):
                    help="the volume's cv with the boundary voxels counted by sub-samples against the surface")
     p.add_argument("--grid-offsets", action="store_true",
                    help="the robust center's sigma_tr and volume's cv on four grids shifted by half a voxel, and their mean")
+    p.add_argument("--grid-frame", action="store_true",
+                   help="the robust pose on the input's axes and on the surface's principal axes, each also on randomly turned inputs")
     p.add_argument("--core-weight", choices=("vertices", "area"), default="vertices",
                    help="align each class on the stable share of its vertices (jaxpose evaluate's default) or of its area")
     p.add_argument("--json", default=None)
@@ -171,8 +173,9 @@ def main(argv=None):
         return 0
     with tempfile.TemporaryDirectory() as tmp:
         classes = dev_classes(tmp, args.classes.split(","), args.every, args.core_weight)
-    if args.volume_parts or args.subvoxel or args.grid_offsets:
-        study = volume_parts if args.volume_parts else subvoxel_study if args.subvoxel else grid_offsets
+    if args.volume_parts or args.subvoxel or args.grid_offsets or args.grid_frame:
+        study = (volume_parts if args.volume_parts else subvoxel_study if args.subvoxel else
+                 grid_offsets if args.grid_offsets else grid_frame)
         record = {name: study(meshes, args.resolution, name) for name, meshes in classes.items()}
         if args.json:
             Path(args.json).write_text(json.dumps(record, indent=1))
@@ -601,6 +604,60 @@ def grid_offsets(meshes, resolution=96, name="", out=print):
     out(f"{name}: sigma_tr per grid {' '.join(f'{s:.5g}' for s, _ in one)}, mean of the grids {mean[0]:.5g}; "
         f"cv per grid {' '.join(f'{c:.5f}' for _, c in one)}, mean of the grids {mean[1]:.5f}")
     return {"sigma_tr": [s for s, _ in one], "cv": [c for _, c in one], "mean_sigma_tr": mean[0], "mean_cv": mean[1]}
+
+
+def principal_frame(vertices, faces):
+    """(3, 3) rows: the principal axes of a mesh's surface (its exact second moments about the area
+    centroid), largest first, each signed so that the surface's third moment along it is >= 0,
+    right-handed: a frame that turns with the input."""
+    tri = np.asarray(vertices, np.float64)[np.asarray(faces)]
+    a = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1) / 2
+    c = (a @ tri.mean(1)) / a.sum()
+    z = tri - c
+    second = z.sum(1)[:, :, None] * z.sum(1)[:, None, :] + np.einsum("tki,tkj->tij", z, z)
+    axes = np.linalg.eigh(np.einsum("t,tij->ij", a / 12, second))[1][:, ::-1].T
+    for k in range(3):
+        if np.sum(a * ((tri.mean(1) - c) @ axes[k]) ** 3) < 0:
+            axes[k] = -axes[k]
+    if np.linalg.det(axes) < 0:
+        axes[2] = -axes[2]
+    return axes
+
+
+def grid_frame(meshes, resolution=96, name="", out=print, seed=0):
+    """``--grid-frame``: the robust center (depth^4) and V^(1/3) of each shape with the voxel grid
+    along the input's axes (the library's) and along the surface's principal axes
+    (:func:`principal_frame`, ``robust_solid(frame=...)``), each on the aligned meshes and on each
+    mesh turned by its own random rotation (seeded; the center turned back). Prints per grid the
+    class's sigma_tr and cv, and how far the library's pose moves when its input turns (center
+    shift / scale, mean and largest; scale change, largest).
+    Returns {"axes", "principal", "axes_turned", "principal_turned": (sigma_tr, cv), "shift": [...], "scale_change": [...]}."""
+    from scipy.spatial.transform import Rotation
+
+    from jaxpose.pose.estimators import solid_center_volume
+
+    rng = np.random.default_rng(seed)
+    found = {k: ([], []) for k in ("axes", "principal", "axes_turned", "principal_turned")}
+    for mesh in meshes:
+        v, f = baselines.split_geometry(mesh)
+        turn = Rotation.random(random_state=rng).as_matrix()
+        for key, x, frame in (("axes", v, None), ("principal", v, principal_frame(v, f)),
+                              ("axes_turned", v @ turn.T, None), ("principal_turned", v @ turn.T, principal_frame(v @ turn.T, f))):
+            c, vol = solid_center_volume(robust_solid(x, f, resolution=resolution, frame=frame), 4)
+            found[key][0].append(c @ turn if key.endswith("turned") else c)
+            found[key][1].append(vol ** (1 / 3))
+    record = {k: spreads(np.asarray(c), np.asarray(s)) for k, (c, s) in found.items()}
+    scale = np.asarray(found["axes"][1])
+    shift = np.linalg.norm(np.asarray(found["axes_turned"][0]) - np.asarray(found["axes"][0]), axis=1) / scale
+    change = np.abs(np.asarray(found["axes_turned"][1]) / scale - 1)
+    record["shift"], record["scale_change"] = shift.tolist(), change.tolist()
+    out(f"{name}: sigma_tr / cv, input's axes {record['axes'][0]:.5g} / {record['axes'][1]:.5f}, principal axes "
+        f"{record['principal'][0]:.5g} / {record['principal'][1]:.5f}; turned inputs: input's axes "
+        f"{record['axes_turned'][0]:.5g} / {record['axes_turned'][1]:.5f}, principal axes "
+        f"{record['principal_turned'][0]:.5g} / {record['principal_turned'][1]:.5f}; the library's center moves "
+        f"{100 * shift.mean():.2f} % of the scale on average ({100 * shift.max():.2f} % at most), its scale "
+        f"{100 * change.max():.2f} % at most")
+    return record
 
 
 if __name__ == "__main__":

@@ -102,6 +102,48 @@ def test_fill_and_components_helpers():
     assert n == 2 and dropped == 1 and kept[:4].all() and not kept[6:].any()
 
 
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_exterior_fill_against_scipy(seed):
+    """reach 0 is scipy's binary_fill_holes; reach 1 is the outside a ball of one voxel's radius
+    reaches, built from scipy's exact distance transform: the free voxels farther than 1 from the
+    solid (beyond the grid free), those connected to the border, and every free voxel within 1 of them."""
+    from scipy import ndimage
+
+    rng = np.random.default_rng(seed)
+    solid = ndimage.binary_dilation(rng.random((18, 15, 16)) < 0.08)  # pockets, slits, cavities
+    assert np.array_equal(exterior_fill(solid), ndimage.binary_fill_holes(solid))
+    free = np.pad(~solid, 1, constant_values=True)
+    lab, _ = ndimage.label(ndimage.distance_transform_edt(free) > 1)
+    faces = np.concatenate([f.ravel() for f in (lab[0], lab[-1], lab[:, 0], lab[:, -1], lab[:, :, 0], lab[:, :, -1])])
+    reached = np.isin(lab, faces[faces > 0])
+    outside = (ndimage.distance_transform_edt(~reached) <= 1) & free
+    expected = ~outside[1:-1, 1:-1, 1:-1]
+    got = exterior_fill(solid, reach=1)
+    assert np.array_equal(got, expected) and (got & ~exterior_fill(solid)).any()
+    with pytest.raises(InvalidInputError, match="reach"):
+        exterior_fill(solid, reach=2)
+
+
+@pytest.mark.parametrize("gap", [0.5, 4.0])
+def test_a_slit_the_grid_cannot_resolve_is_filled(gap):
+    """Two slabs ``gap`` voxels apart, joined along one edge (a slit open on three sides): a slit
+    half a voxel wide, which voxel centers may or may not straddle, is part of the mesh's solid;
+    one four voxels wide stays open."""
+    res, extent = 48, 2.0
+    h = extent / res
+    a = trimesh.creation.box(extents=(extent, 1.0, 0.5))
+    b = a.copy()
+    a.apply_translation((0, 0, -(0.25 + gap * h / 2)))
+    b.apply_translation((0, 0, 0.25 + gap * h / 2))
+    bar = trimesh.creation.box(extents=(0.3, 1.0, gap * h + 0.2))
+    bar.apply_translation((extent / 2 - 0.15, 0, 0))
+    mesh = trimesh.util.concatenate([a, b, bar])  # overlapping closed parts: a union
+    s = _solid(mesh, resolution=res)
+    mid = s.centers()
+    in_slit = np.abs(mid[:, 2]) < gap * h / 2
+    assert (in_slit & (np.abs(mid[:, 0]) < 0.5)).any() == (gap < 1)
+
+
 def test_degenerate_input():
     with pytest.raises(InvalidInputError, match="no extent"):
         robust_solid(np.ones((10, 3)))

@@ -13,7 +13,13 @@ neighbourhood, a false "inside" voxel next to the surface adds a shallow, low-we
 the capped surface winds around it. The non-zero rule makes overlapping or inverted closed parts a
 union. Point clouds: a morphological closing of the voxels holding points (:func:`point_solid`),
 with a radius from the points' own spacing (above ``SPACING_SAMPLES`` points, measured from a seeded
-uniform subset of them to all the others). Enclosed cavities are filled (:func:`exterior_fill`).
+uniform subset of them to all the others). Enclosed cavities are filled (:func:`exterior_fill`);
+for meshes, so is what a ball of one voxel's radius (:data:`MESH_REACH`) cannot reach from the
+outside: a pocket or a slit whose mouth is narrower than the grid resolves (a mouth behind nearly
+closed lips, limbs a voxel apart). The grid cannot tell such a mouth open or shut, so without the
+rule where the voxel centers happen to fall decides, from one pitch or placement to the next,
+whether the pocket's neighbourhood is deep or shallow. A point solid's closing (radius >= 1 voxel)
+applies the same rule at its own radius.
 
 Stray parts. 26-connected components of the solid are sized by their boundary voxels (a surface
 area proxy); the largest is the main body and another component is kept only when it is at least
@@ -44,7 +50,7 @@ from scipy.sparse.csgraph import connected_components
 from .._validate import InvalidInputError
 from ..config import MEMORY_BUDGET, RobustConfig
 
-__all__ = ["Solid", "robust_solid", "cap_holes", "ray_vote_solid", "point_solid", "exterior_fill", "keep_main",
+__all__ = ["Solid", "robust_solid", "cap_holes", "ray_vote_solid", "point_solid", "exterior_fill", "keep_main", "MESH_REACH",
            "depth", "make_grid", "closing_radius", "linked_parts", "LINK", "neighbour_distances", "check_resolution", "RESOLUTION", "COARSE",
            "KEEP_RATIO", "SPACING_SAMPLES", "VOXEL_BYTES", "MESH_BIAS", "POINT_BIAS", "GRID_OFFSET"]
 
@@ -57,6 +63,7 @@ SPACING_SAMPLES = _DEFAULTS.spacing_samples  # point clouds: the spacing is meas
 VOXEL_BYTES = 64  # peak memory per voxel of the fine grid (measured 50-58 bytes)
 MESH_BIAS = 0.5  # voxels between a mesh solid's outer voxel centers and its surface (depth offset)
 POINT_BIAS = 1.0  # the same for a point solid (its outer voxels straddle the surface)
+MESH_REACH = 1  # meshes: the outside is what a ball of this many voxels' radius reaches (exterior_fill)
 LINK = 2  # point clouds: separate parts are told apart at a dilation of this many closing radii (linked_parts)
 _MAX_MARGIN = 3 * MAX_CLOSING + 3  # voxels around the box (point clouds; meshes: 3)
 GRID_OFFSET = 1e-3 * np.sqrt(2.0)  # grid offset in pitches: grid lines miss the vertices of axis-aligned models (and points)
@@ -365,17 +372,42 @@ def linked_parts(occupied, radius, link=None):
 
 
 # ------------------------------------------------------------------ components, depth
-def exterior_fill(solid):
-    """The solid with its enclosed cavities filled (the complement components that do not reach
-    the grid border), as ``scipy.ndimage.binary_fill_holes`` does, by one labelling."""
-    lab, n = ndimage.label(~solid)
+def exterior_fill(solid, reach=0):
+    """The solid with every voxel the outside does not reach filled.
+
+    ``reach`` 0: the outside is the complement components that touch the grid border (enclosed
+    cavities are filled, as ``scipy.ndimage.binary_fill_holes`` does), by one labelling. ``reach``
+    1: the outside is what a ball of one voxel's radius reaches from the border: the free voxels
+    whose six face neighbours are all free (a ball's centers; beyond the grid counts as free),
+    those connected to the border (6-connected), and the free voxels next to them. A pocket or a
+    slit whose mouth is less than about two voxels wide is filled with the cavities.
+
+    Args:
+      solid: (nx, ny, nz) bool. reach: 0 or 1 (voxels).
+
+    Returns:
+      (nx, ny, nz) bool, a superset of ``solid``.
+
+    Example:
+      >>> cup = np.ones((5, 5, 5), bool); cup[1:4, 1:4, 1:] = False; cup[2, 2, 4] = True
+      >>> int(exterior_fill(cup).sum()), int(exterior_fill(cup, reach=1).sum())
+      (90, 125)
+    """
+    if reach not in (0, 1):
+        raise InvalidInputError(f"reach must be 0 or 1 voxels, got {reach!r}")
+    free = np.pad(~solid, 1, constant_values=True) if reach else ~solid  # reach: one free layer beyond the grid
+    core = ndimage.binary_erosion(free, border_value=1) if reach else free
+    lab, n = ndimage.label(core)
     if n == 0:
         return solid
     border = np.zeros(n + 1, bool)
     for face in (lab[0], lab[-1], lab[:, 0], lab[:, -1], lab[:, :, 0], lab[:, :, -1]):
         border[np.unique(face)] = True
     border[0] = False
-    return ~border[lab]
+    outside = border[lab]
+    if reach:
+        outside = (ndimage.binary_dilation(outside) & free)[1:-1, 1:-1, 1:-1]
+    return ~outside
 
 
 def keep_main(solid, keep_ratio=KEEP_RATIO):
@@ -483,7 +515,7 @@ def robust_solid(vertices, faces=None, *, resolution=RESOLUTION, coarse=COARSE, 
     pitch = coarsest(float((hi - lo).max()) / resolution)
     origin, shape = make_grid(lo, hi, pitch, margin(pitch))
     solid, occupied = solid_at(origin, pitch, shape)
-    kept, components, dropped = keep_main(exterior_fill(solid), keep_ratio)
+    kept, components, dropped = keep_main(exterior_fill(solid, MESH_REACH if faces is not None else 0), keep_ratio)
     bias = MESH_BIAS if faces is not None else POINT_BIAS
     dep = depth(kept, pitch, bias=bias) if with_depth else None
     radius = closing_radius(r_gap, pitch) if faces is None else None

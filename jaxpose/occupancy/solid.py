@@ -442,7 +442,7 @@ def near_solid(x, kept, origin, pitch, grow=1):
 
 # ------------------------------------------------------------------ driver
 def robust_solid(vertices, faces=None, *, resolution=RESOLUTION, coarse=COARSE, keep_ratio=KEEP_RATIO,
-                 min_votes=3, frame=None, with_depth=True, capped=None) -> Solid:
+                 min_votes=3, frame=None, with_depth=True, capped=None, reach=MESH_REACH) -> Solid:
     """The kept solid of a mesh or a point cloud (module docs).
 
     Args:
@@ -459,6 +459,9 @@ def robust_solid(vertices, faces=None, *, resolution=RESOLUTION, coarse=COARSE, 
         depth from ``inside`` and ``bias`` themselves).
       capped: meshes: ``cap_holes(vertices, faces)`` when the caller has computed it already (it
         is not computed again; with a ``frame``, its vertices are turned like the input's).
+      reach: meshes: the outside is what a ball of this many voxels' radius reaches
+        (:func:`exterior_fill`; 0: every complement component that touches the border). Point
+        clouds: ignored (their closing's radius is at least one voxel).
 
     Returns:
       :class:`Solid`; its ``inside`` is empty when the shape encloses no volume (a flat or open
@@ -515,7 +518,7 @@ def robust_solid(vertices, faces=None, *, resolution=RESOLUTION, coarse=COARSE, 
     pitch = coarsest(float((hi - lo).max()) / resolution)
     origin, shape = make_grid(lo, hi, pitch, margin(pitch))
     solid, occupied = solid_at(origin, pitch, shape)
-    kept, components, dropped = keep_main(exterior_fill(solid, MESH_REACH if faces is not None else 0), keep_ratio)
+    kept, components, dropped = keep_main(exterior_fill(solid, reach if faces is not None else 0), keep_ratio)
     bias = MESH_BIAS if faces is not None else POINT_BIAS
     dep = depth(kept, pitch, bias=bias) if with_depth else None
     radius = closing_radius(r_gap, pitch) if faces is None else None

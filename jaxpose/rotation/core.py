@@ -103,7 +103,11 @@ def frame_solid(vertices, faces=None, resolution=None):
     """The robust solid (:func:`jaxpose.occupancy.solid.robust_solid`) on a grid along the
     :func:`pre_frame` of its main body.
 
-    The grid's axes are the principal axes of the input. A mesh's separate pieces (connected by
+    The grid's axes are the principal axes of the input. Every complement component that touches
+    the grid's border is outside (``reach=0``): the frame reads the body's parts from the necks and
+    gaps between them, and a slit narrower than the grid resolves (a head resting on a leg, a tail
+    along a thigh) is a gap here, where the center and scale's solid fills it (measured:
+    docs/rotation.md). A mesh's separate pieces (connected by
     faces) that lie wholly off the solid (no vertex within :data:`OFF_SOLID` voxels of it: stray
     parts the solid dropped) are left out of them: the axes are taken again from the other pieces
     and the solid is built on those, so that a stray part turns neither the grid nor, through it,
@@ -113,10 +117,10 @@ def frame_solid(vertices, faces=None, resolution=None):
     resolution = solid.RESOLUTION if resolution is None else int(resolution)
     v = np.asarray(vertices, np.float64)
     if faces is None or not len(faces):
-        return solid.robust_solid(v, faces, resolution=resolution, frame=pre_frame(v, faces))
+        return solid.robust_solid(v, faces, resolution=resolution, frame=pre_frame(v, faces), reach=0)
     f = np.asarray(faces, np.int64)
     capped = solid.cap_holes(v, f)  # computed once for both grids
-    sol = solid.robust_solid(v, f, resolution=resolution, frame=pre_frame(v, f), capped=capped)
+    sol = solid.robust_solid(v, f, resolution=resolution, frame=pre_frame(v, f), capped=capped, reach=0)
     if not sol.inside.any():
         return sol
     n = len(v)
@@ -132,7 +136,8 @@ def frame_solid(vertices, faces=None, resolution=None):
     used = np.unique(f[keep])
     index = np.zeros(n, np.int64)
     index[used] = np.arange(len(used))
-    return solid.robust_solid(v, f, resolution=resolution, frame=pre_frame(v[used], index[f[keep]]), capped=capped)
+    return solid.robust_solid(v, f, resolution=resolution, frame=pre_frame(v[used], index[f[keep]]), capped=capped,
+                              reach=0)
 
 
 def _grid_centers(sol):

@@ -35,7 +35,7 @@ widens the section through the saddle). How it does on real bodies: docs/rotatio
 
 Example::
 
-    sol = jaxpose.occupancy.solid.robust_solid(vertices, faces)
+    sol = jaxpose.rotation.core.frame_solid(vertices, faces)
     parts = find_parts(sol)            # None when no saddle joins two thick parts
     parts.head, parts.neck, parts.constriction
     head = find_head(sol)              # the same where that head ends the body; else a part that does

@@ -176,3 +176,31 @@ def test_one_input_written_to_two_outputs_keeps_both_rows(tmp_path, scans):
     assert sorted(r.output for r in rows if r.input == capsule) == [str(out / "a" / "capsule.ply"),
                                                                    str(out / "capsule.ply")]
     assert rows[0].output == str(out / "a" / "capsule.ply")  # this run's first
+
+
+@pytest.mark.parametrize("damage, fragment", [
+    ("cut", "row 2 is not a transforms row"),    # the last row cut short: its missing cells were None
+    ("edit", "row 1 is not a transforms row"),   # a center that is not a number
+    ("bytes", "not a readable CSV table"),       # not UTF-8
+])
+def test_a_damaged_csv_table_is_an_error_naming_it(tmp_path, damage, fragment):
+    """A CSV table cut short or edited by hand is an InvalidInputError naming the table and the row
+    (read_transforms raised float()'s TypeError or ValueError)."""
+    src = tmp_path / "scans"
+    src.mkdir()
+    for i in range(2):
+        trimesh.creation.box(extents=(1.0 + 0.1 * i, 0.5, 0.3)).export(src / f"box{i}.ply")
+    table = tmp_path / "out" / "t.csv"
+    run([src], tmp_path / "out", options=NormalizeOptions(method="bbox"), table=str(table))
+    assert len(jaxpose.read_transforms(table)) == 2
+    lines = table.read_text().splitlines()
+    center = lines[1].split(",")[4]
+    damaged = {"cut": "\n".join(lines[:2] + [lines[2][:60]]) + "\n",
+               "edit": "\n".join([lines[0], lines[1].replace("," + center + ",", ",abc,", 1)] + lines[2:]) + "\n",
+               "bytes": None}[damage]
+    if damaged is None:
+        table.write_bytes(b"\xff\xfe" + table.read_bytes())
+    else:
+        table.write_text(damaged)
+    with pytest.raises(InvalidInputError, match=f"t.csv: {fragment}"):
+        jaxpose.read_transforms(table)

@@ -375,8 +375,18 @@ def _read_table(path):
         except Exception as exc:
             raise InvalidInputError(f"{path}: not a readable Parquet table: {exc}") from None
     else:
-        reader = csv.DictReader(io.StringIO(data.decode("utf-8"), newline=""))
-        records = [{k: _csv_value(v, _TYPES.get(k, "str")) for k, v in r.items()} for r in reader]
+        try:
+            reader = csv.DictReader(io.StringIO(data.decode("utf-8"), newline=""))
+            rows = list(reader)
+        except (UnicodeDecodeError, csv.Error) as exc:
+            raise InvalidInputError(f"{path}: not a readable CSV table: {exc}") from None
+        records = []
+        for number, r in enumerate(rows, start=1):
+            try:
+                records.append({k: _csv_value(v, _TYPES.get(k, "str")) for k, v in r.items()})
+            except (TypeError, ValueError) as exc:  # a row cut short (None), or a value that is not its type
+                raise InvalidInputError(f"{path}: row {number} is not a transforms row (a truncated or edited "
+                                        f"table): {exc}") from None
     missing = [c for c in COLUMNS if records and c not in records[0] and c not in _OPTIONAL]
     if missing:
         raise InvalidInputError(f"{path}: not a transforms table (no column {', '.join(missing)})")

@@ -164,15 +164,17 @@ def test_chained_map_equals_lax_map(chains):
 
 
 def test_robust_map_in_chains_equals_one_chain(monkeypatch):
-    """normalize_batch's map strategy on CPU runs one chain per core: forced to 1 and to 3 chains,
-    the robust poses are identical."""
+    """normalize_batch's map strategy on CPU runs one chain per core: forced to 1 and to 2 chains,
+    the robust poses are identical. Two chains over three sets are uneven (two objects, then one):
+    both a chain that loops and one of a single object are checked (each chain is one more copy
+    of the pipeline to compile: three chains cost a copy more and checked one-object chains only)."""
     sets = _sets()[:3]
     monkeypatch.setattr(pose_module, "_cores", lambda: 1)
     one = jaxpose.normalize_batch(sets, strategy="map", resolution=32, coarse=16)
-    monkeypatch.setattr(pose_module, "_cores", lambda: 3)
-    three = jaxpose.normalize_batch(sets, strategy="map", resolution=32, coarse=16)
-    assert np.array_equal(one.center, three.center) and np.array_equal(one.scale, three.scale)
-    assert np.array_equal(np.asarray(one.status), np.asarray(three.status))
+    monkeypatch.setattr(pose_module, "_cores", lambda: 2)
+    two = jaxpose.normalize_batch(sets, strategy="map", resolution=32, coarse=16)
+    assert np.array_equal(one.center, two.center) and np.array_equal(one.scale, two.scale)
+    assert np.array_equal(np.asarray(one.status), np.asarray(two.status))
 
 
 @pytest.mark.parametrize("cores, batch, expected", [(1, 4, 1), (3, 4, 3), (64, 4, 4), (64, 9, pose_module.MAX_CHAINS),

@@ -222,6 +222,27 @@ def test_iteration_cap_is_reported():
         jaxpose.normalize_batch([P, P[::-1]], method="ocsvm", max_iter=10, throw=True)
 
 
+def test_stopping_numbers_share_one_program():
+    """tol, max_iter and nu_tol are traced values of the compiled pipeline (normalize and
+    normalize_batch): options that differ only in them reuse one program, and the solver still
+    stops by them (projected gradient at the first check past max_iter: SolverConfig.max_iter)."""
+    from jaxpose.config import SolverConfig
+    from jaxpose.pose import pose as pose_module
+
+    base = normalize(P, method="ocsvm")
+    programs = pose_module._pipeline_jit._cache_size()
+    capped = normalize(P, method="ocsvm", max_iter=10)
+    tight = normalize(P, method="ocsvm", tol=1e-5, nu_tol=1e-7)
+    assert pose_module._pipeline_jit._cache_size() == programs
+    assert bool(base.converged) and bool(tight.converged) and int(tight.iterations) > int(base.iterations)
+    assert not bool(capped.converged) and 10 <= int(capped.iterations) <= 10 + SolverConfig().check_every - 1
+    capped = jaxpose.normalize_batch([P, P[::-1]], method="ocsvm", max_iter=10)  # test_iteration_cap_is_reported's
+    batches = pose_module._batched._cache_size()
+    loose = jaxpose.normalize_batch([P, P[::-1]], method="ocsvm", tol=1e-2, max_iter=5000)
+    assert pose_module._batched._cache_size() == batches
+    assert not np.any(np.asarray(capped.converged)) and np.all(np.asarray(loose.converged))
+
+
 def test_invalid_result_flagged_or_raised():
     with pytest.warns(jaxpose.InvalidPoseWarning, match="too sparse for gamma"):
         pose = normalize(P, method="ocsvm", gamma=1e6)  # kernel far narrower than the sample spacing and a grid cell

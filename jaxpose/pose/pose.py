@@ -31,6 +31,7 @@ columns (:func:`jaxpose._hyper.hyper_jvp`).
 """
 from __future__ import annotations
 
+import dataclasses
 from functools import partial
 import numbers
 import os
@@ -43,7 +44,7 @@ import numpy as np
 
 from .. import _validate
 from .._hyper import hyper_jvp
-from ..config import OCSVM, ROBUST, PoseConfig, RobustConfig
+from ..config import OCSVM, ROBUST, PoseConfig, RobustConfig, SolverConfig
 from ..moments import region_moments, robust_moments
 from ..occupancy.points import POINT_BIAS, erode6, point_solid, spacing_subset
 from ..occupancy.svdd import solve_svdd
@@ -90,20 +91,21 @@ def pose_from_svdd(svdd, to_world, size, grid, outside, rotation=False, y=None, 
     return Pose(center, scale, svdd.converged, valid, svdd.iterations, amb, rot, status, count)
 
 
-def _pipeline(points, mask, gamma, nu, config, rotation=False):
+def _pipeline(points, mask, gamma, nu, stops, config, rotation=False):
+    tol, max_iter, secant_tol = stops
     y, to_world, size = prescale(points, mask)
     extra = {"rotation": True, "y": y, "mask": mask} if rotation else {}
     if config.derivative == "exact":
-        svdd = solve_svdd(y, gamma, nu, mask, None, config.svdd)
+        svdd = solve_svdd(y, gamma, nu, mask, None, config.svdd, tol, max_iter)
         # the implicit KKT derivative moves alpha only on the support: skip the alpha = 0 pass
         return pose_from_svdd(svdd, to_world, size, config.grid, outside=False, **extra)
     dtype = y.dtype
     gamma, nu = jnp.asarray(gamma, dtype), jnp.asarray(nu, dtype)
     sg = jax.lax.stop_gradient
     params = ("gamma", "nu") if config.derivative == "trend" else ("nu",)  # "secant": gamma implicit
-    svdd = solve_svdd(y, sg(gamma) if "gamma" in params else gamma, sg(nu), mask, None, config.svdd)
+    svdd = solve_svdd(y, sg(gamma) if "gamma" in params else gamma, sg(nu), mask, None, config.svdd, tol, max_iter)
     svdd = with_secants(svdd, gamma, nu, config.svdd, params, (config.gamma_delta, config.nu_delta),
-                        config.secant_tol(), config.secant_iterations)
+                        secant_tol, config.secant_iterations, max_iter)
     return pose_from_svdd(svdd, to_world, size, config.grid, outside=True, **extra)  # the secant moves alpha = 0 points
 
 
@@ -120,7 +122,25 @@ def pose_pipeline(points, mask, gamma, nu, config: PoseConfig, rotation: bool = 
       Pose in the units of ``points``. Derivatives in (gamma, nu) come from forward-mode
       columns, also under jax.grad / jacrev; derivatives in the points by plain autodiff.
     """
-    pose = hyper_jvp(partial(_pipeline, config=config, rotation=bool(rotation)), (2, 3))(points, mask, gamma, nu)
+    return _stopped_pipeline(points, mask, gamma, nu, _stops(config), _without_stops(config), rotation)
+
+
+def _stops(config: PoseConfig) -> tuple:
+    """The stopping numbers of a config's solves: (tol, max_iter, the secant solves' tol)."""
+    return config.svdd.tol, config.svdd.max_iter, config.secant_tol()
+
+
+def _without_stops(config: PoseConfig) -> PoseConfig:
+    """``config`` with the numbers :func:`_stops` reads set to their defaults: the static key of
+    the compiled pipeline, so that configs that differ only in them share one program."""
+    svdd = dataclasses.replace(config.svdd, tol=SolverConfig.tol, max_iter=SolverConfig.max_iter)
+    return dataclasses.replace(config, svdd=svdd, nu_tol=None)
+
+
+def _stopped_pipeline(points, mask, gamma, nu, stops, config, rotation=False):
+    """:func:`pose_pipeline` with the stopping numbers ``stops`` (:func:`_stops`; traced in the
+    compiled programs below) given apart from ``config`` (whose own are not read)."""
+    pose = hyper_jvp(partial(_pipeline, config=config, rotation=bool(rotation)), (2, 3))(points, mask, gamma, nu, stops)
     return flag_offset(pose, points, mask)
 
 
@@ -178,7 +198,7 @@ def robust_pipeline(points, mask, queries, query_mask, power, config: RobustConf
     return flag_offset(pose, points, mask)
 
 
-_pipeline_jit = jax.jit(pose_pipeline, static_argnames=("config", "rotation"))
+_pipeline_jit = jax.jit(_stopped_pipeline, static_argnames=("config", "rotation"))
 _robust_jit = jax.jit(robust_pipeline, static_argnames=("config",))
 
 
@@ -324,7 +344,7 @@ def normalize(x, method: str = DEFAULT_METHOD, *, power=_UNSET, gamma=_UNSET, nu
         queries, query_mask = _queries([np.shape(x)[0]], config.spacing_samples, seed)
         pose = _robust_jit(points, mask, queries[0], query_mask[0], params["power"], config)
         return _finish(pose, shift, size, throw)
-    pose = _pipeline_jit(points, mask, params["gamma"], params["nu"], config, rotation)
+    pose = _pipeline_jit(points, mask, params["gamma"], params["nu"], _stops(config), _without_stops(config), rotation)
     return _finish(pose, shift, size, throw, params["gamma"], params["nu"], config.svdd.tol)
 
 
@@ -462,7 +482,8 @@ def normalize_batch(list_of_points: Iterable, method: str = DEFAULT_METHOD, *, p
         return _finish(pose, shift, size, throw)
     gamma = jnp.broadcast_to(jnp.asarray(params["gamma"], pts.dtype), (n,))
     nu = jnp.broadcast_to(jnp.asarray(params["nu"], pts.dtype), (n,))
-    pose = _batched(pts, mask, gamma, nu, config=config, strategy=strategy, rotation=rotation, chains=chains)
+    pose = _batched(pts, mask, gamma, nu, _stops(config), config=_without_stops(config), strategy=strategy,
+                    rotation=rotation, chains=chains)
     return _finish(pose, shift, size, throw, gamma, nu, config.svdd.tol)
 
 
@@ -495,8 +516,8 @@ def chained_map(fn, xs, chains: int):
 
 
 @partial(jax.jit, static_argnames=("config", "strategy", "rotation", "chains"))
-def _batched(points, mask, gamma, nu, config, strategy, rotation=False, chains=1):
-    fn = lambda p, mk, g, n: pose_pipeline(p, mk, g, n, config, rotation)
+def _batched(points, mask, gamma, nu, stops, config, strategy, rotation=False, chains=1):
+    fn = lambda p, mk, g, n: _stopped_pipeline(p, mk, g, n, stops, config, rotation)
     if strategy == "map":
         return chained_map(lambda args: fn(*args), (points, mask, gamma, nu), chains)
     return jax.vmap(fn)(points, mask, gamma, nu)

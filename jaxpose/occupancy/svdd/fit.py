@@ -104,17 +104,20 @@ def fit_svdd(points, gamma, nu, *, mask=None, init_alpha=None, config: SolverCon
     return result
 
 
-def solve_svdd(points, gamma, nu, mask, init_alpha, config: SolverConfig) -> SVDD:
+def solve_svdd(points, gamma, nu, mask, init_alpha, config: SolverConfig, tol=None, max_iter=None) -> SVDD:
     """:func:`fit_svdd` without input checks, compiled per shape and per the solver's static options
     (``check_every``, ``kernel``, ``block``, and the solver ``solver=None`` stands for at this size,
     :func:`pick_solver`); the stopping numbers ``config.tol`` and ``config.max_iter`` are traced
     values, so configs that differ only in them share one program.
 
-    Args as :func:`fit_svdd`; ``mask`` and ``init_alpha`` may be None. Pure JAX.
+    Args as :func:`fit_svdd`; ``mask`` and ``init_alpha`` may be None; ``tol``, ``max_iter``:
+    the stopping numbers in place of ``config.tol`` and ``config.max_iter`` (None: those; may be
+    traced). Pure JAX.
     """
     static = dataclasses.replace(config, tol=SolverConfig.tol, max_iter=SolverConfig.max_iter,
                                  solver=pick_solver(config.solver, jnp.shape(points)[0]))
-    return _solve_svdd(points, gamma, nu, mask, init_alpha, config.tol, config.max_iter, static)
+    return _solve_svdd(points, gamma, nu, mask, init_alpha, config.tol if tol is None else tol,
+                       config.max_iter if max_iter is None else max_iter, static)
 
 
 @partial(jax.jit, static_argnames=("config",))

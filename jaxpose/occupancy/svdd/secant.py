@@ -42,7 +42,7 @@ def end_solver(config):
     return "auto" if jax.default_backend() == "cpu" else config.solver
 
 
-def slopes(points, gamma, nu, mask, alpha0, config, delta, tol, param="nu", iterations=None):
+def slopes(points, gamma, nu, mask, alpha0, config, delta, tol, param="nu", iterations=None, max_iter=None):
     """Secant slopes of (alpha, mu) in ``param`` over [theta (1 - delta), theta (1 + delta)]
     (nu's upper end capped at 1).
 
@@ -50,8 +50,9 @@ def slopes(points, gamma, nu, mask, alpha0, config, delta, tol, param="nu", iter
       points: (m, 3); gamma, nu: (); mask: (m,) bool or None; alpha0: (m,) warm start (the
         solution at (gamma, nu)); config: SolverConfig of the solves (its tol replaced by ``tol``);
       delta: relative half-width; param: "gamma" or "nu"; iterations: None (each end solved to
-        ``tol`` by :func:`end_solver`) or a number of projected-gradient steps both ends take
-        from alpha0 in lock-step.
+        ``tol`` by :func:`end_solver`, within ``max_iter`` iterations, default ``config.max_iter``;
+        ``tol`` and ``max_iter`` may be traced) or a number of projected-gradient steps both ends
+        take from alpha0 in lock-step.
 
     Returns:
       (m,) and () slopes, without derivatives (non-finite slopes are 0).
@@ -62,12 +63,14 @@ def slopes(points, gamma, nu, mask, alpha0, config, delta, tol, param="nu", iter
     lo = theta * (1.0 - delta)
     hi = theta * (1.0 + delta) if param == "gamma" else jnp.minimum(theta * (1.0 + delta), 1.0)
     if iterations is None:
-        tight = dataclasses.replace(config, tol=tol, solver=end_solver(config))
+        tight = dataclasses.replace(config, solver=end_solver(config))
+        stops = (tol, config.max_iter if max_iter is None else max_iter)
     else:  # lock-step: both ends run the same projected-gradient steps from the same start
-        tight = dataclasses.replace(config, tol=1e-300, max_iter=int(iterations), solver="pg")
+        tight = dataclasses.replace(config, solver="pg")
+        stops = (1e-300, int(iterations))
 
     def solve(g, n, a0):
-        s = solve_svdd(points, g, n, mask, a0, tight)
+        s = solve_svdd(points, g, n, mask, a0, tight, *stops)
         return s.alpha, s.offset
 
     end = (lambda t: solve(t, nu, alpha0)) if param == "gamma" else (lambda t: solve(gamma, t, alpha0))
@@ -85,17 +88,19 @@ def nu_slopes(points, gamma, nu, mask, alpha0, config, delta, tol):
     return slopes(points, gamma, nu, mask, alpha0, config, delta, tol, "nu")
 
 
-@partial(jax.custom_jvp, nondiff_argnums=(6, 7, 8, 9, 10))
-def _secant_identity(alpha, mu, gamma, nu, points, mask, config, params, deltas, tol, iterations):
-    """(alpha, mu) unchanged; their tangents in the parameters ``params`` are the secant slopes."""
+@partial(jax.custom_jvp, nondiff_argnums=(8, 9, 10, 11))
+def _secant_identity(alpha, mu, gamma, nu, points, mask, tol, max_iter, config, params, deltas, iterations):
+    """(alpha, mu) unchanged; their tangents in the parameters ``params`` are the secant slopes.
+    ``tol``, ``max_iter``: the end solves' stopping numbers (arguments, so that they may be traced;
+    not differentiated)."""
     return alpha, mu
 
 
 @partial(_secant_identity.defjvp, symbolic_zeros=True)
-def _secant_identity_jvp(config, params, deltas, tol, iterations, primals, tangents):
+def _secant_identity_jvp(config, params, deltas, iterations, primals, tangents):
     from jax.custom_derivatives import SymbolicZero
 
-    alpha, mu, gamma, nu, points, mask = primals
+    alpha, mu, gamma, nu, points, mask, tol, max_iter = primals
     dalpha, dmu, dgamma, dnu = tangents[:4]
     zero = lambda t: isinstance(t, SymbolicZero)
     da = jnp.zeros_like(alpha) if zero(dalpha) else dalpha
@@ -103,13 +108,14 @@ def _secant_identity_jvp(config, params, deltas, tol, iterations, primals, tange
     for name, d, delta in zip(PARAMS, (dgamma, dnu), deltas):
         if name not in params or zero(d):  # no solve for a parameter that is not perturbed
             continue
-        s_alpha, s_mu = slopes(points, gamma, nu, mask, alpha, config, delta, tol, name, iterations)
+        s_alpha, s_mu = slopes(points, gamma, nu, mask, alpha, config, delta, tol, name, iterations, max_iter)
         da = da + d.astype(alpha.dtype) * s_alpha
         dm = dm + d.astype(alpha.dtype) * s_mu
     return (alpha, mu), (da, dm)
 
 
-def with_secants(svdd, gamma, nu, config, params=PARAMS, deltas=(0.015, 0.015), tol=1e-6, iterations=None):
+def with_secants(svdd, gamma, nu, config, params=PARAMS, deltas=(0.015, 0.015), tol=1e-6, iterations=None,
+                 max_iter=None):
     """The same SVDD values whose derivatives in the parameters ``params`` are secant slopes.
 
     Args:
@@ -117,7 +123,9 @@ def with_secants(svdd, gamma, nu, config, params=PARAMS, deltas=(0.015, 0.015), 
         may carry other derivatives: in the points, or the implicit one in a parameter not in
         ``params``); gamma, nu: () the traced parameters; config: SolverConfig (static);
       params: (static) a subset of ("gamma", "nu"); deltas: (static) relative half-widths
-        (gamma's, nu's); tol, iterations: (static) how the ends are solved (:func:`slopes`).
+        (gamma's, nu's); tol, iterations, max_iter: how the ends are solved (:func:`slopes`;
+        ``iterations`` static, ``tol`` and ``max_iter`` may be traced; ``max_iter`` None:
+        ``config.max_iter``).
 
     Returns:
       SVDD with alpha and offset whose tangents along ``params`` are the secant slopes (module
@@ -128,7 +136,8 @@ def with_secants(svdd, gamma, nu, config, params=PARAMS, deltas=(0.015, 0.015), 
     gamma, nu = jnp.asarray(gamma, dtype), jnp.asarray(nu, dtype)
     mask = jnp.ones(svdd.alpha.shape, bool) if svdd.mask is None else svdd.mask
     alpha, mu = _secant_identity(svdd.alpha, svdd.offset, gamma, nu, jax.lax.stop_gradient(svdd.points), mask,
-                                 config, tuple(params), tuple(float(d) for d in deltas), float(tol),
+                                 tol, config.max_iter if max_iter is None else max_iter,
+                                 config, tuple(params), tuple(float(d) for d in deltas),
                                  None if iterations is None else int(iterations))
     return svdd._replace(alpha=alpha, offset=mu, gamma=gamma)
 

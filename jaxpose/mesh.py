@@ -7,12 +7,11 @@ File reading and writing live in :mod:`jaxpose.io.mesh`; their names are re-expo
 """
 from __future__ import annotations
 
-import numbers
 
 import numpy as np
 
 from . import sample
-from ._validate import InvalidInputError, check_bool, check_gamma, check_int, check_nu
+from ._validate import InvalidInputError, check_bool, check_gamma, check_int, check_nu, check_real
 from .config import OCSVM, PoseConfig
 from .geometry import Surface
 from .io import mesh as io_mesh
@@ -82,8 +81,7 @@ def check_arguments(gamma=OCSVM.gamma, nu=OCSVM.nu, count=OCSVM.count, seed=OCSV
     if power is not None:
         if c_name not in ("robust_depth", "depth_weighted_solid"):
             raise InvalidInputError(f"power applies to the robust_depth and depth_weighted_solid centers, not {c_name}")
-        if isinstance(power, bool) or not (isinstance(power, numbers.Real) and np.isfinite(power) and power >= 0):
-            raise InvalidInputError(f"power must be a finite number >= 0, got {power!r}")
+        check_real(power, "power", 0)
         extra["power"] = power
     if resolution is not None:
         if uses_ocsvm:

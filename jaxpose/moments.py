@@ -44,7 +44,6 @@ cell entering or leaving the band or the one-cell occupancy ramp).
 from __future__ import annotations
 
 from functools import partial
-import numbers
 from typing import NamedTuple
 
 import jax
@@ -52,7 +51,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ._hyper import instantiate, is_zero
-from ._validate import InvalidInputError, is_traced
+from ._validate import InvalidInputError, check_real, is_traced
 from .config import GridConfig
 from .depth import depth_weights, to_bucket
 from .occupancy.svdd.problem import SVDD
@@ -301,8 +300,8 @@ def solid_moments(sol, power) -> Moments:
     The world moments are ``sol.origin + sol.pitch * center`` (then ``@ sol.frame``), ``pitch^3 *
     volume``. Differentiable in ``power`` (a traced power is not checked). Raises
     InvalidInputError for a power that is not a finite number >= 0."""
-    if not is_traced(power) and not (isinstance(power, numbers.Real) and np.isfinite(power) and power >= 0):
-        raise InvalidInputError(f"power must be a finite number >= 0, got {power!r}")
+    if not is_traced(power):
+        check_real(power, "power", 0)
     inside, extent, axes = to_bucket(sol.inside)
     occupied = np.zeros_like(inside) if sol.occupied is None else to_bucket(sol.occupied)[0]
     dtype = jnp.result_type(float)

@@ -28,7 +28,6 @@ translation to the last digit the output can hold, wherever the shape sits.
 """
 from __future__ import annotations
 
-import numbers
 import time
 import warnings
 
@@ -260,8 +259,7 @@ def solid_center_volume(sol, power=ROBUST_POWER):
     Raises:
       InvalidInputError: a power that is not a finite number >= 0.
     """
-    if isinstance(power, bool) or not (isinstance(power, numbers.Real) and np.isfinite(power) and power >= 0):
-        raise InvalidInputError(f"power must be a finite number >= 0, got {power!r}")
+    _validate.check_real(power, "power", 0)
     inside = np.asarray(sol.inside, bool)
     occupied = np.zeros_like(inside) if sol.occupied is None else np.asarray(sol.occupied, bool)
     crop = _crop(inside)

@@ -250,10 +250,11 @@ class Pose(NamedTuple):
         Concrete values stay NumPy float64 (every digit of a center far from the origin is kept);
         traced values stay JAX arrays.
         """
-        batch = _shape_of(center, "center")[:-1]
-        if _shape_of(center, "center")[-1:] != (3,) or _shape_of(scale, "scale") != batch:
+        c_shape, s_shape = _shape_of(center, "center"), _shape_of(scale, "scale")
+        batch = c_shape[:-1]
+        if c_shape[-1:] != (3,) or s_shape != batch:
             raise InvalidInputError(f"center must have shape (..., 3) and scale its leading shape, got "
-                                    f"{_shape_of(center, 'center')} and {_shape_of(scale, 'scale')}")
+                                    f"{c_shape} and {s_shape}")
         if rotation is not None:
             _check_rotation(rotation, batch)
         xp = _jnp() if is_traced(center) or is_traced(scale) else np

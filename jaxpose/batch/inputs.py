@@ -11,7 +11,8 @@ keep their names), under the output folder, with the input's format or the one a
 A folder search takes regular files (and links to them); other files it meets (FIFOs, sockets,
 devices, links to them) are returned apart, to be recorded as failed without being opened, and
 links to folders are not followed (a link loop cannot trap it). A file named as an INPUT or in a
-manifest is read whatever it is (a FIFO delivers a stream; ``--timeout`` bounds the wait).
+manifest is read whatever it is (a FIFO delivers a stream; a silent one fails after
+:data:`jaxpose.io.mesh.PIPE_WAIT_S` seconds, or sooner with ``--timeout``).
 
 :func:`shard_index` splits inputs among N machines by a stable hash of their relative path.
 """

@@ -42,7 +42,9 @@ def load(path_or_mesh):
 
     A Scene is concatenated into one geometry; geometry without faces comes back as
     a :class:`trimesh.PointCloud`. Trimesh/PointCloud/Scene objects and ``(n, 3)``
-    arrays are accepted as they are (arrays become point clouds).
+    arrays are accepted as they are (arrays become point clouds). A named pipe (FIFO, or a shell's
+    ``<(command)``) is read to the end of its stream; one that delivers nothing for
+    :data:`PIPE_WAIT_S` seconds (no writer) fails rather than waiting for ever.
 
     Returns
     -------
@@ -235,7 +237,7 @@ def _read(path):
             raise InvalidInputError(f"{path}: unsupported format {path.suffix or '(no extension)'!r}; "
                                     f"readable: {', '.join(sorted(known))}")
     try:
-        data = path.read_bytes()  # read-only: the file is never touched
+        data = _read_pipe(path) if path.is_fifo() else path.read_bytes()  # read-only: never touched
     except OSError as exc:
         raise InvalidInputError(f"{path}: cannot read: {exc.strerror}") from None
     found = formats.sniff_format(data)
@@ -264,6 +266,45 @@ def _read(path):
         raise InvalidInputError(f"{path}: empty geometry: no vertices read as {ext.upper()} (the file is empty, "
                                 f"or its content is not {ext.upper()})")
     return geometry
+
+
+PIPE_WAIT_S = 60.0
+"""Seconds a named pipe (FIFO) may stay silent before its read fails: the wait for a writer to
+open it, and each wait for more bytes once one has."""
+
+
+def _read_pipe(path):
+    """The bytes of a named pipe, to the end of its stream, without ever blocking for good.
+
+    A plain ``open`` of a FIFO for reading waits for a writer, for ever when none comes; it is
+    opened non-blocking instead and each wait for bytes (the first included) is bounded by
+    :data:`PIPE_WAIT_S`. The stream ends when its last writer closes it.
+
+    Raises:
+      InvalidInputError: nothing came for :data:`PIPE_WAIT_S` seconds (naming the file).
+    """
+    import select
+
+    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    chunks = []
+    try:
+        while True:
+            # no writer yet: not readable (Linux reports the end of a stream only after a writer
+            # has come and gone); bytes or that end: readable
+            if not select.select([fd], [], [], PIPE_WAIT_S)[0]:
+                raise InvalidInputError(
+                    f"{path}: a named pipe (FIFO) that delivered nothing for {PIPE_WAIT_S:g} s "
+                    f"({'no writer opened it, or its writer wrote nothing' if not chunks else 'its writer stopped writing'}); "
+                    "start its writer first, or give a regular file")
+            try:
+                block = os.read(fd, 1 << 20)
+            except BlockingIOError:
+                continue
+            if not block:
+                return b"".join(chunks)
+            chunks.append(block)
+    finally:
+        os.close(fd)
 
 
 def _has_vertices(geometry):

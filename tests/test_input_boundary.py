@@ -1,0 +1,85 @@
+"""Inputs at the public boundary that once hung or were accepted silently: a named pipe with no
+writer, ... Each ends in a clear InvalidInputError naming the file (or a correct result), never a
+hang."""
+from __future__ import annotations
+
+import os
+import sys
+import threading
+import time
+
+import numpy as np
+import pytest
+import trimesh
+
+import jaxpose
+from jaxpose.errors import InvalidInputError
+from jaxpose.io import mesh as io_mesh
+
+linux = pytest.mark.skipif(sys.platform != "linux", reason="FIFOs as Linux reports them")
+
+
+def in_thread(call, seconds):
+    """call() in a daemon thread: ("returned", value) | ("raised", exc) | ("still running", None)
+    after `seconds`."""
+    out = []
+
+    def target():
+        try:
+            out.append(("returned", call()))
+        except BaseException as exc:  # noqa: BLE001 - handed back to the test
+            out.append(("raised", exc))
+
+    thread = threading.Thread(target=target, daemon=True)
+    thread.start()
+    thread.join(seconds)
+    return out[0] if out else ("still running", None)
+
+
+def release(fifo):
+    """Let a reader blocked in open() of `fifo` go on (it reads an empty stream)."""
+    try:
+        os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
+    except OSError:  # no reader left: nothing to release
+        pass
+
+
+@linux
+def test_a_named_pipe_with_no_writer_fails_instead_of_hanging(tmp_path, monkeypatch):
+    monkeypatch.setattr(io_mesh, "PIPE_WAIT_S", 0.5, raising=False)
+    fifo = tmp_path / "silent.ply"
+    os.mkfifo(fifo)
+    try:
+        outcome, value = in_thread(lambda: jaxpose.normalize_mesh(fifo, method="bbox"), 30)
+    finally:
+        release(fifo)
+    assert outcome == "raised", f"{outcome}: a FIFO with no writer must not block the read"
+    assert isinstance(value, InvalidInputError)
+    assert str(fifo) in str(value) and "named pipe" in str(value) and "0.5 s" in str(value)
+
+
+@linux
+def test_a_named_pipe_whose_writer_comes_late_is_read_whole(tmp_path, monkeypatch):
+    monkeypatch.setattr(io_mesh, "PIPE_WAIT_S", 30.0, raising=False)
+    fifo = tmp_path / "late.ply"
+    os.mkfifo(fifo)
+    box = trimesh.creation.box(extents=(2.0, 1.0, 0.5))
+    data = box.export(file_type="ply")
+
+    def writer():
+        time.sleep(0.3)  # the reader is already waiting
+        with open(fifo, "wb") as pipe:
+            for i in range(0, len(data), 97):  # in pieces: the reader goes on to the end of the stream
+                pipe.write(data[i:i + 97])
+                pipe.flush()
+
+    thread = threading.Thread(target=writer, daemon=True)
+    thread.start()
+    try:
+        outcome, value = in_thread(lambda: jaxpose.mesh.load(fifo), 60)
+    finally:
+        release(fifo)
+        thread.join(5)
+    assert outcome == "returned", value
+    np.testing.assert_array_equal(np.asarray(value.vertices), np.asarray(box.vertices))
+    np.testing.assert_array_equal(np.asarray(value.faces), np.asarray(box.faces))

@@ -24,7 +24,7 @@ from .rotation.rotation import DEFAULT_ROTATION, ROTATIONS, frame_of
 from .sample import SAMPLING
 
 # its own names, and the file I/O names it re-exports from jaxpose.io.mesh
-__all__ = ["SAMPLING", "sample_surface", "normalize_mesh", "check_arguments", "pose_matrix", "normalized_points",
+__all__ = ["SAMPLING", "OCSVM_ONLY", "sample_surface", "normalize_mesh", "check_arguments", "ocsvm_arguments", "pose_matrix", "normalized_points",
            *io_mesh.__all__]
 
 
@@ -46,11 +46,24 @@ def sample_surface(mesh, count, seed=0, method="even"):
 
 
 # --------------------------------------------------------------------------- normalize
-def check_arguments(gamma=OCSVM.gamma, nu=OCSVM.nu, count=OCSVM.count, seed=OCSVM.seed, sampling=OCSVM.sampling, method=None, *, center=None,
+OCSVM_ONLY = ("gamma", "nu", "count", "seed", "sampling")
+"""The arguments of :func:`normalize_mesh` that only the OCSVM reads (as the center, the scale or
+the frame); None stands for their defaults, :data:`jaxpose.config.OCSVM`."""
+
+
+def ocsvm_arguments(gamma=None, nu=None, count=None, seed=None, sampling=None) -> dict:
+    """{name: value} of :data:`OCSVM_ONLY`, each None replaced by its default in :data:`jaxpose.config.OCSVM`."""
+    given = dict(gamma=gamma, nu=nu, count=count, seed=seed, sampling=sampling)
+    return {name: getattr(OCSVM, name) if value is None else value for name, value in given.items()}
+
+
+def check_arguments(gamma=None, nu=None, count=None, seed=None, sampling=None, method=None, *, center=None,
                     scale=None, strict=False, power=None, resolution=None, rotation=False, **options):
     """Check every argument of :func:`normalize_mesh` (same names and defaults) without reading
     anything or compiling: names against the known ones, ranges, which options apply to which
-    estimator, and the memory of the grid a resolution asks for.
+    estimator (``gamma``, ``nu``, ``count``, ``seed``, ``sampling`` given to an estimator and frame
+    that are not the OCSVM are refused, as the command line refuses ``--gamma`` ...), and the
+    memory of the grid a resolution asks for.
 
     Returns:
       (center name, scale name, the robust/depth estimators' options (``power``, ``resolution``),
@@ -59,15 +72,22 @@ def check_arguments(gamma=OCSVM.gamma, nu=OCSVM.nu, count=OCSVM.count, seed=OCSV
     Raises:
       InvalidInputError: the first bad argument, named, with its allowed range.
     """
-    check_gamma(gamma)
-    check_nu(nu)
-    count = sample.check_count(count)  # validated whatever the method
-    seed = check_int(seed, "seed", minimum=0)
-    if sampling not in SAMPLING:
-        raise InvalidInputError(f"unknown sampling {sampling!r}; valid: {', '.join(SAMPLING)}")
+    given = [name for name, value in zip(OCSVM_ONLY, (gamma, nu, count, seed, sampling)) if value is not None]
+    ocsvm = ocsvm_arguments(gamma, nu, count, seed, sampling)
+    check_gamma(ocsvm["gamma"])
+    check_nu(ocsvm["nu"])
+    sample.check_count(ocsvm["count"])  # validated whatever the method
+    check_int(ocsvm["seed"], "seed", minimum=0)
+    if ocsvm["sampling"] not in SAMPLING:
+        raise InvalidInputError(f"unknown sampling {ocsvm['sampling']!r}; valid: {', '.join(SAMPLING)}")
     check_bool(strict, "strict")
     c_name, s_name = estimators.resolve(method, center, scale)
     uses_ocsvm = "ocsvm" in (c_name, s_name)
+    if given and not uses_ocsvm and _rotation_name(rotation) != "ocsvm":
+        raise InvalidInputError(
+            f"{', '.join(given)} {'are options' if len(given) > 1 else 'is an option'} of the ocsvm estimator, "
+            f"which the chosen estimators (center {c_name}, scale {s_name}) do not use (pass method='ocsvm', "
+            f"center or scale 'ocsvm', or rotation='ocsvm'; or leave {'them' if len(given) > 1 else 'it'} out)")
     unknown = sorted(set(options) - set(PoseConfig.FLAT))
     if unknown:
         raise InvalidInputError(
@@ -99,11 +119,11 @@ def check_arguments(gamma=OCSVM.gamma, nu=OCSVM.nu, count=OCSVM.count, seed=OCSV
 
 def normalize_mesh(
     mesh_or_path,
-    gamma=OCSVM.gamma,
-    nu=OCSVM.nu,
-    count=OCSVM.count,
-    seed=OCSVM.seed,
-    sampling="even",
+    gamma=None,
+    nu=None,
+    count=None,
+    seed=None,
+    sampling=None,
     method=None,
     *,
     center=None,
@@ -124,6 +144,9 @@ def normalize_mesh(
         holes or stray parts, and point clouds; the most consistent under articulation, see
         ``docs/estimators.md``). ``"ocsvm"`` is the paper's method: ``count`` surface samples
         (``seed``, ``sampling``) -> :func:`jaxpose.normalize` (``gamma``, ``nu``, ``options``).
+      gamma, nu, count, seed, sampling: the OCSVM's (center, scale or ``rotation="ocsvm"``); None:
+        the defaults of :data:`jaxpose.config.OCSVM`. Given when no OCSVM is asked for, they are
+        refused (InvalidInputError), not ignored.
       center, scale: choose either part independently (``center="solid_centroid",
         scale="sqrt_area"``; names in :data:`jaxpose.pose.estimators.CENTERS` / ``SCALES``).
       strict: closed-surface estimators raise on an open mesh instead of warning.
@@ -157,13 +180,13 @@ def normalize_mesh(
     c_name, s_name, extra, options, frame_name = check_arguments(
         gamma, nu, count, seed, sampling, method, center=center, scale=scale, strict=strict, power=power,
         resolution=resolution, rotation=rotation, **options)
+    ocsvm = ocsvm_arguments(gamma, nu, count, seed, sampling)
     geometry = load(mesh_or_path)
-    pose = estimators.estimate(geometry, method, center=center, scale=scale, strict=strict, gamma=gamma, nu=nu,
-                               count=count, seed=seed, sampling=sampling, ocsvm=options, **extra)
+    pose = estimators.estimate(geometry, method, center=center, scale=scale, strict=strict, ocsvm=options,
+                               **ocsvm, **extra)
     if frame_name is not None:
         found = frame_of(estimators.centered(geometry)[0], frame_name, resolution=extra.get("resolution"),
-                         ocsvm={"gamma": gamma, "nu": nu, "count": count, "seed": seed, "sampling": sampling,
-                                "options": options})
+                         ocsvm={**ocsvm, "options": options})
         pose = pose._replace(ambiguity=np.asarray(found.ambiguity, np.float64),
                              rotation=np.asarray(found.rotation, np.float64))
     return _transformed(geometry, pose), pose

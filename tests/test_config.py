@@ -105,9 +105,14 @@ def test_every_entry_point_reads_the_one_default():
     from jaxpose.evaluation import evaluate
     from jaxpose.pose import estimators, sensitivity
 
-    for fn in (jaxpose.normalize_mesh, mesh.check_arguments, evaluate, sensitivity.pose_sensitivity):
+    for fn in (evaluate, sensitivity.pose_sensitivity):
         params = inspect.signature(fn).parameters
         assert (params["gamma"].default, params["nu"].default) == (OCSVM.gamma, OCSVM.nu), fn.__name__
+    # normalize_mesh leaves the OCSVM's options None (refused where nothing runs the OCSVM); unset, config's
+    for fn in (jaxpose.normalize_mesh, mesh.check_arguments):
+        params = inspect.signature(fn).parameters
+        assert all(params[name].default is None for name in mesh.OCSVM_ONLY), fn.__name__
+    assert mesh.ocsvm_arguments() == {name: getattr(OCSVM, name) for name in mesh.OCSVM_ONLY}
     # normalize / normalize_batch take both methods' parameters as keywords left unset (an option of the
     # other method is refused by name); unset, each method's is config's
     from jaxpose.config import PoseConfig, RobustConfig

@@ -1,6 +1,6 @@
 """Inputs at the public boundary that once hung or were accepted silently: a named pipe with no
-writer, ... Each ends in a clear InvalidInputError naming the file (or a correct result), never a
-hang."""
+writer, the OCSVM's options given to an estimator that ignores them. Each ends in a clear
+InvalidInputError naming the file or the option (or a correct result), never a hang."""
 from __future__ import annotations
 
 import os
@@ -13,6 +13,7 @@ import pytest
 import trimesh
 
 import jaxpose
+from jaxpose.batch.task import NormalizeOptions
 from jaxpose.errors import InvalidInputError
 from jaxpose.io import mesh as io_mesh
 
@@ -83,3 +84,34 @@ def test_a_named_pipe_whose_writer_comes_late_is_read_whole(tmp_path, monkeypatc
     assert outcome == "returned", value
     np.testing.assert_array_equal(np.asarray(value.vertices), np.asarray(box.vertices))
     np.testing.assert_array_equal(np.asarray(value.faces), np.asarray(box.faces))
+
+
+# --------------------------------------------------------------------------- the OCSVM's options
+# gamma, nu, count, seed, sampling are read by the OCSVM alone (jaxpose.pose.estimators and the
+# ocsvm frame); the command line refuses them with any other estimator (tests/test_cli_habits.py)
+@pytest.mark.parametrize("kwargs,named", [
+    (dict(method="robust", gamma=5.0), "gamma"),
+    (dict(gamma=5.0, nu=0.3), "gamma, nu"),  # the default method, robust
+    (dict(method="bbox", count=100), "count"),
+    (dict(center="surface_centroid", scale="sqrt_area", seed=3, sampling="random"), "seed, sampling"),
+])
+def test_options_of_the_ocsvm_are_refused_by_the_estimators_that_ignore_them(kwargs, named):
+    box = trimesh.creation.box(extents=(2.0, 1.0, 0.5))
+    with pytest.raises(InvalidInputError, match=f"^{named} (is an option|are options) of the ocsvm estimator"):
+        jaxpose.normalize_mesh(box, **kwargs)
+    with pytest.raises(InvalidInputError, match=f"^{named} (is an option|are options) of the ocsvm estimator"):
+        NormalizeOptions(**kwargs)  # the dataset command's options: the same refusal
+
+
+def test_options_of_the_ocsvm_are_taken_where_the_ocsvm_reads_them():
+    """Where an OCSVM is asked for (here only as the frame), its options pass; without them the
+    defaults hold and the estimator named runs (a box's bbox center: its translation)."""
+    from jaxpose.config import OCSVM
+    from jaxpose.mesh import check_arguments
+
+    box = trimesh.creation.box(extents=(2.0, 1.0, 0.5))
+    box.apply_translation([1.0, -2.0, 3.0])
+    check_arguments(method="bbox", rotation="ocsvm", gamma=5.0, count=100)  # no refusal
+    _, pose = jaxpose.normalize_mesh(box, method="bbox")
+    np.testing.assert_allclose(np.asarray(pose.center), [1.0, -2.0, 3.0], atol=1e-12)
+    assert NormalizeOptions(method="bbox").gamma == OCSVM.gamma

@@ -89,9 +89,9 @@ def test_normalize_mesh_refuses_a_count_beyond_memory():
     work (it was a raw MemoryError from the sampler); the largest count allowed still passes."""
     from jaxpose.mesh import check_arguments
 
-    check_arguments(count=sample.check_count(MEMORY_BUDGET // sample.SAMPLE_BYTES))
+    check_arguments(count=sample.check_count(MEMORY_BUDGET // sample.SAMPLE_BYTES), method="ocsvm")
     with pytest.raises(InvalidInputError, match="count=.* the limit is"):
-        check_arguments(count=MEMORY_BUDGET // sample.SAMPLE_BYTES + 1)
+        check_arguments(count=MEMORY_BUDGET // sample.SAMPLE_BYTES + 1, method="ocsvm")
 
 
 def test_lattice_points_cover_the_faces_and_move_with_the_mesh():

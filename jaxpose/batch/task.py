@@ -32,7 +32,9 @@ class NormalizeOptions:
     by the same function as :func:`jaxpose.normalize_mesh` (:func:`jaxpose.mesh.check_arguments`):
     names (``method``, ``center``, ``scale``, ``sampling``, ``rotation``) against the known ones,
     ``gamma`` > 0, ``nu`` in [0, 1], ``count`` >= 4, ``seed`` >= 0, ``resolution`` only for the
-    estimators that have one (robust, ocsvm) and within the memory budget of their grid.
+    estimators that have one (robust, ocsvm) and within the memory budget of their grid; ``gamma``,
+    ``nu``, ``count``, ``seed``, ``sampling`` other than their defaults only where the OCSVM is used
+    (center, scale or rotation), as :func:`jaxpose.normalize_mesh` refuses them.
 
     Raises:
       InvalidInputError: a value out of range or a name not known, with the allowed ones.
@@ -79,10 +81,14 @@ class NormalizeOptions:
         return "ocsvm" in (*resolve(self.method, self.center, self.scale), self.rotation_method)
 
     def mesh_arguments(self) -> dict:
-        """The keyword arguments of :func:`jaxpose.normalize_mesh` these options stand for."""
-        return dict(method=self.method, center=self.center, scale=self.scale, gamma=self.gamma, nu=self.nu,
-                    count=self.count, seed=self.seed, sampling=self.sampling, strict=self.strict,
-                    resolution=self.resolution, rotation=self.rotation)
+        """The keyword arguments of :func:`jaxpose.normalize_mesh` these options stand for (the
+        OCSVM's own where it is used or where they differ from their defaults)."""
+        from ..mesh import OCSVM_ONLY
+
+        ocsvm = {name: getattr(self, name) for name in OCSVM_ONLY
+                 if self.uses_jax or _differs(getattr(self, name), getattr(OCSVM, name))}
+        return dict(method=self.method, center=self.center, scale=self.scale, strict=self.strict,
+                    resolution=self.resolution, rotation=self.rotation, **ocsvm)
 
     def columns(self) -> dict:
         """The table columns these options fill (method names and parameters)."""
@@ -99,6 +105,14 @@ class NormalizeOptions:
     def fingerprint(self, file_format=None) -> str:
         """A string equal for equal options (and output format): what a rerun compares."""
         return json.dumps({**dataclasses.asdict(self), "format": file_format}, sort_keys=True)
+
+
+def _differs(value, default) -> bool:
+    """Whether an option's value is not its default (a value that cannot be compared is)."""
+    try:
+        return bool(value != default)
+    except (TypeError, ValueError):  # an array: its check says what is wrong
+        return True
 
 
 # --------------------------------------------------------------------------- one file

@@ -135,9 +135,15 @@ def check_bool(value, name):
 
 
 def check_real(value, name, minimum, strict=False):
-    """``value`` as a finite float >= ``minimum`` (> with ``strict``); bools, non-numbers, NaN and
-    inf refused by name."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Real, np.floating, np.integer)) \
-            or not np.isfinite(float(value)) or not (float(value) > minimum if strict else float(value) >= minimum):
-        raise InvalidInputError(f"{name} must be a finite number {'>' if strict else '>='} {minimum:g}, got {value!r}")
-    return float(value)
+    """``value`` as a finite float >= ``minimum`` (> with ``strict``); bools, non-numbers, NaN, inf
+    and ints beyond a float's range refused by name."""
+    number, shown = None, None
+    if not isinstance(value, (bool, np.bool_)) and isinstance(value, (numbers.Real, np.floating, np.integer)):
+        try:
+            number = float(value)
+        except OverflowError:  # an int no float holds: not a finite number (nor one to print whole)
+            shown = f"an int of {int(value).bit_length()} bits"
+    if number is None or not np.isfinite(number) or not (number > minimum if strict else number >= minimum):
+        raise InvalidInputError(f"{name} must be a finite number {'>' if strict else '>='} {minimum:g}, "
+                                f"got {shown or repr(value)}")
+    return number

@@ -115,3 +115,32 @@ def test_options_of_the_ocsvm_are_taken_where_the_ocsvm_reads_them():
     _, pose = jaxpose.normalize_mesh(box, method="bbox")
     np.testing.assert_allclose(np.asarray(pose.center), [1.0, -2.0, 3.0], atol=1e-12)
     assert NormalizeOptions(method="bbox").gamma == OCSVM.gamma
+
+
+# --------------------------------------------------------------------------- real numbers, one check
+HUGE = 10**400  # an int no float holds
+
+
+def test_an_int_beyond_a_floats_range_is_refused_by_name(tmp_path):
+    """_validate.check_real behind power (normalize_mesh) and timeout (the dataset run): an int
+    beyond float64's range is no finite number (it was a raw OverflowError from float())."""
+    assert HUGE > sys.float_info.max
+    box = trimesh.creation.box(extents=(2.0, 1.0, 0.5))
+    with pytest.raises(InvalidInputError, match="^power must be a finite number >= 0, got an int of 1329 bits$"):
+        jaxpose.normalize_mesh(box, power=HUGE)
+    from jaxpose.batch import batch
+
+    box.export(tmp_path / "box.ply")
+    with pytest.raises(InvalidInputError, match=r"^timeout \(seconds\) must be a finite number > 0"):
+        batch.run_batch([tmp_path / "box.ply"], tmp_path / "out", timeout=HUGE, progress=False)
+    assert not (tmp_path / "out").exists()  # refused before any work
+
+
+@pytest.mark.parametrize("bad", ["2", True, HUGE, float("nan")], ids=["str", "bool", "huge_int", "nan"])
+def test_the_depth_weighted_solid_checks_its_power_as_every_power(bad):
+    """voxels.depth_weighted_solid had its own check: a string was a raw TypeError from
+    np.isfinite, True passed as the power 1."""
+    from jaxpose.occupancy import voxels
+
+    with pytest.raises(InvalidInputError, match="^power must be a finite number >= 0"):
+        voxels.depth_weighted_solid(trimesh.creation.box(), power=bad)

@@ -62,7 +62,7 @@ def test_bad_input_is_refused_clearly():
         with pytest.raises(InvalidInputError, match="voxels must be an int >= 8"):
             voxels.filled_voxels(box, voxels=bad)
     for bad in (-1.0, float("nan"), float("inf")):
-        with pytest.raises(InvalidInputError, match="power must be finite and >= 0"):
+        with pytest.raises(InvalidInputError, match="power must be a finite number >= 0"):
             voxels.depth_weighted_solid(box, power=bad)
     holed = trimesh.Trimesh(box.vertices, box.faces[:-1], process=False)
     with pytest.warns(OpenMeshWarning, match="depth_weighted_solid: the mesh is not closed"):

@@ -30,6 +30,7 @@ import time
 from pathlib import Path
 from typing import NamedTuple
 
+from .._validate import check_real
 from ..errors import InvalidInputError
 from .task import FileResult, NormalizeOptions, normalize_file, one_line, sha256_file, warm_up
 
@@ -214,11 +215,9 @@ def _check_run(workers, scheduler, dask_local, timeout=None):
     from .workers import default_workers
 
     if timeout is not None:
-        if isinstance(timeout, bool) or not isinstance(timeout, numbers.Real) or not 0 < timeout < float("inf"):
-            raise InvalidInputError(f"timeout must be a number of seconds > 0, got {timeout!r}")
+        timeout = check_real(timeout, "timeout (seconds)", 0, strict=True)
         if scheduler is not None or dask_local is not None:
             raise InvalidInputError("timeout (--timeout) is for local runs: Dask cannot stop a running task")
-        timeout = float(timeout)
     if scheduler is not None and dask_local is not None:
         raise InvalidInputError("give either scheduler (--scheduler) or dask_local (--dask-local), not both")
     if scheduler is not None or dask_local is not None:

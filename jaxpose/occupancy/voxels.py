@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validate import InvalidInputError
+from .._validate import InvalidInputError, check_real
 from ..geometry import require_faces, warn_if_open
 from ..host import anchor
 
@@ -44,10 +44,9 @@ def depth_weighted_solid(mesh_or_points, power=2.0, voxels=DEPTH_VOXELS, strict=
     Returns:
       center : (3,) float64.
     """
-    if not (np.isfinite(power) and power >= 0):
-        raise InvalidInputError(f"power must be finite and >= 0, got {power!r}")
+    power = check_real(power, "power", 0)
     x, d = filled_voxels(mesh_or_points, voxels, strict)
-    return weighted_centroid(x, d ** float(power))
+    return weighted_centroid(x, d ** power)
 
 
 def weighted_centroid(x, w):

@@ -243,11 +243,9 @@ def _options(method, config, given, rotation):
 def _check_power(power):
     if _validate.is_traced(power):
         return power
-    arr = np.asarray(power)
-    if isinstance(power, bool) or arr.ndim != 0 or not (np.issubdtype(arr.dtype, np.floating)
-                                                        or np.issubdtype(arr.dtype, np.integer)) \
-            or not (np.isfinite(float(arr)) and float(arr) >= 0):
-        raise _validate.InvalidInputError(f"power must be a finite number >= 0, got {power!r}")
+    # a () array of reals (NumPy or a concrete JAX array) is checked as its number, and returned as it is
+    real = getattr(power, "shape", None) == () and getattr(getattr(power, "dtype", None), "kind", "") in ("f", "i", "u")
+    _validate.check_real(np.asarray(power).item() if real else power, "power", 0)
     return power
 
 

@@ -1,9 +1,11 @@
 """Inputs at the public boundary that once hung or were accepted silently: a named pipe with no
-writer, the OCSVM's options given to an estimator that ignores them. Each ends in a clear
-InvalidInputError naming the file or the option (or a correct result), never a hang."""
+writer, the OCSVM's options given to an estimator that ignores them, numbers beyond a float's
+range, truncated PLY and OBJ files. Each ends in a clear InvalidInputError naming the file or the
+option (or a correct result), never a hang."""
 from __future__ import annotations
 
 import os
+import re
 import sys
 import threading
 import time
@@ -144,3 +146,48 @@ def test_the_depth_weighted_solid_checks_its_power_as_every_power(bad):
 
     with pytest.raises(InvalidInputError, match="^power must be a finite number >= 0"):
         voxels.depth_weighted_solid(trimesh.creation.box(), power=bad)
+
+
+# --------------------------------------------------------------------------- truncated files
+def cloud_ply(encoding):
+    points = np.random.default_rng(0).normal(size=(30, 3))
+    return trimesh.PointCloud(points).export(file_type="ply", encoding=encoding)
+
+
+def trimesh_reads(path):
+    """What trimesh makes of a file without a word (the partial read the fix refuses)."""
+    return trimesh.load(path, process=False)
+
+
+@pytest.mark.parametrize("case", ["ascii_lines", "binary_faces"])
+def test_a_truncated_ply_file_is_refused_naming_it(tmp_path, case):
+    """An ASCII point cloud short of lines (its header says 30 vertices), a binary mesh cut where
+    its faces begin: trimesh reads a point cloud of what is there, jaxpose refuses the file."""
+    if case == "ascii_lines":
+        data = cloud_ply("ascii")
+        cut = data[:data.index(b"end_header\n") + 11]
+        cut += b"".join(data[len(cut):].splitlines(keepends=True)[:12])  # 12 whole vertex lines of 30
+    else:
+        box = trimesh.creation.box()
+        data = box.export(file_type="ply", encoding="binary")
+        body = data.index(b"end_header\n") + 11
+        cut = data[:body + len(box.vertices) * 3 * 4]  # the vertices (3 float32 each), no face
+    path = tmp_path / "cut.ply"
+    path.write_bytes(cut)
+    partial = trimesh_reads(path)
+    assert isinstance(partial, trimesh.PointCloud) and len(partial.vertices) in (12, 8)  # read in part
+    with pytest.raises(InvalidInputError, match=f"^{re.escape(str(path))}: cannot read PLY file: truncated"):
+        jaxpose.mesh.load(path)
+
+
+@pytest.mark.parametrize("tail,what", [("f 1 3", "face 3 .* fewer than 3 corners"), ("f", "a line 'f' without values"),
+                                      ("v 1 1", "vertex 5 has fewer than 3 coordinates")])
+def test_an_obj_file_cut_within_its_last_line_is_refused_naming_it(tmp_path, tail, what):
+    """trimesh drops a face of fewer than 3 corners, or a vertex of fewer than 3 values, without a
+    word; such a line is not OBJ (a face has 3 corners or more, a vertex x y z [w]): most often a
+    truncated file's last line."""
+    path = tmp_path / "cut.obj"
+    path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\n" + tail)
+    assert len(trimesh_reads(path).faces) == 2  # the whole faces only
+    with pytest.raises(InvalidInputError, match=f"^{re.escape(str(path))}: cannot read OBJ file: {what}"):
+        jaxpose.mesh.load(path)

@@ -53,9 +53,11 @@ def read(data: bytes, file_type: str) -> Loaded:
       Unsupported: no fast reader for the format, or one that cannot reproduce trimesh exactly.
       InvalidInputError: a file that is certainly broken, where trimesh would read part of it
         (or a wrong mesh) without a word: an OFF or ASCII PLY file with fewer vertex or face lines
-        than its counts say, a face line with fewer indices than its count, a PLY element with a
-        negative count, an OBJ face referencing vertex 0 (OBJ counts from 1) (the message names
-        no file: the caller's does).
+        than its counts say, a binary PLY file with fewer bytes than its elements need (a PLY
+        point cloud too), a face line with fewer indices than its count, a PLY element with a
+        negative count, an OBJ face referencing vertex 0 (OBJ counts from 1), an OBJ face of fewer
+        than 3 corners or vertex of fewer than 3 values (the message names no file: the caller's
+        does).
     """
     reader = READERS.get(file_type)
     if reader is None:

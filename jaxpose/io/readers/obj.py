@@ -21,12 +21,19 @@ def read_obj(data: bytes) -> Loaded:
 
     Raises:
       Unsupported: anything this reader does not reproduce exactly (read it with trimesh).
-      InvalidInputError: a face referencing index 0 (trimesh reads it as the last vertex).
+      InvalidInputError: a face referencing index 0 (trimesh reads it as the last vertex); a vertex
+        line with fewer than 3 values or a face line with fewer than 3 corners (trimesh drops such a
+        line without a word: most often a truncated file's last line). A file cut at the end of a
+        line, or within a number, reads as a valid OBJ file: no reader can tell.
     """
     text = _text(data)
     text = "\n{}\n".format(text.strip().replace("\r\n", "\n")).replace("\\\n", "")
     if "usemtl" in text or "+e" in text or "-e" in text or "\r" in text:
         raise Unsupported("materials, or text trimesh's OBJ loader rewrites")
+    bare = re.search(r"^[vf][ \t]*$", text, re.M)
+    if bare:
+        raise InvalidInputError(f"cannot read OBJ file: a line {bare.group().strip()!r} without values: a truncated or "
+                                "malformed file")
     lines = text.split("\n")
     keyed = {}
     for key in ("v", "vt", "vn", "f"):
@@ -34,15 +41,18 @@ def read_obj(data: bytes) -> Loaded:
         keyed[key] = [line[len(prefix):] for line in lines if line.startswith(prefix)]
     if sum(1 for line in lines if line[:1] == "f") != len(keyed["f"]):
         raise Unsupported("a line starting with f that is not a face")
+    parsed = {key: _tokens(keyed[key]) for key in ("v", "vt", "vn") if keyed[key]}
+    if "v" in parsed and np.any(parsed["v"][1] < 3):  # (a point cloud's too: checked before the next line)
+        at = int(np.argmax(parsed["v"][1] < 3))
+        raise InvalidInputError(f"cannot read OBJ file: vertex {at + 1} has fewer than 3 coordinates "
+                                f"('v {keyed['v'][at].strip()}'): a truncated or malformed file")
     if not keyed["v"] or not keyed["f"]:
         raise Unsupported("no vertices or no faces")
     arrays = {}
-    for key in ("v", "vt", "vn"):
-        if keyed[key]:
-            tokens, counts = _tokens(keyed[key])
-            if np.any(counts != counts[0]) or counts[0] == 0:
-                raise Unsupported(f"{key} lines of several lengths")
-            arrays[key] = _floats(tokens).reshape(len(counts), int(counts[0]))
+    for key, (tokens, counts) in parsed.items():
+        if np.any(counts != counts[0]) or counts[0] == 0:
+            raise Unsupported(f"{key} lines of several lengths")
+        arrays[key] = _floats(tokens).reshape(len(counts), int(counts[0]))
     v = arrays["v"]
     if v.shape[1] < 3:
         raise Unsupported("vertices with fewer than 3 values")
@@ -54,7 +64,9 @@ def read_obj(data: bytes) -> Loaded:
     faces_lines = [line.strip() for line in keyed["f"]]
     references, refs = _tokens(faces_lines)  # refs: corners per face
     if np.any(refs < 3):
-        raise Unsupported("a face with fewer than 3 corners")
+        at = int(np.argmax(refs < 3))
+        raise InvalidInputError(f"cannot read OBJ file: face {at + 1} ('f {faces_lines[at]}') has fewer than 3 "
+                                "corners: a truncated or malformed file")
     form = references[0].count("/"), "//" in references[0]  # v, v/vt, v//vn, v/vt/vn
     joined = " ".join(references)
     if form not in _OBJ_FORMS or not _OBJ_FORMS[form].fullmatch(joined):

@@ -80,6 +80,28 @@ def _ply_check(elements):
         raise Unsupported("no vertices or no faces")
 
 
+def _ply_length(data, start, elements, ascii):
+    """Refuse a file that cannot hold what its header declares (any elements: checked before the
+    elements this reader reads, as trimesh reads a short file's first part, a point cloud's or a
+    mesh's vertices without their faces, without a word). Returns an ASCII file's lines (None for
+    a binary one)."""
+    counts = {name: count for name, (count, _) in elements.items()}
+    declared = ", ".join(f"{count} {name}" for name, count in counts.items())
+    if ascii:  # trimesh reads one element per line
+        lines = _text(data[start:]).splitlines()
+        if len(lines) < sum(counts.values()):
+            raise InvalidInputError(f"cannot read PLY file: truncated, {len(lines)} lines of the "
+                                    f"{sum(counts.values())} ({declared}) its header says")
+        return lines
+    # each element at least its scalars and its lists' counts (a list may be empty)
+    least = sum(count * sum(np.dtype(kind if size is None else size).itemsize for _, kind, size in props)
+                for count, props in elements.values())
+    if len(data) - start < least:
+        raise InvalidInputError(f"cannot read PLY file: truncated, {len(data) - start} bytes after the header, fewer "
+                                f"than the {least} its {declared} elements need at the least")
+    return None
+
+
 def _ply_extras(vertex, face):
     """trimesh's vertex normals and colors of the columns {name: (n,) array}."""
     extras = {}
@@ -97,14 +119,16 @@ def read_ply(data: bytes) -> Loaded:
 
     Raises:
       Unsupported: anything this reader does not reproduce exactly (read it with trimesh).
-      InvalidInputError: an ASCII file with fewer lines than its header's counts, or a face line
-        with fewer values than its count, or a negative element count (trimesh reads part of such
-        a file without a word).
+      InvalidInputError: a file shorter than its header's counts (an ASCII file with fewer lines,
+        a binary one with fewer bytes than its elements need at the least; whatever its elements:
+        a point cloud's too), or a face line with fewer values than its count, or a negative
+        element count (trimesh reads part of such a file without a word).
     """
     elements, ascii, endian, start = _ply_header(data)
+    lines = _ply_length(data, start, elements, ascii)
     _ply_check(elements)
     if ascii:
-        vertex, face, flat, counts = _ply_ascii(data[start:], elements, endian)
+        vertex, face, flat, counts = _ply_ascii(lines, elements, endian)
     else:
         vertex, face, flat, counts = _ply_binary(data, start, elements, endian)
     vertices = np.column_stack([vertex[k] for k in "xyz"])
@@ -137,12 +161,9 @@ def _ply_binary(data, start, elements, endian):
             np.full(nf, size, np.int64))
 
 
-def _ply_ascii(data, elements, endian):
-    lines = _text(data).splitlines()
+def _ply_ascii(lines, elements, endian):
+    """The columns of an ASCII file's `lines` (as many as the header's counts at least: _ply_length)."""
     (nv, vprops), (nf, fprops) = elements["vertex"], elements["face"]
-    if len(lines) < nv + nf:  # trimesh reads one element per line: it would read part of the file
-        raise InvalidInputError(f"cannot read PLY file: truncated, {len(lines)} lines of the {nv + nf} ({nv} vertex, "
-                                f"{nf} face) its header says")
     block = lines[:nv]
     tokens, counts = _tokens(block)
     if np.any(counts != len(vprops)):

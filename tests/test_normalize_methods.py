@@ -260,3 +260,26 @@ def test_status_messages_name_the_new_reasons():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert jaxpose.Status(9) is Status.FAR_FROM_ORIGIN
+
+
+def test_traced_robust_input_whose_volume_float32_cannot_hold_is_flagged():
+    """A traced float32 cloud scaled by 1e-12 or 1e14 has volumes (in its units) that float32
+    cannot hold: a voxel's underflows the smallest normal float32, the body's overflows the
+    largest (the factor 1e20 overflows even the squares of its coordinates). The concrete path
+    (rescaled on the host in float64) finds a valid pose on the same points; under jit the pose is
+    OUT_OF_RANGE, not EMPTY_SOLID ("the points enclose no volume") or NOT_FINITE as it was. The
+    program of test_traced_input_far_from_origin_is_flagged."""
+    pts = sphere_with_arm(1024, seed=5)
+    f = _jitted("robust")
+    tiny, big = float(np.finfo(np.float32).tiny), float(np.finfo(np.float32).max)
+    for factor in (1e-12, 1e14, 1e20):
+        x = (pts * factor).astype(np.float32)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            concrete = jaxpose.normalize(x, **SMALL)  # on the host in float64: a valid pose
+        assert bool(concrete.valid)
+        volume = float(concrete.scale) ** 3  # the body's volume, float64
+        assert volume / SMALL["resolution"] ** 3 < tiny or volume > big  # the fact: no float32 holds them
+        traced = f(jnp.asarray(x))
+        assert not bool(traced.valid) and int(traced.status) == Status.OUT_OF_RANGE, (factor, int(traced.status))
+    assert "dtype computes a volume" in Status.OUT_OF_RANGE.message

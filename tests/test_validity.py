@@ -28,7 +28,7 @@ def test_helpers_match_scipy():
 
 
 def test_status_codes_and_messages():
-    assert [int(s) for s in Status] == list(range(12)) and Status(0) is Status.OK
+    assert [int(s) for s in Status] == list(range(13)) and Status(0) is Status.OK
     assert "too sparse" in status_message(np.int32(3)) and "does not resolve" in Status.UNRESOLVED_GRID.message
     assert "collapsed" in Status.COLLAPSED_REGION.message and "no extent" in Status.DEGENERATE_INPUT.message
     pose = jaxpose.Pose.from_center_scale(np.zeros(3), 1.0)

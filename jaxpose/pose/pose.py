@@ -161,8 +161,10 @@ def robust_pipeline(points, mask, queries, query_mask, power, config: RobustConf
       than its surface layer: an open sheet, a scan of one side), SPARSE_CLOUD when the solid spans
       fewer than ``MIN_POINT_VOXELS`` voxels (too sparse for a closing), SEPARATE_BODIES when a
       separate part of the points holds at least ``SECOND_BODY`` of the largest's occupied voxels
-      (:func:`jaxpose.occupancy.points.linked_parts`), DEGENERATE_INPUT, NOT_FINITE,
-      FAR_FROM_ORIGIN (see :mod:`jaxpose.pose.validity`); ``count`` the points used.
+      (:func:`jaxpose.occupancy.points.linked_parts`), OUT_OF_RANGE when the points' size is beyond
+      what their dtype computes a volume in (the solid has voxels, its volume in the points' units
+      under- or overflows: in float32 extents outside about 1e-11 ... 1e12), DEGENERATE_INPUT,
+      NOT_FINITE, FAR_FROM_ORIGIN (see :mod:`jaxpose.pose.validity`); ``count`` the points used.
     """
     n = points.shape[0]
     mask = jnp.ones((n,), bool) if mask is None else jnp.asarray(mask, bool)
@@ -188,9 +190,13 @@ def robust_pipeline(points, mask, queries, query_mask, power, config: RobustConf
     across = jnp.max(jnp.stack([jnp.max(jnp.where(c, i, -1)) - jnp.min(jnp.where(c, i, c.shape[0])) + 1
                                 for c, i in zip(cells, idx)]))
     several = sol.second_part >= SECOND_BODY
-    status = jnp.select([bad_power, degenerate, ~(volume > 0) | shallow, across < MIN_POINT_VOXELS, several, ~finite],
+    # voxels, but no volume the dtype holds: the points' size cubed under- or overflows it (float32:
+    # extents beyond about 1e-11 ... 1e12; a NaN pitch where their squares overflow)
+    out_of_range = (mom.volume > 0) & ~(jnp.isfinite(volume) & (volume > 0))
+    status = jnp.select([bad_power, degenerate, out_of_range, ~(volume > 0) | shallow, across < MIN_POINT_VOXELS,
+                         several, ~finite],
                         [jnp.int32(int(c)) for c in (Status.BAD_PARAMETERS, Status.DEGENERATE_INPUT,
-                                                      Status.EMPTY_SOLID, Status.SPARSE_CLOUD,
+                                                      Status.OUT_OF_RANGE, Status.EMPTY_SOLID, Status.SPARSE_CLOUD,
                                                       Status.SEPARATE_BODIES, Status.NOT_FINITE)],
                         jnp.int32(0))
     pose = Pose(center, scale, jnp.asarray(True), status == 0, sol.radius, None, None, status,
@@ -300,7 +306,9 @@ def normalize(x, method: str = DEFAULT_METHOD, *, power=_UNSET, gamma=_UNSET, nu
       NumPy (mapped back on the host, every digit kept far from the origin); for a traced input,
       JAX arrays. ``Pose.valid`` / ``Pose.status`` say whether to trust it
       (:mod:`jaxpose.pose.validity`; a traced input too far from the origin for its dtype is
-      ``FAR_FROM_ORIGIN``).
+      ``FAR_FROM_ORIGIN``; robust, one too small or too large for its dtype to hold its volume,
+      in float32 extents outside about 1e-11 ... 1e12, ``OUT_OF_RANGE``: a concrete input is
+      rescaled on the host and has no such limit).
 
     Pure JAX in (x, power) or (x, gamma, nu): jittable (options static), vmappable. Derivatives:
     robust, in ``power`` (exact) and in the points through the grid's position and pitch (the

@@ -51,6 +51,7 @@ class Status(enum.IntEnum):
     FAR_FROM_ORIGIN = 9
     SPARSE_CLOUD = 10
     SEPARATE_BODIES = 11
+    OUT_OF_RANGE = 12
 
     @property
     def message(self) -> str:
@@ -85,6 +86,9 @@ _MESSAGES = {
                              "closing radius), so no single body sets the pose; normalize each body on its own, or, if it is "
                              "one body sampled too sparsely for its parts to link, sample its surface densely or use the "
                              "vertex_mean or ocsvm method"),
+    Status.OUT_OF_RANGE: ("the points' size is beyond what their dtype computes a volume in (its cube under- or "
+                          "overflows: in float32, extents outside about 1e-11 ... 1e12): call with a concrete array "
+                          "(rescaled on the host in float64), rescale the points first, or enable jax_enable_x64"),
     Status.COLLAPSED_REGION: (f"the region collapsed: its mean distance is below {MIN_SPREAD:g} of the samples' "
                               "median distance from its centroid (nu near 1, or too few samples)"),
 }

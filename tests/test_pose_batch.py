@@ -168,11 +168,14 @@ def test_robust_map_in_chains_equals_one_chain(monkeypatch):
     the robust poses are identical. Two chains over three sets are uneven (two objects, then one):
     both a chain that loops and one of a single object are checked (each chain is one more copy
     of the pipeline to compile: three chains cost a copy more and checked one-object chains only)."""
-    sets = _sets()[:3]
+    # three clouds of 897..1024 points (1024 rows) at resolution 48 / coarse 24: the two-chain
+    # program is test_normalize_methods.py's three-cloud map (the sizes and grid are incidental)
+    sets = [sphere_with_arm(1024, seed=1), box_surface(960, seed=2) + np.array([3.0, -1.0, 0.5]),
+            0.1 * sphere_with_arm(1000, seed=4)]
     monkeypatch.setattr(pose_module, "_cores", lambda: 1)
-    one = jaxpose.normalize_batch(sets, strategy="map", resolution=32, coarse=16)
+    one = jaxpose.normalize_batch(sets, strategy="map", resolution=48, coarse=24)
     monkeypatch.setattr(pose_module, "_cores", lambda: 2)
-    two = jaxpose.normalize_batch(sets, strategy="map", resolution=32, coarse=16)
+    two = jaxpose.normalize_batch(sets, strategy="map", resolution=48, coarse=24)
     assert np.array_equal(one.center, two.center) and np.array_equal(one.scale, two.scale)
     assert np.array_equal(np.asarray(one.status), np.asarray(two.status))
 

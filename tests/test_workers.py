@@ -339,6 +339,35 @@ def test_head_start_runs_the_first_task_here_and_the_rest_in_workers():
         executor.close()
 
 
+def test_close_with_kill_does_not_wait_for_the_head_start_thread():
+    """A Ctrl-C that lands inside one of the head future's methods (done(), the pool's wait) can
+    leave that future's lock held by the caller; the head thread, setting its result, then waits
+    for it, and a close that joins the thread waits for ever (seen once in a dataset run: its
+    main thread in ``ThreadPoolExecutor.shutdown``, the head thread in ``Future.set_result``).
+    close(kill=True) must return; a plain close still joins (the caller's lock released first)."""
+    import threading
+
+    started = threading.Event()
+
+    def task():
+        started.set()
+        time.sleep(0.5)
+        return os.getpid()
+
+    executor = LocalExecutor(2, head_start=True)
+    future = executor.submit(task)
+    assert started.wait(30)
+    future._condition.acquire()  # the state an interrupt leaves: the caller holds the future's lock
+    closer = threading.Thread(target=executor.close, kwargs={"kill": True}, daemon=True)
+    closer.start()
+    closer.join(20)
+    hung = closer.is_alive()
+    future._condition.release()  # the head thread now sets its result and ends
+    executor._head.shutdown(wait=True)
+    assert not hung, "close(kill=True) waited for the head start's thread"
+    assert future.result(timeout=30) == os.getpid()
+
+
 def test_cli_head_start_gives_the_workers_results(tmp_path):
     """`jaxpose normalize DIR --workers 2`: the first file is done by the command's own process (its
     pid in the table) while the workers start, with the same numbers as a run done by workers only

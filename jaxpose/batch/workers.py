@@ -118,11 +118,16 @@ class LocalExecutor:
 
     def close(self, kill=False):
         """Stop; with `kill`, drop queued tasks and kill running worker processes at once (a thread
-        cannot be killed: it finishes its task)."""
+        cannot be killed: it finishes its task).
+
+        With `kill` the head start's thread is not waited for: it only computes (the caller writes
+        every output), and a signal that interrupts the caller inside one of its future's methods
+        can leave that future's lock held here, so that the thread, setting its result, would wait
+        for this one for ever (a Ctrl-C seen to hang a run this way). Without `kill` it is joined."""
         if isinstance(self._pool, ProcessPool):
             self._pool.close(kill=kill)
             if self._head is not None:
-                self._head.shutdown(wait=True, cancel_futures=kill)
+                self._head.shutdown(wait=not kill, cancel_futures=kill)
         else:
             self._pool.shutdown(wait=True, cancel_futures=kill)
 

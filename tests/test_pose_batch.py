@@ -63,18 +63,25 @@ def test_batch_order_does_not_matter(batch_and_single):
                                    atol=1e-4 * float(batch.scale[i]), rtol=0)
 
 
-def test_one_compilation_for_different_sizes():
-    """Different point counts share one compiled function (same padded size and batch)."""
+@pytest.fixture(scope="module")
+def padded_batch():
+    """The sets padded to 260 rows (a padded size no other test uses: a fresh cache entry), with
+    the number of compiled batch functions before and after the call. One program for
+    test_one_compilation_for_different_sizes and test_pad_to_does_not_change_results."""
     sets = _sets()
-    opts = dict(OPTS, refine=1)  # an option set no other test uses: a fresh cache entry
     before = pose_module._batched._cache_size()
-    jaxpose.normalize_batch(sets, method="ocsvm", gamma=47.0, nu=0.5, pad_to=240, **opts)
-    after_first = pose_module._batched._cache_size()
+    padded = jaxpose.normalize_batch(sets, method="ocsvm", gamma=47.0, nu=0.5, pad_to=260, **OPTS)
+    return sets, padded, before, pose_module._batched._cache_size()
+
+
+def test_one_compilation_for_different_sizes(padded_batch):
+    """Different point counts share one compiled function (same padded size and batch)."""
+    sets, _, before, after_first = padded_batch
     assert after_first == before + 1
     # other sizes (all <= pad_to), other values of gamma and nu: no new compilation
     other = [sphere_with_arm(120 + 17 * i, seed=10 + i) for i in range(4)]
-    jaxpose.normalize_batch(other, method="ocsvm", gamma=30.0, nu=0.3, pad_to=240, **opts)
-    jaxpose.normalize_batch(sets[::-1], method="ocsvm", gamma=47.0, nu=0.5, pad_to=240, **opts)
+    jaxpose.normalize_batch(other, method="ocsvm", gamma=30.0, nu=0.3, pad_to=260, **OPTS)
+    jaxpose.normalize_batch(sets[::-1], method="ocsvm", gamma=47.0, nu=0.5, pad_to=260, **OPTS)
     assert pose_module._batched._cache_size() == after_first
 
 
@@ -103,9 +110,9 @@ def test_smo_solver_in_batches(batch_and_single, strategy):
         assert abs(float(b.scale[i]) - float(batch.scale[i])) <= 2e-3 * float(s.scale)
 
 
-def test_pad_to_does_not_change_results(batch_and_single):
-    sets, batch, _ = batch_and_single
-    padded = jaxpose.normalize_batch(sets, method="ocsvm", gamma=47.0, nu=0.5, pad_to=260, **OPTS)
+def test_pad_to_does_not_change_results(batch_and_single, padded_batch):
+    _, batch, _ = batch_and_single
+    _, padded, _, _ = padded_batch
     np.testing.assert_allclose(np.asarray(padded.center), np.asarray(batch.center),
                                atol=1e-3 * float(jnp.min(batch.scale)), rtol=0)
     np.testing.assert_allclose(np.asarray(padded.scale), np.asarray(batch.scale), rtol=1e-3)

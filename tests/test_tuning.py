@@ -164,15 +164,18 @@ def test_cli_tune_runs_on_the_runtime_dependencies(tmp_path):
                if any(d.lower() in TEST_ONLY for d in dists)}
     assert {"pytest", "sklearn"} <= modules
     sphere = trimesh.creation.icosphere(subdivisions=2)
+    # 4 objects of 120 samples per class and FAST's options (sizes incidental): the command's programs
+    # are those test_tune_result_is_json_and_says_whether_it_transfers compiles, loaded from the run's cache
     for name, extents in {"tall": [1.0, 0.5, 2.0], "flat": [2.0, 1.0, 0.4]}.items():
         (tmp_path / "data" / name).mkdir(parents=True)
-        for i in range(2):
+        for i in range(4):
             m = sphere.copy()
             m.apply_scale(np.asarray(extents) * (1.0 + 0.05 * i))
             m.export(tmp_path / "data" / name / f"{i}.ply")
     out = tmp_path / "r.json"
     args = ["tune", "--data", str(tmp_path / "data"), "--align-core", "--variants", "plain,outliers",
-            "--steps", "1", "--count", "60", "--json", str(out), "--resolution", "8", "--band", "256"]
+            "--steps", "1", "--count", "120", "--json", str(out), "--resolution", "8", "--band", "256",
+            "--refine", "2", "--tol", "1e-5"]
     proc = subprocess.run([sys.executable, "-c", BLOCKER, ",".join(sorted(modules))] + args,
                           capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr[-3000:]

@@ -286,3 +286,42 @@ def test_traced_robust_input_whose_volume_float32_cannot_hold_is_flagged():
         traced = f(jnp.asarray(x))
         assert not bool(traced.valid) and int(traced.status) == Status.OUT_OF_RANGE, (factor, int(traced.status))
     assert "dtype computes a volume" in Status.OUT_OF_RANGE.message
+
+
+def test_traced_ocsvm_input_whose_size_float32_cannot_hold_is_flagged():
+    """The OCSVM's reference size is the RMS distance of the points from their mean, summed from
+    squared coordinates. A traced float32 cloud scaled by 1e-20 has every square below the smallest
+    normal float32 (flushed to 0: the size was 0, DEGENERATE_INPUT); by 5e-19, squares holding 11 %
+    of the sum (the pose, OK, was off the host's float64 pose by percents); by 1e19 and 2e20 the
+    sum, or each square, overflows (EMPTY_REGION, DEGENERATE_INPUT). Each is now OUT_OF_RANGE;
+    within the range the pose is the concrete one, and points with no extent stay DEGENERATE_INPUT
+    at any size. The programs of test_jit_of_center_runs_on_an_array and
+    test_traced_input_far_from_origin_is_flagged."""
+    pts = sphere_with_arm(1024, seed=5)
+    f = _jitted("ocsvm")
+    tiny, big = float(np.finfo(np.float32).tiny), float(np.finfo(np.float32).max)
+    for factor in (1e-20, 5e-19, 2e-17, 1e18, 1e19, 2e20):
+        x = (pts * factor).astype(np.float32)
+        squares = (x.astype(np.float64) - x.mean(axis=0, dtype=np.float64)) ** 2  # float64: none lost
+        lost = squares[squares < tiny].sum() / squares.sum()  # the share float32 flushes to 0
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", InvalidPoseWarning)
+            concrete = jaxpose.normalize(x, method="ocsvm", resolution=32)  # on the host in float64: valid
+        assert bool(concrete.valid)
+        traced = f(jnp.asarray(x))
+        off = max(np.abs(np.asarray(traced.center, np.float64) - concrete.center).max(),
+                  abs(float(traced.scale) - float(concrete.scale))) / float(concrete.scale)
+        if factor in (2e-17, 1e18):  # float32 holds the sum and loses less than 1e-3 of it
+            assert lost < 1e-3 and squares.sum() < big
+            assert bool(traced.valid), (factor, int(traced.status))
+            assert off <= 2e-3  # the OCSVM solver's tolerance, as test_jit_of_center_runs_on_an_array
+            continue
+        if factor == 5e-19:  # a valid-looking pose off by more than the solver's tolerance: the lost squares
+            assert lost > 1e-2 and off > 1e-2
+        else:  # every square lost, or the sum beyond float32's largest
+            assert lost == 1 or squares.sum() > big
+        assert not bool(traced.valid) and int(traced.status) == Status.OUT_OF_RANGE, (factor, int(traced.status))
+    for same in (np.zeros((1024, 3)), np.full((1024, 3), 1e-20)):  # no extent: degenerate, whatever its size
+        assert int(f(jnp.asarray(same, jnp.float32)).status) == Status.DEGENERATE_INPUT
+    stack = jnp.asarray(np.stack([pts * 1e-20, pts, pts * 1e19]), jnp.float32)  # vmap: each its own status
+    assert np.asarray(_vmapped("ocsvm")(stack).status).tolist() == [int(Status.OUT_OF_RANGE), 0, int(Status.OUT_OF_RANGE)]

@@ -53,7 +53,7 @@ from ..orientation import region_frame
 from .frame import host_frame, prescale
 from .sizes import MAX_POINTS, bucket, pad, subsample_index
 from .result import MIN_POINT_VOXELS, SECOND_BODY, Pose, Status
-from .validity import flag_offset, pose_status
+from .validity import flag_offset, flag_range, no_extent, pose_status
 
 __all__ = ["Pose", "METHODS", "DEFAULT_METHOD", "normalize", "normalize_batch", "chained_map", "pose_pipeline", "robust_pipeline",
            "pose_from_svdd"]
@@ -119,8 +119,11 @@ def pose_pipeline(points, mask, gamma, nu, config: PoseConfig, rotation: bool = 
         not differentiated).
 
     Returns:
-      Pose in the units of ``points``. Derivatives in (gamma, nu) come from forward-mode
-      columns, also under jax.grad / jacrev; derivatives in the points by plain autodiff.
+      Pose in the units of ``points``, its status that of :func:`jaxpose.pose.validity.pose_status`,
+      OUT_OF_RANGE where the points' reference size is beyond their dtype
+      (:func:`jaxpose.pose.validity.unresolved_size`) and FAR_FROM_ORIGIN where their offset is
+      (:func:`jaxpose.pose.validity.unresolved_offset`). Derivatives in (gamma, nu) come from
+      forward-mode columns, also under jax.grad / jacrev; derivatives in the points by plain autodiff.
     """
     return _stopped_pipeline(points, mask, gamma, nu, _stops(config), _without_stops(config), rotation)
 
@@ -141,7 +144,7 @@ def _stopped_pipeline(points, mask, gamma, nu, stops, config, rotation=False):
     """:func:`pose_pipeline` with the stopping numbers ``stops`` (:func:`_stops`; traced in the
     compiled programs below) given apart from ``config`` (whose own are not read)."""
     pose = hyper_jvp(partial(_pipeline, config=config, rotation=bool(rotation)), (2, 3))(points, mask, gamma, nu, stops)
-    return flag_offset(pose, points, mask)
+    return flag_offset(flag_range(pose, points, mask), points, mask)
 
 
 def robust_pipeline(points, mask, queries, query_mask, power, config: RobustConfig) -> Pose:
@@ -177,10 +180,7 @@ def robust_pipeline(points, mask, queries, query_mask, power, config: RobustConf
     volume = mom.volume * sol.pitch**3
     scale = jnp.cbrt(jnp.maximum(volume, 0.0))
     sg = jax.lax.stop_gradient
-    x = sg(points)
-    lo = jnp.min(jnp.where(mask[:, None], x, jnp.inf), axis=0)
-    hi = jnp.max(jnp.where(mask[:, None], x, -jnp.inf), axis=0)
-    degenerate = ~(jnp.max(hi - lo) > 0) | ~jnp.all(jnp.isfinite(jnp.where(mask[:, None], x, 0)))
+    degenerate = no_extent(points, mask)
     finite = jnp.all(jnp.isfinite(center)) & jnp.isfinite(scale) & (scale > 0)
     bad_power = ~(jnp.isfinite(sg(power)) & (sg(power) >= 0))
     # no voxel deeper than the surface layer (distance <= POINT_BIAS: a face neighbour outside): a sheet
@@ -306,9 +306,12 @@ def normalize(x, method: str = DEFAULT_METHOD, *, power=_UNSET, gamma=_UNSET, nu
       NumPy (mapped back on the host, every digit kept far from the origin); for a traced input,
       JAX arrays. ``Pose.valid`` / ``Pose.status`` say whether to trust it
       (:mod:`jaxpose.pose.validity`; a traced input too far from the origin for its dtype is
-      ``FAR_FROM_ORIGIN``; robust, one too small or too large for its dtype to hold its volume,
-      in float32 extents outside about 1e-11 ... 1e12, ``OUT_OF_RANGE``: a concrete input is
-      rescaled on the host and has no such limit).
+      ``FAR_FROM_ORIGIN``; one too small or too large for its dtype, ``OUT_OF_RANGE``: robust,
+      where its volume under- or overflows, in float32 extents outside about 1e-11 ... 1e12;
+      ocsvm, where the squares of its reference size (the RMS distance from the mean) under- or
+      overflow, in float32 an RMS distance outside 4.2e-18 ... 1.8e19 / sqrt(m) for m points
+      (:func:`jaxpose.pose.validity.unresolved_size`); a concrete input is rescaled on the host and
+      has no such limit).
 
     Pure JAX in (x, power) or (x, gamma, nu): jittable (options static), vmappable. Derivatives:
     robust, in ``power`` (exact) and in the points through the grid's position and pitch (the

@@ -86,9 +86,12 @@ _MESSAGES = {
                              "closing radius), so no single body sets the pose; normalize each body on its own, or, if it is "
                              "one body sampled too sparsely for its parts to link, sample its surface densely or use the "
                              "vertex_mean or ocsvm method"),
-    Status.OUT_OF_RANGE: ("the points' size is beyond what their dtype computes a volume in (its cube under- or "
-                          "overflows: in float32, extents outside about 1e-11 ... 1e12): call with a concrete array "
-                          "(rescaled on the host in float64), rescale the points first, or enable jax_enable_x64"),
+    Status.OUT_OF_RANGE: ("the points' size is beyond what their dtype computes a volume in (robust: its cube "
+                          "under- or overflows; in float32, extents outside about 1e-11 ... 1e12) or their reference "
+                          "size in (ocsvm: the squares of their distances from their mean under- or overflow; in "
+                          "float32, an RMS distance below 4.2e-18 or above 1.8e19 / sqrt(points)): call with a "
+                          "concrete array (rescaled on the host in float64), rescale the points first, or enable "
+                          "jax_enable_x64"),
     Status.COLLAPSED_REGION: (f"the region collapsed: its mean distance is below {MIN_SPREAD:g} of the samples' "
                               "median distance from its centroid (nu near 1, or too few samples)"),
 }

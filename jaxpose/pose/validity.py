@@ -21,7 +21,15 @@ the centroid and mean distance of a region that the samples and the grid actuall
   region that covers the samples has a ratio near 1 (3/4 for a solid ball sampled on its sphere, 1
   for a shell, about 1/2 when nu leaves far parts out); nu near 1 or a handful of samples shrink
   the region onto the densest few samples and the ratio towards 0;
-* the center is finite and the scale positive and finite (:attr:`Status.NOT_FINITE`).
+* the center is finite and the scale positive and finite (:attr:`Status.NOT_FINITE`);
+* the points' reference size is within what their dtype computes (:attr:`Status.OUT_OF_RANGE`,
+  :func:`unresolved_size`; traced input only): the size is a root mean square of the distances
+  from the mean, whose squares underflow (each square below the dtype's smallest normal number is
+  lost) or overflow (their sum). In float32 that is an RMS distance from the mean below
+  ``sqrt(1.5 tiny / MAX_ROUNDING)`` = 4.2e-18 (where lost squares may move the size by more than
+  ``MAX_ROUNDING``) or above ``sqrt(max / m)`` = 1.8e19 / sqrt(m) for m points (5.8e17 at 1024);
+  points that have no extent are ``DEGENERATE_INPUT``, whatever their size. Concrete inputs are
+  rescaled on the host in float64 first and never trip this.
 
 The solver's convergence is reported apart (``Pose.converged``). Every check is a traced
 comparison (no Python branches on values), so poses under ``jit`` and ``vmap`` carry their status.
@@ -33,14 +41,18 @@ Example::
 """
 from __future__ import annotations
 
+import math
+
 import jax
 import jax.numpy as jnp
 
 from ..occupancy.kernels import map_blocks
+from .frame import REFERENCE_RMS, reference_frame
 from .result import MAX_CELL, MAX_ROUNDING, MAX_SPACING, MIN_SPREAD, Status, status_message
 
 __all__ = ["Status", "MAX_SPACING", "MAX_CELL", "MIN_SPREAD", "MAX_ROUNDING", "status_message", "pose_status",
-           "median_spacing", "median_distance", "unresolved_offset", "flag_offset"]
+           "median_spacing", "median_distance", "no_extent", "unresolved_offset", "flag_offset", "unresolved_size",
+           "flag_range"]
 
 
 
@@ -114,6 +126,60 @@ def pose_status(y, mask, gamma, size, moments, refine, center, scale):
     codes = [Status.DEGENERATE_INPUT, Status.SPARSE_SAMPLES, Status.UNRESOLVED_GRID, Status.EMPTY_REGION,
              Status.COLLAPSED_REGION, Status.NOT_FINITE]
     return jnp.select(conditions, [jnp.int32(int(c)) for c in codes], jnp.int32(0))
+
+
+def no_extent(points, mask=None):
+    """() bool: the points (over ``mask``) have no extent in their dtype (every coordinate equal
+    along each axis: one point repeated) or one of them is not finite: a degenerate input
+    (:attr:`Status.DEGENERATE_INPUT`), whatever else is computed from it. Not differentiated.
+
+    Args:
+      points: (m, 3) float; mask: optional (m,) bool (False rows are padding, left out).
+    """
+    x = jax.lax.stop_gradient(jnp.asarray(points))
+    mask = jnp.ones(x.shape[:1], bool) if mask is None else jnp.asarray(mask, bool)
+    lo = jnp.min(jnp.where(mask[:, None], x, jnp.inf), axis=0)
+    hi = jnp.max(jnp.where(mask[:, None], x, -jnp.inf), axis=0)
+    return ~(jnp.max(hi - lo) > 0) | ~jnp.all(jnp.isfinite(jnp.where(mask[:, None], x, 0)))
+
+
+def unresolved_size(points, mask=None):
+    """() bool: the points have an extent (not :func:`no_extent`), but their reference size
+    (:func:`jaxpose.pose.frame.reference_frame`, s_ref = rms / sqrt(5/12), rms the root mean
+    square of the distances from the mean) is out of what their dtype computes.
+
+    The mean square sums squared coordinates: each square below the dtype's smallest normal
+    number ``tiny`` is lost (flushed to 0 on CPU), at most 3 tiny per point, a relative error of
+    the size of at most 1.5 tiny / rms^2; the sum of m squares overflows above ``max``. So the
+    size is trusted where ``rms >= sqrt(1.5 tiny / MAX_ROUNDING)`` (its error at most
+    ``MAX_ROUNDING``) and it is finite: in float32, RMS distances in [4.2e-18, 1.8e19 / sqrt(m)]
+    (5.8e17 at m = 1024); in float64, [5.8e-153, 1.3e154 / sqrt(m)]. Outside, the OCSVM's
+    pre-scaled frame (and so gamma's meaning) is lost: the size is 0, inf or NaN, or off by up to
+    several percent, and the pose with it (docs/design.md, traced inputs out of range). Not
+    differentiated.
+
+    Args:
+      points: (m, 3) float, as given to the pipeline (traced); mask: optional (m,) bool.
+
+    Example::
+
+        >>> unresolved_size(jnp.asarray(points * 1e-20, jnp.float32))   # True
+    """
+    x = jax.lax.stop_gradient(jnp.asarray(points))
+    _, size = reference_frame(x, mask)
+    finfo = jnp.finfo(x.dtype)
+    smallest = math.sqrt(1.5 * float(finfo.tiny) / MAX_ROUNDING)  # the least RMS whose size is trusted
+    resolved = (size * REFERENCE_RMS >= smallest) & jnp.isfinite(size)
+    return ~resolved & ~no_extent(x, mask)
+
+
+def flag_range(pose, points, mask=None):
+    """``pose`` with status OUT_OF_RANGE (and valid False) where :func:`unresolved_size`: the root
+    cause, reported before what it leads to (a size of 0 that looks degenerate, an empty region, a
+    valid-looking pose off by percents). For the OCSVM pipeline, whose size is its reference size."""
+    out = unresolved_size(points, mask)
+    status = jnp.where(out, jnp.int32(int(Status.OUT_OF_RANGE)), pose.status)
+    return pose._replace(status=status.astype(jnp.int32), valid=status == 0)
 
 
 def unresolved_offset(points, mask=None):

@@ -32,7 +32,7 @@ import numbers
 
 from .errors import InvalidInputError
 
-__all__ = ["SAMPLING", "OCSVMOptions", "OCSVM", "RobustOptions", "ROBUST", "RobustConfig", "SolverConfig", "GridConfig", "PoseConfig", "BLOCK", "KERNELS", "SOLVERS", "DERIVATIVES", "MEMORY_BUDGET",
+__all__ = ["SAMPLING", "OCSVMOptions", "OCSVM", "OCSVM_ONLY", "RobustOptions", "ROBUST", "RobustConfig", "SolverConfig", "GridConfig", "PoseConfig", "BLOCK", "KERNELS", "SOLVERS", "DERIVATIVES", "MEMORY_BUDGET",
            "CELL_BYTES", "ITERATION_LIMIT"]
 
 SAMPLING = ("even", "random")  # how surface samples are drawn (jaxpose.sample.sample_surface)
@@ -138,6 +138,11 @@ class RobustOptions:
 
 OCSVM = OCSVMOptions()  # the defaults, read by every function that takes these parameters
 ROBUST = RobustOptions()
+OCSVM_ONLY = tuple(field.name for field in dataclasses.fields(OCSVMOptions))
+"""The options only the OCSVM reads (as the center, the scale or the frame), the fields of
+:class:`OCSVMOptions`: ``("gamma", "nu", "count", "seed", "sampling")``. The one list that
+:func:`jaxpose.normalize_mesh`, :class:`jaxpose.batch.task.NormalizeOptions` and the ``normalize``
+command read to refuse them where no OCSVM runs (None standing for their defaults, :data:`OCSVM`)."""
 
 
 ITERATION_LIMIT = 2**31 - 1  # SolverConfig: the solvers' iteration counters are int32

@@ -12,7 +12,7 @@ import numpy as np
 
 from . import sample
 from ._validate import InvalidInputError, check_bool, check_gamma, check_int, check_nu, check_real
-from .config import OCSVM, PoseConfig
+from .config import OCSVM, OCSVM_ONLY, PoseConfig
 from .geometry import Surface
 from .io import mesh as io_mesh
 from .io.mesh import MESH_FORMATS, OUTPUT_FORMATS, POINT_FORMATS, encode, example_shape, export, load, output_format, read
@@ -23,7 +23,7 @@ from .pose.result import host
 from .rotation.rotation import DEFAULT_ROTATION, ROTATIONS, frame_of
 from .sample import SAMPLING
 
-# its own names, and the file I/O names it re-exports from jaxpose.io.mesh
+# its own names, and the names it re-exports: OCSVM_ONLY from jaxpose.config, the file I/O from jaxpose.io.mesh
 __all__ = ["SAMPLING", "OCSVM_ONLY", "sample_surface", "normalize_mesh", "check_arguments", "ocsvm_arguments", "pose_matrix", "normalized_points",
            *io_mesh.__all__]
 
@@ -46,13 +46,8 @@ def sample_surface(mesh, count, seed=0, method="even"):
 
 
 # --------------------------------------------------------------------------- normalize
-OCSVM_ONLY = ("gamma", "nu", "count", "seed", "sampling")
-"""The arguments of :func:`normalize_mesh` that only the OCSVM reads (as the center, the scale or
-the frame); None stands for their defaults, :data:`jaxpose.config.OCSVM`."""
-
-
 def ocsvm_arguments(gamma=None, nu=None, count=None, seed=None, sampling=None) -> dict:
-    """{name: value} of :data:`OCSVM_ONLY`, each None replaced by its default in :data:`jaxpose.config.OCSVM`."""
+    """{name: value} of :data:`jaxpose.config.OCSVM_ONLY`, each None replaced by its default in :data:`jaxpose.config.OCSVM`."""
     given = dict(gamma=gamma, nu=nu, count=count, seed=seed, sampling=sampling)
     return {name: getattr(OCSVM, name) if value is None else value for name, value in given.items()}
 

@@ -133,3 +133,42 @@ def test_every_entry_point_reads_the_one_default():
     # normalize and evaluate leave them None (refused where nothing runs the OCSVM); the library fills them in
     for command in (["normalize", "x.ply"], ["evaluate"]):
         assert build_parser().parse_args(command).gamma is None
+
+
+def test_the_command_line_and_normalize_mesh_refuse_the_same_ocsvm_options():
+    """Where no OCSVM runs (the robust default), the ``normalize`` command, normalize_mesh and
+    NormalizeOptions refuse exactly the same options as the OCSVM's: the fields of
+    config.OCSVMOptions, read from one list, config.OCSVM_ONLY (the command kept its own copy)."""
+    import inspect
+
+    from jaxpose import config, mesh
+    from jaxpose.batch.task import NormalizeOptions
+    from jaxpose.cli import build_parser
+    from jaxpose.cli import normalize as command
+
+    assert command.OCSVM_ONLY is mesh.OCSVM_ONLY is config.OCSVM_ONLY and not hasattr(command, "_OCSVM_ONLY")
+    parser = build_parser()
+    flags = {a.dest for a in parser._subparsers._group_actions[0].choices["normalize"]._actions}
+    names = sorted(flags & set(inspect.signature(mesh.normalize_mesh).parameters) - {"method"})
+    values = dict(gamma=20.0, nu=0.3, count=500, seed=3, sampling="random", resolution=64, center="vertex_mean",
+                  scale="unit_cube", rotation="pca_vertices", strict=True)  # a value other than the default
+    assert sorted(values) == names  # every option both take
+    by_command, by_function, by_options = set(), set(), set()
+    for name in names:
+        value = values[name]
+        flag = [f"--{name}"] + ([] if value is True else [str(value)])
+        args = parser.parse_args(["normalize", "in.ply", "--method", "robust", *flag])
+        if f"--{name} applies to the ocsvm method" in (command.ignored_options(args) or ""):
+            by_command.add(name)
+        try:
+            mesh.check_arguments(method="robust", **{name: value})
+        except InvalidInputError as exc:
+            if f"{name} is an option of the ocsvm estimator" in str(exc):
+                by_function.add(name)
+        try:
+            NormalizeOptions(method="robust", **{name: value})
+        except InvalidInputError as exc:
+            if f"{name} is an option of the ocsvm estimator" in str(exc):
+                by_options.add(name)
+    ocsvm = {field.name for field in dataclasses.fields(config.OCSVMOptions)}
+    assert by_command == by_function == by_options == ocsvm

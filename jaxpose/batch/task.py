@@ -18,7 +18,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..config import OCSVM
+from ..config import OCSVM, OCSVM_ONLY
 
 __all__ = ["NormalizeOptions", "FileResult", "normalize_file", "one_line", "sha256_file", "warm_up"]
 
@@ -83,8 +83,6 @@ class NormalizeOptions:
     def mesh_arguments(self) -> dict:
         """The keyword arguments of :func:`jaxpose.normalize_mesh` these options stand for (the
         OCSVM's own where it is used or where they differ from their defaults)."""
-        from ..mesh import OCSVM_ONLY
-
         ocsvm = {name: getattr(self, name) for name in OCSVM_ONLY
                  if self.uses_jax or _differs(getattr(self, name), getattr(OCSVM, name))}
         return dict(method=self.method, center=self.center, scale=self.scale, strict=self.strict,

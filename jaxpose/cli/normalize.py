@@ -11,6 +11,7 @@ import os
 import sys
 from pathlib import Path
 
+from ..config import OCSVM_ONLY
 from .common import add_svm_options, checked, fail
 
 __all__ = ["add_parser", "run", "transform_path", "EXAMPLE"]
@@ -71,10 +72,9 @@ def add_parser(sub):
                       help="an input taking longer (reading, normalizing) is recorded as failed and its worker "
                            "process replaced; local runs")
     # the OCSVM's options: None when not given, so that a method that ignores them can refuse them
-    p.set_defaults(handler=run, **dict.fromkeys(_OCSVM_ONLY))
+    p.set_defaults(handler=run, **dict.fromkeys(OCSVM_ONLY))
 
 
-_OCSVM_ONLY = ("gamma", "nu", "count", "seed", "sampling")  # what only the OCSVM (center, scale or frame) reads
 _CLOSED_FORMS = ("solid_centroid", "gyration_radius", "depth_weighted_solid")  # what --strict applies to
 _MANY_ONLY = ("glob", "format", "table", "workers", "scheduler", "dask_local", "check", "fail_fast", "shard",
               "timeout")
@@ -113,7 +113,7 @@ def ignored_options(args) -> str | None:
     c_name, s_name = resolve(args.method, args.center, args.scale)
     chosen = f"--method {args.method or DEFAULT_METHOD} (center {c_name}, scale {s_name})"
     if "ocsvm" not in (c_name, s_name) and args.rotation != "ocsvm":
-        given = [f"--{name}" for name in _OCSVM_ONLY if getattr(args, name, None) is not None]
+        given = [f"--{name}" for name in OCSVM_ONLY if getattr(args, name, None) is not None]
         if given:
             return (f"{', '.join(given)} {'apply' if len(given) > 1 else 'applies'} to the ocsvm method "
                     f"(--method ocsvm), which {chosen} does not use; drop {'them' if len(given) > 1 else 'it'}")
@@ -133,7 +133,7 @@ def run(args):
         return fail(ignored, code=2)
     from ..errors import InvalidInputError
 
-    given = {name: getattr(args, name) for name in _OCSVM_ONLY if getattr(args, name, None) is not None}
+    given = {name: getattr(args, name) for name in OCSVM_ONLY if getattr(args, name, None) is not None}
     try:  # a value out of range is a usage error (exit 2), found before any file is read
         options = NormalizeOptions(method=args.method, center=args.center, scale=args.scale,
                                    resolution=args.resolution, rotation=args.rotation or False, strict=args.strict,

@@ -181,3 +181,81 @@ def test_guard_silences_its_own_swallowed_interrupt(capsys):
         with pytest.raises(KeyboardInterrupt):
             guard.check()
     assert "Exception ignored" not in capsys.readouterr().err
+
+
+# --------------------------------------------------------------------------- a library caller
+_HELD_LOCK_SCRIPT = '''
+import concurrent.futures as cf, sys, threading, time
+from jaxpose.batch import workers
+workers.configure_process()  # as the command line, before NumPy: a run with workers takes a head start
+from jaxpose.batch.batch import run_batch
+
+held = []
+
+
+def hold(future):
+    """What a Ctrl-C can leave: this thread holding a task's future's lock for good (CPython looks
+    for signals right after Condition.__enter__ takes it, before the with block that releases it: a
+    loop of Future.done() under SIGINT, about one interrupt in three). That moment, made long: the
+    lock taken, the signal awaited."""
+    held.append(future)
+    future._condition.acquire()
+    print("holding", flush=True)
+    time.sleep(120)
+
+
+done, wait = cf.Future.done, cf.wait
+
+
+def held_done(self):  # the head start's future, asked by the worker processes' wait
+    if threading.current_thread() is threading.main_thread() and not held and not done(self):
+        hold(self)
+    return done(self)
+
+
+def held_wait(fs, *args, **kwargs):  # the futures of the one thread (workers=1), asked by cf.wait
+    for future in fs:
+        if threading.current_thread() is threading.main_thread() and not held and not done(future):
+            hold(future)
+    return wait(fs, *args, **kwargs)
+
+
+cf.Future.done, cf.wait = held_done, held_wait
+run_batch([sys.argv[1]], sys.argv[2], workers=int(sys.argv[3]), table=sys.argv[2] + '/transforms.csv', progress=False)
+print("finished", flush=True)
+'''
+
+
+@pytest.mark.parametrize("workers", [2, 1])  # the head start's thread; the one thread of workers=1
+def test_a_script_interrupted_in_run_batch_ends(tmp_path, workers):
+    """A script (not the command line, which leaves by os._exit) that calls run_batch and gets a
+    Ctrl-C while its main thread holds the lock of a future a thread of the run will set: the
+    thread then waits for that lock for ever. The script must still end (exit by SIGINT, the table
+    written on the way out); it hung, in the interpreter's exit joining the head start's thread
+    (concurrent.futures joins its threads at exit) or, with one worker, in the run's close."""
+    import select
+
+    scans = dataset(tmp_path / "scans", count=4)
+    script = tmp_path / "run.py"
+    script.write_text(_HELD_LOCK_SCRIPT)
+    env = {k: v for k, v in os.environ.items() if k not in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")}
+    env["PYTHONPATH"] = os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])
+    out = tmp_path / "out"
+    process = subprocess.Popen([sys.executable, str(script), str(scans), str(out), str(workers)], cwd=tmp_path,
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+                               env=env)
+    try:
+        ready = select.select([process.stdout], [], [], 300)[0]
+        line = process.stdout.readline() if ready else ""
+        assert line == "holding\n", (line, process.poll())  # the run's thread had not finished its task yet
+        os.killpg(process.pid, signal.SIGINT)  # as a terminal's Ctrl-C
+        _, err = process.communicate(timeout=180)  # about a second when it ends (generous: a loaded machine)
+    except subprocess.TimeoutExpired:
+        pytest.fail("the interrupted script did not end: its thread waits for the future's lock, and the "
+                    "interpreter (or the run's close) for its thread")
+    finally:
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.communicate()
+    assert process.returncode == -signal.SIGINT and err.rstrip().endswith("KeyboardInterrupt"), err
+    assert (out / "transforms.csv").exists()  # run_batch's finally: the table of what was done

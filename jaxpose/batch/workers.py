@@ -12,6 +12,8 @@ from __future__ import annotations
 import concurrent.futures as cf
 import logging
 import os
+import queue
+import threading
 
 from ..errors import InvalidInputError, JaxposeError
 from .pool import POLL_S, ProcessPool, TaskTimeout, WorkerLost
@@ -67,8 +69,64 @@ def runs_like_a_worker() -> bool:
 _HEAD_POLL_S = 0.01  # how often wait() looks at the head start's thread
 
 
+class _Thread:
+    """Tasks run one after another in one daemon thread of this process: a one-thread
+    ``concurrent.futures.ThreadPoolExecutor`` (``submit(fn, *args) -> Future``, ``shutdown(wait,
+    cancel_futures)``) whose thread the interpreter does not wait for at exit.
+
+    A KeyboardInterrupt that lands in the caller's thread inside one of a future's methods, after
+    ``Condition.__enter__`` took the future's lock and before the ``with`` block that releases it,
+    leaves that lock held for good (CPython checks for signals there). The thread, setting the
+    task's result, then waits for ever; ``concurrent.futures`` joins its own threads at
+    interpreter exit, so a script that called :func:`jaxpose.batch.batch.run_batch` and was
+    interrupted never ended. This thread is a daemon: the interpreter ends without it.
+    """
+
+    def __init__(self, name):
+        self._tasks = queue.SimpleQueue()
+        self._closed = False
+        self._thread = threading.Thread(target=self._work, name=name, daemon=True)
+        self._thread.start()
+
+    def submit(self, fn, *args) -> cf.Future:
+        if self._closed:
+            raise RuntimeError("cannot submit a task after shutdown")
+        future = cf.Future()
+        self._tasks.put((future, fn, args))
+        return future
+
+    def _work(self):
+        while (task := self._tasks.get()) is not None:
+            future, fn, args = task
+            task = None
+            if not future.set_running_or_notify_cancel():  # cancelled while queued
+                continue
+            try:
+                value = fn(*args)
+            except BaseException as exc:  # as ThreadPoolExecutor: the task's error is its result
+                future.set_exception(exc)
+            else:
+                future.set_result(value)
+            future = value = None
+
+    def shutdown(self, wait=True, cancel_futures=False):
+        """No more tasks: with `cancel_futures` the queued ones are cancelled; with `wait`, the
+        thread is joined once it has run the rest."""
+        self._closed = True
+        if cancel_futures:
+            while True:
+                try:
+                    task = self._tasks.get_nowait()
+                except queue.Empty:
+                    break
+                task[0].cancel()
+        self._tasks.put(None)
+        if wait:
+            self._thread.join()
+
+
 class LocalExecutor:
-    """``workers`` == 1 without a time limit: a thread of this process; else worker processes
+    """``workers`` == 1 without a time limit: a (daemon) thread of this process; else worker processes
     (:class:`jaxpose.batch.pool.ProcessPool`: fresh interpreters, each stopped on its own when its task
     runs past `timeout` or it dies, the others going on).
 
@@ -90,12 +148,12 @@ class LocalExecutor:
         self.timeout = timeout
         self._head = None
         if workers == 1 and timeout is None:
-            self._pool = cf.ThreadPoolExecutor(1, thread_name_prefix="jaxpose-worker")
+            self._pool = _Thread("jaxpose-worker")
         else:
             self._pool = ProcessPool(workers, environment=process_environment(), timeout=timeout, warm_up=warm_up,
                                      start_timeout=start_timeout, fork=fork)
             if head_start and timeout is None:
-                self._head = cf.ThreadPoolExecutor(1, thread_name_prefix="jaxpose-head-start")
+                self._head = _Thread("jaxpose-head-start")
 
     def submit(self, fn, *args):
         if self._head is not None and not hasattr(self, "_head_future"):
@@ -117,19 +175,20 @@ class LocalExecutor:
         return future.result()
 
     def close(self, kill=False):
-        """Stop; with `kill`, drop queued tasks and kill running worker processes at once (a thread
-        cannot be killed: it finishes its task).
+        """Stop; with `kill`, drop queued tasks and kill running worker processes at once.
 
-        With `kill` the head start's thread is not waited for: it only computes (the caller writes
-        every output), and a signal that interrupts the caller inside one of its future's methods
-        can leave that future's lock held here, so that the thread, setting its result, would wait
-        for this one for ever (a Ctrl-C seen to hang a run this way). Without `kill` it is joined."""
+        A thread (the one of ``workers`` == 1, the head start's) cannot be killed: with `kill` it is
+        not waited for either, but finishes its task on its own, a daemon thread that does not
+        hold up the interpreter's exit. It only computes (the caller writes every output), and a
+        signal that interrupts the caller inside one of its future's methods can leave that
+        future's lock held here, so that the thread, setting its result, waits for ever (a Ctrl-C
+        seen to hang a run this way; :class:`_Thread`). Without `kill` it is joined."""
         if isinstance(self._pool, ProcessPool):
             self._pool.close(kill=kill)
             if self._head is not None:
                 self._head.shutdown(wait=not kill, cancel_futures=kill)
         else:
-            self._pool.shutdown(wait=True, cancel_futures=kill)
+            self._pool.shutdown(wait=not kill, cancel_futures=kill)
 
 
 # A local cluster for this work: no MALLOC_TRIM_THRESHOLD_ (Dask's default of 64 KiB turns every large

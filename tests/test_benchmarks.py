@@ -168,10 +168,13 @@ def test_accuracy_section_objects(monkeypatch):
 def test_resolution_reaches_normalize(monkeypatch):
     """--resolution sets normalize's coarse grid in end2end and accuracy (default: normalize's, 64)."""
     _tiny(monkeypatch)
+    # the argument (8) over the quick preset's (12): the argument is _tiny's own grid, so the
+    # programs are those test_bench_quick_json compiles (a grid of its own compiled two more)
+    monkeypatch.setitem(bench.QUICK, "resolution", 12)
     monkeypatch.setattr(bench.common, "sklearn_available", lambda: False)
-    r = bench.run(("end2end", "accuracy"), quick=True, resolution=12, objects=1)
-    assert r["sections"]["end2end"]["jaxpose"]["resolution"] == 12
-    assert r["sections"]["accuracy"]["resolution"] == 12
+    r = bench.run(("end2end", "accuracy"), quick=True, resolution=8, objects=1)
+    assert r["sections"]["end2end"]["jaxpose"]["resolution"] == 8
+    assert r["sections"]["accuracy"]["resolution"] == 8
     monkeypatch.setitem(bench.QUICK, "resolution", None)
     from jaxpose.config import GridConfig
 

@@ -37,7 +37,16 @@ def _jnp():
 
 class Status(enum.IntEnum):
     """Why a pose is not valid (``Pose.status``); ``OK`` (0) when it is. ``Status(code).message``
-    explains a code; when several apply, the first in this order is reported."""
+    explains a code. When several apply, one is reported, a root cause before what it leads to
+    (not the codes' numeric order):
+
+    * ``method="ocsvm"``: BAD_PARAMETERS, FAR_FROM_ORIGIN, OUT_OF_RANGE, then
+      :func:`jaxpose.pose.validity.pose_status`'s DEGENERATE_INPUT, SPARSE_SAMPLES, UNRESOLVED_GRID,
+      EMPTY_REGION, COLLAPSED_REGION, NOT_FINITE (points with no extent or a non-finite
+      coordinate are DEGENERATE_INPUT at any size);
+    * ``method="robust"``: FAR_FROM_ORIGIN, BAD_PARAMETERS, DEGENERATE_INPUT, OUT_OF_RANGE,
+      EMPTY_SOLID, SPARSE_CLOUD, SEPARATE_BODIES, NOT_FINITE.
+    """
 
     OK = 0
     BAD_PARAMETERS = 1

@@ -56,7 +56,7 @@ from .config import GridConfig
 from .depth import depth_weights, to_bucket
 from .occupancy.svdd.problem import SVDD
 from .occupancy.grid import (CHILD_OFFSETS, domain, evaluate_children, evaluate_grid, evaluate_on_grid, evaluate_on_grid_jvp,
-                   morton_codes)
+                   first_true, morton_codes)
 from .weighted import Moments, grid_moments, solid_occupancy, weighted_moments
 
 __all__ = ["Moments", "volume_moments", "region_moments", "discretize", "occupancy", "moments_from_occupancy",
@@ -155,7 +155,7 @@ def _boundary_weights_jvp(block, outside, primals, tangents):
     # the cells whose weight has a nonzero derivative (clip not saturated), compacted to the front
     part = jax.lax.stop_gradient((fac != 0) & (occ > 0) & (occ < 1))
     count = jnp.sum(part)
-    sel = jnp.nonzero(part, size=w.shape[0], fill_value=0)[0]
+    sel = first_true(part, w.shape[0])
     xs, hs, fs = x[sel], h[sel], fac[sel]
     # f skips the points with alpha = 0, but their alpha may have a tangent (points entering the
     # support along the secant slopes, or any user tangent): f is linear in alpha, so they are
@@ -234,7 +234,7 @@ def select_cells(score, k, x, lo, hi):
     n = jnp.sum(want)
 
     def by_index(_):
-        return jnp.nonzero(want, size=k, fill_value=0)[0].astype(jnp.int32), jnp.arange(k) < n
+        return first_true(want, k), jnp.arange(k) < n
 
     def by_score(_):
         neg, idx = jax.lax.top_k(-score, k)

@@ -27,6 +27,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
+from ..grid import first_true
 from ..kernels import gaussian_kernel
 from .problem import kkt_violation
 
@@ -41,7 +42,7 @@ def _solve_free(points, gamma, caps, free, bounded, k):
     ``bounded`` points at their caps; the others 0."""
     dtype = points.dtype
     m = points.shape[0]
-    idx = jnp.nonzero(free, size=k, fill_value=0)[0]
+    idx = first_true(free, k)
     valid = (jnp.arange(k) < jnp.sum(free)).astype(dtype)
     a_b = jnp.where(bounded, caps, 0.0)
     xs = points[idx]

@@ -80,8 +80,7 @@ def solve_smo(points, gamma, caps, mask, init_alpha, config, tol, max_iter, dens
 
     def steps(carry):
         a, G, it, _ = carry
-        for _ in range(SMO_GROUP):
-            a, G, it = step((a, G, it))
+        a, G, it = jax.lax.fori_loop(0, SMO_GROUP, lambda _, c: step(c), (a, G, it))  # rolled: one step compiled
         return a, G, it, violation(a, G)
 
     def running(carry):

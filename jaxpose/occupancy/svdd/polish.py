@@ -50,7 +50,8 @@ def _solve_free(points, gamma, caps, free, bounded, k):
     rhs = -2.0 * (gaussian_kernel(xs, points, gamma) @ a_b) * valid
     ridge = 10.0 * jnp.finfo(dtype).eps * k
     a_mat = 2.0 * kff * valid[:, None] * valid[None, :] + jnp.diag(1.0 - valid) + ridge * jnp.diag(valid)
-    system = jnp.zeros((k + 1, k + 1), dtype).at[:k, :k].set(a_mat).at[:k, k].set(-valid).at[k, :k].set(valid)
+    system = jnp.concatenate([jnp.concatenate([a_mat, -valid[:, None]], axis=1),
+                              jnp.concatenate([valid, jnp.zeros((1,), dtype)])[None, :]])
     sol = jnp.linalg.solve(system, jnp.concatenate([rhs, (1.0 - jnp.sum(a_b))[None]]))
     a_f = jnp.where(valid > 0, sol[:k], 0.0)
     return a_b + jnp.zeros((m,), dtype).at[idx].add(a_f)

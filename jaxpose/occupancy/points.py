@@ -31,12 +31,7 @@ static, pitch and origin traced):
    (:func:`jaxpose.moments.grid_moments`).
 
 Grids: ``resolution + 2 (3 max_closing + 3) + 1`` cells per axis (127 at the default 96), enough
-for the widest margin whatever the shape, so the cell count never depends on the points. Both
-passes, and the three labellings (the coarse solid, the fine solid, the blocks of
-:func:`linked_parts`), run on one canvas, the larger pass's grid, as one ``lax.fori_loop`` body of
-three iterations: a smaller grid is padded with empty cells at its high end, which no closing
-reaches (the margin holds the largest radius with 3 cells to spare), so every voxel, component and
-count is that of the grid alone.
+for the widest margin whatever the shape, so the cell count never depends on the points.
 
 Differentiation: the occupancy, the depth and the radius are piecewise constant in the points
 (no derivative flows through them); the grid's origin and pitch follow the points' box and
@@ -250,68 +245,39 @@ def keep_main(solid, keep_ratio):
     Returns:
       kept (g, g, g) bool, components () int32, dropped () int32.
     """
+    c = solid.shape[-1]
     packed = bits.pack(solid)
-    kept, count, dropped, _ = _weigh(solid, _boundary_planes(packed), keep_ratio, packed)
-    return bits.unpack(kept, solid.shape[-1]), count, dropped
+    found = runs.find_runs(packed, c, runs.default_cap(solid.shape))
+    return runs.either(~found.fits, partial(_keep_cells, keep_ratio=keep_ratio),
+                       partial(_keep_runs, keep_ratio=keep_ratio), solid, packed, found)
 
 
-def _boundary_planes(packed):
-    """(1, a, b, words) uint32: the packed boundary cells of a packed grid (the cells with a face
-    neighbour outside it), as the one bit plane of :func:`_weigh`'s weights."""
-    return (bits.erode6(packed) ^ packed)[None]
-
-
-def _weigh(cells, planes, keep_ratio, packed=None):
-    """The 26-connected components of ``cells`` (a, b, c) bool, each weighed by the sum of an
-    integer weight over its cells: the weight of a cell is sum_k 2^k (bit k), its bits given as
-    packed planes (p, a, b, words) uint32 (:func:`.bits.pack` of each bit). Labelled by runs
-    (:mod:`.runs`), or cell by cell when ``cells`` has more runs than :func:`.runs.default_cap`.
-
-    Returns:
-      kept (a, b, words) uint32, packed: the components whose weight is at least ``keep_ratio`` of
-      the largest;
-      components () int32, found; dropped () int32, not kept; second () float32, the second largest
-      weight over the largest (0 with fewer than two components, or none).
-    """
-    c = cells.shape[-1]
-    packed = bits.pack(cells) if packed is None else packed
-    found = runs.find_runs(packed, c, runs.default_cap(cells.shape))
-    return runs.either(~found.fits, partial(_weigh_cells, keep_ratio=keep_ratio),
-                       partial(_weigh_runs, keep_ratio=keep_ratio), cells, planes, packed, found)
-
-
-def _chosen(roots, total, keep_ratio):
-    big = jnp.max(total)
-    keep_root = roots & (total.astype(jnp.float32) >= keep_ratio * big.astype(jnp.float32))
-    return keep_root, jnp.sum(roots).astype(jnp.int32), jnp.sum(roots & ~keep_root).astype(jnp.int32)
-
-
-def _weigh_runs(cells, planes, packed, found, keep_ratio):
-    """:func:`_weigh` on the runs of ``cells`` (``found.fits``)."""
-    c = cells.shape[-1]
+def _keep_runs(solid, packed, found, keep_ratio):
+    """:func:`keep_main` on the runs of ``solid`` (``found.fits``)."""
+    c = solid.shape[-1]
     cap = found.first.shape[0]
-    labels = run_labels(found, cells.shape)
-    counts = jax.vmap(lambda w: runs.run_counts(found, w, c))(planes)  # (p, cap): set bits per run
-    size = jnp.sum(counts << jnp.arange(planes.shape[0], dtype=jnp.int32)[:, None], axis=0, dtype=jnp.int32)
+    labels = run_labels(found, solid.shape)
+    size = runs.run_counts(found, bits.erode6(packed) ^ packed, c)  # boundary cells per run
     total = jnp.zeros(cap, jnp.int32).at[labels].add(size, mode="drop")
     roots = found.valid & (labels == jnp.arange(cap, dtype=jnp.int32))
-    keep_root, count, dropped = _chosen(roots, total, keep_ratio)
-    kept = runs.paint(found, keep_root[jnp.minimum(labels, cap - 1)], packed, c)
-    return kept, count, dropped, _second_over_largest(total)
+    big = jnp.max(total)
+    keep_root = roots & (total.astype(jnp.float32) >= keep_ratio * big.astype(jnp.float32))
+    kept = bits.unpack(runs.paint(found, keep_root[jnp.minimum(labels, cap - 1)], packed, c), c)
+    return kept, jnp.sum(roots).astype(jnp.int32), jnp.sum(roots & ~keep_root).astype(jnp.int32)
 
 
-def _weigh_cells(cells, planes, packed, found, keep_ratio):
-    """:func:`_weigh` cell by cell (any grid)."""
+def _keep_cells(solid, packed, found, keep_ratio):
+    """:func:`keep_main` cell by cell (any grid)."""
     del packed, found
-    labels = components(cells)
-    weight = jnp.sum(bits.unpack(planes, cells.shape[-1]).astype(jnp.int32)
-                     << jnp.arange(planes.shape[0], dtype=jnp.int32)[:, None, None, None], axis=0, dtype=jnp.int32)
-    safe = jnp.where(cells, labels, 0).reshape(-1)
-    size = jnp.zeros(cells.size, jnp.int32).at[safe].add(weight.reshape(-1))
-    roots = (labels.reshape(-1) == jnp.arange(cells.size, dtype=jnp.int32))
-    keep_root, count, dropped = _chosen(roots, size, keep_ratio)
-    kept = bits.pack(cells & keep_root[safe].reshape(cells.shape))
-    return kept, count, dropped, _second_over_largest(size)
+    labels = components(solid)
+    boundary = solid & ~erode6(solid)
+    safe = jnp.where(solid, labels, 0).reshape(-1)
+    size = jnp.zeros(solid.size, jnp.int32).at[safe].add(boundary.reshape(-1).astype(jnp.int32))
+    roots = (labels.reshape(-1) == jnp.arange(solid.size, dtype=jnp.int32))
+    big = jnp.max(size)
+    keep_root = roots & (size.astype(jnp.float32) >= keep_ratio * big.astype(jnp.float32))
+    kept = solid & keep_root[safe].reshape(solid.shape)
+    return kept, jnp.sum(roots).astype(jnp.int32), jnp.sum(roots & ~keep_root).astype(jnp.int32)
 
 
 def _blocks(x, op):
@@ -322,20 +288,6 @@ def _blocks(x, op):
     return op(x.reshape(h, 2, h, 2, h, 2), axis=(1, 3, 5))
 
 
-_COUNT_BITS = 4  # a block holds 0 .. 8 occupied voxels
-
-
-def _parts_grid(occupied, near, side=None):
-    """The blocks of :func:`linked_parts` and the bit planes of their occupied voxel counts
-    (``side``: padded to that many blocks per axis, :func:`_canvas`)."""
-    cells = _blocks(near, jnp.any)
-    count = _blocks(occupied.astype(jnp.int32), jnp.sum).astype(jnp.int32)  # int32 sums under x64 too
-    if side is not None:
-        cells, count = _canvas(cells, side), _canvas(count, side)
-    planes = bits.pack(((count[None] >> jnp.arange(_COUNT_BITS, dtype=jnp.int32)[:, None, None, None]) & 1) > 0)
-    return cells, planes
-
-
 def linked_parts(occupied, near):
     """The second largest separate part of a point cloud over the largest, as
     :func:`jaxpose.occupancy.solid.linked_parts`: the 26-connected components of ``near`` (the
@@ -343,8 +295,27 @@ def linked_parts(occupied, near):
     occupied voxels each holds. The components are taken on 2 x 2 x 2 blocks (a block is in
     ``near`` when any of its voxels is: 1/8 of the cells to label), which links parts at most 2
     voxels further apart than the linkage does. () float32, 0 when the points are one part (or none)."""
-    cells, planes = _parts_grid(occupied, near)
-    return _weigh(cells, planes, 0.5)[3]  # (the keep ratio plays no part in the second part)
+    cells = _blocks(near, jnp.any)
+    count = _blocks(occupied.astype(jnp.int32), jnp.sum).astype(jnp.int32)  # int64 sums under x64
+    packed = bits.pack(cells)
+    found = runs.find_runs(packed, cells.shape[-1], runs.default_cap(cells.shape))
+    return runs.either(~found.fits, _parts_cells, _parts_runs, cells, count, found)
+
+
+def _parts_runs(cells, count, found):
+    """:func:`linked_parts` on the runs of the blocks (``found.fits``)."""
+    cap = found.first.shape[0]
+    labels = run_labels(found, cells.shape)
+    size = jnp.zeros(cap, jnp.int32).at[labels].add(runs.run_sums(found, count), mode="drop")
+    return _second_over_largest(size)
+
+
+def _parts_cells(cells, count, found):
+    """:func:`linked_parts` block by block (any grid)."""
+    del found
+    labels = components(cells).reshape(-1)
+    size = jnp.zeros(cells.size, jnp.int32).at[jnp.where(cells.reshape(-1), labels, 0)].add(count.reshape(-1))
+    return _second_over_largest(size)
 
 
 def _second_over_largest(size):
@@ -354,12 +325,11 @@ def _second_over_largest(size):
 
 
 # ------------------------------------------------------------------ one pass
-def _occupied(points, mask, origin, pitch, cells, side):
-    """The voxels of a grid of ``cells`` (traced) per axis holding a point, on a (side, side, side) canvas."""
+def _occupied(points, mask, origin, pitch, cells):
     idx = jnp.floor((points - origin) / pitch).astype(jnp.int32)
     ok = mask & jnp.all((idx >= 0) & (idx < cells), axis=1)
-    idx = jnp.where(ok[:, None], idx, side)  # out of range: dropped
-    occ = jnp.zeros((side,) * 3, bool)
+    idx = jnp.where(ok[:, None], idx, cells)  # out of range: dropped
+    occ = jnp.zeros((cells,) * 3, bool)
     return occ.at[idx[:, 0], idx[:, 1], idx[:, 2]].set(True, mode="drop")
 
 
@@ -395,20 +365,19 @@ def _closing(occ, radius, max_radius, rmax):
     return closed | occ, r, packed
 
 
-def _pass(points, mask, lo, hi, q, resolution, side, config):
-    """One grid on the box [lo, hi], at ``resolution`` (traced, in the points' dtype), on a
-    (side, side, side) canvas (static) that holds its :func:`grid_cells` (cells beyond them stay
-    empty): (solid, occupied, origin, pitch, radius used, starting radius)."""
-    cells = resolution.astype(jnp.int32) + 2 * (3 * config.max_closing + 3) + 1  # grid_cells, traced
-    # times the reciprocal: XLA computes a division by a constant so, and the passes' resolutions were constants
-    pitch = jnp.maximum(jnp.max(hi - lo) * (1 / resolution), q / config.max_closing)
+def _pass(points, mask, lo, hi, q, resolution, config):
+    """One grid on the box [lo, hi]: (solid, occupied, origin, pitch, radius used, the occupied
+    voxels dilated by ``LINK`` times the starting radius)."""
+    cells = grid_cells(resolution, config.max_closing)
+    pitch = jnp.maximum(jnp.max(hi - lo) / resolution, q / config.max_closing)
     radius = jnp.clip(jnp.ceil(q / pitch), 1, config.max_closing).astype(jnp.int32)
     margin = 3 * radius + 3
     origin = lo - (margin.astype(pitch.dtype) + GRID_OFFSET) * pitch
-    occ = _occupied(points, mask, origin, pitch, cells, side)
+    occ = _occupied(points, mask, origin, pitch, cells)
     rmax = max(3, LINK) * config.max_closing
-    solid, r, _ = _closing(occ, radius, 3 * radius, rmax)
-    return solid, occ, origin, pitch, r, radius
+    solid, r, packed = _closing(occ, radius, 3 * radius, rmax)
+    near = bits.unpack(bits.dilate_ball(packed, (LINK * radius) ** 2, rmax), cells)
+    return solid, occ, origin, pitch, r, near
 
 
 def point_solid(points, mask, queries, config: RobustConfig, query_mask=None) -> PointSolid:
@@ -433,61 +402,19 @@ def point_solid(points, mask, queries, config: RobustConfig, query_mask=None) ->
     big = jnp.asarray(jnp.finfo(points.dtype).max, points.dtype)
     lo = jnp.min(jnp.where(mask[:, None], points, big), axis=0)
     hi = jnp.max(jnp.where(mask[:, None], points, -big), axis=0)
-    # Both passes and the three labellings are one loop body (compiled once) on one canvas (module
-    # docs): iteration 0 the coarse pass over every point, 1 the fine pass on the box of the points
-    # near its main body, 2 the fine pass's separate parts.
-    cells1, g = grid_cells(config.coarse, config.max_closing), grid_cells(config.resolution, config.max_closing)
-    side = max(cells1, g)
-    dtype = points.dtype
-    words = -(-side // 32)
-    rmax = max(3, LINK) * config.max_closing
-
-    def pass_cells(i, box):  # iterations 0, 1: the coarse and the fine pass
-        resolution = jnp.where(i == 0, config.coarse, config.resolution).astype(dtype)
-        solid, occ, origin, pitch, r, radius = _pass(points, mask, box[0], box[1], q, resolution, side, config)
-        cells = lax.cond(i == 1, exterior_fill, lambda s: s, solid)  # the fine solid's cavities filled
-        packed = bits.pack(cells)
-        planes = jnp.concatenate([_boundary_planes(packed), jnp.zeros((_COUNT_BITS - 1, side, side, words), jnp.uint32)])
-        return cells, planes, (occ, origin, pitch, r, radius)
-
-    def parts_cells(fine):  # iteration 2: the fine pass's separate parts, linked at LINK starting radii
-        occ, _, _, _, radius = fine
-        near = bits.unpack(bits.dilate_ball(bits.pack(occ), (LINK * radius) ** 2, rmax), side)
-        blocks, planes = _parts_grid(occ[:g, :g, :g], near[:g, :g, :g], side)
-        return blocks, planes, fine
-
-    def fine_box(kept1, origin1, pitch1):  # the box of the points near the coarse main body
-        near = _window(kept1, jnp.logical_or, False)
-        idx = jnp.clip(jnp.floor((points - origin1) / pitch1).astype(jnp.int32), -1, cells1)
-        inb = jnp.all((idx >= 0) & (idx < cells1), axis=1)
-        cl = jnp.clip(idx, 0, cells1 - 1)
-        on = mask & inb & near[cl[:, 0], cl[:, 1], cl[:, 2]]
-        found = jnp.any(on)
-        return jnp.stack([jnp.where(found, jnp.min(jnp.where(on[:, None], points, big), axis=0), lo),
-                          jnp.where(found, jnp.max(jnp.where(on[:, None], points, -big), axis=0), hi)])
-
-    def body(i, state):
-        box, fine, out = state
-        cells, planes, passed = lax.cond(i < 2, lambda: pass_cells(i, box), lambda: parts_cells(fine))
-        kept, count, dropped, second = _weigh(cells, planes, config.keep_ratio)  # kept: packed
-
-        def after_coarse():
-            return fine_box(bits.unpack(kept[:cells1, :cells1], cells1), passed[1], passed[2]), fine, out
-
-        def after_fine():
-            return box, passed, (bits.unpack(kept[:g, :g], g), count, dropped, out[3])
-
-        def after_parts():
-            return box, fine, out[:3] + (second,)
-
-        return lax.switch(i, [after_coarse, after_fine, after_parts])
-
-    fine = (jnp.zeros((side,) * 3, bool), jnp.zeros(3, dtype), jnp.zeros((), dtype), jnp.int32(0), jnp.int32(0))
-    out = (jnp.zeros((g,) * 3, bool), jnp.int32(0), jnp.int32(0), jnp.float32(0))
-    _, (occ, origin, pitch, r, _), (kept, count, dropped, second) = lax.fori_loop(0, 3, body, (jnp.stack([lo, hi]), fine, out))
-    return PointSolid(kept, occ[:g, :g, :g], origin, pitch, r, count, dropped, second)
-
-
-def _canvas(x, side):
-    """A (a, b, c) grid padded with zeros at the high end of each axis to (side, side, side)."""
-    return jnp.pad(x, [(0, side - n) for n in x.shape])
+    # pass 1: the main body over everything
+    solid1, _, origin1, pitch1, _, _ = _pass(points, mask, lo, hi, q, config.coarse, config)
+    kept1 = keep_main(solid1, config.keep_ratio)[0]
+    near = _window(kept1, jnp.logical_or, False)
+    cells1 = near.shape[0]
+    idx = jnp.clip(jnp.floor((points - origin1) / pitch1).astype(jnp.int32), -1, cells1)
+    inb = jnp.all((idx >= 0) & (idx < cells1), axis=1)
+    cl = jnp.clip(idx, 0, cells1 - 1)
+    on = mask & inb & near[cl[:, 0], cl[:, 1], cl[:, 2]]
+    found = jnp.any(on)
+    lo = jnp.where(found, jnp.min(jnp.where(on[:, None], points, big), axis=0), lo)
+    hi = jnp.where(found, jnp.max(jnp.where(on[:, None], points, -big), axis=0), hi)
+    # pass 2: the fine grid on the main body's box
+    solid, occ, origin, pitch, r, near = _pass(points, mask, lo, hi, q, config.resolution, config)
+    kept, count, dropped = keep_main(exterior_fill(solid), config.keep_ratio)
+    return PointSolid(kept, occ, origin, pitch, r, count, dropped, linked_parts(occ, near))

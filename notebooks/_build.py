@@ -82,17 +82,10 @@ points = np.asarray(jaxpose.sample_surface(example_shape(), COUNT, seed=0))'''),
                       "for ν: by default the trend of the pose over γ(1 ± 1 %) and ν(1 ± 1 %) (secant slopes "
                       "of the SVDD solution; `derivative=\"exact\"` gives the local implicit derivative, see "
                       "docs/design.md). `jax.grad` of `jaxpose.normalize` gives the same derivatives."),
-    new_code_cell('''try:
-    from jaxpose.pose.sensitivity import pose_sensitivity
-except ImportError:
-    pose_sensitivity = None
-if pose_sensitivity is not None:
-    sens = pose_sensitivity(points, 47.0, 0.5, resolution=RESOLUTION)
-    for k in ("center", "scale", "dcenter_dgamma", "dscale_dgamma", "dcenter_dnu", "dscale_dnu"):
-        print(f"{k:15s}", np.round(np.asarray(sens[k]), 5))
-else:
-    dscale = jax.grad(lambda g: jaxpose.normalize(points, method="ocsvm", gamma=g, nu=0.5, resolution=RESOLUTION).scale)(47.0)
-    print("dscale/dgamma", float(dscale))'''),
+    new_code_cell('''from jaxpose.pose.sensitivity import pose_sensitivity
+sens = pose_sensitivity(points, 47.0, 0.5, resolution=RESOLUTION)
+for k in ("center", "scale", "dcenter_dgamma", "dscale_dgamma", "dcenter_dnu", "dscale_dnu"):
+    print(f"{k:15s}", np.round(np.asarray(sens[k]), 5))'''),
     new_markdown_cell("The same with `jax.grad` directly, checked against a central finite difference at a step "
                       "of 1 % of γ:"),
     new_code_cell('''scale_of = lambda g: jaxpose.normalize(points, method="ocsvm", gamma=g, nu=0.5, resolution=RESOLUTION).scale
@@ -124,22 +117,16 @@ plot.sweep_curves(sweeps)'''),
                       "`jaxpose.tuning.tune` minimises the mean within-class σ_tr with Adam in (log γ, logit ν), "
                       "sampling the meshes afresh at every step, and keeps the start unless the tuned parameters "
                       "lower the spread of held-out classes (here: a fresh draw of the same classes)."),
-    new_code_cell('''try:
-    from jaxpose import tuning
-except ImportError:
-    tuning = None
-if tuning is not None:
-    run = tuning.tune(data, steps=STEPS, lr=0.05, count=COUNT // 2, resolution=RESOLUTION)
-    traj = run["trajectory"]
-    fig, axes = plt.subplots(1, 3, figsize=(11, 3), layout="constrained")
-    for a, key in zip(axes, ("sigma_tr", "gamma", "nu")):
-        a.plot([t["step"] for t in traj], [t[key] for t in traj], "o-")
-        a.set(xlabel="step", ylabel=key)
-    print(f"gamma {run['gamma0']:g} -> {run['tuned']['gamma']:.3f}, nu {run['nu0']:g} -> {run['tuned']['nu']:.3f}, "
-          f"sigma_tr {run['train']['sigma_tr_start']:.5f} -> {run['train']['sigma_tr_tuned']:.5f}")
-    print(run["verdict"])
-else:
-    fig = plot.sweep_curves(sweeps, param="gamma")
+    new_code_cell('''from jaxpose import tuning
+run = tuning.tune(data, steps=STEPS, lr=0.05, count=COUNT // 2, resolution=RESOLUTION)
+traj = run["trajectory"]
+fig, axes = plt.subplots(1, 3, figsize=(11, 3), layout="constrained")
+for a, key in zip(axes, ("sigma_tr", "gamma", "nu")):
+    a.plot([t["step"] for t in traj], [t[key] for t in traj], "o-")
+    a.set(xlabel="step", ylabel=key)
+print(f"gamma {run['gamma0']:g} -> {run['tuned']['gamma']:.3f}, nu {run['nu0']:g} -> {run['tuned']['nu']:.3f}, "
+      f"sigma_tr {run['train']['sigma_tr_start']:.5f} -> {run['train']['sigma_tr_tuned']:.5f}")
+print(run["verdict"])
 fig'''),
 ]
 

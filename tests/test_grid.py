@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from jaxpose.occupancy.grid import cell_centers, domain, evaluate_on_grid
-from jaxpose.occupancy.grid import CHILD_OFFSETS
+from jaxpose.occupancy.grid import CHILD_OFFSETS, first_true, running_count
 from jaxpose.occupancy.svdd import SVDD, decision_function, fit_svdd
 from conftest import box_surface, clusters, sphere_with_arm
 
@@ -238,3 +238,18 @@ def test_children_from_tables_are_accurate_in_float32():
     mu = float(svdd64.offset)  # f = 2 k^T alpha - mu: its rounding is eps * mu
     assert err_tables <= 8 * np.finfo(np.float32).eps * mu, (err_tables, mu)  # measured 3.3 eps mu
     assert err_tables < err_direct / 10, (err_tables, err_direct)  # measured 50x
+
+
+@pytest.mark.parametrize("n", [1, 2, 5, 33, 1000])
+def test_first_true_and_running_count_equal_numpy(n):
+    rng = np.random.default_rng(n)
+    for fill in (0.0, 0.05, 0.5, 1.0):  # empty, sparse, half, full masks
+        mask = rng.random(n) < fill
+        np.testing.assert_array_equal(np.asarray(running_count(jnp.asarray(mask))), np.cumsum(mask))
+        for size in (1, max(1, n // 3), n + 2):  # fewer, about as many and more slots than True entries
+            want = np.full(size, -1)
+            idx = np.nonzero(mask)[0][:size]
+            want[:len(idx)] = idx
+            got = np.asarray(first_true(jnp.asarray(mask), size, fill_value=-1))
+            assert got.dtype == np.int32
+            np.testing.assert_array_equal(got, want)

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from jaxpose.occupancy.grid import cell_centers, domain, evaluate_on_grid
-from jaxpose.occupancy.grid import CHILD_OFFSETS, first_true, running_count
+from jaxpose.occupancy.grid import CHILD_OFFSETS, first_true
+from jaxpose.occupancy.runs import running_sum
 from jaxpose.occupancy.svdd import SVDD, decision_function, fit_svdd
 from conftest import box_surface, clusters, sphere_with_arm
 
@@ -241,11 +242,11 @@ def test_children_from_tables_are_accurate_in_float32():
 
 
 @pytest.mark.parametrize("n", [1, 2, 5, 33, 1000])
-def test_first_true_and_running_count_equal_numpy(n):
+def test_first_true_and_running_sum_equal_numpy(n):
     rng = np.random.default_rng(n)
     for fill in (0.0, 0.05, 0.5, 1.0):  # empty, sparse, half, full masks
         mask = rng.random(n) < fill
-        np.testing.assert_array_equal(np.asarray(running_count(jnp.asarray(mask))), np.cumsum(mask))
+        np.testing.assert_array_equal(np.asarray(running_sum(jnp.asarray(mask, jnp.int32))), np.cumsum(mask))
         for size in (1, max(1, n // 3), n + 2):  # fewer, about as many and more slots than True entries
             want = np.full(size, -1)
             idx = np.nonzero(mask)[0][:size]

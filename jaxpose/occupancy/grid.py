@@ -23,10 +23,10 @@ import jax.numpy as jnp
 import numpy as np
 
 from .kernels import map_blocks
+from .runs import running_sum
 
 __all__ = ["region_radius", "domain", "snap", "cell_centers", "morton_order", "morton_codes", "evaluate_on_grid",
-           "evaluate_on_grid_jvp", "evaluate_subgrids", "evaluate_children", "evaluate_grid", "running_count",
-           "first_true"]
+           "evaluate_on_grid_jvp", "evaluate_subgrids", "evaluate_children", "evaluate_grid", "first_true"]
 
 
 def region_radius(svdd):
@@ -70,29 +70,16 @@ def cell_centers(lo, hi, resolution):
     return x, h
 
 
-def running_count(mask):
-    """Inclusive running count of the True entries of mask (n,) bool -> (n,) int32 (exact):
-    log-step doubling in a ``lax.fori_loop``, one small loop where ``jnp.cumsum`` compiles to a
-    tree of reduce-window kernels on CPU."""
-    n = mask.shape[0]
-    zeros = jnp.zeros((n,), jnp.int32)
-
-    def step(i, c):
-        return c + jax.lax.dynamic_slice_in_dim(jnp.concatenate([zeros, c]), n - (jnp.int32(1) << i), n)
-
-    return jax.lax.fori_loop(0, max(n - 1, 0).bit_length(), step, mask.astype(jnp.int32))
-
-
 def first_true(mask, size, fill_value=0):
     """The indices of the first ``size`` True entries of mask (n,) bool, in index order, then
     ``fill_value``: (size,) int32, ``jnp.nonzero(mask, size=size, fill_value=fill_value)[0]``
-    from one :func:`running_count` and a scatter.
+    from one running count (:func:`jaxpose.occupancy.runs.running_sum`) and a scatter.
 
     Example::
 
         >>> first_true(jnp.array([False, True, True, False, True]), 4, fill_value=9)   # [1, 2, 4, 9]
     """
-    dest = jnp.where(mask, running_count(mask) - 1, size)  # the rank of each True entry; others dropped
+    dest = jnp.where(mask, running_sum(mask.astype(jnp.int32)) - 1, size)  # the rank of each True entry; others dropped
     return jnp.full((size,), fill_value, jnp.int32).at[dest].set(jnp.arange(mask.shape[0], dtype=jnp.int32),
                                                                   mode="drop")
 

@@ -40,7 +40,7 @@ from jax.custom_batching import custom_vmap
 
 from . import bits
 
-__all__ = ["Runs", "find_runs", "run_labels", "run_counts", "run_sums", "paint", "either", "default_cap"]
+__all__ = ["Runs", "running_sum", "find_runs", "run_labels", "run_counts", "run_sums", "paint", "either", "default_cap"]
 
 _WORD = 32
 _ONES = np.uint32(0xFFFFFFFF)
@@ -76,8 +76,8 @@ def default_cap(shape) -> int:
     return int(min(a * b * (-(-c // 2)), 16384))
 
 
-def _cumsum(x):
-    """Inclusive running sum along the last axis (integers): log-step doubling in a
+def running_sum(x):
+    """Inclusive running sum along the last axis (integers, exact): log-step doubling in a
     ``lax.fori_loop`` (a small program, where ``jnp.cumsum`` compiles to a tree of reduce-window
     stages)."""
     n = x.shape[-1]
@@ -96,7 +96,7 @@ def _positions(words, c: int, cap: int):
     lines, nw = words.shape
     flat = words.reshape(-1)
     n = lax.population_count(flat).astype(jnp.int32)
-    offset = _cumsum(n) - n
+    offset = running_sum(n) - n
     k = jnp.arange(flat.shape[0], dtype=jnp.int32)
     base = (k // nw) * c + (k % nw) * _WORD
     out = jnp.full((cap,), lines * c, jnp.int32)
@@ -132,7 +132,7 @@ def find_runs(packed, c: int, cap: int) -> Runs:
     # both in one vmapped call: one loop compiled (they hold as many bits, in the same words or the next)
     (first, last), (count, _) = jax.vmap(_positions, (0, None, None))(jnp.stack([starts, ends]), c, cap)
     per_line = _popcount(starts)
-    line_start = _cumsum(per_line) - per_line
+    line_start = running_sum(per_line) - per_line
     valid = jnp.arange(cap) < count
     return Runs(first, last, valid, count, count <= cap, line_start, starts, ends)
 
@@ -190,7 +190,7 @@ def run_counts(runs: Runs, packed, c: int):
 def run_sums(runs: Runs, values):
     """(cap,) the sums of the integers ``values`` (a, b, c) over the cells of each run (0 on unused slots)."""
     a, b, c = values.shape
-    acc = _cumsum(values).reshape(-1)
+    acc = running_sum(values).reshape(-1)
     size = acc.shape[0]
     upto = acc[jnp.minimum(runs.last, size - 1)]
     before = jnp.where(runs.first % c == 0, 0, acc[jnp.clip(runs.first - 1, 0, size - 1)])
@@ -214,7 +214,7 @@ def paint(runs: Runs, chosen, packed, c: int):
     for s in (1, 2, 4, 8, 16):
         x = x ^ (x << np.uint32(s))
     odd = (lax.population_count(toggles) & np.uint32(1)).astype(bool)
-    carry = _cumsum(odd.astype(jnp.int32)) - odd.astype(jnp.int32)
+    carry = running_sum(odd.astype(jnp.int32)) - odd.astype(jnp.int32)
     return jnp.where(carry % 2 == 1, ~x, x) & packed
 
 

@@ -63,14 +63,19 @@ def test_batch_order_does_not_matter(batch_and_single):
                                    atol=1e-4 * float(batch.scale[i]), rtol=0)
 
 
+PADDED = dict(OPTS, strategy="vmap")
+
+
 @pytest.fixture(scope="module")
 def padded_batch():
     """The sets padded to 260 rows (a padded size no other test uses: a fresh cache entry), with
     the number of compiled batch functions before and after the call. One program for
-    test_one_compilation_for_different_sizes and test_pad_to_does_not_change_results."""
+    test_one_compilation_for_different_sizes, test_pad_to_does_not_change_results and
+    test_strategies_agree_with_normalize[vmap]: the vmap strategy (incidental to the padding; the
+    map strategy's unpadded program is the module fixture's), so the vmap test compiles nothing."""
     sets = _sets()
     before = pose_module._batched._cache_size()
-    padded = jaxpose.normalize_batch(sets, method="ocsvm", gamma=47.0, nu=0.5, pad_to=260, **OPTS)
+    padded = jaxpose.normalize_batch(sets, method="ocsvm", gamma=47.0, nu=0.5, pad_to=260, **PADDED)
     return sets, padded, before, pose_module._batched._cache_size()
 
 
@@ -80,8 +85,8 @@ def test_one_compilation_for_different_sizes(padded_batch):
     assert after_first == before + 1
     # other sizes (all <= pad_to), other values of gamma and nu: no new compilation
     other = [sphere_with_arm(120 + 17 * i, seed=10 + i) for i in range(4)]
-    jaxpose.normalize_batch(other, method="ocsvm", gamma=30.0, nu=0.3, pad_to=260, **OPTS)
-    jaxpose.normalize_batch(sets[::-1], method="ocsvm", gamma=47.0, nu=0.5, pad_to=260, **OPTS)
+    jaxpose.normalize_batch(other, method="ocsvm", gamma=30.0, nu=0.3, pad_to=260, **PADDED)
+    jaxpose.normalize_batch(sets[::-1], method="ocsvm", gamma=47.0, nu=0.5, pad_to=260, **PADDED)
     assert pose_module._batched._cache_size() == after_first
 
 
@@ -89,7 +94,9 @@ def test_one_compilation_for_different_sizes(padded_batch):
 def test_strategies_agree_with_normalize(batch_and_single, strategy):
     """lax.map and vmap batches both equal per-object normalize (up to solver tolerance)."""
     sets, _, single = batch_and_single
-    batch = jaxpose.normalize_batch(sets, method="ocsvm", gamma=47.0, nu=0.5, strategy=strategy, **OPTS)
+    # vmap padded to 260 rows (incidental): the program of the padded_batch fixture
+    pad = {"pad_to": 260} if strategy == "vmap" else {}
+    batch = jaxpose.normalize_batch(sets, method="ocsvm", gamma=47.0, nu=0.5, strategy=strategy, **pad, **OPTS)
     for i, s in enumerate(single):
         np.testing.assert_allclose(np.asarray(batch.center[i]), np.asarray(s.center), atol=1e-3 * float(s.scale), rtol=0)
         assert abs(float(batch.scale[i]) - float(s.scale)) <= 1e-3 * float(s.scale)

@@ -162,7 +162,9 @@ def test_normalize_default_and_ocsvm(tmp_path, method):
     shape().export(source)
     output = tmp_path / "out.off"
     extra = ["--method", method] if method else []
-    extra += ["--count", "500"] if method == "ocsvm" else []  # the robust default takes no OCSVM options
+    # the robust default takes no OCSVM options; 400 samples (incidental): the OCSVM pose at 448
+    # rows on the default grid, test_pinned.py's float32 program (500 compiled one of its own)
+    extra += ["--count", "400"] if method == "ocsvm" else []
     assert cli.main(["normalize", str(source), "-o", str(output), *extra]) == 0
     record = json.loads((tmp_path / "out.transform.json").read_text())
     assert record["method"] == (method or "robust") and record["gamma"] == 47.0 and record["nu"] == 0.5

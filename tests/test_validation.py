@@ -297,10 +297,11 @@ def test_degenerate_but_legal_shapes():
 
 
 def test_degenerate_shapes_are_symmetric_in_float64(x64):
-    t = np.linspace(0.0, 2.0, M)
-    pose = normalize(np.c_[t, 0.5 * t, np.zeros(M)] + 3.0, method="ocsvm")
+    m = 400  # incidental: test_pinned.py's float64 program (448 rows, the default grid); M compiled its own
+    t = np.linspace(0.0, 2.0, m)
+    pose = normalize(np.c_[t, 0.5 * t, np.zeros(m)] + 3.0, method="ocsvm")
     np.testing.assert_allclose(np.asarray(pose.center), [4.0, 3.5, 3.0], atol=1e-6)
-    pose = normalize(np.r_[np.zeros((M // 2, 3)), np.ones((M // 2, 3))], method="ocsvm")
+    pose = normalize(np.r_[np.zeros((m // 2, 3)), np.ones((m // 2, 3))], method="ocsvm")
     np.testing.assert_allclose(np.asarray(pose.center), [0.5, 0.5, 0.5], atol=1e-6)
 
 

@@ -58,8 +58,11 @@ def test_region_slices_points_and_svdd(tmp_path):
 
     import jaxpose
 
-    pts = sphere_with_arm(80)
-    fig = plot.region_slices(pts, 15.0, 0.1, pixels=30, resolution=16, path=tmp_path / "r.png")
+    # 400 points at resolution 32 (incidental): the fit and the pose are test_pinned.py's float32
+    # programs (_solve_svdd at 400 rows, the OCSVM pose at 448 rows on that grid); 80 points at
+    # resolution 16 compiled two of their own
+    pts = sphere_with_arm(400)
+    fig = plot.region_slices(pts, 15.0, 0.1, pixels=30, resolution=32, path=tmp_path / "r.png")
     assert len(fig.axes) == 3
     _png(tmp_path / "r.png")
     svdd = jaxpose.fit_svdd(jnp.asarray(pts), 20.0, 0.2)
@@ -73,10 +76,10 @@ def test_region_slices_into_given_axes():
 
     fig = Figure()
     axes = fig.subplots(2, 3)
-    pts = sphere_with_arm(80)  # the size of the test above: its compiled fit and pose are reused
-    assert plot.region_slices(pts, 10.0, 0.1, pixels=16, resolution=16, ax=axes[1]) is fig
+    pts = sphere_with_arm(400)  # the size and grid of the test above: its compiled fit and pose are reused
+    assert plot.region_slices(pts, 10.0, 0.1, pixels=16, resolution=32, ax=axes[1]) is fig
     with pytest.raises(InvalidInputError, match="2 axes for 3 planes"):
-        plot.region_slices(pts, 10.0, 0.1, pixels=16, resolution=16, ax=axes[0][:2])
+        plot.region_slices(pts, 10.0, 0.1, pixels=16, resolution=32, ax=axes[0][:2])
 
 
 def test_mesh_3d_mesh_and_points(tmp_path, shape):

@@ -94,7 +94,9 @@ def test_bad_method_and_parameters_are_refused():
 
 def test_empty_solid_is_flagged_not_valid():
     rng = np.random.default_rng(5)
-    sheet = np.c_[rng.uniform(-1, 1, (1500, 2)), np.zeros(1500)]  # an open sheet: no volume
+    # an open sheet: no volume; 1024 points (incidental): the SMALL program of the jit test below
+    # (1024 rows; 1500 points compiled one of their own at 1536)
+    sheet = np.c_[rng.uniform(-1, 1, (1024, 2)), np.zeros(1024)]
     with pytest.warns(InvalidPoseWarning, match="enclose no volume"):
         pose = jaxpose.normalize(sheet, **SMALL)
     assert not bool(pose.valid) and int(pose.status) == Status.EMPTY_SOLID

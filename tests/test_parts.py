@@ -60,6 +60,75 @@ def test_merge_tree_of_a_dumbbell():
     assert not (found.head & found.trunk).any()
 
 
+def _merge_tree_reference(inside, depth):
+    """merge_tree's contract written out voxel by voxel: the voxels in decreasing depth (ties in
+    flat-index order); each takes the components of its 26-neighbours already in, collected as a
+    Python set of their peaks' flat indices in neighbour order (a, b, c in -1, 0, 1); the deepest
+    peak lives on (ties: the set's order), the others die at the voxel; a last row for the
+    component of the first voxel; rows by persistence, ties in the order they died."""
+    shape = inside.shape
+    cells = [tuple(i) for i in np.argwhere(inside)]
+    cells.sort(key=lambda c: -depth[c])  # stable: flat-index order among equal depths
+    steps = [(a, b, c) for a in (-1, 0, 1) for b in (-1, 0, 1) for c in (-1, 0, 1) if (a, b, c) != (0, 0, 0)]
+    padded = tuple(n + 2 for n in shape)  # the set holds the indices merge_tree uses: of the grid padded by 1
+    key = {c: int(np.ravel_multi_index(tuple(np.add(c, 1)), padded)) for c in cells}
+    comp, rows = {}, []  # voxel -> its component's peak (a voxel), updated on every merge
+
+    def flat(c):
+        return int(np.ravel_multi_index(c, shape))
+
+    for c in cells:
+        met = [comp[n] for n in (tuple(np.add(c, s)) for s in steps) if n in comp]
+        peaks = {key[p]: p for p in met}
+        order = sorted({key[p] for p in met}, key=lambda k: -depth[peaks[k]])
+        if not order:
+            comp[c] = c
+            continue
+        keep = peaks[order[0]]
+        for k in order[1:]:
+            rows.append((depth[peaks[k]], depth[c], flat(peaks[k]), flat(c), flat(keep)))
+        dead = {peaks[k] for k in order[1:]}
+        for v in comp:
+            if comp[v] in dead:
+                comp[v] = keep
+        comp[c] = keep
+    if not cells:
+        return np.zeros((0, 5))
+    top = comp[cells[0]]
+    rows.append((depth[top], 0.0, flat(top), -1, -1))
+    rows = np.array(rows, np.float64)
+    return rows[np.argsort(-(rows[:, 0] - rows[:, 1]), kind="stable")]
+
+
+def test_merge_tree_matches_its_contract_voxel_by_voxel():
+    """merge_tree against the reference above, bit for bit, on small grids with many ties (depths
+    on a few levels, as a distance transform's: maxima of equal depth meeting at a saddle, where
+    the survivor is the set order's) and on hand cases whose trees are known: empty, one voxel, one
+    part, two peaks on a line, two parts that never meet (only the deepest voxel's has a row)."""
+    assert merge_tree(np.zeros((3, 4, 5), bool), np.zeros((3, 4, 5))).shape == (0, 5)
+    one = np.zeros((3, 3, 3), bool)
+    one[1, 2, 0] = True
+    np.testing.assert_array_equal(merge_tree(one, np.full((3, 3, 3), 0.5)), [[0.5, 0.0, 15, -1, -1]])
+    box = np.ones((4, 3, 2), bool)
+    np.testing.assert_array_equal(merge_tree(box, np.ones((4, 3, 2))), [[1.0, 0.0, 0, -1, -1]])  # one part
+    line = np.ones((5, 1, 1), bool)
+    depth = np.array([1.0, 3.0, 2.0, 2.5, 0.5]).reshape(5, 1, 1)  # peaks at 1 (3.0) and 3 (2.5), saddle at 2
+    np.testing.assert_array_equal(merge_tree(line, depth), [[3.0, 0.0, 1, -1, -1], [2.5, 2.0, 3, 2, 1]])
+    apart = line.copy()
+    apart[2] = False
+    np.testing.assert_array_equal(merge_tree(apart, depth), [[3.0, 0.0, 1, -1, -1]])
+    rng = np.random.default_rng(7)
+    ties = 0
+    for _ in range(150):
+        shape = tuple(rng.integers(1, 7, 3))
+        inside = rng.random(shape) < rng.uniform(0.3, 1.0)
+        depth = rng.integers(1, rng.integers(2, 5), shape) * 0.05 if rng.random() < 0.8 else rng.random(shape)
+        tree, want = merge_tree(inside, depth), _merge_tree_reference(inside, depth)
+        assert tree.dtype == np.float64 and tree.shape == want.shape and np.array_equal(tree, want)
+        ties += int(np.any((tree[:, 3] >= 0) & (tree[:, 0] == depth.ravel()[tree[:, 4].astype(int)])))
+    assert ties >= 20  # maxima of equal depth met often
+
+
 def test_head_is_the_smaller_part_even_when_deepest():
     """A child's head is as thick as its trunk: a ball (radius 0.9) on a thinner but longer trunk
     (a rod of radius 0.8 and length 3.2) is the deepest part, and still the head (the smaller)."""

@@ -107,6 +107,12 @@ class Parts(NamedTuple):
 def merge_tree(inside, depth):
     """The merge tree of the superlevel sets of ``depth`` on the ``inside`` voxels (26-connected).
 
+    The voxels enter one by one in decreasing depth (equal depths in flat-index order); a voxel
+    with no neighbour in yet is born as a maximum, one whose neighbours in yet lie in two or more
+    components joins them: the component of the deepest peak lives on, the others die there. Peaks
+    tied in depth rank in the iteration order of a Python set of the peaks' flat indices (in the
+    grid padded by one voxel) filled in neighbour order (offsets a, b, c in -1, 0, 1, row-major).
+
     Args:
       inside: (nx, ny, nz) bool; depth: (nx, ny, nz) float (only ``inside`` voxels are read).
 
@@ -114,19 +120,43 @@ def merge_tree(inside, depth):
       (m, 5) float64 rows (birth, death, peak, saddle, joins), one per local maximum, most
       persistent (birth - death) first: birth its depth, death the depth at which it joins a deeper
       maximum (0 for the deepest), and as flat voxel indices its peak, the saddle and the peak of
-      the component it joins (-1 for the deepest). Empty (0, 5) for an empty solid.
+      the component it joins (-1 for the deepest). Maxima of other connected components than the
+      deepest voxel's that never join it have no row. Empty (0, 5) for an empty solid.
+
+    Example::
+
+        tree = merge_tree(sol.inside, sol.depth)
+        birth, death, peak, saddle, joins = tree[1]   # the most persistent maximum but the deepest
     """
     inside = np.pad(np.asarray(inside, bool), 1)  # a border of outside voxels: no bounds checks
     shape = inside.shape
     d = np.where(inside, np.pad(np.asarray(depth, np.float64), 1), -np.inf).ravel()
     flat = np.flatnonzero(inside.ravel())
-    if flat.size == 0:
+    n = flat.size
+    if n == 0:
         return np.zeros((0, 5))
-    order = flat[np.argsort(-d[flat], kind="stable")].tolist()
-    offsets = (_NEIGHBOURS @ np.array([shape[1] * shape[2], shape[2], 1])).tolist()
-    parent = [-1] * d.size  # plain lists: this loop runs once per voxel
-    depth_of = d.tolist()
-    peak = {}
+    order = flat[np.argsort(-d[flat], kind="stable")]  # the voxels by the rank at which they enter
+    rank = np.full(d.size, -1, np.int64)
+    rank[order] = np.arange(n)
+    offsets = _NEIGHBOURS @ np.array([shape[1] * shape[2], shape[2], 1])
+    around = rank[order[:, None] + offsets]  # (n, 26) the neighbours' ranks, in offset order (-1: outside)
+    # Kruskal on the 26-neighbour pairs, each weighted by the rank at which its later voxel enters
+    # (row: the later voxel, so that the weights come sorted): a voxel's edges in the spanning
+    # forest are the components it joins (0: a maximum is born; 1: a component grows; 2 or more:
+    # a saddle, where all but one die)
+    earlier = (around >= 0) & (around < np.arange(n)[:, None])
+    count = earlier.sum(axis=1)
+    pairs = sparse.csr_matrix((np.repeat(np.arange(1.0, n + 1), count), around[earlier], np.concatenate([[0], np.cumsum(count)])),
+                              shape=(n, n))
+    forest = csgraph.minimum_spanning_tree(pairs).tocoo()  # row: the later voxel
+    joins = np.bincount(forest.row, minlength=n)
+    grow = joins[forest.row] == 1
+    # segments: a maximum or a saddle and the voxels that grow from it; union-find on segments,
+    # in the order of the saddles, each component's label that of its peak's segment
+    _, seg = csgraph.connected_components(
+        sparse.csr_matrix((np.ones(grow.sum()), (forest.row[grow], forest.col[grow])), shape=(n, n)), directed=False)
+    head = order[np.unique(seg, return_index=True)[1]].tolist()  # each segment's first voxel
+    parent = list(range(len(head)))
 
     def find(x):
         root = x
@@ -136,25 +166,25 @@ def merge_tree(inside, depth):
             parent[x], x = root, parent[x]
         return root
 
+    saddles = np.flatnonzero(joins >= 2)
+    seg_of = seg.tolist()
     rows = []
-    for v in order:
-        roots = {find(v + o) for o in offsets if parent[v + o] >= 0}
-        parent[v] = v
-        if not roots:
-            peak[v] = v
-            continue
-        roots = sorted(roots, key=lambda r: -depth_of[peak[r]])
+    for s, near in zip(saddles.tolist(), around[saddles].tolist()):
+        v = int(order[s])
+        roots = {head[find(seg_of[r])] for r in near if 0 <= r < s}  # the peaks of the components met
+        roots = sorted(roots, key=lambda r: -d[r])
+        keep = seg_of[rank[roots[0]]]
         for r in roots[1:]:  # the shallower maxima die here
-            rows.append((depth_of[peak[r]], depth_of[v], peak[r], v, peak[roots[0]]))
-            parent[r] = roots[0]
-        parent[v] = roots[0]
-    top = find(order[0])
-    rows.append((depth_of[peak[top]], 0.0, peak[top], -1, -1))
+            rows.append((d[r], d[v], r, v, roots[0]))
+            parent[seg_of[rank[r]]] = keep
+        parent[seg_of[s]] = keep
+    top = head[find(seg_of[0])]
+    rows.append((d[top], 0.0, top, -1, -1))
     rows = np.array(rows, np.float64)
     for col in (2, 3, 4):  # flat indices of the padded grid -> of the input grid
         ok = rows[:, col] >= 0
         idx = np.array(np.unravel_index(rows[ok, col].astype(np.int64), shape)) - 1
-        rows[ok, col] = np.ravel_multi_index(idx, tuple(n - 2 for n in shape))
+        rows[ok, col] = np.ravel_multi_index(idx, tuple(k - 2 for k in shape))
     return rows[np.argsort(-(rows[:, 0] - rows[:, 1]), kind="stable")]
 
 

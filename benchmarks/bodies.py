@@ -1,7 +1,7 @@
 """Why the robust center and scale lose on four-legged animals, and what holds on every body (issue 34).
 
 ``python -m benchmarks.bodies [--variants plain,...] [--classes dog,horse,...] [--resolution 96]
-[--every K] [--heads | --pitch | --volume-parts | --subvoxel | --grid-offsets | --grid-frame] [--core-weight vertices|area] [--json OUT]`` from a source checkout with ../shared beside it.
+[--every K] [--heads | --pitch | --volume-parts | --subvoxel | --grid-offsets | --grid-frame | --blend] [--core-weight vertices|area] [--json OUT]`` from a source checkout with ../shared beside it.
 
 The six dev classes (faust-dev as its two people, kids-dev's two children, tosca-dev's dog and
 horse), each rigid-core aligned (``jaxpose.evaluation.align_core``), every variant made as
@@ -162,6 +162,8 @@ def main(argv=None):
                    help="the volume's cv with the boundary voxels counted by sub-samples against the surface")
     p.add_argument("--grid-offsets", action="store_true",
                    help="the robust center's sigma_tr and volume's cv on four grids shifted by half a voxel, and their mean")
+    p.add_argument("--blend", action="store_true",
+                   help="the cv of V^(w/3) (capped area)^((1-w)/2) for w = 0, 0.1, ..., 1, and how V and the area move together")
     p.add_argument("--grid-frame", action="store_true",
                    help="the robust pose on the input's axes and on the surface's principal axes, each also on randomly turned inputs")
     p.add_argument("--core-weight", choices=("vertices", "area"), default="vertices",
@@ -173,9 +175,9 @@ def main(argv=None):
         return 0
     with tempfile.TemporaryDirectory() as tmp:
         classes = dev_classes(tmp, args.classes.split(","), args.every, args.core_weight)
-    if args.volume_parts or args.subvoxel or args.grid_offsets or args.grid_frame:
+    if args.volume_parts or args.subvoxel or args.grid_offsets or args.grid_frame or args.blend:
         study = (volume_parts if args.volume_parts else subvoxel_study if args.subvoxel else
-                 grid_offsets if args.grid_offsets else grid_frame)
+                 grid_offsets if args.grid_offsets else blend_study if args.blend else grid_frame)
         record = {name: study(meshes, args.resolution, name) for name, meshes in classes.items()}
         if args.json:
             Path(args.json).write_text(json.dumps(record, indent=1))
@@ -604,6 +606,41 @@ def grid_offsets(meshes, resolution=96, name="", out=print):
     out(f"{name}: sigma_tr per grid {' '.join(f'{s:.5g}' for s, _ in one)}, mean of the grids {mean[0]:.5g}; "
         f"cv per grid {' '.join(f'{c:.5f}' for _, c in one)}, mean of the grids {mean[1]:.5f}")
     return {"sigma_tr": [s for s, _ in one], "cv": [c for _, c in one], "mean_sigma_tr": mean[0], "mean_cv": mean[1]}
+
+
+def capped_area(vertices, faces):
+    """Area (units^2) of the mesh with every hole capped (``jaxpose.occupancy.solid.cap_holes``)."""
+    v, caps = cap_holes(np.asarray(vertices, np.float64), np.asarray(faces, np.int64))
+    f = np.vstack([np.asarray(faces, np.int64), caps]) if len(caps) else np.asarray(faces, np.int64)
+    a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
+    return float(np.linalg.norm(np.cross(b - a, c - a), axis=1).sum() / 2.0)
+
+
+BLEND_WEIGHTS = np.round(np.arange(0.0, 1.01, 0.1), 2)
+
+
+def blend_study(meshes, resolution=96, name="", out=print):
+    """``--blend``: per shape the robust solid's voxel volume V and the capped mesh area A; the
+    class's cv of the blends V^(w/3) A^((1-w)/2) (w of :data:`BLEND_WEIGHTS`: 0 is √A, the area
+    alone; 1 is V^(1/3), the default scale), the correlation of log V and log A over the class,
+    and the slope of log V^(1/3) against log A^(1/2) (least squares): how much the volume's size
+    moves per unit of the area's. With errors of the two that were independent a blend would beat
+    both; where they move together (correlation near 1) every blend lies between them.
+    Returns {"weights", "cv" (per weight), "corr", "slope", "range_volume", "range_area"}."""
+    volumes, areas = [], []
+    for mesh in meshes:
+        v, f = baselines.split_geometry(mesh)
+        volumes.append(robust_solid(v, f, resolution=resolution).volume())
+        areas.append(capped_area(v, f))
+    volumes, areas = np.asarray(volumes), np.asarray(areas)
+    cvs = [spreads(np.zeros((len(meshes), 3)), volumes ** (w / 3) * areas ** ((1 - w) / 2))[1] for w in BLEND_WEIGHTS]
+    lv, la = np.log(volumes) / 3, np.log(areas) / 2
+    corr, slope = float(np.corrcoef(lv, la)[0, 1]), float(np.polyfit(la, lv, 1)[0])
+    out(f"{name}: cv for w = {' '.join(f'{w:g}' for w in BLEND_WEIGHTS)}: {' '.join(f'{c:.5f}' for c in cvs)}; "
+        f"corr(log V, log A) {corr:+.2f}, slope {slope:.2f}, range V {100 * (volumes.max() / volumes.min() - 1):.1f} %, "
+        f"A {100 * (areas.max() / areas.min() - 1):.1f} %")
+    return {"weights": BLEND_WEIGHTS.tolist(), "cv": cvs, "corr": corr, "slope": slope,
+            "range_volume": float(volumes.max() / volumes.min() - 1), "range_area": float(areas.max() / areas.min() - 1)}
 
 
 def principal_frame(vertices, faces):

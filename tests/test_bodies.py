@@ -18,6 +18,14 @@ def test_capped_volume_is_the_closed_form_and_caps_a_planar_hole():
     assert bodies.capped_volume(box.vertices, opened) == pytest.approx(6.0, rel=1e-12)  # a flat cap is exact
 
 
+def test_capped_area_is_the_closed_form_and_caps_a_planar_hole():
+    closed = trimesh.creation.icosphere(subdivisions=3, radius=2.0)
+    assert bodies.capped_area(closed.vertices, closed.faces) == pytest.approx(closed.area, rel=1e-12)
+    box = trimesh.creation.box(extents=(1.0, 2.0, 3.0))
+    opened = np.delete(box.faces, np.flatnonzero(np.isclose(box.triangles_center[:, 2], 1.5)), axis=0)
+    assert bodies.capped_area(box.vertices, opened) == pytest.approx(22.0, rel=1e-12)  # 2 (2 + 3 + 6), the cap flat
+
+
 def test_local_thickness_of_two_balls():
     """Two separate balls of radius 9 and 4 voxels: every voxel's thickness is about its ball's
     radius (within the lattice's 1-2 voxels), whatever its depth; its depth is not."""

@@ -201,6 +201,11 @@ def find_parts(sol, thick=THICK, tree=None):
     Returns:
       :class:`Parts` in the grid's frame, or None.
     """
+    return _find_parts(sol, thick, tree, _Levels(sol))
+
+
+def _find_parts(sol, thick, tree, levels):
+    """:func:`find_parts` with the solid's :class:`_Levels` (shared with the caller's other readers)."""
     tree = merge_tree(sol.inside, sol.depth) if tree is None else tree
     if len(tree) < 2:
         return None
@@ -211,15 +216,31 @@ def find_parts(sol, thick=THICK, tree=None):
     best = int(np.argmax(ratio))
     birth, death, peak, saddle, joins = thick_joins[best]
     runner_up = float(np.max(np.delete(ratio, best))) if len(ratio) > 1 else 1.0
-    return _split(sol, thick_joins[best], None, runner_up)
+    return _split(sol, thick_joins[best], None, runner_up, levels=levels)
 
 
-def _split(sol, row, head_peak, runner_up, beyond=None):
+class _Levels:
+    """The 26-connected components of a solid's superlevel sets {depth > t}, labelled: ``levels(t)``
+    gives (nx * ny * nz,) int labels (flat; 0 outside the set). The last level asked for is kept, so
+    that a saddle's level is labelled once for its several readers (its sides' sizes, the part beyond
+    it, its split), and the same labels are read as from ``ndimage.label`` each time."""
+
+    def __init__(self, sol):
+        self.depth, self.t, self.labels = sol.depth, None, None
+
+    def __call__(self, t):
+        t = float(t)
+        if t != self.t:
+            self.t, self.labels = t, ndimage.label(self.depth > t, structure=_CUBE)[0].ravel()
+        return self.labels
+
+
+def _split(sol, row, head_peak, runner_up, beyond=None, levels=None):
     """:class:`Parts` at one merge-tree row's saddle: the head the smaller side (``head_peak`` None)
-    or the side of that peak (a flat index: the row's peak or the one it joins)."""
+    or the side of that peak (a flat index: the row's peak or the one it joins); ``levels``: the
+    solid's :class:`_Levels` to reuse."""
     birth, death, peak, saddle, joins = row
-    labels, _ = ndimage.label(sol.depth > death, structure=_CUBE)
-    labels = labels.ravel()
+    labels = (_Levels(sol) if levels is None else levels)(death)
     a, b = labels == labels[int(joins)], labels == labels[int(peak)]
     if head_peak is None:
         head_peak = peak if b.sum() <= a.sum() else joins
@@ -342,7 +363,7 @@ def waist(death, top, trunk=TRUNK):
     return float(death) * trunk > float(top)
 
 
-def _terminal(sol, row, head_peak, disks=(DISK,), most=1, thin=0.0, slide=False):
+def _terminal(sol, row, head_peak, disks=(DISK,), most=1, thin=0.0, slide=False, levels=None):
     """Whether the side of ``head_peak`` at one merge-tree row's saddle is a head that ends the
     body: (True, the part) where it is cut off (:func:`part_across`, by the first of ``disks`` that
     cuts it off), holds at most :data:`SHARE` of the solid and has at most ``most`` far ends
@@ -351,10 +372,10 @@ def _terminal(sol, row, head_peak, disks=(DISK,), most=1, thin=0.0, slide=False)
     saddle cuts the part off, a disk of :data:`DISK` local depths is tried one voxel after another
     beyond the saddle toward the part's peak (up to a voxel short of it): a neck is cut where it
     is narrowest, which a filled notch beside it (a hole's cap across a throat and a jaw) moves
-    beyond the saddle of the depth field."""
+    beyond the saddle of the depth field. ``levels``: the solid's :class:`_Levels` to reuse."""
     birth, death, peak, saddle, joins = row
-    labels, _ = ndimage.label(sol.depth > death, _CUBE)
-    blob = labels == labels[tuple(_index(sol, head_peak))]
+    labels = (_Levels(sol) if levels is None else levels)(death)
+    blob = (labels == labels[int(head_peak)]).reshape(sol.inside.shape)
     other = _index(sol, joins if head_peak == peak else peak)
     part = None
     for disk in disks:
@@ -395,25 +416,33 @@ def terminal_part(sol, tree=None):
       was compared;
       ``terminal`` True, ``beyond`` the part as cut off).
     """
+    return _terminal_part(sol, tree, _Levels(sol))
+
+
+def _terminal_part(sol, tree, levels):
+    """:func:`terminal_part` with the solid's :class:`_Levels` (shared with the caller's other readers)."""
     tree = merge_tree(sol.inside, sol.depth) if tree is None else tree
     if len(tree) < 2:
         return None
     top = tree[:, 0].max()
     flat_depth = sol.depth.ravel()
-    sides = []
+    rows = []
     for row in tree:
         birth, death, peak, saddle, joins = row
         if death <= 0 or birth < SADDLE * death or birth < LOWEST * top or waist(death, top):
             continue
-        labels, _ = ndimage.label(sol.depth > death, _CUBE)
-        labels = labels.ravel()
-        small = peak if np.sum(labels == labels[int(peak)]) <= np.sum(labels == labels[int(joins)]) else joins
-        sides.append((flat_depth[int(small)], row, small))
+        rows.append(row)
+    small = {}
+    for i in sorted(range(len(rows)), key=lambda i: rows[i][1]):  # rows of one depth: their level labelled once
+        birth, death, peak, saddle, joins = rows[i]
+        labels = levels(death)
+        small[i] = peak if np.sum(labels == labels[int(peak)]) <= np.sum(labels == labels[int(joins)]) else joins
+    sides = [(flat_depth[int(small[i])], row, small[i]) for i, row in enumerate(rows)]
     thin = 0.0 if sol.radius is None else sol.radius * sol.pitch  # a point solid: without its closing's bridges
     for _, row, small in sorted(sides, key=lambda s: -s[0]):
-        verdict, part = _terminal(sol, row, small, (DISK, WIDER), thin=thin, slide=True)
+        verdict, part = _terminal(sol, row, small, (DISK, WIDER), thin=thin, slide=True, levels=levels)
         if verdict:
-            return _split(sol, row, small, 0.0, part)
+            return _split(sol, row, small, 0.0, part, levels=levels)
     return None
 
 
@@ -435,15 +464,16 @@ def find_head(sol, tree=None):
       a ball, a box, a capsule).
     """
     tree = merge_tree(sol.inside, sol.depth) if tree is None else tree
-    found = find_parts(sol, tree=tree)
+    levels = _Levels(sol)
+    found = _find_parts(sol, THICK, tree, levels)
     if found is not None and not waist(found.neck_depth, tree[:, 0].max()):
         thick = tree[(tree[:, 1] > 0) & (tree[:, 0] >= NECK * tree[:, 1]) & (tree[:, 0] >= THICK * tree[:, 0].max())]
         row = thick[np.argmax(thick[:, 0] / thick[:, 1])]
         head_peak = row[2] if found.head.ravel()[int(row[2])] else row[4]
         if found.neck_gap >= GAP_MIN:  # a distinct neck
-            verdict, part = _terminal(sol, row, head_peak, most=2)  # a hand resting on the head: two ends
+            verdict, part = _terminal(sol, row, head_peak, most=2, levels=levels)  # a hand resting on the head: two ends
         else:  # a neck no more constricted than another saddle vouches for nothing: an end of the body
-            verdict, part = _terminal(sol, row, head_peak, slide=True)
+            verdict, part = _terminal(sol, row, head_peak, slide=True, levels=levels)
         if verdict is not False:
             return found._replace(terminal=bool(verdict), beyond=part)
-    return terminal_part(sol, tree)
+    return _terminal_part(sol, tree, levels)

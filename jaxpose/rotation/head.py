@@ -298,15 +298,17 @@ def head_mirror(surface, a, b, steps=MIRROR_STEPS):
       ((3,) unit normal, contrast).
     """
     tree, center = cKDTree(surface), surface.mean(axis=0)
+    rel, read = surface - center, {}  # read: angle -> error (a refinement's middle angle and the final best are read before)
 
     def error(t):
-        e = np.cos(t) * a + np.sin(t) * b
-        return float(tree.query(surface - 2.0 * ((surface - center) @ e)[:, None] * e)[0].mean())
+        if t not in read:
+            e = np.cos(t) * a + np.sin(t) * b
+            read[t] = float(tree.query(surface - 2.0 * (rel @ e)[:, None] * e)[0].mean())
+        return read[t]
 
     angles, step = np.linspace(0.0, np.pi, steps, endpoint=False), np.pi / steps
     for _ in range(3):
-        errors = [error(t) for t in angles]
-        best = angles[int(np.argmin(errors))]
+        best = angles[int(np.argmin([error(t) for t in angles]))]
         angles = best + np.linspace(-step, step, steps // 3 + 1)
         step = 2.0 * step / (steps // 3)
     e, e_perp = error(best), error(best + 0.5 * np.pi)

@@ -56,6 +56,21 @@ SYMMETRY_POWER = 2.0  # depth exponent of the mirror test's weights
 
 
 # ------------------------------------------------------------------ the core frame
+_ONE_THREAD = 4 * 65536  # OpenBLAS runs a matrix product of at most this many multiply-adds on one thread
+
+
+def _turned(points, matrix):
+    """``points @ matrix`` for (m, 3) points and a (3, 3) matrix, the same numbers, as products of
+    at most ``_ONE_THREAD`` multiply-adds each (m / 29127 of them): a row's products are its own,
+    and a product this thin does not pay for BLAS's threads, which wait for a free core on a busy
+    machine. (m, 3) float64."""
+    points = np.asarray(points, np.float64)
+    rows = _ONE_THREAD // 9
+    if len(points) <= rows:
+        return points @ matrix
+    return np.concatenate([points[i:i + rows] @ matrix for i in range(0, len(points), rows)])
+
+
 def _third_moments(x, w=None):
     """(3,) signs-only helper: sum w (x - mean)^3 per axis of x (n, 3)."""
     w = np.ones(len(x)) if w is None else w
@@ -92,7 +107,7 @@ def pre_frame(vertices, faces=None):
         d = v - v.mean(axis=0)
         cov = d.T @ d / len(v)
     _, axes = descending_axes(cov)
-    skew = _third_moments(v @ axes.T)
+    skew = _third_moments(_turned(v, axes.T))
     return axes * np.where(skew >= 0, 1.0, -1.0)[:, None]
 
 
@@ -127,7 +142,7 @@ def frame_solid(vertices, faces=None, resolution=None):
     edges = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
     graph = sparse.coo_matrix((np.ones(len(edges), bool), (edges[:, 0], edges[:, 1])), shape=(n, n))
     _, piece = csgraph.connected_components(graph, directed=False)
-    on = solid.near_solid(v @ sol.frame.T, sol.inside, sol.origin, sol.pitch, grow=OFF_SOLID)
+    on = solid.near_solid(_turned(v, sol.frame.T), sol.inside, sol.origin, sol.pitch, grow=OFF_SOLID)
     kept = np.zeros(piece.max() + 1, bool)
     kept[piece[on]] = True
     keep = kept[piece[f[:, 0]]]
@@ -189,7 +204,7 @@ def feet_offset(sol, axes, up=0, forward=2):
       () the offset s (0 when no part is found).
     """
     y, d, idx = _grid_centers(sol)
-    z = (y - y.mean(axis=0)) @ np.asarray(axes, np.float64).T
+    z = _turned(y - y.mean(axis=0), np.asarray(axes, np.float64).T)
     h, f = z[:, up], z[:, forward]
     side = z[:, 3 - up - forward]
     length = h.max() - h.min()
@@ -239,7 +254,7 @@ def core_frame(sol, power=AXES_POWER, feet=True, cross_check=True) -> Frame:
     c = (w @ y) / w.sum()
     z = y - c
     lam, axes = descending_axes((z * w[:, None]).T @ z / w.sum())
-    zc = (y - y.mean(axis=0)) @ axes.T
+    zc = _turned(y - y.mean(axis=0), axes.T)
     r = np.sqrt(np.mean(np.sum(zc * zc, axis=1)))
     stat = np.mean(zc ** 3, axis=0) / r ** 3 / SIGN_MIN  # signed, in multiples of the threshold
     conf = np.abs(stat)

@@ -85,7 +85,7 @@ from ..geometry import is_closed
 from . import parts
 from ..orientation import GAP_MIN, SYMMETRY_MIN, Frame, ambiguity
 from ..occupancy.voxels import GRID_SHIFT
-from .core import SYMMETRY_POWER, _grid_centers, _weights, core_frame, symmetry_scores
+from .core import SYMMETRY_POWER, _grid_centers, _turned, _weights, core_frame, symmetry_scores
 
 __all__ = ["CHEST", "CHEST_POWER", "FACE", "CELL", "FACE_MIN", "MUZZLE", "TURN", "HEAD_MIRROR", "UP_SPLIT",
            "MIRROR_STEPS", "MIRROR_BEYOND", "GAP", "HeadChest", "head_surface", "hole_points", "head_chest",
@@ -204,7 +204,7 @@ def hole_points(sol, points, gap=GAP, cell=CELL, near=None):
     Returns:
       (k, 3) world coordinates (k = 0 on a closed surface).
     """
-    y = np.asarray(points, np.float64) @ sol.frame.T
+    y = _turned(points, sol.frame.T)
     if near is not None:
         y = y[np.linalg.norm(y - near[0], axis=1) < near[1] + (gap + 1.0) * sol.pitch]
     n = max(1, int(round(1.0 / cell)))
@@ -226,9 +226,9 @@ def hole_points(sol, points, gap=GAP, cell=CELL, near=None):
     if near is not None:
         q = q[np.linalg.norm(q - near[0], axis=1) < near[1]]
     if not len(y):
-        return q @ sol.frame
+        return _turned(q, sol.frame)
     far = cKDTree(y).query(q, distance_upper_bound=gap * sol.pitch)[0] > gap * sol.pitch
-    return q[far] @ sol.frame
+    return _turned(q[far], sol.frame)
 
 
 def head_chest(sol, found, points):
@@ -257,7 +257,7 @@ def head_chest(sol, found, points):
     lam, vec = np.linalg.eigh(across @ cov @ across)  # ascending: ~0 along up, front-back, left-right
     ws = d[blob] ** 2
     skull = (ws @ y[blob]) / ws.sum()
-    surface = head_surface(np.asarray(points, np.float64) @ sol.frame.T, sol, found, up, eps)
+    surface = head_surface(_turned(points, sol.frame.T), sol, found, up, eps)
     beyond = skull if found.beyond is None else y[found.beyond[tuple(idx.T)]].mean(axis=0)
     return HeadChest(found, y, d, idx, chest, cc, cov, hc, up, vec[:, 1], lam[1:], skull, surface, eps, beyond)
 

@@ -57,15 +57,17 @@ SYMMETRY_POWER = 2.0  # depth exponent of the mirror test's weights
 
 # ------------------------------------------------------------------ the core frame
 _ONE_THREAD = 4 * 65536  # OpenBLAS runs a matrix product of at most this many multiply-adds on one thread
+_ONE_THREAD_VECTOR = 9216  # ... and a matrix-vector product of fewer than this many (OpenBLAS's classic threshold)
 
 
 def _turned(points, matrix):
-    """``points @ matrix`` for (m, 3) points and a (3, 3) matrix, the same numbers, as products of
-    at most ``_ONE_THREAD`` multiply-adds each (m / 29127 of them): a row's products are its own,
+    """``points @ matrix`` for (m, 3) points and a (3, 3) matrix or a (3,) vector, the same numbers,
+    as products small enough that OpenBLAS runs them on one thread (at most ``_ONE_THREAD``
+    multiply-adds, fewer than ``_ONE_THREAD_VECTOR`` for a vector): a row's products are its own,
     and a product this thin does not pay for BLAS's threads, which wait for a free core on a busy
-    machine. (m, 3) float64."""
+    machine. (m, 3) or (m,) float64."""
     points = np.asarray(points, np.float64)
-    rows = _ONE_THREAD // 9
+    rows = _ONE_THREAD // 9 if np.ndim(matrix) == 2 else (_ONE_THREAD_VECTOR - 1) // 3
     if len(points) <= rows:
         return points @ matrix
     return np.concatenate([points[i:i + rows] @ matrix for i in range(0, len(points), rows)])

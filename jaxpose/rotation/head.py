@@ -171,7 +171,7 @@ def head_surface(points, sol, found, up, eps, cell=CELL):
       (k, 3) grid coordinates (k = 0 where no point is on the head).
     """
     balls, radii, reach, center, bound = _head_reach(sol, found, eps)
-    p = points[(np.linalg.norm(points - center, axis=1) < bound) & ((points - found.neck) @ up > eps)]
+    p = points[(np.linalg.norm(points - center, axis=1) < bound) & (_turned(points - found.neck, up) > eps)]
     if cell is not None and len(p):
         key = np.floor((p - sol.origin) / (cell * sol.pitch) + GRID_SHIFT).astype(np.int64)
         key -= key.min(axis=0)

@@ -152,6 +152,23 @@ def _head_reach(sol, found, eps):
     return balls, radii, reach, center, np.max(np.linalg.norm(balls - center, axis=1) + radii) + reach
 
 
+def _near_faces(sol, vertices, faces, center, bound):
+    """The faces (k, 3) of ``faces`` (f, 3) whose points may lie within ``bound`` + (``GAP`` + 1)
+    pitches of ``center`` (grid coordinates; :func:`_head_reach`): every point of the head's surface
+    (:func:`head_surface`) and of the surface about its holes (:func:`hole_points`) lies there. A
+    face's points lie within its vertices' largest distance from their mean; one more pitch is left
+    for rounding. :func:`jaxpose.sample.lattice_points` of these faces holds the same points near
+    the head, in the same order, as of all the faces (each face's points are its own). None or
+    empty ``faces``: returned as given."""
+    if faces is None or not len(faces):
+        return faces
+    f = np.asarray(faces, np.int64)
+    t = _turned(vertices, sol.frame.T)[f]
+    mid = t.mean(axis=1)
+    spread = np.max(np.linalg.norm(t - mid[:, None], axis=2), axis=1)
+    return f[np.linalg.norm(mid - center, axis=1) - spread < bound + (GAP + 2.0) * sol.pitch]
+
+
 def head_surface(points, sol, found, up, eps, cell=CELL):
     """The head's surface as points (module docs, step 5): each cell that holds input points, once.
 
@@ -384,9 +401,9 @@ def head_frame(sol, vertices, faces=None) -> Frame:
     cloud = faces is None
     closed = not cloud and is_closed(np.asarray(faces))
     if found is not None:
-        points = sample.lattice_points(vertices, faces, CELL * sol.pitch)
+        _, _, _, center, bound = _head_reach(sol, found, GRID_SHIFT * sol.pitch)
+        points = sample.lattice_points(vertices, _near_faces(sol, vertices, faces, center, bound), CELL * sol.pitch)
         if not cloud and not closed:  # an open mesh: its holes read from the solid's boundary
-            _, _, _, center, bound = _head_reach(sol, found, GRID_SHIFT * sol.pitch)
             points = np.concatenate([points, hole_points(sol, points, near=(center, bound))])
     geo = None if found is None else head_chest(sol, found, points)
     if geo is None:  # no head, or no chest below it: the core frame, flagged (no head vouches for it)

@@ -2,6 +2,7 @@
 rotation=False changes nothing, frame baselines, evaluate_rotation and the CLI."""
 import json
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -287,6 +288,25 @@ def test_hole_points_lie_in_the_holes_of_an_open_mesh():
     ball = rotation.hole_points(sol, sample.lattice_points(v, open_f, rotation.CELL * sol.pitch), near=(center, 0.3))
     inside = np.linalg.norm(got @ sol.frame.T - center, axis=1) < 0.3
     assert 0 < len(ball) < len(got) and np.array_equal(ball, got[inside])
+
+
+def test_the_head_is_sampled_on_the_faces_that_reach_it():
+    """head_frame samples only the faces that may reach the head (head._near_faces): the lattice
+    points of those faces within the reach of hole_points and head_surface (the head's bound + GAP
+    + 1 pitches of its center, grid coordinates) are the whole mesh's lattice points there, in the
+    same order; faces far off are dropped."""
+    v, f = baselines.split_geometry(trimesh.creation.icosphere(subdivisions=3))
+    sol = SimpleNamespace(frame=random_rotation(np.random.default_rng(3)), pitch=0.05)
+    center, bound = np.array([0.0, 0.1, 1.0]) @ sol.frame.T, 0.3
+    spacing = rotation.CELL * sol.pitch
+
+    def within(points):
+        return points[np.linalg.norm(points @ sol.frame.T - center, axis=1) < bound + (rotation.GAP + 1.0) * sol.pitch]
+
+    near = head._near_faces(sol, v, f, center, bound)
+    whole = within(sample.lattice_points(v, f, spacing))
+    assert 0 < len(near) < len(f) and len(whole) > len(v[np.linalg.norm(v @ sol.frame.T - center, axis=1) < bound])
+    assert np.array_equal(within(sample.lattice_points(v, near, spacing)), whole)
 
 
 def _cells(points, pitch):

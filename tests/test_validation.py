@@ -3,7 +3,7 @@
 Every public function and command either gives a correct result or raises a clear
 JaxposeError (value problems also ValueError): never a silent NaN, a hang, a JAX-internal
 traceback or a half-written output file. Point sets have m = 300 and default options so the
-few compilations are shared between tests.
+few compilations are shared between tests (400 where test_pinned.py's programs serve: P400).
 """
 import os
 import stat
@@ -22,6 +22,13 @@ from conftest import box_surface
 M = 300
 P = box_surface(M, seed=3)
 FIT = dict(tol=1e-3)
+# 400 points (448 rows; the same box generator and seed as P), sizes and grids incidental to the
+# checks that use them: the iteration-cap batches (two sets at resolution 32: test_pinned.py's
+# float32 batch program; max_iter and tol are traced) and the float64 property tests (pinned's
+# float64 program) compile no program of their own
+P400 = box_surface(400, seed=3)
+PAIR = [P400, P400[::-1]]
+PAIR_OPTS = dict(method="ocsvm", resolution=32)
 
 
 def finite_pose(pose):
@@ -219,7 +226,7 @@ def test_iteration_cap_is_reported():
         fit_svdd(P, 10.0, 0.5, max_iter=10, throw=True)
     assert not bool(fit_svdd(P, 10.0, 0.5, max_iter=10).converged)
     with pytest.raises(ConvergenceError):
-        jaxpose.normalize_batch([P, P[::-1]], method="ocsvm", max_iter=10, throw=True)
+        jaxpose.normalize_batch(PAIR, **PAIR_OPTS, max_iter=10, throw=True)
 
 
 def test_stopping_numbers_share_one_program():
@@ -236,9 +243,9 @@ def test_stopping_numbers_share_one_program():
     assert pose_module._pipeline_jit._cache_size() == programs
     assert bool(base.converged) and bool(tight.converged) and int(tight.iterations) > int(base.iterations)
     assert not bool(capped.converged) and 10 <= int(capped.iterations) <= 10 + SolverConfig().check_every - 1
-    capped = jaxpose.normalize_batch([P, P[::-1]], method="ocsvm", max_iter=10)  # test_iteration_cap_is_reported's
+    capped = jaxpose.normalize_batch(PAIR, **PAIR_OPTS, max_iter=10)  # test_iteration_cap_is_reported's
     batches = pose_module._batched._cache_size()
-    loose = jaxpose.normalize_batch([P, P[::-1]], method="ocsvm", tol=1e-2, max_iter=5000)
+    loose = jaxpose.normalize_batch(PAIR, **PAIR_OPTS, tol=1e-2, max_iter=5000)
     assert pose_module._batched._cache_size() == batches
     assert not np.any(np.asarray(capped.converged)) and np.all(np.asarray(loose.converged))
 
@@ -365,9 +372,12 @@ def test_edge_hyperparameters_fit_svdd():
     shift=st.tuples(*[st.floats(-1e4, 1e4)] * 3),
 )
 def test_equivariance_property(x64, angles, log_scale, shift):
-    base = normalize(P, method="ocsvm")
+    # P400 (incidental): test_pinned.py's float64 program (448 rows, the default grid), also
+    # test_degenerate_shapes_are_symmetric_in_float64's; P's float64 program was these two tests' own
+    pts = P400
+    base = normalize(pts, method="ocsvm")
     R, s, t = rotation(angles), 10.0 ** log_scale, np.asarray(shift)
-    moved = normalize(s * P @ R.T + t, method="ocsvm")
+    moved = normalize(s * pts @ R.T + t, method="ocsvm")
     expect = s * np.asarray(base.center) @ R.T + t
     size = s * float(base.scale)
     assert np.linalg.norm(np.asarray(moved.center) - expect) < 2e-3 * size
@@ -377,9 +387,10 @@ def test_equivariance_property(x64, angles, log_scale, shift):
 @settings(max_examples=3, deadline=None, suppress_health_check=list(HealthCheck), phases=(Phase.explicit, Phase.generate), derandomize=True)
 @given(seed=st.integers(0, 2**31 - 1))
 def test_point_order_invariance_property(x64, seed):
-    base = normalize(P, method="ocsvm")
-    perm = np.random.default_rng(seed).permutation(M)
-    pose = normalize(P[perm], method="ocsvm")
+    pts = P400  # test_equivariance_property's float64 program
+    base = normalize(pts, method="ocsvm")
+    perm = np.random.default_rng(seed).permutation(len(pts))
+    pose = normalize(pts[perm], method="ocsvm")
     s = float(base.scale)
     assert np.linalg.norm(np.asarray(pose.center) - np.asarray(base.center)) < 1e-3 * s
     assert abs(float(pose.scale) - s) < 1e-3 * s

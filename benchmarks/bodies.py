@@ -92,12 +92,24 @@ def local_thickness(inside, depth_vox):
     return t
 
 
-def capped_volume(vertices, faces):
-    """Signed volume of the mesh with every hole capped (``jaxpose.occupancy.solid.cap_holes``), units^3."""
+def capped_triangles(vertices, faces):
+    """The corners (three (f + k, 3) arrays) of the mesh's triangles with every hole capped by a
+    fan (``jaxpose.occupancy.solid.cap_holes``: k cap triangles)."""
     v, caps = cap_holes(np.asarray(vertices, np.float64), np.asarray(faces, np.int64))
-    f = np.vstack([faces, caps])
-    a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
+    f = np.vstack([np.asarray(faces, np.int64), caps])
+    return v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
+
+
+def capped_volume(vertices, faces):
+    """Signed volume of the mesh with every hole capped (:func:`capped_triangles`), units^3."""
+    a, b, c = capped_triangles(vertices, faces)
     return float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0)
+
+
+def capped_area(vertices, faces):
+    """Area (units^2) of the mesh with every hole capped (:func:`capped_triangles`)."""
+    a, b, c = capped_triangles(vertices, faces)
+    return float(np.linalg.norm(np.cross(b - a, c - a), axis=1).sum() / 2.0)
 
 
 def candidates(shape, resolution, powers=(1, 2, 4, 6, 8), thick=False):
@@ -606,14 +618,6 @@ def grid_offsets(meshes, resolution=96, name="", out=print):
     out(f"{name}: sigma_tr per grid {' '.join(f'{s:.5g}' for s, _ in one)}, mean of the grids {mean[0]:.5g}; "
         f"cv per grid {' '.join(f'{c:.5f}' for _, c in one)}, mean of the grids {mean[1]:.5f}")
     return {"sigma_tr": [s for s, _ in one], "cv": [c for _, c in one], "mean_sigma_tr": mean[0], "mean_cv": mean[1]}
-
-
-def capped_area(vertices, faces):
-    """Area (units^2) of the mesh with every hole capped (``jaxpose.occupancy.solid.cap_holes``)."""
-    v, caps = cap_holes(np.asarray(vertices, np.float64), np.asarray(faces, np.int64))
-    f = np.vstack([np.asarray(faces, np.int64), caps]) if len(caps) else np.asarray(faces, np.int64)
-    a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
-    return float(np.linalg.norm(np.cross(b - a, c - a), axis=1).sum() / 2.0)
 
 
 BLEND_WEIGHTS = np.round(np.arange(0.0, 1.01, 0.1), 2)

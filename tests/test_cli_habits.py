@@ -123,6 +123,8 @@ def no_work(monkeypatch):
     (["--methods", "robust:-1"], "the power after ':' must be a finite number >= 0"),  # were rows of n/a
     (["--methods", "robust:nan"], "the power after ':' must be a finite number >= 0"),
     (["--methods", "vertex_mean:2"], "vertex_mean takes no power"),  # was the vertex mean, labelled :2
+    (["--instances", "1"], "--instances must be >= 2"),  # was exit 1 after making the dataset
+    (["--classes", ","], "--classes names no class"),  # was exit 1 naming the library's dict argument
 ])
 def test_evaluate_usage_errors_exit_2_before_the_work(capsys, no_work, args, fragment):
     assert cli.main(["evaluate", *args]) == 2

@@ -6,6 +6,7 @@ Every public entry point calls these first, so that bad input gets a readable
 from __future__ import annotations
 
 import numbers
+import os
 import sys
 
 import numpy as np
@@ -26,6 +27,7 @@ __all__ = [
     "check_bool",
     "check_real",
     "compute_dtype",
+    "default_float",
     "is_traced",
 ]
 
@@ -103,10 +105,30 @@ def _scalar(value, name):
     return v
 
 
+def default_float() -> np.dtype:
+    """JAX's default float dtype, the one a Python float becomes under ``jit``: float32, float64
+    with ``jax_enable_x64``. Does not import JAX: before JAX is imported its setting is the
+    ``JAX_ENABLE_X64`` environment variable's."""
+    jax = sys.modules.get("jax")
+    config = getattr(jax, "config", None)
+    if config is not None and hasattr(config, "jax_enable_x64"):
+        x64 = bool(config.jax_enable_x64)
+    else:
+        x64 = os.environ.get("JAX_ENABLE_X64", "").strip().lower() in ("1", "true", "t", "yes", "y", "on")
+    return np.dtype(np.float64 if x64 else np.float32)
+
+
 def check_gamma(gamma):
+    """A concrete gamma: a finite real scalar > 0 that JAX's default float dtype holds as a normal
+    number (float32: 1.2e-38 ... 3.4e38; beyond, it would become inf or 0 inside the pipeline)."""
     v = _scalar(gamma, "gamma")
     if v is not None and v <= 0:
         raise InvalidInputError(f"gamma must be > 0, got {v}")
+    if v is not None:
+        finfo = np.finfo(default_float())
+        if not float(finfo.tiny) <= v <= float(finfo.max):
+            raise InvalidInputError(f"gamma={v:g} is outside the range of {finfo.dtype} (JAX's default float), "
+                                    f"{float(finfo.tiny):.3g} ... {float(finfo.max):.3g}")
     return gamma
 
 

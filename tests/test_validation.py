@@ -6,6 +6,7 @@ traceback or a half-written output file. Point sets have m = 300 and default opt
 few compilations are shared between tests (400 where test_pinned.py's programs serve: P400).
 """
 import os
+import re
 import stat
 
 import jax
@@ -214,6 +215,33 @@ def test_out_of_range_for_float32():
         pytest.skip("float32 only")
     with pytest.raises(InvalidInputError, match="float32"):
         normalize(P * 1e300, method="ocsvm")
+
+
+def test_gamma_and_power_beyond_the_default_float_are_refused_by_name():
+    """A finite gamma (or power) that float32, JAX's default float, cannot hold became inf or 0
+    inside the pipeline: a NaN pose whose status said 'gamma finite and > 0' (normalize_mesh and the
+    command line: a failure after the work). Refused by name before any compilation or I/O."""
+    if jax.config.jax_enable_x64:
+        pytest.skip("float32 only")
+    from jaxpose import _validate
+
+    for gamma in (1e39, 1e-40):  # past float32's max; below its smallest normal (XLA flushes it to 0)
+        for call in (lambda: normalize(P, method="ocsvm", gamma=gamma), lambda: fit_svdd(P, gamma, 0.5),
+                     lambda: jaxpose.normalize_mesh("no-such-file.ply", method="ocsvm", gamma=gamma)):
+            with pytest.raises(InvalidInputError, match=re.escape(f"gamma={gamma:g} is outside the range of float32")):
+                call()
+    with pytest.raises(InvalidInputError, match=r"power=1e\+39 is outside the range of float32"):
+        normalize(P, power=1e39)
+    finfo = np.finfo(np.float32)
+    for edge in (float(finfo.tiny), float(finfo.max)):  # what float32 holds passes the check
+        _validate.check_gamma(edge)
+    jax.config.update("jax_enable_x64", True)
+    try:  # float64 holds it: the check follows JAX's setting
+        assert _validate.default_float() == np.float64
+        _validate.check_gamma(1e39)
+    finally:
+        jax.config.update("jax_enable_x64", False)
+    assert _validate.default_float() == np.float32
 
 
 # --------------------------------------------------------------------------- convergence

@@ -251,7 +251,11 @@ def _check_power(power):
         return power
     # a () array of reals (NumPy or a concrete JAX array) is checked as its number, and returned as it is
     real = getattr(power, "shape", None) == () and getattr(getattr(power, "dtype", None), "kind", "") in ("f", "i", "u")
-    _validate.check_real(np.asarray(power).item() if real else power, "power", 0)
+    value = _validate.check_real(np.asarray(power).item() if real else power, "power", 0)
+    finfo = np.finfo(_validate.default_float())
+    if value > float(finfo.max):  # inf inside the pipeline
+        raise _validate.InvalidInputError(f"power={value:g} is outside the range of {finfo.dtype} (JAX's default "
+                                          f"float), 0 ... {float(finfo.max):.3g}")
     return power
 
 

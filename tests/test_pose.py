@@ -112,6 +112,10 @@ def test_float32_default_and_jit():
     pts = jnp.asarray(sphere_with_arm(300), jnp.float32)
     pose = normalize(pts, method="ocsvm")
     assert pose.center.dtype == np.float64 and bool(pose.valid)  # concrete input: mapped back on the host
+    assert isinstance(pose.center, np.ndarray) and np.asarray(pose.scale).dtype == np.float64
+    # and the Pose docstring says so (it said the JAX entry points return JAX arrays, whatever the input)
+    policy = " ".join(Pose.__doc__.split())
+    assert "for a concrete input their ``center`` and ``scale`` are NumPy float64" in policy
     jitted = jax.jit(lambda p, g, n: normalize(p, method="ocsvm", gamma=g, nu=n))(pts, 47.0, 0.5)
     np.testing.assert_allclose(np.asarray(jitted.center), np.asarray(pose.center), atol=1e-5)
 

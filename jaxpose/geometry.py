@@ -16,6 +16,12 @@ from ._validate import InvalidInputError, OpenMeshWarning, check_points
 __all__ = ["Surface", "split_geometry", "triangle_areas", "is_closed", "require_faces", "warn_if_open"]
 
 
+# the extents (largest coordinate range) whose face areas float64 holds: the cross product of two edges
+# is at most 2 extent^2 per component, and areas square it (triangle_areas); outside, a mesh is refused
+MAX_EXTENT = float(np.finfo(np.float64).max / 12.0) ** 0.25  # 6.2e76
+MIN_EXTENT = float(np.finfo(np.float64).tiny) ** 0.25  # 1.2e-77: below, every area is 0 or subnormal
+
+
 class Surface(NamedTuple):
     """A triangle mesh as two arrays, without a trimesh object: what a file read by the fast
     readers becomes where nothing else of trimesh is needed (:func:`jaxpose.io.mesh.read`), and
@@ -66,7 +72,16 @@ def split_geometry(mesh_or_points):
             raise InvalidInputError(f"faces must have shape (f, 3), got {faces.shape}")
         if faces.min() < 0 or faces.max() >= len(vertices):
             raise InvalidInputError("faces index vertices that do not exist")
+        extent = float(np.max(np.ptp(vertices, axis=0)))
+        if extent > MAX_EXTENT:  # the areas' squared cross products would overflow: inf and NaN areas
+            raise InvalidInputError(
+                f"the mesh spans {extent:.3g}: beyond {MAX_EXTENT:.3g} its face areas overflow float64; "
+                "rescale it")
         if not _has_area(vertices, faces):  # no silent switch to the points
+            if 0.0 < extent < MIN_EXTENT:  # not degenerate faces: areas that underflow to 0
+                raise InvalidInputError(
+                    f"the mesh spans {extent:.3g}: below {MIN_EXTENT:.3g} its face areas underflow float64 "
+                    "(to 0); rescale it")
             raise InvalidInputError(
                 f"the mesh has no area: all its {len(faces)} faces are degenerate (zero area); to use its "
                 "vertices as points, pass trimesh.PointCloud(mesh.vertices)"

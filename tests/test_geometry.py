@@ -30,6 +30,25 @@ def test_split_geometry_refuses_bad_faces(faces, message):
         geometry.split_geometry(mesh)
 
 
+def test_meshes_whose_areas_float64_cannot_hold_are_refused_by_their_extent():
+    """A mesh spanning 1e100 got inf - inf = NaN areas: NumPy's 'repeats may not contain negative
+    values' from the sampler, a NaN surface centroid, an OverflowError traceback from the robust
+    default at 1e150; one spanning 1e-100 got areas of 0 and 'all its faces are degenerate'."""
+    import jaxpose
+
+    box = trimesh.creation.box()  # extent 1: areas 1 and 0.5
+    for factor, message in ((1e100, "its face areas overflow float64"), (1e-100, "its face areas underflow float64")):
+        scaled = trimesh.Trimesh(box.vertices * factor, box.faces, process=False)
+        for call in (lambda: geometry.split_geometry(scaled), lambda: jaxpose.sample_surface(scaled, 10),
+                     lambda: jaxpose.normalize_mesh(scaled, method="surface_centroid")):
+            with pytest.raises(InvalidInputError, match=message):
+                call()
+    for factor in (1e70, 1e-70):  # within the range: areas (factor^2) as without the check
+        scaled = trimesh.Trimesh(box.vertices * factor, box.faces, process=False)
+        v, f = geometry.split_geometry(scaled)
+        np.testing.assert_allclose(geometry.triangle_areas(v[f]), factor**2 * geometry.triangle_areas(box.vertices[f]))
+
+
 def test_triangle_areas_and_closedness():
     tri = np.array([[[0, 0, 0], [2, 0, 0], [0, 3, 0.0]], [[0, 0, 0], [1, 0, 0], [0, 0, 1.0]]])
     np.testing.assert_allclose(geometry.triangle_areas(tri), [3.0, 0.5])

@@ -113,7 +113,9 @@ def test_tune_refuses_bad_numbers_before_any_work(kw, fragment):
 
 def test_cli_tune_bad_numbers_are_usage_errors(capsys):
     for argv, fragment in ((["--lr", "nan"], "lr must be"), (["--holdout", "-0.5"], "holdout must be"),
-                           (["--scale-weight", "nan"], "scale_weight must be"), (["--steps", "-1"], "steps must be")):
+                           (["--scale-weight", "nan"], "scale_weight must be"), (["--steps", "-1"], "steps must be"),
+                           (["--instances", "1"], "--instances must be >= 2"),  # were exit 1 after loading classes
+                           (["--classes", ","], "--classes names no class")):
         assert tuning_cli.run(argv) == 2, argv
         err = capsys.readouterr().err
         assert fragment in err and "loading classes" not in err, err

@@ -324,6 +324,23 @@ def test_vertices_far_from_the_origin_are_not_merged(tmp_path):
     assert np.isclose(loaded.area, body.area, rtol=1e-3)  # the coordinates themselves are rounded to 1.2e-4
 
 
+def test_vertices_of_a_mesh_larger_than_the_merge_keys_reach_are_not_merged(tmp_path):
+    """A mesh spanning 2e12 (beyond 9.2e10 from its middle vertex the 1e-8 keys overflow int64):
+    the fast readers merged distinct vertices (the example body at 1e12 lost 578 of its 774 vertices
+    and half its scale, silently); they now merge it exactly, and trimesh's merge (formats the fast
+    readers leave to trimesh) refuses it by name instead of merging wrongly."""
+    body = trimesh.creation.icosphere(subdivisions=1)
+    corners = body.triangles.reshape(-1, 3) * 1e12  # each triangle's corners apart, as STL stores them
+    soup = trimesh.Trimesh(corners, np.arange(len(corners)).reshape(-1, 3), process=False)
+    soup.export(tmp_path / "big.obj")  # text, float64: the fast reader
+    loaded = mesh.load(tmp_path / "big.obj")
+    assert len(loaded.vertices) == len(body.vertices) and len(loaded.faces) == len(body.faces)
+    np.testing.assert_allclose(trimesh.Trimesh(loaded.vertices, loaded.faces, process=False).area, body.area * 1e24, rtol=1e-12)
+    soup.export(tmp_path / "big.glb")  # trimesh's format
+    with pytest.raises(InvalidInputError, match=r"big.glb: the mesh reaches .* trimesh's vertex merge"):
+        mesh.load(tmp_path / "big.glb")
+
+
 def test_unknown_keywords_are_named():
     box = trimesh.creation.box()
     for kwargs in (dict(foo=1), dict(method="ocsvm", foo=1), dict(method="surface_centroid", foo=1)):

@@ -121,20 +121,28 @@ def _checked(geometry, source):
                                     f"vertex {int(faces.max() if faces.max() >= len(geometry.vertices) else faces.min())} "
                                     f"of {len(geometry.vertices)})")
     if source != "input" and isinstance(geometry, trimesh.Trimesh):
-        _merge_vertices(geometry)  # STL and friends store each triangle's corners apart
+        _merge_vertices(geometry, source)  # STL and friends store each triangle's corners apart
     return geometry
 
 
-def _merge_vertices(geometry):
+def _merge_vertices(geometry, source="input"):
     """trimesh's ``merge_vertices`` (an absolute tolerance, 1e-8), decided near the origin: far from
     it, rounding every coordinate to 1e-8 overflows and merges distinct vertices. The merge runs on
     a copy moved by an anchor vertex (:func:`jaxpose.host.anchor`); the vertices kept are then
-    taken from the input as they are, so loading changes no coordinate, not even by rounding."""
+    taken from the input as they are, so loading changes no coordinate, not even by rounding. A
+    mesh reaching farther than :data:`MERGE_REACH` from that vertex is refused (trimesh's int64
+    keys overflow there and merge distinct vertices)."""
     from ..host import anchor
 
     original = np.asarray(geometry.vertices, np.float64)
     faces = np.asarray(geometry.faces, np.int64)
-    geometry.vertices = original - anchor(original)
+    moved = original - anchor(original)
+    reach = float(np.max(np.abs(moved)))
+    if reach >= MERGE_REACH:
+        raise InvalidInputError(
+            f"{source}: the mesh reaches {reach:.3g} from its middle vertex; beyond {MERGE_REACH:.3g} trimesh's "
+            "vertex merge (coordinates in steps of 1e-8 as int64) merges distinct vertices: rescale it")
+    geometry.vertices = moved
     geometry.merge_vertices()
     inverse = np.full(len(original), -1, np.int64)  # original vertex -> merged vertex
     inverse[faces.ravel()] = np.asarray(geometry.faces, np.int64).ravel()
@@ -146,12 +154,14 @@ def _merge_vertices(geometry):
 
 
 _MERGE_DIGITS = 8  # trimesh's tol.merge, 1e-8
+MERGE_REACH = 2.0**63 / 10**_MERGE_DIGITS  # 9.2e10: farther from the anchor, trimesh's int64 keys overflow
 _MIX = (np.uint64(0xBF58476D1CE4E5B9), np.uint64(0x94D049BB133111EB))
 
 
 def _hash_keys(keys):
-    """A 64-bit hash of each row of integer keys (n, 3): splitmix64's finalizer, chained over the
-    columns (a shape's mirrored vertices, (a, b, c) and (-a, -b, c), hash apart). (n,) uint64."""
+    """A 64-bit hash of each row of 64-bit keys (n, 3), of their bits: splitmix64's finalizer,
+    chained over the columns (a shape's mirrored vertices, (a, b, c) and (-a, -b, c), hash apart).
+    (n,) uint64."""
     def mix(x):
         x = x ^ (x >> np.uint64(30))
         x = x * _MIX[0]
@@ -171,16 +181,17 @@ def _merged(vertices, faces):
     """:func:`_merge_vertices` on arrays: (keep, inverse) such that ``vertices[keep]`` and
     ``inverse[faces]`` are the merged mesh, or None where it cannot tell (then trimesh merges).
 
-    trimesh's keys (coordinates moved by the anchor, times 1e8, rounded to int64), its order (the
-    referenced vertices' first occurrences, in file order; unreferenced ones dropped); the duplicate
-    keys found by sorting a hash of each key and comparing the keys it groups. keep : (k,) int64,
-    inverse : (n,) int64."""
+    trimesh's keys (coordinates moved by the anchor, times 1e8, rounded; kept as float64, equal
+    where trimesh's int64 keys are equal and still exact beyond :data:`MERGE_REACH`, where int64
+    overflows), its order (the referenced vertices' first occurrences, in file order; unreferenced
+    ones dropped); the duplicate keys found by sorting a hash of each key and comparing the keys it
+    groups. keep : (k,) int64, inverse : (n,) int64."""
     from ..host import anchor
 
     referenced = np.zeros(len(vertices), bool)
     referenced[faces] = True
     used = np.nonzero(referenced)[0]
-    keys = ((vertices[used] - anchor(vertices)) * (10**_MERGE_DIGITS)).round().astype(np.int64)
+    keys = ((vertices[used] - anchor(vertices)) * (10**_MERGE_DIGITS)).round() + 0.0  # + 0.0: -0.0 is 0.0
     hashed = _hash_keys(keys)
     inverse = np.zeros(len(vertices), np.int64)
     ranked = np.sort(hashed)
@@ -212,7 +223,7 @@ def _from_loaded(loaded, source):
     merged = None if "visual" in extras else _merged(loaded.vertices, loaded.faces)  # UV: trimesh's merge
     if merged is None:
         geometry = _trimesh().Trimesh(**loaded.kwargs(), process=False)
-        _merge_vertices(geometry)
+        _merge_vertices(geometry, source)
         return geometry
     keep, inverse = merged
     if not extras:

@@ -215,6 +215,10 @@ def test_out_of_range_for_float32():
         pytest.skip("float32 only")
     with pytest.raises(InvalidInputError, match="float32"):
         normalize(P * 1e300, method="ocsvm")
+    with pytest.raises(InvalidInputError, match="float32"):  # an offset float64 holds, float32 not
+        normalize(P * 1e30 + 1e39, method="ocsvm")
+    # normalize's docstring says so (it said a concrete input had no such limit, without the refusal)
+    assert "float32: coordinates above 3.4e38, an RMS spread below 1.2e-38" in " ".join(normalize.__doc__.split())
 
 
 def test_gamma_and_power_beyond_the_default_float_are_refused_by_name():

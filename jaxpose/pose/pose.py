@@ -314,8 +314,10 @@ def normalize(x, method: str = DEFAULT_METHOD, *, power=_UNSET, gamma=_UNSET, nu
       where its volume under- or overflows, in float32 extents outside about 1e-11 ... 1e12;
       ocsvm, where the squares of its reference size (the RMS distance from the mean) under- or
       overflow, in float32 an RMS distance outside 4.2e-18 ... 1.8e19 / sqrt(m) for m points
-      (:func:`jaxpose.pose.validity.unresolved_size`); a concrete input is rescaled on the host and
-      has no such limit).
+      (:func:`jaxpose.pose.validity.unresolved_size`); a concrete input is rescaled on the host in
+      float64 and is not flagged so: it is refused (InvalidInputError) only where its compute dtype
+      cannot hold its coordinates or its spread at all (float32: coordinates above 3.4e38, an RMS
+      spread below 1.2e-38; :func:`jaxpose.host.host_frame`)).
 
     Pure JAX in (x, power) or (x, gamma, nu): jittable (options static), vmappable. Derivatives:
     robust, in ``power`` (exact) and in the points through the grid's position and pitch (the

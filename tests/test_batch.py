@@ -158,6 +158,8 @@ def test_refusals_before_any_work(tmp_path, tree, monkeypatch):
         (dict(inputs=[root], out=tmp_path / "o", table=tmp_path / "t.xlsx"), ".parquet or .csv"),
         (dict(inputs=[root], out=tmp_path / "o", check="size"), "mtime, hash"),
         (dict(inputs=[root], out=tmp_path / "o", file_format="vtk"), "format must be one of"),
+        (dict(inputs=[root], out=tmp_path / "o", force="no"), "force must be True or False"),  # was truthy: redo all
+        (dict(inputs=[root], out=tmp_path / "o", fail_fast="no"), "fail_fast must be True or False"),
     ]
     for kwargs, fragment in cases:
         with pytest.raises(InvalidInputError, match=fragment):

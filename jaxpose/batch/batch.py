@@ -30,7 +30,7 @@ import time
 from pathlib import Path
 from typing import NamedTuple
 
-from .._validate import check_real
+from .._validate import check_bool, check_real
 from ..errors import InvalidInputError
 from .task import FileResult, NormalizeOptions, normalize_file, one_line, sha256_file, warm_up
 
@@ -83,6 +83,7 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
     executor_args = _check_run(workers, scheduler, dask_local, timeout)
     if check not in CHECKS:
         raise InvalidInputError(f"check must be one of {', '.join(CHECKS)}; got {check!r}")
+    fail_fast, force = check_bool(fail_fast, "fail_fast"), check_bool(force, "force")  # force="no" is truthy
     if file_format is not None:
         file_format = str(file_format).lower().lstrip(".")
         if file_format not in OUTPUT_FORMATS:

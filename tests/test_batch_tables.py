@@ -204,3 +204,11 @@ def test_a_damaged_csv_table_is_an_error_naming_it(tmp_path, damage, fragment):
         table.write_text(damaged)
     with pytest.raises(InvalidInputError, match=f"t.csv: {fragment}"):
         jaxpose.read_transforms(table)
+
+
+def test_read_transforms_names_an_argument_that_is_not_a_path(tmp_path):
+    """None, a number or bytes: an InvalidInputError saying what read_transforms takes (it raised
+    Python's "'NoneType' object is not iterable")."""
+    for bad in (None, 5, [None], b"t.csv"):
+        with pytest.raises(InvalidInputError, match="a transforms table, a folder of them or a list of those"):
+            jaxpose.read_transforms(bad)

@@ -338,6 +338,8 @@ def _tables(path):
     from ..io.remote import RemotePath, modified_ns
 
     if not isinstance(path, (str, os.PathLike, RemotePath)):
+        if isinstance(path, bytes) or not hasattr(path, "__iter__"):  # None, a number: not a list of paths
+            raise InvalidInputError(f"a transforms table, a folder of them or a list of those, got {path!r}")
         return [t for p in path for t in _tables(p)]
     path = location_of(path)
     if not path.is_dir():

@@ -77,6 +77,8 @@ def test_files_that_are_not_regular_in_a_folder_fail_unread_and_a_link_loop_is_n
     for name, kind in [("pipe.ply", "a FIFO"), ("sock.ply", "a socket"), ("null.ply", "a character device")]:
         assert rows[name].status == "failed" and f"{kind}, not a regular file" in rows[name].error
         assert f"{kind}, not a regular file" in err
+        # only a FIFO is read when named as an INPUT (a socket or device is 'not a file' there too)
+        assert ("name it as an INPUT" in rows[name].error) == (name == "pipe.ply"), rows[name].error
     for path in good:
         assert rows[path.name].ok
         assert_normalized(rows[path.name])

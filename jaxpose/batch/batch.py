@@ -278,8 +278,8 @@ def _input_key(path, check):
 
 
 def _not_regular(path, kind):
-    return _failed(f"{path}: {kind}, not a regular file: a folder search reads regular files only "
-                   "(name it as an INPUT to read it)")
+    hint = " (name it as an INPUT to read it)" if kind == "a FIFO" else ""  # other kinds: 'not a file' there too
+    return _failed(f"{path}: {kind}, not a regular file: a folder search reads regular files only{hint}")
 
 
 def _refuse_overwriting_others(items, entries):

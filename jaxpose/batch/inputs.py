@@ -10,9 +10,10 @@ keep their names), under the output folder, with the input's format or the one a
 
 A folder search takes regular files (and links to them); other files it meets (FIFOs, sockets,
 devices, links to them) are returned apart, to be recorded as failed without being opened, and
-links to folders are not followed (a link loop cannot trap it). A file named as an INPUT or in a
-manifest is read whatever it is (a FIFO delivers a stream; a silent one fails after
-:data:`jaxpose.io.mesh.PIPE_WAIT_S` seconds, or sooner with ``--timeout``).
+links to folders are not followed (a link loop cannot trap it). A regular file or a FIFO named as
+an INPUT or in a manifest is read (a FIFO delivers a stream; a silent one fails after
+:data:`jaxpose.io.mesh.PIPE_WAIT_S` seconds, or sooner with ``--timeout``); sockets and devices
+fail there too ("not a file").
 
 :func:`shard_index` splits inputs among N machines by a stable hash of their relative path.
 """

@@ -27,6 +27,7 @@ __all__ = [
     "check_bool",
     "check_real",
     "compute_dtype",
+    "is_real_dtype",
     "default_float",
     "is_traced",
 ]
@@ -41,6 +42,22 @@ def is_traced(x) -> bool:
     """
     jax = sys.modules.get("jax")
     return jax is not None and isinstance(x, jax.core.Tracer)
+
+
+def is_real_dtype(dtype) -> bool:
+    """NumPy's floats and integers, and the floats that ml_dtypes adds to NumPy for JAX (bfloat16,
+    float8_*: dtype kind 'V' to NumPy); not bool, complex or object."""
+    dtype = np.dtype(dtype)
+    if np.issubdtype(dtype, np.floating) or np.issubdtype(dtype, np.integer):
+        return True
+    ml_dtypes = sys.modules.get("ml_dtypes")  # imported with JAX: no such array exists before it
+    if ml_dtypes is None or dtype.kind != "V":
+        return False
+    try:
+        ml_dtypes.finfo(dtype)
+    except (TypeError, ValueError):
+        return False
+    return True
 
 
 def check_array(x, name: str = "x", min_rows: int = 0):
@@ -62,7 +79,7 @@ def check_array(x, name: str = "x", min_rows: int = 0):
     if is_traced(x):
         return x
     arr = np.asarray(x)
-    if not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
+    if not is_real_dtype(arr.dtype):
         raise InvalidInputError(f"{name} must be real numbers, got dtype {arr.dtype}")
     if not np.all(np.isfinite(arr)):
         bad = int(np.count_nonzero(~np.isfinite(arr).all(axis=1)))

@@ -79,6 +79,21 @@ def test_bad_points_everywhere(name):
             call()
 
 
+def test_bfloat16_points_are_real_numbers():
+    """A concrete bfloat16 JAX array (ml_dtypes' float, dtype kind 'V' to NumPy) was refused as
+    'must be real numbers, got dtype bfloat16'; it is taken as float16 is (promoted to float32)."""
+    from jaxpose import _validate
+
+    half = jnp.asarray(P, jnp.bfloat16)
+    assert _validate.check_points(half) is half and _validate.is_real_dtype(half.dtype)
+    assert _validate.compute_dtype(half) == np.float32
+    # the host estimators read them (no compilation): the vertex mean of the bfloat16 values
+    _, pose = jaxpose.normalize_mesh(np.asarray(half), method="vertex_mean")  # NumPy's bfloat16 array
+    np.testing.assert_allclose(pose.center, np.asarray(half, np.float64).mean(axis=0), rtol=1e-12, atol=1e-15)
+    for dtype in (bool, complex, object, str):  # still not real numbers
+        assert not _validate.is_real_dtype(np.dtype(dtype))
+
+
 @pytest.mark.parametrize(
     "kw,fragment",
     [

@@ -341,6 +341,24 @@ def test_vertices_of_a_mesh_larger_than_the_merge_keys_reach_are_not_merged(tmp_
         mesh.load(tmp_path / "big.glb")
 
 
+def test_jax_arrays_of_points_are_points():
+    """normalize_mesh and sample_surface took NumPy arrays and lists of points but refused a JAX
+    array ('input: cannot use a ArrayImpl as a mesh'); a traced one (under jit) is named as such
+    (it was JAX's TracerArrayConversionError once arrays were read)."""
+    import jax
+    import jax.numpy as jnp
+
+    points = trimesh.creation.icosphere(subdivisions=1).vertices * [1.0, 2.0, 3.0]
+    as_jax = jnp.asarray(points, jnp.float32)
+    _, pose = mesh.normalize_mesh(as_jax, method="vertex_mean")
+    _, expected = mesh.normalize_mesh(np.asarray(as_jax), method="vertex_mean")
+    np.testing.assert_array_equal(pose.center, expected.center)
+    np.testing.assert_array_equal(pose.scale, expected.scale)
+    np.testing.assert_array_equal(mesh.sample_surface(as_jax, 8, seed=1), mesh.sample_surface(np.asarray(as_jax), 8, seed=1))
+    with pytest.raises(InvalidInputError, match="a traced array"):
+        jax.jit(lambda x: mesh.normalize_mesh(x, method="vertex_mean")[1].scale)(as_jax)
+
+
 def test_unknown_keywords_are_named():
     box = trimesh.creation.box()
     for kwargs in (dict(foo=1), dict(method="ocsvm", foo=1), dict(method="surface_centroid", foo=1)):

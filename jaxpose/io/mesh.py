@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from . import formats, readers, writers
-from .._validate import InvalidInputError, check_points
+from .._validate import InvalidInputError, check_points, is_traced
 from ..geometry import Surface
 from .atomic import write_atomic
 
@@ -42,7 +42,7 @@ def load(path_or_mesh):
 
     A Scene is concatenated into one geometry; geometry without faces comes back as
     a :class:`trimesh.PointCloud`. Trimesh/PointCloud/Scene objects and ``(n, 3)``
-    arrays are accepted as they are (arrays become point clouds). A named pipe (FIFO, or a shell's
+    arrays (NumPy, JAX, nested lists) are accepted as they are (arrays become point clouds). A named pipe (FIFO, or a shell's
     ``<(command)``) is read to the end of its stream; one that delivers nothing for
     :data:`PIPE_WAIT_S` seconds (no writer) fails rather than waiting for ever.
 
@@ -100,7 +100,12 @@ def _checked(geometry, source):
     if isinstance(geometry, trimesh.Scene):
         geometry = _flatten(geometry, source)
     if not isinstance(geometry, (trimesh.Trimesh, trimesh.PointCloud)):
-        if hasattr(geometry, "vertices") or isinstance(geometry, (np.ndarray, list, tuple)):
+        if is_traced(geometry):  # np.asarray would raise JAX's TracerArrayConversionError
+            raise InvalidInputError(f"{source}: a traced array (under jit, vmap or grad): meshes and point clouds "
+                                    "are read on the host; trace jaxpose.normalize instead")
+        # arrays: NumPy's, lists, and any array NumPy converts (a JAX array)
+        if hasattr(geometry, "vertices") or isinstance(geometry, (np.ndarray, list, tuple)) or (
+                hasattr(geometry, "__array__") and not isinstance(geometry, (str, bytes))):
             points = getattr(geometry, "vertices", geometry)
             check_points(points, name=f"points of {source}", min_points=1)
             geometry = trimesh.PointCloud(np.asarray(points, dtype=np.float64))

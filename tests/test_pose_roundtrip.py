@@ -172,6 +172,17 @@ def test_bad_points_and_fields_are_refused(make, match):
         make(pose)
 
 
+def test_bfloat16_points_are_moved_as_their_float64_values():
+    """Pose.apply refused bfloat16 points ('points must be real numbers': ml_dtypes' floats are not
+    NumPy floating); they are moved on the host in float64, as float16 points are."""
+    pose = Pose.from_center_scale(np.array([1.0, 2.0, 3.0]), 2.0)
+    x = jnp.asarray(np.random.default_rng(0).normal(size=(5, 3)), jnp.bfloat16)
+    np.testing.assert_array_equal(pose.apply(np.asarray(x)), (np.asarray(x, np.float64) - [1.0, 2.0, 3.0]) / 2.0)
+    for bad in (np.ones((2, 3), bool), np.ones((2, 3), complex)):
+        with pytest.raises(InvalidInputError, match="points must be real numbers"):
+            pose.apply(bad)
+
+
 def test_a_pose_with_jax_fields_moves_float64_points_in_float64():
     """The bug: a concrete normalize() pose has a float64 NumPy center and JAX fields (rotation);
     apply computed in JAX and cast the far center to float32."""

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
-from .._validate import InvalidInputError, is_traced
+from .._validate import InvalidInputError, is_real_dtype, is_traced
 
 if TYPE_CHECKING:  # annotations only
     import jax
@@ -154,7 +154,7 @@ def _shape_of(value, name):
         arr = np.asarray(value)
     except Exception as exc:  # ragged lists and the like
         raise InvalidInputError(f"{name} must be an array of real numbers: {exc}") from None
-    if not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)) or arr.dtype == bool:
+    if not is_real_dtype(arr.dtype):  # (bfloat16 included; bool, complex, strings not)
         raise InvalidInputError(f"{name} must be real numbers, got {value!r:.80}")
     return arr.shape
 

@@ -114,7 +114,7 @@ def _scalar(value, name):
     if is_traced(value):
         return None
     arr = np.asarray(value)
-    if arr.ndim != 0 or not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
+    if arr.ndim != 0 or not is_real_dtype(arr.dtype):
         raise InvalidInputError(f"{name} must be a real scalar, got {value!r}")
     v = float(arr)
     if not np.isfinite(v):

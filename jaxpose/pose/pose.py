@@ -250,7 +250,8 @@ def _check_power(power):
     if _validate.is_traced(power):
         return power
     # a () array of reals (NumPy or a concrete JAX array) is checked as its number, and returned as it is
-    real = getattr(power, "shape", None) == () and getattr(getattr(power, "dtype", None), "kind", "") in ("f", "i", "u")
+    dtype = getattr(power, "dtype", None)
+    real = getattr(power, "shape", None) == () and dtype is not None and _validate.is_real_dtype(dtype)
     value = _validate.check_real(np.asarray(power).item() if real else power, "power", 0)
     finfo = np.finfo(_validate.default_float())
     if value > float(finfo.max):  # inf inside the pipeline

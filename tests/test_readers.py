@@ -120,6 +120,25 @@ def test_off_refused(text):
         readers.read(text.encode(), "off")
 
 
+@pytest.mark.parametrize("head", ["OFF\n4 2 b0\n", "OFF\n4 2 99999999999999999999\n",
+                                  "# made by hand\nOFF\n4 2 99999999999999999999\n"])
+def test_off_counts_line_that_trimesh_refuses_is_refused(tmp_path, head):
+    """A counts line whose third count is no int64 (a corrupted byte, an overflow): trimesh refuses
+    the file, and so does jaxpose (the reader read it, ignoring that count; found by fuzzing)."""
+    from jaxpose import mesh as jmesh
+    from jaxpose.errors import InvalidInputError
+
+    data = (head + "0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n3 0 2 3\n").encode()
+    with pytest.raises((ValueError, OverflowError)):
+        trimesh_load(data, "off")
+    with pytest.raises(Unsupported):
+        readers.read(data, "off")
+    path = tmp_path / "counts.off"
+    path.write_bytes(data)
+    with pytest.raises(InvalidInputError, match="counts.off: cannot read OFF file"):
+        jmesh.load(path)
+
+
 # OFF files in the layout most writers produce: read on the bytes (readers.off._off_plain)
 TRIANGLES = "0 0 0\n1 0 0\n1 1 0\n0 1 0.5\n3 0 1 2\n3 0 2 3\n"
 OFF_PLAIN = {

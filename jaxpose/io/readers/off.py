@@ -74,8 +74,9 @@ def read_off(data: bytes) -> Loaded:
     if not lines:
         raise Unsupported("no counts")
     header = lines[0].split()
-    if len(header) < 2 or not all(t.isascii() and t.isdigit() for t in header[:2]):
-        raise Unsupported("a malformed count line")
+    if len(header) < 2 or not all(t.isascii() and t.isdigit() for t in header[:2]) \
+            or not all(t.isascii() and t.isdigit() and len(t) <= 18 for t in header[2:]):
+        raise Unsupported("a malformed count line")  # (trimesh reads every count as an int64, or fails)
     nv, nf = int(header[0]), int(header[1])
     block = lines[1:nv + 1]
     if nv == 0:
@@ -115,7 +116,7 @@ def read_off(data: bytes) -> Loaded:
     return _checked(vertices.reshape(-1, 3), _triangulate(flat, sizes))
 
 
-_OFF_HEAD = re.compile(rb"[ \t\n]*C?OFF[ \t]*\n[ \t]*([0-9]+)[ \t]+([0-9]+)(?:[ \t]+[0-9]+)?[ \t]*\n")
+_OFF_HEAD = re.compile(rb"[ \t\n]*C?OFF[ \t]*\n[ \t]*([0-9]+)[ \t]+([0-9]+)(?:[ \t]+[0-9]{1,18})?[ \t]*\n")
 _FLOAT_CHARS = b"0123456789+-.eE \n"
 _INT_CHARS = b"0123456789 \n"
 

@@ -314,6 +314,11 @@ def test_broken_references_are_errors(tmp_path, name, text, match):
         jmesh.load(path)
 
 
+PLY_TET_TEXT = ("ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+                "element face 2\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n"
+                "3 0 1 2\n3 0 2 3\n")
+
+
 # --------------------------------------------------------------------------- PLY
 @pytest.mark.parametrize("encoding", ["binary", "ascii"])
 def test_ply_exported(mesh, encoding):
@@ -478,6 +483,27 @@ def test_stl_refused():
         readers.read((two + two.replace(" a", " b")).encode(), "stl")
     with pytest.raises(Unsupported):
         readers.read(b"\0" * 84, "stl")  # binary, no triangles
+
+
+@pytest.mark.parametrize("file_type, data", [
+    ("obj", "v 0 0 0\nv 1 0 0\nv 0 \u0663 0\nv 0 0 1\nf 1 2 3\nf 1 3 4\n"),  # an Arabic-Indic 3
+    ("obj", "v 0 0 0\nv 1\u00a00 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 3 4\n"),  # a no-break space
+    ("ply", PLY_TET_TEXT.replace("1 0 0\n", "1\x1f0 0\n")),                     # a unit separator
+    ("ply", PLY_TET_TEXT.replace("3 0 1 2\n", "3 0 1 \uff12\n")),                 # a full-width 2
+    ("stl", "solid a\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 1 \u0661 0\n"
+            "endloop\nendfacet\nendsolid a\n"),
+    ("stl", "solid a\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1\u20280 0\nvertex 1 1 0\n"
+            "endloop\nendfacet\nendsolid a\n"),
+])
+def test_numbers_that_trimesh_does_not_read_are_refused(file_type, data):
+    """trimesh reads OBJ, PLY and ASCII STL numbers with numpy.fromstring (ASCII digits and white
+    space) and refuses other digits and Unicode spaces, which float and str.split read: the readers
+    read such a file (found by fuzzing); they refuse it now."""
+    data = data.encode()
+    with pytest.raises(ValueError):
+        trimesh_load(data, file_type)
+    with pytest.raises(Unsupported):
+        readers.read(data, file_type)
 
 
 def test_registry():

@@ -51,9 +51,20 @@ def _text(data: bytes) -> str:
         raise Unsupported("not UTF-8 text") from None
 
 
-def _tokens(lines):
-    """Tokens of lines: (flat list of str, per-line counts (n,) int64)."""
+_NOT_C_SPACE = "\x1c\x1d\x1e\x1f"  # white space to str.split, not to C's isspace
+
+
+def _tokens(lines, c_numbers=False):
+    """Tokens of lines: (flat list of str, per-line counts (n,) int64).
+
+    c_numbers: lines that trimesh parses with ``numpy.fromstring`` (C's strtod and isspace: ASCII
+    digits, ASCII white space); text that ``str.split`` and ``float`` read and it does not (other
+    digits such as ``\u0663``, U+00A0 and the other Unicode spaces, ``\x1c``-``\x1f``) raises
+    :class:`Unsupported` (trimesh refuses such a file).
+    """
     joined = f" {_SEPARATOR} ".join(lines)
+    if c_numbers and (not joined.isascii() or any(c in joined for c in _NOT_C_SPACE)):
+        raise Unsupported("text trimesh's numpy.fromstring does not read as numbers")
     if lines and joined.count(_SEPARATOR) == len(lines) - 1:
         tokens = joined.split()
         first = len(lines[0].split()) if lines else 0

@@ -41,7 +41,7 @@ def read_obj(data: bytes) -> Loaded:
         keyed[key] = [line[len(prefix):] for line in lines if line.startswith(prefix)]
     if sum(1 for line in lines if line[:1] == "f") != len(keyed["f"]):
         raise Unsupported("a line starting with f that is not a face")
-    parsed = {key: _tokens(keyed[key]) for key in ("v", "vt", "vn") if keyed[key]}
+    parsed = {key: _tokens(keyed[key], c_numbers=True) for key in ("v", "vt", "vn") if keyed[key]}
     if "v" in parsed and np.any(parsed["v"][1] < 3):  # (a point cloud's too: checked before the next line)
         at = int(np.argmax(parsed["v"][1] < 3))
         raise InvalidInputError(f"cannot read OBJ file: vertex {at + 1} has fewer than 3 coordinates "

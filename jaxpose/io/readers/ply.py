@@ -165,13 +165,13 @@ def _ply_ascii(lines, elements, endian):
     """The columns of an ASCII file's `lines` (as many as the header's counts at least: _ply_length)."""
     (nv, vprops), (nf, fprops) = elements["vertex"], elements["face"]
     block = lines[:nv]
-    tokens, counts = _tokens(block)
+    tokens, counts = _tokens(block, c_numbers=True)
     if np.any(counts != len(vprops)):
         raise Unsupported("a vertex line with more or fewer values than properties")
     values = _floats(tokens).reshape(nv, len(vprops))
     vertex = {name: values[:, i].astype(endian + kind) for i, (name, kind, _) in enumerate(vprops)}
     block = lines[nv:nv + nf]
-    tokens, counts = _tokens(block)
+    tokens, counts = _tokens(block, c_numbers=True)
     position = [p[2] is not None for p in fprops].index(True)
     scalars = len(fprops) - 1
     if np.any(counts < scalars + 1):

@@ -41,7 +41,7 @@ def read_stl(data: bytes) -> Loaded:
     for key in ("vertex", "normal"):
         pieces = solid.split(key)[1:]
         lines = [piece[:piece.find("\n")] for piece in pieces]
-        tokens, counts = _tokens(lines) if lines else ([], np.zeros(0, np.int64))
+        tokens, counts = _tokens(lines, c_numbers=True) if lines else ([], np.zeros(0, np.int64))
         if np.any(counts != 3):
             raise Unsupported(f"{key} lines without 3 values")
         values[key] = _floats(tokens).reshape(-1, 3)

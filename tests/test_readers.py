@@ -598,6 +598,26 @@ def test_library_load_is_unchanged(tmp_path, monkeypatch, mesh, name):
         assert a == b, file_type
 
 
+@pytest.mark.parametrize("shift", [0.0, 0.5])
+def test_library_merge_ignores_the_files_normals_at_the_origin(tmp_path, shift):
+    """A file read by trimesh (materials) whose vertices, split by their normals, hold one position
+    twice: merged into one vertex per position, also where the anchor vertex is the origin (moving
+    the vertices by it kept trimesh's cached normals, and they kept the vertices apart; found by
+    fuzzing)."""
+    from jaxpose import mesh as jmesh
+
+    positions = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [-1, 0, 0], [0, -1, 0]]) + shift
+    triangles = np.array([[0, 1, 2], [0, 2, 3], [0, 3, 4], [0, 4, 1]])
+    normal = [1, 1, 2, 2]  # the first two faces' normal is 1, the others' 2: vertices 0, 1 and 3 split
+    text = "".join(f"v {x} {y} {z}\n" for x, y, z in positions) + "vn 0 0 1\nvn 0 0 -1\nusemtl a\n"
+    text += "".join("f " + " ".join(f"{i + 1}//{n}" for i in t) + "\n" for t, n in zip(triangles, normal))
+    path = tmp_path / "split.obj"
+    path.write_text(text)
+    loaded = jmesh.load(path)
+    assert len(loaded.vertices) == len(positions)
+    np.testing.assert_array_equal(np.asarray(loaded.vertices)[loaded.faces], positions[triangles])
+
+
 def test_library_merge_hashes_mirrored_vertices_apart():
     """Vertices mirrored through the anchor, (a, b, c) and (-a, -b, c), as a symmetric shape has:
     distinct hashes, so the array merge decides (no fall back to trimesh)."""

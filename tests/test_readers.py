@@ -391,6 +391,51 @@ def test_ply_ascii_mixed_polygons_crlf():
     check_same(ply_bytes("ascii", vertex, face, newline="\r\n"), "ply")
 
 
+PLY_FIVE_HEAD = ("ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\nproperty float y\nproperty float z\n"
+                 "property uchar red\nproperty uchar green\nproperty uchar blue\nelement face 2\n"
+                 "property list uchar {kind} vertex_indices\nend_header\n0 0 0 1 2 3\n1 0 0.25 1 2 3\n1 1 0.5 1 2 3\n"
+                 "0 1 0.125 1 2 3\n2 0.5 0.1 1 2 3\n")
+
+
+@pytest.mark.parametrize("kind, faces", [
+    ("uint", "3 0 1 2\n3 0 2 4294967296\n"),  # beyond uint32: trimesh reads vertex 0
+    ("uint", "3 0 1 2\n3 0 2 1e300\n"),
+    ("uint", "3 0 1 2\n3 0 2 nan\n"),
+    ("uchar", "3 0 1 2\n3 0 2 256\n"),
+    ("ushort", "3 0 1 2\n3 0 2 65538\n"),   # trimesh reads vertex 2
+    ("int", "3 0 1 2\n3 0 2 1.5\n"),        # trimesh reads vertex 1
+    ("uint", "3 4 0 1\n5 2 0 4 3 123456789012345678\n"),  # (fuzzed: trimesh and the reader cast it apart)
+])
+def test_ply_ascii_index_not_of_its_type_is_an_error(tmp_path, kind, faces):
+    """An ASCII PLY face index that is no integer of its declared type: trimesh casts it to some index
+    of the type without a word (which one: the machine's float-to-integer conversion, and NumPy's
+    loops differ), the reader did the same; the file is refused, naming the line (found by fuzzing)."""
+    from jaxpose import mesh as jmesh
+    from jaxpose.errors import InvalidInputError
+
+    data = (PLY_FIVE_HEAD.format(kind=kind) + faces).encode()
+    with pytest.raises(InvalidInputError, match="face line 2 holds an index that is not an integer of its type"):
+        readers.read(data, "ply")
+    path = tmp_path / "index.ply"
+    path.write_bytes(data)
+    with pytest.raises(InvalidInputError, match="index.ply: cannot read PLY file: face line 2"):
+        jmesh.load(path)
+
+
+def test_ply_ascii_value_beyond_its_type_is_left_to_trimesh():
+    """A vertex color beyond its uchar (300): the cast is the machine's choice, so the reader does
+    not guess trimesh's value; trimesh reads the file. With a face index beyond its type too, the
+    file is refused (not left to trimesh's silent cast)."""
+    from jaxpose.errors import InvalidInputError
+
+    data = (PLY_FIVE_HEAD.format(kind="int").replace("1 1 0.5 1 2 3", "1 1 0.5 300 2 3") + "3 0 1 2\n3 0 2 3\n").encode()
+    assert len(trimesh_load(data, "ply").faces) == 2
+    with pytest.raises(Unsupported):
+        readers.read(data, "ply")
+    with pytest.raises(InvalidInputError, match="face line 2 holds an index that is not an integer of its type int32"):
+        readers.read(data.replace(b"3 0 2 3\n", b"3 0 2 4294967296\n"), "ply")
+
+
 @pytest.mark.parametrize("data", [
     # lists of several lengths in a binary file: trimesh reads the first one's length for all
     ply_bytes("binary_little_endian", ([("float", "x"), ("float", "y"), ("float", "z")], SQUARE),

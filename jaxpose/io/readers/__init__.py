@@ -55,9 +55,9 @@ def read(data: bytes, file_type: str) -> Loaded:
         (or a wrong mesh) without a word: an OFF or ASCII PLY file with fewer vertex or face lines
         than its counts say, a binary PLY file with fewer bytes than its elements need (a PLY
         point cloud too), a face line with fewer indices than its count, a PLY element with a
-        negative count, an OBJ face referencing vertex 0 (OBJ counts from 1), an OBJ face of fewer
-        than 3 corners or vertex of fewer than 3 values (the message names no file: the caller's
-        does).
+        negative count, an ASCII PLY face index that is not an integer of its type, an OBJ face
+        referencing vertex 0 (OBJ counts from 1), an OBJ face of fewer than 3 corners or vertex of
+        fewer than 3 values (the message names no file: the caller's does).
     """
     reader = READERS.get(file_type)
     if reader is None:

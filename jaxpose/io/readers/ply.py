@@ -122,7 +122,9 @@ def read_ply(data: bytes) -> Loaded:
       InvalidInputError: a file shorter than its header's counts (an ASCII file with fewer lines,
         a binary one with fewer bytes than its elements need at the least; whatever its elements:
         a point cloud's too), or a face line with fewer values than its count, or a negative
-        element count (trimesh reads part of such a file without a word).
+        element count (trimesh reads part of such a file without a word), or an ASCII face index
+        that is not an integer of its type (``4294967296`` or ``1e300`` for a ``uint``, ``-1`` for
+        a ``uchar``, ``nan``, ``1.5``: trimesh casts it to some index without a word).
     """
     elements, ascii, endian, start = _ply_header(data)
     lines = _ply_length(data, start, elements, ascii)
@@ -161,6 +163,18 @@ def _ply_binary(data, start, elements, endian):
             np.full(nf, size, np.int64))
 
 
+def _as(values, kind):
+    """float64 values as the PLY type `kind`, as trimesh's ``astype`` makes them; Unsupported where
+    that cast is undefined: a value beyond an integer type's range, or NaN (C leaves the result to
+    the machine, and NumPy's loops differ, so trimesh's value may differ from this one)."""
+    dtype = np.dtype(kind)
+    if dtype.kind in "iu" and len(values):
+        low, high = float(np.iinfo(dtype).min), float(np.iinfo(dtype).max) + 1
+        if not (values.min() >= low and values.max() < high):
+            raise Unsupported(f"a value beyond the range of its type {dtype}")
+    return values.astype(dtype)
+
+
 def _ply_ascii(lines, elements, endian):
     """The columns of an ASCII file's `lines` (as many as the header's counts at least: _ply_length)."""
     (nv, vprops), (nf, fprops) = elements["vertex"], elements["face"]
@@ -168,8 +182,7 @@ def _ply_ascii(lines, elements, endian):
     tokens, counts = _tokens(block, c_numbers=True)
     if np.any(counts != len(vprops)):
         raise Unsupported("a vertex line with more or fewer values than properties")
-    values = _floats(tokens).reshape(nv, len(vprops))
-    vertex = {name: values[:, i].astype(endian + kind) for i, (name, kind, _) in enumerate(vprops)}
+    columns = _floats(tokens).reshape(nv, len(vprops))
     block = lines[nv:nv + nf]
     tokens, counts = _tokens(block, c_numbers=True)
     position = [p[2] is not None for p in fprops].index(True)
@@ -186,10 +199,20 @@ def _ply_ascii(lines, elements, endian):
                                 f"({block[line]!r}): a truncated or malformed file")
     if np.any(values != sizes) or np.any(sizes < 3) or np.any(counts != scalars + 1 + sizes):
         raise Unsupported("a face list whose count is not its length")
+    flat = _floats(_take(tokens, _runs(starts + position + 1, sizes)))
+    index = np.dtype(endian + fprops[position][1])
+    low, high = float(np.iinfo(index).min), float(np.iinfo(index).max) + 1
+    wrong = ~((flat >= low) & (flat < high) & (flat == np.floor(flat)))  # (NaN too)
+    if np.any(wrong):  # trimesh casts it to some index of the type (which: the machine's choice)
+        line = int(np.argmax(np.cumsum(sizes) > int(np.argmax(wrong))))
+        raise InvalidInputError(f"cannot read PLY file: face line {line + 1} holds an index that is not an integer "
+                                f"of its type {index.name} ({block[line]!r}): a corrupted or malformed file")
+    flat = flat.astype(index)
+    # the other columns after the faces' errors (a value for trimesh to read must not hide one)
     face = {}
     for i, (name, kind, _) in enumerate(fprops):  # the scalars before and after the list
         if i != position:
             at = starts + i + (0 if i < position else sizes)
-            face[name] = _floats(_take(tokens, at)).astype(endian + kind)
-    flat = _floats(_take(tokens, _runs(starts + position + 1, sizes))).astype(endian + fprops[position][1])
+            face[name] = _as(_floats(_take(tokens, at)), endian + kind)
+    vertex = {name: _as(columns[:, i], endian + kind) for i, (name, kind, _) in enumerate(vprops)}
     return vertex, face, flat, sizes

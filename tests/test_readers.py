@@ -290,6 +290,7 @@ def test_binary_noise_is_an_error_about_the_file(tmp_path, name):
     assert "No module named" not in str(info.value), info.value
 
 
+OBJ_TET = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n"
 PLY_TET_HEAD = ("ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
                 "element face 4\nproperty list uchar int vertex_indices\nend_header\n")
 
@@ -300,11 +301,18 @@ PLY_TET_HEAD = ("ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nprop
     ("zero.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 0 3 4\n",
      "zero.obj: .*index 0 .*count from 1"),
     ("flat.obj", "v 0 0\nv 1 0\nv 0 1\nf 1 2 3\n", "flat.obj: .*vertex 1 has fewer than 3 coordinates"),
+    # the same where trimesh reads the file (materials, faces of several forms): it read them without a word
+    ("zero_forms.obj", OBJ_TET + "f 1 3 2\nf 1 2 4\nf 0/1 3/1 4/1\n", "zero_forms.obj: .*index 0 "),
+    ("cut_material.obj", OBJ_TET + "usemtl a\nf 1 3 2\nf 1 2 4\nf 1 4", "cut_material.obj: .*last line 'f 1 4' .*fewer"),
+    ("bare_material.obj", OBJ_TET + "usemtl a\nf 1 3 2\nf 1 2 4\nf\n", "bare_material.obj: .*last line 'f' is a face"),
+    ("vertex_material.obj", OBJ_TET + "usemtl a\nf 1 3 2\nf 1 2 4\nv 1 2\n", "vertex_material.obj: .*last line 'v 1 2'"),
 ])
 def test_broken_references_are_errors(tmp_path, name, text, match):
     """Faces that reference a vertex that is not there (trimesh's loader left a raw IndexError for
     the merge), OBJ's index 0 (trimesh reads the last vertex) and 2-coordinate vertices are errors
-    naming the file."""
+    naming the file; faces of several forms too, and in a file with materials (read by trimesh) a
+    last line cut to a face of fewer than 3 corners or a vertex of fewer than 3 values (trimesh drops
+    it without a word; found by fuzzing)."""
     from jaxpose import mesh as jmesh
     from jaxpose.errors import InvalidInputError
 

@@ -23,12 +23,14 @@ def read_obj(data: bytes) -> Loaded:
       Unsupported: anything this reader does not reproduce exactly (read it with trimesh).
       InvalidInputError: a face referencing index 0 (trimesh reads it as the last vertex); a vertex
         line with fewer than 3 values or a face line with fewer than 3 corners (trimesh drops such a
-        line without a word: most often a truncated file's last line). A file cut at the end of a
-        line, or within a number, reads as a valid OBJ file: no reader can tell.
+        line without a word: most often a truncated file's last line; in a file with materials, which
+        trimesh reads, the last line only). A file cut at the end of a line, or within a number,
+        reads as a valid OBJ file: no reader can tell.
     """
     text = _text(data)
     text = "\n{}\n".format(text.strip().replace("\r\n", "\n")).replace("\\\n", "")
     if "usemtl" in text or "+e" in text or "-e" in text or "\r" in text:
+        _cut_last_line(text)  # (a cut file's last line: trimesh drops it without a word)
         raise Unsupported("materials, or text trimesh's OBJ loader rewrites")
     bare = re.search(r"^[vf][ \t]*$", text, re.M)
     if bare:
@@ -67,15 +69,16 @@ def read_obj(data: bytes) -> Loaded:
         at = int(np.argmax(refs < 3))
         raise InvalidInputError(f"cannot read OBJ file: face {at + 1} ('f {faces_lines[at]}') has fewer than 3 "
                                 "corners: a truncated or malformed file")
-    form = references[0].count("/"), "//" in references[0]  # v, v/vt, v//vn, v/vt/vn
     joined = " ".join(references)
+    values = _ints(joined.replace("/", " ").split(), negative=True)  # (every form: the numbers between "/")
+    if np.any(values == 0):  # trimesh reads a 0 as the last vertex (faces of several forms too)
+        raise InvalidInputError("cannot read OBJ file: a face references index 0 (OBJ indices count from 1, or "
+                                "from -1 backwards)")
+    form = references[0].count("/"), "//" in references[0]  # v, v/vt, v//vn, v/vt/vn
     if form not in _OBJ_FORMS or not _OBJ_FORMS[form].fullmatch(joined):
         raise Unsupported("faces with several kinds of references")
     per = form[0] + 1 - form[1]  # values per corner
-    flat = _ints(joined.replace("/", " ").split(), negative=True).reshape(-1, per)
-    if np.any(flat == 0):  # trimesh reads a 0 as the last vertex
-        raise InvalidInputError("cannot read OBJ file: a face references index 0 (OBJ indices count from 1, or "
-                                "from -1 backwards)")
+    flat = values.reshape(-1, per)
     flat[flat > 0] -= 1  # 1-based; negative ones stay (trimesh: from the end of all vertices)
     tex = flat[:, 1] if per in (2, 3) and not form[1] else None
     norm = flat[:, per - 1] if (per == 2 and form[1]) or per == 3 else None
@@ -87,6 +90,17 @@ def read_obj(data: bytes) -> Loaded:
     if np.any(faces < -len(v)) or np.any(faces >= len(v)):
         raise Unsupported("a face referencing a vertex that is not there")
     return _obj_mesh(v, vt, vn, colors, faces, tex, norm)
+
+
+def _cut_last_line(text):
+    """Raise InvalidInputError where the last line of an OBJ file's `text` (a file the reader leaves
+    to trimesh) is a vertex of fewer than 3 values or a face of fewer than 3 corners: what a file cut
+    within its last line ends in. O(1): the other lines are not looked at."""
+    last = text[-4096:].rstrip().rsplit("\n", 1)[-1].split()  # (a longer line: no "v" or "f" among its last words)
+    if last[:1] in (["v"], ["f"]) and len(last) < 4:
+        what = "vertex of fewer than 3 values" if last[0] == "v" else "face of fewer than 3 corners"
+        raise InvalidInputError(f"cannot read OBJ file: its last line {' '.join(last)!r} is a {what}: a truncated or "
+                                "malformed file")
 
 
 def _obj_mesh(v, vt, vn, colors, faces, tex, norm):

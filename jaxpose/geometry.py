@@ -72,12 +72,14 @@ def split_geometry(mesh_or_points):
             raise InvalidInputError(f"faces must have shape (f, 3), got {faces.shape}")
         if faces.min() < 0 or faces.max() >= len(vertices):
             raise InvalidInputError("faces index vertices that do not exist")
-        extent = float(np.max(np.ptp(vertices, axis=0)))
-        if extent > MAX_EXTENT:  # the areas' squared cross products would overflow: inf and NaN areas
+        with np.errstate(over="ignore"):  # the flat range bounds every axis's extent, at a tenth of their cost
+            wide = float(vertices.max() - vertices.min()) > MAX_EXTENT
+        if wide and _extent(vertices) > MAX_EXTENT:  # the areas' squared cross products would overflow: NaN areas
             raise InvalidInputError(
-                f"the mesh spans {extent:.3g}: beyond {MAX_EXTENT:.3g} its face areas overflow float64; "
+                f"the mesh spans {_extent(vertices):.3g}: beyond {MAX_EXTENT:.3g} its face areas overflow float64; "
                 "rescale it")
         if not _has_area(vertices, faces):  # no silent switch to the points
+            extent = _extent(vertices)
             if 0.0 < extent < MIN_EXTENT:  # not degenerate faces: areas that underflow to 0
                 raise InvalidInputError(
                     f"the mesh spans {extent:.3g}: below {MIN_EXTENT:.3g} its face areas underflow float64 "
@@ -87,6 +89,12 @@ def split_geometry(mesh_or_points):
                 "vertices as points, pass trimesh.PointCloud(mesh.vertices)"
             )
     return vertices, faces
+
+
+def _extent(vertices):
+    """The largest of the vertices' coordinate ranges, per axis."""
+    with np.errstate(over="ignore"):
+        return max(float(np.ptp(vertices[:, axis])) for axis in range(vertices.shape[1]))
 
 
 def _has_area(vertices, faces, block=4096):

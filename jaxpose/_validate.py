@@ -46,8 +46,10 @@ def is_traced(x) -> bool:
 
 def is_real_dtype(dtype) -> bool:
     """NumPy's floats and integers, and the floats that ml_dtypes adds to NumPy for JAX (bfloat16,
-    float8_*: dtype kind 'V' to NumPy); not bool, complex or object."""
+    float8_*: dtype kind 'V' to NumPy); not bool, complex, object, datetimes or timedeltas."""
     dtype = np.dtype(dtype)
+    if dtype.kind == "m":  # timedelta64: an integer subtype to NumPy, but no number JAX computes with
+        return False
     if np.issubdtype(dtype, np.floating) or np.issubdtype(dtype, np.integer):
         return True
     ml_dtypes = sys.modules.get("ml_dtypes")  # imported with JAX: no such array exists before it

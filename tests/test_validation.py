@@ -92,6 +92,8 @@ def test_bfloat16_points_are_real_numbers():
     np.testing.assert_allclose(pose.center, np.asarray(half, np.float64).mean(axis=0), rtol=1e-12, atol=1e-15)
     for dtype in (bool, complex, object, str):  # still not real numbers
         assert not _validate.is_real_dtype(np.dtype(dtype))
+    with pytest.raises(InvalidInputError, match="points must be real numbers, got dtype timedelta64"):
+        normalize(P.astype("m8[s]"))  # an integer subtype to NumPy: its DTypePromotionError before
     assert _validate.check_gamma(jnp.bfloat16(47.0)) == 47.0 and _validate.check_nu(jnp.bfloat16(0.5)) == 0.5
     with pytest.raises(InvalidInputError, match="gamma must be a real scalar"):
         _validate.check_gamma(True)

@@ -306,6 +306,9 @@ PLY_TET_HEAD = ("ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nprop
     ("cut_material.obj", OBJ_TET + "usemtl a\nf 1 3 2\nf 1 2 4\nf 1 4", "cut_material.obj: .*last line 'f 1 4' .*fewer"),
     ("bare_material.obj", OBJ_TET + "usemtl a\nf 1 3 2\nf 1 2 4\nf\n", "bare_material.obj: .*last line 'f' is a face"),
     ("vertex_material.obj", OBJ_TET + "usemtl a\nf 1 3 2\nf 1 2 4\nv 1 2\n", "vertex_material.obj: .*last line 'v 1 2'"),
+    # (fuzzed) a face line cut by "usemtl": trimesh's scene of it raised a raw ValueError when flattened
+    ("scene.obj", "v 3 0 2 6 9 6\nv 7 6 6 6 3 2\nv 7 3 9 9 2 4\nv 5 1 6 0 5 3\nv 4 1 6 7 1 4\nf 5usemtl \nf 1 1 2",
+     "scene.obj: cannot flatten its scene into one mesh: face colors incorrect shape"),
 ])
 def test_broken_references_are_errors(tmp_path, name, text, match):
     """Faces that reference a vertex that is not there (trimesh's loader left a raw IndexError for

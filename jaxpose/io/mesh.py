@@ -333,12 +333,21 @@ def _has_vertices(geometry):
 
 
 def _flatten(scene, source):
-    """Scene -> one Trimesh (meshes concatenated, transforms applied) or PointCloud."""
+    """Scene -> one Trimesh (meshes concatenated, transforms applied) or PointCloud.
+
+    Raises:
+      InvalidInputError: trimesh cannot flatten the scene (a corrupt file's geometry: face colors
+        of another shape than its faces, ...), naming `source`.
+    """
     trimesh = _trimesh()
-    parts = scene.dump()
-    meshes = [g for g in parts if isinstance(g, trimesh.Trimesh) and len(g.faces) > 0]
-    if meshes:
-        return meshes[0] if len(meshes) == 1 else trimesh.util.concatenate(meshes)
+    try:
+        parts = scene.dump()
+        meshes = [g for g in parts if isinstance(g, trimesh.Trimesh) and len(g.faces) > 0]
+        if meshes:
+            return meshes[0] if len(meshes) == 1 else trimesh.util.concatenate(meshes)
+    except Exception as exc:  # trimesh's own errors for a scene it made of a broken file
+        detail = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise InvalidInputError(f"{source}: cannot flatten its scene into one mesh: {detail}") from None
     points = [np.asarray(g.vertices) for g in parts if hasattr(g, "vertices") and len(g.vertices)]
     if not points:
         raise InvalidInputError(f"{source}: empty geometry (no meshes or points)")

@@ -544,6 +544,7 @@ def test_stl_refused():
 @pytest.mark.parametrize("file_type, data", [
     ("obj", "v 0 0 0\nv 1 0 0\nv 0 \u0663 0\nv 0 0 1\nf 1 2 3\nf 1 3 4\n"),  # an Arabic-Indic 3
     ("obj", "v 0 0 0\nv 1\u00a00 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 3 4\n"),  # a no-break space
+    ("obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 3\u00a04\n"),  # one among the faces
     ("ply", PLY_TET_TEXT.replace("1 0 0\n", "1\x1f0 0\n")),                     # a unit separator
     ("ply", PLY_TET_TEXT.replace("3 0 1 2\n", "3 0 1 \uff12\n")),                 # a full-width 2
     ("stl", "solid a\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 1 \u0661 0\n"

@@ -64,7 +64,7 @@ def read_obj(data: bytes) -> Loaded:
     vn = arrays.get("vn")
 
     faces_lines = [line.strip() for line in keyed["f"]]
-    references, refs = _tokens(faces_lines)  # refs: corners per face
+    references, refs = _tokens(faces_lines, c_numbers=True)  # refs: corners per face (trimesh: fromstring)
     if np.any(refs < 3):
         at = int(np.argmax(refs < 3))
         raise InvalidInputError(f"cannot read OBJ file: face {at + 1} ('f {faces_lines[at]}') has fewer than 3 "

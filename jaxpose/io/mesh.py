@@ -136,9 +136,9 @@ def _merge_vertices(geometry, source="input"):
     a copy moved by an anchor vertex (:func:`jaxpose.host.anchor`); the vertices kept are then
     taken from the input as they are, so loading changes no coordinate, not even by rounding. A
     mesh reaching farther than :data:`MERGE_REACH` from that vertex is refused (trimesh's int64
-    keys overflow there and merge distinct vertices). The file's vertex normals are dropped first,
-    so that they never keep vertices apart (moving the vertices drops them from trimesh's cache,
-    but not a move by an anchor at the origin: the same values, the same cache)."""
+    keys overflow there and merge distinct vertices). The file's vertex normals never keep vertices
+    apart (``merge_norm=True``: moving the vertices drops them from trimesh's cache, but not a move
+    by an anchor at the origin, the same values)."""
     from ..host import anchor
 
     original = np.asarray(geometry.vertices, np.float64)
@@ -150,8 +150,7 @@ def _merge_vertices(geometry, source="input"):
             f"{source}: the mesh reaches {reach:.3g} from its middle vertex; beyond {MERGE_REACH:.3g} trimesh's "
             "vertex merge (coordinates in steps of 1e-8 as int64) merges distinct vertices: rescale it")
     geometry.vertices = moved
-    geometry._cache.clear()  # trimesh's merge keeps vertices of different cached normals apart
-    geometry.merge_vertices()
+    geometry.merge_vertices(merge_norm=True)
     inverse = np.full(len(original), -1, np.int64)  # original vertex -> merged vertex
     inverse[faces.ravel()] = np.asarray(geometry.faces, np.int64).ravel()
     referenced = np.nonzero(inverse >= 0)[0]

@@ -26,7 +26,13 @@ __all__ = ["Moments", "weighted_center", "weighted_moments", "grid_axes", "grid_
 class Moments(NamedTuple):
     """center : (3,) c_m (eq. 4); mean_distance : () d_m (eq. 5); volume : ();
     second_moment : (3, 3) (1/V) int (x - c)(x - c)^T; cell : (3,) coarse grid spacing;
-    unrefined : () cells cut by the boundary left unrefined because ``band`` was too small."""
+    unrefined : () cells cut by the boundary left unrefined because ``band`` was too small.
+
+    Example::
+
+        m = jaxpose.volume_moments(jaxpose.fit_svdd(points, gamma=47.0, nu=0.5))
+        m.center.shape, m.mean_distance.shape, m.second_moment.shape   # (3,), (), (3, 3)
+    """
 
     center: object
     mean_distance: object

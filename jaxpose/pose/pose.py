@@ -457,6 +457,12 @@ def normalize_batch(list_of_points: Iterable, method: str = DEFAULT_METHOD, *, p
         index) or option.
 
     Under jit, use ``jax.vmap(normalize)`` instead (padding needs concrete arrays).
+
+    Example::
+
+        clouds = [jaxpose.sample_surface(mesh, m, seed=s) for s, m in ((0, 900), (1, 1000))]
+        poses = jaxpose.normalize_batch(clouds)   # robust, one compiled call for both
+        poses.center.shape, poses.scale.shape     # (2, 3), (2,); poses.center[1] is normalize(clouds[1]).center
     """
     method = _check_method(method)
     if strategy not in ("auto", "map", "vmap"):

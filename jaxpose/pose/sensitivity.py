@@ -41,6 +41,12 @@ def pose_sensitivity(points, gamma=OCSVM.gamma, nu=OCSVM.nu, **options) -> dict:
       {"center" (3,), "scale" (), "dcenter_dgamma" (3,), "dcenter_dnu" (3,), "dscale_dgamma" (),
       "dscale_dnu" ()} as float NumPy arrays in the units of ``points`` (by default the trend over
       gamma (1 +- gamma_delta) and nu (1 +- nu_delta)), plus "converged" and "valid" (bools).
+
+    Example::
+
+        points = jaxpose.sample_surface(mesh, 2000, seed=0)
+        s = jaxpose.pose_sensitivity(points, gamma=47.0, nu=0.5)
+        s["dcenter_dgamma"].shape, s["dscale_dnu"].shape, s["converged"]   # (3,), (), True
     """
     _validate.check_gamma(gamma)
     _validate.check_nu(nu)

@@ -46,6 +46,11 @@ class SVDD(NamedTuple):
       kkt_violation: () relative KKT violation at the end (:func:`kkt_violation`).
       converged: () bool, kkt_violation <= tol.
       mask: (m,) bool, the points that take part (padding in batches is False).
+
+    Example::
+
+        svdd = jaxpose.fit_svdd(points, gamma=47.0, nu=0.5)
+        float(svdd.alpha.sum()), int(svdd.support.sum())   # 1.0, the number of support vectors
     """
 
     points: jax.Array

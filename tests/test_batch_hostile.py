@@ -94,6 +94,20 @@ def test_two_inputs_for_one_output_are_refused_before_any_work(tmp_path):
     assert not (tmp_path / "out").exists()
 
 
+def test_an_earlier_runs_output_folder_inside_the_input_folder_is_not_searched(tmp_path):
+    scans = tmp_path / "scans"
+    good = good_meshes(scans, count=2)
+    first = batch.run_batch([scans], scans / "out1", FAST, workers=1, progress=False)
+    assert (first.written, first.failed) == (2, 0)
+    # a second output folder beside the first: the first one's outputs are not inputs again
+    second = batch.run_batch([scans], scans / "out2", FAST, workers=1, progress=False)
+    assert sorted(r.input for r in second.rows) == sorted(str(p) for p in good)
+    assert (second.written, second.failed) == (2, 0) and not (scans / "out2" / "out1").exists()
+    # named as an INPUT itself, an output folder is searched (its outputs normalized again)
+    third = batch.run_batch([scans / "out1"], tmp_path / "again", FAST, workers=1, progress=False)
+    assert sorted(Path(r.input).name for r in third.rows) == sorted(p.name for p in good)
+
+
 def test_names_that_are_not_utf8(tmp_path):
     scans = tmp_path / "scans"
     good_meshes(scans, count=1)

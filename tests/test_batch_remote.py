@@ -90,6 +90,16 @@ def test_memory_manifest_shards_and_a_remote_folder_that_is_a_file(tmp_path, mem
         batch.run_batch([f"{base}/scans", str(tmp_path / "scans")], tmp_path / "o", FAST, workers=1)
 
 
+def test_an_earlier_runs_remote_output_folder_inside_the_input_folder_is_not_searched(memory_scans):
+    _, base = memory_scans
+    scans = f"{base}/scans"
+    first = batch.run_batch([scans], f"{scans}/out1", FAST, workers=1, progress=False)
+    second = batch.run_batch([scans], f"{scans}/out2", FAST, workers=1, progress=False)
+    assert (first.written, second.written) == (4, 4)  # not out1's 4 outputs again
+    assert sorted(r.input for r in second.rows) == sorted(r.input for r in first.rows)
+    assert not any("/out1/" in r.input for r in second.rows)
+
+
 def test_file_urls_are_local_paths(tmp_path):
     write_mesh_tree(tmp_path / "scans")
     code = cli.main(["normalize", f"file://{tmp_path}/scans", "-o", f"file://{tmp_path}/out", "--workers", "1",

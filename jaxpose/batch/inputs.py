@@ -1,7 +1,8 @@
 """The inputs of a batch run: files, folders and manifests -> (input, output) pairs, checked.
 
 An INPUT is a mesh file, a folder (searched recursively for :data:`MESH_SUFFIXES`, hidden files
-and folders skipped, narrowed by a glob) or a manifest (:data:`MANIFEST_SUFFIXES`: one path per
+and folders skipped, and folders below it that hold ``.jaxpose/``: earlier runs' output folders,
+whose outputs are not inputs again; narrowed by a glob) or a manifest (:data:`MANIFEST_SUFFIXES`: one path per
 line, ``#`` comments; or a CSV whose ``path`` / ``input`` column, else first column, holds them;
 relative paths are relative to the manifest). Outputs mirror the inputs' tree: each input's path
 relative to the deepest folder common to all inputs (a folder INPUT counts as that folder, a file
@@ -30,6 +31,7 @@ from typing import NamedTuple
 
 from .._validate import InvalidInputError
 from ..io.remote import RemotePath, is_url, location
+from .journal import STATE_FOLDER
 
 __all__ = ["MESH_SUFFIXES", "MANIFEST_SUFFIXES", "Item", "Found", "find_inputs", "plan_outputs", "is_batch_input",
            "shard_index", "check_shard", "file_kind"]
@@ -90,7 +92,9 @@ def find_inputs(inputs, glob=None, exclude=()) -> Found:
       glob: narrows folder searches (fnmatch): matched against the file name, or, when it contains
         ``/``, against the path relative to the searched folder, where ``*`` also spans folders
         (``"kid_*/pose_0?.ply"``).
-      exclude: folders never searched (the output folder, when it lies inside an input folder).
+      exclude: folders never searched (the output folder, when it lies inside an input folder);
+        folders below a searched one that hold ``.jaxpose/`` (other runs' output folders) are not
+        searched either.
 
     Returns:
       :class:`Found`: the files, their root and the irregular files met by folder searches.
@@ -152,18 +156,22 @@ def _common_root(roots):
 def _search_remote(folder, glob, exclude):
     """A folder search on a remote file system, in the order of the local one (each folder's
     files sorted, then its sub-folders)."""
-    found = []
+    found, outputs = [], set()
     for name, info in folder.fs.find(folder.path, detail=True).items():
         if info.get("type", "file") != "file":
             continue
         path = RemotePath(folder.fs, name)
         relative = path.relative_to(folder)
+        if STATE_FOLDER in relative.parts[1:-1]:  # an earlier run's OUTDIR below the searched folder
+            outputs.add(relative.parts[:relative.parts.index(STATE_FOLDER, 1)])
         if any(part.startswith(".") for part in relative.parts) or relative.suffix.lower() not in MESH_SUFFIXES:
             continue
         if any(identity(folder / Path(*relative.parts[:i])) in exclude for i in range(1, len(relative.parts))):
             continue
         if glob is None or _matches(relative, glob):
             found.append((relative, path))
+    found = [(relative, path) for relative, path in found
+             if not any(relative.parts[:i] in outputs for i in range(1, len(relative.parts)))]
     return [path for _, path in sorted(found, key=lambda pair: _walk_order(pair[0]))]
 
 
@@ -176,7 +184,8 @@ def _search(folder, glob, exclude, irregular):
     found = []
     for here, dirs, names in os.walk(folder):  # links to folders are listed in dirs, not followed
         dirs[:] = sorted(d for d in dirs if not d.startswith(".")
-                         and os.path.realpath(os.path.join(here, d)) not in exclude)
+                         and os.path.realpath(os.path.join(here, d)) not in exclude
+                         and not os.path.isdir(os.path.join(here, d, STATE_FOLDER)))  # an earlier run's OUTDIR
         for name in sorted(names):
             if name.startswith(".") or os.path.splitext(name)[1].lower() not in MESH_SUFFIXES:
                 continue

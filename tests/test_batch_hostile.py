@@ -108,6 +108,16 @@ def test_an_earlier_runs_output_folder_inside_the_input_folder_is_not_searched(t
     assert sorted(Path(r.input).name for r in third.rows) == sorted(p.name for p in good)
 
 
+def test_a_file_and_a_link_to_it_are_done_once_under_the_files_own_name(tmp_path):
+    scans = tmp_path / "scans"
+    good = good_meshes(scans, count=2)
+    os.symlink(good[1].name, scans / "a_latest.ply")  # listed before its target
+    result = batch.run_batch([scans], tmp_path / "out", FAST, workers=1, progress=False)
+    assert [r.input for r in result.rows] == [str(p) for p in good]
+    assert sorted(p.name for p in (tmp_path / "out").glob("*.ply")) == [p.name for p in good]
+    assert_normalized(by_name(result.rows)[good[1].name])
+
+
 def test_names_that_are_not_utf8(tmp_path):
     scans = tmp_path / "scans"
     good_meshes(scans, count=1)

@@ -56,7 +56,8 @@ class Found(NamedTuple):
     """What :func:`find_inputs` found.
 
     Attributes:
-      files: absolute input paths (sorted within each folder; manifest order kept), no repeats.
+      files: absolute input paths (sorted within each folder; manifest order kept), no repeats: a
+        file found under several names (links to it) keeps the first name that is not a link.
       root: the common folder their outputs are mirrored from.
       irregular: {path: what it is ("a FIFO", ...)} for the files of `files` that a folder search
         met and that are not regular files: they fail without being opened.
@@ -125,16 +126,20 @@ def find_inputs(inputs, glob=None, exclude=()) -> Found:
         else:
             roots.append(path.parent)
             files.append(path)
-    seen, unique = set(), []
-    for path in files:
-        key = identity(path)
-        if key not in seen:
-            seen.add(key)
-            unique.append(path)
+    keys = [identity(path) for path in files]
+    chosen = {}  # one name per file: the first that is not a link, else the first (a link to it)
+    for i, (path, key) in enumerate(zip(files, keys)):
+        if key not in chosen or (_is_link(files[chosen[key]]) and not _is_link(path)):
+            chosen[key] = i
+    unique = [path for i, (path, key) in enumerate(zip(files, keys)) if chosen[key] == i]
     if not unique:
         hint = f" matching {glob!r}" if glob else f" ({', '.join(MESH_SUFFIXES)})"
         raise InvalidInputError(f"no mesh files found in {', '.join(map(str, inputs))}{hint}")
     return Found(unique, _common_root(roots), {p: irregular[p] for p in unique if p in irregular})
+
+
+def _is_link(path) -> bool:
+    return not isinstance(path, RemotePath) and os.path.islink(path)
 
 
 def identity(path) -> str:

@@ -171,6 +171,26 @@ def test_refusals_before_any_work(tmp_path, tree, monkeypatch):
         run([root], tmp_path / "mine")
 
 
+def test_a_table_path_that_is_a_folder_or_another_file_is_refused_before_any_work(tmp_path, tree, monkeypatch):
+    sphere = tmp_path / "scans" / "sphere.off"
+    notes, config = tmp_path / "notes.csv", tmp_path / "config.parquet"
+    notes.write_text("name,score\nalice,3\n")
+    config.write_text('{"not": "parquet"}')
+    (tmp_path / "folder.csv").mkdir()
+    with monkeypatch.context() as patch:
+        patch.setattr(batch, "normalize_file", lambda *a: pytest.fail("work started"))
+        for table, fragment in [(notes, "not a transforms table"), (config, "not a transforms table"),
+                                (tmp_path / "folder.csv", "is a folder")]:
+            with pytest.raises(InvalidInputError, match=fragment):
+                run([sphere], tmp_path / "o", table=table, options=FAST)
+    assert notes.read_text() == "name,score\nalice,3\n" and not (tmp_path / "o").exists()
+    first = run([sphere], tmp_path / "o", table=tmp_path / "t.csv")  # a table of its own: replaced by reruns
+    assert run([sphere], tmp_path / "o", table=tmp_path / "t.csv").skipped == 1
+    assert stable(jaxpose.read_transforms(tmp_path / "t.csv")) == stable(first.rows)
+    run([sphere], tmp_path / "o", table=notes, force=True)  # force: replaced
+    assert stable(jaxpose.read_transforms(notes)) == stable(first.rows)
+
+
 @pytest.mark.parametrize("kwargs, fragment", [
     (dict(count=3), "count must be >= 4"), (dict(gamma=-1.0), "gamma must be > 0"),
     (dict(nu=2.0), r"nu must be in \[0, 1\]"), (dict(resolution=7), "resolution must be >= 8"),

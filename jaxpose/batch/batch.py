@@ -101,6 +101,7 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
     found = find_inputs(inputs, glob=glob, exclude=[output_dir])
     given = [inputs] if isinstance(inputs, (str, os.PathLike)) else list(inputs)
     items = plan_outputs(found.files, found.root, output_dir, file_format=file_format, table=table, given=given)
+    transforms.check_replaceable(table, force)
     if shard is not None:  # after the checks of the whole plan: every shard refuses alike
         items = [item for item in items if shard_index(item.source.relative_to(found.root), shard[1]) == shard[0]]
     fingerprint = options.fingerprint(file_format)
@@ -163,7 +164,8 @@ def normalize_files(inputs, output_dir, options=None, **kwargs) -> list:
       check: how a rerun recognizes an unchanged input: ``"mtime"`` (size and modification time,
         default) or ``"hash"`` (SHA-256 of its bytes).
       fail_fast: stop at the first failed input.
-      force: redo every input, and write into a folder jaxpose did not make.
+      force: redo every input, write into a folder jaxpose did not make, and replace a `table`
+        file that is not a transforms table.
       progress: a progress bar on stderr (rate, ETA): True, False, or None (only on a terminal).
       shard: (index, count): only the inputs of shard `index` of `count` (0 <= index < count), by
         a stable hash of each input's path relative to the inputs' root, so that `count` machines
@@ -183,7 +185,8 @@ def normalize_files(inputs, output_dir, options=None, **kwargs) -> list:
 
     Raises:
       InvalidInputError: bad arguments, missing INPUTs, aliasing outputs, an unusable output folder,
-        an output that an earlier run wrote from another input (unless `force`) (all before any work).
+        an output that an earlier run wrote from another input or a `table` that is a folder or a
+        file other than a transforms table (unless `force`) (all before any work).
       jaxpose.batch.journal.FolderBusyError: another run is writing to `output_dir`.
 
     Example::

@@ -62,7 +62,7 @@ from .._validate import InvalidInputError
 from ..pose.result import Pose, Status
 
 __all__ = ["COLUMNS", "ROTATION_COLUMNS", "Transform", "read_transforms", "merge_transforms", "write_transforms",
-           "table_format", "default_table_name", "has_parquet"]
+           "table_format", "default_table_name", "has_parquet", "check_replaceable"]
 
 _BASE = (
     ("input", "str"), ("output", "str"), ("status", "str"), ("error", "str"),
@@ -191,6 +191,40 @@ def table_format(path) -> str:
                                     "or name a .csv table")
         return "parquet"
     raise InvalidInputError(f"{path}: a table must end in .parquet or .csv, got {suffix or '(no suffix)'!r}")
+
+
+def check_replaceable(path, force=False):
+    """Refuse a table path that a run could not, or must not, write its table to at its end.
+
+    Args:
+      path: the table's path or URL.
+      force: replace an existing file even when it is not a transforms table.
+
+    Raises:
+      InvalidInputError: `path` is a folder; or (unless `force`) a file that is not empty and not
+        a transforms table (no ``input``, ``output`` and ``status`` columns): a run writes its
+        table last, after all the work, and must not replace a file that it did not write.
+    """
+    path = location_of(path)
+    if path.is_dir():
+        raise InvalidInputError(f"the table {path} is a folder; name a .parquet or .csv file")
+    if force or not path.is_file():
+        return
+    data = path.read_bytes()
+    if not data:
+        return
+    try:
+        if table_format(path) == "parquet":
+            import pyarrow.parquet as pq
+
+            names = pq.read_schema(io.BytesIO(data)).names
+        else:
+            names = next(csv.reader([data.split(b"\n", 1)[0].decode("utf-8-sig")]), [])
+    except Exception:  # not Parquet, not UTF-8 text: not a table
+        names = []
+    if not {"input", "output", "status"} <= set(names):
+        raise InvalidInputError(f"the table {path} exists and is not a transforms table; name another file, "
+                                "or use --force / force=True to replace it")
 
 
 def _columns(rotation):

@@ -92,6 +92,13 @@ def test_two_inputs_for_one_output_are_refused_before_any_work(tmp_path):
     code, _, err = cli(scans, "-o", tmp_path / "out", "--format", "ply", "--workers", "1")
     assert code == 1 and "would both be written to" in err and "good_0.off" in err and "Traceback" not in err
     assert not (tmp_path / "out").exists()
+    (scans / "good_1.ply").unlink()
+    trimesh.creation.icosphere(1).export(scans / "good_1.off")
+    good_meshes(scans / "good_1.ply", count=1)  # good_1.off -> out/good_1.ply, a file where a folder must be
+    (scans / "good_0.off").unlink()
+    code, _, err = cli(scans, "-o", tmp_path / "out", "--format", "ply", "--workers", "1")
+    assert code == 1 and "a file where" in err and "good_1.ply/good_0.ply" in err and "Traceback" not in err
+    assert not (tmp_path / "out").exists()
 
 
 def test_an_earlier_runs_output_folder_inside_the_input_folder_is_not_searched(tmp_path):

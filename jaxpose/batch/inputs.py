@@ -246,8 +246,9 @@ def plan_outputs(files, root, output_dir, file_format=None, table=None, given=()
       list of :class:`Item` with absolute outputs, in the order of `files`.
 
     Raises:
-      InvalidInputError: two inputs with one output, an output that is an input, or a table that
-        is an input or an output (nothing has been written).
+      InvalidInputError: two inputs with one output, an output where another output needs a
+        folder of that name, an output that is an input, or a table that is an input or an output
+        (nothing has been written).
     """
     output_dir = location(output_dir)
     items, owner = [], {}
@@ -266,6 +267,16 @@ def plan_outputs(files, root, output_dir, file_format=None, table=None, given=()
                                     "from the inputs")
         owner[key] = source
         items.append(Item(source, output))
+    checked = set()  # each folder once
+    for item in items:  # x.off -> OUT/x.ply and x.ply/y.off -> OUT/x.ply/y.ply: a file where a folder must be
+        folder = item.output.parent
+        while folder != output_dir and folder != folder.parent and folder not in checked:
+            checked.add(folder)
+            if identity(folder) in owner:
+                raise InvalidInputError(f"{owner[identity(folder)]} would be written to {folder}, a file where "
+                                        f"{item.source} needs a folder ({item.output}); give them separate runs or "
+                                        "output folders")
+            folder = folder.parent
     if table is not None:
         key = identity(location(table))
         if key in sources or key in owner:

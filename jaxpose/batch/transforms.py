@@ -92,7 +92,8 @@ class Transform(NamedTuple("_Row", [(name, object) for name in _FIELDS])):
 
     ``center``, ``rotation``, ``matrix``, ``apply`` and ``invert`` are shorthands of that Pose,
     kept so that code written against earlier tables runs unchanged: ``row.apply(x)`` is
-    ``row.pose.apply(x)`` (bit for bit the written output), ``row.invert(y)`` is
+    ``row.pose.apply(x)`` (bit for bit the written output, which the file holds rounded by its
+    format: float32 or a fixed number of decimals), ``row.invert(y)`` is
     ``row.pose.inverse().apply(y)``, ``row.matrix`` is ``row.pose.matrix``; the last three
     refuse a failed row.
 

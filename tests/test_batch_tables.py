@@ -123,6 +123,26 @@ def test_runs_one_after_the_other_keep_every_row_an_output_needs(tmp_path, scans
     assert all(r.input != str(scans / "a" / "b" / "nan.obj") for r in rows)  # an earlier failure: no output
 
 
+def test_a_run_with_pyarrow_after_one_without_leaves_one_table(tmp_path, scans, monkeypatch):
+    """transforms.csv (no pyarrow), then transforms.parquet: the CSV, left, would give
+    read_transforms(OUTDIR) the row of an output deleted in between."""
+    from jaxpose.batch import transforms
+
+    out = tmp_path / "out"
+    with monkeypatch.context() as patch:
+        patch.setattr(transforms, "has_parquet", lambda: False)
+        first = run([scans / "a"], out)
+    assert first.table == out / "transforms.csv"
+    gone = next(r for r in first.rows if r.ok)
+    os.remove(gone.output)
+    second = run([scans / "a"], out, glob="*.obj")  # not the input of the deleted output
+    assert second.table == out / "transforms.parquet" and not (out / "transforms.csv").exists()
+    rows = jaxpose.read_transforms(out)
+    assert [stable(r, out) for r in rows] == [stable(r, out) for r in jaxpose.read_transforms(second.table)]
+    assert all(os.path.exists(r.output) for r in rows if r.ok) and gone.output not in {r.output for r in rows}
+    assert {r.output for r in rows if r.ok} == {r.output for r in first.rows if r.ok} - {gone.output}
+
+
 def test_an_output_of_another_input_is_not_replaced_without_force(tmp_path, scans):
     out = tmp_path / "out"
     run([scans / "a" / "capsule.ply"], out)  # -> out/capsule.ply

@@ -90,6 +90,7 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
             raise InvalidInputError(f"format must be one of {', '.join(OUTPUT_FORMATS)}; got {file_format!r}")
     shard = check_shard(shard)
     output_dir = location(output_dir)
+    default_table = table is None
     if table is None:
         name = transforms.default_table_name()
         if shard is not None:
@@ -136,6 +137,8 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
         finally:  # also on KeyboardInterrupt: the table holds every finished input
             rows = table_rows(items, folder.entries(), folder.exists)
             write_file(table, transforms.write_transforms(rows, table, rotation=bool(options.rotation_method) or None))
+            if default_table:
+                _remove_superseded_table(table)
     return BatchResult([transforms.Transform.from_record(r) for r in rows], table, run.written, skipped, run.failed, run.stopped,
                        time.perf_counter() - start, run.peak_mb)
 
@@ -249,6 +252,22 @@ def write_file(path, data):
     if isinstance(path, RemotePath):
         return path.write_bytes(data)
     return write_atomic(path, data, force=True)
+
+
+def _remove_superseded_table(table):
+    """Remove the default table of the other format beside `table` (``transforms.csv`` beside
+    ``transforms.parquet``: an earlier run without pyarrow, or the reverse). The table just
+    written holds the row of every output still in the folder, as a rerun's table of the same
+    format replaces the earlier one; the other one, left, would give ``read_transforms(OUTDIR)``
+    rows of outputs since deleted."""
+    from ..io.remote import RemotePath
+
+    other = table.with_suffix(".csv" if table.suffix == ".parquet" else ".parquet")
+    try:
+        if other.is_file():
+            other.fs.rm_file(other.path) if isinstance(other, RemotePath) else other.unlink()
+    except Exception:  # not ours to fail the run over; read_transforms merges it as before
+        log.debug("could not remove %s", other, exc_info=True)
 
 
 def _input_key(path, check):

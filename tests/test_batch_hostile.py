@@ -143,6 +143,24 @@ def test_names_that_are_not_utf8(tmp_path):
     assert (again.written, again.skipped) == (0, 2)  # the journal knows the name exactly
 
 
+def test_a_name_near_the_file_systems_limit_is_written(tmp_path):
+    from jaxpose.io.atomic import temporary_path
+
+    scans = tmp_path / "scans"
+    good_meshes(scans, count=1)
+    long = scans / ("x" * 246 + ".ply")  # 250 bytes: its temporary .NAME.<12 hex>.tmp would be 268
+    trimesh.creation.box(extents=(2.0, 1.0, 0.5)).export(long)
+    out = tmp_path / "out"
+    result = batch.run_batch([scans], out, FAST, workers=1, progress=False, shard=(0, 1))  # a shard removes
+    assert (result.written, result.failed) == (2, 0)                                          # its own temporaries
+    assert_normalized(by_name(result.rows)[long.name])
+    left = temporary_path(out / long.name)  # what a SIGKILL mid-write leaves: removed by the rerun
+    left.write_bytes(b"partial")
+    assert len(os.fsencode(left.name)) <= 255
+    again = batch.run_batch([scans], out, FAST, workers=1, progress=False, shard=(0, 1))
+    assert again.skipped == 2 and not left.exists()
+
+
 def test_a_manifest_of_missing_files(tmp_path):
     good = good_meshes(tmp_path / "scans", count=2)
     (tmp_path / "list.txt").write_text("scans/good_0.ply\nscans/gone.ply\nnowhere/else.obj\nscans/good_1.ply\n")

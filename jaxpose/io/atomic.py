@@ -20,10 +20,26 @@ __all__ = ["write_atomic", "temporary_path", "is_temporary", "remove_temporaries
 _SUFFIX = ".tmp"
 
 
+_NAME_MAX = 255  # bytes of one file name (Linux, macOS, Windows' NTFS in UTF-16 units)
+
+
+def _stem(name) -> str:
+    """The NAME part of `name`'s temporaries: `name` itself, or, where ``.NAME.<12 hex>.tmp``
+    would pass :data:`_NAME_MAX` bytes (an output name of 238 bytes or more), its first bytes and
+    ``~`` and 8 hex digits of its SHA-256 (one per name)."""
+    raw = os.fsencode(name)
+    if len(raw) + 18 <= _NAME_MAX:
+        return name
+    import hashlib
+
+    return os.fsdecode(raw[:_NAME_MAX - 18 - 9]) + "~" + hashlib.sha256(raw).hexdigest()[:8]
+
+
 def temporary_path(path) -> Path:
-    """A fresh temporary name for `path`: ``.NAME.<12 hex digits>.tmp`` in the same folder."""
+    """A fresh temporary name for `path`: ``.NAME.<12 hex digits>.tmp`` in the same folder (NAME
+    shortened where the temporary's name would be too long for the file system; :func:`_stem`)."""
     path = Path(path)
-    return path.with_name(f".{path.name}.{secrets.token_hex(6)}{_SUFFIX}")
+    return path.with_name(f".{_stem(path.name)}.{secrets.token_hex(6)}{_SUFFIX}")
 
 
 def is_temporary(name) -> bool:
@@ -47,7 +63,7 @@ def remove_temporaries(path) -> int:
     """
     path = Path(path)
     folder = path.parent if str(path.parent) else Path(".")
-    prefix = f".{path.name}."
+    prefix = f".{_stem(path.name)}."
     removed = 0
     try:
         names = os.listdir(folder)

@@ -7,7 +7,7 @@ from ..config import OCSVM
 from ..errors import InvalidInputError
 from ..io.atomic import check_creatable, check_output_file  # shared by the commands
 
-__all__ = ["add_svm_options", "fail", "checked", "check_output_file", "check_creatable"]
+__all__ = ["add_svm_options", "fail", "checked", "check_output_file", "check_creatable", "check_dataset_choice"]
 
 
 def checked(convert, check):
@@ -27,6 +27,15 @@ def checked(convert, check):
             raise argparse.ArgumentTypeError(str(exc)) from None
 
     return parse
+
+
+def check_dataset_choice(instances, classes):
+    """The built-in dataset's ``--instances`` (None: the command's default) and ``--classes`` (None:
+    all), checked before any work (evaluate, tune): InvalidInputError, a usage error (exit 2)."""
+    if instances is not None and instances < 2:
+        raise InvalidInputError(f"--instances must be >= 2 (a class's spread needs at least 2 objects), got {instances}")
+    if classes is not None and not [c for c in classes.split(",") if c]:
+        raise InvalidInputError(f"--classes names no class ({classes!r}); give some, comma-separated")
 
 
 def add_svm_options(p, count=OCSVM.count):

@@ -10,7 +10,7 @@ import json
 import sys
 from pathlib import Path
 
-from .common import add_svm_options, check_creatable, check_output_file, fail
+from .common import add_svm_options, check_creatable, check_dataset_choice, check_output_file, fail
 
 __all__ = ["add_parser", "run"]
 
@@ -75,10 +75,7 @@ def _evaluate_usage(args):
                      f"{'' if args.rotation else ' or --sweep'}, or drop {'them' if len(given) > 1 else 'it'})")
     if args.data and (args.classes or args.instances is not None):
         raise _Usage("--classes and --instances choose from the built-in dataset; --data takes every class of DIR")
-    if args.instances is not None and args.instances < 2:
-        raise _Usage(f"--instances must be >= 2 (a class's spread needs at least 2 objects), got {args.instances}")
-    if args.classes is not None and not [c for c in args.classes.split(",") if c]:
-        raise _Usage(f"--classes names no class ({args.classes!r}); give some of the built-in ones, comma-separated")
+    check_dataset_choice(args.instances, args.classes)
     if args.core_weight != "vertices" and not args.align_core:
         raise _Usage(f"--core-weight {args.core_weight} says how --align-core chooses the core; add --align-core")
     checked = NormalizeOptions(method="ocsvm", seed=args.seed, **given)  # gamma > 0, nu in [0, 1], count >= 4, seed

@@ -128,6 +128,7 @@ def run(argv) -> int:
 def _run(args) -> int:
     from ..mesh import write_atomic
     from ..tuning import check_options, tune
+    from .common import check_dataset_choice
 
     say = lambda s: print(s, file=sys.stderr, flush=True)
     try:
@@ -135,11 +136,7 @@ def _run(args) -> int:
         check_options(args.method, args.steps, args.lr, args.reg, args.scale_weight,
                       args.holdout if args.holdout is not None else 0.0, args.seed, args.count,
                       **{k: v for k, v in options.items() if k in ("gamma0", "nu0", "power0")})
-        if args.instances < 2:
-            raise InvalidInputError(f"--instances must be >= 2 (a class's spread needs at least 2 objects), got "
-                                    f"{args.instances}")
-        if args.classes is not None and not [c for c in args.classes.split(",") if c]:
-            raise InvalidInputError(f"--classes names no class ({args.classes!r}); give some, comma-separated")
+        check_dataset_choice(args.instances, args.classes)
     except InvalidInputError as exc:  # a usage error: before any work
         print(f"jaxpose tune: error: {exc}", file=sys.stderr)
         return 2

@@ -163,15 +163,19 @@ def _ply_binary(data, start, elements, endian):
             np.full(nf, size, np.int64))
 
 
+def _in_range(values, dtype):
+    """(n,) bool: which float64 `values` the integer `dtype` holds (min <= v < max + 1; NaN not)."""
+    info = np.iinfo(dtype)
+    return (values >= float(info.min)) & (values < float(info.max) + 1)
+
+
 def _as(values, kind):
     """float64 values as the PLY type `kind`, as trimesh's ``astype`` makes them; Unsupported where
     that cast is undefined: a value beyond an integer type's range, or NaN (C leaves the result to
     the machine, and NumPy's loops differ, so trimesh's value may differ from this one)."""
     dtype = np.dtype(kind)
-    if dtype.kind in "iu" and len(values):
-        low, high = float(np.iinfo(dtype).min), float(np.iinfo(dtype).max) + 1
-        if not (values.min() >= low and values.max() < high):
-            raise Unsupported(f"a value beyond the range of its type {dtype}")
+    if dtype.kind in "iu" and not np.all(_in_range(values, dtype)):
+        raise Unsupported(f"a value beyond the range of its type {dtype}")
     return values.astype(dtype)
 
 
@@ -201,8 +205,7 @@ def _ply_ascii(lines, elements, endian):
         raise Unsupported("a face list whose count is not its length")
     flat = _floats(_take(tokens, _runs(starts + position + 1, sizes)))
     index = np.dtype(endian + fprops[position][1])
-    low, high = float(np.iinfo(index).min), float(np.iinfo(index).max) + 1
-    wrong = ~((flat >= low) & (flat < high) & (flat == np.floor(flat)))  # (NaN too)
+    wrong = ~(_in_range(flat, index) & (flat == np.floor(flat)))  # (NaN too)
     if np.any(wrong):  # trimesh casts it to some index of the type (which: the machine's choice)
         line = int(np.argmax(np.cumsum(sizes) > int(np.argmax(wrong))))
         raise InvalidInputError(f"cannot read PLY file: face line {line + 1} holds an index that is not an integer "

@@ -29,6 +29,7 @@ __all__ = [
     "compute_dtype",
     "is_real_dtype",
     "default_float",
+    "check_default_float",
     "is_traced",
 ]
 
@@ -144,11 +145,20 @@ def check_gamma(gamma):
     if v is not None and v <= 0:
         raise InvalidInputError(f"gamma must be > 0, got {v}")
     if v is not None:
-        finfo = np.finfo(default_float())
-        if not float(finfo.tiny) <= v <= float(finfo.max):
-            raise InvalidInputError(f"gamma={v:g} is outside the range of {finfo.dtype} (JAX's default float), "
-                                    f"{float(finfo.tiny):.3g} ... {float(finfo.max):.3g}")
+        check_default_float(v, "gamma", normal=True)
     return gamma
+
+
+def check_default_float(value: float, name: str, normal: bool = False) -> float:
+    """Refuse a concrete number that JAX's default float (:func:`default_float`) cannot hold:
+    beyond its max (inf under ``jit``) or, with ``normal``, a positive one below its smallest normal
+    number (0 or subnormal). Returns ``value``."""
+    finfo = np.finfo(default_float())
+    low = float(finfo.tiny) if normal else 0.0
+    if not low <= value <= float(finfo.max):
+        raise InvalidInputError(f"{name}={value:g} is outside the range of {finfo.dtype} (JAX's default float), "
+                                f"{low:.3g} ... {float(finfo.max):.3g}")
+    return value
 
 
 def check_nu(nu):

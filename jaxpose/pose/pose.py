@@ -253,10 +253,7 @@ def _check_power(power):
     dtype = getattr(power, "dtype", None)
     real = getattr(power, "shape", None) == () and dtype is not None and _validate.is_real_dtype(dtype)
     value = _validate.check_real(np.asarray(power).item() if real else power, "power", 0)
-    finfo = np.finfo(_validate.default_float())
-    if value > float(finfo.max):  # inf inside the pipeline
-        raise _validate.InvalidInputError(f"power={value:g} is outside the range of {finfo.dtype} (JAX's default "
-                                          f"float), 0 ... {float(finfo.max):.3g}")
+    _validate.check_default_float(value, "power")  # beyond its max: inf inside the pipeline
     return power
 
 

@@ -127,7 +127,7 @@ class RobustOptions:
 
     Example::
 
-        center = depth_centroid(solid, RobustOptions(power=2.0).power)
+        pose = jaxpose.normalize(points, power=RobustOptions(power=2.0).power)  # a depth^2-weighted center
     """
 
     power: float = 4.0

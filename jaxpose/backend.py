@@ -7,6 +7,7 @@ on the host; a JAX array or a tracer (under ``jit``, ``vmap``, ``grad``) compute
 
 Example::
 
+    >>> import jax.numpy as jnp
     >>> array_namespace(np.ones(3), 2.0) is np
     True
     >>> array_namespace(jnp.ones(3)) is jnp

@@ -169,8 +169,8 @@ def normalize_mesh(
 
     Example::
 
-        >>> mesh, pose = jaxpose.normalize_mesh("body.ply")              # robust default
-        >>> mesh, pose = jaxpose.normalize_mesh("body.ply", method="ocsvm")
+        mesh, pose = jaxpose.normalize_mesh("body.ply")              # robust default
+        mesh, pose = jaxpose.normalize_mesh("body.ply", method="ocsvm")
     """
     c_name, s_name, extra, options, frame_name = check_arguments(
         gamma, nu, count, seed, sampling, method, center=center, scale=scale, strict=strict, power=power,

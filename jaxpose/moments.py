@@ -116,8 +116,8 @@ def volume_moments(svdd, grid: GridConfig | None = None, **options) -> Moments:
 
     Example::
 
-        >>> mom = jaxpose.volume_moments(jaxpose.fit_svdd(points, 5.0, 0.3), resolution=32)
-        >>> mom.center, mom.mean_distance
+        mom = jaxpose.volume_moments(jaxpose.fit_svdd(points, 5.0, 0.3), resolution=32)
+        mom.center, mom.mean_distance           # (3,), () in the units of points
     """
     if not isinstance(svdd, SVDD):
         raise InvalidInputError(f"svdd must be an SVDD from fit_svdd, got {type(svdd).__name__}")

@@ -9,9 +9,12 @@ results differ only by the rounding of the float they run in.
 
 Example::
 
+    >>> import numpy as np, jax.numpy as jnp
     >>> occ = np.zeros((8, 8, 8)); occ[2:6, 2:6, 2:6] = 1.0
-    >>> grid_moments(occ, occ, np.zeros(3), 0.5).center      # NumPy: array([2., 2., 2.])
+    >>> grid_moments(occ, occ, np.zeros(3), 0.5).center      # NumPy
+    array([2., 2., 2.])
     >>> grid_moments(jnp.asarray(occ), jnp.asarray(occ), jnp.zeros(3), 0.5).center  # JAX
+    Array([2., 2., 2.], dtype=float32)
 """
 from __future__ import annotations
 
@@ -109,8 +112,10 @@ def grid_moments(occupancy, weights, origin, pitch):
 
     Example::
 
+        >>> import jax.numpy as jnp
         >>> occ = jnp.zeros((8, 8, 8)).at[2:6, 2:6, 2:6].set(1.0)
-        >>> grid_moments(occ, occ, jnp.zeros(3), 0.5).center  # [2, 2, 2]
+        >>> grid_moments(occ, occ, jnp.zeros(3), 0.5).center  # cells 2..5 at 0.5 (i + 1/2): 1.25 ... 2.75
+        Array([2., 2., 2.], dtype=float32)
     """
     xp = array_namespace(occupancy, weights, origin, pitch)
     weights = xp.asarray(weights)

@@ -194,8 +194,8 @@ def normalize_files(inputs, output_dir, options=None, **kwargs) -> list:
 
     Example::
 
-        >>> rows = jaxpose.normalize_files("scans/", "normalized/", workers=4)
-        >>> [r.input for r in rows if not r.ok]                  # what failed, with r.error
+        rows = jaxpose.normalize_files("scans/", "normalized/", workers=4)
+        [r.input for r in rows if not r.ok]                  # what failed, with r.error
     """
     import dataclasses
     import inspect

@@ -38,9 +38,9 @@ class SignalGuard:
 
     Example::
 
-        >>> with SignalGuard() as guard:
-        ...     run()                 # KeyboardInterrupt / Terminated on a signal
-        >>> guard.exit_code           # 130 after Ctrl-C, 143 after SIGTERM, None without
+        with SignalGuard() as guard:
+            run()                 # KeyboardInterrupt / Terminated on a signal
+        guard.exit_code           # 130 after Ctrl-C, 143 after SIGTERM, None without
     """
 
     def __init__(self):
@@ -104,9 +104,9 @@ def deferred():
 
     Example::
 
-        >>> with deferred():
-        ...     write_atomic(path, data)
-        ...     journal.append(record)
+        with deferred():
+            write_atomic(path, data)
+            journal.append(record)
     """
     _DEFERRED[0] += 1
     try:

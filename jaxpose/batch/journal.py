@@ -56,9 +56,9 @@ class OutputFolder:
 
     Example::
 
-        >>> with OutputFolder("normalized") as folder:
-        ...     done = folder.records()            # {input: last record}
-        ...     folder.append({"input": "/data/a.ply", "status": "ok"})
+        with OutputFolder("normalized") as folder:
+            done = folder.records()            # {input: last record}
+            folder.append({"input": "/data/a.ply", "status": "ok"})
     """
 
     def __init__(self, root, force=False, shard=None):

@@ -99,9 +99,9 @@ class Transform(NamedTuple("_Row", [(name, object) for name in _FIELDS])):
 
     Example::
 
-        >>> row = jaxpose.read_transforms("normalized/")[0]
-        >>> pose = row.pose                                   # a jaxpose.Pose, float64
-        >>> back = pose.inverse().apply(trimesh.load(row.output).vertices)
+        row = jaxpose.read_transforms("normalized/")[0]
+        pose = row.pose                                   # a jaxpose.Pose, float64
+        back = pose.inverse().apply(trimesh.load(row.output).vertices)
     """
 
     __slots__ = ()
@@ -332,10 +332,10 @@ def read_transforms(path) -> list:
 
     Example::
 
-        >>> rows = jaxpose.read_transforms("normalized/transforms.parquet")
-        >>> row = rows[0]; row.center, row.scale, row.matrix     # (3,), float, (4, 4)
-        >>> back = row.invert(trimesh.load(row.output).vertices)  # the input's coordinates
-        >>> everything = jaxpose.read_transforms(["shard0/", "shard1/", "shard2/"])
+        rows = jaxpose.read_transforms("normalized/transforms.parquet")
+        row = rows[0]; row.center, row.scale, row.matrix     # (3,), float, (4, 4)
+        back = row.invert(trimesh.load(row.output).vertices)  # the input's coordinates
+        everything = jaxpose.read_transforms(["shard0/", "shard1/", "shard2/"])
     """
     from ..io.remote import RemotePath
 

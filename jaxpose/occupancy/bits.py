@@ -16,7 +16,7 @@ disk the line dilated by w = floor(sqrt(r^2 - dy^2 - dz^2)), moved by (dy, dz), 
 
 Example::
 
-    >>> reached = unpack(flood(pack(seeds & free), pack(free)), free.shape[-1])
+    reached = unpack(flood(pack(seeds & free), pack(free)), free.shape[-1])
 """
 from __future__ import annotations
 

@@ -77,7 +77,8 @@ def first_true(mask, size, fill_value=0):
 
     Example::
 
-        >>> first_true(jnp.array([False, True, True, False, True]), 4, fill_value=9)   # [1, 2, 4, 9]
+        >>> first_true(jnp.array([False, True, True, False, True]), 4, fill_value=9)
+        Array([1, 2, 4, 9], dtype=int32)
     """
     dest = jnp.where(mask, running_sum(mask.astype(jnp.int32)) - 1, size)  # the rank of each True entry; others dropped
     return jnp.full((size,), fill_value, jnp.int32).at[dest].set(jnp.arange(mask.shape[0], dtype=jnp.int32),

@@ -39,8 +39,8 @@ spacing, so centers and scales move with a translation or a scaling of the point
 
 Example::
 
-    >>> sol = point_solid(points, None, spacing_subset(len(points), 10_000), RobustConfig())
-    >>> sol.inside.sum(), sol.pitch
+    sol = point_solid(points, None, spacing_subset(len(points), 10_000), RobustConfig())
+    sol.inside.sum(), sol.pitch
 """
 from __future__ import annotations
 

@@ -25,8 +25,8 @@ any member needs it), so a batch does not run both.
 
 Example::
 
-    >>> runs = find_runs(bits.pack(solid), solid.shape[-1], cap=16384)
-    >>> labels = run_labels(runs)       # (cap,) int32, cap on unused slots
+    runs = find_runs(bits.pack(solid), solid.shape[-1], cap=16384)
+    labels = run_labels(runs)       # (cap,) int32, cap on unused slots
 """
 from __future__ import annotations
 

@@ -330,9 +330,9 @@ def normalize(x, method: str = DEFAULT_METHOD, *, power=_UNSET, gamma=_UNSET, nu
 
     Example::
 
-        >>> pose = jaxpose.normalize(points)                        # robust, points: (m, 3)
-        >>> pose = jaxpose.normalize(points, method="ocsvm", gamma=20.0)
-        >>> normalized = pose.apply(points)
+        pose = jaxpose.normalize(points)                        # robust, points: (m, 3)
+        pose = jaxpose.normalize(points, method="ocsvm", gamma=20.0)
+        normalized = pose.apply(points)
     """
     method = _check_method(method)
     given = {**_given(power=power, gamma=gamma, nu=nu, max_points=max_points), **options}
@@ -524,7 +524,8 @@ def chained_map(fn, xs, chains: int):
 
     Example::
 
-        >>> chained_map(lambda x: x * 2, jnp.arange(5.0), 2)   # [0, 2, 4, 6, 8]
+        >>> chained_map(lambda x: x * 2, jnp.arange(5.0), 2)
+        Array([0., 2., 4., 6., 8.], dtype=float32)
     """
     n = jax.tree.leaves(xs)[0].shape[0]
     cuts = np.unique(np.linspace(0, n, max(1, min(int(chains), n)) + 1).round().astype(int))

@@ -243,8 +243,12 @@ class Pose(NamedTuple):
     Example::
 
         >>> pose = Pose.from_center_scale(np.array([1e6, 0.0, 0.0]), 2.0)
+        >>> x = np.array([[1e6 + 0.5, 1.0, -2.0]])
         >>> y = pose.apply(x)                   # (x - center) / scale, float64 on the host
-        >>> x_again = pose.inverse().apply(y)   # y * scale + center
+        >>> y
+        array([[ 0.25,  0.5 , -1.  ]])
+        >>> bool((pose.inverse().apply(y) == x).all())   # y * scale + center: x to the last bit
+        True
 
     Poses from :func:`normalize_batch` carry a leading batch axis on every field.
     """

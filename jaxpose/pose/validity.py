@@ -36,8 +36,8 @@ comparison (no Python branches on values), so poses under ``jit`` and ``vmap`` c
 
 Example::
 
-    >>> pose = jaxpose.normalize(points, method="ocsvm", gamma=1e4)
-    >>> jaxpose.Status(int(pose.status)).message
+    pose = jaxpose.normalize(points, method="ocsvm", gamma=1e4)
+    jaxpose.Status(int(pose.status)).message
 """
 from __future__ import annotations
 
@@ -163,7 +163,7 @@ def unresolved_size(points, mask=None):
 
     Example::
 
-        >>> unresolved_size(jnp.asarray(points * 1e-20, jnp.float32))   # True
+        unresolved_size(jnp.asarray(points * 1e-20, jnp.float32))   # True
     """
     x = jax.lax.stop_gradient(jnp.asarray(points))
     _, size = reference_frame(x, mask)

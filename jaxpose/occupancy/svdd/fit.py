@@ -68,8 +68,8 @@ def fit_svdd(points, gamma, nu, *, mask=None, init_alpha=None, config: SolverCon
 
     Example::
 
-        >>> svdd = jaxpose.fit_svdd(points, gamma=5.0, nu=0.3)
-        >>> bool(svdd.converged), svdd.alpha.sum()
+        svdd = jaxpose.fit_svdd(points, gamma=5.0, nu=0.3)
+        bool(svdd.converged), svdd.alpha.sum()   # True, 1.0
     """
     if config is None:
         config = SolverConfig(**options)

@@ -182,8 +182,8 @@ def decision_function(svdd: SVDD, x, block=BLOCK):
 
     Example::
 
-        >>> svdd = jaxpose.fit_svdd(points, gamma=5.0, nu=0.3)
-        >>> inside = jaxpose.decision_function(svdd, points) >= 0
+        svdd = jaxpose.fit_svdd(points, gamma=5.0, nu=0.3)
+        inside = jaxpose.decision_function(svdd, points) >= 0
     """
     if not isinstance(svdd, SVDD):
         raise _validate.InvalidInputError(f"svdd must be an SVDD from fit_svdd, got {type(svdd).__name__}")

@@ -19,16 +19,17 @@ from .._validate import InvalidInputError, check_real
 from ..geometry import require_faces, warn_if_open
 from ..host import anchor
 
-__all__ = ["DEPTH_VOXELS", "GRID_SHIFT", "depth_weighted_solid", "filled_voxels", "weighted_centroid"]
+__all__ = ["DEPTH_VOXELS", "DEPTH_POWER", "GRID_SHIFT", "depth_weighted_solid", "filled_voxels", "weighted_centroid"]
 
 DEPTH_VOXELS = 96  # depth_weighted_solid: voxels along the largest extent
+DEPTH_POWER = 2.0  # depth_weighted_solid: the depth exponent p (the baseline and the estimator of that name)
 # The voxel grid starts this fraction of a pitch below the lowest vertex, an irrational fraction
 # ((sqrt 5 - 1) / 4), so the vertices of regular meshes (boxes, capsules: a whole number of pitches
 # apart) do not lie on voxel faces, where rounding would decide their voxel.
 GRID_SHIFT = 0.25 * (5.0 ** 0.5 - 1.0)
 
 
-def depth_weighted_solid(mesh_or_points, power=2.0, voxels=DEPTH_VOXELS, strict=False):
+def depth_weighted_solid(mesh_or_points, power=DEPTH_POWER, voxels=DEPTH_VOXELS, strict=False):
     """Centroid of the voxelized, filled solid, each voxel weighted by its depth to the power p.
 
     The mesh is voxelized at pitch = largest extent / ``voxels`` and filled (the construction of

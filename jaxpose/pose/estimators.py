@@ -350,7 +350,7 @@ class _Shape:
         if self._voxels is None:
             self._voxels = voxels.filled_voxels(self.geometry, strict=strict)
         x, d = self._voxels
-        return voxels.weighted_centroid(x, d ** float(self.options.get("power", 2.0)))
+        return voxels.weighted_centroid(x, d ** float(self.options.get("power", voxels.DEPTH_POWER)))
 
     def gyration_radius(self, center, strict):
         _, c, second = self.solid_moments(strict)

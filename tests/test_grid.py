@@ -6,6 +6,7 @@ import pytest
 from jaxpose.occupancy.grid import cell_centers, domain, evaluate_on_grid
 from jaxpose.occupancy.grid import CHILD_OFFSETS, first_true
 from jaxpose.occupancy.runs import running_sum
+from jaxpose.errors import InvalidInputError
 from jaxpose.occupancy.svdd import SVDD, decision_function, fit_svdd
 from conftest import box_surface, clusters, sphere_with_arm
 
@@ -15,6 +16,14 @@ def manual_svdd(points, alpha, gamma, offset):
     m = len(points)
     return SVDD(points, jnp.asarray(alpha, float), jnp.asarray(gamma, float), jnp.asarray(1.0), jnp.asarray(offset, float),
                 jnp.asarray(0.0), jnp.asarray(0), jnp.asarray(0.0), jnp.asarray(True), jnp.ones(m, bool))
+
+
+def test_decision_function_refuses_a_bad_block_by_name():
+    # it was clamped silently (0 and -1 ran as 1, 2.5 as 2, True as 1) or raised int()'s TypeError (None)
+    svdd = manual_svdd(np.zeros((2, 3)), [0.5, 0.5], 1.0, 1.0)
+    for block in (0, -1, 2.5, None, True):
+        with pytest.raises(InvalidInputError, match="block"):
+            decision_function(svdd, np.zeros((4, 3)), block=block)
 
 
 @pytest.mark.parametrize("make", [sphere_with_arm, clusters, box_surface])

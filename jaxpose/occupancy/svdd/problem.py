@@ -172,13 +172,14 @@ def decision_function(svdd: SVDD, x, block=BLOCK):
     Args:
       svdd: a fitted :class:`SVDD`.
       x: (n, 3) query points (any real dtype; computed in the model's dtype).
-      block: query rows per block (memory O(block m)).
+      block: query rows per block, an int >= 1 (memory O(block m)).
 
     Returns:
       (n,) float.
 
     Raises:
-      InvalidInputError: ``svdd`` is not an SVDD, or x is not a finite (n, 3) array.
+      InvalidInputError: ``svdd`` is not an SVDD, x is not a finite (n, 3) array, or ``block``
+        is not an int >= 1.
 
     Example::
 
@@ -188,6 +189,7 @@ def decision_function(svdd: SVDD, x, block=BLOCK):
     if not isinstance(svdd, SVDD):
         raise _validate.InvalidInputError(f"svdd must be an SVDD from fit_svdd, got {type(svdd).__name__}")
     _validate.check_array(x, name="x")
+    block = _validate.check_int(block, "block", 1)
     x = jnp.asarray(x, svdd.points.dtype)
     if x.shape[0] == 0:
         return jnp.zeros((0,), x.dtype)

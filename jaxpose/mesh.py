@@ -1,7 +1,7 @@
 """One mesh or point cloud: sample its surface, normalize it, and the matrix of its pose.
 
 :func:`normalize_mesh` reads a file or takes a geometry (:mod:`jaxpose.io.mesh`), estimates the
-center and scale by name (:mod:`jaxpose.pose.pose.estimators`), optionally the rotation
+center and scale by name (:mod:`jaxpose.pose.estimators`), optionally the rotation
 (:mod:`jaxpose.rotation.rotation`), and returns the transformed copy with its :class:`~jaxpose.Pose`.
 File reading and writing live in :mod:`jaxpose.io.mesh`; their names are re-exported here.
 """

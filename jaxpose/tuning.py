@@ -1,7 +1,7 @@
 """Gradient-based tuning of an estimator's continuous parameters for consistent centers, checked on
 held-out classes: (gamma, nu) of the OCSVM (``method="ocsvm"``, the default here) or the depth
 exponent ``power`` of the robust estimator (``method="robust"``, on the classes' points:
-:func:`jaxpose.pose.robust_pipeline`, whose derivative in the power is exact).
+:func:`jaxpose.pose.pose.robust_pipeline`, whose derivative in the power is exact).
 
 Objective, per class of objects that share a frame (rigid-core aligned):
 

@@ -212,7 +212,7 @@ def hole_points(sol, points, gap=GAP, cell=CELL, near=None):
     them lies in a hole, where the solid (closed by its votes) stands in for the missing surface.
 
     Args:
-      sol: the solid of :func:`frame_solid`; points: (m, 3) the input's surface points, world
+      sol: the solid of :func:`.core.frame_solid`; points: (m, 3) the input's surface points, world
         coordinates (:func:`jaxpose.sample.lattice_points`).
       gap: pitches; cell: the boundary's sampling step in pitches.
       near: optional ((3,) center, radius) in grid coordinates: only the boundary within that
@@ -250,7 +250,7 @@ def hole_points(sol, points, gap=GAP, cell=CELL, near=None):
 
 def head_chest(sol, found, points):
     """The head, chest, axes and head surface of the ``head`` frame (module docs, steps 2-5) on a
-    solid from :func:`frame_solid`, its :func:`jaxpose.rotation.parts.find_parts` and the input's (m, 3)
+    solid from :func:`.core.frame_solid`, its :func:`jaxpose.rotation.parts.find_parts` and the input's (m, 3)
     points (world coordinates); None where no chest lies below the neck. Every plane and sphere is
     moved off the voxel centers by ``GRID_SHIFT`` of a pitch, so that no voxel lies on one (where
     rounding, not the shape, would decide: lattice-aligned shapes)."""
@@ -375,10 +375,10 @@ def left_right(sol, geo, beyond=None):
 
 
 def head_frame(sol, vertices, faces=None) -> Frame:
-    """The ``head`` frame (module docs) of a solid from :func:`frame_solid` and its input.
+    """The ``head`` frame (module docs) of a solid from :func:`.core.frame_solid` and its input.
 
     Args:
-      sol: the solid of :func:`frame_solid` of the input.
+      sol: the solid of :func:`.core.frame_solid` of the input.
       vertices: (n, 3) the input's vertices (a point cloud's points), world coordinates.
       faces: (f, 3) int, a mesh's faces (None for a point cloud): the head's surface is read from
         the vertices and from points on the faces every ``CELL`` pitches

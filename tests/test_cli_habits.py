@@ -186,6 +186,15 @@ def test_help_describes_every_option():
         sub = cli.build_parser()._subparsers._group_actions[0].choices[command]
         for action in sub._actions:
             assert action.help, (command, action.option_strings)
+    # normalize refuses the OCSVM's options under another method, so their help says whose they are
+    # (--seed said "random seed")
+    from jaxpose.config import OCSVM_ONLY
+
+    normalize = cli.build_parser()._subparsers._group_actions[0].choices["normalize"]
+    ocsvm_only = [action for action in normalize._actions if action.dest in OCSVM_ONLY]
+    assert len(ocsvm_only) == len(OCSVM_ONLY)
+    for action in ocsvm_only:
+        assert "ocsvm" in action.help, action.option_strings
 
 
 @pytest.mark.parametrize("command", ["tune", "bench"])

@@ -38,12 +38,14 @@ def check_dataset_choice(instances, classes):
         raise InvalidInputError(f"--classes names no class ({classes!r}); give some, comma-separated")
 
 
-def add_svm_options(p, count=OCSVM.count):
+def add_svm_options(p, count=OCSVM.count, seed="random seed"):
+    """``--gamma``, ``--nu``, ``--count`` and ``--seed`` with :data:`jaxpose.config.OCSVM`'s defaults;
+    ``seed``: what the command's seed seeds (its help text)."""
     p.add_argument("--gamma", type=float, default=OCSVM.gamma,
                    help=f"ocsvm: Gaussian kernel width (dimensionless, default {OCSVM.gamma:g})")
     p.add_argument("--nu", type=float, default=OCSVM.nu, help=f"ocsvm: slack in [0, 1] (default {OCSVM.nu:g})")
     p.add_argument("--count", type=int, default=count, help=f"ocsvm: surface samples per object (default {count})")
-    p.add_argument("--seed", type=int, default=OCSVM.seed, help=f"random seed (default {OCSVM.seed})")
+    p.add_argument("--seed", type=int, default=OCSVM.seed, help=f"{seed} (default {OCSVM.seed})")
 
 
 def fail(message, code=1):

@@ -34,7 +34,7 @@ def add_parser(sub):
     p.add_argument("-o", "--output", help="the normalized mesh of one INPUT (format from the extension), or the "
                                           "output folder of many (outputs mirror the input tree)")
     p.add_argument("--example", action="store_true", help="use the built-in example shape as input")
-    add_svm_options(p)
+    add_svm_options(p, seed="ocsvm: seed of the surface samples")
     p.add_argument("--method", choices=tuple(METHODS), default=None,
                    help=f"center/scale method (default {DEFAULT_METHOD}; ocsvm is the paper's)")
     p.add_argument("--center", choices=CENTERS, default=None, help="center estimator (overrides --method's)")

@@ -297,7 +297,7 @@ def cli(argv=None) -> int:
             check_output_file(args.json, args.force, "--json")
         except InvalidInputError as exc:
             print(f"jaxpose bench: error: {exc}", file=sys.stderr)
-            return 1
+            return 2  # a usage error, as the other checks before the work
     if args.m is not None and args.m < 8:
         print("jaxpose bench: error: --m must be >= 8", file=sys.stderr)
         return 2

@@ -3,7 +3,7 @@
 Re-exported by :mod:`jaxpose` and :mod:`jaxpose._validate`.
 """
 
-__all__ = ["JaxposeError", "InvalidInputError", "ConvergenceError", "OpenMeshWarning", "InvalidPoseWarning"]
+__all__ = ["JaxposeError", "InvalidInputError", "UsageError", "ConvergenceError", "OpenMeshWarning", "InvalidPoseWarning"]
 
 
 class JaxposeError(Exception):
@@ -12,6 +12,13 @@ class JaxposeError(Exception):
 
 class InvalidInputError(JaxposeError, ValueError):
     """An argument has the wrong shape, dtype or value."""
+
+
+class UsageError(InvalidInputError):
+    """Arguments refused before any work for how they fit together or with the file system, not for
+    a value out of range: an output path that cannot be used (a file where a folder is needed, a
+    folder that cannot be written, an existing file without force, outputs that collide), options
+    that conflict. The command line exits 2 (usage) for it, as for a bad option or value."""
 
 
 class ConvergenceError(JaxposeError, RuntimeError):

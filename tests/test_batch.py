@@ -248,6 +248,27 @@ def test_cli_many_files_usage(tmp_path, tree, capsys, args, fragment):
     assert code == 2 and fragment in capsys.readouterr().err
 
 
+def test_cli_many_files_output_paths_and_conflicts_are_usage_errors(tmp_path, tree, capsys, monkeypatch):
+    """Refused before any work, exit 2 as other usage errors (they exited 1)."""
+    monkeypatch.setattr(batch._Run, "execute", lambda *a, **k: pytest.fail("work started"))
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    folder_table = tmp_path / "t.csv"
+    folder_table.mkdir()
+    cases = [
+        (["-o", str(blocker)], "is a file"),
+        (["-o", str(blocker / "out")], "is not a folder"),
+        (["-o", str(tmp_path / "out"), "--table", str(tmp_path / "scans")], "must end in .parquet or .csv"),
+        (["-o", str(tmp_path / "out"), "--table", str(folder_table)], "is a folder"),
+        (["-o", str(tmp_path / "out"), "--timeout", "5", "--dask-local", "2"], "for local runs"),
+    ]
+    for args, fragment in cases:
+        code = cli.main(["normalize", str(tmp_path / "scans"), *args])
+        err = capsys.readouterr().err
+        assert code == 2 and fragment in err and "Traceback" not in err, (args, err)
+    assert blocker.read_text() == "x"
+
+
 def test_cli_one_file_refusals_before_work(tmp_path, tree, capsys, monkeypatch):
     cloud = tmp_path / "scans" / "cloud.ply"
     monkeypatch.setattr(mesh, "normalize_mesh", lambda *a, **k: pytest.fail("work started"))
@@ -264,7 +285,8 @@ def test_cli_one_file_refusals_before_work(tmp_path, tree, capsys, monkeypatch):
     for args, fragment in cases:
         code = cli.main(["normalize", str(cloud), *args])
         err = capsys.readouterr().err
-        assert code in (1, 2) and fragment in err and "Traceback" not in err, (args, err)
+        # usage errors (exit 2), but for the point cloud's STL, found once the input is read (exit 1)
+        assert code == (1 if "STL" in fragment else 2) and fragment in err and "Traceback" not in err, (args, err)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["scans"]
     code = cli.main(["normalize", str(tmp_path / "nothing.ply"), "-o", str(tmp_path / "x.ply"), "--resolution", "3"])
     assert code == 2 and "resolution must be >= 8" in capsys.readouterr().err  # usage, before reading the input

@@ -90,14 +90,14 @@ def test_two_inputs_for_one_output_are_refused_before_any_work(tmp_path):
     good_meshes(scans)
     trimesh.creation.icosphere(1).export(scans / "good_0.off")  # good_0.ply and good_0.off -> good_0.ply
     code, _, err = cli(scans, "-o", tmp_path / "out", "--format", "ply", "--workers", "1")
-    assert code == 1 and "would both be written to" in err and "good_0.off" in err and "Traceback" not in err
+    assert code == 2 and "would both be written to" in err and "good_0.off" in err and "Traceback" not in err
     assert not (tmp_path / "out").exists()
     (scans / "good_1.ply").unlink()
     trimesh.creation.icosphere(1).export(scans / "good_1.off")
     good_meshes(scans / "good_1.ply", count=1)  # good_1.off -> out/good_1.ply, a file where a folder must be
     (scans / "good_0.off").unlink()
     code, _, err = cli(scans, "-o", tmp_path / "out", "--format", "ply", "--workers", "1")
-    assert code == 1 and "a file where" in err and "good_1.ply/good_0.ply" in err and "Traceback" not in err
+    assert code == 2 and "a file where" in err and "good_1.ply/good_0.ply" in err and "Traceback" not in err
     assert not (tmp_path / "out").exists()
 
 
@@ -230,7 +230,7 @@ def test_an_output_folder_that_is_a_file(tmp_path):
     good = good_meshes(tmp_path / "scans" / "sub", count=2)
     (tmp_path / "outfile").write_text("mine")
     code, _, err = cli(tmp_path / "scans", "-o", tmp_path / "outfile", "--workers", "1")
-    assert code == 1 and "is a file" in err and "Traceback" not in err
+    assert code == 2 and "is a file" in err and "Traceback" not in err  # usage, as a mesh file name below
     assert (tmp_path / "outfile").read_text() == "mine"
     # an existing file with a mesh suffix as OUTDIR: a usage error before any work, the file untouched
     (tmp_path / "out.ply").write_text("mine")

@@ -28,9 +28,9 @@ def shape():
     return out
 
 
-def assert_clean_failure(code, capsys, fragment):
+def assert_clean_failure(code, capsys, fragment, expected=1):
     err = capsys.readouterr().err
-    assert code == 1
+    assert code == expected
     assert "Traceback" not in err
     errors = [line for line in err.splitlines() if line.startswith("jaxpose: error:")]
     assert len(errors) == 1 and err.splitlines()[-1] == errors[0], err
@@ -94,7 +94,7 @@ def test_existing_output_needs_force(tmp_path, capsys):
     output = tmp_path / "out.obj"
     output.write_text("keep")
     args = ["normalize", str(source), "-o", str(output), "--method", "surface_centroid"]
-    assert_clean_failure(cli.main(args), capsys, "exists")
+    assert_clean_failure(cli.main(args), capsys, "exists", expected=2)  # usage: --force is the way out
     assert output.read_text() == "keep"
     assert not (tmp_path / "out.transform.json").exists()
     assert cli.main(args + ["--force"]) == 0
@@ -106,7 +106,7 @@ def test_existing_transform_needs_force(tmp_path, capsys):
     shape().export(source)
     (tmp_path / "out.transform.json").write_text("{}")
     code = cli.main(["normalize", str(source), "-o", str(tmp_path / "out.ply"), "--method", "bbox"])
-    assert_clean_failure(code, capsys, "exists")
+    assert_clean_failure(code, capsys, "exists", expected=2)
     assert not (tmp_path / "out.ply").exists()
 
 
@@ -211,7 +211,7 @@ def test_evaluate_wiring(tmp_path, capsys, fake_evaluation):
     assert kwargs["methods"] is None
     assert kwargs["core_weight"] == "vertices"  # the stable core as a share of the vertices unless told
     assert json.loads(out.read_text())["params"] == {"gamma": 30.0}
-    assert_clean_failure(cli.main(["evaluate", "--json", str(out)]), capsys, "exists")
+    assert_clean_failure(cli.main(["evaluate", "--json", str(out)]), capsys, "exists", expected=2)
     assert cli.main(["evaluate", "--data", str(tmp_path), "--sweep", "--json", str(out), "--force",
                      "--variants", "plain,holes", "--methods", "robust,depth_weighted_solid:4"]) == 0
     assert fake_evaluation["classes"] == {"folder": str(tmp_path)}

@@ -62,8 +62,8 @@ def test_single_output_folders_are_made_as_for_datasets(tmp_path, box, capsys):
     assert out.exists() and (out.parent / "out.transform.json").exists()
     blocker = tmp_path / "file"
     blocker.write_text("x")
-    assert cli.main(["normalize", str(box), "-o", str(blocker / "out.ply"), "--method", "surface_centroid"]) == 1
-    assert "is a file" in _err(capsys)
+    assert cli.main(["normalize", str(box), "-o", str(blocker / "out.ply"), "--method", "surface_centroid"]) == 2
+    assert "is a file" in _err(capsys)  # an output path that cannot be used: a usage error, as README says
 
 
 @pytest.mark.parametrize("args, fragment", [
@@ -138,7 +138,7 @@ def test_evaluate_output_paths_are_checked_before_the_work(tmp_path, capsys, no_
                            (["--plots", str(blocker)], "is a file"),
                            (["--json", str(blocker)], "exists"),
                            (["--json", str(tmp_path)], "is a folder")):
-        assert cli.main(["evaluate", "--methods", "bbox", *args]) == 1, args
+        assert cli.main(["evaluate", "--methods", "bbox", *args]) == 2, args  # usage: an unusable output path
         assert fragment in _err(capsys), args
 
 
@@ -201,5 +201,5 @@ def test_help_describes_every_option():
 def test_tune_and_bench_check_json_before_the_work(tmp_path, capsys, command):
     blocker = tmp_path / "file"
     blocker.write_text("x")
-    assert cli.main([command, "--json", str(blocker / "r.json")]) == 1
+    assert cli.main([command, "--json", str(blocker / "r.json")]) == 2
     assert "is a file" in _err(capsys)

@@ -57,7 +57,7 @@ def test_cli_on_a_dask_scheduler(tmp_path, cluster, capsys):
     assert [r.ok for r in jaxpose.read_transforms(out / "transforms.parquet")] == [True]
     code = cli.main(["normalize", str(tmp_path / "scans"), "-o", str(out), "--scheduler", "tcp://127.0.0.1:1",
                      "--workers", "2"])
-    assert code == 1 and "workers (--workers) is for local runs" in capsys.readouterr().err
+    assert code == 2 and "workers (--workers) is for local runs" in capsys.readouterr().err  # usage
 
 
 def worker_malloc_trim(scheduler_address):

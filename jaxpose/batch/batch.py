@@ -31,7 +31,7 @@ from pathlib import Path
 from typing import NamedTuple
 
 from .._validate import check_bool, check_real
-from ..errors import InvalidInputError
+from ..errors import InvalidInputError, UsageError
 from .task import FileResult, NormalizeOptions, normalize_file, one_line, sha256_file, warm_up
 
 __all__ = ["CHECKS", "NormalizeOptions", "BatchResult", "normalize_files", "run_batch"]
@@ -189,7 +189,9 @@ def normalize_files(inputs, output_dir, options=None, **kwargs) -> list:
     Raises:
       InvalidInputError: bad arguments, missing INPUTs, aliasing outputs, an unusable output folder,
         an output that an earlier run wrote from another input or a `table` that is a folder or a
-        file other than a transforms table (unless `force`) (all before any work).
+        file other than a transforms table (unless `force`) (all before any work). Those of the
+        output paths and of conflicting run options are its subclass
+        :class:`jaxpose.errors.UsageError` (the command line exits 2).
       jaxpose.batch.journal.FolderBusyError: another run is writing to `output_dir`.
 
     Example::
@@ -224,9 +226,9 @@ def _check_run(workers, scheduler, dask_local, timeout=None):
     if timeout is not None:
         timeout = check_real(timeout, "timeout (seconds)", 0, strict=True)
         if scheduler is not None or dask_local is not None:
-            raise InvalidInputError("timeout (--timeout) is for local runs: Dask cannot stop a running task")
+            raise UsageError("timeout (--timeout) is for local runs: Dask cannot stop a running task")
     if scheduler is not None and dask_local is not None:
-        raise InvalidInputError("give either scheduler (--scheduler) or dask_local (--dask-local), not both")
+        raise UsageError("give either scheduler (--scheduler) or dask_local (--dask-local), not both")
     if scheduler is not None or dask_local is not None:
         from .workers import _distributed
 
@@ -234,10 +236,10 @@ def _check_run(workers, scheduler, dask_local, timeout=None):
     if dask_local is not None:
         dask_local = _count(dask_local, "dask_local", 1)
     if scheduler is not None and not (isinstance(scheduler, str) and scheduler):
-        raise InvalidInputError(f"scheduler must be an address such as 'tcp://host:8786', got {scheduler!r}")
+        raise UsageError(f"scheduler must be an address such as 'tcp://host:8786', got {scheduler!r}")
     if workers is not None:
         if scheduler is not None or dask_local is not None:
-            raise InvalidInputError("workers (--workers) is for local runs; a Dask cluster brings its own")
+            raise UsageError("workers (--workers) is for local runs; a Dask cluster brings its own")
         workers = _count(workers, "workers", 1)
     return {"workers": workers or default_workers(), "scheduler": scheduler, "dask_local": dask_local,
             "timeout": timeout}
@@ -310,9 +312,9 @@ def _refuse_overwriting_others(items, entries):
     for item in items:
         owner = owners.get(str(item.output))
         if owner is not None and owner != str(item.source) and item.output.exists():
-            raise InvalidInputError(f"{item.output} holds the output of {owner} (an earlier run into this folder), "
-                                    f"not of {item.source}; use another output folder, or --force / force=True "
-                                    "to replace it")
+            raise UsageError(f"{item.output} holds the output of {owner} (an earlier run into this folder), "
+                             f"not of {item.source}; use another output folder, or --force / force=True "
+                             "to replace it")
 
 
 def _is_done(record, key, fingerprint, output):

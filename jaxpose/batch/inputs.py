@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import NamedTuple
 
 from .._validate import InvalidInputError
+from ..errors import UsageError
 from ..io.remote import RemotePath, is_url, location
 from .journal import STATE_FOLDER
 
@@ -260,11 +261,11 @@ def plan_outputs(files, root, output_dir, file_format=None, table=None, given=()
             output = output.with_suffix("." + file_format)
         key = identity(output)
         if key in owner:
-            raise InvalidInputError(f"{owner[key]} and {source} would both be written to {output}; "
-                                    "give them separate runs or output folders")
+            raise UsageError(f"{owner[key]} and {source} would both be written to {output}; "
+                             "give them separate runs or output folders")
         if key in sources:
-            raise InvalidInputError(f"{output} would overwrite its input; choose an output folder apart "
-                                    "from the inputs")
+            raise UsageError(f"{output} would overwrite its input; choose an output folder apart "
+                             "from the inputs")
         owner[key] = source
         items.append(Item(source, output))
     checked = set()  # each folder once
@@ -273,15 +274,15 @@ def plan_outputs(files, root, output_dir, file_format=None, table=None, given=()
         while folder != output_dir and folder != folder.parent and folder not in checked:
             checked.add(folder)
             if identity(folder) in owner:
-                raise InvalidInputError(f"{owner[identity(folder)]} would be written to {folder}, a file where "
-                                        f"{item.source} needs a folder ({item.output}); give them separate runs or "
-                                        "output folders")
+                raise UsageError(f"{owner[identity(folder)]} would be written to {folder}, a file where "
+                                 f"{item.source} needs a folder ({item.output}); give them separate runs or "
+                                 "output folders")
             folder = folder.parent
     if table is not None:
         key = identity(location(table))
         if key in sources or key in owner:
-            raise InvalidInputError(f"the table {table} would overwrite "
-                                    f"{'an input' if key in sources else 'an output'}; name another file")
+            raise UsageError(f"the table {table} would overwrite "
+                             f"{'an input' if key in sources else 'an output'}; name another file")
     return items
 
 

@@ -24,6 +24,7 @@ import time
 from pathlib import Path
 
 from .._validate import InvalidInputError, JaxposeError
+from ..errors import UsageError
 from ..io.atomic import check_folder_writable, is_temporary
 
 __all__ = ["STATE_FOLDER", "OutputFolder", "RemoteOutputFolder", "open_output_folder", "FolderBusyError",
@@ -51,7 +52,7 @@ class OutputFolder:
 
     Raises:
       FolderBusyError: another run holds the lock (message names its pid).
-      InvalidInputError: the folder is not writable, or (without `force`) it holds files but no
+      UsageError (an InvalidInputError): the folder is not writable, or (without `force`) it holds files but no
         ``.jaxpose`` state, i.e. it was not made by jaxpose.
 
     Example::
@@ -74,13 +75,13 @@ class OutputFolder:
 
     def __enter__(self):
         if self.root.exists() and not self.root.is_dir():
-            raise InvalidInputError(f"output folder {self.root} is a file")
+            raise UsageError(f"output folder {self.root} is a file")
         if not self.root.exists():
             check_folder_writable(_existing_parent(self.root), what=f"output folder {self.root}: the parent")
             self.root.mkdir(parents=True, exist_ok=True)
         check_folder_writable(self.root, what="output")
         if not self.state.is_dir() and any(self.root.iterdir()) and not self.force:
-            raise InvalidInputError(f"output folder {self.root} holds files that jaxpose did not write; "
+            raise UsageError(f"output folder {self.root} holds files that jaxpose did not write; "
                                     "use an empty or new folder (or --force / force=True to write into it)")
         self.state.mkdir(exist_ok=True)
         try:
@@ -179,7 +180,7 @@ class RemoteOutputFolder:
       root: a :class:`jaxpose.io.remote.RemotePath`; force, shard: as :class:`OutputFolder`'s.
 
     Raises:
-      InvalidInputError: the folder is a file, or (without `force`) holds files but no
+      UsageError (an InvalidInputError): the folder is a file, or (without `force`) holds files but no
         ``.jaxpose`` state.
     """
 
@@ -193,9 +194,9 @@ class RemoteOutputFolder:
     def __enter__(self):
         fs = self.root.fs
         if self.root.is_file():
-            raise InvalidInputError(f"output folder {self.root} is a file")
+            raise UsageError(f"output folder {self.root} is a file")
         if not self.force and not self.state.exists() and self.root.exists() and fs.ls(self.root.path):
-            raise InvalidInputError(f"output folder {self.root} holds files that jaxpose did not write; "
+            raise UsageError(f"output folder {self.root} holds files that jaxpose did not write; "
                                     "use an empty or new folder (or --force / force=True to write into it)")
         self.root.mkdir(parents=True, exist_ok=True)
         return self

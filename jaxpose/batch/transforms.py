@@ -59,6 +59,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .._validate import InvalidInputError
+from ..errors import UsageError
 from ..pose.result import Pose, Status
 
 __all__ = ["COLUMNS", "ROTATION_COLUMNS", "Transform", "read_transforms", "merge_transforms", "write_transforms",
@@ -182,7 +183,8 @@ def default_table_name() -> str:
 
 
 def table_format(path) -> str:
-    """``"parquet"`` or ``"csv"`` from a table path's suffix; refuses others and Parquet without pyarrow."""
+    """``"parquet"`` or ``"csv"`` from a table path's suffix; refuses others (UsageError) and Parquet
+    without pyarrow (InvalidInputError)."""
     suffix = os.path.splitext(str(path))[1].lower()
     if suffix == ".csv":
         return "csv"
@@ -191,7 +193,7 @@ def table_format(path) -> str:
             raise InvalidInputError(f"{path}: a Parquet table needs pyarrow (pip install pyarrow); "
                                     "or name a .csv table")
         return "parquet"
-    raise InvalidInputError(f"{path}: a table must end in .parquet or .csv, got {suffix or '(no suffix)'!r}")
+    raise UsageError(f"{path}: a table must end in .parquet or .csv, got {suffix or '(no suffix)'!r}")
 
 
 def check_replaceable(path, force=False):
@@ -202,13 +204,13 @@ def check_replaceable(path, force=False):
       force: replace an existing file even when it is not a transforms table.
 
     Raises:
-      InvalidInputError: `path` is a folder; or (unless `force`) a file that is not empty and not
+      UsageError (an InvalidInputError): `path` is a folder; or (unless `force`) a file that is not empty and not
         a transforms table (no ``input``, ``output`` and ``status`` columns): a run writes its
         table last, after all the work, and must not replace a file that it did not write.
     """
     path = location_of(path)
     if path.is_dir():
-        raise InvalidInputError(f"the table {path} is a folder; name a .parquet or .csv file")
+        raise UsageError(f"the table {path} is a folder; name a .parquet or .csv file")
     if force or not path.is_file():
         return
     data = path.read_bytes()
@@ -224,8 +226,8 @@ def check_replaceable(path, force=False):
     except Exception:  # not Parquet, not UTF-8 text: not a table
         names = []
     if not {"input", "output", "status"} <= set(names):
-        raise InvalidInputError(f"the table {path} exists and is not a transforms table; name another file, "
-                                "or use --force / force=True to replace it")
+        raise UsageError(f"the table {path} exists and is not a transforms table; name another file, "
+                         "or use --force / force=True to replace it")
 
 
 def _columns(rotation):

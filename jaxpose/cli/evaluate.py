@@ -88,15 +88,15 @@ class _Usage(Exception):
 
 def _check_result_paths(args):
     """--json and --plots: refused before the work (an existing file without --force, a folder
-    that cannot be made or written, plots without matplotlib)."""
-    from ..errors import InvalidInputError
+    that cannot be made or written: UsageError, exit 2; plots without matplotlib: exit 1)."""
+    from ..errors import InvalidInputError, UsageError
 
     if args.json:
         check_output_file(args.json, args.force, "--json")
     if args.plots:
         folder = Path(args.plots)
         if folder.exists() and not folder.is_dir():
-            raise InvalidInputError(f"--plots {folder} is a file; name a folder")
+            raise UsageError(f"--plots {folder} is a file; name a folder")
         check_creatable(folder, f"--plots {folder}")
         try:
             import matplotlib  # noqa: F401

@@ -1,7 +1,8 @@
 """Command line: ``jaxpose normalize | evaluate | tune | bench`` (also ``python -m jaxpose``).
 
 Thin: parse arguments, call the library, print and write results. No math here.
-Exit codes: 0 success, 1 failure (one line on stderr, no traceback), 2 usage error, 130 Ctrl-C,
+Exit codes: 0 success, 1 failure (one line on stderr, no traceback), 2 usage error (a bad option or
+value, an output path that cannot be used, options that conflict: found before any work), 130 Ctrl-C,
 143 SIGTERM (:mod:`jaxpose.batch.interrupts`; nothing partial or temporary is left).
 """
 from __future__ import annotations
@@ -9,7 +10,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ..errors import JaxposeError
+from ..errors import JaxposeError, UsageError
 from . import bench, evaluate, normalize, tune
 from .common import fail
 
@@ -26,7 +27,8 @@ def build_parser() -> argparse.ArgumentParser:
                     "or stray parts: meshes and point clouds, one file or a dataset. The default method, robust, is "
                     "the depth-weighted centroid and volume of a robust solid; --method ocsvm is the paper's "
                     "one-class SVM; classical baselines by name.",
-        epilog="Exit codes: 0 success, 1 failure (one line on stderr), 2 usage (a bad option or value), "
+        epilog="Exit codes: 0 success, 1 failure (one line on stderr), 2 usage (a bad option or value, an "
+               "output path that cannot be used, before any work), "
                "130 Ctrl-C, 143 SIGTERM. 'jaxpose COMMAND --help' describes each command.",
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
@@ -49,6 +51,8 @@ def main(argv=None) -> int:
     except BrokenPipeError:  # `jaxpose ... | head`: the reader left; the work and its files were done first
         _silence_stdout()
         return 0
+    except UsageError as exc:  # the arguments refused before any work (an output path, a conflict)
+        return fail(str(exc), code=2)
     except JaxposeError as exc:
         return fail(str(exc))
     except (OSError, ValueError) as exc:  # file system and number trouble outside the library

@@ -210,27 +210,31 @@ def _normalize_one(args, options, source, fail):
 
 
 def _check_outputs(source, output, json_path, force):
-    """Refuse, before any work: unknown output formats, aliasing files, unusable folders, existing files."""
+    """Refuse, before any work: unknown output formats, aliasing files, unusable folders, existing files
+    (UsageError: exit 2)."""
     from ..io.atomic import check_folder_writable
-    from ..errors import InvalidInputError
+    from ..errors import InvalidInputError, UsageError
     from ..mesh import output_format
 
     if output is not None:
-        output_format(output)
+        try:
+            output_format(output)
+        except InvalidInputError as exc:  # -o out.vtk: a bad value of -o
+            raise UsageError(str(exc)) from None
     named = [(p, what) for p, what in ((output, "-o"), (json_path, "--transform")) if p is not None]
     if len(named) == 2 and os.path.realpath(output) == os.path.realpath(json_path):
-        raise InvalidInputError(f"-o and --transform name the same file {output}; give them different names")
+        raise UsageError(f"-o and --transform name the same file {output}; give them different names")
     for path, what in named:
         if source is not None and os.path.realpath(path) == os.path.realpath(source):
-            raise InvalidInputError(f"{what} {path} is the input file; write the output elsewhere")
+            raise UsageError(f"{what} {path} is the input file; write the output elsewhere")
         folder = path.parent
         while str(folder) not in ("", ".") and not folder.exists() and folder != folder.parent:
             folder = folder.parent  # a missing folder is made after the work: its nearest existing one must allow it
         if folder.exists() and not folder.is_dir():
-            raise InvalidInputError(f"{what} {path}: {folder} is a file, not a folder")
+            raise UsageError(f"{what} {path}: {folder} is a file, not a folder")
         check_folder_writable(folder, what=f"{what} {path}: the")
         if path.exists() and not force:
-            raise InvalidInputError(f"{path} exists (use --force to overwrite)")
+            raise UsageError(f"{path} exists (use --force to overwrite)")
 
 
 def _normalize_many(args, options, fail):

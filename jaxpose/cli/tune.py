@@ -113,7 +113,7 @@ def run(argv) -> int:
             check_output_file(args.json, args.force, "--json")
         except InvalidInputError as exc:
             print(f"jaxpose tune: error: {exc}", file=sys.stderr)
-            return 1
+            return 2  # a usage error, as the other checks before the work
     import jax
 
     # float64: the trend derivatives are differences of solutions 2 % apart

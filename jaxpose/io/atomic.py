@@ -12,7 +12,7 @@ import os
 import secrets
 from pathlib import Path
 
-from ..errors import InvalidInputError  # (not _validate: the command line imports this before NumPy)
+from ..errors import InvalidInputError, UsageError  # (not _validate: the command line imports this before NumPy)
 
 __all__ = ["write_atomic", "temporary_path", "is_temporary", "remove_temporaries", "check_folder_writable",
            "check_output_file", "check_creatable"]
@@ -80,7 +80,7 @@ def remove_temporaries(path) -> int:
 
 
 def check_folder_writable(folder, what="output") -> Path:
-    """Raise :class:`InvalidInputError` unless `folder` is an existing folder we may create files in.
+    """Raise :class:`UsageError` (an InvalidInputError) unless `folder` is an existing folder we may create files in.
 
     Args:
       folder: the folder; what: how the message names it ("output", "table", ...).
@@ -90,11 +90,11 @@ def check_folder_writable(folder, what="output") -> Path:
     """
     folder = Path(folder) if str(folder) else Path(".")
     if not folder.exists():
-        raise InvalidInputError(f"{what} folder {folder} does not exist")
+        raise UsageError(f"{what} folder {folder} does not exist")
     if not folder.is_dir():
-        raise InvalidInputError(f"{what} folder {folder} is not a folder")
+        raise UsageError(f"{what} folder {folder} is not a folder")
     if not os.access(folder, os.W_OK | os.X_OK):
-        raise InvalidInputError(f"{what} folder {folder} is not writable")
+        raise UsageError(f"{what} folder {folder} is not writable")
     return folder
 
 
@@ -146,13 +146,13 @@ def write_atomic(path, data, force=False) -> Path:
 
 def check_output_file(path, force=False, what="--json"):
     """Refuse, before any work, an output file that cannot be written: a folder, an existing file
-    without ``force``, or a folder that cannot be made or written (raises InvalidInputError).
+    without ``force``, or a folder that cannot be made or written (raises UsageError, an InvalidInputError).
     A missing folder is made when the file is written."""
     path = Path(path)
     if path.is_dir():
-        raise InvalidInputError(f"{what} {path} is a folder; name a file")
+        raise UsageError(f"{what} {path} is a folder; name a file")
     if path.exists() and not force:
-        raise InvalidInputError(f"{path} exists (use --force to overwrite)")
+        raise UsageError(f"{path} exists (use --force to overwrite)")
     check_creatable(path.parent, f"{what} {path}")
 
 
@@ -162,6 +162,6 @@ def check_creatable(folder, what):
     while not folder.exists() and folder != folder.parent:
         folder = folder.parent
     if not folder.is_dir():
-        raise InvalidInputError(f"{what}: {folder} is a file, not a folder")
+        raise UsageError(f"{what}: {folder} is a file, not a folder")
     if not os.access(folder, os.W_OK | os.X_OK):
-        raise InvalidInputError(f"{what}: the folder {folder} is not writable")
+        raise UsageError(f"{what}: the folder {folder} is not writable")

@@ -185,7 +185,12 @@ def test_guard_silences_its_own_swallowed_interrupt(capsys):
 
 # --------------------------------------------------------------------------- a library caller
 _HELD_LOCK_SCRIPT = '''
-import concurrent.futures as cf, sys, threading, time
+import concurrent.futures as cf, signal, sys, threading, time
+# Ctrl-C raises KeyboardInterrupt, as in a script started from a terminal: Python installs this handler
+# at start only where SIGINT is not ignored, and a test run started in the background (`pytest ... &`
+# from a script, nohup) passes SIGINT ignored to its children; the script then slept through the
+# signal and the test timed out after 180 s
+signal.signal(signal.SIGINT, signal.default_int_handler)
 from jaxpose.batch import workers
 workers.configure_process()  # as the command line, before NumPy: a run with workers takes a head start
 from jaxpose.batch.batch import run_batch

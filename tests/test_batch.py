@@ -12,7 +12,7 @@ import trimesh
 import jaxpose
 from jaxpose.batch import batch
 from jaxpose import cli, mesh
-from jaxpose.errors import InvalidInputError
+from jaxpose.errors import InvalidInputError, UsageError
 from jaxpose.batch.journal import FolderBusyError, OutputFolder
 from jaxpose.batch.task import NormalizeOptions
 
@@ -127,10 +127,50 @@ def test_rerun_skips_what_is_done_and_redoes_what_changed(tmp_path, tree):
     assert hashed.written == 4  # no hash recorded yet
     os.utime(capsule, ns=(capsule.stat().st_atime_ns, capsule.stat().st_mtime_ns + 10**9))
     assert run([root], out, check="hash").written == 0  # same bytes
-    assert run([root], out, options=NormalizeOptions(method="bbox")).written == 4  # other options
-    assert run([root], out, options=NormalizeOptions(method="bbox"), force=True).written == 4
+    assert run([root], out, options=NormalizeOptions(method="robust", resolution=16), check="hash").written == 0  # same
+    assert run([root], out, options=NormalizeOptions(method="bbox"), force=True).written == 4  # other options
     records = OutputFolder(out).records()
     assert {r["method"] for r in records.values()} == {"bbox"}
+
+
+def test_a_rerun_with_other_options_is_refused_unless_forced_and_a_stopped_forced_run_resumes(tmp_path, tree):
+    """A folder's outputs are of one option set: other options are refused before any work (they
+    replaced outputs silently, and a run stopped early left a table of two methods)."""
+    root, out = tmp_path / "scans", tmp_path / "out"
+    run([root], out)
+    journal = (out / ".jaxpose" / "journal.jsonl").read_bytes()
+    before = {p: p.stat().st_mtime_ns for p in out.rglob("*.*") if ".jaxpose" not in p.parts}
+    for options in (NormalizeOptions(method="bbox"), NormalizeOptions(resolution=24)):
+        with pytest.raises(UsageError, match="4 outputs .*made with other options .*--force"):
+            run([root], out, options=options)
+    with pytest.raises(UsageError, match="--method robust there, bbox here"):
+        run([root], out, options=NormalizeOptions(method="bbox"))
+    assert (out / ".jaxpose" / "journal.jsonl").read_bytes() == journal  # nothing done
+    assert {p: p.stat().st_mtime_ns for p in out.rglob("*.*") if ".jaxpose" not in p.parts} == before
+    # a forced run stopped early (fail fast, as an interrupt would) resumes with its options, unforced
+    bbox = NormalizeOptions(method="bbox")
+    stopped = run([root], out, options=bbox, force=True, fail_fast=True)
+    assert stopped.stopped and stopped.written < 4
+    resumed = run([root], out, options=bbox)
+    assert resumed.written + stopped.written == 4 and resumed.skipped == stopped.written
+    assert {r.method for r in resumed.rows} == {"bbox"}  # the table: one method
+    with pytest.raises(UsageError, match="--method bbox there, robust here"):
+        run([root], out)
+    # outputs of other inputs this run would not redo: refused even with force
+    with pytest.raises(UsageError, match="would not redo.*another output folder"):
+        run([root / "sphere.off"], out, force=True)
+    assert run([root], out, options=bbox, file_format="obj").written == 4  # another format: not another option set
+
+
+def test_cli_rerun_with_other_options_is_a_usage_error_before_any_work(tmp_path, tree, capsys, monkeypatch):
+    out = tmp_path / "out"
+    args = ["normalize", str(tmp_path / "scans"), "-o", str(out), "--workers", "1"]
+    assert cli.main([*args, "--resolution", "16"]) == 1  # the tree's bad files
+    capsys.readouterr()
+    monkeypatch.setattr(batch._Run, "execute", lambda *a, **k: pytest.fail("work started"))
+    assert cli.main([*args, "--method", "bbox"]) == 2
+    err = capsys.readouterr().err
+    assert "--method robust there, bbox here" in err and "--force" in err and "Traceback" not in err, err
 
 
 def test_second_run_on_one_folder_is_refused(tmp_path, tree):

@@ -178,7 +178,7 @@ def test_each_row_records_the_input_and_what_made_it(tmp_path, scans):
 def test_merge_keeps_the_latest_row_of_an_output_and_of_a_failed_input(tmp_path, scans):
     out = tmp_path / "out"
     a = run([scans / "a"], out, table=tmp_path / "a.csv").rows
-    b = run([scans / "a"], out, table=tmp_path / "b.csv", options=NormalizeOptions(method="bbox")).rows
+    b = run([scans / "a"], out, table=tmp_path / "b.csv", options=NormalizeOptions(method="bbox"), force=True).rows
     assert [r.method for r in b] == ["bbox"] * 3  # the same outputs, redone with other options
     merged = jaxpose.read_transforms([tmp_path / "a.csv", tmp_path / "b.csv"])
     assert [(r.input, r.method, r.status) for r in merged] == [(r.input, r.method, r.status) for r in b]

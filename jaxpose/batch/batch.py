@@ -32,7 +32,7 @@ from typing import NamedTuple
 
 from .._validate import check_bool, check_real
 from ..errors import InvalidInputError, UsageError
-from .task import FileResult, NormalizeOptions, normalize_file, one_line, sha256_file, warm_up
+from .task import FileResult, NormalizeOptions, normalize_file, one_line, recorded_settings, sha256_file, warm_up
 
 __all__ = ["CHECKS", "NormalizeOptions", "BatchResult", "normalize_files", "run_batch"]
 
@@ -105,7 +105,7 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
     transforms.check_replaceable(table, force)
     if shard is not None:  # after the checks of the whole plan: every shard refuses alike
         items = [item for item in items if shard_index(item.source.relative_to(found.root), shard[1]) == shard[0]]
-    fingerprint = options.fingerprint(file_format)
+    fingerprint, settings = options.fingerprint(file_format), options.settings(file_format)
     fixed = options.columns()
     with open_output_folder(output_dir, force=force, shard=shard) as folder:
         if not isinstance(table, RemotePath):
@@ -113,6 +113,7 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
             remove_temporaries(table)
         folder.remove_temporaries(None if shard is None else [item.output for item in items])
         entries = folder.entries()
+        _refuse_mixing(items, entries, folder.other_entries(), settings, force, folder.exists, output_dir)
         if not force:
             _refuse_overwriting_others(items, entries)
         pairs = {(r["input"], r.get("output") or ""): r for r in entries}
@@ -120,7 +121,7 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
         for item in items:
             key = _input_key(item.source, check)
             record = pairs.get((str(item.source), str(item.output)))
-            if not force and _is_done(record, key, fingerprint, item.output):
+            if not force and _is_done(record, key, fingerprint, settings, item.output):
                 skipped += 1
             else:
                 todo.append((item, key))
@@ -306,6 +307,65 @@ def _not_regular(path, kind):
     return _failed(f"{path}: {kind}, not a regular file: a folder search reads regular files only{hint}")
 
 
+_OPTION_NAMES = {"method": "--method", "center": "--center", "scale": "--scale", "gamma": "--gamma", "nu": "--nu",
+                 "count": "--count", "seed": "--seed", "sampling": "--sampling", "resolution": "--resolution",
+                 "rotation": "--rotation", "strict": "--strict"}
+
+
+def _refuse_mixing(items, entries, other_entries, settings, force, exists, output_dir):
+    """Refuse (before any work) a run that would leave outputs of two option sets in one folder.
+
+    An output in the folder made with other settings (:meth:`NormalizeOptions.settings`, the
+    output format aside) is refused, naming the differing options: without `force` (which redoes
+    this run's inputs with its options); with it too when this run does not redo that output (an
+    input of an earlier run into the folder, another shard's): it would stay beside this run's.
+    Not refused: resuming a forced run that was stopped, with its options (the folder's latest
+    record has them)."""
+    mine = _without_format(settings)
+    differing = []  # (output, its settings or None) of every output there made with other options
+    for journal in (entries, other_entries):
+        owner = {}
+        for record in journal:  # the latest ok record naming an output owns it (as table_rows)
+            if record.get("status") == "ok" and record.get("output"):
+                owner[record["output"]] = record
+        for output, record in owner.items():
+            theirs = _without_format(recorded_settings(record.get("options")))
+            if theirs != mine and exists(output):
+                differing.append((output, theirs))
+    if not differing:
+        return
+    redone = {str(item.output) for item in items}
+    staying = [(output, theirs) for output, theirs in differing if output not in redone]
+    resuming = bool(entries) and _without_format(recorded_settings(entries[-1].get("options"))) == mine
+    if not staying and (force or resuming):
+        return
+    output, theirs = (staying or differing)[0]
+    if theirs is None:
+        how = "options this version cannot read (an earlier jaxpose's)"
+    else:
+        how = "; ".join(f"{_OPTION_NAMES.get(k, k)} {_shown(theirs[k])} there, {_shown(mine[k])} here"
+                        for k in mine if k in theirs and theirs[k] != mine[k]
+                        and (k not in ("center", "scale") or theirs["method"] == mine["method"])) or "other options"
+    count = len(staying or differing)
+    outputs = f"{count} output{'s' if count > 1 else ''} (such as {output})"
+    if staying:
+        raise UsageError(f"{output_dir} holds {outputs} made with other options ({how}) that this run would not "
+                         "redo: the folder would hold results of two option sets; write to another output folder "
+                         "(or remove those outputs)")
+    raise UsageError(f"{output_dir} holds {outputs} made with other options ({how}); use --force / force=True to "
+                     "redo them with these options, or write to another output folder")
+
+
+def _without_format(settings):
+    """Settings without the output format: outputs in two formats of one input are not two option sets."""
+    return None if settings is None else {k: v for k, v in settings.items() if k != "format"}
+
+
+def _shown(value):
+    return "default" if value is None else str(value).lower() if isinstance(value, bool) else \
+        f"{value:g}" if isinstance(value, float) else str(value)
+
+
 def _refuse_overwriting_others(items, entries):
     """Refuse (before any work) to replace an output that an earlier run wrote from another input."""
     owners = {r["output"]: r["input"] for r in entries if r.get("status") == "ok" and r.get("output")}
@@ -317,8 +377,10 @@ def _refuse_overwriting_others(items, entries):
                              "to replace it")
 
 
-def _is_done(record, key, fingerprint, output):
-    if not record or record.get("status") != "ok" or record.get("options") != fingerprint:
+def _is_done(record, key, fingerprint, settings, output):
+    if not record or record.get("status") != "ok":
+        return False
+    if record.get("options") != fingerprint and recorded_settings(record.get("options")) != settings:
         return False
     if record.get("output") != str(output) or not output.exists() or key["input_size"] is None:
         return False

@@ -111,21 +111,13 @@ class OutputFolder:
     def entries(self) -> list:
         """The last record of each (input, output) pair (a failed one has output ""), in the order
         they were written (latest last); torn or foreign lines skipped."""
-        out = {}
-        try:
-            with open(self.journal, "rb") as handle:
-                for line in handle:
-                    try:
-                        record = json.loads(line)
-                    except ValueError:
-                        continue  # a line torn by a crash
-                    if isinstance(record, dict) and "input" in record:
-                        key = (record["input"], record.get("output") or "")
-                        out.pop(key, None)
-                        out[key] = record
-        except FileNotFoundError:
-            pass
-        return list(out.values())
+        return _read_journal(self.journal)
+
+    def other_entries(self) -> list:
+        """:meth:`entries` of the folder's other journals (the shards' beside the whole run's, or
+        the whole run's beside a shard's), one list after the other."""
+        return [record for path in sorted(self.state.glob("journal*.jsonl")) if path != self.journal
+                for record in _read_journal(path)]
 
     def append(self, record: dict) -> None:
         """Append one record as one JSON line, in one ``write`` call."""
@@ -210,11 +202,25 @@ class RemoteOutputFolder:
 
     def entries(self) -> list:
         """The last record of each (input, output) pair, in the order they were written."""
+        return self._read(self.journal)
+
+    def other_entries(self) -> list:
+        """:meth:`entries` of the folder's other record folders (shards' or the whole run's)."""
+        try:
+            folders = [p for p in self.root.fs.ls(self.state.path, detail=False)
+                       if p.rstrip("/").rsplit("/", 1)[-1].startswith("records")]
+        except FileNotFoundError:
+            return []
+        own = self.journal.path.rstrip("/")
+        return [record for folder in sorted(folders) if folder.rstrip("/") != own
+                for record in self._read(self.state / folder.rstrip("/").rsplit("/", 1)[-1])]
+
+    def _read(self, journal):
         fs = self.root.fs
         try:
-            names = [n for n in fs.find(self.journal.path) if n.endswith(".json")]
+            names = [n for n in fs.find(journal.path) if n.endswith(".json")]
         except FileNotFoundError:
-            return {}
+            return []
         found = []
         for blob in (fs.cat(names).values() if names else ()):
             try:
@@ -242,6 +248,24 @@ class RemoteOutputFolder:
         from ..io.remote import location
 
         return location(path).exists()
+
+
+def _read_journal(path):
+    out = {}
+    try:
+        with open(path, "rb") as handle:
+            for line in handle:
+                try:
+                    record = json.loads(line)
+                except ValueError:
+                    continue  # a line torn by a crash
+                if isinstance(record, dict) and "input" in record:
+                    key = (record["input"], record.get("output") or "")
+                    out.pop(key, None)
+                    out[key] = record
+    except FileNotFoundError:
+        pass
+    return list(out.values())
 
 
 def _latest_by_input(entries):

@@ -8,6 +8,7 @@ can run in any worker process or on a Dask cluster and the caller alone writes.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
 import json
 import os
@@ -20,7 +21,7 @@ import numpy as np
 
 from ..config import OCSVM, OCSVM_ONLY
 
-__all__ = ["NormalizeOptions", "FileResult", "normalize_file", "one_line", "sha256_file", "warm_up"]
+__all__ = ["NormalizeOptions", "FileResult", "normalize_file", "one_line", "sha256_file", "warm_up", "recorded_settings"]
 
 
 # --------------------------------------------------------------------------- options
@@ -101,8 +102,46 @@ class NormalizeOptions:
         return out
 
     def fingerprint(self, file_format=None) -> str:
-        """A string equal for equal options (and output format): what a rerun compares."""
+        """A string equal for equal options (and output format): the ``options`` column of a row."""
         return json.dumps({**dataclasses.asdict(self), "format": file_format}, sort_keys=True)
+
+    def settings(self, file_format=None) -> dict:
+        """What the outputs depend on, by name: what a rerun compares (:func:`recorded_settings`
+        reads them back from a row's ``options``).
+
+        ``method`` (the default's name for None), ``center`` and ``scale`` (the estimators), the
+        OCSVM's ``gamma``, ``nu``, ``count``, ``seed``, ``sampling`` only where it runs (no other
+        estimator reads them), ``resolution`` (None: the estimator's default), ``rotation`` (the
+        frame's method, or None), ``strict``, and ``format`` (the output format, None: each
+        input's). Equal settings, equal outputs: ``NormalizeOptions()`` and
+        ``NormalizeOptions(method="robust")`` have the same settings, not the same fingerprint.
+        """
+        from ..pose.estimators import DEFAULT_METHOD, resolve
+
+        c_name, s_name = resolve(self.method, self.center, self.scale)
+        out = {"method": self.method or DEFAULT_METHOD, "center": c_name, "scale": s_name}
+        if self.uses_jax:
+            out.update({name: getattr(self, name) for name in OCSVM_ONLY})
+        out.update(resolution=self.resolution, rotation=self.rotation_method, strict=self.strict, format=file_format)
+        return out
+
+
+def recorded_settings(fingerprint) -> dict | None:
+    """:meth:`NormalizeOptions.settings` of a row's ``options`` (a :meth:`NormalizeOptions.fingerprint`),
+    or None where the row has none (a record of a version before the column) or it does not read
+    as this version's options."""
+    pairs = _recorded_settings(fingerprint) if isinstance(fingerprint, str) else None
+    return None if pairs is None else dict(pairs)
+
+
+@functools.lru_cache(maxsize=256)  # a folder's rows share a few fingerprints; each is checked once
+def _recorded_settings(fingerprint):
+    try:
+        values = json.loads(fingerprint)
+        file_format = values.pop("format", None)
+        return tuple(NormalizeOptions(**values).settings(file_format).items())
+    except Exception:  # not JSON, unknown fields, values this version refuses
+        return None
 
 
 def _differs(value, default) -> bool:

@@ -76,6 +76,14 @@ def _base(cls, config, options, valid):
     return base
 
 
+def _create(cls, config, options):
+    """``config`` (default ``cls()``) with the keyword ``options`` (its fields) replaced; an unknown
+    name raises InvalidInputError naming it and the valid ones (``cls(**options)`` raised
+    ``__init__``'s TypeError)."""
+    base = _base(cls, config, options, tuple(f.name for f in dataclasses.fields(cls)))
+    return dataclasses.replace(base, **options) if options else base
+
+
 def _real(value, name, low, high, closed=True):
     """``value`` as a float in [low, high] (or (low, high] with ``closed=False``); bools refused."""
     try:
@@ -188,6 +196,12 @@ class SolverConfig:
             raise InvalidInputError(f"max_iter + check_every must be at most {ITERATION_LIMIT}, got "
                                     f"{self.max_iter} + {self.check_every}")
 
+    @classmethod
+    def create(cls, config: "SolverConfig | None" = None, **options) -> "SolverConfig":
+        """``config`` (default: the defaults) with the keyword ``options`` replaced; unknown names
+        raise InvalidInputError."""
+        return _create(cls, config, options)
+
 
 @dataclasses.dataclass(frozen=True)
 class GridConfig:
@@ -226,6 +240,12 @@ class GridConfig:
                 f"{self.memory / 2**30:.2f} GiB for the grid ({self.memory / CELL_BYTES:.2g} cells at {CELL_BYTES} "
                 f"bytes); the limit is {MEMORY_BUDGET / 2**30:g} GiB: use a resolution in [8, {largest}]"
                 + ("" if largest >= 8 else " with a smaller band or refine"))
+
+    @classmethod
+    def create(cls, config: "GridConfig | None" = None, **options) -> "GridConfig":
+        """``config`` (default: the defaults) with the keyword ``options`` replaced; unknown names
+        raise InvalidInputError."""
+        return _create(cls, config, options)
 
     @property
     def _children(self) -> int:
@@ -373,8 +393,7 @@ class RobustConfig:
     def create(cls, config: "RobustConfig | None" = None, **options) -> "RobustConfig":
         """``config`` (default: the defaults) with the keyword ``options`` replaced; unknown names
         raise InvalidInputError."""
-        base = _base(cls, config, options, cls.FLAT)
-        return dataclasses.replace(base, **options) if options else base
+        return _create(cls, config, options)
 
     def flat(self) -> dict:
         """The options as flat keywords (JSON-able), the inverse of :meth:`create`."""

@@ -122,7 +122,7 @@ def volume_moments(svdd, grid: GridConfig | None = None, **options) -> Moments:
     if not isinstance(svdd, SVDD):
         raise InvalidInputError(f"svdd must be an SVDD from fit_svdd, got {type(svdd).__name__}")
     if grid is None:
-        grid = GridConfig(**options)
+        grid = GridConfig.create(**options)
     elif options:
         raise InvalidInputError(f"give either grid or options, not both (got {sorted(options)})")
     elif not isinstance(grid, GridConfig):

@@ -50,6 +50,22 @@ def test_bad_options_name_the_option(options, fragment):
         PoseConfig.create(**options)
 
 
+def test_fit_svdd_and_volume_moments_refuse_an_unknown_option_by_name():
+    # their flat options went to SolverConfig(**options) / GridConfig(**options): a raw TypeError
+    import jaxpose
+    from jaxpose.occupancy.svdd import SVDD
+
+    pts = np.random.default_rng(0).normal(size=(20, 3))
+    with pytest.raises(InvalidInputError, match="unknown option resolution; valid: tol, max_iter"):
+        jaxpose.fit_svdd(pts, 1.0, 0.5, resolution=32)  # a grid option
+    zero = jnp.asarray(0.0)
+    svdd = SVDD(jnp.zeros((2, 3)), jnp.full(2, 0.5), jnp.asarray(1.0), jnp.asarray(1.0), jnp.asarray(1.0), zero,
+                jnp.asarray(0), zero, jnp.asarray(True), jnp.ones(2, bool))
+    with pytest.raises(InvalidInputError, match="unknown option tol; valid: resolution, refine"):
+        jaxpose.volume_moments(svdd, tol=1e-4)  # a solver option
+    assert SolverConfig.create(tol=1e-4) == SolverConfig(tol=1e-4) and GridConfig.create() == GridConfig()
+
+
 def test_config_or_options_not_both():
     import jaxpose
 

@@ -72,7 +72,7 @@ def fit_svdd(points, gamma, nu, *, mask=None, init_alpha=None, config: SolverCon
         bool(svdd.converged), svdd.alpha.sum()   # True, 1.0
     """
     if config is None:
-        config = SolverConfig(**options)
+        config = SolverConfig.create(**options)
     elif options:
         raise _validate.InvalidInputError(f"give either config or options, not both (got {sorted(options)})")
     elif not isinstance(config, SolverConfig):

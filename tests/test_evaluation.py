@@ -281,6 +281,12 @@ def test_evaluate_rejects(kwargs, fake_normalize):
         evaluate({"boxes": _boxes()[:1]})
     with pytest.raises(InvalidInputError):
         evaluate({})
+    # the OCSVM's parameters and options, before any work (they became each ocsvm cell's error, or
+    # went unnoticed without ocsvm)
+    for bad, named in (({"bogus": 1}, "unknown option bogus"), ({"gamma": -1.0}, "gamma"), ({"nu": 2.0}, "nu"),
+                       ({"count": 3}, "count"), ({"seed": -1}, "seed"), ({"resolution": 4}, "resolution")):
+        with pytest.raises(InvalidInputError, match=named):
+            evaluate({"boxes": _boxes()}, methods=["surface_centroid"], **bad)
 
 
 def test_sweep_with_fake_normalize(fake_normalize, monkeypatch):

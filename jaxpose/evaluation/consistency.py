@@ -82,6 +82,20 @@ def _check_methods(methods):
     return methods
 
 
+def _check_ocsvm(gamma, nu, count, seed, options):
+    """The OCSVM's parameters and options, checked before any work (given to normalize per object,
+    a bad one became every ocsvm cell's error, and an unknown option went unnoticed without ocsvm)."""
+    from .. import _validate
+    from ..config import PoseConfig
+    from ..sample import check_count
+
+    _validate.check_gamma(gamma)
+    _validate.check_nu(nu)
+    check_count(count)
+    _validate.check_int(seed, "seed", 0)
+    PoseConfig.create(**options)
+
+
 def _check_variants(variants):
     variants = tuple(variants)
     unknown = [v for v in variants if v not in VARIANTS]
@@ -197,10 +211,15 @@ def evaluate(classes, gamma=OCSVM.gamma, nu=OCSVM.nu, methods=None, count=OCSVM.
       after a first call of each method on the variant's first object), ``seconds_per_object`` and
       ``first_call_seconds`` (that first call: JIT compilation included). A cell holds the spreads
       and the ``centers`` and ``scales`` per object, or ``error``.
+
+    Raises:
+      InvalidInputError: bad classes, methods, variants or core_weight, or a bad gamma, nu, count,
+        seed or normalize option (named, before any work).
     """
     _check_classes(classes)
     methods = _check_methods(methods)
     variants = _check_variants(variants)
+    _check_ocsvm(gamma, nu, count, seed, normalize_options)
     alignment.check_core_weight(core_weight)
     if align_core:
         classes = {name: alignment.align_core(meshes, weight=core_weight) for name, meshes in classes.items()}

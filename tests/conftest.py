@@ -1,6 +1,7 @@
 """Shared fixtures: deterministic point sets and a float64 switch."""
 from __future__ import annotations
 
+import contextlib
 import gc
 import os
 import pathlib
@@ -103,6 +104,24 @@ def pytest_collection_modifyitems(session, config, items):
 def pytest_unconfigure(config):
     if RUN_CACHE is not None:  # this process made the run's cache folder: the run is over
         shutil.rmtree(RUN_CACHE, ignore_errors=True)
+
+
+@contextlib.contextmanager
+def compilations():
+    """A list that collects the XLA compilations made inside the block (the persistent cache off,
+    so that a new program compiles instead of loading from an earlier run's file)."""
+    import jax.monitoring as monitoring
+
+    compiles = []
+    listener = lambda name, *_, **__: compiles.append(name) if name.endswith("backend_compile_duration") else None
+    monitoring.register_event_duration_secs_listener(listener)
+    cache = jax.config.jax_enable_compilation_cache
+    jax.config.update("jax_enable_compilation_cache", False)
+    try:
+        yield compiles
+    finally:
+        jax.config.update("jax_enable_compilation_cache", cache)
+        monitoring.unregister_event_duration_listener(listener)
 
 
 def _float64():

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from conftest import faust_points, sphere_with_arm  # noqa: E402
+from conftest import compilations, faust_points, sphere_with_arm  # noqa: E402
 
 import jaxpose  # noqa: E402
 from jaxpose import Status  # noqa: E402
@@ -58,6 +58,14 @@ def test_robust_options_and_config_object_agree():
     np.testing.assert_array_equal(a.center, b.center)
     c, s, _ = robust_center_scale(pts, power=2.0, resolution=48)  # coarse pass 48 there: same box here
     assert float(a.scale) == pytest.approx(s, rel=2e-2)
+    # the power as an int, a NumPy or a JAX scalar: the same program (each compiled one of its own) and pose
+    kinds = (2, np.float64(2.0), jnp.float32(2.0))
+    with compilations() as compiles:
+        others = [jaxpose.normalize(pts, power=p, **SMALL) for p in kinds]
+    assert compiles == []
+    for other in others:
+        np.testing.assert_array_equal(other.center, a.center)
+        assert float(other.scale) == float(a.scale)
 
 
 @pytest.mark.parametrize("method,key,value,owner", [

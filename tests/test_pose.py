@@ -9,7 +9,7 @@ from jaxpose.moments import volume_moments
 from jaxpose.pose.frame import reference_frame
 from jaxpose.pose.pose import Pose, normalize
 from jaxpose.occupancy.svdd import fit_svdd
-from conftest import box_surface, clusters, faust_points, sphere_with_arm
+from conftest import box_surface, clusters, compilations, faust_points, sphere_with_arm
 
 
 def random_rotation(rng):
@@ -218,22 +218,26 @@ def test_large_inputs_are_subsampled_with_the_count_reported():
 
 def test_point_counts_share_compilations():
     """Sets of 290..320 points are padded to 320 rows (masked): no new compilation after the first."""
-    import jax.monitoring as monitoring
-
     from jaxpose.pose.sizes import bucket
 
     assert [bucket(m) for m in (5, 8, 9, 290, 300, 320, 321, 400, 2000, 4096)] == \
         [5, 8, 10, 320, 320, 320, 384, 448, 2048, 4096]
     pts = box_surface(320, seed=3)
     normalize(pts[:300], method="ocsvm")  # this module's and the validation tests' compilation
-    compiles = []
-    listener = lambda name, *_, **__: compiles.append(name) if name.endswith("backend_compile_duration") else None
-    monitoring.register_event_duration_secs_listener(listener)
-    cache = jax.config.jax_enable_compilation_cache
-    jax.config.update("jax_enable_compilation_cache", False)  # a new program must compile, not load
-    try:
+    with compilations() as compiles:
         poses = [normalize(pts[:m], method="ocsvm") for m in (290, 305, 320)]
-    finally:
-        jax.config.update("jax_enable_compilation_cache", cache)
-        monitoring.unregister_event_duration_listener(listener)
     assert compiles == [] and all(bool(p.valid) for p in poses)
+
+
+def test_parameter_types_share_one_compilation():
+    """gamma and nu as Python floats, ints, NumPy and JAX scalars reach one compiled program, with
+    the same pose (a NumPy float64 or an int compiled the whole pipeline again: four programs)."""
+    pts = box_surface(320, seed=3)[:300]  # test_point_counts_share_compilations' program
+    base = normalize(pts, method="ocsvm")
+    kinds = ((np.float64(47.0), np.float32(0.5)), (47, jnp.asarray(0.5)), (jnp.float32(47.0), 0.5))
+    with compilations() as compiles:
+        others = [normalize(pts, method="ocsvm", gamma=g, nu=n) for g, n in kinds]
+    assert compiles == []
+    for other in others:
+        np.testing.assert_array_equal(other.center, base.center)
+        assert float(other.scale) == float(base.scale)

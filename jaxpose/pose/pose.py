@@ -355,10 +355,20 @@ def normalize(x, method: str = DEFAULT_METHOD, *, power=_UNSET, gamma=_UNSET, nu
         points, mask = points[0], mask[0]
     if method == "robust":
         queries, query_mask = _queries([np.shape(x)[0]], config.spacing_samples, seed)
-        pose = _robust_jit(points, mask, queries[0], query_mask[0], params["power"], config)
+        pose = _robust_jit(points, mask, queries[0], query_mask[0], _as_argument(params["power"], points.dtype), config)
         return _finish(pose, shift, size, throw)
-    pose = _pipeline_jit(points, mask, params["gamma"], params["nu"], _stops(config), _without_stops(config), rotation)
-    return _finish(pose, shift, size, throw, params["gamma"], params["nu"], config.svdd.tol)
+    gamma, nu = (_as_argument(params[k], points.dtype) for k in ("gamma", "nu"))
+    pose = _pipeline_jit(points, mask, gamma, nu, _stops(config), _without_stops(config), rotation)
+    return _finish(pose, shift, size, throw, gamma, nu, config.svdd.tol)
+
+
+def _as_argument(value, dtype):
+    """A concrete parameter (power; gamma, nu) as a () NumPy array of the ``dtype`` the pipeline
+    computes it in (a traced one as it is): a Python float or int, a NumPy or a JAX scalar then
+    reach the compiled pipeline as one argument type and share its compilation (a Python float is
+    a weak-typed argument, an int an integer one, a NumPy float64 a strong-typed one: each was a
+    compilation of its own), with the same values (the pipeline casts them to ``dtype``)."""
+    return value if _validate.is_traced(value) else np.asarray(value, dtype)
 
 
 def _queries(counts, samples, seed):

@@ -10,6 +10,7 @@ import pytest
 import trimesh
 
 from jaxpose import baselines, cli, mesh
+from jaxpose.config import OCSVM_ONLY
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -51,7 +52,7 @@ def test_normalize_writes_mesh_and_transform(tmp_path, capsys, ext):
     assert "center" in printed and "matrix" in printed
 
     record = json.loads((tmp_path / "out.transform.json").read_text())
-    assert set(record) >= {"center", "scale", "matrix", "method", "gamma", "nu", "input"}
+    assert set(record) >= {"center", "scale", "matrix", "method", "input"} and "gamma" not in record  # not the OCSVM
     assert record["method"] == "surface_centroid" and record["input"] == str(source.resolve())
     original = mesh.load(source)
     normalized = mesh.load(output)
@@ -74,7 +75,9 @@ def test_normalize_other_methods_and_transform_path(tmp_path, method):
         ["normalize", str(source), "-o", str(tmp_path / "out.stl"), "--method", method, "--transform", str(transform)]
     )
     assert code == 0
-    assert json.loads(transform.read_text())["method"] == method
+    record = json.loads(transform.read_text())
+    assert record["method"] == method
+    assert not set(OCSVM_ONLY) & set(record), record  # the OCSVM's options are not this method's: not recorded
     assert not (tmp_path / "out.transform.json").exists()
 
 
@@ -167,7 +170,9 @@ def test_normalize_default_and_ocsvm(tmp_path, method):
     extra += ["--count", "400"] if method == "ocsvm" else []
     assert cli.main(["normalize", str(source), "-o", str(output), *extra]) == 0
     record = json.loads((tmp_path / "out.transform.json").read_text())
-    assert record["method"] == (method or "robust") and record["gamma"] == 47.0 and record["nu"] == 0.5
+    assert record["method"] == (method or "robust")
+    ocsvm = {"gamma": 47.0, "nu": 0.5, "count": 400, "seed": 0, "sampling": "even"}  # only where it runs
+    assert {k: record[k] for k in OCSVM_ONLY if k in record} == (ocsvm if method else {})
     names = ("ocsvm", "ocsvm") if method else ("robust_depth", "robust_volume")
     assert (record["center_method"], record["scale_method"]) == names
     matrix = np.array(record["matrix"])

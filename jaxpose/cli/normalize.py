@@ -101,6 +101,19 @@ def transform_path(output) -> Path:
     return output.with_name(output.stem + ".transform.json")
 
 
+def _transform_options(options) -> dict:
+    """The options a transform JSON records of `options` (:class:`jaxpose.batch.task.NormalizeOptions`):
+    ``method``, ``center_method``, ``scale_method``; the OCSVM's ``gamma``, ``nu``, ``count``,
+    ``seed``, ``sampling`` only where it runs (as the center, the scale or the frame: no other
+    estimator reads them); ``resolution`` where one was given (absent: the estimator's default)."""
+    columns = options.columns()
+    names = ("method", "center_method", "scale_method", *(OCSVM_ONLY if options.uses_jax else ()))
+    out = {k: columns[k] for k in names}
+    if options.resolution is not None:
+        out["resolution"] = options.resolution
+    return out
+
+
 def ignored_options(args) -> str | None:
     """Why options given on the command line do nothing with the chosen method, or None.
 
@@ -183,11 +196,7 @@ def _normalize_one(args, options, source, fail):
         mesh.output_format(output, geometry)  # a point cloud for STL/OFF: refused before the work
     normalized, pose = mesh.normalize_mesh(geometry, **options.mesh_arguments())
     interrupts.check()  # a swallowed Ctrl-C stops here, before anything is written
-    columns = options.columns()
-    record = {
-        "input": EXAMPLE if use_example else str(Path(source).resolve()),
-        **{k: columns[k] for k in ("method", "center_method", "scale_method", "gamma", "nu", "count", "seed",
-                                   "sampling")},
+    record = {"input": EXAMPLE if use_example else str(Path(source).resolve()), **_transform_options(options),
         "center": [float(v) for v in _flat(pose.center)],
         "scale": float(_flat(pose.scale)[0]),
         "matrix": mesh.pose_matrix(pose).tolist(),

@@ -173,6 +173,21 @@ def test_cli_rerun_with_other_options_is_a_usage_error_before_any_work(tmp_path,
     assert "--method robust there, bbox here" in err and "--force" in err and "Traceback" not in err, err
 
 
+def test_an_output_folder_named_through_a_link_is_the_same_folder(tmp_path, tree):
+    """Outputs compare by resolved path: -o LINK to OUTDIR redid every input (and doubled rows)."""
+    root, out, link = tmp_path / "scans", tmp_path / "out", tmp_path / "link"
+    first = run([root], out)
+    link.symlink_to(out)
+    for name in (link, tmp_path / "scans" / ".." / "link", str(link) + "/"):
+        again = run([root], name)
+        assert (again.written, again.skipped) == (0, 4), name
+        assert stable(again.rows) == stable(first.rows)  # one row per file, named by its folder's real path
+    journal = out / ".jaxpose" / "journal.jsonl"  # records naming outputs through the link (written so before)
+    journal.write_bytes(journal.read_bytes().replace(str(out).encode(), str(link).encode()))
+    again = run([root], out)
+    assert (again.written, again.skipped) == (0, 4) and stable(again.rows) == stable(first.rows)
+
+
 def test_second_run_on_one_folder_is_refused(tmp_path, tree):
     out = tmp_path / "out"
     with OutputFolder(out):

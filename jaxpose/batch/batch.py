@@ -90,6 +90,8 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
             raise InvalidInputError(f"format must be one of {', '.join(OUTPUT_FORMATS)}; got {file_format!r}")
     shard = check_shard(shard)
     output_dir = location(output_dir)
+    if not isinstance(output_dir, RemotePath):  # through a link or "..": one folder, one name for its outputs
+        output_dir = Path(os.path.realpath(output_dir))
     default_table = table is None
     if table is None:
         name = transforms.default_table_name()
@@ -112,8 +114,9 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
             check_folder_writable(table.parent, what="table")
             remove_temporaries(table)
         folder.remove_temporaries(None if shard is None else [item.output for item in items])
-        entries = folder.entries()
-        _refuse_mixing(items, entries, folder.other_entries(), settings, force, folder.exists, output_dir)
+        entries = _resolved(folder.entries(), output_dir)
+        _refuse_mixing(items, entries, _resolved(folder.other_entries(), output_dir), settings, force, folder.exists,
+                       output_dir)
         if not force:
             _refuse_overwriting_others(items, entries)
         pairs = {(r["input"], r.get("output") or ""): r for r in entries}
@@ -136,7 +139,7 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
             if work and not run.stopped:
                 run.execute(work, executor_args, file_format, options, check, resumed=bool(entries))
         finally:  # also on KeyboardInterrupt: the table holds every finished input
-            rows = table_rows(items, folder.entries(), folder.exists)
+            rows = table_rows(items, _resolved(folder.entries(), output_dir), folder.exists)
             write_file(table, transforms.write_transforms(rows, table, rotation=bool(options.rotation_method) or None))
             if default_table:
                 _remove_superseded_table(table)
@@ -364,6 +367,27 @@ def _without_format(settings):
 def _shown(value):
     return "default" if value is None else str(value).lower() if isinstance(value, bool) else \
         f"{value:g}" if isinstance(value, float) else str(value)
+
+
+def _resolved(entries, output_dir):
+    """The records with each output's path resolved (links and ".." taken out, as `output_dir`'s is),
+    so that an output recorded under another name of its folder (an earlier run given a link to it,
+    or a version that kept the name as given) is recognized as the same file; remote paths as they are."""
+    from ..io.remote import RemotePath
+
+    if isinstance(output_dir, RemotePath):
+        return entries
+    folders, out = {}, []
+    for record in entries:
+        path = record.get("output")
+        if path:
+            head, name = os.path.split(path)
+            if head not in folders:  # one realpath per folder: thousands of records share a few
+                folders[head] = os.path.realpath(head)
+            if os.path.join(folders[head], name) != path:
+                record = {**record, "output": os.path.join(folders[head], name)}
+        out.append(record)
+    return out
 
 
 def _refuse_overwriting_others(items, entries):

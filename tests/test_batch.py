@@ -277,8 +277,9 @@ def test_normalize_files_api(tmp_path, tree):
 
 
 # --------------------------------------------------------------------------- command line
-def test_cli_many_files(tmp_path, tree, capsys):
+def test_cli_many_files(tmp_path, tree, capsys, monkeypatch):
     out = tmp_path / "out"
+    monkeypatch.setattr(batch, "PROGRESS_EVERY_S", 0.0, raising=False)  # a line after every file (10 s apart in use)
     code = cli.main(["normalize", str(tmp_path / "scans"), "-o", str(out), "--workers", "1", "--resolution", "16",
                      "--table", str(tmp_path / "t.csv")])
     captured = capsys.readouterr()
@@ -287,7 +288,13 @@ def test_cli_many_files(tmp_path, tree, capsys):
     assert len(failed) == 3 and "Traceback" not in captured.err
     last = captured.err.splitlines()[-1]
     assert last.startswith("jaxpose: error: 3 of 7 inputs failed") and "t.csv" in last
-    assert "normalized 4 files" in captured.out
+    # stderr is not a terminal here: progress as plain lines (no bar), stdout only the summary
+    progress = [line for line in captured.err.splitlines() if line.startswith("jaxpose normalize: ")]
+    assert progress[0] == "jaxpose normalize: [0/7] started" and len(progress) == 7, captured.err
+    assert all(f"[{i}/7]" in line and "files/s, about" in line for i, line in enumerate(progress[1:], 1))
+    assert "failed" in progress[-1] and "\r" not in captured.err
+    [summary] = captured.out.splitlines()
+    assert summary.startswith("normalized 4 files")
     assert len(jaxpose.read_transforms(tmp_path / "t.csv")) == 7
     assert cli.main(["normalize", str(tmp_path / "scans" / "a" / "capsule.ply"), str(tmp_path / "scans" / "sphere.off"),
                      "-o", str(out), "--workers", "1", "--resolution", "16", "--table", str(tmp_path / "t.csv")]) == 0

@@ -40,6 +40,7 @@ log = logging.getLogger(__name__)
 CHECKS = ("mtime", "hash")
 MAX_TRIES = 2  # workers an input may lose while running it (killed, out of memory) before it is recorded failed
 MAX_LOST_BEFORE_START = 3  # workers it may lose before they start it (a crash or hang in start-up): not tries
+PROGRESS_EVERY_S = 10.0  # progress="lines": at most one line this often
 
 
 # --------------------------------------------------------------------------- many files
@@ -173,7 +174,10 @@ def normalize_files(inputs, output_dir, options=None, **kwargs) -> list:
       fail_fast: stop at the first failed input.
       force: redo every input, write into a folder jaxpose did not make, and replace a `table`
         file that is not a transforms table.
-      progress: a progress bar on stderr (rate, ETA): True, False, or None (only on a terminal).
+      progress: a progress bar on stderr (rate, ETA): True, False, or None (only on a terminal);
+        or ``"lines"``: plain lines on stderr for a log or a pipe (``jaxpose normalize: [120/1000]
+        4.1 files/s, about 3 min left``), at the start and then at most every
+        :data:`PROGRESS_EVERY_S` seconds (the command line's choice off a terminal).
       shard: (index, count): only the inputs of shard `index` of `count` (0 <= index < count), by
         a stable hash of each input's path relative to the inputs' root, so that `count` machines
         given the same arguments take every input once. The table defaults to
@@ -491,6 +495,44 @@ def _failed(error):
     return FileResult({"status": "failed", "error": error, "version": __version__}, None)
 
 
+class _Lines:
+    """progress="lines": the part of tqdm's interface a run uses (``update``, ``set_postfix_str``,
+    ``close``), as plain lines on stderr: ``[0/N] started``, then at most one line every
+    :data:`PROGRESS_EVERY_S` seconds with the rate, the time left and the failures so far."""
+
+    def __init__(self, total):
+        self.total, self.n, self.postfix = total, 0, ""
+        self.start = self.last = time.monotonic()
+        self._say("started")
+
+    def update(self, n=1):
+        self.n += n
+        now = time.monotonic()
+        if self.n < self.total and now - self.last >= PROGRESS_EVERY_S:
+            self.last = now
+            rate = self.n / max(now - self.start, 1e-9)
+            self._say(f"{rate:.1f} files/s, about {_duration((self.total - self.n) / rate)} left")
+
+    def set_postfix_str(self, text, refresh=True):
+        self.postfix = text
+
+    def close(self):
+        pass
+
+    def _say(self, text):
+        import sys
+
+        extra = f", {self.postfix}" if self.postfix else ""
+        print(f"jaxpose normalize: [{self.n}/{self.total}] {text}{extra}", file=sys.stderr, flush=True)
+
+
+def _duration(seconds):
+    """``"40 s"``, ``"3 min"``, ``"2.5 h"``."""
+    if seconds < 90:
+        return f"{seconds:.0f} s"
+    return f"{seconds / 60:.0f} min" if seconds < 5400 else f"{seconds / 3600:.1f} h"
+
+
 class _Run:
     """The waiting loop of one run: submit a window of tasks, write each result as it arrives."""
 
@@ -518,8 +560,11 @@ class _Run:
             fork = runs_like_a_worker() and not options.uses_jax
             executor = LocalExecutor(min(executor_args["workers"], len(todo)), timeout=executor_args["timeout"],
                                      head_start=head_start, warm_up=functools.partial(warm_up, options), fork=fork)
-        bar = tqdm(total=len(todo), unit="file", desc="normalize", dynamic_ncols=True, smoothing=0.05,
-                   disable=None if self.progress is None else not self.progress)
+        if self.progress == "lines":
+            bar = _Lines(len(todo))
+        else:
+            bar = tqdm(total=len(todo), unit="file", desc="normalize", dynamic_ncols=True, smoothing=0.05,
+                       disable=None if self.progress is None else not self.progress)
         queue, pending, lost = list(reversed(todo)), {}, {}  # source -> (workers lost after / before starting it)
         window = 2 * executor.workers
         try:

@@ -259,7 +259,8 @@ def _normalize_many(args, options, fail):
         result = batch.run_batch(args.inputs, args.output, options, glob=args.glob, file_format=args.format,
                                  table=args.table, workers=args.workers, scheduler=args.scheduler,
                                  dask_local=args.dask_local, check=args.check or "mtime",
-                                 fail_fast=args.fail_fast, force=args.force, shard=args.shard, timeout=args.timeout)
+                                 fail_fast=args.fail_fast, force=args.force, shard=args.shard, timeout=args.timeout,
+                                 progress=None if sys.stderr.isatty() else "lines")  # a bar; off a terminal, lines
     done = result.written + result.skipped
     rate = result.written / result.seconds if result.seconds > 0 else 0.0
     peaks = sorted(result.peak_mb.values())

@@ -13,6 +13,7 @@ import jaxpose
 from jaxpose.batch import batch
 from jaxpose import cli, mesh
 from jaxpose.errors import InvalidInputError, UsageError
+from jaxpose.batch.inputs import find_inputs
 from jaxpose.batch.journal import FolderBusyError, OutputFolder
 from jaxpose.batch.task import NormalizeOptions
 
@@ -112,6 +113,19 @@ def test_glob_and_format(tmp_path, tree):
     cloud = run([root / "cloud.ply"], tmp_path / "stl", file_format="stl").rows[0]
     assert cloud.status == "failed" and "point cloud cannot be written as STL" in cloud.error
     assert not (tmp_path / "stl" / "cloud.stl").exists()
+
+
+def test_glob_ignores_case_as_the_suffix_filter_does(tmp_path, tree):
+    """A folder search takes SCAN.PLY (suffixes ignore case); --glob "*.ply" left it out."""
+    root = tmp_path / "scans"
+    upper = root / "a" / "Pose_01.PLY"
+    upper.write_bytes((root / "a" / "capsule.ply").read_bytes())
+    assert upper in find_inputs([root]).files
+    plys = [p for p in find_inputs([root]).files if p.suffix.lower() == ".ply"]  # the oracle: the suffix filter
+    for glob in ("*.ply", "*.PLY", "*.Ply"):
+        assert find_inputs([root], glob=glob).files == plys, glob
+    assert find_inputs([root], glob="pose_0?.ply").files == [upper]
+    assert find_inputs([root], glob="A/POSE_*").files == [upper]
 
 
 def test_rerun_skips_what_is_done_and_redoes_what_changed(tmp_path, tree):

@@ -93,7 +93,8 @@ def find_inputs(inputs, glob=None, exclude=()) -> Found:
         manifests, all on one file system.
       glob: narrows folder searches (fnmatch): matched against the file name, or, when it contains
         ``/``, against the path relative to the searched folder, where ``*`` also spans folders
-        (``"kid_*/pose_0?.ply"``).
+        (``"kid_*/pose_0?.ply"``); case is ignored, as the suffixes are (``"*.ply"`` takes
+        ``SCAN.PLY``).
       exclude: folders never searched (the output folder, when it lies inside an input folder);
         folders below a searched one that hold ``.jaxpose/`` (other runs' output folders) are not
         searched either.
@@ -208,7 +209,10 @@ def _search(folder, glob, exclude, irregular):
 
 
 def _matches(relative, glob):
-    return fnmatch.fnmatch(relative.as_posix() if "/" in glob else relative.name, glob)
+    """Whether a found file matches `glob`, ignoring case as the suffix filter does (on every system:
+    ``fnmatch.fnmatch`` ignores it on Windows only)."""
+    text = relative.as_posix() if "/" in glob else relative.name
+    return fnmatch.fnmatchcase(text.casefold(), glob.casefold())
 
 
 def _read_manifest(path):

@@ -275,6 +275,29 @@ def test_ply_truncated_is_an_error(tmp_path, mesh, cut):
         jmesh.load(path)
 
 
+@pytest.mark.parametrize("cut, fragment", [
+    (-30, "truncated binary STL: its header counts 12 triangles (684 bytes), the file has 654 bytes"),
+    (-50 * 12, "truncated binary STL: its header counts 12 triangles (684 bytes), the file has 84 bytes"),
+    (-620, "truncated binary STL: 64 bytes, fewer than its 84-byte header"),
+    (+7, "size does not match its header: 12 triangles take 684 bytes, the file has 691"),
+])
+def test_a_truncated_binary_stl_says_so(tmp_path, cut, fragment):
+    """A binary STL cut short (or with bytes after its triangles) read as "empty geometry ... not
+    STL" or as text needing trimesh's optional module; the message says what is wrong with its size."""
+    from jaxpose import mesh as jmesh
+    from jaxpose.errors import InvalidInputError
+
+    data = exported(trimesh.creation.box(), "stl")
+    assert len(data) == 84 + 50 * 12  # the oracle: the format's size rule for the box's 12 triangles
+    for header in (b"", b"solid box"):  # some exporters begin a binary header with "solid"
+        path = tmp_path / "cut.stl"
+        whole = header + data[len(header):]
+        path.write_bytes(whole[:cut] if cut < 0 else whole + b"\x01" * cut)
+        with pytest.raises(InvalidInputError, match="cut.stl: a ") as info:
+            jmesh.load(path)
+        assert fragment in str(info.value), info.value
+
+
 @pytest.mark.parametrize("name", ["noise.stl", "noise.ply", "noise.off", "noise.obj"])
 def test_binary_noise_is_an_error_about_the_file(tmp_path, name):
     """Random bytes under a mesh suffix: an error naming the file and its format, never about

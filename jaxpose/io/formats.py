@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from .._validate import InvalidInputError
 
-__all__ = ["TEXT_FORMATS", "sniff_format", "binary_stl", "as_text"]
+__all__ = ["TEXT_FORMATS", "sniff_format", "binary_stl", "binary_stl_mismatch", "as_text"]
 
 TEXT_FORMATS = ("obj", "off", "xyz")  # text formats: decoded here (UTF-8, else Latin-1), any encoding reads
 _OFF_HEADERS = (b"OFF", b"COFF", b"NOFF", b"CNOFF", b"STOFF", b"4OFF")
@@ -35,6 +35,25 @@ def sniff_format(data: bytes):
 def binary_stl(data: bytes):
     """A binary STL: an 80-byte header, a triangle count n, then 50 bytes per triangle."""
     return len(data) > 84 and 84 + 50 * int.from_bytes(data[80:84], "little") == len(data)
+
+
+def binary_stl_mismatch(data: bytes):
+    """Why `data`, a binary STL (not text: it holds NUL bytes, as an ASCII STL never does), is not
+    whole, or None: fewer bytes than its 84-byte header, fewer or more than the 84 + 50 n its count
+    of n triangles takes (a truncated copy, a download cut short; bytes after the last triangle)."""
+    if b"\x00" not in data or binary_stl(data):
+        return None
+    if len(data) < 84:
+        return f"a truncated binary STL: {len(data)} bytes, fewer than its 84-byte header"
+    count = int.from_bytes(data[80:84], "little")
+    expected = 84 + 50 * count
+    if len(data) == expected:
+        return None  # whole, without triangles
+    if len(data) < expected:
+        return (f"a truncated binary STL: its header counts {count} triangles ({expected} bytes), the file has "
+                f"{len(data)} bytes")
+    return (f"a binary STL whose size does not match its header: {count} triangles take {expected} bytes, the file "
+            f"has {len(data)} ({len(data) - expected} bytes after the last triangle, or a wrong count)")
 
 
 def as_text(data: bytes, name: str, ext: str) -> bytes:

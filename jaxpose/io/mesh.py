@@ -262,6 +262,8 @@ def _read(path):
     if found is not None and found != ext and ext in ("ply", "glb", "stl", "off", "obj", "xyz"):
         raise InvalidInputError(f"{path}: the content is {found.upper()}, not {ext.upper()}: "
                                 f"rename it to .{found} (the extension chooses the reader)")
+    if ext == "stl" and (problem := formats.binary_stl_mismatch(data)):  # not "empty geometry ... not STL"
+        raise InvalidInputError(f"{path}: {problem}")
     if ext in formats.TEXT_FORMATS or (ext == "stl" and found == "stl" and not formats.binary_stl(data)):
         data = formats.as_text(data, f"{path}", ext)
     if ext in readers.READERS:

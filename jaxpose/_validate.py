@@ -105,11 +105,13 @@ def check_points(points, name: str = "points", min_points: int = MIN_POINTS):
 
 
 def compute_dtype(points):
-    """The floating dtype JAX computes concrete points in: at least float32 (float16 and
-    integers are promoted), float64 only when x64 is enabled."""
+    """The floating dtype JAX computes points in (concrete, or a JAX array or tracer, read from its
+    dtype): at least float32 (float16, bfloat16 and integers are promoted), float64 only when x64
+    is enabled."""
     from jax import dtypes
 
-    dtype = np.result_type(np.asarray(points).dtype, np.float32)
+    given = getattr(points, "dtype", None)  # NumPy and JAX arrays, tracers: no copy
+    dtype = np.result_type(np.asarray(points).dtype if given is None else np.dtype(given), np.float32)
     return np.dtype(dtypes.canonicalize_dtype(dtype if np.issubdtype(dtype, np.floating) else np.float32))
 
 

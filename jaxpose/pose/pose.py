@@ -278,7 +278,8 @@ def normalize(x, method: str = DEFAULT_METHOD, *, power=_UNSET, gamma=_UNSET, nu
 
     Args:
       x: (m, 3) points (samples of a surface, or a scan's vertices), any units and offset
-        (float32, float64 or integers); concrete or traced.
+        (float32, float64; float16, bfloat16 and integers are promoted, concrete or traced alike:
+        :func:`jaxpose._validate.compute_dtype`); concrete or traced.
       method: ``"robust"`` (default: the depth^p-weighted centroid of the points' robust voxel
         solid and its volume's cube root, :func:`robust_pipeline`; the same default as
         :func:`jaxpose.normalize_mesh`) or ``"ocsvm"`` (the paper's centroid c_m and mean
@@ -344,8 +345,7 @@ def normalize(x, method: str = DEFAULT_METHOD, *, power=_UNSET, gamma=_UNSET, nu
     shift, size, mask = None, None, None
     if _validate.is_traced(x):  # pure-JAX path (jit, vmap, grad in points)
         points = jnp.asarray(x)
-        if not jnp.issubdtype(points.dtype, jnp.floating):
-            points = points.astype(jnp.result_type(float))
+        points = points.astype(_validate.compute_dtype(points))  # as a concrete input's (float16: float32)
         points = points if index is None else points[index]
     else:
         arr = np.asarray(x) if index is None else np.asarray(x)[index]

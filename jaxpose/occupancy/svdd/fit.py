@@ -40,7 +40,8 @@ def fit_svdd(points, gamma, nu, *, mask=None, init_alpha=None, config: SolverCon
     """Fit the SVDD dual (eq. 2) on points.
 
     Args:
-      points: (m, 3) float32 or float64 (the result follows; integers become the default float).
+      points: (m, 3) float32 or float64 (the result follows; float16, bfloat16 and integers are
+        promoted as :func:`jaxpose.normalize` promotes them, :func:`jaxpose._validate.compute_dtype`).
       gamma: () > 0, the kernel parameter in 1 / units of ``points`` squared (as scikit-learn's).
       nu: () in [0, 1]; C = 1 / (nu m); nu = 0 is the hard-margin minimum enclosing ball.
       mask: optional (m,) bool; False rows are padding and get alpha = 0.
@@ -93,8 +94,7 @@ def fit_svdd(points, gamma, nu, *, mask=None, init_alpha=None, config: SolverCon
         if not _validate.is_traced(init_alpha) and not np.all(np.isfinite(np.asarray(init_alpha, np.float64))):
             raise _validate.InvalidInputError("init_alpha has NaN or inf entries")
     points = jnp.asarray(points)
-    if not jnp.issubdtype(points.dtype, jnp.floating):
-        points = points.astype(jnp.result_type(float))
+    points = points.astype(_validate.compute_dtype(points))
     result = solve_svdd(points, gamma, nu, mask, init_alpha, config)
     if throw and not _validate.is_traced(result.converged) and not bool(result.converged):
         raise _validate.ConvergenceError(

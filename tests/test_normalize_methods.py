@@ -162,6 +162,21 @@ def test_traced_half_precision_input_is_computed_in_float32(method):
         assert _pipeline_program(fn, x) == _pipeline_program(fn, x.astype(jnp.float32)), dtype
 
 
+@pytest.mark.parametrize("method", ["robust", "ocsvm"])
+def test_traced_results_are_in_the_default_float_dtype(method, x64):
+    """Under x64 a traced pose's floats are float64 whatever the points' dtype (the Pose policy, JAX's
+    default float), for a traced float32 cloud and for concrete float32 points with a traced
+    parameter; the OCSVM's were float32. Shapes and dtypes only (jax.eval_shape: nothing compiled)."""
+    pts = _body(1024, seed=2).astype(np.float32)
+    key = "power" if method == "robust" else "gamma"
+    opts = {**_opts(method), "rotation": True} if method == "ocsvm" else _opts(method)
+    traced_points = jax.eval_shape(lambda x: jaxpose.normalize(x, method=method, **opts), pts)
+    traced_parameter = jax.eval_shape(lambda p: jaxpose.normalize(pts, method=method, **{key: p}, **opts), 4.0)
+    for pose in (traced_points, traced_parameter):
+        floats = [pose.center, pose.scale] + ([pose.rotation, pose.ambiguity] if method == "ocsvm" else [])
+        assert [f.dtype for f in floats] == [jnp.result_type(float)] * len(floats) == [np.float64] * len(floats)
+
+
 def test_vmap_of_normalize_over_a_stack():
     # 1024 points: the single calls' program is the one the batch test below uses (one bucket)
     stack = jnp.asarray(np.stack([_body(1024, seed=s) * (1 + s) for s in range(3)]), jnp.float32)

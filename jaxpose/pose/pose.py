@@ -400,16 +400,19 @@ def _check_seed(seed):
 def _finish(pose, shift, size, throw, gamma=None, nu=None, tol=None):
     """Map a pose of host-prescaled points back to the input's units in float64 on the host (its
     center and scale become NumPy float64), flag out-of-range traced gamma / nu (ocsvm) as not
-    valid, and raise (``throw``) or warn on an invalid concrete result."""
+    valid, and raise (``throw``) or warn on an invalid concrete result. A traced result (traced
+    points or parameters) has its float fields in JAX's default float dtype (the Pose policy:
+    float64 under x64 whatever the points' dtype, as for every method)."""
     status = jnp.asarray(pose.status)
+    default = jnp.result_type(float)
     if shift is not None:
         size = np.asarray(size, np.float64)
         if _validate.is_traced(pose.center) or _validate.is_traced(pose.scale):  # traced parameters
-            xp, shift, size = jnp, jnp.asarray(shift, pose.center.dtype), jnp.asarray(size, pose.center.dtype)
+            xp, shift, size = jnp, jnp.asarray(shift, default), jnp.asarray(size, default)
         else:
             xp = np
-        center = shift + size[..., None] * xp.asarray(pose.center, np.float64 if xp is np else None)
-        scale = size * xp.asarray(pose.scale, np.float64 if xp is np else None)
+        center = shift + size[..., None] * xp.asarray(pose.center, np.float64 if xp is np else default)
+        scale = size * xp.asarray(pose.scale, np.float64 if xp is np else default)
         finite = xp.all(xp.isfinite(center), axis=-1) & xp.isfinite(scale) & (scale > 0)
         status = jnp.where((status == 0) & ~jnp.asarray(finite), int(Status.NOT_FINITE), status)
         pose = pose._replace(center=center, scale=scale)
@@ -420,7 +423,9 @@ def _finish(pose, shift, size, throw, gamma=None, nu=None, tol=None):
     status = status.astype(jnp.int32)
     pose = pose._replace(valid=status == 0, status=status)
     if _validate.is_traced(pose.valid):
-        return pose
+        floats = {k: jnp.asarray(getattr(pose, k), default) for k in ("center", "scale", "ambiguity", "rotation")
+                  if getattr(pose, k) is not None}
+        return pose._replace(**floats)
     if throw and tol is not None and not bool(jnp.all(pose.converged)):
         raise _validate.ConvergenceError(
             f"SVDD solver hit its iteration cap ({np.asarray(pose.iterations)} iterations) before tol={tol}"

@@ -203,9 +203,10 @@ class Pose(NamedTuple):
 
     Types (one policy for every method): the JAX entry points (:func:`jaxpose.normalize`,
     :func:`jaxpose.normalize_batch`) return JAX arrays in JAX's default float dtype (float32, or
-    float64 with ``jax_enable_x64``) for a traced input, so that they jit, vmap and differentiate;
-    for a concrete input their ``center`` and ``scale`` are NumPy float64 (mapped back on the host,
-    so that a far offset keeps its digits), the other fields JAX arrays; the host entry
+    float64 with ``jax_enable_x64``, whatever the points' dtype) for a traced input or a traced
+    parameter, so that they jit, vmap and differentiate; otherwise, for a concrete input their
+    ``center`` and ``scale`` are NumPy float64 (mapped back on the host, so that a far offset keeps
+    its digits), the other fields JAX arrays; the host entry
     points (:func:`jaxpose.normalize_mesh`, :func:`jaxpose.pose.estimators.estimate`, the command line
     and the batch runner, every method, ``ocsvm`` included) return NumPy values: floats float64,
     ``valid`` / ``converged`` bool, ``status`` / ``iterations`` / ``count`` int64 (:func:`host`).

@@ -81,6 +81,22 @@ def test_options_of_the_other_method_are_refused(method, key, value, owner):
             call()
 
 
+def test_points_by_the_documented_keyword_and_the_old_one():
+    """normalize(points=...) as the API contract names it; x= (the old name) still works and warns."""
+    pts = _body(1024, seed=1)  # the SMALL program of test_robust_options_and_config_object_agree
+    a = jaxpose.normalize(pts, power=2.0, **SMALL)
+    b = jaxpose.normalize(points=pts, power=2.0, **SMALL)
+    with pytest.warns(DeprecationWarning, match="named points"):
+        c = jaxpose.normalize(x=pts, power=2.0, **SMALL)
+    for other in (b, c):
+        np.testing.assert_array_equal(other.center, a.center)
+        assert float(other.scale) == float(a.scale)
+    with pytest.raises(InvalidInputError, match="given twice"):
+        jaxpose.normalize(pts, x=pts)
+    with pytest.raises(TypeError, match="missing its points"):
+        jaxpose.normalize(method="robust")
+
+
 def test_bad_method_and_parameters_are_refused():
     pts = _body(200)
     with pytest.raises(InvalidInputError, match="method must be one of 'robust', 'ocsvm'.*keywords"):

@@ -272,14 +272,29 @@ def _given(**kwargs):
     return {k: v for k, v in kwargs.items() if v is not _UNSET}
 
 
-def normalize(x, method: str = DEFAULT_METHOD, *, power=_UNSET, gamma=_UNSET, nu=_UNSET, config=None, throw=False,
-              rotation=False, max_points=_UNSET, seed=0, **options) -> Pose:
+def _points_argument(points, options):
+    """normalize's points, also when named by the keyword ``x`` (popped from ``options``): the
+    argument's name until it followed the documented API, ``normalize(points, ...)``; warns."""
+    if "x" in options:
+        if points is not _UNSET:
+            raise _validate.InvalidInputError("normalize: the points are given twice (points and x); name them points")
+        warnings.warn("normalize(x=...) is deprecated: the argument is named points, normalize(points=...)",
+                      DeprecationWarning, stacklevel=3)
+        return options.pop("x")
+    if points is _UNSET:
+        raise TypeError("normalize() missing its points: normalize(points, method=...), points an (m, 3) array")
+    return points
+
+
+def normalize(points=_UNSET, method: str = DEFAULT_METHOD, *, power=_UNSET, gamma=_UNSET, nu=_UNSET, config=None,
+              throw=False, rotation=False, max_points=_UNSET, seed=0, **options) -> Pose:
     """The pose (center, scale) of a point cloud: the robust estimator (default) or the OCSVM.
 
     Args:
-      x: (m, 3) points (samples of a surface, or a scan's vertices), any units and offset
+      points: (m, 3) points (samples of a surface, or a scan's vertices), any units and offset
         (float32, float64; float16, bfloat16 and integers are promoted, concrete or traced alike:
-        :func:`jaxpose._validate.compute_dtype`); concrete or traced.
+        :func:`jaxpose._validate.compute_dtype`); concrete or traced. The keyword ``x=`` (its
+        name before it followed the documented API) still works and warns (DeprecationWarning).
       method: ``"robust"`` (default: the depth^p-weighted centroid of the points' robust voxel
         solid and its volume's cube root, :func:`robust_pipeline`; the same default as
         :func:`jaxpose.normalize_mesh`) or ``"ocsvm"`` (the paper's centroid c_m and mean
@@ -318,7 +333,7 @@ def normalize(x, method: str = DEFAULT_METHOD, *, power=_UNSET, gamma=_UNSET, nu
       cannot hold its coordinates or its spread at all (float32: coordinates above 3.4e38, an RMS
       spread below 1.2e-38; :func:`jaxpose.host.host_frame`)).
 
-    Pure JAX in (x, power) or (x, gamma, nu): jittable (options static), vmappable. Derivatives:
+    Pure JAX in (points, power) or (points, gamma, nu): jittable (options static), vmappable. Derivatives:
     robust, in ``power`` (exact) and in the points through the grid's position and pitch (the
     voxel occupancy is piecewise constant); ocsvm, in gamma and nu (by default the trend over
     +-1 %, ``docs/design.md``) and in the points. Concrete points are centered and scaled in
@@ -335,6 +350,7 @@ def normalize(x, method: str = DEFAULT_METHOD, *, power=_UNSET, gamma=_UNSET, nu
         pose = jaxpose.normalize(points, method="ocsvm", gamma=20.0)
         normalized = pose.apply(points)
     """
+    x = _points_argument(points, options)
     method = _check_method(method)
     given = {**_given(power=power, gamma=gamma, nu=nu, max_points=max_points), **options}
     config, params = _options(method, config, given, rotation)

@@ -144,8 +144,36 @@ class RobustOptions:
         _set(self, power=_real(self.power, "power", 0.0, math.inf))
 
 
+@dataclasses.dataclass(frozen=True)
+class TuneOptions:
+    """:func:`jaxpose.tuning.tune`'s schedule and data (``jaxpose tune``): the defaults of both.
+
+    Attributes:
+      steps: Adam steps (>= 0).
+      lr: Adam's learning rate in the tuned coordinates ((log gamma, logit nu) or log power), > 0.
+      reg: pull towards the start, a share of the start's loss per unit squared distance, >= 0.
+      scale_weight: weight of the scale's spread (cv) in the loss, >= 0.
+      holdout: share of each class's objects kept out of the loss and evaluated, in [0, 1).
+      count: surface samples per object, drawn afresh at every step.
+      instances: objects per class of the built-in procedural dataset (``jaxpose tune``).
+
+    Example::
+
+        result = tuning.tune(classes, steps=TUNE.steps * 2)  # twice the default schedule
+    """
+
+    steps: int = 12
+    lr: float = 0.1
+    reg: float = 0.05
+    scale_weight: float = 0.0
+    holdout: float = 0.0
+    count: int = 400
+    instances: int = 6
+
+
 OCSVM = OCSVMOptions()  # the defaults, read by every function that takes these parameters
 ROBUST = RobustOptions()
+TUNE = TuneOptions()
 OCSVM_ONLY = tuple(field.name for field in dataclasses.fields(OCSVMOptions))
 """The options only the OCSVM reads (as the center, the scale or the frame), the fields of
 :class:`OCSVMOptions`: ``("gamma", "nu", "count", "seed", "sampling")``. The one list that

@@ -40,7 +40,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from . import _validate
-from .config import OCSVM, ROBUST, PoseConfig, RobustConfig
+from .config import OCSVM, ROBUST, TUNE, PoseConfig, RobustConfig
 from .mesh import sample_surface
 from .sample import check_count
 from .occupancy.points import spacing_subset
@@ -155,8 +155,8 @@ def spread_of(samplers, gamma, nu, class_loss, seed):
     return objective(samplers, _start_theta(float(gamma), float(nu)), class_loss, seed)[1]
 
 
-def check_options(method="ocsvm", steps=12, lr=0.1, reg=0.05, scale_weight=0.0, holdout=0.0, seed=0, count=400,
-                  gamma0=OCSVM.gamma, nu0=OCSVM.nu, power0=ROBUST.power) -> dict:
+def check_options(method="ocsvm", steps=TUNE.steps, lr=TUNE.lr, reg=TUNE.reg, scale_weight=TUNE.scale_weight,
+                  holdout=TUNE.holdout, seed=0, count=TUNE.count, gamma0=OCSVM.gamma, nu0=OCSVM.nu, power0=ROBUST.power) -> dict:
     """:func:`tune`'s scalar arguments checked (before any class is loaded or anything compiled),
     as {name: value}: steps, seed int >= 0; lr, power0 finite > 0; reg, scale_weight finite >= 0;
     holdout in [0, 1); count a sample count (:func:`jaxpose.sample.check_count`); gamma0, nu0 as
@@ -183,8 +183,8 @@ def check_options(method="ocsvm", steps=12, lr=0.1, reg=0.05, scale_weight=0.0, 
     return out
 
 
-def tune(classes, gamma0=OCSVM.gamma, nu0=OCSVM.nu, steps=12, lr=0.1, scale_weight=0.0, holdout=0.0, holdout_classes=None,
-         seed=0, count=400, reg=0.05, progress=None, method="ocsvm", power0=ROBUST.power, **normalize_options) -> dict:
+def tune(classes, gamma0=OCSVM.gamma, nu0=OCSVM.nu, steps=TUNE.steps, lr=TUNE.lr, scale_weight=TUNE.scale_weight,
+         holdout=TUNE.holdout, holdout_classes=None, seed=0, count=TUNE.count, reg=TUNE.reg, progress=None, method="ocsvm", power0=ROBUST.power, **normalize_options) -> dict:
     """Tune (gamma, nu) or the robust power by gradient descent on the mean within-class center
     spread (module docs).
 

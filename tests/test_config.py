@@ -138,6 +138,17 @@ def test_every_entry_point_reads_the_one_default():
     assert pose_module._options("robust", None, {}, False) == (RobustConfig(), {"power": ROBUST.power})
     params = inspect.signature(tuning.tune).parameters
     assert (params["gamma0"].default, params["nu0"].default) == (OCSVM.gamma, OCSVM.nu)
+    # tune's schedule: config.TUNE, read by tune, check_options and the command (each kept its own copy)
+    from jaxpose.config import TUNE
+    command = tune.parser().parse_args([])
+    for field in dataclasses.fields(TUNE):
+        default = getattr(TUNE, field.name)
+        if field.name != "instances":
+            for fn in (tuning.tune, tuning.check_options):
+                assert inspect.signature(fn).parameters[field.name].default == default, (fn.__name__, field.name)
+        if field.name != "holdout":  # the command's holdout: 0.25 of the classes unless --holdout-data
+            assert getattr(command, field.name) == default, field.name
+    assert inspect.signature(tune.load_classes).parameters["instances"].default == TUNE.instances
     assert (NormalizeOptions().gamma, NormalizeOptions().nu, NormalizeOptions().count) == (
         OCSVM.gamma, OCSVM.nu, OCSVM.count)
     assert inspect.signature(estimators.robust_center_scale).parameters["power"].default == ROBUST.power

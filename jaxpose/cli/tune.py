@@ -10,9 +10,8 @@ import json
 import sys
 from pathlib import Path
 
-from ..config import OCSVM, ROBUST
+from ..config import OCSVM, ROBUST, TUNE
 from ..errors import InvalidInputError, JaxposeError  # (not _validate: it imports NumPy)
-from ..config import OCSVM
 
 __all__ = ["add_parser", "run", "parser", "load_classes"]
 
@@ -40,16 +39,19 @@ def parser():
     p.add_argument("--variants", default="plain", help="comma list of input variants (plain, outliers, big_outliers, "
                    "points, holes); each variant of a class counts as a class")
     p.add_argument("--classes", default=None, help="comma-separated subset of classes")
-    p.add_argument("--instances", type=int, default=6, help="objects per class (procedural dataset)")
-    p.add_argument("--steps", type=int, default=12, help="Adam steps in (log gamma, logit nu) (default 12)")
-    p.add_argument("--lr", type=float, default=0.1, help="Adam's learning rate in those coordinates (default 0.1)")
-    p.add_argument("--reg", type=float, default=0.05, help="pull towards the start (share of the start loss per "
-                   "unit of log gamma / logit nu squared)")
-    p.add_argument("--count", type=int, default=400, help="surface samples per object, drawn afresh at every step")
+    p.add_argument("--instances", type=int, default=TUNE.instances,
+                   help=f"objects per class (procedural dataset; default {TUNE.instances})")
+    p.add_argument("--steps", type=int, default=TUNE.steps, help=f"Adam steps (default {TUNE.steps})")
+    p.add_argument("--lr", type=float, default=TUNE.lr,
+                   help=f"Adam's learning rate in (log gamma, logit nu) or log power (default {TUNE.lr:g})")
+    p.add_argument("--reg", type=float, default=TUNE.reg, help="pull towards the start (share of the start loss per "
+                   f"unit of log gamma / logit nu squared; default {TUNE.reg:g})")
+    p.add_argument("--count", type=int, default=TUNE.count,
+                   help=f"surface samples per object, drawn afresh at every step (default {TUNE.count})")
     p.add_argument("--seed", type=int, default=0, help="seed of the samples, the variants and the held-out split "
                    "(default 0)")
-    p.add_argument("--scale-weight", type=float, default=0.0, help="weight of the scale's spread (cv) in the loss, "
-                   "beside the center's sigma_tr (default 0: the center only)")
+    p.add_argument("--scale-weight", type=float, default=TUNE.scale_weight, help="weight of the scale's spread (cv) in "
+                   f"the loss, beside the center's sigma_tr (default {TUNE.scale_weight:g}: the center only)")
     p.add_argument("--method", choices=("ocsvm", "robust"), default="ocsvm",
                    help="what to tune: the OCSVM's gamma and nu (default), or the robust estimator's depth power "
                    "(on the objects' surface samples as point clouds)")
@@ -70,7 +72,7 @@ def parser():
     return p
 
 
-def load_classes(folder, names=None, align_core=False, variants=("plain",), seed=0, instances=6):
+def load_classes(folder, names=None, align_core=False, variants=("plain",), seed=0, instances=TUNE.instances):
     """{class[/variant]: [mesh, ...]} from a folder of class sub-folders (None: the procedural dataset),
     optionally rigid-core aligned, in each input variant (:mod:`jaxpose.evaluation.variants`)."""
     from .. import datasets

@@ -234,6 +234,17 @@ def test_read_transforms_names_an_argument_that_is_not_a_path(tmp_path):
             jaxpose.read_transforms(bad)
 
 
+def test_read_transforms_names_a_missing_table_or_folder(tmp_path):
+    """A path that does not exist is named missing, whatever its suffix (a missing folder was
+    refused for its suffix: "a table must end in .parquet or .csv")."""
+    for name in ("missing", "missing/", "missing.csv", "missing.parquet"):
+        with pytest.raises(InvalidInputError, match="no such table or folder: .*missing"):
+            jaxpose.read_transforms(str(tmp_path / name))
+    os.mkfifo(tmp_path / "fifo.csv")
+    with pytest.raises(InvalidInputError, match="fifo.csv: not a regular file"):
+        jaxpose.read_transforms(str(tmp_path / "fifo.csv"))
+
+
 def test_a_script_that_reads_a_parquet_table_exits_cleanly(tmp_path, scans):
     """A Python process that reads a Parquet table with read_transforms exits with code 0: pyarrow
     26's threaded read could leave a thread that aborted the interpreter at exit ("terminate called

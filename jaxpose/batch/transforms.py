@@ -402,9 +402,11 @@ def location_of(path):
 
 def _read_table(path):
     path = location_of(path)
+    if not path.exists():  # before the suffix: a missing folder ("out/") is missing, not a bad suffix
+        raise InvalidInputError(f"no such table or folder: {path}")
     kind = table_format(path)
     if not path.is_file():
-        raise InvalidInputError(f"no such table: {path}")
+        raise InvalidInputError(f"{path}: not a regular file (a table is one)")
     data = path.read_bytes()
     if kind == "parquet":
         import pyarrow as pa

@@ -123,11 +123,13 @@ def spacing_quantile(points, mask, queries, query_mask, k=4, q=0.9, block=256):
       k: neighbour rank (4); q: quantile (0.9); block: queries per block (memory O(block n)).
 
     Returns:
-      () float, in the units of ``points``.
+      () float, in the units of ``points``; differentiable in them through the distances of the
+      chosen neighbours (which neighbours and which quantile rank are piecewise constant).
     """
     pts = lax.stop_gradient(points)
     center = jnp.sum(jnp.where(mask[:, None], pts, 0), 0) / jnp.maximum(jnp.sum(mask), 1)
-    p = pts - center
+    dp = points - center  # differentiable: the distances of the chosen neighbours carry derivatives
+    p = lax.stop_gradient(dp)  # the choice of neighbours does not
     pn = jnp.where(mask, jnp.sum(p * p, axis=1), jnp.inf)
     m = queries.shape[0]
     pad = (-m) % block
@@ -140,9 +142,10 @@ def spacing_quantile(points, mask, queries, query_mask, k=4, q=0.9, block=256):
         x = p[rows]
         d2 = jnp.sum(x * x, 1)[:, None] + pn[None, :] - 2.0 * x @ p.T  # +inf on padding
         _, idx = lax.top_k(-d2, cand)
-        exact = jnp.sum((x[:, None, :] - p[idx]) ** 2, axis=-1)
+        exact = jnp.sum((dp[rows][:, None, :] - dp[idx]) ** 2, axis=-1)
         exact = jnp.where(mask[idx], exact, jnp.inf)
-        return jnp.sqrt(jnp.sort(exact, axis=1)[:, rank])  # rank 0 is the point itself
+        d2 = jnp.sort(exact, axis=1)[:, rank]  # rank 0 is the point itself
+        return jnp.where(d2 > 0, jnp.sqrt(jnp.where(d2 > 0, d2, 1.0)), 0.0)  # no NaN derivative at 0
 
     r = lax.map(kth, qi).reshape(-1)[:m]
     return _masked_quantile(r, query_mask & jnp.isfinite(r), q)
@@ -393,7 +396,6 @@ def point_solid(points, mask, queries, config: RobustConfig, query_mask=None) ->
     Returns:
       :class:`PointSolid`; its ``inside`` is empty when the points enclose no volume.
     """
-    points = lax.stop_gradient(points)
     n = points.shape[0]
     mask = jnp.ones((n,), bool) if mask is None else jnp.asarray(mask, bool)
     queries = jnp.asarray(queries, jnp.int32)

@@ -178,7 +178,8 @@ def robust_pipeline(points, mask, queries, query_mask, power, config: RobustConf
     mom = robust_moments(inside, sol.occupied, corner, unit, power, POINT_BIAS)
     center = sol.origin + sol.pitch * mom.center
     volume = mom.volume * sol.pitch**3
-    scale = jnp.cbrt(jnp.maximum(volume, 0.0))
+    # cbrt(max(volume, 0)) (NaN kept), without cbrt's infinite slope at 0 (a NaN derivative)
+    scale = jnp.where(volume > 0, jnp.cbrt(jnp.where(volume > 0, volume, 1.0)), jnp.where(jnp.isnan(volume), volume, 0.0))
     sg = jax.lax.stop_gradient
     degenerate = no_extent(points, mask)
     finite = jnp.all(jnp.isfinite(center)) & jnp.isfinite(scale) & (scale > 0)

@@ -208,16 +208,21 @@ def test_core_normalize_differentiable_in_gamma(small_points):
 def test_reverse_mode_in_points_still_works(small_points):
     """Gradients in the points bypass the forward-column rule (_hyper.hyper_jvp): plain reverse
     mode, equal to the JVP along a random direction; and jointly with gamma (exact mode: the
-    points' derivative is the implicit one in every mode)."""
+    points' derivative is the implicit one in every mode). Identical points (a flagged
+    DEGENERATE_INPUT pose) have finite derivatives (the reference size's sqrt at 0 made them NaN,
+    which a masked loss over a batch would carry into every gradient)."""
     opts = {**SMALL, "derivative": "exact"}
     f = lambda p, g: jaxpose.normalize(p, method="ocsvm", gamma=g, nu=0.5, **opts).scale
     v = jnp.asarray(np.random.default_rng(0).normal(size=small_points.shape))
     # reverse and forward mode in the points in one compiled program (the points traced, as under
     # grad alone): compiled together they share their primal work
-    (gp, gg), (_, jv) = jax.jit(lambda p, g, v: (jax.grad(f, argnums=(0, 1))(p, g), jax.jvp(lambda q: f(q, g), (p,), (v,))))(
-        small_points, 47.0, v)
+    both = jax.jit(lambda p, g, v: (jax.grad(f, argnums=(0, 1))(p, g), jax.jvp(lambda q: f(q, g), (p,), (v,))))
+    (gp, gg), (_, jv) = both(small_points, 47.0, v)
     np.testing.assert_allclose(float(jnp.vdot(gp, v)), float(jv), rtol=1e-8)
     np.testing.assert_allclose(float(gg), float(jax.grad(f, argnums=1)(small_points, 47.0)), rtol=1e-8)
+    same = jnp.broadcast_to(small_points[0], small_points.shape)  # the same program
+    (gp, gg), (_, jv) = both(same, 47.0, v)
+    assert np.all(np.isfinite(gp)) and np.isfinite(float(gg)) and np.isfinite(float(jv))
 
 
 def _fd(points, g, n, param, eps, **opts):

@@ -45,7 +45,9 @@ def reference_frame(points, mask=None):
     mean = jnp.sum(w[:, None] * points, axis=0) / n
     mean = mean + jnp.sum(w[:, None] * (points - mean), axis=0) / n
     d = points - mean
-    rms = jnp.sqrt(jnp.sum(w * jnp.sum(d * d, axis=-1)) / n)
+    ms = jnp.sum(w * jnp.sum(d * d, axis=-1)) / n
+    # sqrt(ms) (NaN kept), without sqrt's infinite slope at 0 (identical points: a NaN derivative)
+    rms = jnp.where(ms > 0, jnp.sqrt(jnp.where(ms > 0, ms, 1.0)), jnp.where(jnp.isnan(ms), ms, 0.0))
     return mean, rms / REFERENCE_RMS
 
 

@@ -30,6 +30,7 @@ import dataclasses
 import math
 import numbers
 
+from ._validate import check_bool
 from .errors import InvalidInputError
 
 __all__ = ["SAMPLING", "OCSVMOptions", "OCSVM", "OCSVM_ONLY", "RobustOptions", "ROBUST", "RobustConfig", "SolverConfig", "GridConfig", "PoseConfig", "BLOCK", "KERNELS", "SOLVERS", "DERIVATIVES", "MEMORY_BUDGET",
@@ -256,8 +257,7 @@ class GridConfig:
         refine = _int(self.refine, "refine", 1)
         if refine & (refine - 1):
             raise InvalidInputError(f"refine must be a power of 2, got {self.refine!r}")
-        if not isinstance(self.extrapolate, (bool, type(True))):
-            raise InvalidInputError(f"extrapolate must be a bool, got {self.extrapolate!r}")
+        check_bool(self.extrapolate, "extrapolate")  # Python or NumPy bools, as every bool option
         _set(self, resolution=_int(self.resolution, "resolution", 8), refine=refine,
              band=_int(self.band, "band", 0), block=_int(self.block, "block", 1), extrapolate=bool(self.extrapolate))
         if self.memory > MEMORY_BUDGET:

@@ -26,6 +26,10 @@ def test_configs_are_frozen_and_hashable():
 
     f = jax.jit(lambda x, config: x * config.grid.resolution, static_argnames=("config",))
     assert float(f(jnp.asarray(2.0), config=cfg)) == 64.0
+    # NumPy numbers and bools as options: the same config, one static key (extrapolate=np.True_ was
+    # refused, where every other bool option takes NumPy bools)
+    same = PoseConfig.create(resolution=np.int64(32), tol=np.float64(1e-4), extrapolate=np.True_)
+    assert same == cfg and hash(same) == hash(cfg) and type(same.grid.extrapolate) is bool
 
 
 def test_flat_options_reach_the_right_object():

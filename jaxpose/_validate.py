@@ -189,8 +189,13 @@ def check_bool(value, name):
 
 def check_real(value, name, minimum, strict=False):
     """``value`` as a finite float >= ``minimum`` (> with ``strict``); bools, non-numbers, NaN, inf
-    and ints beyond a float's range refused by name."""
+    and ints beyond a float's range refused by name. A concrete () array of reals (NumPy or JAX)
+    is its number."""
     number, shown = None, None
+    dtype = getattr(value, "dtype", None)
+    if (getattr(value, "shape", None) == () and dtype is not None and is_real_dtype(dtype)
+            and not isinstance(value, np.generic) and not is_traced(value)):
+        value = np.asarray(value).item()
     if not isinstance(value, (bool, np.bool_)) and isinstance(value, (numbers.Real, np.floating, np.integer)):
         try:
             number = float(value)

@@ -72,9 +72,14 @@ def test_bad_power_is_refused(shape_solid):
     for power in (-1.0, float("nan"), "4", True):
         with pytest.raises(InvalidInputError, match="power"):
             estimators.solid_center_volume(shape_solid, power)
-    for power in (-1.0, float("nan"), "4"):
+    for power in (-1.0, float("nan"), "4", np.array(True)):
         with pytest.raises(InvalidInputError, match="power"):
             moments.solid_moments(shape_solid, power)
+    # a power given as a () NumPy or JAX array is its number (refused as "not a finite number >= 0")
+    want_jax, want_host = moments.solid_moments(shape_solid, 4.0).center, estimators.solid_center_volume(shape_solid, 4.0)
+    for power in (np.array(4.0), jnp.float32(4.0)):
+        np.testing.assert_array_equal(moments.solid_moments(shape_solid, power).center, want_jax)
+        np.testing.assert_array_equal(estimators.solid_center_volume(shape_solid, power)[0], want_host[0])
 
 
 @pytest.mark.shared

@@ -251,9 +251,7 @@ def _check_power(power):
     if _validate.is_traced(power):
         return power
     # a () array of reals (NumPy or a concrete JAX array) is checked as its number, and returned as it is
-    dtype = getattr(power, "dtype", None)
-    real = getattr(power, "shape", None) == () and dtype is not None and _validate.is_real_dtype(dtype)
-    value = _validate.check_real(np.asarray(power).item() if real else power, "power", 0)
+    value = _validate.check_real(power, "power", 0)
     _validate.check_default_float(value, "power")  # beyond its max: inf inside the pipeline
     return power
 

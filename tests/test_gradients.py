@@ -305,6 +305,12 @@ def test_pose_sensitivity_types(small_points):
     for k in ("dscale_dgamma", "dscale_dnu", "scale"):
         assert np.shape(S[k]) == () and np.isfinite(S[k])
     assert S["converged"] and S["valid"]
+    # a host function: traced inputs are refused by name before any work (a TracerArrayConversionError
+    # came out of np.asarray after tracing the whole jacfwd)
+    for call, name in ((lambda g: pose_sensitivity(np.asarray(shape_points), g, 0.4), "gamma"),
+                       (lambda p: pose_sensitivity(p, 30.0, 0.4), "points")):
+        with pytest.raises(jaxpose.InvalidInputError, match=f"traced {name}.*jax.jacfwd"):
+            jax.jit(call)(30.0 if name == "gamma" else shape_points)
 
 
 def test_pose_rejects_bad_options(shape_points):

@@ -42,12 +42,21 @@ def pose_sensitivity(points, gamma=OCSVM.gamma, nu=OCSVM.nu, **options) -> dict:
       "dscale_dnu" ()} as float NumPy arrays in the units of ``points`` (by default the trend over
       gamma (1 +- gamma_delta) and nu (1 +- nu_delta)), plus "converged" and "valid" (bools).
 
+    Raises:
+      InvalidInputError: bad points, gamma, nu or option; a traced one (a host function: under
+        jit / vmap / grad take ``jax.jacfwd`` of :func:`jaxpose.normalize`).
+
     Example::
 
         points = jaxpose.sample_surface(mesh, 2000, seed=0)
         s = jaxpose.pose_sensitivity(points, gamma=47.0, nu=0.5)
         s["dcenter_dgamma"].shape, s["dscale_dnu"].shape, s["converged"]   # (3,), (), True
     """
+    traced = [name for name, v in (("points", points), ("gamma", gamma), ("nu", nu)) if _validate.is_traced(v)]
+    if traced:  # its results are NumPy values: np.asarray of a tracer would fail deep inside
+        raise _validate.InvalidInputError(
+            f"pose_sensitivity returns NumPy values and takes concrete inputs, got a traced {traced[0]}; "
+            "under jit / vmap / grad use jax.jacfwd of jaxpose.normalize(points, method='ocsvm', gamma=..., nu=...)")
     _validate.check_gamma(gamma)
     _validate.check_nu(nu)
     points = np.asarray(_validate.check_points(points))

@@ -489,12 +489,18 @@ def test_evaluate_rotation_and_cli(tmp_path, capsys, body_frame):
         for k, x in enumerate(meshes):
             x.export(tmp_path / "data" / name / f"{k}.ply")
     out = tmp_path / "rot.json"
-    code = cli.main(["evaluate", "--data", str(tmp_path / "data"), "--align-core", "--rotation", "core,pca_surface",
+    code = cli.main(["evaluate", "--data", str(tmp_path / "data"), "--align-core", "--rotation", "core,pca_surface,inertia",
                      "--json", str(out), "--plots", str(tmp_path / "fig"), "--per-class"])
     printed = capsys.readouterr().out
     assert code == 0 and "pca_surface" in printed and "class a (3 objects)" in printed and "class b" in printed
-    saved = json.loads(out.read_text())
-    assert saved["params"]["methods"] == ["core", "pca_surface"]
+
+    def refuse(token):  # NaN / Infinity are not JSON (RFC 8259): strict readers (JavaScript, jq --seq, serde) refuse them
+        raise ValueError(f"{token} in the --json file")
+
+    saved = json.loads(out.read_text(), parse_constant=refuse)
+    assert saved["params"]["methods"] == ["core", "pca_surface", "inertia"]
+    inertia = saved["variants"]["plain"]["per_class"]["a"]["inertia"]  # no ambiguity measure: null, as its flagged share
+    assert inertia["ambiguity"] == [None] * 3 and inertia["flagged"] is None and len(inertia["raw"]) == 3
     assert (tmp_path / "fig" / "rotation_angles_plain.png").exists()
 
 

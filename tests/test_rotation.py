@@ -522,6 +522,22 @@ def test_cli_normalize_rotation_json_round_trip(tmp_path, capsys):
                                np.c_[v_in, np.ones(len(v_in))].T, atol=1e-9)
 
 
+def test_cli_normalize_inertia_frame_writes_strict_json(tmp_path):
+    """The inertia frame has no ambiguity measure (NaN): the transform JSON writes it as null, not the
+    bare token NaN, which strict JSON readers refuse (it did). The round-trip test's mesh and grid."""
+    src, dst = tmp_path / "in.ply", tmp_path / "out.ply"
+    person().export(src)
+    assert cli.main(["normalize", str(src), "-o", str(dst), "--rotation", "inertia", "--resolution", "48"]) == 0
+
+    def refuse(token):
+        raise ValueError(f"not JSON: {token}")
+
+    record = json.loads((tmp_path / "out.transform.json").read_text(), parse_constant=refuse)
+    assert record["rotation_method"] == "inertia" and record["ambiguity"] is None
+    assert record["rotation_flagged"] is False
+    assert np.linalg.det(np.asarray(record["rotation"])) == pytest.approx(1.0)
+
+
 TOSCA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "tosca-dev"
 
 

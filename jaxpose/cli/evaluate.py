@@ -6,12 +6,10 @@ on stderr, the files written, and the table with its legend on stdout.
 """
 from __future__ import annotations
 
-import json
-import math
 import sys
 from pathlib import Path
 
-from .common import add_svm_options, check_creatable, check_dataset_choice, check_output_file, fail
+from .common import add_svm_options, check_creatable, check_dataset_choice, check_output_file, fail, json_text
 
 __all__ = ["add_parser", "run"]
 
@@ -159,33 +157,11 @@ def _write_result(args, result, figures):
         from ..io.atomic import write_atomic
 
         Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-        write_atomic(args.json, _json_text(result), force=args.force)
+        write_atomic(args.json, json_text(result), force=args.force)
     if args.plots:
         from .. import plot
 
         getattr(plot, figures)(result, args.plots)
-
-
-def _json_text(result) -> str:
-    """An evaluation's result as strict JSON text (RFC 8259), indented, with a final newline.
-
-    A float that is not finite is written as ``null``: the ``inertia`` frame's per-instance
-    ``ambiguity`` is NaN (it has no ambiguity measure), and ``json.dumps`` would write the bare
-    token ``NaN``, which is not JSON (strict readers refuse the file). Nothing else changes.
-
-    >>> _json_text({"ambiguity": [float("nan"), 0.5]})
-    '{\\n  "ambiguity": [\\n    null,\\n    0.5\\n  ]\\n}\\n'
-    """
-    def finite(value):
-        if isinstance(value, float):
-            return value if math.isfinite(value) else None
-        if isinstance(value, dict):
-            return {key: finite(item) for key, item in value.items()}
-        if isinstance(value, (list, tuple)):
-            return [finite(item) for item in value]
-        return value
-
-    return json.dumps(finite(result), indent=2, allow_nan=False) + "\n"
 
 
 def _say_written(args):

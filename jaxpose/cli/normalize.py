@@ -6,13 +6,12 @@ of what will be written (formats, aliasing names, folders, existing files) befor
 """
 from __future__ import annotations
 
-import json
 import os
 import sys
 from pathlib import Path
 
 from ..config import OCSVM_ONLY
-from .common import add_svm_options, checked, fail
+from .common import add_svm_options, checked, fail, json_text
 
 __all__ = ["add_parser", "run", "transform_path", "EXAMPLE"]
 
@@ -212,7 +211,7 @@ def _normalize_one(args, options, source, fail):
     if output is not None:
         mesh.export(normalized, output, force=args.force)
     if json_path is not None:
-        mesh.write_atomic(json_path, json.dumps(record, indent=2) + "\n", force=args.force)
+        mesh.write_atomic(json_path, json_text(record), force=args.force)
     _print_transform(record, args.output, json_path)
     if not record["converged"]:
         print("jaxpose: warning: the solver stopped at its iteration cap", file=sys.stderr)

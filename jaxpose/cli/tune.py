@@ -6,7 +6,6 @@ success, 1 failure (message on stderr), 2 usage error.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
@@ -130,7 +129,7 @@ def run(argv) -> int:
 def _run(args) -> int:
     from ..mesh import write_atomic
     from ..tuning import check_options, tune
-    from .common import check_dataset_choice
+    from .common import check_dataset_choice, json_text
 
     say = lambda s: print(s, file=sys.stderr, flush=True)
     try:
@@ -160,7 +159,7 @@ def _run(args) -> int:
                           variants=list(variants))
     if args.json:
         Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-        write_atomic(args.json, json.dumps(result, indent=2).encode(), force=True)  # checked before the run
+        write_atomic(args.json, json_text(result).encode(), force=True)  # checked before the run
     tr, ho = result["train"], result["holdout"]
     print(", ".join(f"{k} {result[k + '0']:.4g} -> {v:.4g}" for k, v in result["tuned"].items()))
     print(f"train sigma_tr {tr['sigma_tr_start']:.5g} -> {tr['sigma_tr_tuned']:.5g}")

@@ -30,11 +30,10 @@ import dataclasses
 import math
 import numbers
 
-from ._validate import check_bool
-from .errors import InvalidInputError
+from .errors import InvalidInputError  # (not _validate: the command line imports this module before NumPy)
 
 __all__ = ["SAMPLING", "OCSVMOptions", "OCSVM", "OCSVM_ONLY", "RobustOptions", "ROBUST", "RobustConfig", "SolverConfig", "GridConfig", "PoseConfig", "BLOCK", "KERNELS", "SOLVERS", "DERIVATIVES", "MEMORY_BUDGET",
-           "CELL_BYTES", "ITERATION_LIMIT"]
+           "CELL_BYTES", "ITERATION_LIMIT", "TuneOptions", "TUNE"]
 
 SAMPLING = ("even", "random")  # how surface samples are drawn (jaxpose.sample.sample_surface)
 BLOCK = 2048  # rows per block: kernel products and grid cells (memory O(BLOCK * m))
@@ -51,6 +50,16 @@ def _int(value, name, minimum):
     if int(value) < minimum:
         raise InvalidInputError(f"{name} must be >= {minimum}, got {value!r}")
     return int(value)
+
+
+def _bool(value, name):
+    """``value`` as a bool: Python's or NumPy's, as :func:`jaxpose._validate.check_bool` takes;
+    NumPy's told by its type, without importing NumPy (the command line imports this module
+    before NumPy, to give NumPy one BLAS thread first: :func:`jaxpose.batch.workers.configure_process`)."""
+    kind = type(value)
+    if not (kind is bool or (kind.__module__ == "numpy" and kind.__name__ in ("bool", "bool_"))):
+        raise InvalidInputError(f"{name} must be True or False, got {value!r}")
+    return bool(value)
 
 
 def _choice(value, name, choices):
@@ -257,9 +266,9 @@ class GridConfig:
         refine = _int(self.refine, "refine", 1)
         if refine & (refine - 1):
             raise InvalidInputError(f"refine must be a power of 2, got {self.refine!r}")
-        check_bool(self.extrapolate, "extrapolate")  # Python or NumPy bools, as every bool option
         _set(self, resolution=_int(self.resolution, "resolution", 8), refine=refine,
-             band=_int(self.band, "band", 0), block=_int(self.block, "block", 1), extrapolate=bool(self.extrapolate))
+             band=_int(self.band, "band", 0), block=_int(self.block, "block", 1),
+             extrapolate=_bool(self.extrapolate, "extrapolate"))
         if self.memory > MEMORY_BUDGET:
             largest = int((MEMORY_BUDGET / CELL_BYTES - self._children) ** (1.0 / 3.0)) if \
                 MEMORY_BUDGET / CELL_BYTES > self._children else 0

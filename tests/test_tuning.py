@@ -193,10 +193,11 @@ def test_cli_tune_usage_and_errors(tmp_path, capsys):
     assert tuning_cli.run(["--data", str(tmp_path / "missing"), "--steps", "0"]) == 1
     assert tuning_cli.run(["--solver", "newton"]) == 2
     assert tuning_cli.run(["--variants", "plain,bogus", "--steps", "0"]) == 1
-    # an existing --json is refused before any work (bench and evaluate do the same), kept intact
+    # an existing --json is refused before any work (bench and evaluate do the same), kept intact: a usage
+    # error (exit 2), as every output path that cannot be used
     out = tmp_path / "r.json"
     out.write_text("keep")
-    assert tuning_cli.run(["--data", str(tmp_path / "missing"), "--json", str(out)]) == 1
+    assert tuning_cli.run(["--data", str(tmp_path / "missing"), "--json", str(out)]) == 2
     assert "use --force" in capsys.readouterr().err
     assert out.read_text() == "keep"
 

@@ -501,8 +501,8 @@ def test_cli_bad_and_degenerate_files(tmp_path, capsys):
         ([tmp_path / "cloud.ply", "--method", "ocsvm", "--count", "2"], 2, "count must be >= 4"),
         ([tmp_path / "cloud.ply", "--resolution", "2"], 2, "resolution must be >= 8"),
         ([tmp_path / "cloud.ply", "--count", "200"], 2, "applies to the ocsvm method"),
-        ([tmp_path / "cloud.ply", "-o", tmp_path / "flat.obj" / "x.ply"], 1, "is a file"),
-        ([tmp_path / "cloud.ply", "-o", tmp_path / "flat.obj"], 1, "exists"),
+        ([tmp_path / "cloud.ply", "-o", tmp_path / "flat.obj" / "x.ply"], 2, "is a file"),  # output paths: usage
+        ([tmp_path / "cloud.ply", "-o", tmp_path / "flat.obj"], 2, "exists"),
         ([], 2, "needs an INPUT"),
     ]
     for args, code, fragment in failures:

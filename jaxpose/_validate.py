@@ -11,6 +11,7 @@ import sys
 
 import numpy as np
 
+from .config import _bool
 from .errors import ConvergenceError, InvalidInputError, InvalidPoseWarning, JaxposeError, OpenMeshWarning
 
 __all__ = [
@@ -182,9 +183,7 @@ def check_int(value, name, minimum):
 def check_bool(value, name):
     """``value`` as a bool (Python or NumPy bools only); a clear error otherwise (a string such as
     ``"no"`` would be truthy)."""
-    if not isinstance(value, (bool, np.bool_)):
-        raise InvalidInputError(f"{name} must be True or False, got {value!r}")
-    return bool(value)
+    return _bool(value, name)  # config's rule (NumPy-free: config is imported before NumPy)
 
 
 def check_real(value, name, minimum, strict=False):

@@ -187,6 +187,32 @@ def test_cli_rerun_with_other_options_is_a_usage_error_before_any_work(tmp_path,
     assert "--method robust there, bbox here" in err and "--force" in err and "Traceback" not in err, err
 
 
+def test_a_spelled_out_default_resolution_is_the_same_options(tmp_path, tree, capsys, monkeypatch):
+    """Options are compared resolved: --resolution at the estimator's default (jaxpose.config) is
+    no --resolution (a rerun spelling out the default was refused, exit 2, as other options)."""
+    from jaxpose.config import GridConfig, RobustConfig
+
+    robust, ocsvm = RobustConfig().resolution, GridConfig().resolution
+    sphere, out = tmp_path / "scans" / "sphere.off", tmp_path / "out"
+    assert run([sphere], out, options=NormalizeOptions()).written == 1  # a folder written with no resolution
+    again = run([sphere], out, options=NormalizeOptions(resolution=robust))
+    assert (again.written, again.skipped) == (0, 1)
+    other = tmp_path / "other"  # the reverse: the default spelled out first, then left out
+    assert run([sphere], other, options=NormalizeOptions(resolution=robust)).written == 1
+    assert run([sphere], other, options=NormalizeOptions()).skipped == 1
+    monkeypatch.setattr(batch._Run, "execute", lambda *a, **k: pytest.fail("work started"))
+    code = cli.main(["normalize", str(sphere), "-o", str(out), "--workers", "1", "--resolution", str(robust)])
+    captured = capsys.readouterr()
+    assert code == 0 and "1 already done" in captured.out, captured.err  # was exit 2
+    with pytest.raises(UsageError, match=f"--resolution {robust} there, 24 here"):  # numbers, not 'default'
+        run([sphere], out, options=NormalizeOptions(resolution=24))
+    # the OCSVM reads its grid's resolution (where it is the center or the scale), not the solid's
+    for fields in (dict(method="ocsvm"), dict(center="robust_depth", scale="ocsvm")):
+        assert NormalizeOptions(**fields).settings() == NormalizeOptions(**fields, resolution=ocsvm).settings()
+        assert NormalizeOptions(**fields).settings() != NormalizeOptions(**fields, resolution=robust).settings()
+    assert NormalizeOptions(method="bbox").settings()["resolution"] is None  # no estimator reads one
+
+
 def test_an_output_folder_named_through_a_link_is_the_same_folder(tmp_path, tree):
     """Outputs compare by resolved path: -o LINK to OUTDIR redid every input (and doubled rows)."""
     root, out, link = tmp_path / "scans", tmp_path / "out", tmp_path / "link"

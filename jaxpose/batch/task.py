@@ -19,7 +19,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..config import OCSVM, OCSVM_ONLY
+from ..config import OCSVM, OCSVM_ONLY, GridConfig, RobustConfig
 
 __all__ = ["NormalizeOptions", "FileResult", "normalize_file", "one_line", "sha256_file", "warm_up", "recorded_settings"]
 
@@ -81,6 +81,23 @@ class NormalizeOptions:
 
         return "ocsvm" in (*resolve(self.method, self.center, self.scale), self.rotation_method)
 
+    @property
+    def resolved_resolution(self) -> int | None:
+        """The resolution the estimators use: the one given, else the default of the estimator that
+        reads it (the OCSVM's grid, :class:`jaxpose.config.GridConfig`, where the OCSVM is the center
+        or the scale; else the robust solid's, :class:`jaxpose.config.RobustConfig`, for the
+        ``robust_depth`` center or the ``robust_volume`` scale); None where no estimator reads one."""
+        from ..pose.estimators import resolve
+
+        if self.resolution is not None:
+            return self.resolution
+        c_name, s_name = resolve(self.method, self.center, self.scale)
+        if "ocsvm" in (c_name, s_name):  # as jaxpose.mesh.check_arguments routes a resolution
+            return GridConfig().resolution
+        if c_name == "robust_depth" or s_name == "robust_volume":
+            return RobustConfig().resolution
+        return None
+
     def mesh_arguments(self) -> dict:
         """The keyword arguments of :func:`jaxpose.normalize_mesh` these options stand for (the
         OCSVM's own where it is used or where they differ from their defaults)."""
@@ -111,10 +128,12 @@ class NormalizeOptions:
 
         ``method`` (the default's name for None), ``center`` and ``scale`` (the estimators), the
         OCSVM's ``gamma``, ``nu``, ``count``, ``seed``, ``sampling`` only where it runs (no other
-        estimator reads them), ``resolution`` (None: the estimator's default), ``rotation`` (the
-        frame's method, or None), ``strict``, and ``format`` (the output format, None: each
-        input's). Equal settings, equal outputs: ``NormalizeOptions()`` and
-        ``NormalizeOptions(method="robust")`` have the same settings, not the same fingerprint.
+        estimator reads them), ``resolution`` (:attr:`resolved_resolution`: a default written out
+        is the default left out), ``rotation`` (the frame's method, or None), ``strict``, and
+        ``format`` (the output format, None: each input's). Equal settings, equal outputs:
+        ``NormalizeOptions()``, ``NormalizeOptions(method="robust")`` and
+        ``NormalizeOptions(resolution=RobustConfig().resolution)`` have the same settings, not the
+        same fingerprint (which keeps the options as given: the ``options`` column).
         """
         from ..pose.estimators import DEFAULT_METHOD, resolve
 
@@ -122,7 +141,8 @@ class NormalizeOptions:
         out = {"method": self.method or DEFAULT_METHOD, "center": c_name, "scale": s_name}
         if self.uses_jax:
             out.update({name: getattr(self, name) for name in OCSVM_ONLY})
-        out.update(resolution=self.resolution, rotation=self.rotation_method, strict=self.strict, format=file_format)
+        out.update(resolution=self.resolved_resolution, rotation=self.rotation_method, strict=self.strict,
+                   format=file_format)
         return out
 
 

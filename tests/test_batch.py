@@ -228,6 +228,29 @@ def test_an_output_folder_named_through_a_link_is_the_same_folder(tmp_path, tree
     assert (again.written, again.skipped) == (0, 4) and stable(again.rows) == stable(first.rows)
 
 
+def test_an_input_folder_named_through_a_link_or_relatively_is_the_same_input(tmp_path, tree, monkeypatch):
+    """Inputs compare by their folder's real path: a rerun naming the input folder through a link
+    was refused ('holds the output of scans/x, not of link/x'); the table names each input under
+    its folder's real path, as it names outputs (a link to a file keeps its own name)."""
+    root, out, link = tmp_path / "scans", tmp_path / "out", tmp_path / "link"
+    first = run([root], out)
+    link.symlink_to(root)
+    monkeypatch.chdir(tmp_path)
+    for name in (link, str(link) + "/", "link", "scans", link / "a" / ".."):
+        again = run([name], out)
+        assert (again.written, again.skipped) == (0, 4), name
+        assert stable(again.rows) == stable(first.rows), name  # one row per input, its folder's real path
+    capsule = link / "a" / "capsule.ply"  # a changed input, read through the link: recorded by its real path
+    os.utime(capsule, ns=(capsule.stat().st_atime_ns, capsule.stat().st_mtime_ns + 10**9))
+    again = run([link], out)
+    assert (again.written, again.skipped) == (1, 3) and {r.input for r in again.rows} == {r.input for r in first.rows}
+    assert all(r.input.startswith(str(root) + os.sep) for r in again.rows)
+    journal = out / ".jaxpose" / "journal.jsonl"  # records naming inputs through the link (written so before)
+    journal.write_bytes(journal.read_bytes().replace(str(root).encode(), str(link).encode()))
+    again = run([root], out)
+    assert (again.written, again.skipped) == (0, 4) and {r.input for r in again.rows} == {r.input for r in first.rows}
+
+
 def test_second_run_on_one_folder_is_refused(tmp_path, tree):
     out = tmp_path / "out"
     with OutputFolder(out):

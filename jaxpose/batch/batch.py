@@ -108,6 +108,11 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
     transforms.check_replaceable(table, force)
     if shard is not None:  # after the checks of the whole plan: every shard refuses alike
         items = [item for item in items if shard_index(item.source.relative_to(found.root), shard[1]) == shard[0]]
+    # each input by its folder's real path (its own name kept): a folder named through a link, or
+    # through "..", is one folder, as OUTDIR is; the journal and the table name inputs so
+    folders = {}
+    items = [item._replace(source=_real_folder(item.source, folders)) for item in items]
+    irregular = {_real_folder(path, folders): kind for path, kind in found.irregular.items()}
     fingerprint, settings = options.fingerprint(file_format), options.settings(file_format)
     fixed = options.columns()
     with open_output_folder(output_dir, force=force, shard=shard) as folder:
@@ -133,8 +138,8 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
         try:
             work = []
             for item, key in todo:  # what a folder search met that is not a file: failed unread
-                if item.source in found.irregular:
-                    run.finish(item, key, _not_regular(item.source, found.irregular[item.source]))
+                if item.source in irregular:
+                    run.finish(item, key, _not_regular(item.source, irregular[item.source]))
                 else:
                     work.append((item, key))
             if work and not run.stopped:
@@ -373,24 +378,34 @@ def _shown(value):
         f"{value:g}" if isinstance(value, float) else str(value)
 
 
+def _real_folder(path, folders):
+    """A local path with its folder's real path (links and ".." taken out) and its own name (a link
+    to a file stays that link); a remote path as it is. `folders` caches the folders' real paths
+    (one ``realpath`` per folder: thousands of paths share a few)."""
+    from ..io.remote import RemotePath, is_url
+
+    if isinstance(path, RemotePath) or is_url(str(path)):
+        return path
+    head, name = os.path.split(str(path))
+    if head not in folders:
+        folders[head] = os.path.realpath(head)
+    real = os.path.join(folders[head], name)
+    return path if real == str(path) else Path(real) if isinstance(path, Path) else real
+
+
 def _resolved(entries, output_dir):
-    """The records with each output's path resolved (links and ".." taken out, as `output_dir`'s is),
-    so that an output recorded under another name of its folder (an earlier run given a link to it,
-    or a version that kept the name as given) is recognized as the same file; remote paths as they are."""
+    """The records with each output's and each local input's folder resolved (links and ".." taken
+    out, as `output_dir`'s is, and as a run names its inputs), so that a file recorded under another
+    name of its folder (an earlier run given a link to it, or a version that kept the name as given)
+    is recognized as the same file; remote paths as they are."""
     from ..io.remote import RemotePath
 
-    if isinstance(output_dir, RemotePath):
-        return entries
     folders, out = {}, []
     for record in entries:
-        path = record.get("output")
-        if path:
-            head, name = os.path.split(path)
-            if head not in folders:  # one realpath per folder: thousands of records share a few
-                folders[head] = os.path.realpath(head)
-            if os.path.join(folders[head], name) != path:
-                record = {**record, "output": os.path.join(folders[head], name)}
-        out.append(record)
+        changed = {key: _real_folder(record[key], folders) for key in ("input", "output")
+                   if record.get(key) and not (key == "output" and isinstance(output_dir, RemotePath))}
+        changed = {key: value for key, value in changed.items() if value != record[key]}
+        out.append({**record, **changed} if changed else record)
     return out
 
 

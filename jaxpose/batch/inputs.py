@@ -45,7 +45,8 @@ class Item(NamedTuple):
     """One input file and where its output goes.
 
     Attributes:
-      source: the input file, absolute (it may be missing: a manifest's entry; it then fails).
+      source: the input file, absolute (it may be missing: a manifest's entry; it then fails); a
+        run names it by its folder's real path (:func:`jaxpose.batch.batch.run_batch`).
       output: the output file, absolute (None until :func:`plan_outputs`).
     """
 

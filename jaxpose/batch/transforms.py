@@ -10,7 +10,8 @@ loss (Parquet natively; CSV with Python's shortest round-trip ``repr``), so
 =================  =======  ===============================================================
 column             type     meaning
 =================  =======  ===============================================================
-input              str      the input file (absolute path)
+input              str      the input file (absolute path: its folder's real path, links and ``..``
+                            resolved, and its own name, a link to a file named as the link)
 output             str      the normalized file (absolute path); empty when the input failed
 status             str      ``ok`` or ``failed``
 error              str      why the input failed (one line); empty when ok

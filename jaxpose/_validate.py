@@ -11,7 +11,7 @@ import sys
 
 import numpy as np
 
-from .config import _bool
+from .config import _bool, _integer, _not_an_int
 from .errors import ConvergenceError, InvalidInputError, InvalidPoseWarning, JaxposeError, OpenMeshWarning
 
 __all__ = [
@@ -172,12 +172,15 @@ def check_nu(nu):
 
 
 def check_int(value, name, minimum):
-    """``value`` as an int >= ``minimum`` (bools refused); a clear error otherwise."""
-    if not isinstance(value, numbers.Integral) or isinstance(value, bool):
-        raise InvalidInputError(f"{name} must be an int, got {value!r}")
-    if value < minimum:
+    """``value`` as an int >= ``minimum``; a clear error otherwise. An int is a concrete integer
+    scalar: a Python or NumPy integer, or a () NumPy or JAX array of an integer dtype (config's
+    rule, :func:`jaxpose.config._integer`); bools, floats and traced values are refused."""
+    number = _integer(value)
+    if number is None:
+        raise _not_an_int(value, name)
+    if number < minimum:
         raise InvalidInputError(f"{name} must be >= {minimum}, got {value}")
-    return int(value)
+    return number
 
 
 def check_bool(value, name):

@@ -29,6 +29,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import numbers
+import operator
 
 from .errors import InvalidInputError  # (not _validate: the command line imports this module before NumPy)
 
@@ -44,12 +45,46 @@ SOLVERS = (None, "auto", "smo", "pg")
 DERIVATIVES = ("trend", "exact", "secant")
 
 
+def _integer(value):
+    """``value`` as a Python int where it is a concrete integer scalar: a Python int, a NumPy
+    integer, or a () NumPy or JAX array of an integer dtype (any width, signed or not); None for
+    anything else: bools (Python's, NumPy's, a bool array), floats, other shapes, traced values.
+    Told by type and dtype, without importing NumPy or JAX (see :func:`_bool`)."""
+    if isinstance(value, bool):
+        return None
+    dtype = getattr(value, "dtype", None)
+    if dtype is None:
+        return int(value) if isinstance(value, numbers.Integral) else None
+    if getattr(dtype, "kind", None) not in ("i", "u") or getattr(value, "shape", None) != ():
+        return None
+    try:
+        return operator.index(value)
+    except Exception:  # a traced value (JAX's TracerIntegerConversionError), or no __index__
+        return None
+
+
+def _is_traced(value) -> bool:
+    """Whether `value` is a JAX tracer (under jit, vmap or grad), told by its type's name."""
+    return any(kind.__name__ == "Tracer" and kind.__module__.startswith("jax") for kind in type(value).__mro__)
+
+
+def _not_an_int(value, name, minimum=None):
+    """The InvalidInputError of a value :func:`_integer` refuses."""
+    if _is_traced(value):
+        return InvalidInputError(f"{name} must be a concrete int, not a traced value (under jit, vmap or grad: "
+                                 f"pass {name} as a static argument or a Python int), got {value!r}")
+    at_least = "" if minimum is None else f" >= {minimum}"
+    return InvalidInputError(f"{name} must be an int{at_least}, got {value!r}")
+
+
 def _int(value, name, minimum):
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-        raise InvalidInputError(f"{name} must be an int, got {value!r}")
-    if int(value) < minimum:
+    """``value`` as an int >= ``minimum``: a concrete integer scalar (:func:`_integer`); bools refused."""
+    number = _integer(value)
+    if number is None:
+        raise _not_an_int(value, name)
+    if number < minimum:
         raise InvalidInputError(f"{name} must be >= {minimum}, got {value!r}")
-    return int(value)
+    return number
 
 
 def _bool(value, name):

@@ -203,3 +203,66 @@ def test_the_command_line_and_normalize_mesh_refuse_the_same_ocsvm_options():
                 by_options.add(name)
     ocsvm = {field.name for field in dataclasses.fields(config.OCSVMOptions)}
     assert by_command == by_function == by_options == ocsvm
+
+
+def test_a_seed_is_any_concrete_integer_scalar_at_every_entry_point(monkeypatch):
+    """An int seed may be a NumPy or JAX integer scalar of any integer dtype, a () integer array
+    too (jnp.int32(0) and np.array(0) were refused as not an int); bools, floats, other shapes and
+    traced values are refused by name."""
+    import trimesh
+
+    import jaxpose
+    from jaxpose import mesh, sample, tuning
+    from jaxpose.batch.task import NormalizeOptions
+    from jaxpose.config import OCSVMOptions
+    from jaxpose.pose import pose as pose_module
+
+    class Reached(Exception):  # the pipeline was called: every argument accepted (nothing compiled)
+        pass
+
+    def reached(*args, **kwargs):
+        raise Reached
+
+    monkeypatch.setattr(pose_module, "_robust_jit", reached)
+    monkeypatch.setattr(pose_module, "_robust_batched", reached)
+    box = trimesh.creation.box()
+    points = np.random.default_rng(0).normal(size=(40, 3))
+
+    def normalize(seed):
+        with pytest.raises(Reached):
+            jaxpose.normalize(points, seed=seed)
+        with pytest.raises(Reached):
+            jaxpose.normalize_batch([points, points[:30]], seed=seed)
+
+    entries = {  # each public entry point that takes a seed (or the check it runs before any work)
+        "OCSVMOptions": lambda seed: OCSVMOptions(seed=seed).seed,
+        "NormalizeOptions": lambda seed: NormalizeOptions(method="ocsvm", seed=seed).seed,
+        "normalize_mesh": lambda seed: mesh.check_arguments(method="ocsvm", seed=seed),
+        "sample_surface": lambda seed: sample.sample_surface(box, 10, seed=seed),
+        "mesh.sample_surface": lambda seed: mesh.sample_surface(box, 10, seed=seed),
+        "tune": lambda seed: tuning.check_options(seed=seed)["seed"],
+        "normalize": normalize,
+    }
+    for value in (np.int64(3), np.uint8(3), np.array(3), np.array(3, np.int16), jnp.int32(3), jnp.uint32(3),
+                  jnp.array(3, jnp.int8)):
+        for name, entry in entries.items():
+            got, expected = entry(value), entry(3)
+            if isinstance(expected, int):
+                assert got == expected and type(got) is int, (name, value)
+            elif expected is not None and not isinstance(expected, tuple):
+                np.testing.assert_array_equal(got, expected)  # the same samples as seed=3
+    for value in (True, np.bool_(True), jnp.bool_(True), 3.0, np.float32(3), jnp.float32(3), np.array([3]), "3",
+                  -1, jnp.int32(-1)):
+        for name, entry in entries.items():
+            with pytest.raises(InvalidInputError, match="seed must be"):
+                entry(value)
+    from jaxpose.evaluation import evaluate, evaluate_rotation
+
+    for value in (True, 3.0, jnp.float32(3)):  # refused before any work (an int seed is check_int's: above)
+        for entry in (evaluate, evaluate_rotation):
+            with pytest.raises(InvalidInputError, match="seed must be"):
+                entry({"boxes": [box, box.copy()]}, seed=value)
+    with pytest.raises(InvalidInputError, match="seed must be a concrete int.*traced"):
+        jax.jit(lambda seed: sample.sample_surface(box, 10, seed=seed))(3)
+    with pytest.raises(InvalidInputError, match="seed must be a concrete int.*traced"):
+        jax.jit(lambda seed: OCSVMOptions(seed=seed))(3)

@@ -84,7 +84,8 @@ def _check_methods(methods):
 
 def _check_ocsvm(gamma, nu, count, seed, options):
     """The OCSVM's parameters and options, checked before any work (given to normalize per object,
-    a bad one became every ocsvm cell's error, and an unknown option went unnoticed without ocsvm)."""
+    a bad one became every ocsvm cell's error, and an unknown option went unnoticed without ocsvm);
+    returns the seed as an int."""
     from .. import _validate
     from ..config import PoseConfig
     from ..sample import check_count
@@ -92,8 +93,9 @@ def _check_ocsvm(gamma, nu, count, seed, options):
     _validate.check_gamma(gamma)
     _validate.check_nu(nu)
     check_count(count)
-    _validate.check_int(seed, "seed", 0)
+    seed = _validate.check_int(seed, "seed", 0)
     PoseConfig.create(**options)
+    return seed
 
 
 def _check_variants(variants):
@@ -219,7 +221,7 @@ def evaluate(classes, gamma=OCSVM.gamma, nu=OCSVM.nu, methods=None, count=OCSVM.
     _check_classes(classes)
     methods = _check_methods(methods)
     variants = _check_variants(variants)
-    _check_ocsvm(gamma, nu, count, seed, normalize_options)
+    seed = _check_ocsvm(gamma, nu, count, seed, normalize_options)  # a NumPy or JAX integer scalar: its int
     alignment.check_core_weight(core_weight)
     if align_core:
         classes = {name: alignment.align_core(meshes, weight=core_weight) for name, meshes in classes.items()}

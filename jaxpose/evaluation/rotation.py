@@ -21,7 +21,7 @@ import time
 
 import numpy as np
 
-from .._validate import InvalidInputError, JaxposeError
+from .._validate import InvalidInputError, JaxposeError, check_int
 from . import alignment
 from .tables import class_tables
 from .variants import VARIANTS, make_class
@@ -145,6 +145,7 @@ def evaluate_rotation(classes, methods=None, variants=("plain",), align_core=Fal
     if not variants or any(v not in VARIANTS for v in variants):
         raise InvalidInputError(f"unknown variants {list(variants)}; valid: {', '.join(VARIANTS)}")
     alignment.check_core_weight(core_weight)
+    seed = check_int(seed, "seed", 0)  # a NumPy or JAX integer scalar as its int (a bool, a float refused)
     if align_core:
         classes = {name: alignment.align_core(meshes, weight=core_weight) for name, meshes in classes.items()}
     ocsvm = {"seed": seed, **options.pop("ocsvm", {})}

@@ -315,7 +315,8 @@ def normalize(points=_UNSET, method: str = DEFAULT_METHOD, *, power=_UNSET, gamm
         ``Pose.ambiguity``); off changes nothing. Not differentiated.
       max_points: ocsvm only: int >= 4 or None: above this many points (default 4096) a seeded
         uniform subset is fitted (:func:`jaxpose.pose.sizes.subsample_index`; ``Pose.count``).
-      seed: int >= 0: the seed of that subset (ocsvm) or of the subset whose spacing is measured
+      seed: int >= 0 (a Python or NumPy integer, or a concrete () integer array, JAX's too): the
+        seed of that subset (ocsvm) or of the subset whose spacing is measured
         (robust, above ``spacing_samples`` points).
 
     Returns:
@@ -407,9 +408,13 @@ def _check_max_points(max_points):
 
 
 def _check_seed(seed):
-    if isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0:
-        raise _validate.InvalidInputError(f"seed must be an int >= 0, got {seed!r}")
-    return int(seed)
+    """The seed as an int >= 0: a concrete integer scalar (:func:`jaxpose._validate.check_int`)."""
+    from ..config import _integer, _not_an_int
+
+    number = _integer(seed)
+    if number is None or number < 0:
+        raise _not_an_int(seed, "seed", 0)
+    return number
 
 
 def _finish(pose, shift, size, throw, gamma=None, nu=None, tol=None):

@@ -193,6 +193,35 @@ def test_traced_results_are_in_the_default_float_dtype(method, x64):
         assert [f.dtype for f in floats] == [jnp.result_type(float)] * len(floats) == [np.float64] * len(floats)
 
 
+def _shapes_only(monkeypatch):
+    """The compiled pipelines of normalize and normalize_batch replaced by their output shapes and
+    dtypes (jitted.eval_shape: traced, nothing compiled), filled with ones: what the host side
+    (pose._finish) makes of each dtype, at no compilation."""
+    from jaxpose.pose import pose as pose_module
+
+    for name in ("_pipeline_jit", "_robust_jit", "_batched", "_robust_batched"):
+        jitted = getattr(pose_module, name)
+        fake = lambda *a, jitted=jitted, **k: jax.tree.map(lambda s: jnp.ones(s.shape, s.dtype), jitted.eval_shape(*a, **k))
+        monkeypatch.setattr(pose_module, name, fake)
+
+
+@pytest.mark.parametrize("method", ["robust", "ocsvm"])
+def test_the_integer_diagnostics_are_int32_for_every_method(method, x64, monkeypatch):
+    """Pose.iterations, status and count of normalize / normalize_batch are int32 (the solvers'
+    counters, config.ITERATION_LIMIT), concrete or traced, with or without x64: under x64 the
+    OCSVM's iterations were int64, the robust pose's int32 (the Pose type policy)."""
+    pts = _body(1024, seed=2).astype(np.float32)
+    opts = _opts(method)
+    traced = jax.eval_shape(lambda x: jaxpose.normalize(x, method=method, **opts), pts)
+    _shapes_only(monkeypatch)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", InvalidPoseWarning)  # ones are no pose: dtypes only
+        concrete = jaxpose.normalize(pts, method=method, **opts)
+        batch = jaxpose.normalize_batch([pts, pts], method=method, **opts)
+    for pose in (traced, concrete, batch):
+        assert [pose.iterations.dtype, pose.status.dtype, pose.count.dtype] == [np.int32] * 3, method
+
+
 def test_vmap_of_normalize_over_a_stack():
     # 1024 points: the single calls' program is the one the batch test below uses (one bucket)
     stack = jnp.asarray(np.stack([_body(1024, seed=s) * (1 + s) for s in range(3)]), jnp.float32)

@@ -422,7 +422,8 @@ def _finish(pose, shift, size, throw, gamma=None, nu=None, tol=None):
     center and scale become NumPy float64), flag out-of-range traced gamma / nu (ocsvm) as not
     valid, and raise (``throw``) or warn on an invalid concrete result. A traced result (traced
     points or parameters) has its float fields in JAX's default float dtype (the Pose policy:
-    float64 under x64 whatever the points' dtype, as for every method)."""
+    float64 under x64 whatever the points' dtype, as for every method); ``status``, ``iterations``
+    and ``count`` are int32, traced or not."""
     status = jnp.asarray(pose.status)
     default = jnp.result_type(float)
     if shift is not None:
@@ -441,7 +442,9 @@ def _finish(pose, shift, size, throw, gamma=None, nu=None, tol=None):
         in_range = jnp.isfinite(g) & (g > 0) & jnp.isfinite(n) & (n >= 0) & (n <= 1)
         status = jnp.where(in_range, status, int(Status.BAD_PARAMETERS))
     status = status.astype(jnp.int32)
-    pose = pose._replace(valid=status == 0, status=status)
+    counts = {k: jnp.asarray(getattr(pose, k)).astype(jnp.int32) for k in ("iterations", "count")
+              if getattr(pose, k) is not None}  # int32, every method (the OCSVM's iterations were int64 under x64)
+    pose = pose._replace(valid=status == 0, status=status, **counts)
     if _validate.is_traced(pose.valid):
         floats = {k: jnp.asarray(getattr(pose, k), default) for k in ("center", "scale", "ambiguity", "rotation")
                   if getattr(pose, k) is not None}

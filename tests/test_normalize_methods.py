@@ -222,6 +222,24 @@ def test_the_integer_diagnostics_are_int32_for_every_method(method, x64, monkeyp
         assert [pose.iterations.dtype, pose.status.dtype, pose.count.dtype] == [np.int32] * 3, method
 
 
+@pytest.mark.parametrize("points_dtype", [np.float32, np.float64])
+def test_a_concrete_pose_has_its_floats_in_the_default_float_dtype(points_dtype, x64, monkeypatch):
+    """Under x64 a concrete OCSVM pose of float32 points has its rotation and ambiguity in float64,
+    JAX's default float, as its center and scale (NumPy float64) and as a traced pose's (the Pose
+    type policy); they were float32. The values are the float32 pipeline's, as a traced pose's."""
+    pts = _body(1024, seed=2).astype(points_dtype)
+    opts = {**_opts("ocsvm"), "rotation": True}
+    traced = jax.eval_shape(lambda x: jaxpose.normalize(x, method="ocsvm", **opts), pts)
+    _shapes_only(monkeypatch)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", InvalidPoseWarning)
+        concrete = jaxpose.normalize(pts, method="ocsvm", **opts)
+        batch = jaxpose.normalize_batch([pts, pts], method="ocsvm", **opts)
+    for pose in (traced, concrete, batch):
+        floats = [pose.center, pose.scale, pose.rotation, pose.ambiguity]
+        assert [f.dtype for f in floats] == [jnp.result_type(float)] * 4 == [np.float64] * 4, points_dtype
+
+
 def test_vmap_of_normalize_over_a_stack():
     # 1024 points: the single calls' program is the one the batch test below uses (one bucket)
     stack = jnp.asarray(np.stack([_body(1024, seed=s) * (1 + s) for s in range(3)]), jnp.float32)

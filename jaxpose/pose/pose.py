@@ -420,10 +420,10 @@ def _check_seed(seed):
 def _finish(pose, shift, size, throw, gamma=None, nu=None, tol=None):
     """Map a pose of host-prescaled points back to the input's units in float64 on the host (its
     center and scale become NumPy float64), flag out-of-range traced gamma / nu (ocsvm) as not
-    valid, and raise (``throw``) or warn on an invalid concrete result. A traced result (traced
-    points or parameters) has its float fields in JAX's default float dtype (the Pose policy:
-    float64 under x64 whatever the points' dtype, as for every method); ``status``, ``iterations``
-    and ``count`` are int32, traced or not."""
+    valid, and raise (``throw``) or warn on an invalid concrete result. Its JAX float fields are in
+    JAX's default float dtype (the Pose policy: float64 under x64 whatever the points' dtype, as
+    for every method), a traced result's center and scale too, a concrete one's rotation and
+    ambiguity too; ``status``, ``iterations`` and ``count`` are int32, traced or not."""
     status = jnp.asarray(pose.status)
     default = jnp.result_type(float)
     if shift is not None:
@@ -444,11 +444,12 @@ def _finish(pose, shift, size, throw, gamma=None, nu=None, tol=None):
     status = status.astype(jnp.int32)
     counts = {k: jnp.asarray(getattr(pose, k)).astype(jnp.int32) for k in ("iterations", "count")
               if getattr(pose, k) is not None}  # int32, every method (the OCSVM's iterations were int64 under x64)
-    pose = pose._replace(valid=status == 0, status=status, **counts)
-    if _validate.is_traced(pose.valid):
-        floats = {k: jnp.asarray(getattr(pose, k), default) for k in ("center", "scale", "ambiguity", "rotation")
-                  if getattr(pose, k) is not None}
-        return pose._replace(**floats)
+    traced = _validate.is_traced(status)  # traced points or parameters
+    floats = {k: jnp.asarray(getattr(pose, k), default)  # concrete: center and scale stay NumPy float64
+              for k in (("center", "scale") if traced else ()) + ("ambiguity", "rotation") if getattr(pose, k) is not None}
+    pose = pose._replace(valid=status == 0, status=status, **counts, **floats)
+    if traced:
+        return pose
     if throw and tol is not None and not bool(jnp.all(pose.converged)):
         raise _validate.ConvergenceError(
             f"SVDD solver hit its iteration cap ({np.asarray(pose.iterations)} iterations) before tol={tol}"

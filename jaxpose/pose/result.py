@@ -206,7 +206,8 @@ class Pose(NamedTuple):
     float64 with ``jax_enable_x64``, whatever the points' dtype) for a traced input or a traced
     parameter, so that they jit, vmap and differentiate; otherwise, for a concrete input their
     ``center`` and ``scale`` are NumPy float64 (mapped back on the host, so that a far offset keeps
-    its digits), the other fields JAX arrays; ``status``, ``iterations`` and ``count`` are int32
+    its digits), the other fields JAX arrays (``rotation`` and ``ambiguity`` in JAX's default float
+    dtype too, as a traced pose's); ``status``, ``iterations`` and ``count`` are int32
     (the solvers' counters, :data:`jaxpose.config.ITERATION_LIMIT`), traced or not, with or
     without x64, every method; the host entry
     points (:func:`jaxpose.normalize_mesh`, :func:`jaxpose.pose.estimators.estimate`, the command line

@@ -307,8 +307,11 @@ def solid_moments(mesh, strict=False):
 def solid_centroid(mesh_or_points, strict=False):
     """Closed-form centroid of the solid a closed mesh bounds (:func:`solid_moments`).
 
-    The same as ``trimesh.triangles.mass_properties(mesh.triangles)["center_mass"]``.
-    Returns center : (3,) float64. Raises on points; warns (or raises, strict) on an open mesh.
+    For a closed mesh, the same as ``trimesh.triangles.mass_properties(mesh.triangles)["center_mass"]``.
+    An open mesh bounds no solid (it warns, or raises with ``strict``): there the two differ, as
+    each sums the faces' tetrahedra to its own reference point (here the vertex mean, so the
+    result moves with the mesh; trimesh's the origin, so its result does not).
+    Returns center : (3,) float64. Raises on points.
     """
     return solid_moments(mesh_or_points, strict)[1]
 

@@ -5,7 +5,7 @@ import trimesh
 from scipy.spatial.transform import Rotation
 
 from jaxpose import baselines
-from jaxpose._validate import InvalidInputError
+from jaxpose._validate import InvalidInputError, OpenMeshWarning
 
 miniball = pytest.importorskip("miniball")  # test-only oracle
 
@@ -228,3 +228,28 @@ def test_bad_points_raise(bad):
 def test_bad_center_raises():
     with pytest.raises(InvalidInputError, match="center"):
         baselines.mean_distance(box(), [0.0, 1.0])
+
+
+def test_solid_centroid_is_trimesh_center_mass_for_a_closed_mesh_only():
+    """The docstring's contract: trimesh's center_mass for a closed mesh; for an open one (warned)
+    the two differ (each sums tetrahedra to its own reference point: the vertex mean here, trimesh's
+    the origin), and this one moves with the mesh. It said 'the same' without the condition."""
+    import re
+    import warnings
+
+    box = trimesh.creation.box(extents=(1.0, 2.0, 3.0))
+    box.apply_translation([5.0, 1.0, 0.0])
+    center_mass = lambda m: trimesh.triangles.mass_properties(m.triangles)["center_mass"]
+    np.testing.assert_allclose(baselines.solid_centroid(box), center_mass(box), rtol=0, atol=1e-12)
+    open_box = trimesh.Trimesh(box.vertices, box.faces[:-2], process=False)  # one side open
+    moved = open_box.copy()
+    moved.apply_translation([10.0, 0.0, 0.0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", OpenMeshWarning)
+        ours, theirs = baselines.solid_centroid(open_box), center_mass(open_box)
+        assert np.abs(ours - theirs).max() > 1.0
+        np.testing.assert_allclose(baselines.solid_centroid(moved) - ours, [10.0, 0.0, 0.0], atol=1e-12)
+    doc = " ".join(baselines.solid_centroid.__doc__.split())
+    claim = next(s for s in re.split(r"(?<=\.) ", doc) if "center_mass" in s)
+    assert "closed" in claim, claim  # the equality is a closed mesh's
+    assert "open" in doc and "differ" in doc, doc

@@ -210,9 +210,15 @@ def local_cluster(workers):
       InvalidInputError: dask.distributed is not installed.
       JaxposeError: the cluster could not start.
 
-    Example:
-      >>> with local_cluster(2) as cluster:  # doctest: +SKIP
-      ...     normalize_files(["meshes/"], "out/", scheduler=cluster.scheduler_address)
+    Example (a script: the cluster's worker processes start by importing the script's
+    ``__main__`` again, so the cluster starts under the guard, as with ``multiprocessing``)::
+
+        from jaxpose import normalize_files
+        from jaxpose.batch.workers import local_cluster
+
+        if __name__ == "__main__":
+            with local_cluster(2) as cluster:
+                normalize_files(["meshes/"], "out/", scheduler=cluster.scheduler_address)
     """
     distributed = _distributed()
     import dask

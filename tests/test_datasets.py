@@ -99,10 +99,27 @@ def test_vertices_sample_every_surface_densely(dataset):
     lambda: make_object("dog", 1.5),
     lambda: make_dataset(instances=0),
     lambda: make_dataset(classes=["dog", "unicorn"]),
+    lambda: make_object("dog", True),
+    lambda: make_object("dog", "1"),
+    lambda: make_object("dog", 1, seed=1.5),  # was seed 1, silently
+    lambda: make_object("dog", 1, seed=-1),
+    lambda: make_object("dog", 1, seed=True),
+    lambda: make_dataset(seed=2.5, classes=["dog"], instances=1),
+    lambda: make_dataset(instances=2.0),
 ])
 def test_bad_arguments(call):
-    with pytest.raises(InvalidInputError):
+    with pytest.raises(InvalidInputError, match="class|instance|seed"):
         call()
+
+
+def test_an_integer_scalar_is_a_seed():
+    """A NumPy or JAX integer scalar is the int it holds (config's rule for every int argument)."""
+    import jax.numpy as jnp
+
+    reference = make_object("dog", 3, seed=5)
+    for seed in (np.int64(5), np.array(5, dtype=np.uint8), jnp.int32(5)):
+        mesh = make_object("dog", np.int16(3), seed=seed)
+        assert np.array_equal(mesh.vertices, reference.vertices) and np.array_equal(mesh.faces, reference.faces)
 
 
 def test_load_folder_round_trip(tmp_path, dataset):

@@ -150,6 +150,8 @@ def test_degenerate_input():
 
 
 def test_voxel_memory_is_bounded():
+    import jax.numpy as jnp
+
     from jaxpose.occupancy.solid import check_resolution
 
     assert check_resolution(96) == 96 and check_resolution(291) == 291
@@ -157,6 +159,11 @@ def test_voxel_memory_is_bounded():
         robust_solid(np.random.default_rng(0).normal(size=(50, 3)), resolution=1000)
     with pytest.raises(InvalidInputError, match="resolution must be >= 8"):
         check_resolution(7.5)
+    for bad in (True, 96.0, np.float32(96), jnp.array([96]), np.int64(7)):
+        with pytest.raises(InvalidInputError, match="resolution must be >= 8"):
+            check_resolution(bad)
+    for good in (np.int64(96), jnp.int32(96), np.array(96, dtype=np.uint16)):  # integer scalars: config's rule
+        assert check_resolution(good) == 96 and type(check_resolution(good)) is int
 
 
 def test_point_spacing_from_a_subset(monkeypatch):

@@ -27,7 +27,7 @@ import functools
 import numpy as np
 import trimesh
 
-from jaxpose._validate import InvalidInputError
+from jaxpose._validate import InvalidInputError, check_int
 from jaxpose.datasets._classes import BUILDERS as _BUILDERS
 from jaxpose.datasets._classes import CLASSES
 from jaxpose.datasets._parts import ball_part, Part
@@ -182,7 +182,7 @@ def make_object(class_name: str, instance: int, seed: int = 0) -> trimesh.Trimes
     class_name : one of :data:`CLASSES`
     instance : int >= 0; 0 is the class's reference, 1..9 follow :data:`DEFORMATIONS`,
         later ones draw a deformation at random (articulations 60%, extrusions 20%, outliers 20%).
-    seed : deformations (chosen parts, angles, factors) are drawn from
+    seed : int >= 0; deformations (chosen parts, angles, factors) are drawn from
         ``numpy.random.default_rng([seed, class index, instance])``.
 
     Returns
@@ -192,11 +192,10 @@ def make_object(class_name: str, instance: int, seed: int = 0) -> trimesh.Trimes
         ``core_vertex_count`` (the first vertices, identical within the class).
     """
     _check_class(class_name)
-    if int(instance) != instance or instance < 0:
-        raise InvalidInputError(f"instance must be an integer >= 0, got {instance!r}")
-    instance = int(instance)
+    instance = check_int(instance, "instance", 0)
+    seed = check_int(seed, "seed", 0)
     parts = list(_reference(class_name))
-    rng = np.random.default_rng([int(seed), CLASSES.index(class_name), instance])
+    rng = np.random.default_rng([seed, CLASSES.index(class_name), instance])
     if instance == 0:
         kind, description = None, "reference"
     else:
@@ -219,7 +218,7 @@ def make_dataset(seed: int = 0, instances: int = 10, classes=None) -> dict[str, 
     classes = CLASSES if classes is None else tuple(classes)
     for name in classes:
         _check_class(name)
-    if int(instances) != instances or instances < 1:
-        raise InvalidInputError(f"instances must be an integer >= 1, got {instances!r}")
-    return {name: [make_object(name, i, seed) for i in range(int(instances))] for name in classes}
+    instances = check_int(instances, "instances", 1)
+    seed = check_int(seed, "seed", 0)  # before any object is built
+    return {name: [make_object(name, i, seed) for i in range(instances)] for name in classes}
 

@@ -1,0 +1,324 @@
+"""An intrinsic (bending-invariant) size against V^(1/3) and sqrt(area) (issue 34, the dog's scale).
+
+``python -m benchmarks.geodesic_scale [--variants plain,holes,outliers,points] [--classes ...]
+[--k 64,128,256] [--sources fps,random,shared] [--knn 8,12] [--voxel] [--diagonals] [--every K]
+[--seed 0] [--json OUT]`` from a source checkout with ../shared beside it.
+
+The six dev classes as :mod:`benchmarks.bodies` loads them (rigid-core aligned; the variants made
+as ``jaxpose evaluate`` makes them, seed 0, the class index within its dataset). For every shape:
+
+* ``robust``: the default scale V^(1/3) of the robust solid
+  (:func:`jaxpose.pose.estimators.robust_center_scale`); ``sqrt_area``: sqrt of the trimesh area of
+  the whole input (``solid_sqrt_area``'s scale; meshes only);
+* geodesic sizes on a graph: meshes: the edge graph (edge lengths Euclidean) of the connected
+  component of the largest area, targets = its vertices weighted by their area share (a third of
+  the area of their faces); point clouds: the symmetrised k-nearest-neighbour graph (edge lengths
+  Euclidean) of the component with most points, targets weighted alike. From K source rows
+  D[k, t] (Dijkstra, ``scipy.sparse.csgraph.dijkstra``) with source weights a_k:
+
+  - ``mean``: sum_k a_k sum_t w_t D[k, t] (the mean geodesic distance between two surface points),
+  - ``rms``: the same of D^2, square root,
+  - ``ecc_max``: sum_k a_k max_t D[k, t] (the mean of the sources' farthest distance),
+  - ``radius``: min_t sum_k a_k D[k, t] (the mean distance from the geodesic center, the point of
+    least mean distance; D is symmetric, so the K rows give every vertex's mean distance),
+  - ``diameter``: max D.
+
+  Sources: ``fps``: geodesic farthest-point sampling, started at the vertex farthest from a seeded
+  random vertex, each source weighted by the area share of its geodesic Voronoi cell (the targets
+  nearest to it; an intrinsic quadrature: needs no correspondence); ``random``: K independent
+  area-weighted vertices (seeded per instance), equal weights; ``shared`` (plain only): the same
+  vertex indices in every pose of a class, chosen once area-weighted on the class's first mesh
+  (uses the correspondence, which a library does not have: the limit of what the size itself
+  allows). The first K of each sequence for each K of ``--k``.
+* ``--diagonals``: the same sizes on the edge graph plus each flip diagonal (the two vertices
+  opposite a shared edge, Euclidean), fps sources: whether the edge graph's zig-zag overestimate is
+  pose dependent (the ratio edge / edge+diagonal per pose, and its cv).
+* ``--voxel``: the inner distance: the same sizes on the robust solid's voxels (26-neighbour graph,
+  steps of pitch x 1, sqrt 2, sqrt 3), fps sources, every voxel weighted alike (what a JAX version
+  on the library's own solid would compute; works alike on meshes, clouds, holes and stray parts).
+
+cv = population std / mean over a class's poses (``jaxpose.evaluation.measures.scale_spread``).
+Printed per variant and class; seconds per shape of the geodesic part beside. Nothing is asserted.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components, dijkstra
+from scipy.spatial import cKDTree
+
+from jaxpose import baselines
+from jaxpose.evaluation import make_class
+from jaxpose.evaluation.measures import scale_spread
+from jaxpose.pose.estimators import robust_center_scale
+
+from .bodies import CLASSES, SHARED, dev_classes
+
+SIZES = ("mean", "rms", "ecc_max", "radius", "diameter")
+
+
+# ------------------------------------------------------------------ graphs
+def _sym_graph(i, j, w, n):
+    g = coo_matrix((np.r_[w, w], (np.r_[i, j], np.r_[j, i])), shape=(n, n)).tocsr()
+    g.sum_duplicates()
+    return g
+
+
+def mesh_edges(vertices, faces, diagonals=False):
+    """(i, j) unique undirected edges of a triangle mesh (plus each flip diagonal if asked)."""
+    f = np.asarray(faces, np.int64)
+    e = np.sort(np.vstack([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
+    if diagonals:
+        # the vertex opposite each (face, edge): faces sharing an edge give a diagonal
+        opp = np.r_[f[:, 2], f[:, 0], f[:, 1]]
+        order = np.lexsort((e[:, 1], e[:, 0]))
+        es, os_ = e[order], opp[order]
+        same = np.all(es[1:] == es[:-1], axis=1)
+        d = np.sort(np.c_[os_[:-1][same], os_[1:][same]], axis=1)
+        d = d[d[:, 0] != d[:, 1]]
+        e = np.vstack([e, d])
+    e = np.unique(e, axis=0)
+    return e[:, 0], e[:, 1]
+
+
+def mesh_graph(vertices, faces, diagonals=False):
+    """The weighted edge graph of a mesh's component of the largest area: (csr graph, vertices
+    (m, 3), target weights (m,) summing to 1, kept vertex indices)."""
+    v = np.asarray(vertices, np.float64)
+    f = np.asarray(faces, np.int64)
+    i, j = mesh_edges(v, f)
+    n = len(v)
+    ncomp, label = connected_components(_sym_graph(i, j, np.ones(len(i)), n), directed=False)
+    fa = 0.5 * np.linalg.norm(np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]), axis=1)
+    comp_area = np.bincount(label[f[:, 0]], weights=fa, minlength=ncomp)
+    keep_c = int(np.argmax(comp_area))
+    keep = np.flatnonzero(label == keep_c)
+    remap = -np.ones(n, np.int64)
+    remap[keep] = np.arange(len(keep))
+    fk = remap[f[label[f[:, 0]] == keep_c]]
+    vk = v[keep]
+    va = np.bincount(fk.ravel(), weights=np.repeat(fa[label[f[:, 0]] == keep_c], 3) / 3.0, minlength=len(keep))
+    i, j = mesh_edges(vk, fk, diagonals)
+    w = np.linalg.norm(vk[i] - vk[j], axis=1)
+    return _sym_graph(i, j, w, len(keep)), vk, va / va.sum(), keep
+
+
+def knn_graph(points, k):
+    """The symmetrised k-NN graph of a point cloud's component with most points: (graph, points,
+    uniform weights, kept indices)."""
+    p = np.asarray(points, np.float64)
+    dist, idx = cKDTree(p).query(p, k + 1)
+    i = np.repeat(np.arange(len(p)), k)
+    j = idx[:, 1:].ravel()
+    w = dist[:, 1:].ravel()
+    g = _sym_graph(i, j, w, len(p))
+    coo = g.tocoo()
+    g = coo_matrix((np.linalg.norm(p[coo.row] - p[coo.col], axis=1), (coo.row, coo.col)), shape=g.shape).tocsr()
+    ncomp, label = connected_components(g, directed=False)
+    keep = np.flatnonzero(label == np.argmax(np.bincount(label)))
+    g = g[keep][:, keep]
+    return g, p[keep], np.full(len(keep), 1.0 / len(keep)), keep
+
+
+_OFFSETS = np.array([(a, b, c) for a in (-1, 0, 1) for b in (-1, 0, 1) for c in (-1, 0, 1)
+                     if (a, b, c) > (0, 0, 0)])
+
+
+def voxel_graph(sol):
+    """The 26-neighbour graph of the robust solid's kept voxels (steps pitch x |offset|)."""
+    inside = np.asarray(sol.inside, bool)
+    idx = np.argwhere(inside)
+    lab = -np.ones(inside.shape, np.int64)
+    lab[tuple(idx.T)] = np.arange(len(idx))
+    ii, jj, ww = [], [], []
+    for o in _OFFSETS:
+        q = idx + o
+        ok = np.all((q >= 0) & (q < inside.shape), axis=1)
+        nb = np.full(len(idx), -1)
+        nb[ok] = lab[tuple(q[ok].T)]
+        m = nb >= 0
+        ii.append(np.flatnonzero(m))
+        jj.append(nb[m])
+        ww.append(np.full(m.sum(), sol.pitch * np.linalg.norm(o)))
+    g = _sym_graph(np.concatenate(ii), np.concatenate(jj), np.concatenate(ww), len(idx))
+    ncomp, label = connected_components(g, directed=False)
+    keep = np.flatnonzero(label == np.argmax(np.bincount(label)))
+    g = g[keep][:, keep]
+    return g, idx[keep] * sol.pitch, np.full(len(keep), 1.0 / len(keep)), keep
+
+
+# ------------------------------------------------------------------ sources and sizes
+def fps_rows(g, w, kmax, rng):
+    """Geodesic farthest-point sampling: (kmax, n) distance rows, started at the farthest vertex
+    from an area-weighted random one."""
+    start = int(rng.choice(len(w), p=w))
+    d0 = dijkstra(g, directed=False, indices=start)
+    s = int(np.argmax(np.where(np.isfinite(d0), d0, -1)))
+    rows = np.empty((kmax, g.shape[0]))
+    mind = np.full(g.shape[0], np.inf)
+    for k in range(kmax):
+        rows[k] = dijkstra(g, directed=False, indices=s)
+        mind = np.minimum(mind, rows[k])
+        s = int(np.argmax(mind))
+    return rows
+
+
+def sizes(rows, w, a):
+    """{size: value} of distance rows (K, n), target weights w (n,), source weights a (K,) (sum 1)."""
+    tw = rows @ w
+    return {"mean": float(a @ tw), "rms": float(np.sqrt(a @ ((rows ** 2) @ w))),
+            "ecc_max": float(a @ rows.max(axis=1)), "radius": float((a @ rows).min()),
+            "diameter": float(rows.max())}
+
+
+def voronoi_weights(rows, w):
+    """Each source's share of the target weight (targets given to their nearest source)."""
+    return np.bincount(np.argmin(rows, axis=0), weights=w, minlength=rows.shape[0])
+
+
+def all_sizes(g, w, ks, schemes, rng, shared=None):
+    """{f"{scheme}{K}:{size}": value} for each scheme and K (first K of the sequence), and the
+    seconds of the K = max(ks) Dijkstra runs per scheme."""
+    kmax = max(ks)
+    out, sec = {}, {}
+    for scheme in schemes:
+        t0 = time.perf_counter()
+        if scheme == "fps":
+            rows = fps_rows(g, w, kmax, rng)
+        elif scheme == "random":
+            src = rng.choice(len(w), size=kmax, p=w)
+            uniq, inv = np.unique(src, return_inverse=True)
+            rows = dijkstra(g, directed=False, indices=uniq)[inv]
+        elif scheme == "shared":
+            if shared is None:
+                continue
+            uniq, inv = np.unique(shared[:kmax], return_inverse=True)
+            rows = dijkstra(g, directed=False, indices=uniq)[inv]
+        sec[scheme] = time.perf_counter() - t0
+        if not np.all(np.isfinite(rows)):
+            raise RuntimeError("graph not connected")
+        for k in ks:
+            r = rows[:k]
+            a = voronoi_weights(r, w) if scheme == "fps" else np.full(k, 1.0 / k)
+            for name, val in sizes(r, w, a).items():
+                out[f"{scheme}{k}:{name}"] = val
+    return out, sec
+
+
+# ------------------------------------------------------------------ one shape, one class
+def shape_sizes(shape, args, rng, shared=None):
+    """{candidate: size} and {part: seconds} of one shape (module docs)."""
+    ks = [int(k) for k in args.k.split(",")]
+    out, sec = {}, {}
+    t0 = time.perf_counter()
+    _, scale, sol = robust_center_scale(shape)
+    sec["robust"] = time.perf_counter() - t0
+    out["robust"] = float(scale)
+    v, f = baselines.split_geometry(shape)
+    schemes = args.sources.split(",")
+    if f is not None:
+        out["sqrt_area"] = float(np.sqrt(shape.area))
+        g, vk, w, keep = mesh_graph(v, f)
+        sh = None
+        if shared is not None:
+            sh = np.searchsorted(keep, shared)
+            sh = sh if np.array_equal(keep[np.minimum(sh, len(keep) - 1)], shared) else None
+        vals, s = all_sizes(g, w, ks, schemes, rng, sh)
+        out.update({f"mesh:{key}": val for key, val in vals.items()})
+        sec.update({f"mesh:{key}": val for key, val in s.items()})
+        if args.uniform:  # the vertices weighted alike, as a point cloud's are (fps sources)
+            vals, _ = all_sizes(g, np.full(len(w), 1.0 / len(w)), [max(ks)], ["fps"], rng)
+            out.update({f"mesh_uniform:{key}": val for key, val in vals.items()})
+        if args.diagonals:
+            g2, _, w2, _ = mesh_graph(v, f, diagonals=True)
+            vals, s = all_sizes(g2, w2, [max(ks)], ["fps"], rng)
+            out.update({f"diag:{key}": val for key, val in vals.items()})
+            sec.update({f"diag:{key}": val for key, val in s.items()})
+    else:
+        for k in [int(x) for x in args.knn.split(",")]:
+            t0 = time.perf_counter()
+            g, pk, w, _ = knn_graph(v, k)
+            vals, s = all_sizes(g, w, [max(ks)], ["fps"], rng)
+            out.update({f"knn{k}:{key}": val for key, val in vals.items()})
+            sec[f"knn{k}"] = time.perf_counter() - t0
+    if args.voxel:
+        t0 = time.perf_counter()
+        g, _, w, _ = voxel_graph(sol)
+        vals, _ = all_sizes(g, w, [args.voxel_k], ["fps"], rng)
+        out.update({f"voxel:{key}": val for key, val in vals.items()})
+        sec["voxel"] = time.perf_counter() - t0
+        out["voxel:count"] = float(len(w))
+    return out, sec
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(prog="python -m benchmarks.geodesic_scale")
+    p.add_argument("--variants", default="plain")
+    p.add_argument("--classes", default=",".join(CLASSES))
+    p.add_argument("--k", default="64,128,256", help="numbers of sources (nested: the first K of one sequence)")
+    p.add_argument("--sources", default="fps,random,shared", help="source schemes: fps, random, shared (plain only)")
+    p.add_argument("--knn", default="8,12", help="k of the point clouds' k-NN graphs")
+    p.add_argument("--uniform", action="store_true", help="meshes also with every vertex weighted alike (as clouds)")
+    p.add_argument("--diagonals", action="store_true", help="also the edge graph with flip diagonals (zig-zag check)")
+    p.add_argument("--voxel", action="store_true", help="also the inner distance in the robust solid's voxels")
+    p.add_argument("--voxel-k", type=int, default=64)
+    p.add_argument("--every", type=int, default=1)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--json", default=None)
+    args = p.parse_args(argv)
+    if not SHARED.is_dir():
+        print(f"no {SHARED}: nothing to measure", file=sys.stderr)
+        return 0
+    with tempfile.TemporaryDirectory() as tmp:
+        classes = dev_classes(tmp, args.classes.split(","), args.every)
+    record = {}
+    for variant in args.variants.split(","):
+        record[variant] = {}
+        for name, meshes in classes.items():
+            k = CLASSES.index(name) % 2  # the class index of jaxpose evaluate on its dataset
+            shapes = make_class(meshes, variant, 0, k)
+            shared = None
+            if variant == "plain" and "shared" in args.sources:
+                m0 = meshes[0]
+                va = np.bincount(np.asarray(m0.faces).ravel(), weights=np.repeat(m0.area_faces, 3) / 3.0,
+                                 minlength=len(m0.vertices))
+                kmax = max(int(x) for x in args.k.split(","))
+                shared = np.random.default_rng([args.seed, k]).choice(len(va), size=kmax, p=va / va.sum())
+            per, secs = [], []
+            for i, shape in enumerate(shapes):
+                rng = np.random.default_rng([args.seed, k, i])
+                out, sec = shape_sizes(shape, args, rng, shared)
+                per.append(out)
+                secs.append(sec)
+            cands = list(per[0])
+            cv = {c: scale_spread(np.array([o[c] for o in per]))["cv_scale"] for c in cands}
+            seconds = {key: float(np.mean([s[key] for s in secs])) for key in secs[0]}
+            record[variant][name] = {"cv": cv, "values": {c: [o[c] for o in per] for c in cands},
+                                     "seconds_per_shape": seconds}
+            report(variant, name, cv, seconds, per)
+            if args.json:
+                Path(args.json).write_text(json.dumps(record, indent=1))
+    return 0
+
+
+def report(variant, name, cv, seconds, per):
+    base = {c: cv[c] for c in ("robust", "sqrt_area") if c in cv}
+    low = min(base.values())
+    print(f"\n{variant} {name}: n={len(per)}  " + "  ".join(f"{c} {v:.5f}" for c, v in base.items())
+          + f"   (best baseline {low:.5f}; 1.05x = {1.05 * low:.5f})")
+    rows = sorted((c for c in cv if c not in base and not c.endswith(":count")), key=lambda c: cv[c])
+    for c in rows:
+        print(f"  {c:28s} cv {cv[c]:.5f}  x{cv[c] / low:5.2f}  mean {np.mean([o[c] for o in per]):.4g}")
+    print("  seconds/shape: " + "  ".join(f"{key} {v:.2f}" for key, v in seconds.items()))
+    sys.stdout.flush()
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

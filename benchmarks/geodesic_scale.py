@@ -1,7 +1,8 @@
 """An intrinsic (bending-invariant) size against V^(1/3) and sqrt(area) (issue 34, the dog's scale).
 
 ``python -m benchmarks.geodesic_scale [--variants plain,holes,outliers,points] [--classes ...]
-[--k 64,128,256] [--sources fps,random,shared] [--knn 8,12] [--voxel] [--diagonals] [--every K]
+[--k 64,128,256] [--sources fps,random,shared] [--knn 8,12] [--uniform] [--diagonals] [--heat K]
+[--voxel] [--every K]
 [--seed 0] [--json OUT]`` from a source checkout with ../shared beside it.
 
 The six dev classes as :mod:`benchmarks.bodies` loads them (rigid-core aligned; the variants made
@@ -33,6 +34,8 @@ as ``jaxpose evaluate`` makes them, seed 0, the class index within its dataset).
 * ``--diagonals``: the same sizes on the edge graph plus each flip diagonal (the two vertices
   opposite a shared edge, Euclidean), fps sources: whether the edge graph's zig-zag overestimate is
   pose dependent (the ratio edge / edge+diagonal per pose, and its cv).
+* ``--heat K``: the same sizes from heat-method geodesics (``potpourri3d``, installed by hand; not
+  a jaxpose dependency) from the first K fps sources: whether the edge graph is what varies.
 * ``--voxel``: the inner distance: the same sizes on the robust solid's voxels (26-neighbour graph,
   steps of pitch x 1, sqrt 2, sqrt 3), fps sources, every voxel weighted alike (what a JAX version
   on the library's own solid would compute; works alike on meshes, clouds, holes and stray parts).
@@ -90,7 +93,7 @@ def mesh_edges(vertices, faces, diagonals=False):
 
 def mesh_graph(vertices, faces, diagonals=False):
     """The weighted edge graph of a mesh's component of the largest area: (csr graph, vertices
-    (m, 3), target weights (m,) summing to 1, kept vertex indices)."""
+    (m, 3), target weights (m,) summing to 1, kept vertex indices, its faces (renumbered))."""
     v = np.asarray(vertices, np.float64)
     f = np.asarray(faces, np.int64)
     i, j = mesh_edges(v, f)
@@ -107,7 +110,7 @@ def mesh_graph(vertices, faces, diagonals=False):
     va = np.bincount(fk.ravel(), weights=np.repeat(fa[label[f[:, 0]] == keep_c], 3) / 3.0, minlength=len(keep))
     i, j = mesh_edges(vk, fk, diagonals)
     w = np.linalg.norm(vk[i] - vk[j], axis=1)
-    return _sym_graph(i, j, w, len(keep)), vk, va / va.sum(), keep
+    return _sym_graph(i, j, w, len(keep)), vk, va / va.sum(), keep, fk
 
 
 def knn_graph(points, k):
@@ -155,19 +158,21 @@ def voxel_graph(sol):
 
 
 # ------------------------------------------------------------------ sources and sizes
-def fps_rows(g, w, kmax, rng):
+def fps_rows(g, w, kmax, rng, with_sources=False):
     """Geodesic farthest-point sampling: (kmax, n) distance rows, started at the farthest vertex
     from an area-weighted random one."""
     start = int(rng.choice(len(w), p=w))
     d0 = dijkstra(g, directed=False, indices=start)
     s = int(np.argmax(np.where(np.isfinite(d0), d0, -1)))
     rows = np.empty((kmax, g.shape[0]))
+    sources = np.empty(kmax, np.int64)
     mind = np.full(g.shape[0], np.inf)
     for k in range(kmax):
         rows[k] = dijkstra(g, directed=False, indices=s)
+        sources[k] = s
         mind = np.minimum(mind, rows[k])
         s = int(np.argmax(mind))
-    return rows
+    return (rows, sources) if with_sources else rows
 
 
 def sizes(rows, w, a):
@@ -225,7 +230,7 @@ def shape_sizes(shape, args, rng, shared=None):
     schemes = args.sources.split(",")
     if f is not None:
         out["sqrt_area"] = float(np.sqrt(shape.area))
-        g, vk, w, keep = mesh_graph(v, f)
+        g, vk, w, keep, fk = mesh_graph(v, f)
         sh = None
         if shared is not None:
             sh = np.searchsorted(keep, shared)
@@ -236,8 +241,17 @@ def shape_sizes(shape, args, rng, shared=None):
         if args.uniform:  # the vertices weighted alike, as a point cloud's are (fps sources)
             vals, _ = all_sizes(g, np.full(len(w), 1.0 / len(w)), [max(ks)], ["fps"], rng)
             out.update({f"mesh_uniform:{key}": val for key, val in vals.items()})
+        if args.heat:  # heat-method geodesics (potpourri3d, not a jaxpose dependency) from fps sources
+            import potpourri3d as pp3d
+
+            t0 = time.perf_counter()
+            rows, src = fps_rows(g, w, args.heat, rng, with_sources=True)
+            solver = pp3d.MeshHeatMethodDistanceSolver(vk, fk, use_robust=True)
+            heat = np.array([solver.compute_distance(int(i)) for i in src])
+            out.update({f"heat:fps{args.heat}:{key}": val for key, val in sizes(heat, w, voronoi_weights(heat, w)).items()})
+            sec["heat"] = time.perf_counter() - t0
         if args.diagonals:
-            g2, _, w2, _ = mesh_graph(v, f, diagonals=True)
+            g2, _, w2, _, _ = mesh_graph(v, f, diagonals=True)
             vals, s = all_sizes(g2, w2, [max(ks)], ["fps"], rng)
             out.update({f"diag:{key}": val for key, val in vals.items()})
             sec.update({f"diag:{key}": val for key, val in s.items()})
@@ -267,12 +281,23 @@ def main(argv=None):
     p.add_argument("--knn", default="8,12", help="k of the point clouds' k-NN graphs")
     p.add_argument("--uniform", action="store_true", help="meshes also with every vertex weighted alike (as clouds)")
     p.add_argument("--diagonals", action="store_true", help="also the edge graph with flip diagonals (zig-zag check)")
+    p.add_argument("--heat", type=int, default=0,
+                   help="also heat-method geodesics (potpourri3d; not a jaxpose dependency) from this many fps sources")
     p.add_argument("--voxel", action="store_true", help="also the inner distance in the robust solid's voxels")
     p.add_argument("--voxel-k", type=int, default=64)
     p.add_argument("--every", type=int, default=1)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--json", default=None)
+    p.add_argument("--summary", nargs="+", default=None, metavar="JSON",
+                   help="print the compact tables of earlier --json records (nothing measured)")
     args = p.parse_args(argv)
+    if args.summary:
+        record = {}
+        for path in args.summary:
+            for variant, classes in json.loads(Path(path).read_text()).items():
+                record.setdefault(variant, {}).update(classes)
+        summary(record)
+        return 0
     if not SHARED.is_dir():
         print(f"no {SHARED}: nothing to measure", file=sys.stderr)
         return 0
@@ -306,6 +331,93 @@ def main(argv=None):
             if args.json:
                 Path(args.json).write_text(json.dumps(record, indent=1))
     return 0
+
+
+def _cv(values):
+    return scale_spread(np.asarray(values, np.float64))["cv_scale"]
+
+
+def summary(record):
+    """Compact tables of a record: per variant and class the cv of the baselines and of each
+    candidate at its largest K, the best candidate's ratio to the best baseline; on plain meshes
+    also the convergence in K, the pose dependence of the edge graph's overestimate (against the
+    graph with diagonals and the heat method) and the seconds per shape."""
+    for variant, classes in record.items():
+        names = list(classes)
+        cands = []
+        for name in names:
+            for c in classes[name]["cv"]:
+                if c not in cands and not c.endswith(":count"):
+                    cands.append(c)
+        # keep each family's largest K only
+        def fam(c):
+            head, _, size = c.rpartition(":")
+            stem = head.rstrip("0123456789")
+            return stem, size, int(head[len(stem):] or 0)
+        best_k = {}
+        for c in cands:
+            if ":" in c:
+                stem, size, k = fam(c)
+                best_k[stem, size] = max(best_k.get((stem, size), 0), k)
+        shown = [c for c in cands if ":" not in c or fam(c)[2] == best_k[fam(c)[:2]]]
+        print(f"\n## {variant}: cv per class (population std / mean over the poses)\n")
+        print("| candidate | " + " | ".join(names) + " |")
+        print("|---|" + "---|" * len(names))
+        for c in shown:
+            print(f"| {c} | " + " | ".join(f"{classes[n]['cv'][c]:.5f}" if c in classes[n]["cv"] else "n/a"
+                                          for n in names) + " |")
+        lows = {n: min(classes[n]["cv"][b] for b in ("robust", "sqrt_area") if b in classes[n]["cv"]) for n in names}
+        geo = [c for c in shown if ":" in c]
+        print("| best baseline (min of robust, sqrt_area) | " + " | ".join(f"{lows[n]:.5f}" for n in names) + " |")
+        for n in names:
+            have = [c for c in geo if c in classes[n]["cv"]]
+            if have:
+                c = min(have, key=lambda c: classes[n]["cv"][c])
+                print(f"  {n}: best geodesic {c} cv {classes[n]['cv'][c]:.5f} = {classes[n]['cv'][c] / lows[n]:.2f} x the best baseline")
+        if variant != "plain":
+            continue
+        print("\nconvergence (fps and random mean: cv at K; mean |value(K) / value(K max) - 1| over the poses)")
+        for n in names:
+            v = classes[n]["values"]
+            for scheme in ("fps", "random", "shared"):
+                ks = sorted(int(c.split(":")[1][len(scheme):]) for c in v if c.startswith(f"mesh:{scheme}") and c.endswith(":mean"))
+                if not ks:
+                    continue
+                top = np.asarray(v[f"mesh:{scheme}{ks[-1]}:mean"])
+                print(f"  {n:9s} {scheme:6s} " + "  ".join(
+                    f"K={k}: cv {_cv(v[f'mesh:{scheme}{k}:mean']):.5f} dev {np.mean(np.abs(np.asarray(v[f'mesh:{scheme}{k}:mean']) / top - 1)):.4f}"
+                    for k in ks))
+        print("\nzig-zag: cv over the poses of the edge graph's mean geodesic over another's (pose dependence of the overestimate)")
+        for n in names:
+            v = classes[n]["values"]
+            k = max(int(c.split(":")[1][3:]) for c in v if c.startswith("mesh:fps") and c.endswith(":mean"))
+            mine = np.asarray(v[f"mesh:fps{k}:mean"])
+            parts = []
+            for other in [c for c in v if (c.startswith("diag:") or c.startswith("heat:")) and c.endswith(":mean")]:
+                kk = int(other.split(":")[1][3:])
+                base = np.asarray(v[f"mesh:fps{kk}:mean"]) if f"mesh:fps{kk}:mean" in v else mine
+                r = base / np.asarray(v[other])
+                parts.append(f"{other}: ratio {r.mean():.4f}, cv of the ratio {_cv(r):.5f}")
+            print(f"  {n:9s} " + ";  ".join(parts))
+        g = next((c for c in ("mesh:fps256:mean", "mesh:fps128:mean", "mesh:fps64:mean") if c in classes[names[0]]["values"]), None)
+        if g is not None:
+            ws = np.round(np.arange(0.0, 1.01, 0.1), 1)
+            print(f"\nblend V^(w/3) G^(1-w) (G = {g}; w = 1 the robust scale): cv per w; corr and slope of log G "
+                  "against log V^(1/3) and log sqrt(A)")
+            print("| class | " + " | ".join(f"w={w}" for w in ws) + " | corr(G, V^1/3) | slope | corr(G, sqrtA) | slope |")
+            print("|---|" + "---|" * (len(ws) + 4))
+            for n in names:
+                v = classes[n]["values"]
+                lg, lv, la = (np.log(np.asarray(v[c])) for c in (g, "robust", "sqrt_area"))
+                cells = [f"{_cv(np.exp(w * lv + (1 - w) * lg)):.5f}" for w in ws]
+                extra = []
+                for other in (lv, la):
+                    cc = np.corrcoef(lg, other)[0, 1]
+                    extra += [f"{cc:+.2f}", f"{np.polyfit(other, lg, 1)[0]:.2f}"]
+                print(f"| {n} | " + " | ".join(cells + extra) + " |")
+        print("\nseconds per shape")
+        for n in names:
+            print(f"  {n:9s} " + "  ".join(f"{k} {s:.2f}" for k, s in classes[n]["seconds_per_shape"].items()))
 
 
 def report(variant, name, cv, seconds, per):

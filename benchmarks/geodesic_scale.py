@@ -3,7 +3,8 @@
 ``python -m benchmarks.geodesic_scale [--variants plain,holes,outliers,points] [--classes ...]
 [--k 64,128,256] [--sources fps,random,shared] [--knn 8,12] [--uniform] [--diagonals] [--heat K]
 [--voxel] [--every K]
-[--seed 0] [--json OUT]`` from a source checkout with ../shared beside it.
+[--seed 0] [--json OUT]``, ``--jax K`` (alone) or ``--summary JSON...`` (the compact tables of earlier
+records, nothing measured) from a source checkout with ../shared beside it.
 
 The six dev classes as :mod:`benchmarks.bodies` loads them (rigid-core aligned; the variants made
 as ``jaxpose evaluate`` makes them, seed 0, the class index within its dataset). For every shape:
@@ -36,6 +37,9 @@ as ``jaxpose evaluate`` makes them, seed 0, the class index within its dataset).
   pose dependent (the ratio edge / edge+diagonal per pose, and its cv).
 * ``--heat K``: the same sizes from heat-method geodesics (``potpourri3d``, installed by hand; not
   a jaxpose dependency) from the first K fps sources: whether the edge graph is what varies.
+* ``--jax K`` (alone): the fps rows of each class's first plain mesh by a min-plus relaxation over
+  the edge list in JAX (:func:`minplus_rows`, run to its fixed point), against Dijkstra: the steps
+  a fixed-iteration version needs, the error, the seconds.
 * ``--voxel``: the inner distance: the same sizes on the robust solid's voxels (26-neighbour graph,
   steps of pitch x 1, sqrt 2, sqrt 3), fps sources, every voxel weighted alike (what a JAX version
   on the library's own solid would compute; works alike on meshes, clouds, holes and stray parts).
@@ -217,6 +221,57 @@ def all_sizes(g, w, ks, schemes, rng, shared=None):
     return out, sec
 
 
+# ------------------------------------------------------------------ the same in JAX (--jax)
+def minplus_rows(g, sources, iterations=None):
+    """Geodesic rows (K, n) by min-plus (Bellman-Ford) relaxation over the directed edge list in
+    JAX, float32: every step d[v] = min(d[v], min over edges (u, v) of d[u] + w); ``iterations``
+    None: until nothing changes (a while loop), else that many steps (a fori loop, fixed shapes).
+    Returns (rows, steps taken, seconds after compilation)."""
+    import jax
+    import jax.numpy as jnp
+
+    coo = g.tocoo()
+    u, v, w = (jnp.asarray(coo.row), jnp.asarray(coo.col), jnp.asarray(coo.data, jnp.float32))
+    n = g.shape[0]
+    d0 = jnp.full((n, len(sources)), jnp.inf, jnp.float32).at[jnp.asarray(sources), jnp.arange(len(sources))].set(0.0)
+
+    def step(d):
+        return jnp.minimum(d, jax.ops.segment_min(d[u] + w[:, None], v, num_segments=n))
+
+    if iterations is None:
+        def cond(c):
+            return c[2]
+
+        def body(c):
+            d, k, _ = c
+            e = step(d)
+            return e, k + 1, jnp.any(e < d)
+
+        run = jax.jit(lambda d: jax.lax.while_loop(cond, body, (d, 0, True))[:2])
+    else:
+        run = jax.jit(lambda d: (jax.lax.fori_loop(0, iterations, lambda _, d: step(d), d), iterations))
+    jax.block_until_ready(run(d0))
+    t0 = time.perf_counter()
+    d, k = jax.block_until_ready(run(d0))
+    return np.asarray(d).T, int(k), time.perf_counter() - t0
+
+
+def jax_check(shape, k, rng):
+    """The min-plus rows of the fps sources of one mesh against Dijkstra's: steps to the fixed
+    point, the largest relative error, seconds (after compilation), and the mean geodesic."""
+    v, f = baselines.split_geometry(shape)
+    g, _, w, _, _ = mesh_graph(v, f)
+    t0 = time.perf_counter()
+    rows, src = fps_rows(g, w, k, rng, with_sources=True)
+    t_dij = time.perf_counter() - t0
+    mine, steps, t_jax = minplus_rows(g, src)
+    err = float(np.max(np.abs(mine - rows) / np.maximum(rows, 1e-12 + rows.max() * 1e-6)))
+    a = voronoi_weights(rows, w)
+    return {"vertices": int(len(w)), "edges": int(g.nnz // 2), "steps": steps, "max_rel_error": err,
+            "jax_seconds": t_jax, "dijkstra_fps_seconds": t_dij,
+            "mean_dijkstra": sizes(rows, w, a)["mean"], "mean_jax": sizes(mine, w, a)["mean"]}
+
+
 # ------------------------------------------------------------------ one shape, one class
 def shape_sizes(shape, args, rng, shared=None):
     """{candidate: size} and {part: seconds} of one shape (module docs)."""
@@ -285,6 +340,9 @@ def main(argv=None):
                    help="also heat-method geodesics (potpourri3d; not a jaxpose dependency) from this many fps sources")
     p.add_argument("--voxel", action="store_true", help="also the inner distance in the robust solid's voxels")
     p.add_argument("--voxel-k", type=int, default=64)
+    p.add_argument("--jax", type=int, default=0, metavar="K",
+                   help="only: the JAX min-plus relaxation from K fps sources on the first plain mesh of each class "
+                        "against Dijkstra (steps, error, seconds)")
     p.add_argument("--every", type=int, default=1)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--json", default=None)
@@ -304,6 +362,15 @@ def main(argv=None):
     with tempfile.TemporaryDirectory() as tmp:
         classes = dev_classes(tmp, args.classes.split(","), args.every)
     record = {}
+    if args.jax:
+        for name, meshes in classes.items():
+            out = jax_check(meshes[0], args.jax, np.random.default_rng([args.seed, CLASSES.index(name) % 2, 0]))
+            record[name] = out
+            print(name, "  ".join(f"{key} {val:.4g}" if isinstance(val, float) else f"{key} {val}" for key, val in out.items()))
+            sys.stdout.flush()
+        if args.json:
+            Path(args.json).write_text(json.dumps(record, indent=1))
+        return 0
     for variant in args.variants.split(","):
         record[variant] = {}
         for name, meshes in classes.items():
@@ -342,6 +409,19 @@ def summary(record):
     candidate at its largest K, the best candidate's ratio to the best baseline; on plain meshes
     also the convergence in K, the pose dependence of the edge graph's overestimate (against the
     graph with diagonals and the heat method) and the seconds per shape."""
+    if "points" in record and "plain" in record:
+        print("\nshortcuts: per pose the k-NN graph's mean geodesic over the mesh's with the vertices weighted "
+              "alike (mesh_uniform, same sources scheme); mean ratio, its cv, its min and max")
+        for n, cell in record["points"].items():
+            plain = record["plain"].get(n, {}).get("values", {})
+            ref = next((c for c in plain if c.startswith("mesh_uniform:") and c.endswith(":mean")), None)
+            if ref is None:
+                continue
+            parts = []
+            for c in (c for c in cell["values"] if c.startswith("knn") and c.endswith(":mean")):
+                r = np.asarray(cell["values"][c]) / np.asarray(plain[ref])
+                parts.append(f"{c.split(':')[0]}: {r.mean():.4f} cv {_cv(r):.5f} [{r.min():.3f}, {r.max():.3f}]")
+            print(f"  {n:9s} " + "  ".join(parts))
     for variant, classes in record.items():
         names = list(classes)
         cands = []

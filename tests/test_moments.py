@@ -179,9 +179,16 @@ def test_refinement_with_tables_equals_direct_children(x64, monkeypatch):
     cfg = GridConfig(resolution=16, block=512, refine=4, band=4096)
     a = region_moments(svdd, cfg)
     batched = jax.vmap(lambda s: region_moments(s, cfg))(jax.tree_util.tree_map(lambda v: v[None], svdd))
+    tables = str(region_moments.trace(svdd, cfg).jaxpr)
     monkeypatch.setattr(grid, "TABLE_BYTES", 0)
-    jax.clear_caches()  # TABLE_BYTES is read at trace time
-    b = region_moments(svdd, cfg)
+    # TABLE_BYTES is read at trace time: region_moments is traced again (its own caches cleared, not
+    # every compiled program of the process, which later tests would compile or load again)
+    region_moments.clear_cache()
+    try:
+        assert str(region_moments.trace(svdd, cfg).jaxpr) != tables  # the direct path: another program
+        b = region_moments(svdd, cfg)
+    finally:
+        region_moments.clear_cache()  # later calls traced with the tables again
     assert int(a.unrefined) == int(b.unrefined) == 0
     for u, v, w in zip(a, b, batched):
         np.testing.assert_allclose(np.asarray(u), np.asarray(v), rtol=1e-12, atol=1e-14)

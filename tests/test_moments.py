@@ -1,4 +1,5 @@
 """Volume moments against analytic volumes, centroids and the provable domain."""
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -42,6 +43,11 @@ def test_two_balls_centroid(x64):
     np.testing.assert_allclose(float(mom.center[0]), 2 * vols[1] / vols.sum(), atol=2e-3)
 
 
+@jax.jit
+def _occupancy_moments(x, f, grad, h):
+    return moments_from_occupancy(x, occupancy(f, grad, h), h)
+
+
 def _ellipsoid_moments(n):
     axes = np.array([0.5, 0.3, 0.2])
     q, _ = np.linalg.qr(np.random.default_rng(0).normal(size=(3, 3)))
@@ -50,8 +56,8 @@ def _ellipsoid_moments(n):
     y = (np.asarray(x) - c0) @ q
     f = 1 - np.sum((y / axes) ** 2, axis=1)
     grad = (-2 * y / axes**2) @ q.T
-    w = occupancy(jnp.asarray(f), jnp.asarray(grad), h)
-    mom = moments_from_occupancy(x, w, h)
+    # occupancy and moments compiled together, as region_moments runs them (not op by op)
+    mom = _occupancy_moments(x, jnp.asarray(f), jnp.asarray(grad), h)
     exact = dict(volume=4 / 3 * np.pi * axes.prod(), center=c0, second=q @ np.diag(axes**2 / 5) @ q.T)
     return mom, exact
 
@@ -200,25 +206,34 @@ def test_last_level_band_holds_every_cut_cell(x64):
     not the full band. Brute force: the children of every cell of the full band, evaluated; every cell
     whose children's occupancies differ (the boundary passes through it) must be chosen (the thin arm:
     a quarter of the allowance missed 84 such cells at 64^3, float32)."""
+    import jax
+
     from jaxpose.occupancy import grid
     from jaxpose import moments
 
     svdd = fit_svdd(sphere_with_arm(600), 47.0, 0.5)
-    lo, hi = domain(svdd)
-    x, h, f, g = grid.evaluate_grid(svdd, lo, hi, 32)
-    occ = occupancy(f, g, h)
-    cut_linear = (occ > 0) & (occ < 1)
-    band = np.asarray(cut_linear | (moments.band_score(f, g, h, svdd.gamma, svdd.offset) < 1))
-    last = np.asarray(cut_linear | (moments.band_score(f, g, h, svdd.gamma, svdd.offset, *moments.LAST_BAND) < 1))
+
+    # the library's functions compiled as they run in region_moments (one program for the grid and
+    # its bands, one for the children), not op by op (~170 single-operation compilations)
+    @jax.jit
+    def bands(svdd):
+        lo, hi = domain(svdd)
+        x, h, f, g = grid.evaluate_grid(svdd, lo, hi, 32)
+        occ = occupancy(f, g, h)
+        cut_linear = (occ > 0) & (occ < 1)
+        within = lambda *allowance: cut_linear | (moments.band_score(f, g, h, svdd.gamma, svdd.offset, *allowance) < 1)
+        return x, h, within(), within(*moments.LAST_BAND), within(0.5, 0.0)
+
+    x, h, band, last, linear_only = bands(svdd)
+    x, h, band, last, linear_only = (np.asarray(v) for v in (x, h, band, last, linear_only))
     idx = np.nonzero(band)[0]
     children = (x[idx][:, None, :] + CHILD_OFFSETS * h).reshape(-1, 3)
-    oc = np.asarray(occupancy(*evaluate_on_grid(svdd, children), h / 2)).reshape(-1, 8)
+    oc = np.asarray(jax.jit(lambda s, c, h: occupancy(*evaluate_on_grid(s, c), h / 2))(svdd, children, h)).reshape(-1, 8)
     cut = np.any((oc > 0) & (oc < 1), axis=1) | (np.any(oc > 0, axis=1) & np.any(oc < 1, axis=1))
     assert cut.sum() > 500
     assert not np.any(cut & ~last[idx]), int(np.sum(cut & ~last[idx]))
     assert last.sum() < 0.7 * band.sum()  # and it is narrower than the full band
     # without the curvature allowance cut cells are missed here: the check can fail
-    linear_only = np.asarray(cut_linear | (moments.band_score(f, g, h, svdd.gamma, svdd.offset, 0.5, 0.0) < 1))
     assert np.any(cut & ~linear_only[idx])
 
 

@@ -1,4 +1,5 @@
 """Grids that cover the SVDD region and the evaluation of f on them (jaxpose.occupancy.grid)."""
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -16,6 +17,13 @@ def manual_svdd(points, alpha, gamma, offset):
     m = len(points)
     return SVDD(points, jnp.asarray(alpha, float), jnp.asarray(gamma, float), jnp.asarray(1.0), jnp.asarray(offset, float),
                 jnp.asarray(0.0), jnp.asarray(0), jnp.asarray(0.0), jnp.asarray(True), jnp.ones(m, bool))
+
+
+@jax.jit
+def _autodiff_gradient(svdd, x):
+    """The oracle: grad f at each row of x by autodiff of decision_function, one compiled program
+    (op by op it compiled each operation of the vmapped gradient on its own)."""
+    return jax.vmap(jax.grad(lambda p: decision_function(svdd, p[None])[0]))(x)
 
 
 def test_decision_function_refuses_a_bad_block_by_name():
@@ -47,7 +55,7 @@ def test_grid_gradient_matches_autodiff(x64):
     x = jnp.asarray(np.random.default_rng(0).uniform(-0.5, 0.5, size=(50, 3)))
     f, g = evaluate_on_grid(svdd, x, block=16)
     np.testing.assert_allclose(np.asarray(f), np.asarray(decision_function(svdd, x)), atol=1e-12)
-    g_ad = jax.vmap(jax.grad(lambda p: decision_function(svdd, p[None])[0]))(x)
+    g_ad = _autodiff_gradient(svdd, x)
     np.testing.assert_allclose(np.asarray(g), np.asarray(g_ad), atol=1e-10)
 
 
@@ -123,7 +131,7 @@ def test_far_chunks_are_skipped_without_changing_f(x64):
     x = jnp.asarray(np.c_[s, 0.2 * rng.uniform(-1, 1, size=(2000, 2))])
     f, g = evaluate_on_grid(svdd, x, block=128)
     np.testing.assert_allclose(np.asarray(f), np.asarray(decision_function(svdd, x)), atol=1e-13)
-    g_ad = jax.vmap(jax.grad(lambda p: decision_function(svdd, p[None])[0]))(x)
+    g_ad = _autodiff_gradient(svdd, x)
     np.testing.assert_allclose(np.asarray(g), np.asarray(g_ad), atol=1e-11)
 
 
@@ -148,7 +156,7 @@ def test_separable_subgrids_equal_direct_evaluation(x64):
     local = np.stack(np.meshgrid(i, i, i, indexing="ij"), axis=-1).reshape(-1, 3) * np.asarray(h)
     x = (np.asarray(corners)[:, None, :] + local).reshape(-1, 3)
     np.testing.assert_allclose(np.asarray(f).reshape(-1), np.asarray(decision_function(svdd, x)), atol=1e-13)
-    g_ad = jax.vmap(jax.grad(lambda p: decision_function(svdd, p[None])[0]))(jnp.asarray(x))
+    g_ad = _autodiff_gradient(svdd, jnp.asarray(x))
     np.testing.assert_allclose(np.asarray(g).reshape(-1, 3), np.asarray(g_ad), atol=1e-11)
     # count: boxes of the blocks past it are not evaluated (zeros)
     f2, _ = evaluate_subgrids(svdd, corners, h, n, block=8 * n**3, count=jnp.asarray(16))
@@ -211,7 +219,7 @@ def test_children_from_tables_equal_direct_evaluation(x64, monkeypatch):
     assert f.shape == (700, 8) and g.shape == (700, 8, 3)
     x = (cells[:, None, :] + CHILD_OFFSETS * h).reshape(-1, 3)
     np.testing.assert_allclose(np.asarray(f).reshape(-1), np.asarray(decision_function(svdd, x)), atol=1e-13)
-    g_ad = jax.vmap(jax.grad(lambda p: decision_function(svdd, p[None])[0]))(x)
+    g_ad = _autodiff_gradient(svdd, x)
     np.testing.assert_allclose(np.asarray(g).reshape(-1, 3), np.asarray(g_ad), atol=1e-11)
     assert np.mean(np.asarray(f) > 0) > 0.05 and np.mean(np.asarray(f) < 0) > 0.5  # inside and outside
     f2, _ = grid.evaluate_children(svdd, lo, h, cells, n, block=64, count=jnp.asarray(100))  # blocks of 64 cells
@@ -252,14 +260,19 @@ def test_children_from_tables_are_accurate_in_float32():
 
 @pytest.mark.parametrize("n", [1, 2, 5, 33, 1000])
 def test_first_true_and_running_sum_equal_numpy(n):
+    import jax
+
+    # compiled, as the library runs them (one program per shape, not one per operation)
+    counts = jax.jit(running_sum)
+    first = jax.jit(first_true, static_argnums=(1, 2))
     rng = np.random.default_rng(n)
     for fill in (0.0, 0.05, 0.5, 1.0):  # empty, sparse, half, full masks
         mask = rng.random(n) < fill
-        np.testing.assert_array_equal(np.asarray(running_sum(jnp.asarray(mask, jnp.int32))), np.cumsum(mask))
+        np.testing.assert_array_equal(np.asarray(counts(jnp.asarray(mask, jnp.int32))), np.cumsum(mask))
         for size in (1, max(1, n // 3), n + 2):  # fewer, about as many and more slots than True entries
             want = np.full(size, -1)
             idx = np.nonzero(mask)[0][:size]
             want[:len(idx)] = idx
-            got = np.asarray(first_true(jnp.asarray(mask), size, fill_value=-1))
+            got = np.asarray(first(jnp.asarray(mask), size, -1))
             assert got.dtype == np.int32
             np.testing.assert_array_equal(got, want)

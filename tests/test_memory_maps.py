@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 import pytest
 
 from conftest import max_map_count, memory_maps, release_compiled_programs
@@ -15,8 +16,8 @@ def test_release_compiled_programs_frees_the_maps_of_compiled_programs():
         pytest.skip("no /proc/self/maps or vm.max_map_count on this system")
     fs = [jax.jit(lambda x, i=i: jnp.sin(x) * i + jnp.cumsum(x)) for i in range(40)]
     before = memory_maps()
-    for i, f in enumerate(fs):
-        f(jnp.arange(8.0 + i)).block_until_ready()
+    for i, f in enumerate(fs):  # NumPy inputs: the jitted functions are the only programs compiled
+        f(np.arange(8.0 + i)).block_until_ready()
     grown = memory_maps()
     assert grown - before >= 3 * len(fs)  # each compiled program holds its own memory maps
     assert not release_compiled_programs(limit=10 * grown)  # well below the limit: kept

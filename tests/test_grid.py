@@ -103,17 +103,18 @@ def test_domain_is_snapped_and_piecewise_constant(x64):
 def test_morton_order_matches_codes_of_cell_centers():
     from jaxpose.occupancy.grid import morton_codes, morton_order
 
+    codes_of = jax.jit(morton_codes)  # compiled, as the grids use it (one program per shape, not per operation)
     for n in (4, 8, 32):
         lo, hi = jnp.array([-1.0, -1.0, -1.0]), jnp.array([1.0, 1.0, 1.0])
-        x, _ = cell_centers(lo, hi, n)
+        x, _ = jax.jit(cell_centers, static_argnums=2)(lo, hi, n)
         perm = morton_order(n)
         assert sorted(perm.tolist()) == list(range(n**3))
-        codes = np.asarray(morton_codes(x, lo, hi))
+        codes = np.asarray(codes_of(x, lo, hi))
         assert np.all(np.diff(codes[perm]) > 0)  # the static order is the order of the codes
     # bit interleaving against a direct construction: x bits at 3b + 2, y at 3b + 1, z at 3b
     q = np.array([[5, 3, 1], [1023, 0, 512]])
     expect = [sum(((int(v[a]) >> b) & 1) << (3 * b + 2 - a) for b in range(10) for a in range(3)) for v in q]
-    got = morton_codes(jnp.asarray(q + 0.5, jnp.float32), jnp.zeros(3), jnp.full(3, 1024.0))
+    got = codes_of(jnp.asarray(q + 0.5, jnp.float32), jnp.zeros(3), jnp.full(3, 1024.0))
     assert np.asarray(got).tolist() == expect
 
 

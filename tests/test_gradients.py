@@ -4,7 +4,7 @@ Two derivatives are checked, each against what it claims to be:
 
 * ``derivative="exact"`` (the implicit KKT derivative of the computed solution) against central
   finite differences of the production function itself (``pose.pose_pipeline``) at the largest
-  step in (1e-3, 1e-4, 1e-5, 1e-6) whose interval is certified free of switches (``_structure``:
+  step in (1e-3, 1e-4, 1e-5, 1e-6) whose interval is certified free of switches (``_state``:
   same solver iterations, SVDD status, cells, refinement and occupancy class at both ends): the
   function is piecewise smooth, with a switch every ~1e-4 to 1e-3 relative change of gamma at
   m = 400, and a difference across one is a secant over two pieces, not a derivative;
@@ -63,17 +63,17 @@ def _ok(a, b, rel, atol=1e-6):
     return (ec <= rel or np.linalg.norm(a[:3] - b[:3]) <= atol) and (es <= rel or abs(a[3] - b[3]) <= atol)
 
 
-def _structure(points, **opts):
-    """jitted (gamma, nu) -> the discrete state the production function branches on: solver
+def _state(points, **opts):
+    """(gamma, nu) -> the discrete state the production function branches on: solver
     iterations, SVDD status of each point (0 zero, 1 free, 2 at the cap), the cells (centers
-    and constant factors: box and refinement) and each cell's occupancy class (0, ramp, 1)."""
+    and constant factors: box and refinement) and each cell's occupancy class (0, ramp, 1).
+    Traceable: ``gamma_check`` compiles it with the JVP (one program)."""
     from jaxpose.config import PoseConfig
     from jaxpose.pose.frame import prescale
     from jaxpose.occupancy.svdd import solve_svdd
 
     config = PoseConfig.create(**{"derivative": "exact", **opts})
 
-    @jax.jit
     def state(g, n):
         y, _, _ = prescale(points)
         s = solve_svdd(y, g, n, None, None, config.svdd)
@@ -82,7 +82,7 @@ def _structure(points, **opts):
         return dict(iterations=s.iterations, status=status, x=x, fac=fac,
                     ramp=(occ > 0).astype(int) + (occ >= 1).astype(int))
 
-    return lambda g, n: jax.tree_util.tree_map(np.asarray, state(g, n))
+    return state
 
 
 def _canonical(st):
@@ -93,7 +93,7 @@ def _canonical(st):
 
 
 def _switches(a, b):
-    """Counts of what differs between two states of ``_structure``; all 0: no switch between
+    """Counts of what differs between two states of ``_state``; all 0: no switch between
     (cells: cells not in both; ramp: cells whose occupancy class differs; -1 if the cells differ)."""
     (xa, fa, ra), (xb, fb, rb) = _canonical(a), _canonical(b)
     same = np.array_equal(xa, xb) and np.array_equal(fa, fb)
@@ -110,19 +110,19 @@ def gamma_check(points, g, n, opts=None, steps=STEPS):
     """jacfwd in gamma of the production function against central FD at the largest step of
     ``steps`` certified free of switches. -> dict(J, fd, step, rel, ok, per_step=[(e, fd, rel, switches)])."""
     opts = OPTS if opts is None else opts
-    f = _fn(points, **opts)
-    # one compiled program gives both: the JVP in gamma (the derivative) and, as its primal output,
-    # the production function's value (the FD ends): a second program for the plain values would
-    # compute the same function again (and compile for as long)
-    jvp = jax.jit(lambda g_, n_: jax.jvp(lambda x: f(x, n_), (g_,), (jnp.ones_like(g_),)))
-    at = lambda g_: [np.asarray(v) for v in jvp(jnp.asarray(g_, points.dtype), jnp.asarray(n, points.dtype))]
-    st = _structure(points, **opts)
+    f, state = _fn(points, **opts), _state(points, **opts)
+    # one compiled program gives all three: the JVP in gamma (the derivative), as its primal output
+    # the production function's value (the FD ends), and the discrete state at that gamma (the
+    # certificate): separate programs would compute the same solve again (and compile for as long)
+    jvp = jax.jit(lambda g_, n_: (*jax.jvp(lambda x: f(x, n_), (g_,), (jnp.ones_like(g_),)), state(g_, n_)))
+    at = lambda g_: jax.tree_util.tree_map(np.asarray, jvp(jnp.asarray(g_, points.dtype), jnp.asarray(n, points.dtype)))
     J = at(g)[1]
     per_step, chosen = [], None
     for e in steps:
         lo, hi = g * (1 - e), g * (1 + e)
-        fd = (at(hi)[0] - at(lo)[0]) / (hi - lo)
-        sw = _switches(st(lo, n), st(hi, n))
+        (f_lo, _, st_lo), (f_hi, _, st_hi) = at(lo), at(hi)
+        fd = (f_hi - f_lo) / (hi - lo)
+        sw = _switches(st_lo, st_hi)
         per_step.append((e, fd, _rel(J, fd), sw))
         if chosen is None and not any(sw.values()):
             chosen = per_step[-1]

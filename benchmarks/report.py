@@ -212,8 +212,12 @@ def _scaling_lines(r):
 
 def _accuracy_lines(r):
     def row(name, v):
+        if v["median"] is None:
+            return f"  {name:<30} no object's region holds a grid point ({v['empty']} empty)"
+        empty = f"  ({v['empty']} empty: no grid point inside)" if v.get("empty") else ""
         return (f"  {name:<30} center median {v['median']:.2e}  max {v['max']:.2e}  within {r['bar']:g}: "
-                f"{v['within_bar']}/{r['n_objects']}  |  scale median {v['scale_median']:.2e}  max {v['scale_max']:.2e}")
+                f"{v['within_bar']}/{r['n_objects']}  |  scale median {v['scale_median']:.2e}  max {v['scale_max']:.2e}"
+                + empty)
 
     lines = ["", f"[accuracy]  {r['n_objects']} objects, m={r['m']}, errors against the reference (scale: relative) "
                  f"(fit tol {r['reference']['fit_tol']:g}, {r['reference']['resolution']}^3 x {r['reference']['refine']})",
@@ -327,7 +331,10 @@ def cli(argv=None) -> int:
         from jaxpose.mesh import write_atomic
 
         Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-        write_atomic(args.json, json.dumps(result, indent=2, default=_jsonable) + "\n", force=args.force)
+        from jaxpose.cli.common import json_text
+
+        # strict JSON: a result that is not a number (a baseline's empty region) is null, not NaN
+        write_atomic(args.json, json_text(json.loads(json.dumps(result, default=_jsonable))), force=args.force)
         print(f"wrote {args.json}")
     return 0
 

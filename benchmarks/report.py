@@ -331,7 +331,7 @@ def cli(argv=None) -> int:
         from jaxpose.mesh import write_atomic
 
         Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-        from jaxpose.cli.common import json_text
+        from jaxpose.io.jsontext import json_text
 
         # strict JSON: a result that is not a number (a baseline's empty region) is null, not NaN
         write_atomic(args.json, json_text(json.loads(json.dumps(result, default=_jsonable))), force=args.force)

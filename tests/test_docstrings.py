@@ -10,7 +10,7 @@ import importlib
 
 import pytest
 
-HOST_ONLY = ["jaxpose.config", "jaxpose.batch.inputs", "jaxpose.pose.result", "jaxpose.occupancy.solid", "jaxpose.cli.common"]
+HOST_ONLY = ["jaxpose.config", "jaxpose.batch.inputs", "jaxpose.pose.result", "jaxpose.occupancy.solid", "jaxpose.io.jsontext"]
 
 
 @pytest.mark.parametrize("name", HOST_ONLY)

@@ -1,13 +1,12 @@
-"""What the commands share: the OCSVM options' arguments, the one-line failure message, strict JSON text."""
+"""What the commands share: the OCSVM options' arguments, the one-line failure message; strict JSON text is :mod:`jaxpose.io.jsontext`'s."""
 from __future__ import annotations
 
-import json
-import math
 import sys
 
 from ..config import OCSVM
 from ..errors import InvalidInputError
 from ..io.atomic import check_creatable, check_output_file  # shared by the commands
+from ..io.jsontext import json_text  # the commands' JSON records (benchmarks/ write theirs with it too)
 
 __all__ = ["add_svm_options", "fail", "checked", "check_output_file", "check_creatable", "check_dataset_choice",
            "json_text"]
@@ -57,24 +56,3 @@ def fail(message, code=1):
     return code
 
 
-def json_text(record) -> str:
-    """A command's record (evaluate's result, normalize's transform, tune's result) as strict JSON
-    text (RFC 8259), indented, with a final newline.
-
-    A float that is not finite is written as ``null``: the ``inertia`` frame's ``ambiguity`` is NaN
-    (it has no ambiguity measure), and ``json.dumps`` would write the bare token ``NaN``, which is
-    not JSON (strict readers refuse the file). Nothing else changes.
-
-    >>> json_text({"ambiguity": [float("nan"), 0.5]})
-    '{\\n  "ambiguity": [\\n    null,\\n    0.5\\n  ]\\n}\\n'
-    """
-    def finite(value):
-        if isinstance(value, float):
-            return value if math.isfinite(value) else None
-        if isinstance(value, dict):
-            return {key: finite(item) for key, item in value.items()}
-        if isinstance(value, (list, tuple)):
-            return [finite(item) for item in value]
-        return value
-
-    return json.dumps(finite(record), indent=2, allow_nan=False) + "\n"

@@ -356,7 +356,7 @@ def normalize(points=_UNSET, method: str = DEFAULT_METHOD, *, power=_UNSET, gamm
     config, params = _options(method, config, given, rotation)
     _validate.check_points(x)
     rotation, throw = _validate.check_bool(rotation, "rotation"), _validate.check_bool(throw, "throw")
-    seed = _check_seed(seed)
+    seed = _validate.check_int(seed, "seed", 0)
     index = subsample_index(np.shape(x)[0], _check_params(method, params, given), seed)
     shift, size, mask = None, None, None
     if _validate.is_traced(x):  # pure-JAX path (jit, vmap, grad in points)
@@ -405,16 +405,6 @@ def _check_max_points(max_points):
     if isinstance(max_points, bool) or not isinstance(max_points, numbers.Integral) or max_points < 4:
         raise _validate.InvalidInputError(f"max_points must be an int >= 4 or None, got {max_points!r}")
     return int(max_points)
-
-
-def _check_seed(seed):
-    """The seed as an int >= 0: a concrete integer scalar (:func:`jaxpose._validate.check_int`)."""
-    from ..config import _integer, _not_an_int
-
-    number = _integer(seed)
-    if number is None or number < 0:
-        raise _not_an_int(seed, "seed", 0)
-    return number
 
 
 def _finish(pose, shift, size, throw, gamma=None, nu=None, tol=None):
@@ -508,7 +498,7 @@ def normalize_batch(list_of_points: Iterable, method: str = DEFAULT_METHOD, *, p
     given = {**_given(power=power, gamma=gamma, nu=nu, max_points=max_points), **options}
     config, params = _options(method, config, given, rotation)
     rotation, throw = _validate.check_bool(rotation, "rotation"), _validate.check_bool(throw, "throw")
-    seed = _check_seed(seed)
+    seed = _validate.check_int(seed, "seed", 0)
     limit = _check_params(method, params, given)
     if pad_to is not None and (isinstance(pad_to, bool) or not isinstance(pad_to, numbers.Integral)):
         raise _validate.InvalidInputError(f"pad_to must be an int or None, got {pad_to!r}")

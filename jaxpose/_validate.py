@@ -11,7 +11,7 @@ import sys
 
 import numpy as np
 
-from .config import _bool, _integer, _not_an_int
+from .config import _bool, _int
 from .errors import ConvergenceError, InvalidInputError, InvalidPoseWarning, JaxposeError, OpenMeshWarning
 
 __all__ = [
@@ -175,12 +175,7 @@ def check_int(value, name, minimum):
     """``value`` as an int >= ``minimum``; a clear error otherwise. An int is a concrete integer
     scalar: a Python or NumPy integer, or a () NumPy or JAX array of an integer dtype (config's
     rule, :func:`jaxpose.config._integer`); bools, floats and traced values are refused."""
-    number = _integer(value)
-    if number is None:
-        raise _not_an_int(value, name)
-    if number < minimum:
-        raise InvalidInputError(f"{name} must be >= {minimum}, got {value}")
-    return number
+    return _int(value, name, minimum)  # config's rule and messages (NumPy-free: config is imported before NumPy)
 
 
 def check_bool(value, name):

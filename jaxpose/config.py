@@ -78,12 +78,14 @@ def _not_an_int(value, name, minimum=None):
 
 
 def _int(value, name, minimum):
-    """``value`` as an int >= ``minimum``: a concrete integer scalar (:func:`_integer`); bools refused."""
+    """``value`` as an int >= ``minimum``: a concrete integer scalar (:func:`_integer`); bools refused.
+    The one int rule: :func:`jaxpose._validate.check_int` is this. An int below ``minimum`` is
+    shown as its number (``got 4``, whether it came as ``4``, ``np.int64(4)`` or ``jnp.int32(4)``)."""
     number = _integer(value)
     if number is None:
         raise _not_an_int(value, name)
     if number < minimum:
-        raise InvalidInputError(f"{name} must be >= {minimum}, got {value!r}")
+        raise InvalidInputError(f"{name} must be >= {minimum}, got {number}")
     return number
 
 

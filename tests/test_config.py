@@ -54,6 +54,19 @@ def test_bad_options_name_the_option(options, fragment):
         PoseConfig.create(**options)
 
 
+def test_an_int_below_its_minimum_reads_the_same_from_config_and_check_int():
+    """config's int options and _validate.check_int are one rule with one message: the number
+    refused as a number (config showed np.int64(4), Array(4, dtype=int32); check_int showed 4)."""
+    from jaxpose._validate import check_int
+
+    for value in (4, np.int64(4), np.array(4, np.uint8), jnp.int32(4)):
+        with pytest.raises(InvalidInputError) as by_config:
+            PoseConfig.create(resolution=value)
+        with pytest.raises(InvalidInputError) as by_check:
+            check_int(value, "resolution", 8)
+        assert str(by_config.value) == str(by_check.value) == "resolution must be >= 8, got 4", value
+
+
 def test_fit_svdd_and_volume_moments_refuse_an_unknown_option_by_name():
     # their flat options went to SolverConfig(**options) / GridConfig(**options): a raw TypeError
     import jaxpose

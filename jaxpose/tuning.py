@@ -144,7 +144,9 @@ def _split(classes, holdout, seed):
 
 
 def objective(samplers, theta, class_loss, seed):
-    """Mean over classes of (loss, sigma_tr, cv) at theta on the draw ``seed``; Python floats."""
+    """Mean over classes of (loss, sigma_tr, cv) at theta on the draw ``seed`` (an int >= 0;
+    InvalidInputError otherwise); Python floats."""
+    seed = _validate.check_int(seed, "seed", 0)
     vals = [class_loss(theta, s(seed)) for s in samplers.values()]
     return tuple(float(np.mean([float(x) for x in v])) for v in
                  ([v[0] for v in vals], [v[1][0] for v in vals], [v[1][1] for v in vals]))

@@ -162,6 +162,18 @@ def test_spacing_quantile_equals_kdtree():
     assert float(q) == pytest.approx(ref, rel=1e-5)
 
 
+@pytest.mark.parametrize("seed", (1.5, True, -1, "a", np.float64(2.0)))
+def test_spacing_subset_refuses_a_seed_that_is_not_an_int(seed):
+    """A bad seed is refused by name, as at every entry point (1.5 and "a" were NumPy's TypeError,
+    -1 its ValueError; True was taken as 1), also where every point is measured (n <= samples)."""
+    from jaxpose import InvalidInputError
+
+    for n in (3000, 10):
+        with pytest.raises(InvalidInputError, match="^seed must be"):
+            po.spacing_subset(n, 1000, seed)
+    np.testing.assert_array_equal(po.spacing_subset(3000, 1000, np.int64(3)), po.spacing_subset(3000, 1000, 3))
+
+
 def test_spacing_quantile_ignores_padding():
     pts = _ellipsoid_with_stray(800)
     padded = np.concatenate([pts, np.repeat(pts[:1], 200, axis=0)])  # copies of a point: 0 distances

@@ -216,6 +216,18 @@ def test_large_inputs_are_subsampled_with_the_count_reported():
         normalize(big, method="ocsvm", max_points=2)
 
 
+@pytest.mark.parametrize("seed", (1.5, True, -1, "a", np.float64(2.0)))
+def test_subsample_index_refuses_a_seed_that_is_not_an_int(seed):
+    """A bad seed is refused by name, as at every entry point (1.5 and "a" were NumPy's TypeError,
+    -1 its ValueError; True was taken as 1), also where no subset is drawn."""
+    from jaxpose.pose.sizes import subsample_index
+
+    for m in (3000, 30):
+        with pytest.raises(jaxpose.InvalidInputError, match="^seed must be"):
+            subsample_index(m, 300, seed)
+    np.testing.assert_array_equal(subsample_index(3000, 300, np.int64(7)), subsample_index(3000, 300, 7))
+
+
 def test_point_counts_share_compilations():
     """Sets of 290..320 points are padded to 320 rows (masked): no new compilation after the first."""
     from jaxpose.pose.sizes import bucket

@@ -181,3 +181,16 @@ def test_point_spacing_from_a_subset(monkeypatch):
     r_all = solid.neighbour_distances(points, 4)[:, 3]
     r_sub = solid.neighbour_distances(points, 4, samples=400, seed=3)[:, 3]
     assert len(r_sub) == 400 and set(np.round(r_sub, 12)) <= set(np.round(r_all, 12))
+
+
+@pytest.mark.parametrize("seed", (1.5, True, -1, "a", np.float64(2.0)))
+def test_neighbour_distances_refuses_a_seed_that_is_not_an_int(seed):
+    """A bad seed is refused by name, as at every entry point (1.5 and "a" were NumPy's TypeError,
+    -1 its ValueError; True was taken as 1)."""
+    from jaxpose.occupancy.solid import neighbour_distances
+
+    points = np.random.default_rng(0).normal(size=(100, 3))
+    with pytest.raises(InvalidInputError, match="^seed must be"):
+        neighbour_distances(points, 4, samples=10, seed=seed)
+    np.testing.assert_array_equal(neighbour_distances(points, 4, samples=10, seed=np.int64(3)),
+                                  neighbour_distances(points, 4, samples=10, seed=3))

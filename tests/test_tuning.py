@@ -64,6 +64,18 @@ def test_meshes_are_sampled_afresh_and_arrays_used_as_given():
         tuning._sampler({"a": [meshes["box"][0], np.zeros((5, 3))]}, 50, "classes")
 
 
+@pytest.mark.parametrize("seed", (1.5, True, -1, "a", np.float64(2.0)))
+def test_objective_refuses_a_seed_that_is_not_an_int(seed):
+    """objective (and spread_of) refuse a bad seed by name, as tune does (1.5, True and 2.0 were
+    drawn as seeds 1, 1 and 2; "a" was int()'s ValueError)."""
+    meshes = {"box": [trimesh.creation.box([1.0, 0.6, 0.3]), trimesh.creation.box([1.0, 0.5, 0.3])]}
+    samplers = tuning._sampler(meshes, 50, "classes")
+    loss = lambda theta, points: (float(points.sum()), (0.0, 0.0))  # the draw, read back: nothing compiled
+    with pytest.raises(jaxpose.InvalidInputError, match="^seed must be"):
+        tuning.objective(samplers, None, loss, seed)
+    assert tuning.objective(samplers, None, loss, np.int64(3)) == tuning.objective(samplers, None, loss, 3)
+
+
 def test_holdout_splits_whole_classes():
     classes = {f"c{i}": [i] * 3 for i in range(10)}
     train, test = tuning._split(classes, 0.3, seed=0)

@@ -37,6 +37,18 @@ def test_half_of_a_class_gets_the_stray_part_reproducibly():
     assert any(not np.array_equal(x.vertices, y.vertices) for x, y in zip(a, c))
 
 
+@pytest.mark.parametrize("seed", (1.5, True, -1, "a", np.float64(2.0)))
+def test_a_seed_that_is_not_an_int_is_refused(seed):
+    """make_class and stray_mask refuse a bad seed by name, as every entry point does (1.5 was
+    NumPy's TypeError, "a" and -1 its ValueError; True was taken as 1)."""
+    meshes = [_body() for _ in range(2)]
+    with pytest.raises(InvalidInputError, match="^seed must be"):
+        make_class(meshes, "outliers", seed=seed, class_index=0)
+    with pytest.raises(InvalidInputError, match="^seed must be"):
+        stray_mask(6, seed, 0)
+    assert list(stray_mask(6, np.int64(3), 1)) == list(stray_mask(6, 3, 1))
+
+
 def test_holes_remove_ten_percent_in_five_patches():
     body = _body()
     out = make_variant(body, "holes", np.random.default_rng([0, 0, 0]))

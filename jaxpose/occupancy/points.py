@@ -52,6 +52,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax import lax
 
+from .._validate import check_int
 from ..config import RobustConfig
 from . import bits, runs
 from .runs import run_labels
@@ -96,7 +97,12 @@ def grid_cells(resolution: int, max_closing: int) -> int:
 def spacing_subset(n: int, samples: int, seed: int = 0) -> np.ndarray:
     """Indices (q,) of the points whose neighbour distances are measured: every point when
     n <= samples, else ``numpy.random.default_rng(seed).choice(n, samples, replace=False)`` (the
-    subset of :func:`jaxpose.occupancy.solid.neighbour_distances`). Depends on (n, samples, seed) only."""
+    subset of :func:`jaxpose.occupancy.solid.neighbour_distances`). Depends on (n, samples, seed) only.
+
+    Raises:
+      InvalidInputError: seed not an int >= 0 (:func:`jaxpose._validate.check_int`).
+    """
+    seed = check_int(seed, "seed", 0)
     if n <= samples:
         return np.arange(n)
     return np.random.default_rng(seed).choice(n, size=int(samples), replace=False)

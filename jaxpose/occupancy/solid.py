@@ -46,7 +46,7 @@ from scipy import ndimage
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from .._validate import InvalidInputError
+from .._validate import InvalidInputError, check_int
 from ..config import MEMORY_BUDGET, RobustConfig, _integer
 
 __all__ = ["Solid", "robust_solid", "cap_holes", "ray_vote_solid", "point_solid", "exterior_fill", "keep_main", "MESH_REACH",
@@ -275,8 +275,13 @@ def neighbour_distances(points, k=4, samples=None, seed=0):
 
     Returns:
       (q, k) float, q = n or min(n, samples), rows ascending.
+
+    Raises:
+      InvalidInputError: seed not an int >= 0 (:func:`jaxpose._validate.check_int`).
     """
     from scipy.spatial import cKDTree
+
+    seed = check_int(seed, "seed", 0)
 
     queries = points
     if samples is not None and len(points) > samples:

@@ -10,6 +10,8 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
+from .._validate import check_int
+
 __all__ = ["MAX_POINTS", "bucket", "subsample_index", "pad"]
 
 MAX_POINTS = 4096  # larger point sets are subsampled (seeded, uniform) to this many
@@ -43,7 +45,11 @@ def subsample_index(m: int, max_points: int | None, seed: int = 0):
       the sorted indices of a uniform random subset without replacement
       (``numpy.random.default_rng(seed)``). It depends on (m, max_points, seed) only, so traced
       and concrete calls take the same points.
+
+    Raises:
+      InvalidInputError: seed not an int >= 0 (:func:`jaxpose._validate.check_int`).
     """
+    seed = check_int(seed, "seed", 0)
     if max_points is None or m <= max_points:
         return None
     return np.sort(np.random.default_rng(seed).choice(m, size=max_points, replace=False))

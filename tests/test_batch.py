@@ -259,6 +259,42 @@ def test_second_run_on_one_folder_is_refused(tmp_path, tree):
     assert run([tmp_path / "scans" / "sphere.off"], out).written == 1  # released
 
 
+def test_a_run_refused_or_unable_to_reach_its_scheduler_leaves_nothing_it_made(tmp_path, tree, capsys, monkeypatch):
+    """An unreachable --scheduler exits 1 and leaves no output folder it made (it left .jaxpose/
+    with an empty journal and lock, and an empty table), and one that was there as it was: an
+    empty one, and an earlier run's (its failed input redone: work to start). The scheduler here
+    refuses at once, as Dask's Client does after its connect timeout (30 s). A refusal after the
+    folder is opened (the table's folder missing) leaves none either (it left .jaxpose/)."""
+    from types import SimpleNamespace
+
+    from jaxpose.batch import workers
+
+    def unreachable(address, timeout):
+        raise OSError(f"Timed out trying to connect to {address} after {timeout}")
+
+    def snapshot(folder):  # the lock file's pid line is its last holder's: every run that takes it rewrites it
+        return {str(p.relative_to(folder)): p.name == "lock" or (p.is_dir() or p.read_bytes(), p.stat().st_mtime_ns)
+                for p in sorted(folder.rglob("*"))}
+
+    monkeypatch.setattr(workers, "_distributed", lambda: SimpleNamespace(Client=unreachable))
+    scans = tmp_path / "scans"
+    empty, earlier = tmp_path / "empty", tmp_path / "earlier"
+    empty.mkdir()
+    assert run([scans / "corrupt.ply"], earlier).failed == 1
+    before = {folder: snapshot(folder) for folder in (empty, earlier)}
+    for inputs, out in (([scans], tmp_path / "new" / "out"), ([scans], empty), ([scans / "corrupt.ply"], earlier)):
+        code = cli.main(["normalize", *map(str, inputs), "-o", str(out), "--scheduler", "tcp://127.0.0.1:1"])
+        err = capsys.readouterr().err
+        assert code == 1 and "cannot reach the Dask scheduler tcp://127.0.0.1:1" in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["earlier", "empty", "scans"]  # no new/, no new/out
+    assert {folder: snapshot(folder) for folder in (empty, earlier)} == before
+    with pytest.raises(InvalidInputError, match="cannot reach the Dask scheduler"):  # the API alike
+        run([scans], tmp_path / "api", workers=None, scheduler="tcp://127.0.0.1:1")
+    with pytest.raises(UsageError, match="table folder .* does not exist"):
+        run([scans], tmp_path / "refused", table=tmp_path / "missing" / "t.parquet")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["earlier", "empty", "scans"]
+
+
 def test_refusals_before_any_work(tmp_path, tree, monkeypatch):
     root = tmp_path / "scans"
     monkeypatch.setattr(batch, "normalize_file", lambda *a: pytest.fail("work started"))

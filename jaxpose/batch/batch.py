@@ -116,26 +116,27 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
     fingerprint, settings = options.fingerprint(file_format), options.settings(file_format)
     fixed = options.columns()
     with open_output_folder(output_dir, force=force, shard=shard) as folder:
-        if not isinstance(table, RemotePath):
-            check_folder_writable(table.parent, what="table")
-            remove_temporaries(table)
-        folder.remove_temporaries(None if shard is None else [item.output for item in items])
-        entries = _resolved(folder.entries(), output_dir)
-        _refuse_mixing(items, entries, _resolved(folder.other_entries(), output_dir), settings, force, folder.exists,
-                       output_dir)
-        if not force:
-            _refuse_overwriting_others(items, entries)
-        pairs = {(r["input"], r.get("output") or ""): r for r in entries}
-        todo, skipped = [], 0
-        for item in items:
-            key = _input_key(item.source, check)
-            record = pairs.get((str(item.source), str(item.output)))
-            if not force and _is_done(record, key, fingerprint, settings, item.output):
-                skipped += 1
-            else:
-                todo.append((item, key))
-        run = _Run(folder, fixed, fingerprint, fail_fast, progress, len(todo))
+        run = None
         try:
+            if not isinstance(table, RemotePath):
+                check_folder_writable(table.parent, what="table")
+                remove_temporaries(table)
+            folder.remove_temporaries(None if shard is None else [item.output for item in items])
+            entries = _resolved(folder.entries(), output_dir)
+            _refuse_mixing(items, entries, _resolved(folder.other_entries(), output_dir), settings, force, folder.exists,
+                           output_dir)
+            if not force:
+                _refuse_overwriting_others(items, entries)
+            pairs = {(r["input"], r.get("output") or ""): r for r in entries}
+            todo, skipped = [], 0
+            for item in items:
+                key = _input_key(item.source, check)
+                record = pairs.get((str(item.source), str(item.output)))
+                if not force and _is_done(record, key, fingerprint, settings, item.output):
+                    skipped += 1
+                else:
+                    todo.append((item, key))
+            run = _Run(folder, fixed, fingerprint, fail_fast, progress, len(todo))
             work = []
             for item, key in todo:  # what a folder search met that is not a file: failed unread
                 if item.source in irregular:
@@ -144,11 +145,18 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
                     work.append((item, key))
             if work and not run.stopped:
                 run.execute(work, executor_args, file_format, options, check, resumed=bool(entries))
+        except BaseException:
+            # refused (the table's folder, other options' outputs) or unable to start (the Dask scheduler
+            # unreachable) before recording anything: the run leaves nothing it made, and no table
+            if run is None or not (run.started or run.written or run.failed):
+                folder.discard()
+            raise
         finally:  # also on KeyboardInterrupt: the table holds every finished input
-            rows = table_rows(items, _resolved(folder.entries(), output_dir), folder.exists)
-            write_file(table, transforms.write_transforms(rows, table, rotation=bool(options.rotation_method) or None))
-            if default_table:
-                _remove_superseded_table(table)
+            if run is not None and not folder.discarded:
+                rows = table_rows(items, _resolved(folder.entries(), output_dir), folder.exists)
+                write_file(table, transforms.write_transforms(rows, table, rotation=bool(options.rotation_method) or None))
+                if default_table:
+                    _remove_superseded_table(table)
     return BatchResult([transforms.Transform.from_record(r) for r in rows], table, run.written, skipped, run.failed, run.stopped,
                        time.perf_counter() - start, run.peak_mb)
 
@@ -204,7 +212,9 @@ def normalize_files(inputs, output_dir, options=None, **kwargs) -> list:
         an output that an earlier run wrote from another input or a `table` that is a folder or a
         file other than a transforms table (unless `force`) (all before any work). Those of the
         output paths and of conflicting run options are its subclass
-        :class:`jaxpose.errors.UsageError` (the command line exits 2).
+        :class:`jaxpose.errors.UsageError` (the command line exits 2). A run refused, or that could
+        not start (a `scheduler` not reached in 30 s), before recording anything leaves nothing it
+        made (neither `output_dir`, had it to make it, nor the table).
       jaxpose.batch.journal.FolderBusyError: another run is writing to `output_dir`.
 
     Example::
@@ -556,6 +566,7 @@ class _Run:
         self.progress, self.total = progress, total
         self.written = self.failed = 0
         self.stopped = False
+        self.started = False  # whether the executor started (Dask: connected to its scheduler)
         self.peak_mb = {}
 
     def execute(self, todo, executor_args, file_format, options, check, resumed=False):
@@ -575,6 +586,7 @@ class _Run:
             fork = runs_like_a_worker() and not options.uses_jax
             executor = LocalExecutor(min(executor_args["workers"], len(todo)), timeout=executor_args["timeout"],
                                      head_start=head_start, warm_up=functools.partial(warm_up, options), fork=fork)
+        self.started = True
         if self.progress == "lines":
             bar = _Lines(len(todo))
         else:

@@ -72,17 +72,26 @@ class OutputFolder:
         self._shard_lock = self.state / f"lock{suffix}" if shard is not None else None
         self._locks = []
         self._journal = None
+        self._made = []  # what opening the folder created, in that order (folders, lock files, journal)
+        self.discarded = False
 
     def __enter__(self):
         if self.root.exists() and not self.root.is_dir():
             raise UsageError(f"output folder {self.root} is a file")
         if not self.root.exists():
-            check_folder_writable(_existing_parent(self.root), what=f"output folder {self.root}: the parent")
+            parent = _existing_parent(self.root)
+            check_folder_writable(parent, what=f"output folder {self.root}: the parent")
+            missing = [self.root.absolute()]
+            while missing[-1].parent != parent:
+                missing.append(missing[-1].parent)
             self.root.mkdir(parents=True, exist_ok=True)
+            self._made += reversed(missing)  # outermost first
         check_folder_writable(self.root, what="output")
         if not self.state.is_dir() and any(self.root.iterdir()) and not self.force:
             raise UsageError(f"output folder {self.root} holds files that jaxpose did not write; "
                                     "use an empty or new folder (or --force / force=True to write into it)")
+        self._made += [p for p in (self.state, self.state / "lock", self._shard_lock, self.journal)
+                       if p is not None and not os.path.lexists(p)]
         self.state.mkdir(exist_ok=True)
         try:
             self._locks.append(_lock(self.state / "lock", shared=self.shard is not None))
@@ -96,7 +105,19 @@ class OutputFolder:
 
     def __exit__(self, *exc):
         self._release()
+        if self.discarded:
+            for path in reversed(self._made):  # the journal and lock files, then the folders, inner first
+                try:
+                    path.rmdir() if path.is_dir() else path.unlink()
+                except OSError:  # a folder that holds something else (made meanwhile): kept
+                    pass
         return False
+
+    def discard(self) -> None:
+        """On leaving, remove what opening the folder created (the folder itself, with the parents it
+        needed, ``.jaxpose/``, the lock and journal files): for a run that recorded nothing, so that a
+        run that could not start leaves the folder as it found it."""
+        self.discarded = True
 
     def _release(self):
         for fd in (self._journal, *self._locks):
@@ -182,19 +203,32 @@ class RemoteOutputFolder:
         self.force = force
         self.shard = shard
         self.journal = self.state / (f"records.{shard_name(shard)}" if shard is not None else "records")
+        self._made = False  # whether opening the folder created it
+        self.discarded = False
 
     def __enter__(self):
         fs = self.root.fs
         if self.root.is_file():
             raise UsageError(f"output folder {self.root} is a file")
-        if not self.force and not self.state.exists() and self.root.exists() and fs.ls(self.root.path):
+        exists = self.root.exists()
+        if not self.force and not self.state.exists() and exists and fs.ls(self.root.path):
             raise UsageError(f"output folder {self.root} holds files that jaxpose did not write; "
                                     "use an empty or new folder (or --force / force=True to write into it)")
         self.root.mkdir(parents=True, exist_ok=True)
+        self._made = not exists
         return self
 
     def __exit__(self, *exc):
+        if self.discarded and self._made:
+            try:
+                self.root.fs.rmdir(self.root.path)  # an empty folder (nothing at all on object stores)
+            except Exception:  # fsspec's file systems raise their own errors; one that holds something stays
+                pass
         return False
+
+    def discard(self) -> None:
+        """On leaving, remove the folder if opening it created it (:meth:`OutputFolder.discard`)."""
+        self.discarded = True
 
     def records(self) -> dict:
         """{input path: its last record}, ordered by those records (latest last)."""

@@ -173,7 +173,8 @@ def test_a_rerun_with_other_options_is_refused_unless_forced_and_a_stopped_force
     # outputs of other inputs this run would not redo: refused even with force
     with pytest.raises(UsageError, match="would not redo.*another output folder"):
         run([root / "sphere.off"], out, force=True)
-    assert run([root], out, options=bbox, file_format="obj").written == 4  # another format: not another option set
+    obj = run([root], out, options=bbox, file_format="obj")  # another format: not another option set
+    assert (obj.written, obj.skipped) == (3, 1)  # box.obj is done in OBJ already (the format compared resolved)
 
 
 def test_cli_rerun_with_other_options_is_a_usage_error_before_any_work(tmp_path, tree, capsys, monkeypatch):
@@ -211,6 +212,17 @@ def test_a_spelled_out_default_resolution_is_the_same_options(tmp_path, tree, ca
         assert NormalizeOptions(**fields).settings() == NormalizeOptions(**fields, resolution=ocsvm).settings()
         assert NormalizeOptions(**fields).settings() != NormalizeOptions(**fields, resolution=robust).settings()
     assert NormalizeOptions(method="bbox").settings()["resolution"] is None  # no estimator reads one
+
+
+def test_a_spelled_out_format_of_the_inputs_own_is_the_same_options(tmp_path, tree):
+    """The output format is compared resolved: --format ply for .ply inputs is no --format (a rerun
+    spelling it out redid every file, as did the reverse); another format is other outputs."""
+    scans = tmp_path / "scans"
+    for first, second, out in ((None, "ply", tmp_path / "out"), ("ply", None, tmp_path / "other")):
+        assert run([scans], out, glob="*.ply", file_format=first).written == 2  # capsule.ply, cloud.ply
+        again = run([scans], out, glob="*.ply", file_format=second)
+        assert (again.written, again.skipped, again.failed) == (0, 2, 1), (first, second)  # corrupt.ply redone
+    assert run([scans], tmp_path / "out", glob="*.ply", file_format="obj").written == 2
 
 
 def test_an_output_folder_named_through_a_link_is_the_same_folder(tmp_path, tree):

@@ -132,7 +132,7 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
             for item in items:
                 key = _input_key(item.source, check)
                 record = pairs.get((str(item.source), str(item.output)))
-                if not force and _is_done(record, key, fingerprint, settings, item.output):
+                if not force and _is_done(record, key, fingerprint, settings, item):
                     skipped += 1
                 else:
                     todo.append((item, key))
@@ -378,6 +378,16 @@ def _refuse_mixing(items, entries, other_entries, settings, force, exists, outpu
                      "redo them with these options, or write to another output folder")
 
 
+def _same_settings(theirs, mine, source):
+    """Whether a record's settings are this run's for `source`, the output format compared resolved:
+    None (the input's own) is the format of the input's suffix, as :func:`normalize_file` writes it
+    (``format="ply"`` for a ``.ply`` input is no format given)."""
+    if theirs is None:
+        return False
+    own = Path(str(source)).suffix.lower().lstrip(".")
+    return {**theirs, "format": theirs["format"] or own} == {**mine, "format": mine["format"] or own}
+
+
 def _without_format(settings):
     """Settings without the output format: outputs in two formats of one input are not two option sets."""
     return None if settings is None else {k: v for k, v in settings.items() if k != "format"}
@@ -430,11 +440,13 @@ def _refuse_overwriting_others(items, entries):
                              "to replace it")
 
 
-def _is_done(record, key, fingerprint, settings, output):
+def _is_done(record, key, fingerprint, settings, item):
     if not record or record.get("status") != "ok":
         return False
-    if record.get("options") != fingerprint and recorded_settings(record.get("options")) != settings:
+    if record.get("options") != fingerprint and not _same_settings(recorded_settings(record.get("options")), settings,
+                                                                   item.source):
         return False
+    output = item.output
     if record.get("output") != str(output) or not output.exists() or key["input_size"] is None:
         return False
     fields = ("input_size", "input_sha256") if key["input_sha256"] else ("input_size", "input_mtime_ns")

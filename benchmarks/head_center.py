@@ -1,8 +1,8 @@
 """A center on the head against the robust center, under both rigid cores (issue 34, the horse's σ_tr).
 
 ``python -m benchmarks.head_center [--variants plain,outliers,big_outliers,points,holes]
-[--classes person_a,...] [--core-weight vertices,area] [--json OUT]`` from a source checkout with
-../shared beside it.
+[--classes person_a,...] [--core-weight vertices,area] [--json OUT]`` or ``--head-size`` (plain
+meshes, vertex core) from a source checkout with ../shared beside it.
 
 The six dev classes as :mod:`benchmarks.bodies` loads them, rigid-core aligned with each core weight
 of ``--core-weight`` (``jaxpose.evaluation.align_core``: the stable 30 % as a share of the vertices,
@@ -15,6 +15,10 @@ it (seed 0, the class index within its dataset). For every shape, four centers:
   snout or the neck); where no head is found, the robust center (counted in ``found``);
 * ``vertex_mean`` and ``surface_centroid``: the classical centers that win a cell in the tables of
   ``jaxpose evaluate``.
+
+``--head-size``: the cv over each class of sizes of the head (the skull is the one rigid part of a
+vertebrate; on TOSCA's poses it is exactly rigid): its voxels' volume and the part beyond its neck's
+(cube roots), its depth (the largest inscribed ball's radius), (h^3 sum d^2)^(1/5) over its voxels.
 
 Per core, variant and class: sigma_tr of each center (``jaxpose.evaluation.measures.spread``) and how
 many shapes had a head. Nothing is asserted: it is the record behind docs/estimators.md ("Nor by
@@ -34,7 +38,7 @@ import numpy as np
 
 from jaxpose import baselines
 from jaxpose.evaluation import make_class
-from jaxpose.evaluation.measures import spread
+from jaxpose.evaluation.measures import scale_spread, spread
 from jaxpose.pose.estimators import robust_center_scale
 from jaxpose.rotation import parts
 from jaxpose.rotation.core import frame_solid
@@ -69,15 +73,44 @@ def centers_of(shape):
     return out, head is not None
 
 
+def head_sizes(classes):
+    """{class: {size: cv}} of the head's sizes (``--head-size``) on each class's meshes."""
+    out = {}
+    for name, meshes in classes.items():
+        sizes = {"volume": [], "beyond_volume": [], "depth": [], "depth_volume^2": []}
+        for mesh in meshes:
+            v, f = baselines.split_geometry(mesh)
+            sol = frame_solid(v, f)
+            found = parts.find_head(sol)
+            if found is None:
+                continue
+            h3, d = sol.pitch ** 3, sol.depth[found.head]
+            beyond = found.head if found.beyond is None else found.beyond
+            sizes["volume"].append((h3 * found.head.sum()) ** (1 / 3))
+            sizes["beyond_volume"].append((h3 * beyond.sum()) ** (1 / 3))
+            sizes["depth"].append(found.head_depth)
+            sizes["depth_volume^2"].append((h3 * np.sum(d ** 2)) ** (1 / 5))
+        out[name] = {k: scale_spread(np.asarray(s))["cv_scale"] for k, s in sizes.items()}
+        print(f"  {name:10s} " + " ".join(f"{k} {c:.4f}" for k, c in out[name].items()), flush=True)
+    return out
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(prog="python -m benchmarks.head_center")
     p.add_argument("--variants", default="plain,outliers,big_outliers,points,holes")
     p.add_argument("--classes", default=",".join(CLASSES))
     p.add_argument("--core-weight", default="vertices,area")
+    p.add_argument("--head-size", action="store_true", help="the cv of the head's sizes (plain meshes, vertex core)")
     p.add_argument("--json", default=None)
     args = p.parse_args(argv)
     if not SHARED.is_dir():
         print(f"no {SHARED}: nothing to measure", file=sys.stderr)
+        return 0
+    if args.head_size:
+        with tempfile.TemporaryDirectory() as tmp:
+            record = head_sizes(dev_classes(tmp, args.classes.split(",")))
+        if args.json:
+            Path(args.json).write_text(json.dumps(record, indent=1))
         return 0
     record = {}
     for core in args.core_weight.split(","):

@@ -235,3 +235,48 @@ def test_grid_offsets_of_spheres_and_the_offset_restored():
     for cv in record["cv"] + [record["mean_cv"]]:
         assert cv == pytest.approx(radii.std() / radii.mean(), rel=0.05)
     assert max(record["sigma_tr"]) < 2.6 / 32  # a voxel of the largest sphere's grid
+
+
+def _toy_person():
+    """A trunk box, a neck rod and a head ball (radius 0.13, centered at (0.06, 0, 0.98)), two legs."""
+    head = trimesh.creation.icosphere(subdivisions=3, radius=0.13)
+    head.apply_translation([0.06, 0.0, 0.98])
+    trunk = trimesh.creation.box(extents=(0.3, 0.5, 0.8))
+    trunk.apply_translation([0.0, 0.0, 0.4])
+    neck = trimesh.creation.cylinder(radius=0.05, height=0.12)
+    neck.apply_translation([0.0, 0.0, 0.84])
+    legs = []
+    for y in (-0.13, 0.14):
+        leg = trimesh.creation.box(extents=(0.12, 0.12, 0.9))
+        leg.apply_translation([0.0, y, -0.45])
+        legs.append(leg)
+    return trimesh.util.concatenate([trunk, head, neck] + legs)
+
+
+def test_head_center_is_the_head_ball_and_moves_with_the_body():
+    """The depth^4 centroid of the found head is the head ball's center (a ball's depth is symmetric
+    about it; the neck's voxels are shallow), within a voxel; moved, it moves alike."""
+    from benchmarks import head_center
+
+    m = _toy_person()
+    c = head_center.head_center(m.vertices, m.faces)
+    pitch = np.ptp(m.vertices, axis=0).max() / 96  # frame_solid's default grid: 96 voxels along the largest extent
+    assert c is not None and np.linalg.norm(c - [0.06, 0.0, 0.98]) < pitch
+    shift = np.array([3.0, -1.0, 2.0])
+    moved = head_center.head_center(m.vertices + shift, m.faces)
+    np.testing.assert_allclose(moved, c + shift, atol=1e-9)
+    ball = trimesh.creation.icosphere(subdivisions=3, radius=1.0)
+    assert head_center.head_center(ball.vertices, ball.faces) is None  # no part ends a ball beyond a saddle
+
+
+def test_head_sizes_of_a_body_and_its_double():
+    """A class of a body and the body scaled by 2: the grid is set by the extent, so every head size
+    doubles and each cv is std / mean of (s, 2s) = 1/3."""
+    from benchmarks import head_center
+
+    m = _toy_person()
+    big = trimesh.Trimesh(2.0 * m.vertices, m.faces, process=False)
+    cvs = head_center.head_sizes({"toy": [m, big]})["toy"]
+    assert set(cvs) == {"volume", "beyond_volume", "depth", "depth_volume^2"}
+    for name, cv in cvs.items():
+        assert cv == pytest.approx(1 / 3, abs=1e-9), name

@@ -275,14 +275,15 @@ def test_a_run_refused_or_unable_to_reach_its_scheduler_leaves_nothing_it_made(t
     """An unreachable --scheduler exits 1 and leaves no output folder it made (it left .jaxpose/
     with an empty journal and lock, and an empty table), and one that was there as it was: an
     empty one, and an earlier run's (its failed input redone: work to start). The scheduler here
-    refuses at once, as Dask's Client does after its connect timeout (30 s). A refusal after the
+    refuses at once, as Dask's Client does after its connect timeout (distributed.comm.timeouts.connect,
+    30 s by default; a real unreachable address in test_workers.py). A refusal after the
     folder is opened (the table's folder missing) leaves none either (it left .jaxpose/)."""
     from types import SimpleNamespace
 
     from jaxpose.batch import workers
 
-    def unreachable(address, timeout):
-        raise OSError(f"Timed out trying to connect to {address} after {timeout}")
+    def unreachable(address):
+        raise OSError(f"Timed out trying to connect to {address} after 30 s")
 
     def snapshot(folder):  # the lock file's pid line is its last holder's: every run that takes it rewrites it
         return {str(p.relative_to(folder)): p.name == "lock" or (p.is_dir() or p.read_bytes(), p.stat().st_mtime_ns)

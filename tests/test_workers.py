@@ -60,6 +60,27 @@ def test_cli_on_a_dask_scheduler(tmp_path, cluster, capsys):
     assert code == 2 and "workers (--workers) is for local runs" in capsys.readouterr().err  # usage
 
 
+def test_an_unreachable_scheduler_gives_up_after_dasks_own_connect_timeout(tmp_path):
+    """The scheduler's connect timeout is Dask's setting ``distributed.comm.timeouts.connect``
+    (default 30 s; here 1 s), not a fixed 30 s: a real address where nothing listens (a port held
+    bound, not listening: refused on every try) fails in seconds with the library's error."""
+    import re
+    import socket
+
+    import dask
+
+    write_mesh_tree(tmp_path / "scans")
+    with socket.socket() as closed:
+        closed.bind(("127.0.0.1", 0))  # held: nobody else can listen there while the test runs
+        address = f"tcp://127.0.0.1:{closed.getsockname()[1]}"
+        start = time.monotonic()
+        with dask.config.set({"distributed.comm.timeouts.connect": "1s"}), \
+                pytest.raises(InvalidInputError, match=f"cannot reach the Dask scheduler {re.escape(address)}: .* after 1 s"):
+            jaxpose.normalize_files(tmp_path / "scans", tmp_path / "out", scheduler=address, progress=False)
+        assert time.monotonic() - start < 15  # 30 s and more with the timeout fixed at 30 s
+    assert not (tmp_path / "out").exists()
+
+
 def worker_malloc_trim(scheduler_address):
     with distributed.Client(scheduler_address) as client:
         return sorted(client.run(lambda: os.environ.get("MALLOC_TRIM_THRESHOLD_")).values(), key=str)

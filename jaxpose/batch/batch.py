@@ -180,7 +180,9 @@ def normalize_files(inputs, output_dir, options=None, **kwargs) -> list:
         ``output_dir/transforms.parquet`` (``.csv`` without pyarrow).
       workers: local worker processes (default: the cores available; 1 runs in this process).
       scheduler: a dask.distributed scheduler address (``"tcp://host:8786"``) to run on instead; its
-        workers must see the input and the output paths' parent folders are only used here.
+        workers must see the input and the output paths' parent folders are only used here. Not
+        reached within Dask's ``distributed.comm.timeouts.connect`` (30 s by default), the run
+        stops with an error.
       dask_local: run on a new dask ``LocalCluster`` of this many worker processes instead.
       check: how a rerun recognizes an unchanged input: ``"mtime"`` (size and modification time,
         default) or ``"hash"`` (SHA-256 of its bytes).
@@ -213,8 +215,8 @@ def normalize_files(inputs, output_dir, options=None, **kwargs) -> list:
         file other than a transforms table (unless `force`) (all before any work). Those of the
         output paths and of conflicting run options are its subclass
         :class:`jaxpose.errors.UsageError` (the command line exits 2). A run refused, or that could
-        not start (a `scheduler` not reached in 30 s), before recording anything leaves nothing it
-        made (neither `output_dir`, had it to make it, nor the table).
+        not start (a `scheduler` not reached), before recording anything leaves nothing it made
+        (neither `output_dir`, had it to make it, nor the table).
       jaxpose.batch.journal.FolderBusyError: another run is writing to `output_dir`.
 
     Example::

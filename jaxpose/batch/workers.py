@@ -250,6 +250,9 @@ class DaskExecutor:
     ``MALLOC_TRIM_THRESHOLD_`` costs this workload about half again its CPU time (page faults), so
     start them without it (``distributed.nanny.pre-spawn-environ``) where you can.
 
+    A `scheduler` not reached within Dask's ``distributed.comm.timeouts.connect`` (30 s by
+    default; ``dask.config.set`` or ``DASK_DISTRIBUTED__COMM__TIMEOUTS__CONNECT=5s``) is an error.
+
     Raises:
       InvalidInputError: dask.distributed is not installed, or the scheduler cannot be reached.
     """
@@ -259,8 +262,8 @@ class DaskExecutor:
 
         self.cluster = None
         if scheduler is not None:
-            try:
-                self.client = Client(scheduler, timeout="30s")
+            try:  # within Dask's own distributed.comm.timeouts.connect (its default: 30 s)
+                self.client = Client(scheduler)
             except (OSError, TimeoutError) as exc:
                 raise InvalidInputError(f"cannot reach the Dask scheduler {scheduler}: {exc}") from None
         else:

@@ -68,13 +68,12 @@ def _is_traced(value) -> bool:
     return any(kind.__name__ == "Tracer" and kind.__module__.startswith("jax") for kind in type(value).__mro__)
 
 
-def _not_an_int(value, name, minimum=None):
+def _not_an_int(value, name):
     """The InvalidInputError of a value :func:`_integer` refuses."""
     if _is_traced(value):
         return InvalidInputError(f"{name} must be a concrete int, not a traced value (under jit, vmap or grad: "
                                  f"pass {name} as a static argument or a Python int), got {value!r}")
-    at_least = "" if minimum is None else f" >= {minimum}"
-    return InvalidInputError(f"{name} must be an int{at_least}, got {value!r}")
+    return InvalidInputError(f"{name} must be an int, got {value!r}")
 
 
 def _int(value, name, minimum):

@@ -308,6 +308,22 @@ def test_a_run_refused_or_unable_to_reach_its_scheduler_leaves_nothing_it_made(t
     assert sorted(p.name for p in tmp_path.iterdir()) == ["earlier", "empty", "scans"]
 
 
+def test_workers_and_dask_local_follow_the_one_int_rule(tmp_path, tree):
+    """workers and dask_local are ints as every count is (jaxpose._validate.check_int): a () NumPy
+    or JAX integer array is taken (it was refused), a float, a bool or a string refused as not an
+    int, and a small int by its number."""
+    import jax.numpy as jnp
+
+    for workers in (np.array(1), jnp.int32(1)):
+        assert run([tmp_path / "scans" / "sphere.off"], tmp_path / "o", workers=workers, force=True).written == 1
+    for name in ("workers", "dask_local"):
+        for bad, message in ((1.0, "an int, got 1.0"), (True, "an int, got True"), ("2", "an int, got '2'"),
+                             (0, ">= 1, got 0"), (np.int64(0), ">= 1, got 0")):
+            with pytest.raises(InvalidInputError, match=f"^{name} must be {message}$"):
+                run([tmp_path / "scans"], tmp_path / "refused", **{"workers": None, name: bad})
+    assert not (tmp_path / "refused").exists()
+
+
 def test_refusals_before_any_work(tmp_path, tree, monkeypatch):
     root = tmp_path / "scans"
     monkeypatch.setattr(batch, "normalize_file", lambda *a: pytest.fail("work started"))
@@ -320,7 +336,7 @@ def test_refusals_before_any_work(tmp_path, tree, monkeypatch):
          "would overwrite an input"),
         (dict(inputs=[tmp_path / "nothing"], out=tmp_path / "o"), "no such file or folder"),
         (dict(inputs=[root], out=tmp_path / "o", glob="*.zzz"), "no mesh files found"),
-        (dict(inputs=[root], out=tmp_path / "o", workers=0), "workers must be an int >= 1"),
+        (dict(inputs=[root], out=tmp_path / "o", workers=0), "workers must be >= 1, got 0"),
         (dict(inputs=[root], out=tmp_path / "o", dask_local=2, scheduler="tcp://x:1"), "not both"),
         (dict(inputs=[root], out=tmp_path / "o", table=tmp_path / "t.xlsx"), ".parquet or .csv"),
         (dict(inputs=[root], out=tmp_path / "o", check="size"), "mtime, hash"),

@@ -83,8 +83,10 @@ def test_shards_run_side_by_side_but_not_twice_nor_beside_a_whole_run(tmp_path, 
             run([scans], out, shard=(0, 2))
         with pytest.raises(FolderBusyError):
             run([scans], out)
+    # ints by the one rule (jaxpose.config._integer): (0.0, 2.0) was taken as (0, 2)
     for bad, fragment in [((2, 2), "0 <= index < count"), ((0, 0), "0 <= index < count"), ("0/2", "(index, count)"),
-                          ((0.5, 2), "(index, count)")]:
+                          ((0.5, 2), "(index, count)"), ((0.0, 2.0), "(index, count)"), ((0, 2.0), "(index, count)"),
+                          ((True, 2), "(index, count)")]:
         with pytest.raises(InvalidInputError, match=fragment):
             run([scans], tmp_path / "o", shard=bad)
 

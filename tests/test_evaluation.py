@@ -216,6 +216,24 @@ def test_align_core_keeps_faces_and_checks_counts():
         align_core([box], keep=0.0)
 
 
+def test_align_core_iterations_follow_the_one_int_rule():
+    """iterations is an int >= 0 as every count is (jaxpose._validate.check_int): 2.0 and True
+    were taken as 2 and 1, None was int()'s TypeError."""
+    import jax.numpy as jnp
+
+    box = trimesh.creation.box()
+    moved = box.copy()
+    moved.apply_transform(trimesh.transformations.rotation_matrix(0.3, (0, 0, 1), point=(1, 2, 3)))
+    two = align_core([box, moved], iterations=2)
+    for same in (np.int64(2), jnp.int32(2)):
+        out = align_core([box, moved], iterations=same)
+        np.testing.assert_array_equal(out[1].vertices, two[1].vertices)
+    for bad, message in ((2.0, "an int, got 2.0"), (True, "an int, got True"), (None, "an int, got None"),
+                         (2.5, "an int, got 2.5"), (-1, ">= 0, got -1")):
+        with pytest.raises(InvalidInputError, match=f"^iterations must be {message}$"):
+            align_core([box, moved], iterations=bad)
+
+
 # ------------------------------------------------------------------ evaluate
 def test_evaluate_baselines_by_hand(fake_normalize):
     result = evaluate({"boxes": _boxes(), "same": _boxes()}, methods=["bbox", "min_ball", "surface_centroid"])

@@ -216,6 +216,28 @@ def test_large_inputs_are_subsampled_with_the_count_reported():
         normalize(big, method="ocsvm", max_points=2)
 
 
+def test_max_points_and_pad_to_follow_the_one_int_rule():
+    """max_points (None or an int >= 4) and normalize_batch's pad_to are ints as every count is
+    (jaxpose._validate.check_int): a () JAX or NumPy integer array is taken (it was refused)."""
+    big = box_surface(3000, seed=5)
+    pose = normalize(big, method="ocsvm", max_points=300, seed=7)
+    for same in (jnp.int32(300), np.array(300)):
+        np.testing.assert_array_equal(np.asarray(normalize(big, method="ocsvm", max_points=same, seed=7).center),
+                                      np.asarray(pose.center))
+    for bad, message in ((300.0, "an int, got 300.0"), (True, "an int, got True"), ("a", "an int, got 'a'"),
+                         (2, ">= 4, got 2"), (jnp.int32(2), ">= 4, got 2")):
+        with pytest.raises(jaxpose.InvalidInputError, match=f"^max_points must be {message}$"):
+            normalize(big, method="ocsvm", max_points=bad)
+    small = box_surface(200, seed=5)
+    padded = jaxpose.normalize_batch([small], pad_to=256)
+    for same in (jnp.int32(256), np.array(256)):
+        np.testing.assert_array_equal(np.asarray(jaxpose.normalize_batch([small], pad_to=same).center),
+                                      np.asarray(padded.center))
+    for bad, message in ((256.0, "an int, got 256.0"), (True, "an int, got True"), (0, ">= 1, got 0")):
+        with pytest.raises(jaxpose.InvalidInputError, match=f"^pad_to must be {message}$"):
+            jaxpose.normalize_batch([small], pad_to=bad)
+
+
 @pytest.mark.parametrize("seed", (1.5, True, -1, "a", np.float64(2.0)))
 def test_subsample_index_refuses_a_seed_that_is_not_an_int(seed):
     """A bad seed is refused by name, as at every entry point (1.5 and "a" were NumPy's TypeError,

@@ -58,8 +58,11 @@ def test_bad_input_is_refused_clearly():
     box = trimesh.creation.box()
     with pytest.raises(InvalidInputError, match="depth_weighted_solid needs a mesh with faces"):
         voxels.depth_weighted_solid(box.vertices)
-    for bad in (7, 8.5, True):
-        with pytest.raises(InvalidInputError, match="voxels must be an int >= 8"):
+    # the one int rule (jaxpose._validate.check_int): 16.0 was taken as 16, None was int()'s TypeError
+    for bad, message in ((7, ">= 8, got 7"), (8.5, "an int, got 8.5"), (True, "an int, got True"),
+                         (16.0, "an int, got 16.0"), (np.float64(16.0), r"an int, got np.float64\(16.0\)"),
+                         (None, "an int, got None"), ("16", "an int, got '16'")):
+        with pytest.raises(InvalidInputError, match=f"^voxels must be {message}$"):
             voxels.filled_voxels(box, voxels=bad)
     for bad in (-1.0, float("nan"), float("inf")):
         with pytest.raises(InvalidInputError, match="power must be a finite number >= 0"):

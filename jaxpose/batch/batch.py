@@ -23,14 +23,13 @@ from __future__ import annotations
 import functools
 import hashlib
 import logging
-import numbers
 import os
 import stat
 import time
 from pathlib import Path
 from typing import NamedTuple
 
-from .._validate import check_bool, check_real
+from .._validate import check_bool, check_int, check_real
 from ..errors import InvalidInputError, UsageError
 from .task import FileResult, NormalizeOptions, normalize_file, one_line, recorded_settings, sha256_file, warm_up
 
@@ -239,12 +238,6 @@ def normalize_files(inputs, output_dir, options=None, **kwargs) -> list:
     return run_batch(inputs, output_dir, NormalizeOptions(**named) if named else options, **kwargs).rows
 
 
-def _count(value, name, minimum):
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
-        raise InvalidInputError(f"{name} must be an int >= {minimum}, got {value!r}")
-    return int(value)
-
-
 def _check_run(workers, scheduler, dask_local, timeout=None):
     from .workers import default_workers
 
@@ -259,13 +252,13 @@ def _check_run(workers, scheduler, dask_local, timeout=None):
 
         _distributed()  # not installed: refused here, before OUTDIR, its journal or its table is touched
     if dask_local is not None:
-        dask_local = _count(dask_local, "dask_local", 1)
+        dask_local = check_int(dask_local, "dask_local", 1)
     if scheduler is not None and not (isinstance(scheduler, str) and scheduler):
         raise UsageError(f"scheduler must be an address such as 'tcp://host:8786', got {scheduler!r}")
     if workers is not None:
         if scheduler is not None or dask_local is not None:
             raise UsageError("workers (--workers) is for local runs; a Dask cluster brings its own")
-        workers = _count(workers, "workers", 1)
+        workers = check_int(workers, "workers", 1)
     return {"workers": workers or default_workers(), "scheduler": scheduler, "dask_local": dask_local,
             "timeout": timeout}
 

@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import NamedTuple
 
 from .._validate import InvalidInputError
+from ..config import _integer
 from ..errors import UsageError
 from ..io.remote import RemotePath, is_url, location
 from .journal import STATE_FOLDER
@@ -300,10 +301,9 @@ def check_shard(shard):
     if shard is None:
         return None
     try:
-        index, count = shard
-        if any(isinstance(v, bool) or int(v) != v for v in (index, count)):
+        index, count = (_integer(v) for v in shard)  # the one int rule (config's): None for anything else
+        if index is None or count is None:
             raise ValueError
-        index, count = int(index), int(count)
     except (TypeError, ValueError):
         raise InvalidInputError(f"shard must be (index, count), such as (0, 4); got {shard!r}") from None
     if not 0 <= index < count:

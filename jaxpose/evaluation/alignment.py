@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validate import InvalidInputError
+from .._validate import InvalidInputError, check_int
 
 __all__ = ["align_core", "kabsch", "CORE_WEIGHTS", "check_core_weight", "vertex_weights"]
 
@@ -85,8 +85,7 @@ def align_core(meshes, keep: float = 0.3, iterations: int = 5, weight: str = "ve
         raise InvalidInputError("align_core needs at least one mesh")
     if not 0.0 < keep <= 1.0:
         raise InvalidInputError(f"keep must be in (0, 1], got {keep}")
-    if int(iterations) != iterations or iterations < 0:
-        raise InvalidInputError(f"iterations must be an integer >= 0, got {iterations}")
+    iterations = check_int(iterations, "iterations", 0)
     vs = [np.asarray(getattr(m, "vertices", m), dtype=np.float64) for m in meshes]
     counts = {v.shape for v in vs}
     if len(counts) != 1 or vs[0].ndim != 2 or vs[0].shape[1] != 3:

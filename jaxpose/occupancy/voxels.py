@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validate import InvalidInputError, check_real
+from .._validate import InvalidInputError, check_int, check_real
 from ..geometry import require_faces, warn_if_open
 from ..host import anchor
 
@@ -79,8 +79,7 @@ def filled_voxels(mesh_or_points, voxels=DEPTH_VOXELS, strict=False):
     from scipy import ndimage
 
     vertices, faces = require_faces(mesh_or_points, "depth_weighted_solid")
-    if isinstance(voxels, bool) or int(voxels) != voxels or voxels < 8:
-        raise InvalidInputError(f"voxels must be an int >= 8, got {voxels!r}")
+    voxels = check_int(voxels, "voxels", 8)
     warn_if_open(faces, "depth_weighted_solid", strict)
     origin = anchor(vertices)  # voxelize about one of the mesh's own vertices: exact far from the origin
     vertices = vertices - origin

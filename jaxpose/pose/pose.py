@@ -402,9 +402,7 @@ def _queries(counts, samples, seed):
 def _check_max_points(max_points):
     if max_points is None:
         return None
-    if isinstance(max_points, bool) or not isinstance(max_points, numbers.Integral) or max_points < 4:
-        raise _validate.InvalidInputError(f"max_points must be an int >= 4 or None, got {max_points!r}")
-    return int(max_points)
+    return _validate.check_int(max_points, "max_points", 4)
 
 
 def _finish(pose, shift, size, throw, gamma=None, nu=None, tol=None):
@@ -500,8 +498,7 @@ def normalize_batch(list_of_points: Iterable, method: str = DEFAULT_METHOD, *, p
     rotation, throw = _validate.check_bool(rotation, "rotation"), _validate.check_bool(throw, "throw")
     seed = _validate.check_int(seed, "seed", 0)
     limit = _check_params(method, params, given)
-    if pad_to is not None and (isinstance(pad_to, bool) or not isinstance(pad_to, numbers.Integral)):
-        raise _validate.InvalidInputError(f"pad_to must be an int or None, got {pad_to!r}")
+    pad_to = None if pad_to is None else _validate.check_int(pad_to, "pad_to", 1)
     if isinstance(list_of_points, (str, bytes)) or not isinstance(list_of_points, Iterable):
         raise _validate.InvalidInputError(
             f"list_of_points must be an iterable of (m, 3) point sets, got {type(list_of_points).__name__}")

@@ -238,6 +238,21 @@ def test_max_points_and_pad_to_follow_the_one_int_rule():
             jaxpose.normalize_batch([small], pad_to=bad)
 
 
+@pytest.mark.parametrize("max_points", (0, -1, 2.5, 300.0, True, "a", np.float64(300.0)))
+def test_subsample_index_refuses_max_points_that_is_not_none_or_an_int(max_points):
+    """max_points is None or an int >= 1, refused by name also where no subset is drawn (0 drew an
+    empty subset, -1 was NumPy's ValueError, 2.5, 300.0 and True its TypeError, "a" a TypeError
+    from <=; 300.0 over 30 points was taken as no limit)."""
+    from jaxpose.pose.sizes import subsample_index
+
+    for m in (3000, 30):
+        with pytest.raises(jaxpose.InvalidInputError, match="^max_points must be"):
+            subsample_index(m, max_points, 7)
+    for same in (np.int64(300), jnp.int32(300)):
+        np.testing.assert_array_equal(subsample_index(3000, same, 7), subsample_index(3000, 300, 7))
+    assert subsample_index(3000, None, 7) is None and subsample_index(300, 300, 7) is None
+
+
 @pytest.mark.parametrize("seed", (1.5, True, -1, "a", np.float64(2.0)))
 def test_subsample_index_refuses_a_seed_that_is_not_an_int(seed):
     """A bad seed is refused by name, as at every entry point (1.5 and "a" were NumPy's TypeError,

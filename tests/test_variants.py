@@ -49,6 +49,30 @@ def test_a_seed_that_is_not_an_int_is_refused(seed):
     assert list(stray_mask(6, np.int64(3), 1)) == list(stray_mask(6, 3, 1))
 
 
+@pytest.mark.parametrize("class_index", (True, 1.0, 1.5, -1, "a", None, np.float64(1.0)))
+def test_a_class_index_that_is_not_an_int_is_refused(class_index):
+    """make_class and stray_mask refuse a bad class_index by name (an int >= 0, the library's int
+    rule): True was taken as 1, 1.0 and 1.5 were NumPy's TypeError "seed must be integer", -1 and
+    "a" its ValueError, None a TypeError from len()."""
+    meshes = [_body() for _ in range(2)]
+    with pytest.raises(InvalidInputError, match="^class_index must be"):
+        make_class(meshes, "outliers", seed=3, class_index=class_index)
+    with pytest.raises(InvalidInputError, match="^class_index must be"):
+        stray_mask(6, 3, class_index)
+
+
+def test_a_class_index_may_be_a_numpy_or_jax_integer():
+    """A () JAX integer array was a TypeError from len(); it is the same class as the int."""
+    import jax.numpy as jnp
+
+    meshes = [_body() for _ in range(4)]
+    one = make_class(meshes, "outliers", seed=3, class_index=1)
+    for same in (np.int64(1), jnp.int32(1)):
+        assert list(stray_mask(4, 3, same)) == list(stray_mask(4, 3, 1))
+        assert all(np.array_equal(x.vertices, y.vertices)
+                   for x, y in zip(make_class(meshes, "outliers", seed=3, class_index=same), one))
+
+
 def test_holes_remove_ten_percent_in_five_patches():
     body = _body()
     out = make_variant(body, "holes", np.random.default_rng([0, 0, 0]))

@@ -40,8 +40,9 @@ STRAY_FRACTIONS = {"outliers": (0.02, 0.05), "big_outliers": (0.08, 0.15)}
 
 def stray_mask(n: int, seed: int, class_index: int) -> np.ndarray:
     """(n,) bool: which instances of a class get a stray part (first n // 2 of a permutation);
-    seed an int >= 0 (InvalidInputError otherwise)."""
-    perm = np.random.default_rng([check_int(seed, "seed", 0), class_index]).permutation(n)
+    seed and class_index ints >= 0 (InvalidInputError otherwise)."""
+    seed, class_index = check_int(seed, "seed", 0), check_int(class_index, "class_index", 0)
+    perm = np.random.default_rng([seed, class_index]).permutation(n)
     mask = np.zeros(n, bool)
     mask[perm[: n // 2]] = True
     return mask
@@ -155,8 +156,9 @@ def up_axis(mesh) -> int:
 
 def make_class(meshes, variant: str, seed: int, class_index: int, up: int | None = None):
     """All instances of one aligned class for ``variant`` (the seeding rule of the module docs);
-    ``up`` None: :func:`up_axis` of the first mesh; seed an int >= 0 (InvalidInputError otherwise)."""
-    seed = check_int(seed, "seed", 0)
+    ``up`` None: :func:`up_axis` of the first mesh; seed and class_index ints >= 0
+    (InvalidInputError otherwise)."""
+    seed, class_index = check_int(seed, "seed", 0), check_int(class_index, "class_index", 0)
     up = up_axis(meshes[0]) if up is None else int(up)
     mask = stray_mask(len(meshes), seed, class_index)
     return [make_variant(m, variant, np.random.default_rng([seed, class_index, k]), up=up, stray=bool(mask[k]))

@@ -38,7 +38,7 @@ def subsample_index(m: int, max_points: int | None, seed: int = 0):
     """Which of m points a fit uses.
 
     Args:
-      m: the number of points; max_points: int or None (no limit); seed: int >= 0.
+      m: the number of points; max_points: None (no limit) or an int >= 1; seed: int >= 0.
 
     Returns:
       None when m <= max_points (or max_points is None: every point); else (max_points,) int,
@@ -47,9 +47,11 @@ def subsample_index(m: int, max_points: int | None, seed: int = 0):
       and concrete calls take the same points.
 
     Raises:
-      InvalidInputError: seed not an int >= 0 (:func:`jaxpose._validate.check_int`).
+      InvalidInputError: seed not an int >= 0, max_points neither None nor an int >= 1
+        (:func:`jaxpose._validate.check_int`).
     """
     seed = check_int(seed, "seed", 0)
+    max_points = None if max_points is None else check_int(max_points, "max_points", 1)
     if max_points is None or m <= max_points:
         return None
     return np.sort(np.random.default_rng(seed).choice(m, size=max_points, replace=False))

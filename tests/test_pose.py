@@ -290,3 +290,20 @@ def test_parameter_types_share_one_compilation():
     for other in others:
         np.testing.assert_array_equal(other.center, base.center)
         assert float(other.scale) == float(base.scale)
+
+
+@pytest.mark.skipif(jax.default_backend() != "cpu", reason="an XLA:CPU pass")
+def test_exact_reductions_compile_without_reduce_window_chains():
+    """The robust programs switch XLA:CPU's tree reduction rewrite off (pose._EXACT_REDUCTIONS): a
+    boolean or integer reduction over more than 32 entries is then one kernel, not a chain of
+    reduce-window kernels, with the same value. Were the pass renamed, the option would do nothing
+    and the programs compile slower again: this fails then."""
+    from jaxpose.pose import pose as pose_module
+
+    x = jnp.arange(5000, dtype=jnp.int32) % 7
+    f = lambda x: (jnp.any(x == 3), jnp.all(x < 6), jnp.sum(x, dtype=jnp.int32), jnp.max(x), jnp.min(x + 1))
+    plain = jax.jit(f).lower(x).compile()
+    exact = jax.jit(f, compiler_options=pose_module._EXACT_REDUCTIONS).lower(x).compile()
+    assert "reduce-window" in plain.as_text()
+    assert "reduce-window" not in exact.as_text()
+    assert [v.item() for v in exact(x)] == [v.item() for v in plain(x)] == [True, False, 14995, 6, 1]

@@ -205,8 +205,15 @@ def robust_pipeline(points, mask, queries, query_mask, power, config: RobustConf
     return flag_offset(pose, points, mask)
 
 
+# XLA:CPU rewrites each reduction over more than 32 entries that it keeps for itself (here those of
+# booleans and integers: any, all, counts, integer maxima; none of the robust program's float ones)
+# into a chain of reduce-window stages, each a kernel of its own to compile, and the stages do not
+# fuse with the reduced expression. Integer and boolean reductions give the same result in any
+# order, so the robust programs switch that pass off (the GPU's tree reduction pass has another
+# name). The OCSVM programs keep it: they hold a float sum it rewrites (a different order).
+_EXACT_REDUCTIONS = {"xla_disable_hlo_passes": "tree_reduction_rewriter"}
 _pipeline_jit = jax.jit(_stopped_pipeline, static_argnames=("config", "rotation"))
-_robust_jit = jax.jit(robust_pipeline, static_argnames=("config",))
+_robust_jit = jax.jit(robust_pipeline, static_argnames=("config",), compiler_options=_EXACT_REDUCTIONS)
 
 
 def _check_method(method):
@@ -569,7 +576,7 @@ def _batched(points, mask, gamma, nu, stops, config, strategy, rotation=False, c
     return jax.vmap(fn)(points, mask, gamma, nu)
 
 
-@partial(jax.jit, static_argnames=("config", "strategy", "chains"))
+@partial(jax.jit, static_argnames=("config", "strategy", "chains"), compiler_options=_EXACT_REDUCTIONS)
 def _robust_batched(points, mask, queries, query_mask, power, config, strategy, chains=1):
     fn = lambda p, mk, q, qm, pw: robust_pipeline(p, mk, q, qm, pw, config)
     if strategy == "map":

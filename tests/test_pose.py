@@ -307,3 +307,14 @@ def test_exact_reductions_compile_without_reduce_window_chains():
     assert "reduce-window" in plain.as_text()
     assert "reduce-window" not in exact.as_text()
     assert [v.item() for v in exact(x)] == [v.item() for v in plain(x)] == [True, False, 14995, 6, 1]
+
+
+def test_a_concrete_robust_call_inside_a_trace_takes_the_plain_program():
+    """The robust programs carry compiler options (_EXACT_REDUCTIONS), which JAX refuses on a
+    program staged into an enclosing trace: a concrete call inside ``jax.eval_shape`` (or jit)
+    takes the same function jitted without them (traced, nothing compiled here)."""
+    pts = sphere_with_arm(300, seed=4)
+    one = jax.eval_shape(lambda: normalize(pts))
+    batch = jax.eval_shape(lambda: jaxpose.normalize_batch([pts, pts[:250]]))
+    assert one.center.shape == (3,) and one.status.dtype == jnp.int32
+    assert batch.center.shape == (2, 3) and batch.status.shape == (2,)

@@ -211,9 +211,26 @@ def robust_pipeline(points, mask, queries, query_mask, power, config: RobustConf
 # fuse with the reduced expression. Integer and boolean reductions give the same result in any
 # order, so the robust programs switch that pass off (the GPU's tree reduction pass has another
 # name). The OCSVM programs keep it: they hold a float sum it rewrites (a different order).
+# Compiler options belong to a top-level program only: a call staged into an enclosing trace (a
+# traced argument; jit or eval_shape around a concrete call) takes the plain program (_staged).
 _EXACT_REDUCTIONS = {"xla_disable_hlo_passes": "tree_reduction_rewriter"}
 _pipeline_jit = jax.jit(_stopped_pipeline, static_argnames=("config", "rotation"))
 _robust_jit = jax.jit(robust_pipeline, static_argnames=("config",), compiler_options=_EXACT_REDUCTIONS)
+_robust_staged = jax.jit(robust_pipeline, static_argnames=("config",))
+
+
+def _top_level(program, staged, *args, **kwargs):
+    """``program(*args, **kwargs)`` (compiled with ``_EXACT_REDUCTIONS``), or ``staged`` (the same
+    function jitted without options) where the call is staged into an enclosing trace, whose
+    compilation JAX leaves to the caller's options (it refuses a nested program's)."""
+    if any(_validate.is_traced(a) for a in jax.tree.leaves((args, kwargs))):
+        return staged(*args, **kwargs)
+    try:
+        return program(*args, **kwargs)
+    except ValueError as error:  # concrete arguments inside jit / eval_shape: a nested program
+        if "compiler_options" not in str(error):
+            raise
+    return staged(*args, **kwargs)
 
 
 def _check_method(method):
@@ -378,7 +395,8 @@ def normalize(points=_UNSET, method: str = DEFAULT_METHOD, *, power=_UNSET, gamm
         points, mask = points[0], mask[0]
     if method == "robust":
         queries, query_mask = _queries([np.shape(x)[0]], config.spacing_samples, seed)
-        pose = _robust_jit(points, mask, queries[0], query_mask[0], _as_argument(params["power"], points.dtype), config)
+        pose = _top_level(_robust_jit, _robust_staged, points, mask, queries[0], query_mask[0],
+                          _as_argument(params["power"], points.dtype), config)
         return _finish(pose, shift, size, throw)
     gamma, nu = (_as_argument(params[k], points.dtype) for k in ("gamma", "nu"))
     pose = _pipeline_jit(points, mask, gamma, nu, _stops(config), _without_stops(config), rotation)
@@ -530,7 +548,8 @@ def normalize_batch(list_of_points: Iterable, method: str = DEFAULT_METHOD, *, p
     if method == "robust":
         queries, query_mask = _queries([len(a) for a in arrays], config.spacing_samples, seed)
         power = jnp.broadcast_to(jnp.asarray(params["power"], pts.dtype), (n,))
-        pose = _robust_batched(pts, mask, queries, query_mask, power, config=config, strategy=strategy, chains=chains)
+        pose = _top_level(_robust_batched, _robust_batched_staged, pts, mask, queries, query_mask, power, config=config,
+                          strategy=strategy, chains=chains)
         return _finish(pose, shift, size, throw)
     gamma = jnp.broadcast_to(jnp.asarray(params["gamma"], pts.dtype), (n,))
     nu = jnp.broadcast_to(jnp.asarray(params["nu"], pts.dtype), (n,))
@@ -576,9 +595,13 @@ def _batched(points, mask, gamma, nu, stops, config, strategy, rotation=False, c
     return jax.vmap(fn)(points, mask, gamma, nu)
 
 
-@partial(jax.jit, static_argnames=("config", "strategy", "chains"), compiler_options=_EXACT_REDUCTIONS)
-def _robust_batched(points, mask, queries, query_mask, power, config, strategy, chains=1):
+def _robust_batch_pipeline(points, mask, queries, query_mask, power, config, strategy, chains=1):
     fn = lambda p, mk, q, qm, pw: robust_pipeline(p, mk, q, qm, pw, config)
     if strategy == "map":
         return chained_map(lambda args: fn(*args), (points, mask, queries, query_mask, power), chains)
     return jax.vmap(fn)(points, mask, queries, query_mask, power)
+
+
+_robust_batched = jax.jit(_robust_batch_pipeline, static_argnames=("config", "strategy", "chains"),
+                          compiler_options=_EXACT_REDUCTIONS)
+_robust_batched_staged = jax.jit(_robust_batch_pipeline, static_argnames=("config", "strategy", "chains"))

@@ -223,14 +223,11 @@ def _top_level(program, staged, *args, **kwargs):
     """``program(*args, **kwargs)`` (compiled with ``_EXACT_REDUCTIONS``), or ``staged`` (the same
     function jitted without options) where the call is staged into an enclosing trace, whose
     compilation JAX leaves to the caller's options (it refuses a nested program's)."""
-    if any(_validate.is_traced(a) for a in jax.tree.leaves((args, kwargs))):
+    # staged: a traced argument, or jit / eval_shape around the call, where (JAX stages every
+    # operation inside a trace) even a new constant is a tracer
+    if any(_validate.is_traced(a) for a in jax.tree.leaves((args, kwargs))) or _validate.is_traced(jnp.zeros(())):
         return staged(*args, **kwargs)
-    try:
-        return program(*args, **kwargs)
-    except ValueError as error:  # concrete arguments inside jit / eval_shape: a nested program
-        if "compiler_options" not in str(error):
-            raise
-    return staged(*args, **kwargs)
+    return program(*args, **kwargs)
 
 
 def _check_method(method):

@@ -119,6 +119,25 @@ def _masked_quantile(values, mask, q):
     return s[lo] + frac * (s[hi] - s[lo])
 
 
+def _nearest(d2, k):
+    """Indices (rows, k) of the k smallest entries of each row of ``d2``, smallest first, the
+    lower index first among equal values: ``lax.top_k(-d2, k)[1]``, the same indices. float64
+    takes k argmin passes over an order-preserving int64 key instead (XLA:CPU has no fast
+    float64 top_k: it sorts each row); other dtypes take top_k itself."""
+    if d2.dtype != jnp.float64:
+        return lax.top_k(-d2, k)[1]
+    bits = lax.bitcast_convert_type(d2, jnp.int64)
+    key = jnp.where(bits < 0, bits ^ jnp.int64(0x7FFFFFFFFFFFFFFF), bits)  # IEEE total order
+    taken = jnp.iinfo(jnp.int64).max  # above every key but all-ones NaN: a taken entry is never chosen again
+    col = lax.broadcasted_iota(jnp.int32, d2.shape, 1)
+    out = []
+    for _ in range(k):
+        i = jnp.argmin(key, axis=1).astype(jnp.int32)
+        out.append(i)
+        key = jnp.where(col == i[:, None], taken, key)
+    return jnp.stack(out, 1)
+
+
 def spacing_quantile(points, mask, queries, query_mask, k=4, q=0.9, block=256):
     """The ``q`` quantile of the distances from points[queries] to their k-th nearest other point
     (the farthest other point in a set of k points or fewer, padded or not).
@@ -147,7 +166,7 @@ def spacing_quantile(points, mask, queries, query_mask, k=4, q=0.9, block=256):
     def kth(rows):
         x = p[rows]
         d2 = jnp.sum(x * x, 1)[:, None] + pn[None, :] - 2.0 * x @ p.T  # +inf on padding
-        _, idx = lax.top_k(-d2, cand)
+        idx = _nearest(d2, cand)
         exact = jnp.sum((dp[rows][:, None, :] - dp[idx]) ** 2, axis=-1)
         exact = jnp.where(mask[idx], exact, jnp.inf)
         d2 = jnp.sort(exact, axis=1)[:, rank]  # rank 0 is the point itself

@@ -23,7 +23,7 @@ import os
 import time
 from pathlib import Path
 
-from .._validate import InvalidInputError, JaxposeError
+from .._validate import JaxposeError
 from ..errors import UsageError
 from ..io.atomic import check_folder_writable, is_temporary
 

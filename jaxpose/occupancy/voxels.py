@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validate import InvalidInputError, check_int, check_real
+from .._validate import check_int, check_real
 from ..geometry import require_faces, warn_if_open
 from ..host import anchor
 

@@ -73,6 +73,20 @@ def test_a_class_index_may_be_a_numpy_or_jax_integer():
                    for x, y in zip(make_class(meshes, "outliers", seed=3, class_index=same), one))
 
 
+
+@pytest.mark.parametrize("up,message", [(3, "^up must be 0, 1 or 2"), (-1, "^up must be 0, 1 or 2"),
+                                        (1.5, "^up must be an int"), (True, "^up must be an int"),
+                                        ("z", "^up must be an int")])
+def test_an_up_that_is_not_an_axis_is_refused(up, message):
+    """make_class and make_variant take up as an axis 0, 1 or 2 (None: make_class's default): 3
+    and -1 were NumPy's broadcast ValueError, "z" int()'s ValueError, 1.5 and True were taken as 1."""
+    meshes = [_body() for _ in range(2)]
+    with pytest.raises(InvalidInputError, match=message):
+        make_class(meshes, "outliers", seed=3, class_index=0, up=up)
+    with pytest.raises(InvalidInputError, match=message):
+        make_variant(meshes[0], "outliers", np.random.default_rng(0), up=up)
+
+
 def test_holes_remove_ten_percent_in_five_patches():
     body = _body()
     out = make_variant(body, "holes", np.random.default_rng([0, 0, 0]))

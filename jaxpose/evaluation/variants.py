@@ -120,14 +120,23 @@ def punch_holes(mesh, rng, patches: int = 5, patch_fraction: float = 0.02):
     return out
 
 
+def _check_up(up):
+    """``up`` as an axis index 0, 1 or 2 (an int by :func:`jaxpose._validate.check_int`'s rule);
+    InvalidInputError otherwise."""
+    number = check_int(up, "up", float("-inf"))  # an int; its range below, in one message
+    if not 0 <= number <= 2:
+        raise InvalidInputError(f"up must be 0, 1 or 2 (an axis), got {number}")
+    return number
+
+
 def make_variant(mesh, variant: str, rng, *, up: int = 2, stray: bool = True):
     """One instance of ``variant`` (module docs) from an aligned mesh.
 
     Args:
       mesh: Trimesh (aligned); variant: one of :data:`VARIANTS`;
       rng: ``np.random.default_rng([seed, class_index, instance_index])``;
-      up: index of the up axis; stray: for outliers / big_outliers, whether this instance gets the
-        part (:func:`stray_mask`).
+      up: index of the up axis (0, 1 or 2; InvalidInputError otherwise); stray: for outliers /
+        big_outliers, whether this instance gets the part (:func:`stray_mask`).
 
     Returns:
       a new Trimesh (a PointCloud for ``points``).
@@ -136,6 +145,7 @@ def make_variant(mesh, variant: str, rng, *, up: int = 2, stray: bool = True):
 
     if variant not in VARIANTS:
         raise InvalidInputError(f"unknown variant {variant!r}; valid: {', '.join(VARIANTS)}")
+    up = _check_up(up)
     if variant != "points" and len(getattr(mesh, "faces", ())) == 0:
         raise InvalidInputError(f"variant {variant!r} needs meshes with faces")
     if variant == "plain":
@@ -156,10 +166,10 @@ def up_axis(mesh) -> int:
 
 def make_class(meshes, variant: str, seed: int, class_index: int, up: int | None = None):
     """All instances of one aligned class for ``variant`` (the seeding rule of the module docs);
-    ``up`` None: :func:`up_axis` of the first mesh; seed and class_index ints >= 0
-    (InvalidInputError otherwise)."""
+    ``up`` None: :func:`up_axis` of the first mesh, else an axis 0, 1 or 2; seed and class_index
+    ints >= 0 (InvalidInputError otherwise)."""
     seed, class_index = check_int(seed, "seed", 0), check_int(class_index, "class_index", 0)
-    up = up_axis(meshes[0]) if up is None else int(up)
+    up = up_axis(meshes[0]) if up is None else _check_up(up)
     mask = stray_mask(len(meshes), seed, class_index)
     return [make_variant(m, variant, np.random.default_rng([seed, class_index, k]), up=up, stray=bool(mask[k]))
             for k, m in enumerate(meshes)]

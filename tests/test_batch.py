@@ -214,15 +214,30 @@ def test_a_spelled_out_default_resolution_is_the_same_options(tmp_path, tree, ca
     assert NormalizeOptions(method="bbox").settings()["resolution"] is None  # no estimator reads one
 
 
-def test_a_spelled_out_format_of_the_inputs_own_is_the_same_options(tmp_path, tree):
+def test_a_spelled_out_format_of_the_inputs_own_is_the_same_options(tmp_path, tree, monkeypatch):
     """The output format is compared resolved: --format ply for .ply inputs is no --format (a rerun
-    spelling it out redid every file, as did the reverse); another format is other outputs."""
+    spelling it out redid every file, as did the reverse); another format is other outputs. An
+    input's own format keeps its name, whatever the suffix's case: Upper.PLY is written Upper.PLY
+    either way (--format ply wrote Upper.ply, beside the Upper.PLY of a run without it)."""
     scans = tmp_path / "scans"
+    (scans / "a" / "Upper.PLY").write_bytes((scans / "a" / "capsule.ply").read_bytes())
     for first, second, out in ((None, "ply", tmp_path / "out"), ("ply", None, tmp_path / "other")):
-        assert run([scans], out, glob="*.ply", file_format=first).written == 2  # capsule.ply, cloud.ply
+        assert run([scans], out, glob="*.ply", file_format=first).written == 3  # capsule.ply, cloud.ply, Upper.PLY
         again = run([scans], out, glob="*.ply", file_format=second)
-        assert (again.written, again.skipped, again.failed) == (0, 2, 1), (first, second)  # corrupt.ply redone
-    assert run([scans], tmp_path / "out", glob="*.ply", file_format="obj").written == 2
+        assert (again.written, again.skipped, again.failed) == (0, 3, 1), (first, second)  # corrupt.ply redone
+        assert sorted(os.listdir(out / "a")) == ["Upper.PLY", "capsule.ply"]
+    assert run([scans], tmp_path / "out", glob="*.ply", file_format="obj").written == 3
+    assert sorted(os.listdir(tmp_path / "out" / "a")) == ["Upper.PLY", "Upper.obj", "capsule.obj", "capsule.ply"]
+    # a folder of an earlier version, which wrote --format ply's Upper.PLY as Upper.ply: done there
+    from jaxpose.batch import inputs
+
+    plan = inputs.plan_outputs
+    with monkeypatch.context() as m:
+        m.setattr(inputs, "plan_outputs", lambda *a, file_format=None, **k: [
+            i._replace(output=i.output.with_suffix("." + file_format)) for i in plan(*a, file_format=file_format, **k)])
+        assert run([scans], tmp_path / "old", glob="*.ply", file_format="ply").written == 3
+    again = run([scans], tmp_path / "old", glob="*.ply", file_format="ply")
+    assert (again.written, again.skipped) == (0, 3) and sorted(os.listdir(tmp_path / "old" / "a")) == ["Upper.ply", "capsule.ply"]
 
 
 def test_an_output_folder_named_through_a_link_is_the_same_folder(tmp_path, tree):

@@ -122,6 +122,8 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
                 remove_temporaries(table)
             folder.remove_temporaries(None if shard is None else [item.output for item in items])
             entries = _resolved(folder.entries(), output_dir)
+            if file_format:
+                items = _recorded_names(items, entries, file_format)
             _refuse_mixing(items, entries, _resolved(folder.other_entries(), output_dir), settings, force, folder.exists,
                            output_dir)
             if not force:
@@ -421,6 +423,21 @@ def _resolved(entries, output_dir):
                    if record.get(key) and not (key == "output" and isinstance(output_dir, RemotePath))}
         changed = {key: value for key, value in changed.items() if value != record[key]}
         out.append({**record, **changed} if changed else record)
+    return out
+
+
+def _recorded_names(items, entries, file_format):
+    """The items whose output an earlier version recorded with ``file_format``'s lower-case suffix,
+    where this one keeps the input's name (``--format ply`` wrote ``A.PLY`` as ``A.ply``), under
+    that recorded name: a rerun skips them instead of writing the same output twice."""
+    recorded = {(r["input"], r.get("output")) for r in entries if r.get("output")}
+    out = []
+    for item in items:
+        earlier = item.output.with_suffix("." + file_format)
+        if earlier != item.output and (str(item.source), str(item.output)) not in recorded and \
+                (str(item.source), str(earlier)) in recorded:
+            item = item._replace(output=earlier)
+        out.append(item)
     return out
 
 

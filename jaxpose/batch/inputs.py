@@ -245,7 +245,8 @@ def plan_outputs(files, root, output_dir, file_format=None, table=None, given=()
     Args:
       files, root: from :func:`find_inputs`.
       output_dir: the output folder.
-      file_format: an output format for all (``"ply"``), or None to keep each input's.
+      file_format: an output format for all (``"ply"``), or None to keep each input's; an input
+        already in it keeps its name (``A.PLY`` is written ``A.PLY``, as without a format).
       table: the transforms table's path, checked against inputs and outputs too.
       given: the INPUTs as given (manifests among them), which the table must not overwrite either.
 
@@ -263,7 +264,7 @@ def plan_outputs(files, root, output_dir, file_format=None, table=None, given=()
     for source in files:
         relative = source.relative_to(root)
         output = output_dir / relative
-        if file_format:
+        if file_format and source.suffix.lower() != "." + file_format:  # its own format keeps its name: A.PLY
             output = output.with_suffix("." + file_format)
         key = identity(output)
         if key in owner:

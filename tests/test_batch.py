@@ -292,7 +292,9 @@ def test_a_run_refused_or_unable_to_reach_its_scheduler_leaves_nothing_it_made(t
     empty one, and an earlier run's (its failed input redone: work to start). The scheduler here
     refuses at once, as Dask's Client does after its connect timeout (distributed.comm.timeouts.connect,
     30 s by default; a real unreachable address in test_workers.py). A refusal after the
-    folder is opened (the table's folder missing) leaves none either (it left .jaxpose/)."""
+    folder is opened (the table's folder missing) leaves none either (it left .jaxpose/), and an
+    existing folder byte for byte: the lock's pid line (it was rewritten with the refused run's
+    pid) and the temporaries a killed run left (removed)."""
     from types import SimpleNamespace
 
     from jaxpose.batch import workers
@@ -300,8 +302,8 @@ def test_a_run_refused_or_unable_to_reach_its_scheduler_leaves_nothing_it_made(t
     def unreachable(address):
         raise OSError(f"Timed out trying to connect to {address} after 30 s")
 
-    def snapshot(folder):  # the lock file's pid line is its last holder's: every run that takes it rewrites it
-        return {str(p.relative_to(folder)): p.name == "lock" or (p.is_dir() or p.read_bytes(), p.stat().st_mtime_ns)
+    def snapshot(folder):  # the lock file's bytes too (its time changes: written back)
+        return {str(p.relative_to(folder)): (p.is_dir() or p.read_bytes(), p.name == "lock" or p.stat().st_mtime_ns)
                 for p in sorted(folder.rglob("*"))}
 
     monkeypatch.setattr(workers, "_distributed", lambda: SimpleNamespace(Client=unreachable))
@@ -309,6 +311,8 @@ def test_a_run_refused_or_unable_to_reach_its_scheduler_leaves_nothing_it_made(t
     empty, earlier = tmp_path / "empty", tmp_path / "earlier"
     empty.mkdir()
     assert run([scans / "corrupt.ply"], earlier).failed == 1
+    (earlier / ".jaxpose" / "lock").write_text("4242\n")  # its last holder another process
+    (earlier / ".sphere.off.0123456789ab.tmp").write_bytes(b"a killed run's")
     before = {folder: snapshot(folder) for folder in (empty, earlier)}
     for inputs, out in (([scans], tmp_path / "new" / "out"), ([scans], empty), ([scans / "corrupt.ply"], earlier)):
         code = cli.main(["normalize", *map(str, inputs), "-o", str(out), "--scheduler", "tcp://127.0.0.1:1"])
@@ -318,9 +322,11 @@ def test_a_run_refused_or_unable_to_reach_its_scheduler_leaves_nothing_it_made(t
     assert {folder: snapshot(folder) for folder in (empty, earlier)} == before
     with pytest.raises(InvalidInputError, match="cannot reach the Dask scheduler"):  # the API alike
         run([scans], tmp_path / "api", workers=None, scheduler="tcp://127.0.0.1:1")
-    with pytest.raises(UsageError, match="table folder .* does not exist"):
-        run([scans], tmp_path / "refused", table=tmp_path / "missing" / "t.parquet")
+    for out in (tmp_path / "refused", earlier):
+        with pytest.raises(UsageError, match="table folder .* does not exist"):
+            run([scans], out, table=tmp_path / "missing" / "t.parquet")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["earlier", "empty", "scans"]
+    assert snapshot(earlier) == before[earlier]
 
 
 def test_workers_and_dask_local_follow_the_one_int_rule(tmp_path, tree):

@@ -119,8 +119,6 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
         try:
             if not isinstance(table, RemotePath):
                 check_folder_writable(table.parent, what="table")
-                remove_temporaries(table)
-            folder.remove_temporaries(None if shard is None else [item.output for item in items])
             entries = _resolved(folder.entries(), output_dir)
             if file_format:
                 items = _recorded_names(items, entries, file_format)
@@ -137,7 +135,13 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
                     skipped += 1
                 else:
                     todo.append((item, key))
-            run = _Run(folder, fixed, fingerprint, fail_fast, progress, len(todo))
+
+            def tidy():  # the temporaries killed runs left, once this run starts (one that cannot leaves them)
+                if not isinstance(table, RemotePath):
+                    remove_temporaries(table)
+                folder.remove_temporaries(None if shard is None else [item.output for item in items])
+
+            run = _Run(folder, fixed, fingerprint, fail_fast, progress, len(todo), tidy)
             work = []
             for item, key in todo:  # what a folder search met that is not a file: failed unread
                 if item.source in irregular:
@@ -146,6 +150,7 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
                     work.append((item, key))
             if work and not run.stopped:
                 run.execute(work, executor_args, file_format, options, check, resumed=bool(entries))
+            run.begin()  # nothing to do: the run has started all the same
         except BaseException:
             # refused (the table's folder, other options' outputs) or unable to start (the Dask scheduler
             # unreachable) before recording anything: the run leaves nothing it made, and no table
@@ -585,9 +590,9 @@ def _duration(seconds):
 class _Run:
     """The waiting loop of one run: submit a window of tasks, write each result as it arrives."""
 
-    def __init__(self, folder, fixed, fingerprint, fail_fast, progress, total):
+    def __init__(self, folder, fixed, fingerprint, fail_fast, progress, total, tidy=None):
         self.folder, self.fixed, self.fingerprint, self.fail_fast = folder, fixed, fingerprint, fail_fast
-        self.progress, self.total = progress, total
+        self.progress, self.total, self._tidy = progress, total, tidy
         self.written = self.failed = 0
         self.stopped = False
         self.started = False  # whether the executor started (Dask: connected to its scheduler)
@@ -611,6 +616,11 @@ class _Run:
             executor = LocalExecutor(min(executor_args["workers"], len(todo)), timeout=executor_args["timeout"],
                                      head_start=head_start, warm_up=functools.partial(warm_up, options), fork=fork)
         self.started = True
+        try:
+            self.begin()
+        except BaseException:
+            executor.close(kill=True)
+            raise
         if self.progress == "lines":
             bar = _Lines(len(todo))
         else:
@@ -656,10 +666,18 @@ class _Run:
         finally:
             bar.close()
 
+    def begin(self):
+        """What the run does to the folder once it starts (its first record, or its executor
+        started), once: ``tidy`` (the temporaries killed runs left)."""
+        tidy, self._tidy = self._tidy, None
+        if tidy is not None:
+            tidy()
+
     def finish(self, item, key, result):
         """Write one input's output (when it has one) and append its record."""
         from .interrupts import deferred
 
+        self.begin()
         with deferred():  # an output and its journal line, both or (on a signal before) neither
             self._write_and_record(item, key, result)
 

@@ -70,7 +70,7 @@ class OutputFolder:
         suffix = f".{shard_name(shard)}" if shard is not None else ""
         self.journal = self.state / f"journal{suffix}.jsonl"
         self._shard_lock = self.state / f"lock{suffix}" if shard is not None else None
-        self._locks = []
+        self._locks = []  # (descriptor, the bytes before this run wrote its pid, or None)
         self._journal = None
         self._made = []  # what opening the folder created, in that order (folders, lock files, journal)
         self.discarded = False
@@ -99,11 +99,14 @@ class OutputFolder:
                 self._locks.append(_lock(self._shard_lock))
             self._journal = os.open(self.journal, os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o666)
         except BaseException:
+            self._restore_pids()
             self._release()
             raise
         return self
 
     def __exit__(self, *exc):
+        if self.discarded:
+            self._restore_pids()
         self._release()
         if self.discarded:
             for path in reversed(self._made):  # the journal and lock files, then the folders, inner first
@@ -115,12 +118,20 @@ class OutputFolder:
 
     def discard(self) -> None:
         """On leaving, remove what opening the folder created (the folder itself, with the parents it
-        needed, ``.jaxpose/``, the lock and journal files): for a run that recorded nothing, so that a
-        run that could not start leaves the folder as it found it."""
+        needed, ``.jaxpose/``, the lock and journal files) and write back the lock files' pid lines
+        it replaced: for a run that recorded nothing, so that a run that could not start leaves the
+        folder as it found it."""
         self.discarded = True
 
+    def _restore_pids(self):
+        """The lock files' pid lines as they were before this run (while it still holds the locks)."""
+        for fd, before in self._locks:
+            if before is not None:
+                os.ftruncate(fd, 0)
+                os.pwrite(fd, before, 0)
+
     def _release(self):
-        for fd in (self._journal, *self._locks):
+        for fd in (self._journal, *(fd for fd, _ in self._locks)):
             if fd is not None:
                 os.close(fd)  # closing a lock file releases its lock
         self._journal, self._locks = None, []
@@ -318,8 +329,9 @@ def _existing_parent(path):
 
 
 def _lock(path, shared=False):
-    """A non-blocking lock on `path`, exclusive or `shared` (held while the returned descriptor is
-    open); an exclusive holder writes its pid in the file, for the message of the next one."""
+    """A non-blocking lock on `path`, exclusive or `shared`, held while the returned descriptor is
+    open: -> (descriptor, before). An exclusive holder writes its pid in the file, for the message
+    of the next one, and gets the bytes it replaced as before (None for a shared lock)."""
     fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
     try:
         _try_lock(fd, shared)
@@ -333,10 +345,16 @@ def _lock(path, shared=False):
     except BaseException:
         os.close(fd)
         raise
-    if not shared:
+    if shared:
+        return fd, None
+    try:
+        before = os.pread(fd, os.fstat(fd).st_size, 0)
         os.ftruncate(fd, 0)
         os.pwrite(fd, f"{os.getpid()}\n".encode("ascii"), 0)
-    return fd
+    except BaseException:
+        os.close(fd)
+        raise
+    return fd, before
 
 
 def _try_lock(fd, shared):

@@ -218,7 +218,8 @@ def test_large_inputs_are_subsampled_with_the_count_reported():
 
 def test_max_points_and_pad_to_follow_the_one_int_rule():
     """max_points (None or an int >= 4) and normalize_batch's pad_to are ints as every count is
-    (jaxpose._validate.check_int): a () JAX or NumPy integer array is taken (it was refused)."""
+    (jaxpose._validate.check_int): a () JAX or NumPy integer array is taken (it was refused). pad_to
+    is refused below the largest set by that limit, 0 too (it was "must be >= 1")."""
     big = box_surface(3000, seed=5)
     pose = normalize(big, method="ocsvm", max_points=300, seed=7)
     for same in (jnp.int32(300), np.array(300)):
@@ -233,7 +234,8 @@ def test_max_points_and_pad_to_follow_the_one_int_rule():
     for same in (jnp.int32(256), np.array(256)):
         np.testing.assert_array_equal(np.asarray(jaxpose.normalize_batch([small], pad_to=same).center),
                                       np.asarray(padded.center))
-    for bad, message in ((256.0, "an int, got 256.0"), (True, "an int, got True"), (0, ">= 1, got 0")):
+    for bad, message in ((256.0, "an int, got 256.0"), (True, "an int, got True"),  # one message for its range:
+                         *((n, rf">= the largest point set's size \(200 points\), got {n}") for n in (0, -1, 199))):
         with pytest.raises(jaxpose.InvalidInputError, match=f"^pad_to must be {message}$"):
             jaxpose.normalize_batch([small], pad_to=bad)
 

@@ -486,7 +486,8 @@ def normalize_batch(list_of_points: Iterable, method: str = DEFAULT_METHOD, *, p
         the OCSVM solver's tolerance). Each set is centered and scaled in float64 first.
       method, power, gamma, nu, config, options, throw, rotation, max_points, seed: as
         :func:`normalize` (shared by all objects; each set above ``max_points`` is subsampled).
-      pad_to: optional row count (>= the largest set) to share one compilation across calls.
+      pad_to: optional row count (an int >= the largest set's size, after ``max_points``) to share
+        one compilation across calls.
       strategy: "vmap" (all objects in lock-step: one program over the batch), "map"
         (``lax.map``, one object after another inside the compiled call; on CPU the batch is cut
         into as many independent ``lax.map`` chains as the process has cores, at most
@@ -520,7 +521,7 @@ def normalize_batch(list_of_points: Iterable, method: str = DEFAULT_METHOD, *, p
     rotation, throw = _validate.check_bool(rotation, "rotation"), _validate.check_bool(throw, "throw")
     seed = _validate.check_int(seed, "seed", 0)
     limit = _check_params(method, params, given)
-    pad_to = None if pad_to is None else _validate.check_int(pad_to, "pad_to", 1)
+    pad_to = None if pad_to is None else _validate.check_int(pad_to, "pad_to", float("-inf"))  # its range below
     if isinstance(list_of_points, (str, bytes)) or not isinstance(list_of_points, Iterable):
         raise _validate.InvalidInputError(
             f"list_of_points must be an iterable of (m, 3) point sets, got {type(list_of_points).__name__}")
@@ -529,6 +530,7 @@ def normalize_batch(list_of_points: Iterable, method: str = DEFAULT_METHOD, *, p
         raise _validate.InvalidInputError("normalize_batch needs at least one point set")
     if any(_validate.is_traced(a) for a in arrays):
         raise _validate.InvalidInputError("normalize_batch needs concrete point sets; under jit, use jax.vmap(normalize)")
+    given_rows = [len(a) for a in arrays]
     arrays = [np.asarray(a) if (k := subsample_index(len(a), limit, seed)) is None else np.asarray(a)[k]
               for a in arrays]
     dtype = np.result_type(*[_validate.compute_dtype(a) for a in arrays])
@@ -538,7 +540,9 @@ def normalize_batch(list_of_points: Iterable, method: str = DEFAULT_METHOD, *, p
     largest = max(a.shape[0] for a in arrays)
     m = bucket(largest) if pad_to is None else int(pad_to)
     if m < largest:
-        raise _validate.InvalidInputError(f"pad_to={m} is smaller than the largest point set ({largest} points)")
+        after = " after max_points" if largest < max(given_rows) else ""
+        raise _validate.InvalidInputError(f"pad_to must be >= the largest point set's size ({largest} points{after}), "
+                                          f"got {m}")
     pts, mask = pad(arrays, m, dtype)
     n = len(arrays)
     chains = min(n, _cores(), MAX_CHAINS) if strategy == "map" and jax.default_backend() == "cpu" else 1

@@ -359,6 +359,25 @@ def test_jax_arrays_of_points_are_points():
         jax.jit(lambda x: mesh.normalize_mesh(x, method="vertex_mean")[1].scale)(as_jax)
 
 
+
+def test_a_surfaces_faces_are_integer_indices():
+    """A Surface's faces are indices: fractional ones (7.5 was read as vertex 7) and bools (read as
+    vertices 0 and 1) are refused, whole floats taken; a (vertices, faces) pair is named as one
+    (it was NumPy's 'inhomogeneous shape' about points)."""
+    from jaxpose.geometry import Surface
+
+    box = trimesh.creation.box()
+    v, f = np.asarray(box.vertices), np.asarray(box.faces)
+    _, want = mesh.normalize_mesh(Surface(v, f), method="surface_centroid")
+    _, pose = mesh.normalize_mesh(Surface(v, f.astype(np.float32)), method="surface_centroid")
+    np.testing.assert_array_equal(pose.center, want.center)
+    for faces, got in ((f + 0.5, "float64 with fractions"), (f > 3, "bool")):
+        with pytest.raises(InvalidInputError, match=f"^input: faces must be .* indices of its vertices .*got {got}"):
+            mesh.normalize_mesh(Surface(v, faces), method="surface_centroid")
+    with pytest.raises(InvalidInputError, match=r"a \(vertices, faces\) pair: pass jaxpose.geometry.Surface"):
+        mesh.normalize_mesh((v, f), method="surface_centroid")
+
+
 def test_unknown_keywords_are_named():
     box = trimesh.creation.box()
     for kwargs in (dict(foo=1), dict(method="ocsvm", foo=1), dict(method="surface_centroid", foo=1)):

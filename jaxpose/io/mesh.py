@@ -93,6 +93,10 @@ def _checked(geometry, source):
     if isinstance(geometry, Surface):
         vertices, faces = (np.asarray(a) for a in geometry)
         check_points(vertices, name=f"vertices of {source}", min_points=1)
+        kind = faces.dtype.kind  # indices: integers (whole floats taken; 7.5 or a bool is no index)
+        if kind not in "iu" and not (kind == "f" and np.all(np.mod(faces, 1) == 0)):
+            raise InvalidInputError(f"{source}: faces must be (m >= 1, 3) indices of its vertices (integers), got "
+                                    f"{faces.dtype}{' with fractions' if kind == 'f' else ''}")
         if faces.ndim != 2 or faces.shape[1] != 3 or not len(faces) or faces.min() < 0 or faces.max() >= len(vertices):
             raise InvalidInputError(f"{source}: faces must be (m >= 1, 3) indices of its vertices")
         return geometry
@@ -107,6 +111,9 @@ def _checked(geometry, source):
         if hasattr(geometry, "vertices") or isinstance(geometry, (np.ndarray, list, tuple)) or (
                 hasattr(geometry, "__array__") and not isinstance(geometry, (str, bytes))):
             points = getattr(geometry, "vertices", geometry)
+            if _is_pair(points):
+                raise InvalidInputError(f"{source}: a (vertices, faces) pair: pass jaxpose.geometry.Surface(vertices, "
+                                        "faces) for a mesh (an array of points is a point cloud)")
             check_points(points, name=f"points of {source}", min_points=1)
             geometry = trimesh.PointCloud(np.asarray(points, dtype=np.float64))
         else:
@@ -128,6 +135,14 @@ def _checked(geometry, source):
     if source != "input" and isinstance(geometry, trimesh.Trimesh):
         _merge_vertices(geometry, source)  # STL and friends store each triangle's corners apart
     return geometry
+
+
+def _is_pair(value):
+    """Whether ``value`` is a tuple or list of two 2-d arrays (vertices and faces), not points."""
+    try:
+        return isinstance(value, (tuple, list)) and len(value) == 2 and all(np.ndim(a) == 2 for a in value)
+    except ValueError:  # a ragged element: NumPy refuses its ndim
+        return False
 
 
 def _merge_vertices(geometry, source="input"):

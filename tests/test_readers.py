@@ -323,6 +323,9 @@ PLY_TET_HEAD = ("ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nprop
      "index.ply: faces must be .* indices of its vertices .*vertex 7 of 4"),
     ("zero.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 0 3 4\n",
      "zero.obj: .*index 0 .*count from 1"),
+    # in OBJ's own numbering (it read 'index 8 is out of bounds for axis 0 with size 4', trimesh's IndexError)
+    ("index.obj", OBJ_TET + "f 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 9\n", "index.obj: .*a face references vertex 9 of the 4 "),
+    ("back.obj", OBJ_TET + "f 1 3 2\nf 1 2 4\nf 1 4 3\nf -1 -2 -5\n", "back.obj: .*a face references vertex -5 of the 4 "),
     ("flat.obj", "v 0 0\nv 1 0\nv 0 1\nf 1 2 3\n", "flat.obj: .*vertex 1 has fewer than 3 coordinates"),
     # the same where trimesh reads the file (materials, faces of several forms): it read them without a word
     ("zero_forms.obj", OBJ_TET + "f 1 3 2\nf 1 2 4\nf 0/1 3/1 4/1\n", "zero_forms.obj: .*index 0 "),
@@ -533,9 +536,9 @@ def test_obj_by_hand(name):
 @pytest.mark.parametrize("text", [
     OBJ_HEAD + "usemtl a\nf 1 2 3\nusemtl b\nf 1 3 4\n",   # materials split the mesh
     OBJ_HEAD + "f 1 2 3\nf 1/1 3/1 4/1\n",                 # several kinds of references
-    OBJ_HEAD + "f 1 2 30\n",                               # a vertex that is not there
     OBJ_HEAD,                                              # a point cloud
-])  # (a face of 2 corners, which trimesh drops: an error, tests/test_input_boundary.py)
+])  # (a face of 2 corners, which trimesh drops: an error, tests/test_input_boundary.py; a vertex that
+#     is not there: an error, test_broken_references_are_errors)
 def test_obj_refused(text):
     with pytest.raises(Unsupported):
         readers.read(text.encode(), "obj")

@@ -87,8 +87,11 @@ def read_obj(data: bytes) -> Loaded:
         faces, tex, norm = (None if a is None else a.reshape(shape) for a in (flat[:, 0], tex, norm))
     else:  # trimesh's loop: every face split in file order
         faces, tex, norm = (None if a is None else _triangulate_inline(a, refs) for a in (flat[:, 0], tex, norm))
-    if np.any(faces < -len(v)) or np.any(faces >= len(v)):
-        raise Unsupported("a face referencing a vertex that is not there")
+    outside = (faces < -len(v)) | (faces >= len(v))
+    if np.any(outside):  # (trimesh: a raw IndexError, counted from 0)
+        at = faces[outside].flat[0]
+        raise InvalidInputError(f"cannot read OBJ file: a face references vertex {at + 1 if at >= 0 else at} of the "
+                                f"{len(v)} it has (OBJ counts from 1, or from -1 backwards)")
     return _obj_mesh(v, vt, vn, colors, faces, tex, norm)
 
 

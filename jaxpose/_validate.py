@@ -102,6 +102,9 @@ def check_points(points, name: str = "points", min_points: int = MIN_POINTS):
     arr = np.asarray(points)
     if len(arr) and np.all(arr == arr[0]):
         raise InvalidInputError(f"all {arr.shape[0]} {name} are identical: no shape to normalize")
+    if len(arr) and arr.dtype.kind in "iu" and np.all((f := arr.astype(np.float64)) == f[0]):  # what is computed with
+        raise InvalidInputError(f"all {arr.shape[0]} {name} are identical as float64 (integers beyond 2**53 round "
+                                "together): no shape to normalize; subtract their offset first")
     return points
 
 

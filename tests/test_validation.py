@@ -60,6 +60,8 @@ BAD_POINTS = {
     "nan": (np.where(np.arange(M)[:, None] == 7, np.nan, P), "NaN or inf"),
     "inf": (np.where(np.arange(M)[:, None] == 7, -np.inf, P), "NaN or inf"),
     "identical": (np.ones((20, 3)), "identical"),
+    # distinct int64s beyond 2^53 that round to one float64 (it read "outside the range of float32"; fit_svdd fitted them)
+    "identical as floats": ((P * 10).astype(np.int64) + 2**62, "identical as float64"),
     "complex": (P.astype(complex), "real numbers"),
     "strings": (P.astype(str), "real numbers"),
     "bool": (P > 0, "real numbers"),

@@ -60,5 +60,6 @@ def anchor(vertices):
     v = np.asarray(vertices, np.float64)
     columns = [v[:, axis] for axis in range(v.shape[1])]  # (per column: NumPy's axis-0 min of (n, 3) is slow)
     middle = [0.5 * (c.min() + c.max()) for c in columns]
-    squared = sum((c - m) * (c - m) for c, m in zip(columns, middle))
+    with np.errstate(over="ignore"):  # beyond ~1e154 from the middle: inf, never the nearest
+        squared = sum((c - m) * (c - m) for c, m in zip(columns, middle))
     return v[int(np.argmin(squared))].copy()

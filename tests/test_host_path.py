@@ -146,3 +146,12 @@ def test_anchor_is_the_vertex_nearest_the_box_middle(seed):
     expected = vertices[int(np.argmin(np.sum((vertices - middle) ** 2, axis=1)))]
     np.testing.assert_array_equal(anchor(vertices).view(np.int64), expected.view(np.int64))  # signed zeros too
     assert anchor(vertices).flags.owndata
+
+
+def test_anchor_of_coordinates_whose_squares_overflow():
+    """Beyond ~1e154 the squared distances overflow: no RuntimeWarning (it was one from every read of
+    such a file, before the mesh was refused or rescaled), and a vertex at the middle is still it."""
+    from jaxpose.host import anchor
+
+    vertices = np.array([[0.0, 0.0, 0.0], [1e300, 0.0, 0.0], [0.0, 1e300, 0.0], [5e299, 5e299, 0.0]])
+    np.testing.assert_array_equal(anchor(vertices), vertices[3])  # (the others' squares are inf)

@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import sample
-from ._validate import InvalidInputError
+from ._validate import InvalidInputError, JaxposeError
 from .geometry import is_closed, require_faces, split_geometry, triangle_areas, warn_if_open
 from .host import anchor
 from .orientation import SIGN_MIN, Frame, ambiguity, complete_signs, proper, relative_gaps
@@ -397,12 +397,18 @@ def inertia_frame(mesh_or_points):
     """trimesh's principal inertia axes (``principal_inertia_transform``; smallest moment of inertia
     first, trimesh's signs, the last row negated if needed for det = +1). Meshes only.
 
-    Returns :class:`jaxpose.orientation.Frame` (no ambiguity measure: NaN).
+    Returns :class:`jaxpose.orientation.Frame` (no ambiguity measure: NaN). Raises JaxposeError
+    on a mesh of zero volume (no inertia axes).
     """
     import trimesh
 
     vertices, faces = require_faces(mesh_or_points, "inertia")
     mesh = trimesh.Trimesh(vertices, faces, process=False)
+    with np.errstate(divide="ignore", invalid="ignore"):  # trimesh divides by the volume (0: NaN inertia, then
+        volume = mesh.volume                              # NumPy's LinAlgError)
+    if not volume:
+        raise JaxposeError("the mesh encloses no volume: the inertia frame is undefined; use rotation='pca_surface' "
+                           "or 'ocsvm'")
     rot = proper(np.asarray(mesh.principal_inertia_transform[:3, :3], np.float64))
     mom = np.asarray(mesh.principal_inertia_components, np.float64)
     return Frame(rot, float("nan"), mom, np.full(2, np.nan), np.full(3, np.nan), -1, np.full(3, np.nan))

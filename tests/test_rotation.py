@@ -364,6 +364,17 @@ def test_baseline_frames_are_proper_and_pca_equivariant(body_frame):
         baselines.frame(m, "nope")
 
 
+def test_the_inertia_frame_of_a_mesh_without_volume_is_refused():
+    """A flat mesh has no inertia axes: an error that says so, as the core and head frames' (it was
+    NumPy's LinAlgError 'Eigenvalues did not converge' from trimesh's NaN inertia)."""
+    flat = trimesh.creation.box(extents=(1.0, 1.0, 0.3))
+    vertices = np.asarray(flat.vertices).copy()
+    vertices[:, 2] = 0.0
+    with pytest.raises(jaxpose.JaxposeError, match="encloses no volume: the inertia frame is undefined"):
+        mesh.normalize_mesh(trimesh.Trimesh(vertices, flat.faces, process=False), method="surface_centroid",
+                            rotation="inertia")
+
+
 def test_pose_with_rotation_matrix_apply_inverse():
     rng = np.random.default_rng(1)
     r, c, s = random_rotation(rng), np.array([1.0, -2.0, 3.0]), 2.5

@@ -157,10 +157,13 @@ def test_voxel_memory_is_bounded():
     assert check_resolution(96) == 96 and check_resolution(291) == 291
     with pytest.raises(InvalidInputError, match=r"resolution=1000 needs up to 65\.\d+ GiB .* use a resolution in \[8, 291\]"):
         robust_solid(np.random.default_rng(0).normal(size=(50, 3)), resolution=1000)
-    with pytest.raises(InvalidInputError, match="resolution must be >= 8"):
-        check_resolution(7.5)
-    for bad in (True, 96.0, np.float32(96), jnp.array([96]), np.int64(7)):
-        with pytest.raises(InvalidInputError, match="resolution must be >= 8"):
+    # the library's int rule and its messages (config's resolution and normalize's read so; these read
+    # "resolution must be >= 8 (an int), got 96.0")
+    for bad in (7.5, True, 96.0, np.float32(96), jnp.array([96]), float("inf")):
+        with pytest.raises(InvalidInputError, match=r"^resolution must be an int, got "):
+            check_resolution(bad)
+    for bad in (7, np.int64(7), -1):
+        with pytest.raises(InvalidInputError, match=r"^resolution must be >= 8, got (7|-1)$"):
             check_resolution(bad)
     for good in (np.int64(96), jnp.int32(96), np.array(96, dtype=np.uint16)):  # integer scalars: config's rule
         assert check_resolution(good) == 96 and type(check_resolution(good)) is int

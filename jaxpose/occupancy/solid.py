@@ -47,7 +47,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from .._validate import InvalidInputError, check_int
-from ..config import MEMORY_BUDGET, RobustConfig, _integer
+from ..config import MEMORY_BUDGET, RobustConfig
 
 __all__ = ["Solid", "robust_solid", "cap_holes", "ray_vote_solid", "point_solid", "exterior_fill", "keep_main", "MESH_REACH",
            "depth", "make_grid", "closing_radius", "linked_parts", "LINK", "neighbour_distances", "check_resolution", "RESOLUTION", "COARSE",
@@ -302,10 +302,7 @@ def check_resolution(resolution, budget=MEMORY_BUDGET):
     Raises:
       InvalidInputError: naming the range, and the memory the grid would need.
     """
-    number = _integer(resolution)  # a concrete integer scalar, NumPy's and JAX's too (config's rule)
-    if number is None or number < 8:
-        raise InvalidInputError(f"resolution must be >= 8 (an int), got {resolution!r}")
-    resolution = number
+    resolution = check_int(resolution, "resolution", 8)  # the library's int rule, its messages
     side = lambda r: r + 2 * _MAX_MARGIN + 1
     largest = int(np.floor((budget / VOXEL_BYTES) ** (1.0 / 3.0))) - 2 * _MAX_MARGIN - 1
     while VOXEL_BYTES * side(largest + 1) ** 3 <= budget:

@@ -67,7 +67,7 @@ def is_real_dtype(dtype) -> bool:
 def check_array(x, name: str = "x", min_rows: int = 0):
     """Check an (n, 3) array of finite real numbers (n >= min_rows); return it unchanged.
 
-    Tracers are returned as they are (only their shape is checked).
+    Tracers are returned as they are (only their shape and dtype are checked).
     """
     shape = getattr(x, "shape", None)
     if shape is None:
@@ -81,6 +81,8 @@ def check_array(x, name: str = "x", min_rows: int = 0):
     if shape[0] < min_rows:
         raise InvalidInputError(f"{name} needs at least {min_rows} points, got {shape[0]}")
     if is_traced(x):
+        if not is_real_dtype(x.dtype):  # known when tracing
+            raise InvalidInputError(f"{name} must be real numbers, got dtype {x.dtype}")
         return x
     arr = np.asarray(x)
     if not is_real_dtype(arr.dtype):
@@ -94,7 +96,7 @@ def check_array(x, name: str = "x", min_rows: int = 0):
 def check_points(points, name: str = "points", min_points: int = MIN_POINTS):
     """Check an (m, 3) array of finite, not all identical points; return it unchanged.
 
-    Tracers are returned as they are (only their shape is checked).
+    Tracers are returned as they are (only their shape and dtype are checked).
     """
     points = check_array(points, name, min_points)
     if is_traced(points):

@@ -336,6 +336,16 @@ def test_validity_flag_under_jit():
     np.testing.assert_allclose(float(scale), float(good.scale), rtol=1e-3)
 
 
+
+def test_traced_points_of_no_real_dtype_are_refused():
+    """Under jit the points' dtype is known when tracing: bools and complex numbers are refused as
+    concrete ones are (traced, a bool cloud was normalized as 0s and 1s, a complex one as its real part)."""
+    for dtype in (jnp.bool_, jnp.complex64):
+        for call in (lambda p: normalize(p).scale, lambda p: normalize(p, method="ocsvm").scale,
+                     lambda p: fit_svdd(p, 1.0, 0.5).offset):
+            with pytest.raises(InvalidInputError, match=f"points must be real numbers, got dtype {jnp.dtype(dtype)}"):
+                jax.jit(call)(jnp.asarray(P).astype(dtype))
+
 # --------------------------------------------------------------------------- degenerate, legal
 def test_degenerate_but_legal_shapes():
     rng = np.random.default_rng(0)

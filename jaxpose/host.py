@@ -11,7 +11,7 @@ import numpy as np
 
 from ._validate import InvalidInputError, compute_dtype
 
-__all__ = ["host_frame", "anchor"]
+__all__ = ["host_frame", "anchor", "check_cast"]
 
 
 def host_frame(points, name: str = "points"):
@@ -48,6 +48,40 @@ def host_frame(points, name: str = "points"):
             f"(rescale the input, or enable jax_enable_x64 for float64)"
         )
     return mean, rms
+
+
+def check_cast(points, name: str = "points"):
+    """Refuse concrete points that their cast to the compute dtype (:func:`compute_dtype`: float64
+    points become float32 with x64 off) rounds by more than ``MAX_ROUNDING`` of their RMS spread
+    (:data:`jaxpose.pose.result.MAX_ROUNDING`, the bound :mod:`jaxpose.pose.validity` flags traced
+    inputs by), or beyond the compute dtype's range (:func:`host_frame`'s refusal). For functions
+    that compute on the points in the frame given (:func:`jaxpose.fit_svdd`), where
+    :func:`jaxpose.normalize` moves them near the origin on the host first. Returns ``points``.
+
+    Raises:
+      InvalidInputError: the cast loses the points' shape, naming the fix (move them near the
+        origin first, or enable jax_enable_x64).
+    """
+    from .pose.result import MAX_ROUNDING  # NumPy only
+
+    arr = np.asarray(points)
+    dtype = compute_dtype(arr)
+    if arr.dtype == dtype:
+        return points
+    exact = arr.astype(np.float64)
+    with np.errstate(over="ignore", invalid="ignore"):  # beyond the dtype's range: inf, refused below
+        rounding = float(np.max(np.abs(arr.astype(dtype).astype(np.float64) - exact), initial=0.0))
+    if rounding == 0:  # exact (float16, small integers, float64 values that float32 holds)
+        return points
+    _, rms = host_frame(arr, name)
+    if rounding > MAX_ROUNDING * rms:
+        raise InvalidInputError(
+            f"{name} lie so far from the origin, relative to their spread, that {dtype} (JAX's compute dtype "
+            f"here) cannot resolve them: the cast rounds them by {rounding:.3g}, {rounding / rms:.3g} of their "
+            f"RMS spread {rms:.3g} (above {MAX_ROUNDING:g}); subtract an offset first (the same from every "
+            "point given later, e.g. to decision_function), or enable jax_enable_x64 for float64"
+        )
+    return points
 
 
 def anchor(vertices):

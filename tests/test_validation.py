@@ -248,6 +248,21 @@ def test_out_of_range_for_float32():
     assert "float32: coordinates above 3.4e38, an RMS spread below 1.2e-38" in " ".join(normalize.__doc__.split())
 
 
+def test_fit_svdd_refuses_points_its_float32_cast_cannot_resolve():
+    """fit_svdd fitted float64 points at 1e6 (x64 off) as their float32 values, rounded by 0.03 of a
+    0.4 spread: a silently wrong fit (and NaN for P * 1e300, inf in float32). Refused before any
+    compilation, naming the fix; float64 points whose cast is exact are fitted as their float32 values."""
+    if jax.config.jax_enable_x64:
+        pytest.skip("float32 only")
+    with pytest.raises(InvalidInputError, match=r"points lie so far from the origin.*subtract.*jax_enable_x64"):
+        fit_svdd(P + 1e6, 1.0, 0.5)
+    with pytest.raises(InvalidInputError, match="outside the range of float32"):
+        fit_svdd(P * 1e300, 1.0, 0.5)
+    p32 = (P + 1e6).astype(np.float32)
+    np.testing.assert_array_equal(np.asarray(fit_svdd(p32.astype(np.float64), 10.0, 0.5, **FIT).alpha),
+                                  np.asarray(fit_svdd(p32, 10.0, 0.5, **FIT).alpha))
+
+
 def test_gamma_and_power_beyond_the_default_float_are_refused_by_name():
     """A finite gamma (or power) that float32, JAX's default float, cannot hold became inf or 0
     inside the pipeline: a NaN pose whose status said 'gamma finite and > 0' (normalize_mesh and the

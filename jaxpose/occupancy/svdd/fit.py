@@ -10,6 +10,7 @@ import numpy as np
 
 from ... import _validate
 from ...config import SolverConfig
+from ...host import check_cast
 from .implicit import implicit_alpha
 from .pg import solve_pg
 from .polish import polish
@@ -65,7 +66,10 @@ def fit_svdd(points, gamma, nu, *, mask=None, init_alpha=None, config: SolverCon
     (:mod:`jaxpose.occupancy.svdd.implicit`), in forward and reverse mode, without unrolling iterations.
 
     Raises:
-      InvalidInputError: bad points, gamma, nu, mask, init_alpha or option.
+      InvalidInputError: bad points, gamma, nu, mask, init_alpha or option; concrete points that
+        their compute dtype cannot resolve (float64 points far from the origin, relative to their
+        spread, with x64 off: :func:`jaxpose.host.check_cast`; the fit is in the frame given, so
+        move them near the origin first).
 
     Example::
 
@@ -88,6 +92,8 @@ def fit_svdd(points, gamma, nu, *, mask=None, init_alpha=None, config: SolverCon
             raise _validate.InvalidInputError(f"mask must have shape ({m},), got {tuple(jnp.shape(mask))}")
         if not _validate.is_traced(mask) and not _validate.is_traced(points):
             _validate.check_points(np.asarray(points)[np.asarray(mask, bool)], name="points selected by mask")
+    if not _validate.is_traced(points) and (mask is None or not _validate.is_traced(mask)):
+        check_cast(points if mask is None else np.asarray(points)[np.asarray(mask, bool)])
     if init_alpha is not None:
         if tuple(jnp.shape(init_alpha)) != (m,):
             raise _validate.InvalidInputError(f"init_alpha must have shape ({m},), got {tuple(jnp.shape(init_alpha))}")

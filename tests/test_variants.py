@@ -87,6 +87,14 @@ def test_an_up_that_is_not_an_axis_is_refused(up, message):
         make_variant(meshes[0], "outliers", np.random.default_rng(0), up=up)
 
 
+def test_an_empty_class_is_refused():
+    """make_class([]) was an IndexError on meshes[0] with up=None (the class's up axis) and [] with
+    an up given; refused by name either way."""
+    for up in (None, 2):
+        with pytest.raises(InvalidInputError, match="^meshes is empty: a class needs at least one mesh"):
+            make_class([], "plain", seed=3, class_index=0, up=up)
+
+
 def test_holes_remove_ten_percent_in_five_patches():
     body = _body()
     out = make_variant(body, "holes", np.random.default_rng([0, 0, 0]))

@@ -167,8 +167,10 @@ def up_axis(mesh) -> int:
 def make_class(meshes, variant: str, seed: int, class_index: int, up: int | None = None):
     """All instances of one aligned class for ``variant`` (the seeding rule of the module docs);
     ``up`` None: :func:`up_axis` of the first mesh, else an axis 0, 1 or 2; seed and class_index
-    ints >= 0 (InvalidInputError otherwise)."""
+    ints >= 0, ``meshes`` not empty (InvalidInputError otherwise)."""
     seed, class_index = check_int(seed, "seed", 0), check_int(class_index, "class_index", 0)
+    if len(meshes) == 0:
+        raise InvalidInputError("meshes is empty: a class needs at least one mesh")
     up = up_axis(meshes[0]) if up is None else _check_up(up)
     mask = stray_mask(len(meshes), seed, class_index)
     return [make_variant(m, variant, np.random.default_rng([seed, class_index, k]), up=up, stray=bool(mask[k]))

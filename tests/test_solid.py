@@ -167,6 +167,12 @@ def test_voxel_memory_is_bounded():
             check_resolution(bad)
     for good in (np.int64(96), jnp.int32(96), np.array(96, dtype=np.uint16)):  # integer scalars: config's rule
         assert check_resolution(good) == 96 and type(check_resolution(good)) is int
+    # robust_solid's coarse is named so (it read "resolution must be an int, got 7.5")
+    cloud = np.random.default_rng(0).normal(size=(50, 3))
+    for coarse, message in ((7.5, r"^coarse must be an int, got 7\.5$"), (7, r"^coarse must be >= 8, got 7$"),
+                            (1000, r"^coarse=1000 needs up to 65\.\d+ GiB .* use a coarse in \[8, 291\]")):
+        with pytest.raises(InvalidInputError, match=message):
+            robust_solid(cloud, coarse=coarse)
 
 
 def test_point_spacing_from_a_subset(monkeypatch):

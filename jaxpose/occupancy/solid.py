@@ -291,8 +291,9 @@ def neighbour_distances(points, k=4, samples=None, seed=0):
     return dist[:, 1:]
 
 
-def check_resolution(resolution, budget=MEMORY_BUDGET):
-    """Validate a voxel resolution (an int >= 8 whose worst-case grid fits ``budget`` bytes).
+def check_resolution(resolution, budget=MEMORY_BUDGET, name="resolution"):
+    """Validate a voxel resolution (an int >= 8 whose worst-case grid fits ``budget`` bytes);
+    messages call it ``name`` (robust_solid's ``coarse`` is one too).
 
     The worst case is a cube: (resolution + 2 * margin + 1)^3 voxels of ``VOXEL_BYTES``.
 
@@ -302,7 +303,7 @@ def check_resolution(resolution, budget=MEMORY_BUDGET):
     Raises:
       InvalidInputError: naming the range, and the memory the grid would need.
     """
-    resolution = check_int(resolution, "resolution", 8)  # the library's int rule, its messages
+    resolution = check_int(resolution, name, 8)  # the library's int rule, its messages
     side = lambda r: r + 2 * _MAX_MARGIN + 1
     largest = int(np.floor((budget / VOXEL_BYTES) ** (1.0 / 3.0))) - 2 * _MAX_MARGIN - 1
     while VOXEL_BYTES * side(largest + 1) ** 3 <= budget:
@@ -312,9 +313,9 @@ def check_resolution(resolution, budget=MEMORY_BUDGET):
     need = VOXEL_BYTES * float(side(int(resolution))) ** 3
     if need > budget:
         raise InvalidInputError(
-            f"resolution={int(resolution)} needs up to {need / 2**30:.2f} GiB for the voxel grid "
+            f"{name}={int(resolution)} needs up to {need / 2**30:.2f} GiB for the voxel grid "
             f"({side(int(resolution)) ** 3:.2g} voxels at {VOXEL_BYTES} bytes); the limit is "
-            f"{budget / 2**30:g} GiB: use a resolution in [8, {largest}]"
+            f"{budget / 2**30:g} GiB: use a {name} in [8, {largest}]"
         )
     return int(resolution)
 
@@ -470,7 +471,7 @@ def robust_solid(vertices, faces=None, *, resolution=RESOLUTION, coarse=COARSE, 
       :class:`Solid`; its ``inside`` is empty when the shape encloses no volume (a flat or open
       sheet, a point cloud of one side).
     """
-    resolution, coarse = check_resolution(resolution), check_resolution(coarse)
+    resolution, coarse = check_resolution(resolution), check_resolution(coarse, name="coarse")
     v = np.asarray(vertices, np.float64)
     frame = frame_given = None if frame is None else np.asarray(frame, np.float64)
     v = v if frame is None else v @ frame.T

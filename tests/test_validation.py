@@ -223,6 +223,11 @@ def test_normalize_batch_bad_input():
             jaxpose.normalize_batch(bad, method="ocsvm")
     with pytest.raises(InvalidInputError, match=r"points\[1\] must have shape"):
         jaxpose.normalize_batch((p for p in (P, P[:, :2])), method="ocsvm")
+    # a mapping's keys and one set's rows were taken as the sets ("points[0] must have shape (m, 3), got ()")
+    with pytest.raises(InvalidInputError, match=r"^list_of_points must be an iterable of .*got a dict: pass its values"):
+        jaxpose.normalize_batch({"a": P}, method="ocsvm")
+    with pytest.raises(InvalidInputError, match=r"^list_of_points must be an iterable of .*got one \(300, 3\) array: pass \[points\]"):
+        jaxpose.normalize_batch(P, method="ocsvm")
     with pytest.raises(InvalidInputError, match="pad_to must be an int"):
         jaxpose.normalize_batch([P], method="ocsvm", pad_to=400.0)
 

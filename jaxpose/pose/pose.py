@@ -36,7 +36,7 @@ from functools import partial
 import numbers
 import os
 import warnings
-from typing import Iterable
+from typing import Iterable, Mapping
 
 import jax
 import jax.numpy as jnp
@@ -500,8 +500,9 @@ def normalize_batch(list_of_points: Iterable, method: str = DEFAULT_METHOD, *, p
       :class:`Pose` whose fields have a leading axis of len(list_of_points).
 
     Raises:
-      InvalidInputError: not an iterable of point sets, an empty one, a bad set (named by its
-        index) or option.
+      InvalidInputError: not an iterable of point sets (a mapping is refused: pass its values;
+        one (m, 3) array too: pass ``[points]``), an empty one, a bad set (named by its index) or
+        option.
 
     Under jit, use ``jax.vmap(normalize)`` instead (padding needs concrete arrays).
 
@@ -525,6 +526,14 @@ def normalize_batch(list_of_points: Iterable, method: str = DEFAULT_METHOD, *, p
     if isinstance(list_of_points, (str, bytes)) or not isinstance(list_of_points, Iterable):
         raise _validate.InvalidInputError(
             f"list_of_points must be an iterable of (m, 3) point sets, got {type(list_of_points).__name__}")
+    if isinstance(list_of_points, Mapping):  # its keys would be the sets
+        raise _validate.InvalidInputError(
+            f"list_of_points must be an iterable of (m, 3) point sets, got a {type(list_of_points).__name__}: "
+            "pass its values (list(d.values()); the poses follow their order)")
+    if len(getattr(list_of_points, "shape", ())) == 2:  # its rows would be the sets
+        raise _validate.InvalidInputError(
+            f"list_of_points must be an iterable of (m, 3) point sets, got one {tuple(list_of_points.shape)} array: "
+            "pass [points] (or normalize(points))")
     arrays = [_validate.check_points(p, name=f"points[{i}]") for i, p in enumerate(list_of_points)]
     if not arrays:
         raise _validate.InvalidInputError("normalize_batch needs at least one point set")

@@ -394,11 +394,16 @@ def pca_surface_frame(mesh_or_points, count=FRAME_SAMPLES):
 
 
 def inertia_frame(mesh_or_points):
-    """trimesh's principal inertia axes (``principal_inertia_transform``; smallest moment of inertia
-    first, trimesh's signs, the last row negated if needed for det = +1). Meshes only.
+    """trimesh's principal inertia axes (``principal_inertia_transform``: the largest moment of
+    inertia first, the axis of least spread, the reverse of the PCA frames' order; the first two
+    signs trimesh's, the third from their cross product). Meshes only.
 
-    Returns :class:`jaxpose.orientation.Frame` (no ambiguity measure: NaN). Raises JaxposeError
-    on a mesh of zero volume (no inertia axes).
+    Returns :class:`jaxpose.orientation.Frame`: ``eigenvalues`` the solid's second moments along
+    its rows (in their order: smallest first), ``gaps`` their relative gaps largest first (as the
+    PCA frames'), and ``ambiguity`` 1 (``flag`` True): the signs come from no cue of the shape (a
+    rotated copy may get any proper flip), the sign cue the PCA frames measure is 0 here
+    (:func:`jaxpose.orientation.ambiguity`); ``margins`` NaN. Raises JaxposeError on a mesh of zero
+    volume (no inertia axes).
     """
     import trimesh
 
@@ -410,8 +415,11 @@ def inertia_frame(mesh_or_points):
         raise JaxposeError("the mesh encloses no volume: the inertia frame is undefined; use rotation='pca_surface' "
                            "or 'ocsvm'")
     rot = proper(np.asarray(mesh.principal_inertia_transform[:3, :3], np.float64))
-    mom = np.asarray(mesh.principal_inertia_components, np.float64)
-    return Frame(rot, float("nan"), mom, np.full(2, np.nan), np.full(3, np.nan), -1, np.full(3, np.nan))
+    inertia = np.asarray(mesh.moment_inertia, np.float64)  # about the centroid, of mass = volume (density 1)
+    second = (0.5 * np.trace(inertia) * np.eye(3) - inertia) / float(mesh.mass)  # the solid's second moments
+    lam = np.einsum("ij,jk,ik->i", rot, second, rot)
+    gaps = relative_gaps(np.sort(lam)[::-1])
+    return Frame(rot, ambiguity(gaps, 0.0), lam, gaps, np.full(3, np.nan), -1, np.full(3, np.nan))
 
 
 def frame(mesh_or_points, method="pca_surface"):

@@ -348,7 +348,7 @@ def test_a_hole_in_one_side_of_a_head_is_read_from_the_solid():
 
 @pytest.mark.parametrize("shape", [trimesh.creation.icosphere(subdivisions=3), trimesh.creation.box()])
 def test_symmetric_shapes_are_flagged(shape):
-    for method in ("core", "head", "pca_vertices", "pca_surface"):
+    for method in ("core", "head", "pca_vertices", "pca_surface", "inertia"):  # inertia: ambiguity NaN, unflagged
         assert rotation.frame_of(shape, method, resolution=32).flag, method
 
 
@@ -360,6 +360,14 @@ def test_baseline_frames_are_proper_and_pca_equivariant(body_frame):
         assert np.linalg.det(f.rotation) == pytest.approx(1.0)
         if name != "inertia":  # trimesh's eigenvector signs are arbitrary
             assert angle(baselines.frame(moved(m, q), name).rotation, f.rotation @ q.T) * RAD < 1e-6
+        else:  # so it is flagged (it said ambiguity NaN: not flagged), whatever its gaps
+            assert f.flag and f.ambiguity == 1.0 and np.all(f.gaps > rotation.GAP_MIN)
+    # the inertia frame's moments: a (3, 2, 1) box's second moments e^2 / 12 along its rows (largest
+    # moment of inertia first: trimesh's order), the gaps of them largest first (they were NaN)
+    f = baselines.inertia_frame(moved(trimesh.creation.box(extents=(3.0, 2.0, 1.0)), q))
+    np.testing.assert_allclose(np.abs(f.rotation @ q), np.eye(3)[::-1], atol=1e-12)
+    np.testing.assert_allclose(f.eigenvalues, np.array([1.0, 4.0, 9.0]) / 12, rtol=1e-12)
+    np.testing.assert_allclose(f.gaps, [5 / 9, 3 / 4], rtol=1e-12)
     with pytest.raises(jaxpose.InvalidInputError):
         baselines.frame(m, "nope")
 
@@ -483,8 +491,8 @@ def test_evaluate_rotation_and_cli(tmp_path, capsys, body_frame):
                             variants=("plain", "points"), resolution=48)
     rows = {r["method"]: r for r in res["variants"]["plain"]["summary"]}
     assert rows["core"]["raw_max"] < 1e-3 and rows["pca_vertices"]["raw_max"] < 1e-3
-    assert rows["core"]["flagged"] == 0.0 and rows["inertia"]["flagged"] is None
-    assert rows["core"]["unflagged_over_30"] == 0 and rows["inertia"]["unflagged_over_30"] is None
+    assert rows["core"]["flagged"] == 0.0 and rows["inertia"]["flagged"] == 1.0  # its signs: no cue (it was None)
+    assert rows["core"]["unflagged_over_30"] == 0 and rows["inertia"]["unflagged_over_30"] == 0
     assert "error" in {r["method"]: r for r in res["variants"]["points"]["summary"]}["inertia"]
     assert "variant points" in format_rotation_table(res)
     per_class = format_rotation_per_class(res).splitlines()
@@ -510,8 +518,8 @@ def test_evaluate_rotation_and_cli(tmp_path, capsys, body_frame):
 
     saved = json.loads(out.read_text(), parse_constant=refuse)
     assert saved["params"]["methods"] == ["core", "pca_surface", "inertia"]
-    inertia = saved["variants"]["plain"]["per_class"]["a"]["inertia"]  # no ambiguity measure: null, as its flagged share
-    assert inertia["ambiguity"] == [None] * 3 and inertia["flagged"] is None and len(inertia["raw"]) == 3
+    inertia = saved["variants"]["plain"]["per_class"]["a"]["inertia"]  # ambiguity 1: flagged (it was null, NaN)
+    assert inertia["ambiguity"] == [1.0] * 3 and inertia["flagged"] == 1.0 and len(inertia["raw"]) == 3
     assert (tmp_path / "fig" / "rotation_angles_plain.png").exists()
 
 
@@ -534,8 +542,9 @@ def test_cli_normalize_rotation_json_round_trip(tmp_path, capsys):
 
 
 def test_cli_normalize_inertia_frame_writes_strict_json(tmp_path):
-    """The inertia frame has no ambiguity measure (NaN): the transform JSON writes it as null, not the
-    bare token NaN, which strict JSON readers refuse (it did). The round-trip test's mesh and grid."""
+    """The inertia frame's transform JSON is strict (its ambiguity was NaN, written as the bare token
+    NaN, which strict JSON readers refuse); its ambiguity is 1, flagged (its signs come from no cue;
+    it was NaN, unflagged). The round-trip test's mesh and grid."""
     src, dst = tmp_path / "in.ply", tmp_path / "out.ply"
     person().export(src)
     assert cli.main(["normalize", str(src), "-o", str(dst), "--rotation", "inertia", "--resolution", "48"]) == 0
@@ -544,8 +553,8 @@ def test_cli_normalize_inertia_frame_writes_strict_json(tmp_path):
         raise ValueError(f"not JSON: {token}")
 
     record = json.loads((tmp_path / "out.transform.json").read_text(), parse_constant=refuse)
-    assert record["rotation_method"] == "inertia" and record["ambiguity"] is None
-    assert record["rotation_flagged"] is False
+    assert record["rotation_method"] == "inertia" and record["ambiguity"] == 1.0
+    assert record["rotation_flagged"] is True
     assert np.linalg.det(np.asarray(record["rotation"])) == pytest.approx(1.0)
 
 

@@ -13,9 +13,8 @@ def json_text(record) -> str:
     """A record (evaluate's result, normalize's transform, tune's result, a benchmark's) as strict JSON
     text (RFC 8259), indented, with a final newline.
 
-    A float that is not finite is written as ``null``: the ``inertia`` frame's ``ambiguity`` is NaN
-    (it has no ambiguity measure), and ``json.dumps`` would write the bare token ``NaN``, which is
-    not JSON (strict readers refuse the file). Nothing else changes.
+    A float that is not finite is written as ``null`` (a NaN measure: ``json.dumps`` would write
+    the bare token ``NaN``, which is not JSON; strict readers refuse the file). Nothing else changes.
 
     >>> json_text({"ambiguity": [float("nan"), 0.5]})
     '{\\n  "ambiguity": [\\n    null,\\n    0.5\\n  ]\\n}\\n'

@@ -329,6 +329,9 @@ PLY_TET_HEAD = ("ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nprop
     ("flat.obj", "v 0 0\nv 1 0\nv 0 1\nf 1 2 3\n", "flat.obj: .*vertex 1 has fewer than 3 coordinates"),
     # the same where trimesh reads the file (materials, faces of several forms): it read them without a word
     ("zero_forms.obj", OBJ_TET + "f 1 3 2\nf 1 2 4\nf 0/1 3/1 4/1\n", "zero_forms.obj: .*index 0 "),
+    # (they read trimesh's 'index 8 is out of bounds for axis 0 with size 4')
+    ("index_material.obj", OBJ_TET + "usemtl a\nf 1 3 2\nf 2 3 9\n", "index_material.obj: .*a face references vertex 9 of the 4 "),
+    ("index_forms.obj", OBJ_TET + "f 1 3 2\nf 1/1 2/1 4/1\nf -1//1 -2//1 -5//1\n", "index_forms.obj: .*references vertex -5 of the 4 "),
     ("cut_material.obj", OBJ_TET + "usemtl a\nf 1 3 2\nf 1 2 4\nf 1 4", "cut_material.obj: .*last line 'f 1 4' .*fewer"),
     ("bare_material.obj", OBJ_TET + "usemtl a\nf 1 3 2\nf 1 2 4\nf\n", "bare_material.obj: .*last line 'f' is a face"),
     ("vertex_material.obj", OBJ_TET + "usemtl a\nf 1 3 2\nf 1 2 4\nv 1 2\n", "vertex_material.obj: .*last line 'v 1 2'"),

@@ -292,6 +292,11 @@ def _read(path):
     try:
         geometry = trimesh.load(io.BytesIO(data), file_type=ext, process=False)
     except Exception as exc:  # every reader has its own errors for corrupt files
+        if ext == "obj" and isinstance(exc, IndexError):  # a face beyond the vertices: the fast reader's words
+            try:
+                readers.obj.check_vertex_references(data)
+            except InvalidInputError as named:
+                raise InvalidInputError(f"{path}: {named}") from None
         detail = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         if isinstance(exc, ImportError):  # trimesh's optional modules, wanted for a content it could not parse
             detail = (f"the content is not {ext.upper()} as jaxpose and trimesh read it (trimesh wanted its optional "

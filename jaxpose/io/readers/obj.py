@@ -8,7 +8,7 @@ import numpy as np
 from ...errors import InvalidInputError
 from .base import Loaded, Unsupported, _checked, _floats, _ints, _text, _tokens, _triangulate, _triangulate_inline
 
-__all__ = ["read_obj"]
+__all__ = ["read_obj", "check_vertex_references"]
 
 
 _INDEX = r"-?[0-9]+"
@@ -90,9 +90,38 @@ def read_obj(data: bytes) -> Loaded:
     outside = (faces < -len(v)) | (faces >= len(v))
     if np.any(outside):  # (trimesh: a raw IndexError, counted from 0)
         at = faces[outside].flat[0]
-        raise InvalidInputError(f"cannot read OBJ file: a face references vertex {at + 1 if at >= 0 else at} of the "
-                                f"{len(v)} it has (OBJ counts from 1, or from -1 backwards)")
+        raise _outside(at + 1 if at >= 0 else at, len(v))
     return _obj_mesh(v, vt, vn, colors, faces, tex, norm)
+
+
+def _outside(reference, count):
+    """The error for a face that references vertex ``reference`` (OBJ's numbering) of ``count``."""
+    return InvalidInputError(f"cannot read OBJ file: a face references vertex {reference} of the {count} it has "
+                             "(OBJ counts from 1, or from -1 backwards)")
+
+
+def check_vertex_references(data: bytes):
+    """Raise :func:`read_obj`'s InvalidInputError where a face of an OBJ file references a vertex
+    that is not there (beyond its count of ``v`` lines, or before the first counting back): for a
+    file trimesh reads (materials, faces of several forms), whose loader fails with a raw
+    IndexError there. Returns None where every reference is in range (or the text is not UTF-8)."""
+    try:
+        text = _text(data)
+    except Unsupported:
+        return None
+    lines = text.replace("\r\n", "\n").replace("\\\n", "").split("\n")
+    count = sum(1 for line in lines if line[:2] in ("v ", "v\t"))
+    for line in lines:
+        if line[:2] not in ("f ", "f\t"):
+            continue
+        for corner in line.split()[1:]:
+            try:
+                reference = int(corner.split("/")[0])
+            except ValueError:  # (not a reference: trimesh's error stands)
+                continue
+            if reference > count or reference < -count:
+                raise _outside(reference, count)
+    return None
 
 
 def _cut_last_line(text):

@@ -228,6 +228,9 @@ def test_bad_points_raise(bad):
 def test_bad_center_raises():
     with pytest.raises(InvalidInputError, match="center"):
         baselines.mean_distance(box(), [0.0, 1.0])
+    for bad in ("x", ["a", "b", "c"], [True, False, True], {"x": 0.0}):  # "x": float()'s raw ValueError; bools taken as 1/0
+        with pytest.raises(InvalidInputError, match="^center must be 3 finite numbers"):
+            baselines.scale(box(), "mean_distance", center=bad)
 
 
 def test_solid_centroid_is_trimesh_center_mass_for_a_closed_mesh_only():

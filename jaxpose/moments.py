@@ -54,7 +54,7 @@ from ._hyper import instantiate, is_zero
 from ._validate import InvalidInputError, check_real, is_traced
 from .config import GridConfig
 from .depth import depth_weights, to_bucket
-from .occupancy.svdd.problem import SVDD
+from .occupancy.svdd.problem import SVDD, check_svdd
 from .occupancy.grid import (CHILD_OFFSETS, domain, evaluate_children, evaluate_grid, evaluate_on_grid, evaluate_on_grid_jvp,
                    first_true, morton_codes)
 from .weighted import Moments, grid_moments, solid_occupancy, weighted_moments
@@ -109,7 +109,8 @@ def volume_moments(svdd, grid: GridConfig | None = None, **options) -> Moments:
       :class:`Moments`. ``unrefined`` > 0 says the band was too narrow for the boundary.
 
     Raises:
-      InvalidInputError: ``svdd`` is not an SVDD, or a bad grid option.
+      InvalidInputError: ``svdd`` is not one SVDD (a batch of them is mapped with ``jax.vmap``),
+        or a bad grid option.
 
     Cost: resolution^3 evaluations of f plus 8 per refined cell and level. Differentiable in the
     SVDD's fields (module docs); compiled once per grid and shape.
@@ -119,8 +120,7 @@ def volume_moments(svdd, grid: GridConfig | None = None, **options) -> Moments:
         mom = jaxpose.volume_moments(jaxpose.fit_svdd(points, 5.0, 0.3), resolution=32)
         mom.center, mom.mean_distance           # (3,), () in the units of points
     """
-    if not isinstance(svdd, SVDD):
-        raise InvalidInputError(f"svdd must be an SVDD from fit_svdd, got {type(svdd).__name__}")
+    check_svdd(svdd, "jax.vmap(lambda s: volume_moments(s, grid))(svdd)")
     if grid is None:
         grid = GridConfig.create(**options)
     elif options:

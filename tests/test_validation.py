@@ -173,6 +173,11 @@ def test_decision_function_bad_input():
         decision_function(P, P)
     with pytest.raises(InvalidInputError, match="SVDD"):  # was an AttributeError
         jaxpose.volume_moments(None)
+    # a batch of models (jax.vmap(fit_svdd)'s) was JAX's 'Incompatible shapes for broadcasting'
+    batch = jax.tree.map(lambda v: jnp.stack([v, v]), svdd)
+    for call in (lambda: decision_function(batch, P), lambda: jaxpose.volume_moments(batch)):
+        with pytest.raises(InvalidInputError, match=r"^svdd\.points must have shape \(m, 3\), got \(2, 300, 3\): .*jax\.vmap"):
+            call()
     assert decision_function(svdd, np.zeros((0, 3))).shape == (0,)
     f = decision_function(svdd, [[0.0, 0.0, 0.0], [50.0, 0.0, 0.0]])  # lists are fine
     assert np.all(np.isfinite(np.asarray(f))) and float(f[0]) > 0 > float(f[1])

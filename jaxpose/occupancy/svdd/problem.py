@@ -26,7 +26,7 @@ from ... import _validate
 from ...config import BLOCK
 from ..kernels import gaussian_kernel, kernel_matvec_blocked, map_blocks
 
-__all__ = ["SVDD", "upper_bound", "caps", "kernel_ops", "kkt_violation", "offset", "decision_function",
+__all__ = ["SVDD", "check_svdd", "upper_bound", "caps", "kernel_ops", "kkt_violation", "offset", "decision_function",
            "decision_value_and_grad", "DENSE_LIMIT"]
 
 DENSE_LIMIT = 12_000  # kernel="auto": above this many points K is never stored (memory O(m * block))
@@ -73,6 +73,19 @@ class SVDD(NamedTuple):
     def support(self):
         """(m,) bool, the support vectors (alpha > 0)."""
         return self.alpha > 0
+
+
+def check_svdd(svdd, use: str):
+    """``svdd`` as one fitted :class:`SVDD` (points (m, 3), alpha (m,)); InvalidInputError otherwise,
+    a batch of models (``jax.vmap(fit_svdd)``'s) pointed to ``use``, the call that maps over it."""
+    if not isinstance(svdd, SVDD):
+        raise _validate.InvalidInputError(f"svdd must be an SVDD from fit_svdd, got {type(svdd).__name__}")
+    shape = tuple(jnp.shape(svdd.points))
+    if len(shape) != 2 or shape[1] != 3 or tuple(jnp.shape(svdd.alpha)) != shape[:1]:
+        batch = (f": a batch of {shape[0]} models (jax.vmap(fit_svdd)'s)? map over it too, {use}"
+                 if len(shape) == 3 else "")
+        raise _validate.InvalidInputError(f"svdd.points must have shape (m, 3), got {shape}{batch}")
+    return svdd
 
 
 def upper_bound(nu, m):
@@ -178,16 +191,15 @@ def decision_function(svdd: SVDD, x, block=BLOCK):
       (n,) float.
 
     Raises:
-      InvalidInputError: ``svdd`` is not an SVDD, x is not a finite (n, 3) array, or ``block``
-        is not an int >= 1.
+      InvalidInputError: ``svdd`` is not one SVDD (a batch of them is evaluated under
+        ``jax.vmap``), x is not a finite (n, 3) array, or ``block`` is not an int >= 1.
 
     Example::
 
         svdd = jaxpose.fit_svdd(points, gamma=5.0, nu=0.3)
         inside = jaxpose.decision_function(svdd, points) >= 0
     """
-    if not isinstance(svdd, SVDD):
-        raise _validate.InvalidInputError(f"svdd must be an SVDD from fit_svdd, got {type(svdd).__name__}")
+    check_svdd(svdd, "jax.vmap(decision_function, in_axes=(0, None))(svdd, x)")
     _validate.check_array(x, name="x")
     block = _validate.check_int(block, "block", 1)
     x = jnp.asarray(x, svdd.points.dtype)

@@ -162,6 +162,11 @@ def test_a_batch_of_poses_moves_each_set_by_its_pose():
     (lambda p: Pose.from_center_scale([1.0, 2.0, 3.0], 1.0, rotation=np.eye(2)), r"rotation must have shape \(3, 3\)"),
     (lambda p: Pose.from_center_scale([1.0, 2.0, 3.0], 1.0, rotation=np.ones((3, 3))), "proper rotation"),
     (lambda p: Pose.from_center_scale([1.0, 2.0, 3.0], 1.0, rotation=-np.eye(3)), "proper rotation"),
+    # float()'s raw ValueError; a (2,) ambiguity of one pose and one without a rotation were kept as given
+    (lambda p: Pose.from_center_scale([1.0, 2.0, 3.0], 1.0, rotation=np.eye(3), ambiguity="x"), "ambiguity must be real numbers"),
+    (lambda p: Pose.from_center_scale([1.0, 2.0, 3.0], 1.0, rotation=np.eye(3), ambiguity=[0.1, 0.2]),
+     r"ambiguity must have shape \(\), the center's leading shape, got \(2,\)"),
+    (lambda p: Pose.from_center_scale([1.0, 2.0, 3.0], 1.0, ambiguity=0.5), "ambiguity is the rotation's: give a rotation"),
 ])
 def test_bad_points_and_fields_are_refused(make, match):
     """Points and fields of the wrong shape or kind are InvalidInputError at the Pose's boundary,

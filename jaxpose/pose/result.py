@@ -270,8 +270,9 @@ class Pose(NamedTuple):
 
     @classmethod
     def from_center_scale(cls, center, scale, rotation=None, ambiguity=None) -> "Pose":
-        """A Pose from a given center (3,) and scale () (and optionally rotation (3, 3), ambiguity ());
-        valid when center and scale are finite and scale > 0.
+        """A Pose from a given center (3,) and scale () (and optionally rotation (3, 3), and with it
+        its ambiguity (), 0 when not given); valid when center and scale are finite and scale > 0.
+        Leading batch axes: the center's, shared by the other fields.
 
         Concrete values stay NumPy float64 (every digit of a center far from the origin is kept);
         traced values stay JAX arrays.
@@ -283,6 +284,11 @@ class Pose(NamedTuple):
                                     f"{c_shape} and {s_shape}")
         if rotation is not None:
             _check_rotation(rotation, batch)
+        if ambiguity is not None:
+            if rotation is None:
+                raise InvalidInputError("ambiguity is the rotation's: give a rotation with it")
+            if (a_shape := _shape_of(ambiguity, "ambiguity")) != batch:
+                raise InvalidInputError(f"ambiguity must have shape {batch}, the center's leading shape, got {a_shape}")
         xp = _jnp() if is_traced(center) or is_traced(scale) else np
         center = xp.asarray(center, dtype=None if xp is not np else np.float64)
         scale = xp.asarray(scale, center.dtype)

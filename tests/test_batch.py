@@ -356,6 +356,9 @@ def test_refusals_before_any_work(tmp_path, tree, monkeypatch):
         (dict(inputs=[tmp_path / "list.csv"], out=tmp_path / "o", table=tmp_path / "list.csv"),
          "would overwrite an input"),
         (dict(inputs=[tmp_path / "nothing"], out=tmp_path / "o"), "no such file or folder"),
+        # (TypeErrors: "'NoneType' object is not iterable", "expected str, bytes or os.PathLike object, not int")
+        (dict(inputs=None, out=tmp_path / "o"), r"^inputs must be a path \(str, Path or URL\) or paths, got None"),
+        (dict(inputs=[root, 5], out=tmp_path / "o"), r"^inputs must be paths \(str, Path or URL\), got 5 among them"),
         (dict(inputs=[root], out=tmp_path / "o", glob="*.zzz"), "no mesh files found"),
         (dict(inputs=[root], out=tmp_path / "o", workers=0), "workers must be >= 1, got 0"),
         (dict(inputs=[root], out=tmp_path / "o", dask_local=2, scheduler="tcp://x:1"), "not both"),

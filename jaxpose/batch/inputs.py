@@ -105,12 +105,18 @@ def find_inputs(inputs, glob=None, exclude=()) -> Found:
       :class:`Found`: the files, their root and the irregular files met by folder searches.
 
     Raises:
-      InvalidInputError: an INPUT that does not exist, an unreadable manifest, nothing found,
-        INPUTs on different file systems.
+      InvalidInputError: inputs that are not paths, an INPUT that does not exist, an unreadable
+        manifest, nothing found, INPUTs on different file systems.
     """
-    inputs = [inputs] if isinstance(inputs, (str, os.PathLike, RemotePath)) else list(inputs)
+    paths = (str, os.PathLike, RemotePath)
+    if not isinstance(inputs, paths) and (isinstance(inputs, bytes) or not hasattr(inputs, "__iter__")):
+        raise InvalidInputError(f"inputs must be a path (str, Path or URL) or paths, got {inputs!r:.80}")
+    inputs = [inputs] if isinstance(inputs, paths) else list(inputs)
     if not inputs:
         raise InvalidInputError("no inputs given")
+    for given in inputs:
+        if not isinstance(given, paths):
+            raise InvalidInputError(f"inputs must be paths (str, Path or URL), got {given!r:.80} among them")
     exclude = {identity(location(e)) for e in exclude}
     files, roots, irregular = [], [], {}
     for given in inputs:

@@ -71,14 +71,14 @@ def test_scale_spread_by_hand():
     assert scale_spread([2.0, 4.0, 6.0]) == pytest.approx({"sigma_scale": np.sqrt(8 / 3), "cv_scale": np.sqrt(8 / 3) / 4})
 
 
-@pytest.mark.parametrize("bad", [np.zeros((3, 2)), np.zeros((0, 3)), [[0, 0, np.nan]]])
-def test_spread_rejects(bad):
+@pytest.mark.parametrize("bad", [np.zeros((3, 2)), np.zeros((0, 3)), [[0, 0, np.nan]], "abc", [["a", "b", "c"]]])
+def test_spread_rejects(bad):  # (strings: float()'s raw ValueError)
     with pytest.raises(InvalidInputError):
         spread(bad)
 
 
-@pytest.mark.parametrize("bad", [[], [1.0, -1.0], [[1.0, 2.0]], [1.0, np.inf]])
-def test_scale_spread_rejects(bad):
+@pytest.mark.parametrize("bad", [[], [1.0, -1.0], [[1.0, 2.0]], [1.0, np.inf], ["a"], [True, True]])
+def test_scale_spread_rejects(bad):  # (strings: float()'s raw ValueError; bools were taken as 1)
     with pytest.raises(InvalidInputError):
         scale_spread(bad)
 
@@ -179,6 +179,13 @@ def test_weighted_kabsch_matches_scipy():
     np.testing.assert_allclose(t_fit, cy - r @ cx, atol=1e-10)
     # equal weights: the unweighted fit
     np.testing.assert_allclose(evaluation.kabsch(x, y, np.full(40, 0.7))[0], evaluation.kabsch(x, y)[0], atol=1e-12)
+    # refused by name (they were NumPy's matmul ValueError, an AttributeError for lists and strings, NaN for w = 0)
+    for args, message in (((x[:, :2], y[:, :2]), r"^x must have shape \(m, 3\)"), ((x, y[:10]), "^x and y must have as many points"),
+                          (("a", y), "^x must have shape"), ((x, y, w[:5]), r"^w must be \(40,\) finite weights >= 0"),
+                          ((x, y, -w), "^w must be"), ((x, y, np.zeros(40)), "^w must be .* positive sum")):
+        with pytest.raises(InvalidInputError, match=message):
+            evaluation.kabsch(*args)
+    np.testing.assert_array_equal(evaluation.kabsch(x.tolist(), y.tolist())[0], evaluation.kabsch(x, y)[0])  # lists are arrays
 
 
 def test_vertex_weights_are_the_area_share():

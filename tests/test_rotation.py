@@ -12,7 +12,7 @@ import jaxpose
 from jaxpose import baselines, cli, geometry, mesh, sample
 from jaxpose.rotation import head, parts, rotation
 from jaxpose.evaluation import evaluate_rotation, format_rotation_per_class, format_rotation_table
-from jaxpose.evaluation.rotation import _summary_of_class, angle, chordal_mean, sign_free_angles
+from jaxpose.evaluation.rotation import _summary_of_class, angle, chordal_mean, class_angles, sign_free_angles
 from jaxpose.orientation import Frame
 from jaxpose.pose.pose import Pose
 from jaxpose.occupancy.voxels import GRID_SHIFT
@@ -455,6 +455,13 @@ def test_measures():
     free, flips = sign_free_angles(flipped)
     np.testing.assert_allclose(free, 0.0, atol=1e-5)
     assert angle(flipped[0], flipped[1]) == pytest.approx(180.0)
+    # refused by name (NumPy's LinAlgError and broadcast errors; sign_free_angles([]) returned None)
+    for bad in ([], np.zeros((2, 2, 2)), np.full((2, 3, 3), np.nan), "abc"):
+        for measure in (chordal_mean, class_angles, sign_free_angles):
+            with pytest.raises(jaxpose.InvalidInputError, match=r"^rotations must be an \(n, 3, 3\) array of finite"):
+                measure(bad)
+    with pytest.raises(jaxpose.InvalidInputError, match=r"^b must be a \(3, 3\) array of finite"):
+        angle(rs[0], np.eye(2))
 
 
 def _turn_z(degrees):

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validate import InvalidInputError, check_int
+from .._validate import InvalidInputError, check_array, check_int, is_real_dtype
 
 __all__ = ["align_core", "kabsch", "CORE_WEIGHTS", "check_core_weight", "vertex_weights"]
 
@@ -13,8 +13,21 @@ CORE_WEIGHTS = ("vertices", "area")
 def kabsch(x, y, w=None):
     """Rotation r (3, 3) and translation t (3,) minimising sum_i w_i |r x_i + t - y_i|^2.
 
-    x, y : (n, 3) float; w : optional (n,) non-negative weights (default: all 1).
+    x, y : (n, 3) float; w : optional (n,) non-negative weights (default: all 1) of a positive
+    sum. InvalidInputError otherwise.
     """
+    x = np.asarray(check_array(x, "x", 1), np.float64)
+    y = np.asarray(check_array(y, "y", 1), np.float64)
+    if len(x) != len(y):
+        raise InvalidInputError(f"x and y must have as many points, got {len(x)} and {len(y)}")
+    if w is not None:
+        try:
+            given = np.asarray(w)
+        except (TypeError, ValueError):  # ragged and the like
+            given = None
+        if (given is None or not is_real_dtype(given.dtype) or given.shape != (len(x),)
+                or not np.all(np.isfinite(given)) or np.any(given < 0) or not np.sum(given) > 0):
+            raise InvalidInputError(f"w must be ({len(x)},) finite weights >= 0 of a positive sum, got {w!r:.80}")
     if w is None:
         mx, my = x.mean(axis=0), y.mean(axis=0)
         u, _, vt = np.linalg.svd((x - mx).T @ (y - my))

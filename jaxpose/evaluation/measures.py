@@ -13,17 +13,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validate import InvalidInputError
+from .._validate import InvalidInputError, check_array, is_real_dtype
 
 __all__ = ["spread", "scale_spread"]
 
 def spread(centers) -> dict:
     """``{"sigma_tr", "sigma_tr_axis"}`` of an (n, 3) array of one class's centers (module doc)."""
-    c = np.asarray(centers, dtype=np.float64)
-    if c.ndim != 2 or c.shape[1] != 3 or len(c) == 0:
-        raise InvalidInputError(f"centers must have shape (n, 3) with n >= 1, got {c.shape}")
-    if not np.all(np.isfinite(c)):
-        raise InvalidInputError("centers must be finite")
+    c = np.asarray(check_array(centers, "centers", 1), dtype=np.float64)  # the library's (m, 3) rule and messages
     d = c - c.mean(axis=0)
     return {"sigma_tr": float(np.sqrt(np.mean(np.sum(d * d, axis=1)))),
             "sigma_tr_axis": float(np.mean(np.std(c, axis=0)))}
@@ -31,8 +27,13 @@ def spread(centers) -> dict:
 
 def scale_spread(scales) -> dict:
     """``{"sigma_scale", "cv_scale"}`` of the (n,) scales of one class (module doc)."""
-    s = np.asarray(scales, dtype=np.float64)
-    if s.ndim != 1 or len(s) == 0 or not np.all(np.isfinite(s)) or np.any(s <= 0):
-        raise InvalidInputError(f"scales must be an (n,) array of positive finite values, got {s!r}")
+    try:
+        s = np.asarray(scales)
+    except (TypeError, ValueError):  # ragged and the like
+        s = None
+    if (s is None or not is_real_dtype(s.dtype) or s.ndim != 1 or len(s) == 0 or not np.all(np.isfinite(s))
+            or np.any(s <= 0)):
+        raise InvalidInputError(f"scales must be an (n,) array of positive finite values, got {scales!r:.80}")
+    s = s.astype(np.float64)
     sigma = float(np.std(s))
     return {"sigma_scale": sigma, "cv_scale": sigma / float(np.mean(s))}

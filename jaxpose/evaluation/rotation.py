@@ -21,7 +21,7 @@ import time
 
 import numpy as np
 
-from .._validate import InvalidInputError, JaxposeError, check_int
+from .._validate import InvalidInputError, JaxposeError, check_int, is_real_dtype
 from . import alignment
 from .tables import class_tables
 from .variants import VARIANTS, make_class
@@ -35,22 +35,43 @@ ROTATION_KEYS = ("raw_mean", "raw_max", "sign_free_mean", "sign_free_max", "flag
                  "unflagged_max", "flagged_over_30", "unflagged_over_30")
 
 
+def _real_array(value, name, shape, what):
+    """``value`` as a float64 array of finite reals whose shape passes ``shape``; InvalidInputError
+    ('{name} must be {what}, got ...') otherwise."""
+    try:
+        arr = np.asarray(value)
+    except (TypeError, ValueError):  # ragged and the like
+        arr = None
+    if arr is None or not is_real_dtype(arr.dtype) or not shape(arr.shape) or not np.all(np.isfinite(arr)):
+        got = f"shape {arr.shape}" if arr is not None and is_real_dtype(arr.dtype) and not shape(arr.shape) else f"{value!r:.80}"
+        raise InvalidInputError(f"{name} must be {what}, got {got}")
+    return arr.astype(np.float64)
+
+
+def _rotations(rotations):
+    """rotations as an (n, 3, 3) float64 array (n >= 1) of finite numbers; InvalidInputError otherwise."""
+    return _real_array(rotations, "rotations", lambda s: len(s) == 3 and s[0] >= 1 and s[1:] == (3, 3),
+                       "an (n, 3, 3) array of finite numbers, n >= 1")
+
+
 def angle(a, b):
     """Geodesic angle in degrees between rotations a, b (3, 3) of m = a b^T: atan2(sin, cos) with
     cos = (trace m - 1) / 2 and sin = |vee(m - m^T)| / 2 (accurate at small angles too)."""
-    m = np.asarray(a, np.float64) @ np.asarray(b, np.float64).T
+    a, b = (_real_array(r, name, lambda s: s == (3, 3), "a (3, 3) array of finite numbers") for r, name in ((a, "a"), (b, "b")))
+    m = a @ b.T
     w = np.array([m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1]])
     return float(np.degrees(np.arctan2(0.5 * np.linalg.norm(w), 0.5 * (np.trace(m) - 1.0))))
 
 
 def chordal_mean(rotations):
     """The chordal L2 mean of rotations (n, 3, 3): the nearest rotation to their average (SVD)."""
-    u, _, vt = np.linalg.svd(np.mean(np.asarray(rotations, np.float64), axis=0))
+    u, _, vt = np.linalg.svd(np.mean(_rotations(rotations), axis=0))
     return u @ np.diag([1.0, 1.0, np.sign(np.linalg.det(u @ vt)) or 1.0]) @ vt
 
 
 def class_angles(rotations):
     """(n,) angles in degrees of each rotation (n, 3, 3) to their chordal mean."""
+    rotations = _rotations(rotations)
     mean = chordal_mean(rotations)
     return np.array([angle(r, mean) for r in rotations])
 
@@ -61,7 +82,7 @@ def sign_free_angles(rotations, iterations=10):
     Alternates the chordal mean of the flipped frames and each instance's best flip, from every
     instance as a start; the start with the smallest mean angle wins. Returns (angles, flips (n, 3)).
     """
-    rs = np.asarray(rotations, np.float64)
+    rs = _rotations(rotations)
     best = None
     for start in range(len(rs)):
         mean = rs[start]

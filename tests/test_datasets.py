@@ -143,6 +143,9 @@ def test_load_folder_round_trip(tmp_path, dataset):
 def test_load_folder_errors(tmp_path):
     with pytest.raises(InvalidInputError, match="not a folder"):
         load_folder(tmp_path / "missing")
+    for bad in (None, 5):  # Path()'s TypeError ('expected str, bytes or os.PathLike object, not NoneType')
+        with pytest.raises(InvalidInputError, match=r"^path must be a folder \(str or Path\), got "):
+            load_folder(bad)
     with pytest.raises(InvalidInputError, match="no mesh files"):
         load_folder(tmp_path)
     (tmp_path / "a").mkdir()

@@ -93,6 +93,10 @@ def test_an_empty_class_is_refused():
     for up in (None, 2):
         with pytest.raises(InvalidInputError, match="^meshes is empty: a class needs at least one mesh"):
             make_class([], "plain", seed=3, class_index=0, up=up)
+    with pytest.raises(InvalidInputError, match="^meshes must be a list of meshes, got None"):  # len()'s TypeError
+        make_class(None, "plain", seed=3, class_index=0)
+    with pytest.raises(InvalidInputError, match=r"^rng must be a numpy\.random\.Generator"):  # 'int' object has no attribute 'uniform'
+        make_variant(_body(), "outliers", 0)
 
 
 def test_holes_remove_ten_percent_in_five_patches():

@@ -1,6 +1,7 @@
 """Load a folder of classes: ``root/<class>/<mesh files>``, or a flat folder as one class."""
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import trimesh
@@ -63,8 +64,11 @@ def load_folder(path) -> dict[str, list[trimesh.Trimesh]]:
 
     Raises
     ------
-    InvalidInputError : missing folder, no mesh files, or an unreadable mesh.
+    InvalidInputError : a path that is not a str or Path, missing folder, no mesh files, or an
+    unreadable mesh.
     """
+    if not isinstance(path, (str, os.PathLike)):
+        raise InvalidInputError(f"path must be a folder (str or Path), got {path!r:.80}")
     root = Path(path)
     if not root.is_dir():
         raise InvalidInputError(f"{root} is not a folder")

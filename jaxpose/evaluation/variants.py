@@ -134,7 +134,8 @@ def make_variant(mesh, variant: str, rng, *, up: int = 2, stray: bool = True):
 
     Args:
       mesh: Trimesh (aligned); variant: one of :data:`VARIANTS`;
-      rng: ``np.random.default_rng([seed, class_index, instance_index])``;
+      rng: ``np.random.default_rng([seed, class_index, instance_index])`` (a Generator; an int is
+        refused);
       up: index of the up axis (0, 1 or 2; InvalidInputError otherwise); stray: for outliers /
         big_outliers, whether this instance gets the part (:func:`stray_mask`).
 
@@ -145,6 +146,9 @@ def make_variant(mesh, variant: str, rng, *, up: int = 2, stray: bool = True):
 
     if variant not in VARIANTS:
         raise InvalidInputError(f"unknown variant {variant!r}; valid: {', '.join(VARIANTS)}")
+    if not isinstance(rng, np.random.Generator):
+        raise InvalidInputError(f"rng must be a numpy.random.Generator (np.random.default_rng([seed, class_index, "
+                                f"instance_index])), got {rng!r:.80}")
     up = _check_up(up)
     if variant != "points" and len(getattr(mesh, "faces", ())) == 0:
         raise InvalidInputError(f"variant {variant!r} needs meshes with faces")
@@ -167,8 +171,10 @@ def up_axis(mesh) -> int:
 def make_class(meshes, variant: str, seed: int, class_index: int, up: int | None = None):
     """All instances of one aligned class for ``variant`` (the seeding rule of the module docs);
     ``up`` None: :func:`up_axis` of the first mesh, else an axis 0, 1 or 2; seed and class_index
-    ints >= 0, ``meshes`` not empty (InvalidInputError otherwise)."""
+    ints >= 0, ``meshes`` a non-empty list (a sequence) of meshes (InvalidInputError otherwise)."""
     seed, class_index = check_int(seed, "seed", 0), check_int(class_index, "class_index", 0)
+    if isinstance(meshes, (str, bytes)) or not hasattr(meshes, "__len__") or not hasattr(meshes, "__getitem__"):
+        raise InvalidInputError(f"meshes must be a list of meshes, got {meshes!r:.80}")
     if len(meshes) == 0:
         raise InvalidInputError("meshes is empty: a class needs at least one mesh")
     up = up_axis(meshes[0]) if up is None else _check_up(up)

@@ -86,3 +86,17 @@ def test_non_finite_coordinates_are_not_written(tmp_path, name):
     with pytest.raises(InvalidInputError, match="NaN or inf"):
         mesh.export(geometry, tmp_path / name)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_export_refuses_what_is_not_a_geometry_or_a_path(tmp_path):
+    """export("abc", path) was an AttributeError ('str' object has no attribute 'vertices') and
+    export(mesh, None) Path()'s TypeError: refused by name, nothing written."""
+    from jaxpose import mesh
+    from jaxpose.errors import InvalidInputError
+
+    for geometry in ("abc", np.zeros((4, 3)), None):
+        with pytest.raises(InvalidInputError, match=r"^cannot write a (str|ndarray|NoneType): give a Trimesh, PointCloud"):
+            mesh.export(geometry, tmp_path / "out.ply")
+    with pytest.raises(InvalidInputError, match=r"^path must be a str or Path, got None"):
+        mesh.export(trimesh.creation.box(), None)
+    assert list(tmp_path.iterdir()) == []

@@ -381,6 +381,13 @@ POINT_FORMATS = ("ply", "obj", "glb", "xyz")  # hold a point cloud
 OUTPUT_FORMATS = tuple(sorted(set(MESH_FORMATS) | set(POINT_FORMATS)))
 
 
+def _check_path(path):
+    """``path`` if it is a str or os.PathLike; InvalidInputError otherwise."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise InvalidInputError(f"path must be a str or Path, got {path!r:.80}")
+    return path
+
+
 def output_format(path, geometry=None) -> str:
     """The format a path's suffix names, checked against what it can hold; no I/O.
 
@@ -396,7 +403,7 @@ def output_format(path, geometry=None) -> str:
       InvalidInputError: no suffix, a format that cannot be written, or one that cannot hold
         `geometry`.
     """
-    path = Path(path)
+    path = Path(_check_path(path))
     ext = path.suffix.lower().lstrip(".")
     if not ext:
         raise InvalidInputError(f"{path}: no extension to choose an output format; "
@@ -416,9 +423,12 @@ def encode(geometry, file_type) -> bytes:
     """The bytes of a Trimesh, PointCloud or Surface in a format of :data:`OUTPUT_FORMATS` (no I/O).
 
     Raises:
-      InvalidInputError: the geometry cannot be written in that format, or has NaN or inf
-        coordinates (written, it would be a file that jaxpose refuses to read).
+      InvalidInputError: not one of those, the geometry cannot be written in that format, or has
+        NaN or inf coordinates (written, it would be a file that jaxpose refuses to read).
     """
+    if not (isinstance(geometry, Surface) or _is(geometry, "Trimesh") or _is(geometry, "PointCloud")):
+        raise InvalidInputError(f"cannot write a {type(geometry).__name__}: give a Trimesh, PointCloud or "
+                                "jaxpose.geometry.Surface (jaxpose.mesh.load makes one of an array or a file)")
     output_format(f"geometry.{file_type}", geometry)
     if not np.all(np.isfinite(np.asarray(geometry.vertices, np.float64))):  # a file no reader takes back
         raise InvalidInputError(f"cannot write {type(geometry).__name__} with NaN or inf coordinates")
@@ -449,7 +459,7 @@ def export(mesh, path, force=False):
     refused for STL or OFF). Refuses an existing `path` unless `force`. Returns the path as a
     :class:`Path`.
     """
-    path = Path(path)
+    path = Path(_check_path(path))
     data = encode(mesh, output_format(path, mesh))
     return write_atomic(path, data, force=force)
 

@@ -11,7 +11,9 @@ import numpy as np
 
 from ._validate import InvalidInputError, compute_dtype
 
-__all__ = ["host_frame", "anchor", "check_cast"]
+__all__ = ["host_frame", "anchor", "check_cast", "MAX_ROUNDING"]
+
+MAX_ROUNDING = 1e-3  # rounding of the largest coordinate (eps |x|max) / the points' RMS spread
 
 
 def host_frame(points, name: str = "points"):
@@ -53,7 +55,7 @@ def host_frame(points, name: str = "points"):
 def check_cast(points, name: str = "points"):
     """Refuse concrete points that their cast to the compute dtype (:func:`compute_dtype`: float64
     points become float32 with x64 off) rounds by more than ``MAX_ROUNDING`` of their RMS spread
-    (:data:`jaxpose.pose.result.MAX_ROUNDING`, the bound :mod:`jaxpose.pose.validity` flags traced
+    (:data:`MAX_ROUNDING`, the bound :mod:`jaxpose.pose.validity` flags traced
     inputs by), or beyond the compute dtype's range (:func:`host_frame`'s refusal). For functions
     that compute on the points in the frame given (:func:`jaxpose.fit_svdd`), where
     :func:`jaxpose.normalize` moves them near the origin on the host first. Returns ``points``.
@@ -62,8 +64,6 @@ def check_cast(points, name: str = "points"):
       InvalidInputError: the cast loses the points' shape, naming the fix (move them near the
         origin first, or enable jax_enable_x64).
     """
-    from .pose.result import MAX_ROUNDING  # NumPy only
-
     arr = np.asarray(points)
     dtype = compute_dtype(arr)
     if arr.dtype == dtype:

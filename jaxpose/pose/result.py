@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 
 from .._validate import InvalidInputError, is_real_dtype, is_traced
+from ..host import MAX_ROUNDING  # the one bound, on the host's side (host.check_cast)
 
 if TYPE_CHECKING:  # annotations only
     import jax
@@ -26,7 +27,6 @@ MAX_CELL = 2.0  # finest grid cell edge, in kernel widths
 MIN_SPREAD = 0.25  # region mean distance / samples' median distance from its centroid
 MIN_POINT_VOXELS = 12  # robust, point clouds: the closed solid spans at least this many voxels along its largest extent
 SECOND_BODY = 0.5  # robust, point clouds: a separate part with at least this share of the largest's occupied voxels
-MAX_ROUNDING = 1e-3  # rounding of the largest coordinate (eps |x|max) / the points' RMS spread (traced input)
 
 
 def _jnp():

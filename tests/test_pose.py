@@ -55,6 +55,13 @@ def test_minimum_enclosing_ball_limit(x64):
         assert np.linalg.norm(np.asarray(mom.center) - c) < 1e-2 * size
 
 
+# The 512 reference and its plain twin (extrapolate=False) in one compiled program: the same
+# volume_moments calls, one discretization (64^3 refined three levels) shared by both, which XLA
+# computes once (compiled apart, each computed and compiled it again: docs/testing.md).
+_reference_and_plain = jax.jit(lambda svdd: (volume_moments(svdd, resolution=64, refine=8, band=65536),
+                                             volume_moments(svdd, resolution=64, refine=8, band=65536, extrapolate=False)))
+
+
 @pytest.mark.slow
 def test_default_resolution_converges_to_512_reference(x64):
     # three shapes, each scaled to size 1: the default grid against boundary resolution 512
@@ -69,8 +76,7 @@ def test_default_resolution_converges_to_512_reference(x64):
         pts = pts / np.ptp(pts, axis=0).max()
         mean, size = reference_frame(jnp.asarray(pts))
         svdd = fit_svdd((pts - mean) / size, 47.0, 0.5, tol=1e-6)
-        ref = volume_moments(svdd, resolution=64, refine=8, band=65536)
-        plain = volume_moments(svdd, resolution=64, refine=8, band=65536, extrapolate=False)
+        ref, plain = _reference_and_plain(svdd)
         assert int(ref.unrefined) == 0
         assert float(size) * np.linalg.norm(np.asarray(plain.center - ref.center)) < 4e-4, name
         for preset, opts in {"default": {}, "fine": dict(resolution=32, refine=8, band=16384)}.items():

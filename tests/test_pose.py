@@ -235,15 +235,19 @@ def test_max_points_and_pad_to_follow_the_one_int_rule():
                          (2, ">= 4, got 2"), (jnp.int32(2), ">= 4, got 2")):
         with pytest.raises(jaxpose.InvalidInputError, match=f"^max_points must be {message}$"):
             normalize(big, method="ocsvm", max_points=bad)
-    small = box_surface(200, seed=5)
-    padded = jaxpose.normalize_batch([small], pad_to=256)
-    for same in (jnp.int32(256), np.array(256)):
-        np.testing.assert_array_equal(np.asarray(jaxpose.normalize_batch([small], pad_to=same).center),
+    # one object of 200 points padded to 224 rows, the OCSVM on test_pose_batch.py's small grid
+    # (method, grid and row count incidental: pad_to is checked before either method's work): the
+    # one-object batch program of test_pose_batch.py's test_single_object_batch, not a robust one
+    # of its own
+    small, opts = box_surface(200, seed=5), dict(method="ocsvm", resolution=16, refine=2, band=512)
+    padded = jaxpose.normalize_batch([small], pad_to=224, **opts)
+    for same in (jnp.int32(224), np.array(224)):
+        np.testing.assert_array_equal(np.asarray(jaxpose.normalize_batch([small], pad_to=same, **opts).center),
                                       np.asarray(padded.center))
-    for bad, message in ((256.0, "an int, got 256.0"), (True, "an int, got True"),  # one message for its range:
+    for bad, message in ((224.0, "an int, got 224.0"), (True, "an int, got True"),  # one message for its range:
                          *((n, rf">= the largest point set's size \(200 points\), got {n}") for n in (0, -1, 199))):
         with pytest.raises(jaxpose.InvalidInputError, match=f"^pad_to must be {message}$"):
-            jaxpose.normalize_batch([small], pad_to=bad)
+            jaxpose.normalize_batch([small], pad_to=bad, **opts)
 
 
 @pytest.mark.parametrize("max_points", (0, -1, 2.5, 300.0, True, "a", np.float64(300.0)))

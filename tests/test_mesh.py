@@ -173,7 +173,9 @@ def test_normalize_mesh_validation(kwargs, message):
 def test_normalize_mesh_ocsvm():
     shape = mesh.example_shape()
     shape.apply_translation([1.0, 2.0, 3.0])
-    normalized, pose = mesh.normalize_mesh(shape, count=500, method="ocsvm")
+    # 400 samples (incidental): the float32 default-grid program at 448 rows of test_pinned.py (its
+    # normalize calls on 400 points), not one of its own at 512 rows
+    normalized, pose = mesh.normalize_mesh(shape, count=400, method="ocsvm")
     matrix = mesh.pose_matrix(pose)
     center = np.asarray(pose.center, float)
     np.testing.assert_allclose(matrix[:3, :3] @ center + matrix[:3, 3], 0.0, atol=1e-12)

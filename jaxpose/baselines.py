@@ -418,6 +418,8 @@ def inertia_frame(mesh_or_points):
     if not volume:
         raise JaxposeError("the mesh encloses no volume: the inertia frame is undefined; use rotation='pca_surface' "
                            "or 'ocsvm'")
+    if volume < 0:  # faces wound inward: the same solid (trimesh would sort its negated moments the other way)
+        mesh = trimesh.Trimesh(vertices, np.asarray(faces)[:, ::-1], process=False)
     rot = proper(np.asarray(mesh.principal_inertia_transform[:3, :3], np.float64))
     inertia = np.asarray(mesh.moment_inertia, np.float64)  # about the centroid, of mass = volume (density 1)
     second = (0.5 * np.trace(inertia) * np.eye(3) - inertia) / float(mesh.mass)  # the solid's second moments

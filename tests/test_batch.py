@@ -286,6 +286,33 @@ def test_second_run_on_one_folder_is_refused(tmp_path, tree):
     assert run([tmp_path / "scans" / "sphere.off"], out).written == 1  # released
 
 
+def test_a_lock_file_that_cannot_be_written_keeps_its_pid_line_and_no_lock_stays_held(tmp_path, monkeypatch):
+    """A failing write of a lock file (a full disk): the earlier pid line stays (it was cut before the
+    write), and every lock is released, also where writing a pid line back fails on leaving (it was
+    raised before the release: the lock stayed held by this process)."""
+    out = tmp_path / "out"
+    with OutputFolder(out):
+        pass
+    lock = out / ".jaxpose" / "lock"
+    lock.write_text("4242\n")  # its last holder another process
+
+    def full(*args):
+        raise OSError(28, "No space left on device")
+
+    with monkeypatch.context() as patch:  # this run's pid line cannot be written
+        patch.setattr(os, "pwrite", full)
+        with pytest.raises(OSError, match="No space left"):
+            OutputFolder(out).__enter__()
+    assert lock.read_bytes() == b"4242\n"
+    folder = OutputFolder(out).__enter__()  # (the lock was released)
+    folder.discard()
+    with monkeypatch.context() as patch:  # leaving a run that did not start: the pid line's write-back fails
+        patch.setattr(os, "pwrite", full)
+        folder.__exit__(None, None, None)
+    with OutputFolder(out):  # released all the same
+        pass
+
+
 def test_a_run_refused_or_unable_to_reach_its_scheduler_leaves_nothing_it_made(tmp_path, tree, capsys, monkeypatch):
     """An unreachable --scheduler exits 1 and leaves no output folder it made (it left .jaxpose/
     with an empty journal and lock, and an empty table), and one that was there as it was: an
@@ -350,8 +377,13 @@ def test_refusals_before_any_work(tmp_path, tree, monkeypatch):
     monkeypatch.setattr(batch, "normalize_file", lambda *a: pytest.fail("work started"))
     (root / "a" / "capsule.obj").write_text((root / "a" / "b" / "box.obj").read_text())
     (tmp_path / "list.csv").write_text("path\nscans/sphere.off\n")
+    (tmp_path / "case").mkdir()  # --format ply: A.PLY keeps its name, A.obj is written A.ply (one file on macOS)
+    for name in ("A.PLY", "A.obj"):
+        (tmp_path / "case" / name).write_text((root / "a" / "b" / "box.obj").read_text())
     cases = [
         (dict(inputs=[root], out=tmp_path / "o", file_format="ply"), "would both be written"),
+        (dict(inputs=[tmp_path / "case"], out=tmp_path / "o", file_format="ply"),
+         r"would be written to .*A\.(PLY|ply) and .*A\.(ply|PLY), one file where file names ignore case"),
         (dict(inputs=[root], out=root), "would overwrite its input"),
         (dict(inputs=[tmp_path / "list.csv"], out=tmp_path / "o", table=tmp_path / "list.csv"),
          "would overwrite an input"),

@@ -348,7 +348,7 @@ def test_a_hole_in_one_side_of_a_head_is_read_from_the_solid():
 
 @pytest.mark.parametrize("shape", [trimesh.creation.icosphere(subdivisions=3), trimesh.creation.box()])
 def test_symmetric_shapes_are_flagged(shape):
-    for method in ("core", "head", "pca_vertices", "pca_surface", "inertia"):  # inertia: ambiguity NaN, unflagged
+    for method in ("core", "head", "pca_vertices", "pca_surface"):  # (inertia: always flagged, below)
         assert rotation.frame_of(shape, method, resolution=32).flag, method
 
 
@@ -364,10 +364,12 @@ def test_baseline_frames_are_proper_and_pca_equivariant(body_frame):
             assert f.flag and f.ambiguity == 1.0 and np.all(f.gaps > rotation.GAP_MIN)
     # the inertia frame's moments: a (3, 2, 1) box's second moments e^2 / 12 along its rows (largest
     # moment of inertia first: trimesh's order), the gaps of them largest first (they were NaN)
-    f = baselines.inertia_frame(moved(trimesh.creation.box(extents=(3.0, 2.0, 1.0)), q))
-    np.testing.assert_allclose(np.abs(f.rotation @ q), np.eye(3)[::-1], atol=1e-12)
-    np.testing.assert_allclose(f.eigenvalues, np.array([1.0, 4.0, 9.0]) / 12, rtol=1e-12)
-    np.testing.assert_allclose(f.gaps, [5 / 9, 3 / 4], rtol=1e-12)
+    box = moved(trimesh.creation.box(extents=(3.0, 2.0, 1.0)), q)
+    inside_out = trimesh.Trimesh(box.vertices, box.faces[:, ::-1], process=False)  # the same solid, wound inward
+    for f in (baselines.inertia_frame(box), baselines.inertia_frame(inside_out)):
+        np.testing.assert_allclose(np.abs(f.rotation @ q), np.eye(3)[::-1], atol=1e-12)
+        np.testing.assert_allclose(f.eigenvalues, np.array([1.0, 4.0, 9.0]) / 12, rtol=1e-12)
+        np.testing.assert_allclose(f.gaps, [5 / 9, 3 / 4], rtol=1e-12)
     with pytest.raises(jaxpose.InvalidInputError):
         baselines.frame(m, "nope")
 

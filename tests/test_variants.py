@@ -95,6 +95,9 @@ def test_an_empty_class_is_refused():
             make_class([], "plain", seed=3, class_index=0, up=up)
     with pytest.raises(InvalidInputError, match="^meshes must be a list of meshes, got None"):  # len()'s TypeError
         make_class(None, "plain", seed=3, class_index=0)
+    for up in (None, 2):  # load_folder's {class: meshes}: a KeyError 0 (up=None), its keys as meshes (up=2)
+        with pytest.raises(InvalidInputError, match=r"^meshes must be one class's list of meshes, got a mapping"):
+            make_class({"chair": [_body()]}, "plain", seed=3, class_index=0, up=up)
     with pytest.raises(InvalidInputError, match=r"^rng must be a numpy\.random\.Generator"):  # 'int' object has no attribute 'uniform'
         make_variant(_body(), "outliers", 0)
 

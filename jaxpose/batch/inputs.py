@@ -260,12 +260,13 @@ def plan_outputs(files, root, output_dir, file_format=None, table=None, given=()
       list of :class:`Item` with absolute outputs, in the order of `files`.
 
     Raises:
-      InvalidInputError: two inputs with one output, an output where another output needs a
+      InvalidInputError: two inputs with one output (also two outputs whose names differ only in
+        case: one file on macOS and Windows), an output where another output needs a
         folder of that name, an output that is an input, or a table that is an input or an output
         (nothing has been written).
     """
     output_dir = location(output_dir)
-    items, owner = [], {}
+    items, owner, folded = [], {}, {}
     sources = {identity(location(f)): f for f in [*given, *files]}
     for source in files:
         relative = source.relative_to(root)
@@ -276,6 +277,11 @@ def plan_outputs(files, root, output_dir, file_format=None, table=None, given=()
         if key in owner:
             raise UsageError(f"{owner[key]} and {source} would both be written to {output}; "
                              "give them separate runs or output folders")
+        if key.casefold() in folded:  # A.PLY and A.ply: one file where names ignore case (macOS, Windows)
+            other, written = folded[key.casefold()]
+            raise UsageError(f"{other} and {source} would be written to {written} and {output}, one file "
+                             "where file names ignore case; give them separate runs or output folders")
+        folded[key.casefold()] = source, output
         if key in sources:
             raise UsageError(f"{output} would overwrite its input; choose an output folder apart "
                              "from the inputs")

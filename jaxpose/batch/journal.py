@@ -99,15 +99,19 @@ class OutputFolder:
                 self._locks.append(_lock(self._shard_lock))
             self._journal = os.open(self.journal, os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o666)
         except BaseException:
-            self._restore_pids()
-            self._release()
+            try:
+                self._restore_pids()
+            finally:
+                self._release()
             raise
         return self
 
     def __exit__(self, *exc):
-        if self.discarded:
-            self._restore_pids()
-        self._release()
+        try:
+            if self.discarded:
+                self._restore_pids()
+        finally:
+            self._release()
         if self.discarded:
             for path in reversed(self._made):  # the journal and lock files, then the folders, inner first
                 try:
@@ -124,11 +128,16 @@ class OutputFolder:
         self.discarded = True
 
     def _restore_pids(self):
-        """The lock files' pid lines as they were before this run (while it still holds the locks)."""
+        """The lock files' pid lines as they were before this run (while it still holds the locks);
+        where the file cannot be written (a full disk), it keeps this run's pid: the error that
+        ended the run is the one to report, and the locks are released all the same."""
         for fd, before in self._locks:
             if before is not None:
-                os.ftruncate(fd, 0)
-                os.pwrite(fd, before, 0)
+                try:
+                    os.pwrite(fd, before, 0)
+                    os.ftruncate(fd, len(before))
+                except OSError:
+                    pass
 
     def _release(self):
         for fd in (self._journal, *(fd for fd, _ in self._locks)):
@@ -349,8 +358,9 @@ def _lock(path, shared=False):
         return fd, None
     try:
         before = os.pread(fd, os.fstat(fd).st_size, 0)
-        os.ftruncate(fd, 0)
-        os.pwrite(fd, f"{os.getpid()}\n".encode("ascii"), 0)
+        line = f"{os.getpid()}\n".encode("ascii")
+        os.pwrite(fd, line, 0)  # then cut the rest: a write that fails leaves the earlier line
+        os.ftruncate(fd, len(line))
     except BaseException:
         os.close(fd)
         raise

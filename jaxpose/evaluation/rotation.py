@@ -58,6 +58,11 @@ def angle(a, b):
     """Geodesic angle in degrees between rotations a, b (3, 3) of m = a b^T: atan2(sin, cos) with
     cos = (trace m - 1) / 2 and sin = |vee(m - m^T)| / 2 (accurate at small angles too)."""
     a, b = (_real_array(r, name, lambda s: s == (3, 3), "a (3, 3) array of finite numbers") for r, name in ((a, "a"), (b, "b")))
+    return _angle(a, b)
+
+
+def _angle(a, b):
+    """:func:`angle` of checked (3, 3) float64 arrays (the loops below check once, outside)."""
     m = a @ b.T
     w = np.array([m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1]])
     return float(np.degrees(np.arctan2(0.5 * np.linalg.norm(w), 0.5 * (np.trace(m) - 1.0))))
@@ -73,7 +78,7 @@ def class_angles(rotations):
     """(n,) angles in degrees of each rotation (n, 3, 3) to their chordal mean."""
     rotations = _rotations(rotations)
     mean = chordal_mean(rotations)
-    return np.array([angle(r, mean) for r in rotations])
+    return np.array([_angle(r, mean) for r in rotations])
 
 
 def sign_free_angles(rotations, iterations=10):
@@ -87,13 +92,13 @@ def sign_free_angles(rotations, iterations=10):
     for start in range(len(rs)):
         mean = rs[start]
         for _ in range(iterations):
-            flipped = np.array([min((f[:, None] * r for f in PROPER_FLIPS), key=lambda x: angle(x, mean)) for r in rs])
+            flipped = np.array([min((f[:, None] * r for f in PROPER_FLIPS), key=lambda x: _angle(x, mean)) for r in rs])
             new = chordal_mean(flipped)
             done = np.allclose(new, mean)
             mean = new
             if done:
                 break
-        a = np.array([angle(x, mean) for x in flipped])
+        a = np.array([_angle(x, mean) for x in flipped])
         if best is None or a.mean() < best[0].mean():
             best = (a, np.sign(np.sum(flipped * rs, axis=2)))
     return best

@@ -29,6 +29,7 @@ holes         ~10 % of the faces removed in 5 connected patches: 5 seed faces dr
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -173,6 +174,9 @@ def make_class(meshes, variant: str, seed: int, class_index: int, up: int | None
     ``up`` None: :func:`up_axis` of the first mesh, else an axis 0, 1 or 2; seed and class_index
     ints >= 0, ``meshes`` a non-empty list (a sequence) of meshes (InvalidInputError otherwise)."""
     seed, class_index = check_int(seed, "seed", 0), check_int(class_index, "class_index", 0)
+    if isinstance(meshes, Mapping):  # load_folder's {class: meshes}
+        raise InvalidInputError("meshes must be one class's list of meshes, got a mapping (of classes?): pass "
+                                "classes[name]")
     if isinstance(meshes, (str, bytes)) or not hasattr(meshes, "__len__") or not hasattr(meshes, "__getitem__"):
         raise InvalidInputError(f"meshes must be a list of meshes, got {meshes!r:.80}")
     if len(meshes) == 0:

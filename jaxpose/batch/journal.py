@@ -134,8 +134,7 @@ class OutputFolder:
         for fd, before in self._locks:
             if before is not None:
                 try:
-                    os.pwrite(fd, before, 0)
-                    os.ftruncate(fd, len(before))
+                    _rewrite(fd, before)
                 except OSError:
                     pass
 
@@ -358,13 +357,18 @@ def _lock(path, shared=False):
         return fd, None
     try:
         before = os.pread(fd, os.fstat(fd).st_size, 0)
-        line = f"{os.getpid()}\n".encode("ascii")
-        os.pwrite(fd, line, 0)  # then cut the rest: a write that fails leaves the earlier line
-        os.ftruncate(fd, len(line))
+        _rewrite(fd, f"{os.getpid()}\n".encode("ascii"))
     except BaseException:
         os.close(fd)
         raise
     return fd, before
+
+
+def _rewrite(fd, data: bytes):
+    """Make the open file ``fd`` hold ``data``: written first, the rest cut after (a write that fails
+    leaves the earlier content)."""
+    os.pwrite(fd, data, 0)
+    os.ftruncate(fd, len(data))
 
 
 def _try_lock(fd, shared):

@@ -90,10 +90,11 @@ def fit_svdd(points, gamma, nu, *, mask=None, init_alpha=None, config: SolverCon
     if mask is not None:
         if tuple(getattr(mask, "shape", (len(mask),))) != (m,):
             raise _validate.InvalidInputError(f"mask must have shape ({m},), got {tuple(jnp.shape(mask))}")
-        if not _validate.is_traced(mask) and not _validate.is_traced(points):
-            _validate.check_points(np.asarray(points)[np.asarray(mask, bool)], name="points selected by mask")
     if not _validate.is_traced(points) and (mask is None or not _validate.is_traced(mask)):
-        check_cast(points if mask is None else np.asarray(points)[np.asarray(mask, bool)])
+        chosen = points if mask is None else np.asarray(points)[np.asarray(mask, bool)]
+        if mask is not None:
+            _validate.check_points(chosen, name="points selected by mask")
+        check_cast(chosen)
     if init_alpha is not None:
         if tuple(jnp.shape(init_alpha)) != (m,):
             raise _validate.InvalidInputError(f"init_alpha must have shape ({m},), got {tuple(jnp.shape(init_alpha))}")

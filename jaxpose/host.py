@@ -11,7 +11,7 @@ import numpy as np
 
 from ._validate import InvalidInputError, compute_dtype
 
-__all__ = ["host_frame", "anchor", "check_cast", "MAX_ROUNDING"]
+__all__ = ["host_frame", "anchor", "check_cast", "check_query_cast", "MAX_ROUNDING"]
 
 MAX_ROUNDING = 1e-3  # rounding of the largest coordinate (eps |x|max) / the points' RMS spread
 
@@ -66,11 +66,7 @@ def check_cast(points, name: str = "points"):
     """
     arr = np.asarray(points)
     dtype = compute_dtype(arr)
-    if arr.dtype == dtype:
-        return points
-    exact = arr.astype(np.float64)
-    with np.errstate(over="ignore", invalid="ignore"):  # beyond the dtype's range: inf, refused below
-        rounding = float(np.max(np.abs(arr.astype(dtype).astype(np.float64) - exact), initial=0.0))
+    rounding = _rounding(arr, dtype)
     if rounding == 0:  # exact (float16, small integers, float64 values that float32 holds)
         return points
     _, rms = host_frame(arr, name)
@@ -82,6 +78,42 @@ def check_cast(points, name: str = "points"):
             "point given later, e.g. to decision_function), or enable jax_enable_x64 for float64"
         )
     return points
+
+
+def check_query_cast(x, dtype, spread, name="x"):
+    """Refuse concrete query points ``x`` that their cast to a model's ``dtype`` rounds by more than
+    ``MAX_ROUNDING`` of the model's RMS ``spread`` (the spread of the points it was fitted on), or
+    beyond ``dtype``'s range: :func:`check_cast`'s rule, measured against the model's size, since a
+    query set need have no spread of its own (one point). A ``spread`` of 0 (a model of one point)
+    refuses only the range. For :func:`jaxpose.decision_function`. Returns ``x``.
+
+    Raises:
+      InvalidInputError: the cast loses the queries' place relative to the model, naming the fix.
+    """
+    arr = np.asarray(x)
+    dtype = np.dtype(dtype)
+    rounding = _rounding(arr, dtype)
+    if np.isinf(rounding):
+        raise InvalidInputError(
+            f"{name} has coordinates up to {float(np.max(np.abs(arr.astype(np.float64)))):.3g}: outside the range of "
+            f"{dtype} (the model's dtype); give the queries in the model's frame")
+    if not (spread > 0 and rounding > MAX_ROUNDING * spread):  # (exact casts: 0; a model of one point: no spread)
+        return x
+    raise InvalidInputError(
+        f"{name} lies so far from the origin, relative to the model's spread, that {dtype} (the model's dtype) cannot "
+        f"resolve it: the cast rounds it by {rounding:.3g}, {rounding / spread:.3g} of the RMS spread {spread:.3g} of "
+        f"the points the model was fitted on (above {MAX_ROUNDING:g}); subtract from the queries the offset "
+        "subtracted from those points, or fit and query in float64 (jax_enable_x64)")
+
+
+def _rounding(arr, dtype) -> float:
+    """The largest change of an array's values by its cast to ``dtype`` (inf: beyond its range; 0:
+    already ``dtype``, or exact)."""
+    if arr.dtype == dtype:
+        return 0.0
+    exact = arr.astype(np.float64)
+    with np.errstate(over="ignore", invalid="ignore"):  # beyond the dtype's range: inf
+        return float(np.max(np.abs(arr.astype(dtype).astype(np.float64) - exact), initial=0.0))
 
 
 def anchor(vertices):

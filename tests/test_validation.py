@@ -273,6 +273,28 @@ def test_fit_svdd_refuses_points_its_float32_cast_cannot_resolve():
                                   np.asarray(fit_svdd(p32, 10.0, 0.5, **FIT).alpha))
 
 
+def test_decision_function_refuses_queries_its_float32_cast_cannot_resolve():
+    """decision_function cast float64 queries of a float32 model at 1e5 to float32 without a word:
+    rounded by up to 0.004, 0.01 of the model's 0.4 spread, f of other points. fit_svdd's rule
+    (host.MAX_ROUNDING), measured against the model's spread (a query set may be one point): refused
+    by name; queries whose cast is exact, and float32 ones, as before."""
+    if jax.config.jax_enable_x64:
+        pytest.skip("float32 only")
+    p32 = (P + 1e5).astype(np.float32)
+    svdd = fit_svdd(p32, 10.0, 0.5, **FIT)
+    queries = p32[:5].astype(np.float64) + 1e-3  # (float32's step there: 0.0078)
+    for x in (queries, queries[:1], queries[:1].tolist()):
+        with pytest.raises(InvalidInputError, match=r"x lies so far from the origin, relative to the model's spread.*"
+                                                     r"subtract from the queries the offset.*jax_enable_x64"):
+            decision_function(svdd, x)
+    with pytest.raises(InvalidInputError, match="outside the range of float32"):
+        decision_function(fit_svdd(P, 10.0, 0.5, **FIT), np.full((1, 3), 1e39))
+    exact = decision_function(svdd, p32[:5].astype(np.float64))
+    np.testing.assert_array_equal(np.asarray(exact), np.asarray(decision_function(svdd, p32[:5])))
+    near = fit_svdd(P, 10.0, 0.5, **FIT)  # near the origin float64 queries round by far less: fine
+    assert np.all(np.isfinite(np.asarray(decision_function(near, P[:5] + 1e-3))))
+
+
 def test_gamma_and_power_beyond_the_default_float_are_refused_by_name():
     """A finite gamma (or power) that float32, JAX's default float, cannot hold became inf or 0
     inside the pipeline: a NaN pose whose status said 'gamma finite and > 0' (normalize_mesh and the

@@ -192,7 +192,12 @@ def decision_function(svdd: SVDD, x, block=BLOCK):
 
     Raises:
       InvalidInputError: ``svdd`` is not one SVDD (a batch of them is evaluated under
-        ``jax.vmap``), x is not a finite (n, 3) array, or ``block`` is not an int >= 1.
+        ``jax.vmap``), x is not a finite (n, 3) array, or ``block`` is not an int >= 1; concrete
+        x that its cast to the model's dtype rounds by more than ``jaxpose.host.MAX_ROUNDING`` of
+        the RMS spread of the points the model was fitted on, or beyond that dtype's range
+        (float64 queries of a float32 model far from the origin: :func:`jaxpose.host.check_query_cast`,
+        :func:`jaxpose.fit_svdd`'s rule for its points). Traced x (under jit, vmap or grad), or a
+        traced model, cannot be checked: they are cast as they are.
 
     Example::
 
@@ -202,8 +207,33 @@ def decision_function(svdd: SVDD, x, block=BLOCK):
     check_svdd(svdd, "jax.vmap(decision_function, in_axes=(0, None))(svdd, x)")
     _validate.check_array(x, name="x")
     block = _validate.check_int(block, "block", 1)
+    _check_cast(svdd, x)
     x = jnp.asarray(x, svdd.points.dtype)
     if x.shape[0] == 0:
         return jnp.zeros((0,), x.dtype)
     p, a, g = svdd.points, svdd.alpha, svdd.gamma
     return map_blocks(lambda xb: 2.0 * (gaussian_kernel(xb, p, g) @ a) - svdd.offset, x, block)
+
+
+def _check_cast(svdd, x):
+    """:func:`jaxpose.host.check_query_cast` of concrete x against a concrete model: the model's
+    spread is that of its points (the rows its mask keeps); only where the cast changes x."""
+    import numpy as np
+
+    from ...host import check_query_cast, host_frame
+
+    dtype = np.dtype(svdd.points.dtype)
+    given = getattr(x, "dtype", None)  # (NumPy and JAX arrays: no copy where nothing is cast)
+    if _validate.is_traced(x) or (given is not None and np.dtype(given) == dtype):
+        return
+    x = np.asarray(x)  # (a list: its float64 values)
+    if x.dtype == dtype or any(_validate.is_traced(leaf) for leaf in (svdd.points, svdd.mask)):
+        return
+    points = np.asarray(svdd.points, np.float64)
+    if svdd.mask is not None:
+        points = points[np.asarray(svdd.mask, bool)]
+    try:
+        _, spread = host_frame(points, "the model's points")
+    except _validate.InvalidInputError:  # (one distinct point: no spread to measure a rounding against)
+        spread = 0.0
+    check_query_cast(x, dtype, spread)

@@ -167,6 +167,13 @@ def test_a_batch_of_poses_moves_each_set_by_its_pose():
     (lambda p: Pose.from_center_scale([1.0, 2.0, 3.0], 1.0, rotation=np.eye(3), ambiguity=[0.1, 0.2]),
      r"ambiguity must have shape \(\), the center's leading shape, got \(2,\)"),
     (lambda p: Pose.from_center_scale([1.0, 2.0, 3.0], 1.0, ambiguity=0.5), "ambiguity is the rotation's: give a rotation"),
+    # an ambiguity outside [0, 1] was kept as given (NaN: flagged False, as a well determined rotation)
+    (lambda p: Pose.from_center_scale([1.0, 2.0, 3.0], 1.0, rotation=np.eye(3), ambiguity=np.nan),
+     r"ambiguity must lie in \[0, 1\] .*got nan"),
+    (lambda p: Pose.from_center_scale([1.0, 2.0, 3.0], 1.0, rotation=np.eye(3), ambiguity=1.5), r"got 1\.5"),
+    (lambda p: Pose.from_center_scale([1.0, 2.0, 3.0], 1.0, rotation=np.eye(3), ambiguity=-0.25), r"got -0\.25"),
+    (lambda p: Pose.from_center_scale(np.ones((2, 3)), np.ones(2), rotation=np.stack([np.eye(3)] * 2),
+                                      ambiguity=[0.0, np.inf]), r"\[0, 1\] .*got inf"),
 ])
 def test_bad_points_and_fields_are_refused(make, match):
     """Points and fields of the wrong shape or kind are InvalidInputError at the Pose's boundary,

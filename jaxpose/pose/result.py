@@ -271,8 +271,11 @@ class Pose(NamedTuple):
     @classmethod
     def from_center_scale(cls, center, scale, rotation=None, ambiguity=None) -> "Pose":
         """A Pose from a given center (3,) and scale () (and optionally rotation (3, 3), and with it
-        its ambiguity (), 0 when not given); valid when center and scale are finite and scale > 0.
-        Leading batch axes: the center's, shared by the other fields.
+        its ambiguity () in [0, 1], 0 when not given); valid when center and scale are finite and
+        scale > 0. Leading batch axes: the center's, shared by the other fields.
+
+        Raises InvalidInputError for shapes that do not fit, a concrete rotation that is not proper,
+        or a concrete ambiguity outside [0, 1] or NaN (traced values cannot be checked).
 
         Concrete values stay NumPy float64 (every digit of a center far from the origin is kept);
         traced values stay JAX arrays.
@@ -289,6 +292,12 @@ class Pose(NamedTuple):
                 raise InvalidInputError("ambiguity is the rotation's: give a rotation with it")
             if (a_shape := _shape_of(ambiguity, "ambiguity")) != batch:
                 raise InvalidInputError(f"ambiguity must have shape {batch}, the center's leading shape, got {a_shape}")
+            if not is_traced(ambiguity):  # (NaN: flagged False, a well determined rotation by accident)
+                a = np.asarray(ambiguity, np.float64)
+                if not np.all((a >= 0) & (a <= 1)):
+                    bad = a[~((a >= 0) & (a <= 1))].flat[0]
+                    raise InvalidInputError(f"ambiguity must lie in [0, 1] (0: a well determined rotation, 1: not "
+                                            f"determined at all), got {bad}")
         xp = _jnp() if is_traced(center) or is_traced(scale) else np
         center = xp.asarray(center, dtype=None if xp is not np else np.float64)
         scale = xp.asarray(scale, center.dtype)

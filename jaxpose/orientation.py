@@ -34,7 +34,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["Frame", "GAP_MIN", "SIGN_MIN", "SYMMETRY_MIN", "proper", "descending_axes", "relative_gaps",
+__all__ = ["Frame", "GAP_MIN", "SIGN_MIN", "SYMMETRY_MIN", "ZERO_EIGENVALUE", "proper", "descending_axes", "relative_gaps",
            "ambiguity", "complete_signs", "region_frame"]
 
 GAP_MIN = 0.10  # relative eigen-gap below which two axes are called interchangeable
@@ -49,7 +49,7 @@ class Frame(NamedTuple):
       rotation: (3, 3) proper rotation, rows = canonical axes in world coordinates.
       ambiguity: () in [0, 1]; 0 = every cue clears its threshold (module docs).
       eigenvalues: (3,) the second moments along the axes, largest first (units^2).
-      gaps: (2,) relative eigen-gaps (l1 - l2) / l1, (l2 - l3) / l2.
+      gaps: (2,) relative eigen-gaps (l1 - l2) / l1, (l2 - l3) / l2, each in [0, 1] (:func:`relative_gaps`).
       margins: (3,) the sign statistic along each final axis (0 on the axis completed by det).
       mirror: index of the axis completed by det (the mirror axis for ``core``).
       symmetry: (3,) mirror scores in [0, 1] per axis (NaN where not computed).
@@ -83,9 +83,20 @@ def descending_axes(cov):
     return lam[::-1], vec[:, ::-1].T
 
 
+ZERO_EIGENVALUE = 1e-12  # an eigenvalue below this share of the largest is rounding of 0 (eigh: errors ~ eps l1)
+
+
 def relative_gaps(lam):
-    """(2,) relative eigen-gaps (l1 - l2) / l1, (l2 - l3) / l2 of eigenvalues (3,) largest first."""
+    """(2,) relative eigen-gaps (l1 - l2) / l1, (l2 - l3) / l2 of eigenvalues (3,) largest first
+    (second moments: nonnegative), each in [0, 1].
+
+    An eigenvalue below :data:`ZERO_EIGENVALUE` of the largest counts as 0 (a covariance's computed
+    eigenvalues carry rounding errors of about eps times the largest, either sign), and the gap
+    between two zeros is 0: the axes of a flat or a straight point set across it are not determined
+    (two points: gaps (1, 0), the two minor axes interchangeable).
+    """
     lam = np.asarray(lam, np.float64)
+    lam = np.where(lam > ZERO_EIGENVALUE * max(lam[0], 0.0), lam, 0.0)
     return np.array([(lam[0] - lam[1]) / max(lam[0], 1e-300), (lam[1] - lam[2]) / max(lam[1], 1e-300)])
 
 

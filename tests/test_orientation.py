@@ -23,6 +23,27 @@ def test_descending_axes_and_relative_gaps_of_a_known_covariance():
     np.testing.assert_allclose(orientation.relative_gaps(lam), [5.0 / 9.0, 3.0 / 4.0], rtol=1e-12)
 
 
+def test_gaps_of_degenerate_point_sets_lie_in_0_1():
+    """A PCA frame of 2 points reported the gap (l2 - l3) / l2 = 1.068 (l2 = 2.8e-17 and l3 =
+    -1.9e-18: rounding of two zero eigenvalues). Gaps lie in [0, 1]; eigenvalues at rounding level
+    are 0, and two zeros have gap 0 (the minor axes of a straight set are not determined)."""
+    from jaxpose import baselines
+
+    rng = np.random.default_rng(0)
+    line = np.outer(rng.normal(size=50), [1.0, 0.3, 0.7]) + [5.0, -2.0, 1.0]
+    flat = np.column_stack([rng.normal(size=(50, 2)) * [2.0, 1.0], np.zeros(50)]) @ Rotation.random(random_state=4).as_matrix()
+    two = np.array([[0.0, 0.0, 0.0], [1.0, 0.3, 0.7]])
+    for points, expected in ((two, [1.0, 0.0]), (line, [1.0, 0.0]), (flat[:3], None), (flat, None)):
+        gaps = baselines.pca_vertices_frame(points).gaps
+        assert np.all((gaps >= 0) & (gaps <= 1)), gaps
+        if expected is not None:
+            np.testing.assert_array_equal(gaps, expected)
+        else:  # a flat set: its normal is determined
+            assert gaps[1] == 1.0
+    np.testing.assert_array_equal(orientation.relative_gaps([0.395, 2.8e-17, -1.9e-18]), [1.0, 0.0])
+    np.testing.assert_array_equal(orientation.relative_gaps([4.0, 1.0, -1e-15]), [0.75, 1.0])
+
+
 def test_complete_signs_follows_the_stats_and_completes_by_det():
     axes = np.eye(3)
     r, margins, k = orientation.complete_signs(axes, [-0.5, 0.3, 0.01])

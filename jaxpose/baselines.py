@@ -398,16 +398,16 @@ def pca_surface_frame(mesh_or_points, count=FRAME_SAMPLES):
 
 
 def inertia_frame(mesh_or_points):
-    """trimesh's principal inertia axes (``principal_inertia_transform``: the largest moment of
-    inertia first, the axis of least spread, the reverse of the PCA frames' order; the first two
-    signs trimesh's, the third from their cross product). Meshes only.
+    """trimesh's principal inertia axes (``principal_inertia_transform``), in the order of every
+    frame: the smallest moment of inertia first (the axis of most spread, the largest second
+    moment, as the PCA frames' rows). Rows 1 and 2, the axes of the two largest moments, have
+    trimesh's signs; row 0's sign completes det = +1 (``mirror`` 0). Meshes only.
 
     Returns :class:`jaxpose.orientation.Frame`: ``eigenvalues`` the solid's second moments along
-    its rows (in their order: smallest first), ``gaps`` their relative gaps largest first (as the
-    PCA frames'), and ``ambiguity`` 1 (``flag`` True): the signs come from no cue of the shape (a
-    rotated copy may get any proper flip), the sign cue the PCA frames measure is 0 here
-    (:func:`jaxpose.orientation.ambiguity`); ``margins`` NaN. Raises JaxposeError on a mesh of zero
-    volume (no inertia axes).
+    its rows (largest first), ``gaps`` their relative gaps, and ``ambiguity`` 1 (``flag`` True):
+    the signs come from no cue of the shape (a rotated copy may get any proper flip), the sign cue
+    the PCA frames measure is 0 here (:func:`jaxpose.orientation.ambiguity`); ``margins`` NaN.
+    Raises JaxposeError on a mesh of zero volume (no inertia axes).
     """
     import trimesh
 
@@ -420,12 +420,14 @@ def inertia_frame(mesh_or_points):
                            "or 'ocsvm'")
     if volume < 0:  # faces wound inward: the same solid (trimesh would sort its negated moments the other way)
         mesh = trimesh.Trimesh(vertices, np.asarray(faces)[:, ::-1], process=False)
-    rot = proper(np.asarray(mesh.principal_inertia_transform[:3, :3], np.float64))
+    # trimesh's rows: the largest moment of inertia, the middle one (its signs), their cross product
+    largest, middle, least = proper(np.asarray(mesh.principal_inertia_transform[:3, :3], np.float64))
+    rot = np.stack([-least, middle, largest])  # reversed, row 0 negated: det +1 (a fixed proper turn of trimesh's)
     inertia = np.asarray(mesh.moment_inertia, np.float64)  # about the centroid, of mass = volume (density 1)
     second = (0.5 * np.trace(inertia) * np.eye(3) - inertia) / float(mesh.mass)  # the solid's second moments
     lam = np.einsum("ij,jk,ik->i", rot, second, rot)
-    gaps = relative_gaps(np.sort(lam)[::-1])
-    return Frame(rot, ambiguity(gaps, 0.0), lam, gaps, np.full(3, np.nan), -1, np.full(3, np.nan))
+    gaps = relative_gaps(lam)
+    return Frame(rot, ambiguity(gaps, 0.0), lam, gaps, np.full(3, np.nan), 0, np.full(3, np.nan))
 
 
 def frame(mesh_or_points, method="pca_surface"):

@@ -355,21 +355,25 @@ def test_symmetric_shapes_are_flagged(shape):
 def test_baseline_frames_are_proper_and_pca_equivariant(body_frame):
     m, _ = body_frame
     q = random_rotation(np.random.default_rng(3))
-    for name in baselines.FRAMES:
-        f = baselines.frame(m, name)
+    for name in baselines.FRAMES:  # one convention: proper, rows largest second moment first, the
+        f = baselines.frame(m, name)  # row completed by det named (the inertia frame's were reversed, mirror -1)
         assert np.linalg.det(f.rotation) == pytest.approx(1.0)
+        assert np.all(np.diff(f.eigenvalues) <= 0) and f.mirror in (0, 1, 2), (name, f.eigenvalues, f.mirror)
         if name != "inertia":  # trimesh's eigenvector signs are arbitrary
             assert angle(baselines.frame(moved(m, q), name).rotation, f.rotation @ q.T) * RAD < 1e-6
         else:  # so it is flagged (it said ambiguity NaN: not flagged), whatever its gaps
             assert f.flag and f.ambiguity == 1.0 and np.all(f.gaps > rotation.GAP_MIN)
-    # the inertia frame's moments: a (3, 2, 1) box's second moments e^2 / 12 along its rows (largest
-    # moment of inertia first: trimesh's order), the gaps of them largest first (they were NaN)
+    # the inertia frame: a (3, 2, 1) box's rows along its edges longest first (as the PCA frames'),
+    # its second moments e^2 / 12 along them, the gaps of them (they were NaN); trimesh's two axes of
+    # the largest moments of inertia keep their signs, row 0 completes det (mirror 0)
     box = moved(trimesh.creation.box(extents=(3.0, 2.0, 1.0)), q)
     inside_out = trimesh.Trimesh(box.vertices, box.faces[:, ::-1], process=False)  # the same solid, wound inward
     for f in (baselines.inertia_frame(box), baselines.inertia_frame(inside_out)):
-        np.testing.assert_allclose(np.abs(f.rotation @ q), np.eye(3)[::-1], atol=1e-12)
-        np.testing.assert_allclose(f.eigenvalues, np.array([1.0, 4.0, 9.0]) / 12, rtol=1e-12)
+        np.testing.assert_allclose(np.abs(f.rotation @ q), np.eye(3), atol=1e-12)
+        np.testing.assert_allclose(f.eigenvalues, np.array([9.0, 4.0, 1.0]) / 12, rtol=1e-12)
         np.testing.assert_allclose(f.gaps, [5 / 9, 3 / 4], rtol=1e-12)
+        assert f.mirror == 0
+    np.testing.assert_array_equal(baselines.inertia_frame(box).rotation[:0:-1], box.principal_inertia_transform[:2, :3])
     with pytest.raises(jaxpose.InvalidInputError):
         baselines.frame(m, "nope")
 

@@ -750,3 +750,24 @@ def test_dataset_folders_load_as_trimesh_does(tmp_path, monkeypatch, mesh, name)
     assert {k: v for k, v in fast.metadata.items() if not k.startswith("_")} == \
         {k: v for k, v in slow.metadata.items() if not k.startswith("_")}
     assert fast.visual.kind == slow.visual.kind
+
+
+def test_readers_refuse_what_is_not_bytes_at_their_boundary():
+    """The readers take a file's bytes; a str (a path, or the text) was an AttributeError ('str' object
+    has no attribute 'decode') or TypeError from deep inside, and read() turned it into Unsupported
+    (trimesh's turn). A TypeError at the boundary, naming the fix; bytearray and memoryview read as bytes."""
+    off = b"OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"
+    cases = {"read_off": off, "read_obj": b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+             "read_ply": trimesh.creation.box().export(file_type="ply"),
+             "read_stl": trimesh.creation.box().export(file_type="stl")}
+    for name, data in cases.items():
+        reader = getattr(readers, name)
+        for wrong, hint in ((data.decode("latin-1"), "got str: pass the file's bytes"), (None, "got NoneType"), (3, "got int")):
+            with pytest.raises(TypeError, match=f"^{name} reads a file's bytes .*{hint}"):
+                reader(wrong)
+        for alike in (bytearray(data), memoryview(data)):
+            np.testing.assert_array_equal(reader(alike).faces, reader(data).faces)
+    with pytest.raises(TypeError, match="^read reads a file's bytes .*got str: pass the file's bytes, Path"):
+        readers.read(off.decode(), "off")
+    with pytest.raises(TypeError, match="^check_vertex_references reads a file's bytes .*got str"):
+        readers.obj.check_vertex_references("f 1 2 3\n")

@@ -1,6 +1,7 @@
 """Fast readers for OFF, PLY, OBJ and STL: what trimesh's loaders give, parsed with NumPy.
 
-Each reader takes a file's bytes and returns :class:`Loaded`: the vertices and faces that
+Each reader takes a file's bytes (bytes, bytearray or memoryview; anything else, a path or text
+as str included, is a TypeError at its boundary) and returns :class:`Loaded`: the vertices and faces that
 ``trimesh.load(file, process=False)`` gives for it (equal arrays: the same values, order and
 triangulation), and the other arguments trimesh's loader hands to ``trimesh.Trimesh`` (vertex
 normals and colors, face colors, an STL's face normals and attributes, an OBJ's UV coordinates), so
@@ -35,7 +36,7 @@ Example::
 from __future__ import annotations
 
 from ...errors import InvalidInputError
-from .base import Loaded, Unsupported
+from .base import Loaded, Unsupported, file_bytes
 from .obj import read_obj
 from .off import read_off
 from .ply import read_ply
@@ -46,6 +47,7 @@ __all__ = ["Loaded", "Unsupported", "READERS", "read", "read_off", "read_ply", "
 READERS = {"off": read_off, "ply": read_ply, "obj": read_obj, "stl": read_stl}
 
 
+@file_bytes
 def read(data: bytes, file_type: str) -> Loaded:
     """The mesh of a file's bytes in `file_type` (a key of :data:`READERS`).
 
@@ -58,6 +60,7 @@ def read(data: bytes, file_type: str) -> Loaded:
         negative count, an ASCII PLY face index that is not an integer of its type, an OBJ face
         referencing vertex 0 (OBJ counts from 1), an OBJ face of fewer than 3 corners or vertex of
         fewer than 3 values (the message names no file: the caller's does).
+      TypeError: ``data`` is not bytes-like (a str: pass the file's bytes).
     """
     reader = READERS.get(file_type)
     if reader is None:

@@ -7,6 +7,7 @@ reads the file with trimesh). The helpers parse whitespace-separated number toke
 """
 from __future__ import annotations
 
+import functools
 import re
 from operator import itemgetter
 from typing import NamedTuple
@@ -14,6 +15,24 @@ from typing import NamedTuple
 import numpy as np
 
 __all__ = ["Loaded", "Unsupported"]
+
+
+def file_bytes(reader):
+    """``reader(data)`` that refuses, at its boundary, ``data`` that is not a file's bytes (bytes,
+    bytearray or memoryview; the latter two read as bytes): a TypeError naming what it got and what
+    to pass (a str was an AttributeError or TypeError from deep inside)."""
+    @functools.wraps(reader)
+    def checked(data, *args, **kwargs):
+        if not isinstance(data, bytes):
+            if not isinstance(data, (bytearray, memoryview)):
+                hint = (": pass the file's bytes, Path(path).read_bytes() for a path or text.encode() for its text"
+                        if isinstance(data, str) else "")
+                raise TypeError(f"{reader.__name__} reads a file's bytes (bytes, bytearray or memoryview), got "
+                                f"{type(data).__name__}{hint}")
+            data = bytes(data)
+        return reader(data, *args, **kwargs)
+
+    return checked
 
 
 class Unsupported(Exception):

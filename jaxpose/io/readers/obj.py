@@ -6,7 +6,7 @@ import re
 import numpy as np
 
 from ...errors import InvalidInputError
-from .base import Loaded, Unsupported, _checked, _floats, _ints, _text, _tokens, _triangulate, _triangulate_inline
+from .base import Loaded, Unsupported, file_bytes, _checked, _floats, _ints, _text, _tokens, _triangulate, _triangulate_inline
 
 __all__ = ["read_obj", "check_vertex_references"]
 
@@ -16,6 +16,7 @@ _OBJ_FORMS = {form: re.compile(rf"{ref}(?: {ref})*") for form, ref in (
     ((0, False), _INDEX), ((1, False), f"{_INDEX}/{_INDEX}"), ((2, True), f"{_INDEX}//{_INDEX}"),
     ((2, False), f"{_INDEX}/{_INDEX}/{_INDEX}"))}
 
+@file_bytes
 def read_obj(data: bytes) -> Loaded:
     """An OBJ file's mesh, as ``trimesh.load(..., file_type="obj", process=False)``.
 
@@ -100,6 +101,7 @@ def _outside(reference, count):
                              "(OBJ counts from 1, or from -1 backwards)")
 
 
+@file_bytes
 def check_vertex_references(data: bytes):
     """Raise :func:`read_obj`'s InvalidInputError where a face of an OBJ file references a vertex
     that is not there (beyond its count of ``v`` lines, or before the first counting back): for a

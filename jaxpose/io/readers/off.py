@@ -7,7 +7,7 @@ import re
 import numpy as np
 
 from ...errors import InvalidInputError
-from .base import (Loaded, Unsupported, _checked, _floats, _in_range, _ints, _runs, _starts, _take, _text,
+from .base import (Loaded, Unsupported, file_bytes, _checked, _floats, _in_range, _ints, _runs, _starts, _take, _text,
                    _tokens, _triangulate)
 
 __all__ = ["read_off"]
@@ -48,6 +48,7 @@ def _comment_strip(text):
     return (lead + "\n" + "\n".join(i[1] for i in removed if len(i) > 1 and len(i[1]) > 0)).strip()
 
 
+@file_bytes
 def read_off(data: bytes) -> Loaded:
     """An OFF file's mesh, as ``trimesh.load(..., file_type="off", process=False)``.
 

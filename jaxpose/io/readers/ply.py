@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...errors import InvalidInputError
-from .base import Loaded, Unsupported, _checked, _floats, _runs, _starts, _take, _text, _tokens, _triangulate
+from .base import Loaded, Unsupported, file_bytes, _checked, _floats, _runs, _starts, _take, _text, _tokens, _triangulate
 
 __all__ = ["read_ply"]
 
@@ -114,6 +114,7 @@ def _ply_extras(vertex, face):
     return extras
 
 
+@file_bytes
 def read_ply(data: bytes) -> Loaded:
     """A PLY file's mesh, as ``trimesh.load(..., file_type="ply", process=False)``.
 

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import Loaded, Unsupported, _checked, _floats, _text, _tokens
+from .base import Loaded, Unsupported, file_bytes, _checked, _floats, _text, _tokens
 
 __all__ = ["read_stl"]
 
@@ -11,6 +11,7 @@ __all__ = ["read_stl"]
 _STL_FACET = np.dtype([("normals", "<f4", (3,)), ("vertices", "<f4", (3, 3)), ("attributes", "<u2")])
 
 
+@file_bytes
 def read_stl(data: bytes) -> Loaded:
     """An STL file's mesh (binary, or ASCII with one solid), as ``trimesh.load(..., file_type="stl",
     process=False)``: three vertices per triangle, in order (duplicates are not merged here).

@@ -335,6 +335,14 @@ PLY_TET_HEAD = ("ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nprop
     ("cut_material.obj", OBJ_TET + "usemtl a\nf 1 3 2\nf 1 2 4\nf 1 4", "cut_material.obj: .*last line 'f 1 4' .*fewer"),
     ("bare_material.obj", OBJ_TET + "usemtl a\nf 1 3 2\nf 1 2 4\nf\n", "bare_material.obj: .*last line 'f' is a face"),
     ("vertex_material.obj", OBJ_TET + "usemtl a\nf 1 3 2\nf 1 2 4\nv 1 2\n", "vertex_material.obj: .*last line 'v 1 2'"),
+    # a texture coordinate that is not there: trimesh dropped all of the file's UV without a word
+    ("uv.obj", OBJ_TET + "vt 0 0\nvt 1 0\nf 1/1 3/2 2/1\nf 1/1 2/3 4/1\n",
+     "uv.obj: .*a face references texture coordinate 3 of the 2 it has .*UV coordinates would be dropped"),
+    ("uv_back.obj", OBJ_TET + "vt 0 0\nf 1/-2 3/1 2/1\n", "uv_back.obj: .*texture coordinate -2 of the 1 "),
+    ("uv_normals.obj", OBJ_TET + "vt 0 0\nvn 0 0 1\nf 1/1/1 3/1/1 2/9/1\n", "uv_normals.obj: .*texture coordinate 9 of the 1 "),
+    ("uv_material.obj", OBJ_TET + "vt 0 0\nusemtl a\nf 1/1 3/1 2/1\nf 1/1 2/5 4/1\n",
+     "uv_material.obj: .*texture coordinate 5 of the 1 "),
+    ("uv_forms.obj", OBJ_TET + "vt 0 0\nf 1 3 2\nf 1/1 2/1 4/1\nf 1/4 4/1 3/1\n", "uv_forms.obj: .*texture coordinate 4 of the 1 "),
     # (fuzzed) a face line cut by "usemtl": trimesh's scene of it raised a raw ValueError when flattened
     ("scene.obj", "v 3 0 2 6 9 6\nv 7 6 6 6 3 2\nv 7 3 9 9 2 4\nv 5 1 6 0 5 3\nv 4 1 6 7 1 4\nf 5usemtl \nf 1 1 2",
      "scene.obj: cannot flatten its scene into one mesh: face colors incorrect shape"),
@@ -352,6 +360,26 @@ def test_broken_references_are_errors(tmp_path, name, text, match):
     path.write_text(text)
     with pytest.raises(InvalidInputError, match=match):
         jmesh.load(path)
+
+
+def test_normal_references_and_uv_references_without_uv_are_not_checked(tmp_path):
+    """Out-of-range normal references, and texture references in a file without 'vt' lines, read
+    as the file without them on both paths (the fast reader's and trimesh's, with materials): the
+    file's normals are never used (read drops them) and a file without UV has none to lose."""
+    from jaxpose import mesh as jmesh
+
+    faces = ["f 1{0} 3{0} 2{0}", "f 1{0} 2{1} 4{0}", "f 1{0} 4{0} 3{0}", "f 2{0} 3{0} 4{0}"]
+    plain = tmp_path / "plain.obj"
+    plain.write_text(OBJ_TET + "\n".join(f.format("", "") for f in faces) + "\n")
+    expected = jmesh.read(plain)
+    for name, head, forms in (("normals.obj", "vn 0 0 1\n", ("//1", "//7")), ("no_uv.obj", "", ("/1", "/5")),
+                              ("normals_uv.obj", "vt 0 0\nvn 0 0 1\n", ("/1/1", "/1/-4"))):
+        for material in ("", "usemtl a\n"):
+            path = tmp_path / f"{material[:1]}{name}"
+            path.write_text(OBJ_TET + head + material + "\n".join(f.format(*forms) for f in faces) + "\n")
+            got = jmesh.read(path)
+            np.testing.assert_array_equal(np.asarray(got.vertices), np.asarray(expected.vertices))
+            np.testing.assert_array_equal(np.asarray(got.faces), np.asarray(expected.faces))
 
 
 PLY_TET_TEXT = ("ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"

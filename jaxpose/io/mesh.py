@@ -288,6 +288,11 @@ def _read(path):
             pass
         except InvalidInputError as exc:  # broken where trimesh would read part of it
             raise InvalidInputError(f"{path}: {exc}") from None
+    if ext == "obj":
+        try:  # (the fast reader's check: trimesh would drop the file's UV without a word)
+            readers.obj.check_texture_references(data)
+        except InvalidInputError as exc:
+            raise InvalidInputError(f"{path}: {exc}") from None
     trimesh = _trimesh()
     try:
         geometry = trimesh.load(io.BytesIO(data), file_type=ext, process=False)

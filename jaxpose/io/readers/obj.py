@@ -8,7 +8,7 @@ import numpy as np
 from ...errors import InvalidInputError
 from .base import Loaded, Unsupported, file_bytes, _checked, _floats, _ints, _text, _tokens, _triangulate, _triangulate_inline
 
-__all__ = ["read_obj", "check_vertex_references"]
+__all__ = ["read_obj", "check_vertex_references", "check_texture_references"]
 
 
 _INDEX = r"-?[0-9]+"
@@ -25,8 +25,14 @@ def read_obj(data: bytes) -> Loaded:
       InvalidInputError: a face referencing index 0 (trimesh reads it as the last vertex); a vertex
         line with fewer than 3 values or a face line with fewer than 3 corners (trimesh drops such a
         line without a word: most often a truncated file's last line; in a file with materials, which
-        trimesh reads, the last line only). A file cut at the end of a line, or within a number,
+        trimesh reads, the last line only); a face referencing a texture coordinate beyond the
+        file's ``vt`` lines (trimesh drops all of the file's UV coordinates without a word:
+        :func:`check_texture_references`). A file cut at the end of a line, or within a number,
         reads as a valid OBJ file: no reader can tell.
+
+    Normal references (``v//vn``, ``v/vt/vn``) are not checked, nor texture references of a file
+    without ``vt`` lines: those data are never used (:func:`jaxpose.io.mesh.read` drops the file's
+    normals; a file without UV has none to lose), and trimesh reads such a file as this reader does.
     """
     text = _text(data)
     text = "\n{}\n".format(text.strip().replace("\r\n", "\n")).replace("\\\n", "")
@@ -92,6 +98,9 @@ def read_obj(data: bytes) -> Loaded:
     if np.any(outside):  # (trimesh: a raw IndexError, counted from 0)
         at = faces[outside].flat[0]
         raise _outside(at + 1 if at >= 0 else at, len(v))
+    if tex is not None and vt is not None and np.any(beyond := (tex < -len(vt)) | (tex >= len(vt))):
+        at = tex[beyond].flat[0]  # (trimesh: every UV coordinate of the file dropped)
+        raise _outside_uv(at + 1 if at >= 0 else at, len(vt))
     return _obj_mesh(v, vt, vn, colors, faces, tex, norm)
 
 
@@ -123,6 +132,44 @@ def check_vertex_references(data: bytes):
                 continue
             if reference > count or reference < -count:
                 raise _outside(reference, count)
+    return None
+
+
+def _outside_uv(reference, count):
+    """The error for a face that references texture coordinate ``reference`` (OBJ's numbering) of
+    ``count``."""
+    return InvalidInputError(f"cannot read OBJ file: a face references texture coordinate {reference} of the {count} "
+                             "it has ('vt' lines; OBJ counts from 1, or from -1 backwards): its UV coordinates would be "
+                             "dropped")
+
+
+_TEXTURE_REFERENCE = re.compile(r"(?<!\S)-?[0-9]+/(-?[0-9]+)")  # a corner's second number (v/vt, v/vt/vn)
+
+
+@file_bytes
+def check_texture_references(data: bytes):
+    """Raise :func:`read_obj`'s InvalidInputError where a face of an OBJ file references a texture
+    coordinate that is not there (beyond its count of ``vt`` lines, before the first counting
+    back, or 0): for a file trimesh reads (materials, faces of several forms), whose loader then
+    drops every UV coordinate of the file without a word. Returns None where every reference is in
+    range, the file has no ``vt`` lines (no UV to lose), or the text is not UTF-8."""
+    try:
+        text = _text(data)
+    except Unsupported:
+        return None
+    text = text.replace("\r\n", "\n").replace("\\\n", "")
+    count = len(re.findall(r"^vt[ \t]", text, re.M))
+    if not count:
+        return None
+    corners = " ".join(re.findall(r"^f[ \t](.*)$", text, re.M))
+    found = _TEXTURE_REFERENCE.findall(corners)
+    huge = next((r for r in found if len(r.lstrip("-")) > 18), None)  # (beyond int64: beyond any count too)
+    if huge is not None:
+        raise _outside_uv(int(huge), count)
+    references = np.array(found, np.int64)
+    beyond = (references > count) | (references < -count) | (references == 0)
+    if np.any(beyond):
+        raise _outside_uv(int(references[beyond][0]), count)
     return None
 
 

@@ -214,7 +214,7 @@ def test_a_spelled_out_default_resolution_is_the_same_options(tmp_path, tree, ca
     assert NormalizeOptions(method="bbox").settings()["resolution"] is None  # no estimator reads one
 
 
-def test_a_spelled_out_format_of_the_inputs_own_is_the_same_options(tmp_path, tree, monkeypatch):
+def test_a_spelled_out_format_of_the_inputs_own_is_the_same_options(tmp_path, tree):
     """The output format is compared resolved: --format ply for .ply inputs is no --format (a rerun
     spelling it out redid every file, as did the reverse); another format is other outputs. An
     input's own format keeps its name, whatever the suffix's case: Upper.PLY is written Upper.PLY
@@ -229,15 +229,38 @@ def test_a_spelled_out_format_of_the_inputs_own_is_the_same_options(tmp_path, tr
     assert run([scans], tmp_path / "out", glob="*.ply", file_format="obj").written == 3
     assert sorted(os.listdir(tmp_path / "out" / "a")) == ["Upper.PLY", "Upper.obj", "capsule.obj", "capsule.ply"]
     # a folder of an earlier version, which wrote --format ply's Upper.PLY as Upper.ply: done there
-    from jaxpose.batch import inputs
-
-    plan = inputs.plan_outputs
-    with monkeypatch.context() as m:
-        m.setattr(inputs, "plan_outputs", lambda *a, file_format=None, **k: [
-            i._replace(output=i.output.with_suffix("." + file_format)) for i in plan(*a, file_format=file_format, **k)])
-        assert run([scans], tmp_path / "old", glob="*.ply", file_format="ply").written == 3
+    _earlier_version_folder(scans, tmp_path / "old")
     again = run([scans], tmp_path / "old", glob="*.ply", file_format="ply")
     assert (again.written, again.skipped) == (0, 3) and sorted(os.listdir(tmp_path / "old" / "a")) == ["Upper.ply", "capsule.ply"]
+
+
+def _earlier_version_folder(scans, out):
+    """`out` as an earlier version's run with --format ply left it: Upper.PLY written as Upper.ply,
+    and its journal line naming that output (this version's lines, the output renamed)."""
+    assert run([scans], out, glob="*.ply", file_format="ply").written == 3
+    (out / "a" / "Upper.PLY").rename(out / "a" / "Upper.ply")
+    journal = out / ".jaxpose" / "journal.jsonl"
+    records = [json.loads(line) for line in journal.read_text().splitlines()]
+    for record in records:
+        if record.get("output", "").endswith("Upper.PLY"):
+            record["output"] = record["output"][:-len("PLY")] + "ply"
+    assert sum(r.get("output", "").endswith("Upper.ply") for r in records) == 1
+    journal.write_text("".join(json.dumps(r) + "\n" for r in records))
+
+
+def test_a_shard_rerun_keeps_the_names_an_earlier_versions_run_recorded(tmp_path, tree):
+    """Recorded names come from every journal of the folder: shards rerun over a folder an earlier
+    version's whole run wrote Upper.ply into (for Upper.PLY, --format ply) wrote Upper.PLY beside it,
+    two outputs of one input (one file where case does not count), as the whole run's rerun did not."""
+    scans = tmp_path / "scans"
+    (scans / "a" / "Upper.PLY").write_bytes((scans / "a" / "capsule.ply").read_bytes())
+    out = tmp_path / "old"
+    _earlier_version_folder(scans, out)
+    runs = [run([scans], out, glob="*.ply", file_format="ply", shard=(i, 2)) for i in range(2)]
+    assert sum(r.written for r in runs) == 3  # (a shard skips what its own journal records: nothing yet)
+    assert sorted(os.listdir(out / "a")) == ["Upper.ply", "capsule.ply"]
+    outputs = [r.output for result in runs for r in result.rows if r.ok]
+    assert sorted(os.path.relpath(o, out) for o in outputs) == sorted(["a/Upper.ply", "a/capsule.ply", "cloud.ply"])
 
 
 def test_an_output_folder_named_through_a_link_is_the_same_folder(tmp_path, tree):

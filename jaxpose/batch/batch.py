@@ -120,10 +120,10 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
             if not isinstance(table, RemotePath):
                 check_folder_writable(table.parent, what="table")
             entries = _resolved(folder.entries(), output_dir)
+            others = _resolved(folder.other_entries(), output_dir)
             if file_format:
-                items = _recorded_names(items, entries, file_format)
-            _refuse_mixing(items, entries, _resolved(folder.other_entries(), output_dir), settings, force, folder.exists,
-                           output_dir)
+                items = _recorded_names(items, entries + others, file_format)
+            _refuse_mixing(items, entries, others, settings, force, folder.exists, output_dir)
             if not force:
                 _refuse_overwriting_others(items, entries)
             pairs = {(r["input"], r.get("output") or ""): r for r in entries}
@@ -434,7 +434,9 @@ def _resolved(entries, output_dir):
 def _recorded_names(items, entries, file_format):
     """The items whose output an earlier version recorded with ``file_format``'s lower-case suffix,
     where this one keeps the input's name (``--format ply`` wrote ``A.PLY`` as ``A.ply``), under
-    that recorded name: a rerun skips them instead of writing the same output twice."""
+    that recorded name: a rerun skips them instead of writing the same output twice. ``entries``:
+    the records of every journal in the folder (a shard's run over a whole run's folder, which it
+    does not skip, writes the output under the name the folder holds, not a second file beside it)."""
     recorded = {(r["input"], r.get("output")) for r in entries if r.get("output")}
     out = []
     for item in items:

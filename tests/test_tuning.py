@@ -246,3 +246,27 @@ def test_cli_tune_refuses_options_of_the_other_method(capsys):
     assert "--gamma is an option of --method ocsvm" in capsys.readouterr().err
     assert tuning_cli.run(["--power", "2", "--steps", "0"]) == 2
     assert "--power is an option of --method robust" in capsys.readouterr().err
+
+
+def test_cli_tune_writes_a_nan_measure_as_null(tmp_path, capsys):
+    """The command line's NaN -> null path end to end (json_text's doctest covered it alone): a start
+    gamma so large that every pose is invalid gives a NaN loss, cv_scale and gradient at step 0,
+    written as null in strict JSON (json.dumps wrote the bare token NaN, which strict readers refuse)."""
+    from jaxpose import cli
+
+    sphere = trimesh.creation.icosphere(subdivisions=2)
+    for name, extents in {"tall": [1.0, 0.5, 2.0], "flat": [2.0, 1.0, 0.4]}.items():
+        (tmp_path / "data" / name).mkdir(parents=True)
+        for i in range(4):
+            m = sphere.copy()
+            m.apply_scale(np.asarray(extents) * (1.0 + 0.05 * i))
+            m.export(tmp_path / "data" / name / f"{i}.ply")
+    out = tmp_path / "r.json"
+    assert cli.main(["tune", "--data", str(tmp_path / "data"), "--gamma", "1e6", "--steps", "0", "--count", "120",
+                     "--resolution", "8", "--band", "256", "--json", str(out)]) == 0
+    capsys.readouterr()
+    text = out.read_text()
+    res = json.loads(text, parse_constant=lambda token: pytest.fail(f"not JSON: {token}"))  # strict
+    step = res["trajectory"][0]
+    assert not step["valid"] and step["loss"] is None and step["cv_scale"] is None and step["grad"] == [None, None]
+    assert '"loss": null' in text

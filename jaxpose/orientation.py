@@ -34,8 +34,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["Frame", "GAP_MIN", "SIGN_MIN", "SYMMETRY_MIN", "ZERO_EIGENVALUE", "proper", "descending_axes", "relative_gaps",
-           "ambiguity", "complete_signs", "region_frame"]
+__all__ = ["Frame", "GAP_MIN", "SIGN_MIN", "SYMMETRY_MIN", "ZERO_EIGENVALUE", "proper", "descending_axes",
+           "relative_gaps", "ambiguity", "complete_signs", "region_frame"]
 
 GAP_MIN = 0.10  # relative eigen-gap below which two axes are called interchangeable
 SIGN_MIN = 0.02  # third moment E[z^3] / r^3 below which a sign is called undetermined

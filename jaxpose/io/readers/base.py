@@ -14,7 +14,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["Loaded", "Unsupported"]
+__all__ = ["Loaded", "Unsupported", "file_bytes"]
 
 
 def file_bytes(reader):

@@ -6,7 +6,8 @@ import re
 import numpy as np
 
 from ...errors import InvalidInputError
-from .base import Loaded, Unsupported, file_bytes, _checked, _floats, _ints, _text, _tokens, _triangulate, _triangulate_inline
+from .base import (Loaded, Unsupported, file_bytes, _checked, _floats, _ints, _text, _tokens, _triangulate,
+                   _triangulate_inline)
 
 __all__ = ["read_obj", "check_vertex_references", "check_texture_references"]
 
@@ -138,9 +139,9 @@ def check_vertex_references(data: bytes):
 def _outside_uv(reference, count):
     """The error for a face that references texture coordinate ``reference`` (OBJ's numbering) of
     ``count``."""
-    return InvalidInputError(f"cannot read OBJ file: a face references texture coordinate {reference} of the {count} "
-                             "it has ('vt' lines; OBJ counts from 1, or from -1 backwards): its UV coordinates would be "
-                             "dropped")
+    return InvalidInputError(f"cannot read OBJ file: a face references texture coordinate {reference} of the "
+                             f"{count} it has ('vt' lines; OBJ counts from 1, or from -1 backwards): its UV "
+                             "coordinates would be dropped")
 
 
 _TEXTURE_REFERENCE = re.compile(r"(?<!\S)-?[0-9]+/(-?[0-9]+)")  # a corner's second number (v/vt, v/vt/vn)

@@ -4,7 +4,8 @@ from __future__ import annotations
 import numpy as np
 
 from ...errors import InvalidInputError
-from .base import Loaded, Unsupported, file_bytes, _checked, _floats, _runs, _starts, _take, _text, _tokens, _triangulate
+from .base import (Loaded, Unsupported, file_bytes, _checked, _floats, _runs, _starts, _take, _text, _tokens,
+                   _triangulate)
 
 __all__ = ["read_ply"]
 

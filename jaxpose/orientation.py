@@ -53,6 +53,11 @@ class Frame(NamedTuple):
       margins: (3,) the sign statistic along each final axis (0 on the axis completed by det).
       mirror: index of the axis completed by det (the mirror axis for ``core``).
       symmetry: (3,) mirror scores in [0, 1] per axis (NaN where not computed).
+
+    The ``ocsvm`` frame (:func:`jaxpose.rotation.rotation.frame_of`): eigenvalues are the OCSVM
+    region's, margins |E[z^3] / r^3| / ``SIGN_MIN``, no mirror scores (NaN); where its frame was not
+    finite (rotation the identity, ambiguity 1) eigenvalues, gaps and margins are NaN and mirror is
+    -1: not reported.
     """
 
     rotation: np.ndarray
@@ -136,7 +141,7 @@ def complete_signs(axes, stat, completed=None, to_world=None):
     return r, margins, k
 
 
-def region_frame(second_moment, center, y, mask, axes):
+def region_frame(second_moment, center, y, mask, axes, report=False):
     """The ``ocsvm`` frame (module docs) of a region fitted to pre-scaled points; pure JAX.
 
     Args:
@@ -145,11 +150,18 @@ def region_frame(second_moment, center, y, mask, axes):
       y: (m, 3) the pre-scaled points; mask: (m,) bool or None.
       axes: (3, 3) the pre-frame's axes as columns (a pre-scaled direction e is ``axes @ e`` in
         the world).
+      report: (static) also return the frame's diagnostics (below); the rotation and ambiguity are
+        the same numbers either way.
 
     Returns:
       rotation (3, 3) proper (rows = canonical axes in world coordinates) and ambiguity (),
       both without derivatives (the frame is piecewise constant where it is well determined, and
-      eigenvectors have no useful derivative where it is not).
+      eigenvectors have no useful derivative where it is not). With ``report``, a third value: a
+      dict of ``eigenvalues`` (3,) of ``second_moment``, largest first (pre-scaled units);
+      ``stat`` (3,) the signed third moments E[z^3] / r^3 of the points along the eigenvectors, in
+      that order, before the flips; ``completed`` () int, the axis whose sign det = +1 set (the
+      smallest |stat|); ``ok`` () bool, False where the frame was not finite and the identity
+      with ambiguity 1 was returned instead.
     """
     import jax
     import jax.numpy as jnp
@@ -171,4 +183,7 @@ def region_frame(second_moment, center, y, mask, axes):
     ratio = jnp.minimum(jnp.min(gaps) / GAP_MIN, used / SIGN_MIN)
     amb = jnp.clip(1.0 - ratio, 0.0, 1.0)
     ok = jnp.all(jnp.isfinite(rot)) & jnp.isfinite(amb)
+    if report:
+        diagnostics = {"eigenvalues": lam, "stat": stat, "completed": k, "ok": ok}
+        return jnp.where(ok, rot, jnp.eye(3, dtype=y.dtype)), jnp.where(ok, amb, 1.0), diagnostics
     return jnp.where(ok, rot, jnp.eye(3, dtype=y.dtype)), jnp.where(ok, amb, 1.0)

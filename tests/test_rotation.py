@@ -451,6 +451,35 @@ def test_normalize_points_rotation_equivariant_and_flagged(x64):
         jaxpose.normalize(pts, method="ocsvm", rotation="core")
 
 
+def test_the_ocsvm_frame_reports_its_eigenvalues_gaps_margins_and_mirror():
+    """frame_of's ocsvm Frame carries the fields Frame documents (they were NaN, mirror -1): the
+    region's eigenvalues largest first in input units^2, their relative gaps, the sign margins (0 on
+    the axis det completed) and that axis, consistent with its ambiguity; its rotation and ambiguity
+    are normalize(rotation=True)'s, bit for bit."""
+    m = trimesh.creation.box([2.0, 1.0, 0.5])
+    m.vertices[m.vertices[:, 0] > 0] *= [1.0, 1.4, 1.4]  # tapered: skewed along its long axis
+    o = {"count": 600, "seed": 0, "options": {"resolution": 16}}
+    f = rotation.frame_of(m, "ocsvm", ocsvm=o)
+    pts = sample.sample_surface(m, 600, seed=0, method=jaxpose.config.OCSVM.sampling)
+    want = jaxpose.normalize(pts, method="ocsvm", resolution=16, rotation=True)
+    np.testing.assert_array_equal(f.rotation, np.asarray(want.rotation, np.float64))
+    assert f.ambiguity == float(want.ambiguity)
+    assert np.all(np.isfinite(f.eigenvalues)) and np.all(f.eigenvalues > 0) and np.all(np.diff(f.eigenvalues) < 0)
+    np.testing.assert_array_equal(f.gaps, jaxpose.orientation.relative_gaps(f.eigenvalues))
+    assert np.all((f.gaps >= 0) & (f.gaps <= 1))
+    assert f.mirror in (0, 1, 2) and f.margins[f.mirror] == 0.0 and np.all(f.margins >= 0)
+    assert np.all(np.isnan(f.symmetry))
+    # the ambiguity is the weakest cue of these numbers (computed in float32 on the device)
+    assert f.ambiguity == pytest.approx(rotation.ambiguity(f.gaps, np.min(np.delete(f.margins, f.mirror))), abs=1e-5)
+    assert 0.0 < f.ambiguity < 1.0  # a sign cue below its threshold: the margins decide it
+    big = m.copy()
+    big.apply_scale(3.0)
+    big.apply_translation([100.0, -50.0, 7.0])
+    g = rotation.frame_of(big, "ocsvm", ocsvm=o)
+    np.testing.assert_allclose(g.eigenvalues, 9.0 * f.eigenvalues, rtol=1e-6)  # units^2
+    assert g.mirror == f.mirror
+
+
 def test_measures():
     rng = np.random.default_rng(4)
     rs = np.stack([random_rotation(rng) for _ in range(2)])

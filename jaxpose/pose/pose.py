@@ -59,6 +59,7 @@ __all__ = ["Pose", "METHODS", "DEFAULT_METHOD", "normalize", "normalize_batch", 
            "pose_from_svdd"]
 
 METHODS = ("robust", "ocsvm")
+FRAME = "frame"  # the pipeline's rotation argument of frame_ocsvm: the frame and its diagnostics
 DEFAULT_METHOD = "robust"
 _SHARED = ("resolution",)  # a grid resolution in both (voxels / OCSVM grid cells)
 _ONLY = {  # keyword -> the method it belongs to (any other method refuses it)
@@ -75,7 +76,9 @@ def pose_from_svdd(svdd, to_world, size, grid, outside, rotation=False, y=None, 
       svdd: SVDD in the reference frame; to_world, size: from :func:`jaxpose.pose.frame.prescale`;
       grid: GridConfig; outside: see :func:`jaxpose.moments.region_moments`.
       rotation: also the region's frame (:func:`jaxpose.orientation.region_frame`), from the
-        pre-scaled points ``y`` (m, 3) and their ``mask``.
+        pre-scaled points ``y`` (m, 3) and their ``mask``; ``"frame"``: that, and return
+        (pose, the frame's diagnostics) with the eigenvalues in the units of ``y``'s input
+        squared (:data:`FRAME`).
     """
     mom = region_moments(svdd, grid, outside)
     center = to_world(mom.center)
@@ -87,6 +90,10 @@ def pose_from_svdd(svdd, to_world, size, grid, outside, rotation=False, y=None, 
     origin = to_world(jnp.zeros(3, center.dtype))
     axes = jax.vmap(to_world)(jnp.eye(3, dtype=center.dtype)) - origin  # rows: size * axes[:, k]
     axes = (axes / jnp.linalg.norm(axes, axis=1, keepdims=True)).T
+    if rotation == FRAME:
+        rot, amb, diagnostics = region_frame(mom.second_moment, mom.center, y, mask, axes, report=True)
+        diagnostics["eigenvalues"] = diagnostics["eigenvalues"] * jnp.where(size > 0, size, 1.0) ** 2
+        return Pose(center, scale, svdd.converged, valid, svdd.iterations, amb, rot, status, count), diagnostics
     rot, amb = region_frame(mom.second_moment, mom.center, y, mask, axes)
     return Pose(center, scale, svdd.converged, valid, svdd.iterations, amb, rot, status, count)
 
@@ -94,7 +101,7 @@ def pose_from_svdd(svdd, to_world, size, grid, outside, rotation=False, y=None, 
 def _pipeline(points, mask, gamma, nu, stops, config, rotation=False):
     tol, max_iter, secant_tol = stops
     y, to_world, size = prescale(points, mask)
-    extra = {"rotation": True, "y": y, "mask": mask} if rotation else {}
+    extra = {"rotation": rotation, "y": y, "mask": mask} if rotation else {}
     if config.derivative == "exact":
         svdd = solve_svdd(y, gamma, nu, mask, None, config.svdd, tol, max_iter)
         # the implicit KKT derivative moves alpha only on the support: skip the alpha = 0 pass
@@ -143,7 +150,10 @@ def _without_stops(config: PoseConfig) -> PoseConfig:
 def _stopped_pipeline(points, mask, gamma, nu, stops, config, rotation=False):
     """:func:`pose_pipeline` with the stopping numbers ``stops`` (:func:`_stops`; traced in the
     compiled programs below) given apart from ``config`` (whose own are not read)."""
-    pose = hyper_jvp(partial(_pipeline, config=config, rotation=bool(rotation)), (2, 3))(points, mask, gamma, nu, stops)
+    rotation = FRAME if rotation == FRAME else bool(rotation)
+    pose = hyper_jvp(partial(_pipeline, config=config, rotation=rotation), (2, 3))(points, mask, gamma, nu, stops)
+    if rotation == FRAME:  # (pose, the frame's diagnostics): frame_ocsvm's program
+        return flag_offset(flag_range(pose[0], points, mask), points, mask), pose[1]
     return flag_offset(flag_range(pose, points, mask), points, mask)
 
 
@@ -398,6 +408,51 @@ def normalize(points=_UNSET, method: str = DEFAULT_METHOD, *, power=_UNSET, gamm
     gamma, nu = (_as_argument(params[k], points.dtype) for k in ("gamma", "nu"))
     pose = _pipeline_jit(points, mask, gamma, nu, _stops(config), _without_stops(config), rotation)
     return _finish(pose, shift, size, throw, gamma, nu, config.svdd.tol)
+
+
+def frame_ocsvm(points, *, gamma=_UNSET, nu=_UNSET, config=None, throw=False, max_points=_UNSET, seed=0,
+                **options):
+    """``normalize(points, method="ocsvm", rotation=True, ...)`` of concrete points, and its frame's
+    diagnostics: what :func:`jaxpose.rotation.rotation.frame_of` reports for ``ocsvm``.
+
+    One program of its own (the pipeline with ``rotation=FRAME``; normalize's programs are not
+    touched): the same solve, region and frame as normalize's, whose rotation and ambiguity it
+    returns unchanged, with the values :func:`jaxpose.orientation.region_frame` computes on the way.
+
+    Args:
+      points: (m, 3) concrete points; gamma, nu, config, throw, max_points, seed, options: as
+        :func:`normalize`'s for ``method="ocsvm"``.
+
+    Returns:
+      (pose, diagnostics): the :class:`Pose` normalize returns (rotation and ambiguity included);
+      diagnostics a dict of NumPy values: ``eigenvalues`` (3,) float64, the region's second
+      moments along its axes, largest first, in the input's units squared; ``stat`` (3,) the
+      signed third moments E[z^3] / r^3 of the points along those axes before the sign flips;
+      ``completed`` int, the axis whose sign det = +1 set; ``ok`` bool, False where the frame was
+      not finite (rotation: the identity, ambiguity 1).
+
+    Raises:
+      InvalidInputError: as :func:`normalize`; traced points (the diagnostics are host values).
+    """
+    if _validate.is_traced(points):
+        raise _validate.InvalidInputError("frame_ocsvm takes concrete points; use normalize(rotation=True) "
+                                          "under jit")
+    given = {**_given(gamma=gamma, nu=nu, max_points=max_points), **options}
+    config, params = _options("ocsvm", config, given, True)
+    _validate.check_points(points)
+    throw = _validate.check_bool(throw, "throw")
+    seed = _validate.check_int(seed, "seed", 0)
+    index = subsample_index(np.shape(points)[0], _check_params("ocsvm", params, given), seed)
+    arr = np.asarray(points) if index is None else np.asarray(points)[index]
+    shift, size = host_frame(arr)
+    x, mask = pad([(np.asarray(arr, np.float64) - shift) / size], bucket(len(arr)), _validate.compute_dtype(arr))
+    gamma, nu = (_as_argument(params[k], x[0].dtype) for k in ("gamma", "nu"))
+    pose, found = _pipeline_jit(x[0], mask[0], gamma, nu, _stops(config), _without_stops(config), FRAME)
+    pose = _finish(pose, shift, size, throw, gamma, nu, config.svdd.tol)
+    diagnostics = {"eigenvalues": np.asarray(found["eigenvalues"], np.float64) * np.float64(size) ** 2,
+                   "stat": np.asarray(found["stat"], np.float64), "completed": int(found["completed"]),
+                   "ok": bool(found["ok"])}
+    return pose, diagnostics
 
 
 def _as_argument(value, dtype):

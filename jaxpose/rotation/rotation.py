@@ -18,7 +18,8 @@ import numpy as np
 from .. import baselines, sample
 from .._validate import InvalidInputError, JaxposeError
 from ..config import OCSVM
-from ..orientation import GAP_MIN, SIGN_MIN, SYMMETRY_MIN, Frame, ambiguity, complete_signs, proper, region_frame
+from ..orientation import (GAP_MIN, SIGN_MIN, SYMMETRY_MIN, Frame, ambiguity, complete_signs, proper, region_frame,
+                           relative_gaps)
 from .core import (AXES_POWER, FEET_DEPTH, FOOT, FOOT_MIN, OFF_SOLID, SYMMETRY_POWER, core_frame, feet_offset, frame_solid,
                    pre_frame, symmetry_scores)
 from .head import (CELL, CHEST, CHEST_POWER, FACE, FACE_MIN, GAP, HEAD_MIRROR, MIRROR_BEYOND, MIRROR_STEPS, MUZZLE, TURN,
@@ -51,7 +52,11 @@ def frame_of(geometry, method=DEFAULT_ROTATION, *, resolution=None, sol=None, oc
         ``options`` (of :func:`jaxpose.normalize`).
 
     Returns:
-      :class:`Frame` (rotation in the input's world coordinates).
+      :class:`Frame` (rotation in the input's world coordinates). ``ocsvm``: the rotation and
+      ambiguity of :func:`jaxpose.normalize` (``rotation=True``) of the samples; the OCSVM region's
+      eigenvalues (input units^2), their gaps, the sign margins |E[z^3] / r^3| / ``SIGN_MIN`` (0 on
+      ``mirror``, the axis det completed), no mirror scores (NaN); eigenvalues, gaps and margins
+      NaN and mirror -1 (not reported) where the frame was not finite (the identity, ambiguity 1).
     """
     if method not in ROTATIONS:
         raise InvalidInputError(f"unknown rotation {method!r}; valid: {', '.join(ROTATIONS)}")
@@ -65,12 +70,28 @@ def frame_of(geometry, method=DEFAULT_ROTATION, *, resolution=None, sol=None, oc
                                "use rotation='pca_surface' or 'ocsvm'")
         return core_frame(sol) if method == "core" else head_frame(sol, vertices, faces)
     if method == "ocsvm":
-        from ..pose.pose import normalize  # JAX only when asked for
+        from ..pose.pose import frame_ocsvm  # JAX only when asked for
 
         o = dict(ocsvm or {})
         points = sample.sample_surface(geometry, o.get("count", OCSVM.count), seed=o.get("seed", OCSVM.seed),
                                        method=o.get("sampling", OCSVM.sampling))
-        pose = normalize(points, method="ocsvm", gamma=o.get("gamma", OCSVM.gamma), nu=o.get("nu", OCSVM.nu), rotation=True, **o.get("options", {}))
-        return Frame(np.asarray(pose.rotation, np.float64), float(np.asarray(pose.ambiguity)),
-                     np.full(3, np.nan), np.full(2, np.nan), np.full(3, np.nan), -1, np.full(3, np.nan))
+        pose, found = frame_ocsvm(points, gamma=o.get("gamma", OCSVM.gamma), nu=o.get("nu", OCSVM.nu),
+                                  **o.get("options", {}))
+        return _region_frame(pose, found)
     return baselines.frame(geometry, method)
+
+
+def _region_frame(pose, found):
+    """The ``ocsvm`` :class:`Frame` of :func:`jaxpose.pose.pose.frame_ocsvm`'s (pose, diagnostics):
+    normalize's rotation and ambiguity as they are; the region's eigenvalues (input units^2), their
+    :func:`relative_gaps`, the sign margins |E[z^3] / r^3| / ``SIGN_MIN`` (0 on the axis det
+    completed) and that axis; NaN and mirror -1 where the frame fell back to the identity (not
+    finite). No mirror scores (NaN)."""
+    rot, amb = np.asarray(pose.rotation, np.float64), float(np.asarray(pose.ambiguity))
+    if not found["ok"]:
+        return Frame(rot, amb, np.full(3, np.nan), np.full(2, np.nan), np.full(3, np.nan), -1, np.full(3, np.nan))
+    k = found["completed"]
+    margins = np.abs(found["stat"]) / SIGN_MIN
+    margins[k] = 0.0
+    lam = found["eigenvalues"]
+    return Frame(rot, amb, lam, relative_gaps(lam), margins, k, np.full(3, np.nan))

@@ -210,9 +210,11 @@ def tune(classes, gamma0=OCSVM.gamma, nu0=OCSVM.nu, steps=TUNE.steps, lr=TUNE.lr
       A JSON-able dict: ``gamma``, ``nu`` (ocsvm) or ``power`` (robust): the parameters to use
       (the tuned ones, or the start when they do not lower the held-out spread), ``tuned``
       {gamma, nu} or {power}, ``method``, ``kept_defaults``,
-      ``verdict`` (a sentence), ``train`` and ``holdout`` {sigma_tr_start, sigma_tr_tuned,
+      ``verdict`` (a sentence; where no step had every pose valid it says so: nothing was tuned,
+      and the start it keeps gave invalid poses), ``train`` and ``holdout`` {sigma_tr_start, sigma_tr_tuned,
       classes, names, objects} on a fresh draw, the ``trajectory`` [{step, gamma, nu (or power),
-      loss, sigma_tr, cv_scale, grad, valid}] (one draw per step), ``options``, ``seconds``.
+      loss, sigma_tr, cv_scale, grad, valid}] (one draw per step; sigma_tr NaN where not every
+      pose of the step is valid), ``options``, ``seconds``.
 
     Raises:
       InvalidInputError: bad classes, parameters or options.
@@ -247,14 +249,15 @@ def tune(classes, gamma0=OCSVM.gamma, nu0=OCSVM.nu, steps=TUNE.steps, lr=TUNE.lr
         loss = float(np.mean([float(v[0][0]) for v in vals]))
         loss0 = loss if loss0 is None else loss0
         grad = sum(v[1] for v in vals) / len(vals) + 2.0 * float(reg) * loss0 * (theta - theta0)
+        valid = all(bool(v[0][1][2]) for v in vals)
         rec = dict(step=step, **{k: float(v) for k, v in _params(theta, method).items()}, loss=loss,
-                   sigma_tr=float(np.mean([float(v[0][1][0]) for v in vals])),
+                   sigma_tr=float(np.mean([float(v[0][1][0]) for v in vals])) if valid else math.nan,
                    cv_scale=float(np.mean([float(v[0][1][1]) for v in vals])),
-                   valid=all(bool(v[0][1][2]) for v in vals), grad=[float(x) for x in grad],
+                   valid=valid, grad=[float(x) for x in grad],
                    seconds=time.perf_counter() - t0)
         trajectory.append(rec)
         say(f"step {step}/{int(steps)}: " + " ".join(f"{k}={rec[k]:.4g}" for k in start)
-            + f" sigma_tr={rec['sigma_tr']:.5g} ({rec['seconds']:.0f} s)")
+            + (f" sigma_tr={rec['sigma_tr']:.5g}" if valid else " invalid poses") + f" ({rec['seconds']:.0f} s)")
         if step >= int(steps) // 2 and rec["valid"]:
             iterates.append(theta)
         if step == int(steps) or not bool(jnp.all(jnp.isfinite(grad))):
@@ -281,5 +284,7 @@ def tune(classes, gamma0=OCSVM.gamma, nu0=OCSVM.nu, steps=TUNE.steps, lr=TUNE.lr
     result["verdict"] = (f"tuned ({fmt(tuned_params)}) changes the center spread of the {where} by "
                          f"{change:+.1%}: " + ("use them" if lower else
                                                f"they do not transfer; keeping ({fmt(start)})"))
+    if not any(rec["valid"] for rec in trajectory):  # nothing tuned: the start's poses were invalid at every step
+        result["verdict"] = f"no step had every pose valid, from ({fmt(start)}): nothing was tuned"
     say(result["verdict"])
     return result

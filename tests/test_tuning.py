@@ -104,6 +104,18 @@ def test_tune_zero_steps_and_validation():
         tuning.tune({"a": [np.random.default_rng(0).normal(size=(30, 3)), np.random.default_rng(1).normal(size=(31, 3))]}, steps=0, **FAST)
 
 
+def test_tune_where_no_step_is_valid_says_so():
+    """A start whose poses are all invalid (gamma 1e6 on 120 samples: too sparse) tunes nothing: the
+    verdict says so (it read "changes the center spread ... by +0.0%: they do not transfer; keeping
+    (gamma 1e+06, nu 0.5)") and the step's sigma_tr, a spread of invalid poses, is NaN (it was a number)."""
+    messages = []
+    res = tuning.tune({"box": _classes()["box"]}, gamma0=1e6, steps=0, progress=messages.append, **FAST)
+    step = res["trajectory"][0]
+    assert not step["valid"] and np.isnan(step["sigma_tr"])
+    assert "invalid poses" in messages[0] and "sigma_tr" not in messages[0]
+    assert res["verdict"] == "no step had every pose valid, from (gamma 1e+06, nu 0.5): nothing was tuned"
+
+
 @pytest.mark.parametrize("kw, fragment", [
     (dict(lr=float("nan")), "lr must be a finite number > 0"),  # ran every step at gamma = nu = nan
     (dict(lr=0.0), "lr must be a finite number > 0"),
@@ -251,7 +263,11 @@ def test_cli_tune_refuses_options_of_the_other_method(capsys):
 def test_cli_tune_writes_a_nan_measure_as_null(tmp_path, capsys):
     """The command line's NaN -> null path end to end (json_text's doctest covered it alone): a start
     gamma so large that every pose is invalid gives a NaN loss, cv_scale and gradient at step 0,
-    written as null in strict JSON (json.dumps wrote the bare token NaN, which strict readers refuse)."""
+    written as null in strict JSON (json.dumps wrote the bare token NaN, which strict readers refuse).
+
+    Such a run tuned nothing: it fails (exit 1, one error line naming why and what to try) with no
+    recommendation, and no spread of its invalid poses is reported as a number (it printed
+    "use: gamma 1e+06, nu 0.5", exit 0, with a finite sigma_tr of the invalid poses)."""
     from jaxpose import cli
 
     sphere = trimesh.creation.icosphere(subdivisions=2)
@@ -263,10 +279,19 @@ def test_cli_tune_writes_a_nan_measure_as_null(tmp_path, capsys):
             m.export(tmp_path / "data" / name / f"{i}.ply")
     out = tmp_path / "r.json"
     assert cli.main(["tune", "--data", str(tmp_path / "data"), "--gamma", "1e6", "--steps", "0", "--count", "120",
-                     "--resolution", "8", "--band", "256", "--json", str(out)]) == 0
-    capsys.readouterr()
+                     "--resolution", "8", "--band", "256", "--json", str(out)]) == 1
+    captured = capsys.readouterr()
     text = out.read_text()
     res = json.loads(text, parse_constant=lambda token: pytest.fail(f"not JSON: {token}"))  # strict
     step = res["trajectory"][0]
     assert not step["valid"] and step["loss"] is None and step["cv_scale"] is None and step["grad"] == [None, None]
     assert '"loss": null' in text
+    assert captured.out == ""  # no summary, no "use: gamma 1e+06, nu 0.5"
+    errors = [line for line in captured.err.splitlines() if line.startswith("jaxpose tune: error:")]
+    assert len(errors) == 1 and "no valid poses at any step" in errors[0] and "no recommendation" in errors[0]
+    assert "too sparse for gamma" in errors[0] and "--gamma 47" in errors[0]  # why, and what to try
+    assert "keeping" not in captured.err and "invalid poses" in captured.err  # the step's line: no sigma_tr
+    assert step["sigma_tr"] is None and res["gamma"] is None and res["nu"] is None and res["tuned"] is None
+    assert res["error"] == res["verdict"] == errors[0].removeprefix("jaxpose tune: error: ")
+    for block in (res["train"], res["holdout"]):
+        assert block["sigma_tr_start"] is None and block["sigma_tr_tuned"] is None

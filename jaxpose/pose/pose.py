@@ -56,7 +56,7 @@ from .result import MIN_POINT_VOXELS, SECOND_BODY, Pose, Status
 from .validity import flag_offset, flag_range, no_extent, pose_status
 
 __all__ = ["Pose", "METHODS", "DEFAULT_METHOD", "normalize", "normalize_batch", "chained_map", "pose_pipeline", "robust_pipeline",
-           "pose_from_svdd"]
+           "pose_from_svdd", "frame_ocsvm", "FRAME"]
 
 METHODS = ("robust", "ocsvm")
 FRAME = "frame"  # the pipeline's rotation argument of frame_ocsvm: the frame and its diagnostics

@@ -148,6 +148,42 @@ def test_a_batch_of_poses_moves_each_set_by_its_pose():
         np.testing.assert_allclose(batch.inverse().apply(y), x, rtol=0, atol=1e-12)
 
 
+def test_a_batch_from_center_scale_is_valid_pose_by_pose():
+    """from_center_scale of a batch: each pose's validity is its own (one non-finite center made
+    every pose of the batch invalid: the finiteness was checked over the whole batch), and the
+    diagnostics carry the batch axis as normalize_batch's do (a default ambiguity was one () 0.0
+    for the batch, where a given one must have the batch's shape)."""
+    centers = np.array([[1.0, 2.0, 3.0], [np.nan, 0.0, 0.0], [4.0, 5.0, 6.0]])
+    scales = np.array([1.0, 2.0, -1.0])
+    pose = Pose.from_center_scale(centers, scales, rotation=np.stack([_rotation(s) for s in range(3)]))
+    np.testing.assert_array_equal(pose.valid, [True, False, False])
+    np.testing.assert_array_equal(pose.status, [Status.OK, Status.NOT_FINITE, Status.NOT_FINITE])
+    for name in ("converged", "iterations", "ambiguity", "flagged"):
+        assert np.shape(getattr(pose, name)) == (3,), name
+    np.testing.assert_array_equal(pose.flagged, [False, False, False])
+    one = Pose.from_center_scale(centers[0], scales[0], rotation=_rotation(0))
+    assert all(np.shape(getattr(one, k)) == () for k in ("valid", "status", "converged", "iterations", "ambiguity"))
+
+
+def test_from_center_scale_takes_a_traced_rotation_beside_a_concrete_center():
+    """Under jit / vmap a traced rotation or ambiguity with a concrete center (a fixed offset) was
+    JAX's TracerArrayConversionError (the fields were cast with NumPy); they stay JAX arrays, the
+    concrete center NumPy float64."""
+    center, x = np.array([1.0, 2.0, 3.0]), np.random.default_rng(0).normal(size=(4, 3))
+    r = _rotation(5)
+
+    def moved(rotation, ambiguity):
+        pose = Pose.from_center_scale(center, 2.0, rotation=rotation, ambiguity=ambiguity)
+        assert isinstance(pose.center, np.ndarray) and pose.center.dtype == np.float64
+        return pose.apply(jnp.asarray(x)), pose.ambiguity
+
+    y, ambiguity = jax.jit(moved)(jnp.asarray(r), 0.25)
+    np.testing.assert_allclose(y, (x - center) / 2.0 @ r.T, rtol=1e-5, atol=1e-6)
+    assert float(ambiguity) == 0.25
+    y = jax.jit(lambda a: moved(r, a)[0])(0.5)  # a concrete rotation, a traced ambiguity
+    np.testing.assert_allclose(y, (x - center) / 2.0 @ r.T, rtol=1e-5, atol=1e-6)
+
+
 @pytest.mark.parametrize("make, match", [
     (lambda p: p.apply(np.zeros((5, 2))), r"points must have shape \(n, 3\).*\(5, 2\)"),
     (lambda p: p.apply(np.zeros((5, 4))), r"points must have shape \(n, 3\)"),

@@ -272,13 +272,15 @@ class Pose(NamedTuple):
     def from_center_scale(cls, center, scale, rotation=None, ambiguity=None) -> "Pose":
         """A Pose from a given center (3,) and scale () (and optionally rotation (3, 3), and with it
         its ambiguity () in [0, 1], 0 when not given); valid when center and scale are finite and
-        scale > 0. Leading batch axes: the center's, shared by the other fields.
+        scale > 0. Leading batch axes: the center's, shared by the other fields (the diagnostics
+        too); each pose of a batch is valid or not on its own.
 
         Raises InvalidInputError for shapes that do not fit, a concrete rotation that is not proper,
         or a concrete ambiguity outside [0, 1] or NaN (traced values cannot be checked).
 
         Concrete values stay NumPy float64 (every digit of a center far from the origin is kept);
-        traced values stay JAX arrays.
+        traced values stay JAX arrays (a traced rotation or ambiguity beside a concrete center: in
+        JAX's default float dtype).
         """
         c_shape, s_shape = _shape_of(center, "center"), _shape_of(scale, "scale")
         batch = c_shape[:-1]
@@ -301,12 +303,17 @@ class Pose(NamedTuple):
         xp = _jnp() if is_traced(center) or is_traced(scale) else np
         center = xp.asarray(center, dtype=None if xp is not np else np.float64)
         scale = xp.asarray(scale, center.dtype)
-        valid = xp.all(xp.isfinite(center)) & xp.isfinite(scale) & (scale > 0)
+        valid = xp.all(xp.isfinite(center), axis=-1) & xp.isfinite(scale) & (scale > 0)  # per pose of a batch
         if rotation is not None:
-            rotation = xp.asarray(rotation, center.dtype)
-            ambiguity = xp.asarray(0.0 if ambiguity is None else ambiguity, center.dtype)
+            # a traced rotation (or ambiguity) beside a concrete center stays a JAX array, in JAX's
+            # default float dtype (NumPy cannot hold a tracer)
+            rxp = _jnp() if xp is not np or is_traced(rotation) or is_traced(ambiguity) else np
+            dtype = center.dtype if rxp is xp else _jnp().result_type(float)
+            rotation = rxp.asarray(rotation, dtype)
+            ambiguity = rxp.broadcast_to(rxp.asarray(0.0 if ambiguity is None else ambiguity, dtype), batch)
         status = xp.where(valid, int(Status.OK), int(Status.NOT_FINITE)).astype(np.int32)
-        return cls(center, scale, xp.asarray(True), valid, xp.asarray(0), ambiguity, rotation, status)
+        return cls(center, scale, xp.broadcast_to(xp.asarray(True), batch), valid, xp.broadcast_to(xp.asarray(0), batch),
+                   ambiguity, rotation, status)
 
     @property
     def flagged(self):

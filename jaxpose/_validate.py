@@ -27,6 +27,8 @@ __all__ = [
     "check_int",
     "check_bool",
     "check_real",
+    "check_names",
+    "check_callback",
     "compute_dtype",
     "is_real_dtype",
     "default_float",
@@ -187,6 +189,26 @@ def check_bool(value, name):
     """``value`` as a bool (Python or NumPy bools only); a clear error otherwise (a string such as
     ``"no"`` would be truthy)."""
     return _bool(value, name)  # config's rule (NumPy-free: config is imported before NumPy)
+
+
+def check_names(value, name):
+    """``value``, a collection of names (a list, tuple, set, ...), as a tuple; one string is
+    refused by name (its characters would be taken as the names: ``methods="vertex_mean"`` read
+    as 'v', 'e', ...), as is anything that is not iterable."""
+    if isinstance(value, (str, bytes)):
+        raise InvalidInputError(f"{name} must be a list of names, got the string {value!r}: pass [{value!r}]")
+    try:
+        return tuple(value)
+    except TypeError:
+        raise InvalidInputError(f"{name} must be a list of names, got {value!r:.80}") from None
+
+
+def check_callback(value, name):
+    """``value`` if it is None or callable; InvalidInputError naming ``name`` otherwise (checked
+    before any work, not at its first call)."""
+    if value is not None and not callable(value):
+        raise InvalidInputError(f"{name} must be a callable or None, got {value!r:.80}")
+    return value
 
 
 def check_real(value, name, minimum, strict=False):

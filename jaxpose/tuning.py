@@ -34,6 +34,7 @@ from __future__ import annotations
 import functools
 import math
 import time
+from collections.abc import Mapping
 
 import jax
 import jax.numpy as jnp
@@ -224,6 +225,11 @@ def tune(classes, gamma0=OCSVM.gamma, nu0=OCSVM.nu, steps=TUNE.steps, lr=TUNE.lr
     checked = check_options(method, steps, lr, reg, scale_weight, holdout, seed, count, gamma0, nu0, power0)
     steps, lr, reg, scale_weight, holdout, seed, count = (checked[k] for k in ("steps", "lr", "reg", "scale_weight",
                                                                              "holdout", "seed", "count"))
+    for name, given in (("classes", classes), ("holdout_classes", holdout_classes)):
+        if not isinstance(given, Mapping) and not (given is None and name == "holdout_classes"):
+            raise _validate.InvalidInputError(f"{name} must be a dict {{class name: [meshes or (m, 3) arrays]}}, got "
+                                              f"{type(given).__name__}" + (": pass {'name': [...]}" if isinstance(given, (list, tuple)) else ""))
+    _validate.check_callback(progress, "progress")
     if method == "robust":
         config = RobustConfig.create(**normalize_options)
         theta0 = jnp.asarray([math.log(checked["power0"])])

@@ -112,6 +112,12 @@ def test_bad_arguments(call):
         call()
 
 
+def test_classes_given_as_one_string_are_refused_by_name():
+    """make_dataset(classes="dog") read the string's characters as class names ("unknown class 'd'")."""
+    with pytest.raises(InvalidInputError, match=r"classes must be a list of names, got the string 'dog': pass \['dog'\]"):
+        make_dataset(classes="dog", instances=1)
+
+
 def test_an_integer_scalar_is_a_seed():
     """A NumPy or JAX integer scalar is the int it holds (config's rule for every int argument)."""
     import jax.numpy as jnp

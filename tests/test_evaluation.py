@@ -223,6 +223,30 @@ def test_align_core_keeps_faces_and_checks_counts():
         align_core([box], keep=0.0)
 
 
+@pytest.mark.parametrize("call, message", [
+    # one string was taken as its characters: "unknown method 'v'", "unknown variants ['p', 'l', ...]"
+    (lambda: evaluate({"boxes": _boxes()}, methods="surface_centroid"), r"methods must be a list of names, got the "
+                                                                         r"string 'surface_centroid': pass \['surface_centroid'\]"),
+    (lambda: evaluate({"boxes": _boxes()}, methods=["surface_centroid"], variants="plain"), "variants must be a list of names"),
+    (lambda: evaluation.evaluate_rotation({"boxes": _boxes()}, methods="pca_vertices"), "methods must be a list of names"),
+    (lambda: evaluation.evaluate_rotation({"boxes": _boxes()}, methods=["pca_vertices"], variants="plain"),
+     "variants must be a list of names"),
+    # a string was truthy: align_core="no" aligned, sweep="no" ran both sweeps
+    (lambda: evaluate({"boxes": _boxes()}, methods=["surface_centroid"], align_core="no"), "align_core must be True or False"),
+    (lambda: evaluate({"boxes": _boxes()}, methods=["surface_centroid"], sweep="no"), "sweep must be True or False"),
+    (lambda: evaluation.evaluate_rotation({"boxes": _boxes()}, methods=["pca_vertices"], frames="no"),
+     "frames must be True or False"),
+    # a progress that is not callable: 'int' object is not callable at its first call
+    (lambda: evaluate({"boxes": _boxes()}, methods=["surface_centroid"], progress=5), "progress must be a callable or None"),
+    (lambda: evaluation.evaluate_rotation({"boxes": _boxes()}, methods=["pca_vertices"], progress=5), "progress must be a callable"),
+    (lambda: sweep({"boxes": _boxes()}, progress=5), "progress must be a callable or None"),
+    (lambda: align_core(_boxes(), keep="0.3"), "keep must be a finite number > 0, got '0.3'"),  # '<'s TypeError
+])
+def test_arguments_of_the_wrong_kind_are_refused_by_name(call, message):
+    with pytest.raises(InvalidInputError, match=message):
+        call()
+
+
 def test_align_core_iterations_follow_the_one_int_rule():
     """iterations is an int >= 0 as every count is (jaxpose._validate.check_int): 2.0 and True
     were taken as 2 and 1, None was int()'s TypeError."""

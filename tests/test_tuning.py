@@ -117,6 +117,19 @@ def test_tune_where_no_step_is_valid_says_so():
 
 
 @pytest.mark.parametrize("kw, fragment", [
+    # a list of classes was dict()'s TypeError ('cannot convert dictionary update sequence element #0 to a sequence'),
+    # a list of held-out classes "'list' object has no attribute 'items'", a progress that is not callable
+    # "'int' object is not callable" after the first step's compilation
+    (dict(classes=[np.zeros((5, 3))] * 2), r"classes must be a dict \{class name: .*got list: pass"),
+    (dict(holdout_classes=[np.zeros((5, 3))] * 2), "holdout_classes must be a dict"),
+    (dict(progress=5), "progress must be a callable or None, got 5"),
+])
+def test_tune_refuses_arguments_of_the_wrong_kind_before_any_work(kw, fragment):
+    with pytest.raises(jaxpose.InvalidInputError, match=fragment):
+        tuning.tune(**{"classes": {"a": "not loaded: the check comes first"}, **kw})
+
+
+@pytest.mark.parametrize("kw, fragment", [
     (dict(lr=float("nan")), "lr must be a finite number > 0"),  # ran every step at gamma = nu = nan
     (dict(lr=0.0), "lr must be a finite number > 0"),
     (dict(scale_weight=float("nan")), "scale_weight must be a finite number >= 0"),  # a nan loss, kept the start

@@ -27,7 +27,7 @@ import functools
 import numpy as np
 import trimesh
 
-from jaxpose._validate import InvalidInputError, check_int
+from jaxpose._validate import InvalidInputError, check_int, check_names
 from jaxpose.datasets._classes import BUILDERS as _BUILDERS
 from jaxpose.datasets._classes import CLASSES
 from jaxpose.datasets._parts import ball_part, Part
@@ -215,7 +215,7 @@ def make_object(class_name: str, instance: int, seed: int = 0) -> trimesh.Trimes
 
 def make_dataset(seed: int = 0, instances: int = 10, classes=None) -> dict[str, list[trimesh.Trimesh]]:
     """``{class_name: [instance 0, ..., instance instances-1]}`` for `classes` (default: all 12)."""
-    classes = CLASSES if classes is None else tuple(classes)
+    classes = CLASSES if classes is None else check_names(classes, "classes")
     for name in classes:
         _check_class(name)
     instances = check_int(instances, "instances", 1)

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validate import InvalidInputError, check_array, check_int, is_real_dtype
+from .._validate import InvalidInputError, check_array, check_int, check_real, is_real_dtype
 
 __all__ = ["align_core", "kabsch", "CORE_WEIGHTS", "check_core_weight", "vertex_weights"]
 
@@ -96,7 +96,7 @@ def align_core(meshes, keep: float = 0.3, iterations: int = 5, weight: str = "ve
     meshes = list(meshes)
     if len(meshes) == 0:
         raise InvalidInputError("align_core needs at least one mesh")
-    if not 0.0 < keep <= 1.0:
+    if not 0.0 < check_real(keep, "keep", 0.0, strict=True) <= 1.0:  # a string, None: by name, not '<'s TypeError
         raise InvalidInputError(f"keep must be in (0, 1], got {keep}")
     iterations = check_int(iterations, "iterations", 0)
     vs = [np.asarray(getattr(m, "vertices", m), dtype=np.float64) for m in meshes]

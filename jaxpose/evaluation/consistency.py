@@ -28,7 +28,7 @@ import warnings
 import numpy as np
 
 from .. import baselines
-from .._validate import InvalidInputError, OpenMeshWarning
+from .._validate import InvalidInputError, OpenMeshWarning, check_bool, check_callback, check_names
 from ..config import OCSVM
 from . import alignment
 from .measures import scale_spread, spread
@@ -74,7 +74,7 @@ def _check_classes(classes):
 def _check_methods(methods):
     from ..pose.estimators import parse_method
 
-    methods = METHODS if methods is None else tuple(methods)
+    methods = METHODS if methods is None else check_names(methods, "methods")
     if not methods:
         raise InvalidInputError("methods must not be empty")
     for spec in methods:
@@ -99,7 +99,7 @@ def _check_ocsvm(gamma, nu, count, seed, options):
 
 
 def _check_variants(variants):
-    variants = tuple(variants)
+    variants = check_names(variants, "variants")
     unknown = [v for v in variants if v not in VARIANTS]
     if unknown or not variants:
         raise InvalidInputError(f"unknown variants {unknown}; valid: {', '.join(VARIANTS)}")
@@ -223,6 +223,8 @@ def evaluate(classes, gamma=OCSVM.gamma, nu=OCSVM.nu, methods=None, count=OCSVM.
     variants = _check_variants(variants)
     seed = _check_ocsvm(gamma, nu, count, seed, normalize_options)  # a NumPy or JAX integer scalar: its int
     alignment.check_core_weight(core_weight)
+    align_core, sweep = check_bool(align_core, "align_core"), check_bool(sweep, "sweep")
+    check_callback(progress, "progress")
     if align_core:
         classes = {name: alignment.align_core(meshes, weight=core_weight) for name, meshes in classes.items()}
     options = {"gamma": gamma, "nu": nu, "count": count, "seed": seed, "ocsvm": normalize_options}
@@ -284,6 +286,7 @@ def sweep(classes, param="gamma", values=None, fixed=None, count=OCSVM.count, se
     if param not in SWEEP_VALUES:
         raise InvalidInputError(f"param must be 'gamma' or 'nu', got {param!r}")
     _check_classes(classes)
+    check_callback(progress, "progress")
     values = [float(v) for v in (SWEEP_VALUES[param] if values is None else values)]
     if not values:
         raise InvalidInputError("values must not be empty")

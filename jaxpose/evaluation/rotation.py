@@ -21,7 +21,7 @@ import time
 
 import numpy as np
 
-from .._validate import InvalidInputError, JaxposeError, check_int, is_real_dtype
+from .._validate import InvalidInputError, JaxposeError, check_bool, check_callback, check_int, check_names, is_real_dtype
 from . import alignment
 from .tables import class_tables
 from .variants import VARIANTS, make_class
@@ -163,15 +163,17 @@ def evaluate_rotation(classes, methods=None, variants=("plain",), align_core=Fal
 
     if not isinstance(classes, dict) or not classes or any(len(m) < 2 for m in classes.values()):
         raise InvalidInputError("classes must be a non-empty dict {class name: [at least 2 meshes]}")
-    methods = tuple(ROTATIONS if methods is None else methods)
+    methods = ROTATIONS if methods is None else check_names(methods, "methods")
     unknown = [m for m in methods if m not in ROTATIONS]
     if unknown or not methods:
         raise InvalidInputError(f"unknown rotation methods {unknown}; valid: {', '.join(ROTATIONS)}")
-    variants = tuple(variants)
+    variants = check_names(variants, "variants")
     if not variants or any(v not in VARIANTS for v in variants):
         raise InvalidInputError(f"unknown variants {list(variants)}; valid: {', '.join(VARIANTS)}")
     alignment.check_core_weight(core_weight)
     seed = check_int(seed, "seed", 0)  # a NumPy or JAX integer scalar as its int (a bool, a float refused)
+    align_core, frames = check_bool(align_core, "align_core"), check_bool(frames, "frames")
+    check_callback(progress, "progress")
     if align_core:
         classes = {name: alignment.align_core(meshes, weight=core_weight) for name, meshes in classes.items()}
     ocsvm = {"seed": seed, **options.pop("ocsvm", {})}

@@ -73,8 +73,18 @@ def _finish(fig, path, dpi=90):
     return fig
 
 
+def _check_plane(plane, name="plane"):
+    """One of the planes "xy", "xz", "yz" (InvalidInputError naming ``name`` otherwise)."""
+    if not isinstance(plane, str) or plane not in _PLANES:
+        raise InvalidInputError(f"{name} must be one of {', '.join(map(repr, _PLANES))}, got {plane!r}")
+    return plane
+
+
 def _vertices_faces(mesh_or_points):
-    v = np.asarray(getattr(mesh_or_points, "vertices", mesh_or_points), dtype=np.float64)
+    try:
+        v = np.asarray(getattr(mesh_or_points, "vertices", mesh_or_points), dtype=np.float64)
+    except (TypeError, ValueError):  # a string, a ragged list: float()'s error
+        raise InvalidInputError(f"expected a mesh or an (n, 3) array of points, got {mesh_or_points!r:.80}") from None
     f = getattr(mesh_or_points, "faces", None)
     f = np.asarray(f, dtype=np.int64) if f is not None and len(f) > 0 else None
     if v.ndim != 2 or v.shape[1] != 3 or len(v) == 0:
@@ -84,10 +94,12 @@ def _vertices_faces(mesh_or_points):
 
 def _center_scale(pose):
     """(center (3,), scale) of a Pose-like object or a (center, scale) pair."""
-    if hasattr(pose, "center"):
-        return np.asarray(pose.center, float).reshape(3), float(np.asarray(pose.scale).reshape(()))
-    c, s = pose
-    return np.asarray(c, float).reshape(3), float(s)
+    c, s = (pose.center, pose.scale) if hasattr(pose, "center") else pose
+    c, s = np.asarray(c, float), np.asarray(s, float)
+    if c.shape != (3,) or s.shape != () or not (np.all(np.isfinite(c)) and np.isfinite(s) and s > 0):
+        raise InvalidInputError(f"a pose must be one center (3,) and a scale () > 0, finite (one pose of a batch: "
+                                f"index it), got shapes {c.shape} and {s.shape}")
+    return c, float(s)
 
 
 def _equal_3d(ax, points):
@@ -121,8 +133,19 @@ def region_slices(svdd_or_points, gamma=OCSVM.gamma, nu=OCSVM.nu, *, center=None
     from jaxpose.moments import volume_moments
     from jaxpose.pose.frame import reference_frame
     from jaxpose.pose.pose import normalize
+    from jaxpose._validate import check_int, check_names, check_points, check_real
     from jaxpose.occupancy.svdd import SVDD, decision_function, fit_svdd
 
+    planes = [_check_plane(p, "planes") for p in check_names(planes, "planes")]  # before any fit
+    pixels, thickness = check_int(pixels, "pixels", 2), check_real(thickness, "thickness", 0)
+    if center is not None:
+        try:
+            given = np.asarray(center, np.float64)
+        except (TypeError, ValueError):
+            given = None
+        if given is None or given.shape != (3,) or not np.all(np.isfinite(given)):
+            raise InvalidInputError(f"center must be 3 finite numbers (where the slices cut), got {center!r:.80}")
+        center = given
     if isinstance(svdd_or_points, SVDD):
         svdd = svdd_or_points
         mask = np.asarray(svdd.mask, bool)
@@ -130,7 +153,7 @@ def region_slices(svdd_or_points, gamma=OCSVM.gamma, nu=OCSVM.nu, *, center=None
         mean, size = np.zeros(3), 1.0
         label = f"gamma={float(svdd.gamma):g}"
     else:
-        points = np.asarray(svdd_or_points, np.float64)
+        points = np.asarray(check_points(svdd_or_points), np.float64)  # NaN named per row, not after the rescaling
         m, s = reference_frame(jnp.asarray(points))
         mean, size = np.asarray(m, np.float64), float(s)
         svdd = fit_svdd(jnp.asarray((points - mean) / size), gamma, nu)
@@ -216,6 +239,8 @@ def centers_plot(mesh_or_points, pose=None, gamma=OCSVM.gamma, nu=OCSVM.nu, *, m
     import jaxpose
     from jaxpose.pose import estimators
 
+    if plane is not None:
+        _check_plane(plane)
     v, f = _vertices_faces(mesh_or_points)
     samples = np.asarray(jaxpose.sample_surface(mesh_or_points, count, seed)) if f is not None else v
     if pose is None:
@@ -282,6 +307,10 @@ def sweep_curves(result_sweeps, *, param=None, per_class=False, metric="sigma_tr
     sweeps = _sweeps(result_sweeps)
     if not sweeps:
         raise InvalidInputError("no sweeps to draw")
+    if metric not in ("sigma_tr", "sigma_scale"):
+        raise InvalidInputError(f"metric must be 'sigma_tr' or 'sigma_scale', got {metric!r}")
+    if param is not None and param not in sweeps:
+        raise InvalidInputError(f"param {param!r} was not swept; swept: {', '.join(map(repr, sweeps))}")
     ref_key = metric if metric in ("sigma_tr", "sigma_scale") else None
     if not per_class:
         names = [param] if param is not None else [p for p in ("gamma", "nu") if p in sweeps] or list(sweeps)

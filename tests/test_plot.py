@@ -100,6 +100,36 @@ def test_centers_plot(tmp_path, shape):
     _png(tmp_path / "c3.png")
 
 
+_POINTS = np.random.default_rng(0).normal(size=(60, 3))
+
+
+@pytest.mark.parametrize("call, message", [
+    # a plane's KeyError ('zx') after the fit; max()'s 'zero-size array' ValueError; reshape's ValueError
+    (lambda shape: plot.region_slices(_POINTS, planes=("xy", "zx")), "planes must be one of 'xy', 'xz', 'yz', got 'zx'"),
+    (lambda shape: plot.region_slices(_POINTS, planes="xz"), r"planes must be a list of names, got the string 'xz'"),
+    (lambda shape: plot.region_slices(_POINTS, pixels=0), "pixels must be >= 2, got 0"),
+    (lambda shape: plot.region_slices(_POINTS, center=(0.0, 0.0)), "center must be 3 finite numbers"),
+    # the NaN was counted after the points were rescaled by their NaN mean: 'points has 61 rows ...'
+    (lambda shape: plot.region_slices(np.vstack([_POINTS, [np.nan] * 3])), "points has 1 rows with NaN"),
+    (lambda shape: plot.centers_plot(shape, ((0.0, 0.0, 0.0), 1.0), count=200, plane="zx"), "plane must be one of"),
+    (lambda shape: plot.centers_plot(shape, (np.zeros((2, 3)), np.ones(2)), count=200, methods=()),
+     r"a pose must be one center \(3,\) and a scale \(\) > 0"),
+    (lambda shape: plot.mesh_3d("body.ply"), "expected a mesh or an \\(n, 3\\) array of points, got 'body.ply'"),
+])
+def test_bad_arguments_are_refused_by_name(call, message, shape):
+    """The module's contract: bad arguments raise InvalidInputError (they were KeyError, NumPy's
+    ValueErrors, or a wrong count), before any fit."""
+    with pytest.raises(InvalidInputError, match=message):
+        call(shape)
+
+
+def test_sweep_curves_refuses_a_metric_or_param_it_has_not(fake_result):
+    with pytest.raises(InvalidInputError, match="metric must be 'sigma_tr' or 'sigma_scale', got 'cv_scale'"):
+        plot.sweep_curves(fake_result["sweeps"], metric="cv_scale")  # was KeyError 'cv_scale'
+    with pytest.raises(InvalidInputError, match="param 'power' was not swept"):
+        plot.sweep_curves(fake_result["sweeps"], param="power")  # was KeyError 'power'
+
+
 def test_sweep_curves(tmp_path, fake_result):
     fig = plot.sweep_curves(fake_result["sweeps"], path=tmp_path / "avg.png")
     assert len(fig.axes) == 2

@@ -199,9 +199,9 @@ class TuneOptions:
       lr: Adam's learning rate in the tuned coordinates ((log gamma, logit nu) or log power), > 0.
       reg: pull towards the start, a share of the start's loss per unit squared distance, >= 0.
       scale_weight: weight of the scale's spread (cv) in the loss, >= 0.
-      holdout: share of each class's objects kept out of the loss and evaluated, in [0, 1).
-      count: surface samples per object, drawn afresh at every step.
-      instances: objects per class of the built-in procedural dataset (``jaxpose tune``).
+      holdout: share of the classes held out of the loss (whole classes) and evaluated, in [0, 1).
+      count: surface samples per object, drawn afresh at every step (>= 4).
+      instances: objects per class of the built-in procedural dataset (``jaxpose tune``; >= 2).
 
     Example::
 
@@ -215,6 +215,14 @@ class TuneOptions:
     holdout: float = 0.0
     count: int = 400
     instances: int = 6
+
+    def __post_init__(self):
+        holdout = _real(self.holdout, "holdout", 0.0, 1.0)
+        if holdout == 1.0:
+            raise InvalidInputError(f"holdout must be a number in [0, 1), got {self.holdout!r}")
+        _set(self, steps=_int(self.steps, "steps", 0), lr=_real(self.lr, "lr", 0.0, math.inf, closed=False),
+             reg=_real(self.reg, "reg", 0.0, math.inf), scale_weight=_real(self.scale_weight, "scale_weight", 0.0, math.inf),
+             holdout=holdout, count=_int(self.count, "count", 4), instances=_int(self.instances, "instances", 2))
 
 
 OCSVM = OCSVMOptions()  # the defaults, read by every function that takes these parameters

@@ -126,6 +126,21 @@ def test_estimator_options_are_the_paper_values_and_validated():
         RobustOptions(power=-1.0)
 
 
+@pytest.mark.parametrize("bad, message", [
+    # TuneOptions took any value (its siblings refuse theirs): steps=-1, lr=0, holdout=1.0 ...
+    (dict(steps=-1), "steps must be >= 0"), (dict(steps=2.5), "steps must be an int"),
+    (dict(lr=0.0), r"lr must be a number in \(0, inf\)"), (dict(reg=-1.0), "reg must be"),
+    (dict(scale_weight=float("nan")), "scale_weight must be"), (dict(holdout=1.0), r"holdout must be a number in \[0, 1\)"),
+    (dict(count=3), "count must be >= 4"), (dict(instances=1), "instances must be >= 2"),
+])
+def test_tune_options_are_validated(bad, message):
+    from jaxpose.config import TUNE, TuneOptions
+
+    assert TuneOptions() == TUNE and dataclasses.replace(TUNE, steps=3).steps == 3
+    with pytest.raises(InvalidInputError, match=message):
+        TuneOptions(**bad)
+
+
 def test_every_entry_point_reads_the_one_default():
     """The functions, the batch options and the command line all default to jaxpose.config's values."""
     import inspect

@@ -125,6 +125,26 @@ def test_center_and_scale_are_chosen_independently():
         estimators.estimate(box, gamma2=1.0)
 
 
+@pytest.mark.parametrize("call, message", [
+    # ignored: a power or a resolution the estimators do not read (normalize_mesh and "vertex_mean:2" refuse them)
+    (lambda box: estimators.estimate(box, "vertex_mean", power=2.0), "power applies to the robust_depth and "
+                                                                     "depth_weighted_solid centers, not vertex_mean"),
+    (lambda box: estimators.estimate(box, "bbox", resolution=64), "resolution applies to the robust solid"),
+    # values no method read went unchecked; a string was truthy
+    (lambda box: estimators.estimate(box, "bbox", gamma=-1.0), "gamma must be > 0"),
+    (lambda box: estimators.estimate(box, "bbox", ocsvm={"resolutoin": 32}), "unknown option resolutoin"),
+    (lambda box: estimators.estimate(box, "bbox", ocsvm=5), "ocsvm must be a dict"),
+    (lambda box: estimators.estimate(box, "vertex_mean", strict="no"), "strict must be True or False"),
+    # one string was its characters ('unknown method 'r''); bad values were each method's row, not an error
+    (lambda box: estimators.estimate_many(box, "robust"), r"methods must be a list of names, got the string 'robust'"),
+    (lambda box: estimators.estimate_many(box, ["vertex_mean", "robust"], resolution=4), "resolution must be >= 8"),
+    (lambda box: estimators.estimate_many(box, ["bbox"], ocsvm={"tol": -1.0}), "tol must be finite and > 0"),
+])
+def test_bad_options_are_refused_before_any_work(call, message):
+    with pytest.raises(InvalidInputError, match=message):
+        call(_box())
+
+
 def test_method_powers_are_checked():
     """"name:p": p a finite number >= 0, on a method whose center is depth weighted; estimate_many
     refuses the others before any work (robust:-1 was an n/a row, vertex_mean:2 the vertex mean)."""

@@ -37,7 +37,7 @@ from scipy import ndimage
 from .. import _validate, baselines, sample
 from ..occupancy import solid, voxels
 from .._validate import InvalidInputError, InvalidPoseWarning, JaxposeError
-from ..config import OCSVM, ROBUST
+from ..config import OCSVM, ROBUST, SAMPLING, PoseConfig
 from ..geometry import Surface, triangle_areas
 from ..host import anchor
 from ..weighted import depth_power_weights, grid_axes, solid_occupancy, weighted_center
@@ -390,19 +390,41 @@ def estimate(geometry, method=None, *, center=None, scale=None, strict=False, **
       different sizes (a mean distance, a volume's cube root, an extent), consistent within a method.
 
     Raises:
-      InvalidInputError: unknown names or options; a surface estimator on points.
+      InvalidInputError: unknown names or options, an option's bad value (before any work), a
+        ``power`` for a center without depth weights or a ``resolution`` for estimators without a
+        robust solid (they would be ignored); a surface estimator on points.
       JaxposeError: no valid pose (e.g. a shape that encloses no volume for ``robust``).
     """
     c_name, s_name = resolve(method, center, scale)
     _check_options(options)
+    strict = _validate.check_bool(strict, "strict")
+    if "power" in options and c_name not in POWERED:
+        raise InvalidInputError(f"power applies to the {' and '.join(POWERED)} centers, not {c_name}")
+    if "resolution" in options and "robust_depth" not in (c_name, s_name) and s_name != "robust_volume":
+        raise InvalidInputError(f"resolution applies to the robust solid (the robust_depth center, the robust_volume "
+                                f"scale), not {c_name} / {s_name}; for ocsvm give it in ocsvm={{'resolution': ...}}")
     moved, shift = centered(geometry)
     return _shifted(_pose(_Shape(moved, options), c_name, s_name, strict), shift)
 
 
 def _check_options(options):
+    """The options' names and values, before any work (a bad value was an error of each method that
+    read it, or none where no method read it: gamma=-1 with bbox, ocsvm=5)."""
     unknown = sorted(set(options) - {"power", "resolution", "ocsvm", *_OCSVM_KEYS})
     if unknown:
         raise InvalidInputError(f"unknown option{'s' if len(unknown) > 1 else ''} {', '.join(unknown)}")
+    checks = {"power": lambda v: _validate.check_real(v, "power", 0), "resolution": solid.check_resolution,
+              "gamma": _validate.check_gamma, "nu": _validate.check_nu, "count": sample.check_count,
+              "seed": lambda v: _validate.check_int(v, "seed", 0)}
+    for name, value in options.items():
+        if name in checks:
+            checks[name](value)
+    if "sampling" in options and options["sampling"] not in SAMPLING:
+        raise InvalidInputError(f"unknown sampling {options['sampling']!r}; valid: {', '.join(SAMPLING)}")
+    if "ocsvm" in options:
+        if not isinstance(options["ocsvm"], dict):
+            raise InvalidInputError(f"ocsvm must be a dict of jaxpose.normalize's ocsvm options, got {options['ocsvm']!r:.80}")
+        PoseConfig.create(**options["ocsvm"])  # names and values
 
 
 def _shifted(pose, shift):
@@ -439,6 +461,10 @@ def estimate_many(geometry, methods, strict=False, timings=False, **options):
       ``timings`` {method: (that, seconds)}.
     """
     _check_options(options)
+    strict, timings = _validate.check_bool(strict, "strict"), _validate.check_bool(timings, "timings")
+    methods = _validate.check_names(methods, "methods")
+    for spec in methods:  # every name before any work
+        parse_method(spec)
     geometry, shift = centered(geometry)
     shapes, out = {}, {}
     for spec in methods:

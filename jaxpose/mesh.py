@@ -78,7 +78,8 @@ def check_arguments(gamma=None, nu=None, count=None, seed=None, sampling=None, m
     check_bool(strict, "strict")
     c_name, s_name = estimators.resolve(method, center, scale)
     uses_ocsvm = "ocsvm" in (c_name, s_name)
-    if given and not uses_ocsvm and _rotation_name(rotation) != "ocsvm":
+    ocsvm_runs = uses_ocsvm or _rotation_name(rotation) == "ocsvm"  # as the center, the scale or the frame
+    if given and not ocsvm_runs:
         raise InvalidInputError(
             f"{', '.join(given)} {'are options' if len(given) > 1 else 'is an option'} of the ocsvm estimator, "
             f"which the chosen estimators (center {c_name}, scale {s_name}) do not use (pass method='ocsvm', "
@@ -90,8 +91,9 @@ def check_arguments(gamma=None, nu=None, count=None, seed=None, sampling=None, m
             f"gamma, nu, count, seed, sampling, method, center, scale, strict, power, resolution, rotation; "
             f"ocsvm options: {', '.join(PoseConfig.FLAT)}"
         )
-    if options and not uses_ocsvm:
-        raise InvalidInputError(f"options {sorted(options)} apply to the ocsvm estimator only")
+    if options and not ocsvm_runs:  # (the ocsvm frame reads them too: they reach frame_of)
+        raise InvalidInputError(f"options {sorted(options)} apply to the ocsvm estimator only (pass method='ocsvm', "
+                                "center or scale 'ocsvm', or rotation='ocsvm'; or leave them out)")
     extra = {}
     if power is not None:
         if c_name not in ("robust_depth", "depth_weighted_solid"):
@@ -106,7 +108,7 @@ def check_arguments(gamma=None, nu=None, count=None, seed=None, sampling=None, m
         else:
             raise InvalidInputError(f"resolution applies to the robust and ocsvm estimators (options), "
                                     f"not {c_name} / {s_name}")
-    if uses_ocsvm:
+    if ocsvm_runs:
         PoseConfig.create(**options)  # every option's value and the grid's memory
     frame_name = _rotation_name(rotation)
     return c_name, s_name, extra, options, frame_name

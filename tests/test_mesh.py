@@ -313,6 +313,26 @@ def test_every_argument_is_checked_before_the_file_is_read(kwargs, message):
         mesh.normalize_mesh("/nonexistent/shape.ply", **kwargs)
 
 
+def test_the_ocsvm_frame_takes_the_ocsvm_options(monkeypatch):
+    """rotation='ocsvm' runs the OCSVM (its gamma, nu, ... were taken): its solver and grid options
+    reach the frame too, and are checked; they were refused ('options ['tol'] apply to the ocsvm
+    estimator only') where the center and scale were not the OCSVM's."""
+    seen = []
+
+    def frame_of(geometry, name, resolution=None, ocsvm=None):
+        seen.append((name, ocsvm["options"], ocsvm["gamma"]))
+        return type("Found", (), {"rotation": np.eye(3), "ambiguity": 0.0})()
+
+    monkeypatch.setattr(mesh, "frame_of", frame_of)
+    box = trimesh.creation.box((1.0, 2.0, 3.0))
+    _, pose = mesh.normalize_mesh(box, method="vertex_mean", rotation="ocsvm", gamma=20.0, tol=1e-4, refine=4)
+    assert seen == [("ocsvm", {"tol": 1e-4, "refine": 4}, 20.0)] and pose.rotation.shape == (3, 3)
+    with pytest.raises(InvalidInputError, match="tol must be finite and > 0"):
+        mesh.check_arguments(method="vertex_mean", rotation="ocsvm", tol=-1.0)
+    with pytest.raises(InvalidInputError, match=r"options \['tol'\] apply to the ocsvm estimator only \(pass"):
+        mesh.check_arguments(method="vertex_mean", rotation="pca_vertices", tol=1e-4)
+
+
 def test_vertices_far_from_the_origin_are_not_merged(tmp_path):
     """trimesh's merge_vertices rounds coordinates to 1e-8 as int64, which overflows at 1e12 and
     merges every vertex into one; load merges near the origin, exactly."""

@@ -389,6 +389,24 @@ def test_the_inertia_frame_of_a_mesh_without_volume_is_refused():
                             rotation="inertia")
 
 
+@pytest.mark.parametrize("call, message", [
+    # int() of a float resolution: 8.5 ran at 8, 7.5 read 'resolution must be >= 8, got 7'
+    (lambda box: rotation.frame_of(box, "core", resolution=8.5), "resolution must be an int, got 8.5"),
+    (lambda box: rotation.frame_of(box, "core", resolution=7.5), "resolution must be an int, got 7.5"),
+    # a misspelt key of the ocsvm dict was ignored (the default gamma ran); not a dict: 'int' object is not iterable
+    (lambda box: rotation.frame_of(box, "ocsvm", ocsvm={"gama": 20.0}), "unknown ocsvm key 'gama'; valid: gamma"),
+    (lambda box: rotation.frame_of(box, "ocsvm", ocsvm=5), "ocsvm must be a dict"),
+    (lambda box: rotation.frame_of(box, "pca_vertices", ocsvm={"count": 2}), "count must be >= 4"),
+    # evaluate_rotation: frame_of's TypeError at the first shape; a bad resolution was every core cell's error
+    (lambda box: evaluate_rotation({"a": [box, box]}, methods=["pca_vertices"], resolutoin=32), "unknown option resolutoin"),
+    (lambda box: evaluate_rotation({"a": [box, box]}, methods=["core"], resolution=4), "resolution must be >= 8"),
+    (lambda box: evaluate_rotation({"a": [box, box]}, methods=["pca_vertices"], ocsvm={"gama": 1.0}), "unknown ocsvm key"),
+])
+def test_frame_options_are_checked_before_any_work(call, message):
+    with pytest.raises(jaxpose.InvalidInputError, match=message):
+        call(trimesh.creation.box(extents=(1.0, 2.0, 3.0)))
+
+
 def test_pose_with_rotation_matrix_apply_inverse():
     rng = np.random.default_rng(1)
     r, c, s = random_rotation(rng), np.array([1.0, -2.0, 3.0]), 2.5

@@ -158,7 +158,7 @@ def evaluate_rotation(classes, methods=None, variants=("plain",), align_core=Fal
       and the per-instance ``raw``, ``sign_free`` angles and ``ambiguity``.
     """
     from ..rotation.core import frame_solid
-    from ..rotation.rotation import ROTATIONS, frame_of
+    from ..rotation.rotation import ROTATIONS, check_frame_options, frame_of
     from .. import baselines
 
     if not isinstance(classes, dict) or not classes or any(len(m) < 2 for m in classes.values()):
@@ -174,6 +174,11 @@ def evaluate_rotation(classes, methods=None, variants=("plain",), align_core=Fal
     seed = check_int(seed, "seed", 0)  # a NumPy or JAX integer scalar as its int (a bool, a float refused)
     align_core, frames = check_bool(align_core, "align_core"), check_bool(frames, "frames")
     check_callback(progress, "progress")
+    unknown = sorted(set(options) - {"resolution", "ocsvm"})
+    if unknown:  # frame_of's TypeError at the first shape
+        raise InvalidInputError(f"unknown option{'s' if len(unknown) > 1 else ''} {', '.join(unknown)}; valid: "
+                                "resolution, ocsvm")
+    check_frame_options(options.get("resolution"), options.get("ocsvm"))  # not each method's error cell
     if align_core:
         classes = {name: alignment.align_core(meshes, weight=core_weight) for name, meshes in classes.items()}
     ocsvm = {"seed": seed, **options.pop("ocsvm", {})}

@@ -131,7 +131,7 @@ def frame_solid(vertices, faces=None, resolution=None):
     the frame read from the solid. (A point cloud has no pieces to tell apart: its axes are all
     its points'.)
     """
-    resolution = solid.RESOLUTION if resolution is None else int(resolution)
+    resolution = solid.check_resolution(solid.RESOLUTION if resolution is None else resolution)  # 7.5 is not 7
     v = np.asarray(vertices, np.float64)
     if faces is None or not len(faces):
         return solid.robust_solid(v, faces, resolution=resolution, frame=pre_frame(v, faces), reach=0)

@@ -13,11 +13,14 @@ docs/rotation.md.
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 
 from .. import baselines, sample
-from .._validate import InvalidInputError, JaxposeError
-from ..config import OCSVM
+from .._validate import InvalidInputError, JaxposeError, check_gamma, check_int, check_nu
+from ..config import OCSVM, SAMPLING
+from ..occupancy import solid
 from ..orientation import (GAP_MIN, SIGN_MIN, SYMMETRY_MIN, Frame, ambiguity, complete_signs, proper, region_frame,
                            relative_gaps)
 from .core import (AXES_POWER, FEET_DEPTH, FOOT, FOOT_MIN, OFF_SOLID, SYMMETRY_POWER, core_frame, feet_offset, frame_solid,
@@ -31,10 +34,39 @@ __all__ = ["Frame", "ROTATIONS", "DEFAULT_ROTATION", "GAP_MIN", "SIGN_MIN", "SYM
            "MUZZLE", "TURN", "HEAD_MIRROR", "UP_SPLIT", "MIRROR_STEPS", "MIRROR_BEYOND", "GAP", "hole_points", "mirror_error", "head_mirror", "left_right", "pre_frame", "frame_solid",
            "core_frame", "HeadChest", "head_chest", "head_surface", "front_back_cues",
            "head_frame", "feet_offset", "symmetry_scores", "ambiguity", "complete_signs", "frame_of", "region_frame",
-           "proper"]
+           "proper", "check_frame_options", "OCSVM_FRAME_KEYS"]
 
 ROTATIONS = ("core", "head", "ocsvm", "pca_vertices", "pca_surface", "inertia")
 DEFAULT_ROTATION = "head"  # rotation=True: the head frame, the core frame (flagged) where no head is found
+OCSVM_FRAME_KEYS = ("gamma", "nu", "count", "seed", "sampling", "options")  # frame_of's ocsvm dict
+
+
+def check_frame_options(resolution=None, ocsvm=None):
+    """:func:`frame_of`'s ``resolution`` (None or :func:`jaxpose.occupancy.solid.check_resolution`'s)
+    and ``ocsvm`` (None or a dict of :data:`OCSVM_FRAME_KEYS`, their values checked; ``options`` a
+    dict, checked by :func:`jaxpose.normalize`), as (resolution, ocsvm); InvalidInputError naming
+    the first bad one (a misspelt key was ignored: the default ran)."""
+    if resolution is not None:
+        resolution = solid.check_resolution(resolution)
+    if ocsvm is None:
+        return resolution, None
+    if not isinstance(ocsvm, Mapping):
+        raise InvalidInputError(f"ocsvm must be a dict of {', '.join(OCSVM_FRAME_KEYS)}, got {ocsvm!r:.80}")
+    unknown = sorted(set(ocsvm) - set(OCSVM_FRAME_KEYS))
+    if unknown:
+        raise InvalidInputError(f"unknown ocsvm key{'s' if len(unknown) > 1 else ''} {', '.join(map(repr, unknown))}; "
+                                f"valid: {', '.join(OCSVM_FRAME_KEYS)}")
+    checks = {"gamma": check_gamma, "nu": check_nu, "count": sample.check_count,
+              "seed": lambda v: check_int(v, "seed", 0)}
+    for key, value in ocsvm.items():
+        if key in checks:
+            checks[key](value)
+    if "sampling" in ocsvm and ocsvm["sampling"] not in SAMPLING:
+        raise InvalidInputError(f"unknown sampling {ocsvm['sampling']!r}; valid: {', '.join(SAMPLING)}")
+    if not isinstance(ocsvm.get("options", {}), Mapping):
+        raise InvalidInputError(f"ocsvm['options'] must be a dict of jaxpose.normalize's ocsvm options, got "
+                                f"{ocsvm['options']!r:.80}")
+    return resolution, dict(ocsvm)
 
 
 # ------------------------------------------------------------------ dispatch (host)
@@ -45,7 +77,7 @@ def frame_of(geometry, method=DEFAULT_ROTATION, *, resolution=None, sol=None, oc
       geometry: Trimesh, PointCloud or (n, 3) points.
       method: ``head`` (default; ``core``, flagged, where it finds no neck), ``core``, ``ocsvm`` or a baseline of
         :mod:`jaxpose.baselines`
-        (``pca_vertices``, ``pca_surface``, ``inertia``: meshes only).
+        (``pca_vertices``, ``pca_surface``: a point cloud's points; ``inertia``: meshes only).
       resolution: voxels of the robust solid along the body's largest extent (``core``).
       sol: a solid from :func:`frame_solid` to reuse (``core``).
       ocsvm: for ``ocsvm``, a dict of ``gamma``, ``nu``, ``count``, ``seed``, ``sampling`` and
@@ -57,9 +89,13 @@ def frame_of(geometry, method=DEFAULT_ROTATION, *, resolution=None, sol=None, oc
       eigenvalues (input units^2), their gaps, the sign margins |E[z^3] / r^3| / ``SIGN_MIN`` (0 on
       ``mirror``, the axis det completed), no mirror scores (NaN); eigenvalues, gaps and margins
       NaN and mirror -1 (not reported) where the frame was not finite (the identity, ambiguity 1).
+
+    Raises:
+      InvalidInputError: an unknown method, a bad resolution or ``ocsvm`` (:func:`check_frame_options`).
     """
-    if method not in ROTATIONS:
+    if not isinstance(method, str) or method not in ROTATIONS:
         raise InvalidInputError(f"unknown rotation {method!r}; valid: {', '.join(ROTATIONS)}")
+    resolution, ocsvm = check_frame_options(resolution, ocsvm)
     if method in ("core", "head"):
         if sol is None or method == "head":
             vertices, faces = baselines.split_geometry(geometry)

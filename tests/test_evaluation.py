@@ -241,6 +241,10 @@ def test_align_core_keeps_faces_and_checks_counts():
     (lambda: evaluation.evaluate_rotation({"boxes": _boxes()}, methods=["pca_vertices"], progress=5), "progress must be a callable"),
     (lambda: sweep({"boxes": _boxes()}, progress=5), "progress must be a callable or None"),
     (lambda: align_core(_boxes(), keep="0.3"), "keep must be a finite number > 0, got '0.3'"),  # '<'s TypeError
+    # sweep: a fixed without the other parameter was KeyError 'nu'; values="47" swept 4 and 7
+    (lambda: sweep({"boxes": _boxes()}, "gamma", fixed={"mu": 0.1}), r"fixed must give the other parameter only, \{'nu'"),
+    (lambda: sweep({"boxes": _boxes()}, "nu", fixed={"nu": 0.1}), r"fixed must give the other parameter only, \{'gamma'"),
+    (lambda: sweep({"boxes": _boxes()}, "gamma", values="47"), "values must be a list of numbers, got the string '47'"),
 ])
 def test_arguments_of_the_wrong_kind_are_refused_by_name(call, message):
     with pytest.raises(InvalidInputError, match=message):

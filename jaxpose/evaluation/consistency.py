@@ -24,6 +24,7 @@ its gyration radius or sqrt(area), the depth-weighted voxel solid), each on ever
 from __future__ import annotations
 
 import warnings
+from collections.abc import Iterable, Mapping
 
 import numpy as np
 
@@ -283,14 +284,27 @@ def sweep(classes, param="gamma", values=None, fixed=None, count=OCSVM.count, se
     "surface_centroid": {"per_class": {class: {"sigma_tr", "sigma_scale"}}, "average":
     {"sigma_tr", "sigma_scale"}}}``.
     """
+    from .._validate import check_gamma, check_nu
+
     if param not in SWEEP_VALUES:
         raise InvalidInputError(f"param must be 'gamma' or 'nu', got {param!r}")
     _check_classes(classes)
     check_callback(progress, "progress")
-    values = [float(v) for v in (SWEEP_VALUES[param] if values is None else values)]
-    if not values:
-        raise InvalidInputError("values must not be empty")
-    fixed = dict(SWEEP_FIXED[param] if fixed is None else fixed)
+    if isinstance(values, (str, bytes)):  # its characters were the values: "47" swept 4 and 7
+        raise InvalidInputError(f"values must be a list of numbers, got the string {values!r}")
+    values = SWEEP_VALUES[param] if values is None else values
+    if not isinstance(values, Iterable) or not (values := list(values)):
+        raise InvalidInputError(f"values must be a non-empty list of numbers, got {values!r:.80}")
+    other = "nu" if param == "gamma" else "gamma"
+    fixed = SWEEP_FIXED[param] if fixed is None else fixed
+    if not isinstance(fixed, Mapping) or set(fixed) != {other}:  # (a typo, or the swept one: KeyError)
+        raise InvalidInputError(f"fixed must give the other parameter only, {{{other!r}: value}}, got {fixed!r:.80}")
+    check = {"gamma": check_gamma, "nu": check_nu}
+    for value in values:  # every value before any work (a bad one failed after the samples were drawn)
+        check[param](value)
+    check[other](fixed[other])
+    seed = _check_ocsvm(OCSVM.gamma, OCSVM.nu, count, seed, normalize_options)  # count, seed, the options
+    values, fixed = [float(v) for v in values], {other: float(fixed[other])}
     points = {name: [_sample(m, count, seed) for m in meshes] for name, meshes in classes.items()}
     per_class = {name: {"sigma_tr": [], "sigma_scale": []} for name in classes}
     for value in values:

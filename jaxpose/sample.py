@@ -4,12 +4,13 @@ from __future__ import annotations
 import numpy as np
 
 from .config import MEMORY_BUDGET, SAMPLING
-from ._validate import InvalidInputError, check_int
+from ._validate import InvalidInputError, check_int, check_real
 from .geometry import split_geometry, triangle_areas
 
 __all__ = ["SAMPLING", "SAMPLE_BYTES", "check_count", "sample_surface", "lattice_points"]
 
 SAMPLE_BYTES = 128  # peak bytes per sample: face index, barycentric pair, its triangle's corners, the point
+LATTICE_BYTES = 64  # peak bytes per lattice point (lattice_points): the point, its copy in the result, the lattice
 
 
 def check_count(count):
@@ -76,7 +77,8 @@ def lattice_points(vertices, faces, spacing):
 
     Args:
       vertices: (n, 3) float; faces: (f, 3) int (None or empty: the vertices alone).
-      spacing: > 0, in the vertices' units (else :class:`InvalidInputError`).
+      spacing: > 0, in the vertices' units, such that the points fit ``config.MEMORY_BUDGET`` at
+        ``LATTICE_BYTES`` each (else :class:`InvalidInputError`, before anything is allocated).
 
     Returns:
       (m, 3) float64, the vertices first.
@@ -86,14 +88,21 @@ def lattice_points(vertices, faces, spacing):
         box = trimesh.creation.box()                  # 8 vertices, 12 faces, edges 1 and sqrt(2)
         lattice_points(box.vertices, box.faces, 0.5)  # (8 + 12 * 7, 3): n = 3 on every face
     """
-    if not float(spacing) > 0:
-        raise InvalidInputError(f"spacing must be > 0, got {spacing!r}")
+    spacing = check_real(spacing, "spacing", 0, strict=True)  # (must be > 0: the message names it)
     v = np.asarray(vertices, np.float64)
     if faces is None or not len(faces):
         return v.copy()
     t = v[np.asarray(faces, np.int64)]
     longest = np.max(np.linalg.norm(t - np.roll(t, 1, axis=1), axis=2), axis=1)
-    n = np.ceil(longest / float(spacing)).astype(np.int64)
+    with np.errstate(over="ignore"):  # float64 (a tiny spacing's counts overflow an int): inf is too many
+        steps = np.ceil(longest / spacing)
+        many = steps[steps >= 2]
+        points = float(np.sum((many + 1) * (many + 2) / 2 - 3))
+    if points * LATTICE_BYTES > MEMORY_BUDGET:  # a tiny spacing filled the memory (the process was killed)
+        least = np.sqrt(np.sum(longest**2) / 2 * LATTICE_BYTES / MEMORY_BUDGET)  # about n^2 / 2 points a face
+        raise InvalidInputError(f"spacing={spacing:g} puts about {points:.3g} points on the faces; they need more than "
+                                f"the limit of {MEMORY_BUDGET / 2**30:g} GiB: use a spacing of at least about {least:.3g}")
+    n = steps.astype(np.int64)
     out = [v]
     for k in np.unique(n[n >= 2]):
         i, j = np.meshgrid(np.arange(k + 1), np.arange(k + 1), indexing="ij")

@@ -112,7 +112,23 @@ def test_lattice_points_cover_the_faces_and_move_with_the_mesh():
     np.testing.assert_array_equal(sample.lattice_points(box.vertices, None, 0.3), box.vertices)
 
 
-@pytest.mark.parametrize("spacing", [0.0, -1.0, float("nan")])
+@pytest.mark.parametrize("spacing", [1e-4, 1e-9, 1e-300])
+def test_lattice_points_refuse_a_spacing_whose_points_exceed_the_memory_budget(spacing):
+    """A spacing tiny for the faces was a lattice of (L / spacing)^2 points per face: at 1e-9 on a
+    unit box the process was killed filling the memory; now refused before anything is allocated,
+    naming a spacing that fits (whose points do, within 1 %)."""
+    import re
+
+    box = trimesh.creation.box(extents=(1.0, 2.0, 0.5))
+    with pytest.raises(InvalidInputError, match="spacing=.* points on the faces; .* at least about") as raised:
+        sample.lattice_points(box.vertices, box.faces, spacing)
+    least = float(re.search(r"at least about (\S+)$", str(raised.value)).group(1))
+    t = box.vertices[box.faces]
+    n = np.ceil(np.max(np.linalg.norm(t - np.roll(t, 1, axis=1), axis=2), axis=1) / least)
+    assert np.sum((n + 1) * (n + 2) / 2 - 3) * sample.LATTICE_BYTES <= 1.01 * MEMORY_BUDGET
+
+
+@pytest.mark.parametrize("spacing", [0.0, -1.0, float("nan"), "a"])
 def test_lattice_points_refuse_a_spacing_that_is_not_positive(spacing):
     box = trimesh.creation.box()
     with pytest.raises(InvalidInputError, match="spacing"):

@@ -149,6 +149,26 @@ def test_degenerate_input():
         robust_solid(np.ones((10, 3)))
 
 
+@pytest.mark.parametrize("kw, message", [
+    # each was taken: an empty solid (keep_ratio 2, min_votes 7, a skewed frame), the whole grid inside
+    # (min_votes 0), 'no' as True; a face beyond the vertices was an IndexError in the ray votes; a NaN
+    # vertex read 'the shape has no extent'
+    (dict(keep_ratio=2.0), r"keep_ratio must be in \[0, 1\], got 2.0"),
+    (dict(min_votes=0), "min_votes must be >= 1, got 0"),
+    (dict(min_votes=7), r"min_votes must be in 1 \.\.\. 6"),
+    (dict(with_depth="no"), "with_depth must be True or False"),
+    (dict(frame=np.ones((3, 3))), r"frame must be a \(3, 3\) rotation"),
+    (dict(faces=np.array([[0, 1, 100]])), "faces index vertices that do not exist"),
+    (dict(faces=np.array([[0.0, 1.0, 2.0]])), r"faces must be \(f, 3\) integer indices"),
+    (dict(vertices=np.array([[0.0, 0.0, 0.0], [np.nan, 1.0, 0.0], [1.0, 0.0, 0.0]])), "vertices has 1 rows with NaN"),
+])
+def test_bad_arguments_are_refused_by_name(kw, message):
+    box = trimesh.creation.box()
+    args = {"vertices": np.asarray(box.vertices), "faces": np.asarray(box.faces), **kw}
+    with pytest.raises(InvalidInputError, match=message):
+        robust_solid(args.pop("vertices"), args.pop("faces"), **args)
+
+
 def test_voxel_memory_is_bounded():
     import jax.numpy as jnp
 

@@ -46,7 +46,7 @@ from scipy import ndimage
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from .._validate import InvalidInputError, check_int
+from .._validate import InvalidInputError, check_array, check_bool, check_int, check_real
 from ..config import MEMORY_BUDGET, RobustConfig
 
 __all__ = ["Solid", "robust_solid", "cap_holes", "ray_vote_solid", "point_solid", "exterior_fill", "keep_main", "MESH_REACH",
@@ -470,9 +470,35 @@ def robust_solid(vertices, faces=None, *, resolution=RESOLUTION, coarse=COARSE, 
     Returns:
       :class:`Solid`; its ``inside`` is empty when the shape encloses no volume (a flat or open
       sheet, a point cloud of one side).
+
+    Raises:
+      InvalidInputError: a bad argument, named (vertices not finite (n, 3) reals, faces that are
+        not (f, 3) indices of them, keep_ratio outside [0, 1], min_votes outside 1 ... 6, a frame
+        that is not a (3, 3) rotation, a with_depth that is not a bool, a bad resolution, coarse or
+        reach); vertices that all coincide.
     """
     resolution, coarse = check_resolution(resolution), check_resolution(coarse, name="coarse")
-    v = np.asarray(vertices, np.float64)
+    v = np.asarray(check_array(vertices, "vertices", 1), np.float64)  # a NaN read 'the shape has no extent'
+    if faces is not None and len(faces):
+        faces = np.asarray(faces)
+        if faces.ndim != 2 or faces.shape[1] != 3 or faces.dtype.kind not in "iu":
+            raise InvalidInputError(f"faces must be (f, 3) integer indices of the vertices, got {faces.dtype} {faces.shape}")
+        if faces.min() < 0 or faces.max() >= len(v):  # (an IndexError deep in the ray votes)
+            raise InvalidInputError(f"faces index vertices that do not exist (indices {faces.min()} ... {faces.max()}, "
+                                    f"{len(v)} vertices)")
+    if not check_real(keep_ratio, "keep_ratio", 0) <= 1:  # above 1 every part was dropped: an empty solid
+        raise InvalidInputError(f"keep_ratio must be in [0, 1], got {keep_ratio!r}")
+    if check_int(min_votes, "min_votes", 1) > 6:  # 0: the whole grid inside; above 6: nothing
+        raise InvalidInputError(f"min_votes must be in 1 ... 6 (of the 6 one-sided windings), got {min_votes!r}")
+    with_depth = check_bool(with_depth, "with_depth")
+    if frame is not None:
+        try:
+            given = np.asarray(frame, np.float64)
+        except (TypeError, ValueError):
+            given = None
+        if (given is None or given.shape != (3, 3) or not np.all(np.isfinite(given))
+                or np.abs(given @ given.T - np.eye(3)).max() > 1e-5):  # a scaled or skewed grid: a wrong solid
+            raise InvalidInputError(f"frame must be a (3, 3) rotation (orthonormal rows: the grid's axes), got {frame!r:.80}")
     frame = frame_given = None if frame is None else np.asarray(frame, np.float64)
     v = v if frame is None else v @ frame.T
     frame = np.eye(3) if frame is None else frame

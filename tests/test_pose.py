@@ -277,6 +277,25 @@ def test_subsample_index_refuses_a_seed_that_is_not_an_int(seed):
     np.testing.assert_array_equal(subsample_index(3000, 300, np.int64(7)), subsample_index(3000, 300, 7))
 
 
+def test_size_helpers_refuse_what_they_cannot_size():
+    """sizes.bucket, subsample_index and pad (public: docs/api.md) by the one int rule and the sets'
+    shapes: bucket(1.5) was 1 and bucket(0) / bucket(-5) came back as given; pad of a set longer than
+    rows was NumPy's broadcast ValueError, of an empty one an IndexError."""
+    from jaxpose.pose.sizes import bucket, pad, subsample_index
+
+    for bad, message in ((1.5, "m must be an int, got 1.5"), (0, "m must be >= 1, got 0"), (-5, "m must be >= 1")):
+        with pytest.raises(jaxpose.InvalidInputError, match=message):
+            bucket(bad)
+    with pytest.raises(jaxpose.InvalidInputError, match="m must be >= 0, got -1"):
+        subsample_index(-1, 4, 0)
+    for sets, message in (([np.zeros((7, 3))], r"sets\[0\] must have shape \(m, 3\) with 1 <= m <= rows=5, got \(7, 3\)"),
+                          ([np.zeros((2, 3)), np.zeros((0, 3))], r"sets\[1\] .* got \(0, 3\)"),
+                          ([np.zeros((3, 2))], r"sets\[0\] .* got \(3, 2\)")):
+        with pytest.raises(jaxpose.InvalidInputError, match=message):
+            pad(sets, 5, np.float32)
+    assert bucket(np.int64(400)) == 448 and subsample_index(10, 4, 0).shape == (4,)
+
+
 def test_point_counts_share_compilations():
     """Sets of 290..320 points are padded to 320 rows (masked): no new compilation after the first."""
     from jaxpose.pose.sizes import bucket

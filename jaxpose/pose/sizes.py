@@ -10,7 +10,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
-from .._validate import check_int
+from .._validate import InvalidInputError, check_int
 
 __all__ = ["MAX_POINTS", "bucket", "subsample_index", "pad"]
 
@@ -26,8 +26,11 @@ def bucket(m: int) -> int:
     Returns:
       int: m itself up to 8; else the smallest multiple of 2^(k-3) that is >= m, where
       2^(k-1) < m <= 2^k (four sizes per octave, at most 25 % padding). ``bucket(400) == 448``.
+
+    Raises:
+      InvalidInputError: m not an int >= 1 (int() took 1.5 as 1, and 0 or -5 came back as given).
     """
-    m = int(m)
+    m = check_int(m, "m", 1)
     if m <= 8:
         return m
     step = 2 ** ((m - 1).bit_length() - 3)
@@ -47,9 +50,10 @@ def subsample_index(m: int, max_points: int | None, seed: int = 0):
       and concrete calls take the same points.
 
     Raises:
-      InvalidInputError: seed not an int >= 0, max_points neither None nor an int >= 1
-        (:func:`jaxpose._validate.check_int`).
+      InvalidInputError: m not an int >= 0, seed not an int >= 0, max_points neither None nor an
+        int >= 1 (:func:`jaxpose._validate.check_int`).
     """
+    m = check_int(m, "m", 0)
     seed = check_int(seed, "seed", 0)
     max_points = None if max_points is None else check_int(max_points, "max_points", 1)
     if max_points is None or m <= max_points:
@@ -66,7 +70,15 @@ def pad(sets, rows, dtype):
     Returns:
       (n, rows, 3) JAX points of ``dtype`` (float64 becomes float32 unless x64 is on) and (n, rows)
       bool mask, False on padding rows, which repeat each set's first point.
+
+    Raises:
+      InvalidInputError: a set that is empty, not (m_i, 3) or has more than ``rows`` rows (NumPy's
+        broadcast ValueError and IndexError).
     """
+    rows = check_int(rows, "rows", 1)
+    for i, a in enumerate(sets):
+        if np.ndim(a) != 2 or np.shape(a)[1] != 3 or not 1 <= len(a) <= rows:
+            raise InvalidInputError(f"sets[{i}] must have shape (m, 3) with 1 <= m <= rows={rows}, got {np.shape(a)}")
     pts = np.empty((len(sets), rows, 3), dtype)
     mask = np.zeros((len(sets), rows), bool)
     for i, a in enumerate(sets):

@@ -316,11 +316,13 @@ class GridConfig:
         if self.memory > MEMORY_BUDGET:
             largest = int((MEMORY_BUDGET / CELL_BYTES - self._children) ** (1.0 / 3.0)) if \
                 MEMORY_BUDGET / CELL_BYTES > self._children else 0
+            fix = (f"use a resolution in [8, {largest}]" if largest >= 8 else  # ('[8, 0]' read as a range)
+                   f"no resolution fits this band and refine (their refined cells alone need "
+                   f"{CELL_BYTES * self._children / 2**30:.3g} GiB): use a smaller band or refine")
             raise InvalidInputError(
                 f"resolution={self.resolution} (refine={self.refine}, band={self.band}) needs about "
                 f"{self.memory / 2**30:.2f} GiB for the grid ({self.memory / CELL_BYTES:.2g} cells at {CELL_BYTES} "
-                f"bytes); the limit is {MEMORY_BUDGET / 2**30:g} GiB: use a resolution in [8, {largest}]"
-                + ("" if largest >= 8 else " with a smaller band or refine"))
+                f"bytes); the limit is {MEMORY_BUDGET / 2**30:g} GiB: {fix}")
 
     @classmethod
     def create(cls, config: "GridConfig | None" = None, **options) -> "GridConfig":

@@ -102,7 +102,9 @@ def test_grid_memory_is_bounded():
     with pytest.raises(InvalidInputError, match=r"resolution=1000 \(refine=2, band=16384\) needs about 89\.4\d GiB"
                                                 r".*the limit is 2 GiB: use a resolution in \[8, 281\]"):
         GridConfig(resolution=1000)
-    with pytest.raises(InvalidInputError, match="with a smaller band or refine"):
+    # no resolution fits: it read 'use a resolution in [8, 0] with a smaller band or refine'
+    with pytest.raises(InvalidInputError, match=r"the limit is 2 GiB: no resolution fits this band and refine \(their "
+                                                r"refined cells alone need \d+ GiB\): use a smaller band or refine$"):
         GridConfig(resolution=64, refine=1024, band=10**6)
     with pytest.raises(InvalidInputError, match="resolution=1000"):
         PoseConfig.create(resolution=1000)

@@ -157,6 +157,9 @@ def test_bad_options(kw):
         (dict(mask=np.zeros(M, bool)), "selected by mask needs at least 4"),
         (dict(init_alpha=np.ones(5)), "init_alpha must have shape"),
         (dict(init_alpha=np.full(M, np.nan)), "init_alpha has NaN"),
+        (dict(init_alpha=["a"] * M), "init_alpha must be .* real numbers, got dtype <U1"),  # float()'s ValueError
+        (dict(init_alpha=np.ones(M, complex)), "init_alpha must be .* real numbers"),  # its real part, with a warning
+        (dict(mask=["yes"] * M), "mask must be .* bools, got dtype <U3"),  # NumPy's ValueError
     ],
 )
 def test_fit_svdd_bad_options(kw, fragment):

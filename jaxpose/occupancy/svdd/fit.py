@@ -89,15 +89,21 @@ def fit_svdd(points, gamma, nu, *, mask=None, init_alpha=None, config: SolverCon
     m = points.shape[0] if hasattr(points, "shape") else len(points)
     if mask is not None:
         if tuple(getattr(mask, "shape", (len(mask),))) != (m,):
-            raise _validate.InvalidInputError(f"mask must have shape ({m},), got {tuple(jnp.shape(mask))}")
+            raise _validate.InvalidInputError(f"mask must have shape ({m},), got {tuple(np.shape(mask))}")
+        kind = np.dtype(mask.dtype if hasattr(mask, "dtype") else np.asarray(mask).dtype)  # (a tracer's too)
+        if kind != bool and not _validate.is_real_dtype(kind):  # strings: NumPy's ValueError in the cast to bool
+            raise _validate.InvalidInputError(f"mask must be (m,) bools, got dtype {kind}")
     if not _validate.is_traced(points) and (mask is None or not _validate.is_traced(mask)):
         chosen = points if mask is None else np.asarray(points)[np.asarray(mask, bool)]
         if mask is not None:
             _validate.check_points(chosen, name="points selected by mask")
         check_cast(chosen)
     if init_alpha is not None:
-        if tuple(jnp.shape(init_alpha)) != (m,):
-            raise _validate.InvalidInputError(f"init_alpha must have shape ({m},), got {tuple(jnp.shape(init_alpha))}")
+        if tuple(np.shape(init_alpha)) != (m,):
+            raise _validate.InvalidInputError(f"init_alpha must have shape ({m},), got {tuple(np.shape(init_alpha))}")
+        kind = np.dtype(init_alpha.dtype if hasattr(init_alpha, "dtype") else np.asarray(init_alpha).dtype)  # (a tracer's too)
+        if not _validate.is_real_dtype(kind):  # strings: float()'s ValueError; complex: its real part
+            raise _validate.InvalidInputError(f"init_alpha must be (m,) real numbers, got dtype {kind}")
         if not _validate.is_traced(init_alpha) and not np.all(np.isfinite(np.asarray(init_alpha, np.float64))):
             raise _validate.InvalidInputError("init_alpha has NaN or inf entries")
     points = jnp.asarray(points)

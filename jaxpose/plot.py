@@ -489,7 +489,8 @@ def overlay_pairs(meshes, poses, *, labels=None, colors=("tab:blue", "tab:orange
 
     meshes : sequence of pairs (mesh_a, mesh_b) (or (n, 3) points)
     poses : sequence of pairs (pose_a, pose_b) (Pose or (center, scale)) -> one row; or a dict
-        {row label: sequence of pairs}, e.g. {"OCSVM": ..., "surface centroid": ...} -> one row each
+        {row label: sequence of pairs}, e.g. {"OCSVM": ..., "surface centroid": ...} -> one row each;
+        a Pose with a rotation turns its shape too (R (x - center) / scale, as ``Pose.apply``)
     Consistent normalization makes the two shapes of a pair coincide on their common parts.
     """
     rows = dict(poses) if isinstance(poses, dict) else {None: poses}
@@ -507,7 +508,8 @@ def overlay_pairs(meshes, poses, *, labels=None, colors=("tab:blue", "tab:orange
             for m, pose in zip(pair, pose_pair):
                 c, s = _center_scale(pose)
                 v, f = _vertices_faces(m)
-                normalized.append(((v - c) / s, f))
+                r = getattr(pose, "rotation", None)  # (a Pose's rotation was left out: the shapes drawn unturned)
+                normalized.append(((v - c) / s if r is None else (v - c) / s @ np.asarray(r, np.float64).T, f))
             limits = np.concatenate([v for v, _ in normalized])
             for (v, f), col in zip(normalized, colors):
                 mesh_3d(_Shape(v, f), a, color=col, alpha=0.35, elev=elev, azim=azim, limits=limits)

@@ -123,6 +123,20 @@ def test_bad_arguments_are_refused_by_name(call, message, shape):
         call(shape)
 
 
+def test_overlay_pairs_turns_a_pose_with_a_rotation(monkeypatch, shape):
+    """A Pose's rotation was left out: a pair normalized with rotation=True was drawn unturned."""
+    from jaxpose import Pose
+
+    q, _ = np.linalg.qr(np.random.default_rng(1).normal(size=(3, 3)))
+    r = q * np.sign(np.linalg.det(q))
+    pose = Pose.from_center_scale(np.array([0.1, 0.2, 0.3]), 2.0, rotation=r)
+    drawn = []
+    monkeypatch.setattr(plot, "mesh_3d", lambda s, *a, **k: drawn.append(np.asarray(s.vertices)))
+    plot.overlay_pairs([(shape, shape)], [(pose, ((0.1, 0.2, 0.3), 2.0))])
+    np.testing.assert_allclose(drawn[0], pose.apply(np.asarray(shape.vertices)), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(drawn[1], (np.asarray(shape.vertices) - [0.1, 0.2, 0.3]) / 2.0, rtol=0, atol=1e-12)
+
+
 def test_sweep_curves_refuses_a_metric_or_param_it_has_not(fake_result):
     with pytest.raises(InvalidInputError, match="metric must be 'sigma_tr' or 'sigma_scale', got 'cv_scale'"):
         plot.sweep_curves(fake_result["sweeps"], metric="cv_scale")  # was KeyError 'cv_scale'

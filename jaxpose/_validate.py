@@ -69,8 +69,17 @@ def is_real_dtype(dtype) -> bool:
 def check_array(x, name: str = "x", min_rows: int = 0):
     """Check an (n, 3) array of finite real numbers (n >= min_rows); return it unchanged.
 
-    Tracers are returned as they are (only their shape and dtype are checked).
+    Tracers are returned as they are (only their shape and dtype are checked). A mesh or a path
+    given for the array is named so, with the fix (it read "must have shape (m, 3), got ()").
     """
+    if hasattr(x, "vertices"):  # a Trimesh, PointCloud (its .shape is its vertices') or Surface
+        raise InvalidInputError(f"{name} must have shape (m, 3), an array, got a {type(x).__name__}: pass its vertices "
+                                f"(.vertices), or surface samples (jaxpose.sample_surface(mesh, count)); "
+                                "jaxpose.normalize_mesh takes a mesh itself")
+    if isinstance(x, (str, bytes, os.PathLike)):
+        raise InvalidInputError(f"{name} must have shape (m, 3), an array, got the {type(x).__name__} {str(x)!r:.80}: "
+                                "a file is loaded first (jaxpose.mesh.load, jaxpose.sample_surface(path, count)); "
+                                "jaxpose.normalize_mesh takes a path itself")
     shape = getattr(x, "shape", None)
     if shape is None:
         try:

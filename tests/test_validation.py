@@ -167,6 +167,29 @@ def test_fit_svdd_bad_options(kw, fragment):
         fit_svdd(P, 1.0, 0.5, **kw)
 
 
+def test_a_mesh_or_a_path_given_for_points_is_named_with_the_fix():
+    """normalize(mesh) or normalize("body.ply") read "points must have shape (m, 3), got ()" (a
+    PointCloud "points must be real numbers, got dtype object"), naming neither the mistake nor the fix."""
+    import pathlib
+
+    import trimesh
+
+    from jaxpose.geometry import Surface
+
+    box = trimesh.creation.box()
+    for given, kind in ((box, "a Trimesh"), (trimesh.PointCloud(box.vertices), "a PointCloud"),
+                        (Surface(np.asarray(box.vertices), np.asarray(box.faces)), "a Surface")):
+        for call in (lambda: normalize(given), lambda: jaxpose.normalize_batch([given]),
+                     lambda: fit_svdd(given, 1.0, 0.5)):
+            with pytest.raises(InvalidInputError, match=f"must have shape \\(m, 3\\), an array, got {kind}: pass its vertices "
+                                                        r"\(\.vertices\), or surface samples .*normalize_mesh takes a mesh"):
+                call()
+    for path in ("body.ply", pathlib.Path("body.ply")):
+        with pytest.raises(InvalidInputError, match="must have shape \\(m, 3\\), an array, got the .* 'body.ply': a file is "
+                                                    "loaded first"):
+            normalize(path)
+
+
 def test_decision_function_bad_input():
     svdd = fit_svdd(P, 10.0, 0.5, **FIT)
     for x, fragment in [(np.zeros((4, 2)), "shape"), (np.full((2, 3), np.nan), "NaN"), (np.zeros((2, 3), complex), "real")]:

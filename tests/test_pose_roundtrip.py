@@ -190,6 +190,9 @@ def test_from_center_scale_takes_a_traced_rotation_beside_a_concrete_center():
     (lambda p: p.inverse().apply(np.zeros((2, 5, 3))), r"points must have shape \(n, 3\)"),
     (lambda p: p.apply("abc"), "points must be real numbers"),
     (lambda p: p.apply(None), "points must be real numbers"),
+    # 'points must be real numbers, got <trimesh.Trimesh(vertices.shape=(8, 3), ...)>'
+    (lambda p: p.apply(trimesh.creation.box()), r"points must be an \(n, 3\) array, got a Trimesh: pass its vertices"),
+    (lambda p: p.inverse().apply(trimesh.creation.box()), r"got a Trimesh: pass its vertices \(pose.apply\(mesh.vertices\)\)"),
     (lambda p: p.apply([[0.0, np.nan, 1.0]]), "NaN or inf"),
     (lambda p: Pose.from_center_scale(np.ones((2, 3)), np.ones(2)).apply(np.ones((5, 3))), r"\(2, n, 3\)"),
     (lambda p: Pose.from_center_scale([1.0, 2.0], 1.0), r"center must have shape \(\.\.\., 3\)"),

@@ -163,6 +163,9 @@ def _check_points(x, batch):
     """Points given to :meth:`Pose.apply` of a pose with batch axes ``batch`` (its center's
     leading axes): (n, 3) (or one point (3,)) for one pose, batch + (n, 3) for a batch; concrete
     points finite. Returns ``x`` unchanged."""
+    if hasattr(x, "vertices"):  # a mesh: 'points must be real numbers, got <trimesh.Trimesh(...)>'
+        raise InvalidInputError(f"points must be an (n, 3) array, got a {type(x).__name__}: pass its vertices "
+                                "(pose.apply(mesh.vertices))")
     shape = _shape_of(x, "points")
     ok = shape[-1:] == (3,) and (len(shape) == len(batch) + 2 and shape[:len(batch)] == batch
                                  or not batch and len(shape) == 1)

@@ -119,6 +119,9 @@ def test_center_and_scale_are_chosen_independently():
     assert estimators.resolve("solid", scale="robust_volume") == ("solid_centroid", "robust_volume")
     with pytest.raises(InvalidInputError, match="unknown method"):
         estimators.resolve("median")
+    # evaluate's "name:power" given to the single-method functions: named with its spelling here
+    with pytest.raises(InvalidInputError, match=r"unknown method 'robust:2'; .* here pass method='robust', power=2\)$"):
+        estimators.resolve("robust:2")
     with pytest.raises(InvalidInputError, match="unknown scale"):
         estimators.resolve(scale="height")
     with pytest.raises(InvalidInputError, match="unknown option"):

@@ -71,7 +71,10 @@ def resolve(method=None, center=None, scale=None):
     InvalidInputError naming an unknown name.
     """
     if method is not None and method not in METHODS:
-        raise InvalidInputError(f"unknown method {method!r}; valid: {', '.join(METHODS)}")
+        name, colon, power = str(method).partition(":")
+        hint = (f" (the 'name:power' form is evaluate's; here pass method={name!r}, power={power})"
+                if colon and name in METHODS else "")
+        raise InvalidInputError(f"unknown method {method!r}; valid: {', '.join(METHODS)}{hint}")
     c, s = METHODS[method or DEFAULT_METHOD]
     c, s = center or c, scale or s
     if c not in CENTERS:

@@ -367,6 +367,24 @@ def test_evaluate_with_sweep_flag(fake_normalize, monkeypatch):
     assert result["sweeps"]["gamma"]["values"] == [1.0, 2.0]
 
 
+def test_the_formatters_name_the_result_they_take():
+    """format_table of evaluate_rotation's result (and the reverse) was a KeyError deep in the table
+    ('sigma_tr', 'summary'); each names the formatter the result belongs to."""
+    boxes = {"boxes": _boxes()}
+    centers = evaluate(boxes, methods=["surface_centroid"])
+    frames = evaluation.evaluate_rotation(boxes, methods=["pca_vertices"])
+    assert format_table(centers) and evaluation.format_rotation_table(frames)
+    for fmt in (format_table, format_per_class):
+        with pytest.raises(InvalidInputError, match=r"result must be the dict evaluate\(\) returns: it is "
+                                                    "evaluate_rotation's, formatted by format_rotation_table"):
+            fmt(frames)
+        with pytest.raises(InvalidInputError, match=r"result must be the dict evaluate\(\) returns, got \{\}$"):
+            fmt({})
+    for fmt in (evaluation.format_rotation_table, evaluation.format_rotation_per_class):
+        with pytest.raises(InvalidInputError, match="it is evaluate's, formatted by format_table / format_per_class"):
+            fmt(centers)
+
+
 def test_format_table_per_variant():
     rows = lambda ref: [{"method": "robust", "sigma_tr": 0.0361, "sigma_scale": 0.01425, "cv_scale": 0.1,
                          "seconds": 1.5, "sigma_tr_vs_reference": 0.0361 / 0.0475 - 1},

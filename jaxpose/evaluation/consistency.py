@@ -33,7 +33,7 @@ from .._validate import InvalidInputError, OpenMeshWarning, check_bool, check_ca
 from ..config import OCSVM
 from . import alignment
 from .measures import scale_spread, spread
-from .tables import class_tables
+from .tables import check_result, class_tables
 from .variants import VARIANTS, make_class
 
 __all__ = ["METHODS", "LEGEND", "evaluate", "sweep", "format_table", "format_per_class", "SWEEP_VALUES", "SWEEP_FIXED"]
@@ -360,6 +360,7 @@ def format_table(result) -> str:
     call, and the first call's seconds (compilation included); n/a where a method does not apply.
     The header names gamma, nu and count only when the OCSVM runs (nothing else uses them).
     """
+    check_result(result, "evaluate")
     p = result.get("params", {})
     per_variant = result.get("variants") or {"plain": {"summary": result["summary"], "per_class": result["per_class"]}}
     objects = p.get("objects") or {}
@@ -396,6 +397,7 @@ def format_per_class(result) -> str:
     value of a column (ties included), ``~`` a value within 5 % of it; n/a where a method does not
     apply. An average over classes (:func:`format_table`) can hide a class that loses; this cannot.
     """
+    check_result(result, "evaluate")
     per_variant = result.get("variants") or {"plain": {"summary": result["summary"], "per_class": result["per_class"]}}
 
     def rows(cells, methods):

@@ -23,7 +23,7 @@ import numpy as np
 
 from .._validate import InvalidInputError, JaxposeError, check_bool, check_callback, check_int, check_names, is_real_dtype
 from . import alignment
-from .tables import class_tables
+from .tables import check_result, class_tables
 from .variants import VARIANTS, make_class
 
 __all__ = ["PROPER_FLIPS", "angle", "chordal_mean", "class_angles", "sign_free_angles", "evaluate_rotation",
@@ -237,6 +237,7 @@ def evaluate_rotation(classes, methods=None, variants=("plain",), align_core=Fal
 
 def format_rotation_table(result) -> str:
     """The summaries of :func:`evaluate_rotation` as terminal tables, one per variant (degrees)."""
+    check_result(result, "evaluate_rotation")
     core = result["params"].get("core_weight", "vertices")
     core = f" (core by {core})" if result["params"]["align_core"] and core != "vertices" else ""
     lines = [f"{len(result['params']['classes'])} classes, align_core={result['params']['align_core']}{core}, "
@@ -269,6 +270,8 @@ def format_rotation_per_class(result) -> str:
     unflagged (``>30``; blank for a method without a flag). ``*`` marks the lowest raw mean of a
     column; n/a where a method does not apply.
     """
+    check_result(result, "evaluate_rotation")
+
     def rows(cells, methods):
         lows = {}
         for v, block in cells.items():

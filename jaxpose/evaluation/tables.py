@@ -3,7 +3,30 @@ from __future__ import annotations
 
 from typing import Callable
 
-__all__ = ["class_tables"]
+__all__ = ["class_tables", "check_result"]
+
+_KINDS = {"evaluate": ("sigma_tr", "format_table / format_per_class"),
+          "evaluate_rotation": ("raw_mean", "format_rotation_table / format_rotation_per_class")}
+
+
+def check_result(result, kind: str) -> dict:
+    """``result`` unless it is plainly not a result of ``kind`` (``"evaluate"`` or
+    ``"evaluate_rotation"``): not a dict of ``variants`` (or evaluate's ``summary``), or the other
+    function's result, told by its summary rows' keys; InvalidInputError naming the formatter it
+    belongs to (either was a KeyError deep in the table)."""
+    from .._validate import InvalidInputError
+
+    blocks = result.get("variants") or ({"plain": result} if "summary" in result else None) \
+        if isinstance(result, dict) else None
+    if not isinstance(blocks, dict) or not blocks:
+        raise InvalidInputError(f"result must be the dict {kind}() returns, got {result!r:.80}")
+    first = next(iter(blocks.values()))
+    row = next(iter(first.get("summary", ())), None) if isinstance(first, dict) else None
+    other = next((k for k, (key, _) in _KINDS.items() if k != kind), None)
+    if isinstance(row, dict) and _KINDS[other][0] in row and _KINDS[kind][0] not in row:
+        raise InvalidInputError(f"result must be the dict {kind}() returns: it is {other}'s, formatted by "
+                                f"{_KINDS[other][1]}")
+    return result
 
 
 def class_tables(per_variant: dict, objects: dict, head: str, variant_width: int,

@@ -73,6 +73,13 @@ def _finish(fig, path, dpi=90):
     return fig
 
 
+def _check_result(result, kind):
+    """:func:`jaxpose.evaluation.tables.check_result` (imported when a figure is drawn)."""
+    from .evaluation.tables import check_result
+
+    return check_result(result, kind)
+
+
 def _check_plane(plane, name="plane"):
     """One of the planes "xy", "xz", "yz" (InvalidInputError naming ``name`` otherwise)."""
     if not isinstance(plane, str) or plane not in _PLANES:
@@ -389,6 +396,7 @@ def scale_bars(result, *, metric="sigma_scale", methods=("ocsvm", "surface_centr
     surface's mean distance, two scales of the same kind) for ``methods`` of an
     :func:`jaxpose.evaluation.evaluate` result, the average over classes last; the legend beside
     the axes, the units on the y axis."""
+    _check_result(result, "evaluate")
     per_class = result["per_class"]
     classes = list(per_class)
     methods = [m for m in methods if all(metric in per_class[c].get(m, {}) for c in classes)]
@@ -415,6 +423,7 @@ def class_bars(result, variant=None, *, path=None):
     their average, one colour per method, for one input variant (default the first) of an
     :func:`jaxpose.evaluation.evaluate` result. Methods that do not apply to the variant are left
     out (named in the title)."""
+    _check_result(result, "evaluate")
     blocks = result.get("variants") or {"plain": {"summary": result["summary"], "per_class": result["per_class"]}}
     variant = variant or next(iter(blocks))
     per_class = blocks[variant]["per_class"]
@@ -445,6 +454,7 @@ def variant_bars(result, *, metric="sigma_tr", ax=None, path=None):
     """Bars of ``metric`` per input variant and method of an :func:`jaxpose.evaluation.evaluate`
     result (averages over classes; methods that do not apply to a variant are left out); one
     colour per method, the legend beside the axes, the units on the y axis."""
+    _check_result(result, "evaluate")
     variants = result["variants"]
     methods = list(result["params"]["methods"])
     fig, axes = _figure(ax, size=(min(14.0, 1.6 * len(variants) + 4.0), 3.4))
@@ -466,6 +476,7 @@ def variants_figure(result, *, path=None):
     """How each method holds up across input variants: σ_tr (top) and cv_scale (bottom),
     averaged over classes, one colour per method; a method that does not apply to a variant has
     no bar there."""
+    _check_result(result, "evaluate")
     variants = result["variants"]
     methods = list(result["params"]["methods"])
     fig, axes = _figure(None, 2, 1, size=(min(14.0, 1.6 * len(variants) + 6.0), 2.8))
@@ -541,6 +552,7 @@ def evaluation_figures(result, out_dir) -> list:
 
     Returns the list of written paths.
     """
+    _check_result(result, "evaluate")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     blocks = result.get("variants") or {"plain": {"summary": result["summary"], "per_class": result["per_class"]}}
@@ -574,6 +586,7 @@ def rotation_angles(result, variant=None, *, ax=None, path=None):
     (degrees), one column per rotation method, from an :func:`jaxpose.evaluation.evaluate_rotation`
     result; each class its own colour and marker, raw angles filled (left), sign-free hollow
     (right), flagged frames ringed in red; 30 degrees dashed."""
+    _check_result(result, "evaluate_rotation")
     variant = variant or next(iter(result["variants"]))
     block = result["variants"][variant]
     methods = [row["method"] for row in block["summary"]]
@@ -635,6 +648,7 @@ def rotation_overlay(meshes, poses, *, max_points=3000, ax=None, path=None, titl
 def rotation_figures(result, out_dir) -> list:
     """Write ``rotation_angles_<variant>.png`` for every variant of an
     :func:`jaxpose.evaluation.evaluate_rotation` result into ``out_dir``; returns the paths."""
+    _check_result(result, "evaluate_rotation")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     written = []

@@ -137,6 +137,19 @@ def test_overlay_pairs_turns_a_pose_with_a_rotation(monkeypatch, shape):
     np.testing.assert_allclose(drawn[1], (np.asarray(shape.vertices) - [0.1, 0.2, 0.3]) / 2.0, rtol=0, atol=1e-12)
 
 
+def test_figures_of_a_result_name_the_result_they_take(tmp_path, fake_result):
+    """An evaluate result given to the rotation figures (and an evaluate_rotation result to the
+    others) was a KeyError deep in the figure ('raw', 'per_class'); each names where it belongs."""
+    rotation_result = {"params": {}, "variants": {"plain": {"summary": [{"method": "core", "raw_mean": 1.0}],
+                                                            "per_class": {}}}}
+    for draw in (plot.scale_bars, plot.class_bars, lambda r: plot.evaluation_figures(r, tmp_path)):
+        with pytest.raises(InvalidInputError, match="it is evaluate_rotation's, formatted by format_rotation_table"):
+            draw(rotation_result)
+    for draw in (plot.rotation_angles, lambda r: plot.rotation_figures(r, tmp_path)):
+        with pytest.raises(InvalidInputError, match=r"result must be the dict evaluate_rotation\(\) returns: it is evaluate's"):
+            draw(fake_result)
+
+
 def test_sweep_curves_refuses_a_metric_or_param_it_has_not(fake_result):
     with pytest.raises(InvalidInputError, match="metric must be 'sigma_tr' or 'sigma_scale', got 'cv_scale'"):
         plot.sweep_curves(fake_result["sweeps"], metric="cv_scale")  # was KeyError 'cv_scale'

@@ -321,6 +321,10 @@ def test_pose_rejects_bad_options(shape_points):
     for bad in (dict(gamma_delta=0.5), dict(secant_iterations=0), dict(derivative="fd")):
         with pytest.raises(jaxpose.InvalidInputError, match=next(iter(bad))):
             pose(shape_points, 47.0, 0.5, **bad)
+    # a method was normalize's TypeError "got multiple values for keyword argument 'method'"
+    for call in (pose, pose_sensitivity):
+        with pytest.raises(jaxpose.InvalidInputError, match="method='robust': the pose in gamma and nu is the OCSVM's"):
+            call(shape_points, 47.0, 0.5, method="robust")
 
 
 def test_float32_gradients_are_finite(small_points):

@@ -26,8 +26,13 @@ def pose(points, gamma=OCSVM.gamma, nu=OCSVM.nu, **options) -> Pose:
     Args:
       points: (m, 3); gamma, nu: () (traceable); options: as ``normalize``, including
         ``derivative`` ("trend", "exact", "secant"), ``gamma_delta`` and ``nu_delta`` (relative
-        half-widths of the intervals) and ``secant_iterations``.
+        half-widths of the intervals) and ``secant_iterations``; not ``method`` (the pose in gamma
+        and nu is the OCSVM's: InvalidInputError).
     """
+    if "method" in options:  # normalize's TypeError 'got multiple values for keyword argument 'method''
+        raise _validate.InvalidInputError(
+            f"method={options['method']!r}: the pose in gamma and nu is the OCSVM's (method='ocsvm'); the robust "
+            "pose's derivative in its power is jax.grad of jaxpose.normalize(points, power=...)")
     return normalize(points, method="ocsvm", gamma=gamma, nu=nu, **options)
 
 

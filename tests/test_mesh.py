@@ -53,6 +53,28 @@ def test_scene_is_concatenated(tmp_path):
         assert loaded.bounds[1, 0] == pytest.approx(4.0)
 
 
+def test_a_gltf_reads_its_buffer_files_from_its_folder(tmp_path):
+    """A .gltf beside its .bin buffers (trimesh's and most tools' layout): read from the path's
+    folder, the same mesh as the buffers embedded; a buffer file missing is named."""
+    shape = lumpy()
+    files = trimesh.Scene(shape).export(file_type="gltf")
+    assert any(name.endswith(".bin") for name in files)  # buffers as files of their own
+    for name, data in files.items():
+        (tmp_path / name).write_bytes(data)
+    embedded = tmp_path / "embedded" / "model.gltf"
+    embedded.parent.mkdir()
+    embedded.write_bytes(trimesh.exchange.gltf.export_gltf(trimesh.Scene(shape), embed_buffers=True)["model.gltf"])
+    loaded = mesh.load(tmp_path / "model.gltf")
+    np.testing.assert_array_equal(loaded.vertices, mesh.load(embedded).vertices)
+    np.testing.assert_array_equal(loaded.faces, mesh.load(embedded).faces)
+    alone = tmp_path / "alone" / "model.gltf"
+    alone.parent.mkdir()
+    alone.write_bytes(files["model.gltf"])
+    with pytest.raises(InvalidInputError, match=r"model.gltf: cannot read GLTF file: it refers to gltf_buffer_0.bin, "
+                                                r"which is not in its folder .*alone"):
+        mesh.load(alone)
+
+
 def test_faceless_geometry_is_a_point_cloud(tmp_path):
     points = np.random.default_rng(0).normal(size=(50, 3))
     path = tmp_path / "cloud.ply"

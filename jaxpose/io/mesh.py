@@ -294,8 +294,14 @@ def _read(path):
         except InvalidInputError as exc:
             raise InvalidInputError(f"{path}: {exc}") from None
     trimesh = _trimesh()
+    # a .gltf names its buffers (and images) as files beside it: read them from its folder (the
+    # bytes alone leave trimesh nothing to read them with: "'NoneType' object is not subscriptable")
+    resolver = trimesh.resolvers.FilePathResolver(str(path)) if ext == "gltf" else None
     try:
-        geometry = trimesh.load(io.BytesIO(data), file_type=ext, process=False)
+        geometry = trimesh.load(io.BytesIO(data), file_type=ext, process=False, resolver=resolver)
+    except FileNotFoundError as exc:  # only the resolver opens files: one the .gltf refers to is missing
+        raise InvalidInputError(f"{path}: cannot read {ext.upper()} file: it refers to {exc}, which is not in its "
+                                f"folder {path.parent} (a .gltf's buffers are files beside it; a .glb holds them)") from None
     except Exception as exc:  # every reader has its own errors for corrupt files
         if ext == "obj" and isinstance(exc, IndexError):  # a face beyond the vertices: the fast reader's words
             try:

@@ -112,7 +112,24 @@ def test_glob_and_format(tmp_path, tree):
     assert isinstance(mesh.load(tmp_path / "out" / "a" / "b" / "box.ply"), trimesh.Trimesh)
     cloud = run([root / "cloud.ply"], tmp_path / "stl", file_format="stl").rows[0]
     assert cloud.status == "failed" and "point cloud cannot be written as STL" in cloud.error
+    assert "output format stl (--format / file_type): a point cloud" in cloud.error  # not a made-up 'output.stl'
+    assert "output.stl" not in cloud.error
     assert not (tmp_path / "stl" / "cloud.stl").exists()
+
+
+def test_inputs_of_a_format_jaxpose_does_not_write_need_an_output_format(tmp_path, tree):
+    """A .gltf kept in its own format (no file_format): refused before any work, naming --format
+    (each was read and normalized, then failed 'output.gltf: cannot write '.gltf' files')."""
+    root = tmp_path / "scans"
+    shape = trimesh.load(root / "sphere.off", process=False)
+    (root / "model.gltf").write_bytes(
+        trimesh.exchange.gltf.export_gltf(trimesh.Scene(shape), embed_buffers=True)["model.gltf"])
+    with pytest.raises(UsageError, match=r"model.gltf is in a format jaxpose reads but does not write \(.gltf\): "
+                                         r"give an output format, --format / file_format"):
+        run([root], tmp_path / "out")
+    assert not (tmp_path / "out").exists()  # refused before the folder was made
+    rows = run([root / "model.gltf"], tmp_path / "glb", file_format="glb").rows
+    assert [r.status for r in rows] == ["ok"] and (tmp_path / "glb" / "model.glb").is_file()
 
 
 def test_glob_ignores_case_as_the_suffix_filter_does(tmp_path, tree):

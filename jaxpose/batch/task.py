@@ -228,7 +228,7 @@ def normalize_file(source, options=None, file_type=None, check="mtime") -> FileR
                 _check_unchanged(source, before)
         record.update(kind="mesh" if hasattr(geometry, "faces") else "points",
                       vertices=len(geometry.vertices), faces=len(getattr(geometry, "faces", ())))
-        ext = mesh.output_format(f"output.{file_type or Path(str(source)).suffix.lstrip('.')}", geometry)
+        ext = _output_format(mesh, file_type, source, geometry)
         normalized, pose = mesh.normalize_mesh(geometry, **options.mesh_arguments())
         record.update(_pose_columns(pose, mesh.pose_matrix(pose)))
         data = mesh.encode(normalized, ext)
@@ -240,6 +240,23 @@ def normalize_file(source, options=None, file_type=None, check="mtime") -> FileR
     record.update(seconds=time.perf_counter() - start, worker=f"{socket.gethostname()}:{os.getpid()}",
                   worker_peak_mb=_peak_mb(), version=__version__)
     return FileResult(record, data)
+
+
+def _output_format(mesh, file_type, source, geometry):
+    """:func:`jaxpose.mesh.output_format` of the output format (`file_type`, else the source's
+    suffix) for `geometry`; its refusal names that format and where it came from, not a file name
+    (the output's path is the caller's)."""
+    from .._validate import InvalidInputError
+
+    own = file_type is None
+    kind = (Path(str(source)).suffix.lstrip(".") if own else file_type).lower()
+    placeholder = f"output.{kind}"
+    try:
+        return mesh.output_format(placeholder, geometry)
+    except InvalidInputError as exc:
+        whose = "the input's own, kept without --format" if own else "--format / file_type"
+        raise InvalidInputError(str(exc).replace(f"{placeholder}: ", f"output format {kind or '(none)'} ({whose}): ", 1)
+                                ) from None
 
 
 def _load_remote(url, check, record):

@@ -163,6 +163,22 @@ def test_load_folder_errors(tmp_path):
         load_folder(tmp_path)
 
 
+def test_load_folder_reads_past_a_byte_order_mark(tmp_path):
+    """An OBJ that starts with a UTF-8 byte-order mark is the OBJ without it, through the fast reader
+    and through trimesh (a material line: the fast reader declines); it lost its first vertex, every
+    face then one vertex off (here: 'index 4 is out of bounds')."""
+    tetra = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"
+    (tmp_path / "a").mkdir()
+    for name, text in (("fast.obj", tetra), ("material.obj", tetra.replace("f 1 3 2", "usemtl skin\nf 1 3 2", 1))):
+        (tmp_path / "a" / name).write_bytes(b"\xef\xbb\xbf" + text.encode())
+        (tmp_path / name).write_text(text)
+    loaded = load_folder(tmp_path / "a")["a"]
+    for mesh, name in zip(loaded, ("fast.obj", "material.obj")):
+        plain = trimesh.load(tmp_path / name, force="mesh", process=False)
+        np.testing.assert_array_equal(mesh.vertices, plain.vertices)
+        np.testing.assert_array_equal(mesh.faces, plain.faces)
+
+
 @pytest.mark.shared
 @pytest.mark.skipif(SHARED is None, reason="needs ../shared/data/faust-dev")
 def test_load_folder_faust_classes(tmp_path):

@@ -299,6 +299,31 @@ def test_text_files_in_any_encoding_load(tmp_path):
     assert formats.sniff_format(stl.encode()) == "stl" and formats.sniff_format(b"ply\n") == "ply"
 
 
+def test_a_byte_order_mark_is_not_part_of_the_first_line(tmp_path):
+    """Text files that start with a byte-order mark (Windows editors, .NET writers; UTF-16 from
+    Windows PowerShell) read as without it. An OBJ lost its first vertex to trimesh's and the fast
+    reader's first line, every face then one vertex off: silently another mesh where the last vertex
+    is unused ("TETRA + v 0 0 -1"), else an error about a vertex the file has; an XYZ failed
+    ("could not convert string to float: '\ufeff0'")."""
+    bom = b"\xef\xbb\xbf"
+    spare = TETRA.replace("f 1 3 2", "v 0 0 -1\nf 1 3 2", 1)  # a fifth vertex no face uses
+    cloud = "".join(f"{x} {y} {z}\n" for x, y, z in np.random.default_rng(0).normal(size=(40, 3)))
+    for name, text in (("tetra.obj", TETRA), ("spare.obj", spare), ("cloud.xyz", cloud),
+                       ("sphere.off", trimesh.creation.icosphere(subdivisions=1).export(file_type="off"))):
+        (tmp_path / name).write_text(text)
+        reference = mesh.load(tmp_path / name)
+        for encoded in (bom + text.encode(), text.encode("utf-16"), text.encode("utf-16-be").join([b"\xfe\xff", b""])):
+            (tmp_path / f"marked_{name}").write_bytes(encoded)
+            loaded = mesh.load(tmp_path / f"marked_{name}")
+            np.testing.assert_array_equal(loaded.vertices, reference.vertices)
+            if hasattr(reference, "faces"):
+                np.testing.assert_array_equal(loaded.faces, reference.faces)
+    off = trimesh.creation.icosphere(subdivisions=1).export(file_type="off")
+    (tmp_path / "off_as.obj").write_bytes(bom + off.encode())
+    with pytest.raises(InvalidInputError, match="the content is OFF, not OBJ"):  # sniffed past the mark
+        mesh.load(tmp_path / "off_as.obj")
+
+
 def test_content_that_does_not_match_its_suffix_is_named(tmp_path):
     sphere = trimesh.creation.icosphere(subdivisions=1)
     cases = {

@@ -1,13 +1,14 @@
 """Load a folder of classes: ``root/<class>/<mesh files>``, or a flat folder as one class."""
 from __future__ import annotations
 
+import io
 import os
 from pathlib import Path
 
 import trimesh
 
 from jaxpose._validate import InvalidInputError
-from jaxpose.io import readers
+from jaxpose.io import formats, readers
 
 __all__ = ["load_folder", "MESH_SUFFIXES"]
 
@@ -25,13 +26,31 @@ def _load(path: Path) -> trimesh.Trimesh:
         mesh.metadata.setdefault("file_name", path.name)
         return mesh
     try:
-        mesh = trimesh.load(path, force="mesh", process=False)
+        text = _text_after_bom(path)
+        if text is not None:  # trimesh reads the mark as part of the first line (an OBJ's first vertex lost)
+            mesh = trimesh.load(io.BytesIO(text), file_type=path.suffix.lower()[1:], force="mesh", process=False,
+                                resolver=trimesh.resolvers.FilePathResolver(str(path)))
+        else:
+            mesh = trimesh.load(path, force="mesh", process=False)
     except Exception as exc:  # trimesh raises many types on bad files
         raise InvalidInputError(f"cannot read mesh {path}: {exc}") from None
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
         raise InvalidInputError(f"{path} holds no triangle mesh")
     mesh.metadata.setdefault("file_name", path.name)
     return mesh
+
+
+def _text_after_bom(path: Path):
+    """The bytes after the UTF-8 byte-order mark that starts a text mesh file (OBJ, OFF, an ASCII
+    STL), or None (no mark, another format)."""
+    if path.suffix.lower() not in (".obj", ".off", ".stl"):
+        return None
+    with open(path, "rb") as handle:
+        head = handle.read(3)
+    if formats.without_bom(head) == head:
+        return None
+    data = path.read_bytes()
+    return None if formats.binary_stl(data) else formats.without_bom(data)
 
 
 def _read_fast(path: Path):
@@ -42,7 +61,10 @@ def _read_fast(path: Path):
     if ext not in readers.READERS:
         return None
     try:
-        loaded = readers.read(path.read_bytes(), ext)
+        data = path.read_bytes()
+        if ext in ("obj", "off") or (ext == "stl" and not formats.binary_stl(data)):  # text: no byte-order mark
+            data = formats.without_bom(data)
+        loaded = readers.read(data, ext)
     except (readers.Unsupported, OSError):
         return None
     except InvalidInputError as exc:  # broken where trimesh would read part of it

@@ -8,23 +8,36 @@ from __future__ import annotations
 
 from .._validate import InvalidInputError
 
-__all__ = ["TEXT_FORMATS", "sniff_format", "binary_stl", "binary_stl_mismatch", "as_text"]
+__all__ = ["TEXT_FORMATS", "sniff_format", "binary_stl", "binary_stl_mismatch", "as_text", "without_bom"]
 
 TEXT_FORMATS = ("obj", "off", "xyz")  # text formats: decoded here (UTF-8, else Latin-1), any encoding reads
+_BOM = b"\xef\xbb\xbf"  # UTF-8's byte-order mark (Windows editors and .NET writers put it first)
+_BOMS_16 = (b"\xff\xfe", b"\xfe\xff")  # UTF-16's, little- and big-endian (Windows PowerShell's text files)
+
+
+def without_bom(data: bytes) -> bytes:
+    """`data` without a leading UTF-8 byte-order mark (trimesh reads one as part of the first line:
+    an OBJ lost its first vertex, every face then one vertex off; an XYZ's first number failed)."""
+    return data[len(_BOM):] if data.startswith(_BOM) else data
+
+
 _OFF_HEADERS = (b"OFF", b"COFF", b"NOFF", b"CNOFF", b"STOFF", b"4OFF")
 
 
 def sniff_format(data: bytes):
     """The format a file's first bytes announce, or None: ``ply`` (``ply`` magic), ``glb``
     (``glTF``), ``stl`` (binary: 84 + 50 n bytes for the n triangles of its header; ASCII:
-    ``solid``), ``off`` (an OFF header)."""
+    ``solid``), ``off`` (an OFF header); text after a UTF-8 byte-order mark too."""
     if data.startswith(b"ply"):
         return "ply"
     if data.startswith(b"glTF"):
         return "glb"
     if binary_stl(data):
         return "stl"
-    first = data.lstrip()[:16].split()
+    text = without_bom(data)
+    if text.startswith(b"ply"):
+        return "ply"
+    first = text.lstrip()[:16].split()
     if first and first[0].lower() == b"solid":
         return "stl"
     if first and first[0] in _OFF_HEADERS:
@@ -57,18 +70,25 @@ def binary_stl_mismatch(data: bytes):
 
 
 def as_text(data: bytes, name: str, ext: str) -> bytes:
-    """A text file's bytes as UTF-8.
+    """A text file's bytes as UTF-8, without a byte-order mark.
 
     Args:
       data: the file's bytes; name: how messages call the file; ext: its format (for messages).
 
     Returns:
-      ``data`` when it is UTF-8; else its Latin-1 reading re-encoded as UTF-8 (every byte is a
-      character in Latin-1, and mesh data itself is ASCII: only comments and names change).
+      ``data`` when it is UTF-8 (a leading byte-order mark dropped); UTF-16 text that starts with
+      its byte-order mark re-encoded as UTF-8; else its Latin-1 reading re-encoded as UTF-8 (every
+      byte is a character in Latin-1, and mesh data itself is ASCII: only comments and names change).
 
     Raises:
-      InvalidInputError: NUL bytes (binary data, not text).
+      InvalidInputError: NUL bytes (binary data, not text), UTF-16 that does not decode.
     """
+    data = without_bom(data)
+    if data.startswith(_BOMS_16):
+        try:
+            return data.decode("utf-16").encode("utf-8")
+        except UnicodeDecodeError:
+            raise InvalidInputError(f"{name}: not text: it starts as UTF-16 but does not decode as UTF-16") from None
     if b"\x00" in data:
         raise InvalidInputError(f"{name}: binary data, not a text {ext.upper()} file (does the extension match the content?)")
     try:

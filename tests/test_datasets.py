@@ -161,6 +161,17 @@ def test_load_folder_errors(tmp_path):
     (tmp_path / "a" / "broken.ply").write_text("this is not a ply file")
     with pytest.raises(InvalidInputError):
         load_folder(tmp_path)
+    (tmp_path / "a" / "broken.ply").unlink()
+    tetra = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"
+    for name, text in (("fine.obj", tetra), ("nan.obj", tetra.replace("v 1 0 0", "v 1 nan 0")),
+                       ("inf_material.obj", tetra.replace("v 1 0 0", "v 1 inf 0\nusemtl skin"))):  # fast, trimesh
+        (tmp_path / "a" / name).write_text(text)
+        # named by the loader: the evaluation's own check named no file ('vertices has 1 rows with NaN ...')
+        match = rf"cannot read mesh .*{name}: 1 of its 4 vertices have NaN or inf coordinates"
+        if name != "fine.obj":
+            with pytest.raises(InvalidInputError, match=match):
+                load_folder(tmp_path)
+            (tmp_path / "a" / name).unlink()
 
 
 def test_load_folder_reads_past_a_byte_order_mark(tmp_path):

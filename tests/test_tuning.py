@@ -152,7 +152,15 @@ def test_cli_tune_bad_numbers_are_usage_errors(capsys):
     for argv, fragment in ((["--lr", "nan"], "lr must be"), (["--holdout", "-0.5"], "holdout must be"),
                            (["--scale-weight", "nan"], "scale_weight must be"), (["--steps", "-1"], "steps must be"),
                            (["--instances", "1"], "--instances must be >= 2"),  # were exit 1 after loading classes
-                           (["--classes", ","], "--classes names no class")):
+                           (["--classes", ","], "--classes names no class"),
+                           # these were exit 1 after loading every class
+                           (["--variants", "plain,bogus"], "unknown variants ['bogus']"),
+                           (["--variants", ","], "unknown variants []"),
+                           (["--classes", "human,nope"], "unknown class 'nope'"),
+                           (["--resolution", "4"], "resolution must be >= 8"),
+                           (["--refine", "3"], "refine must be a power of 2"),
+                           (["--tol", "-1"], "tol must be finite and > 0"),
+                           (["--method", "robust", "--resolution", "4"], "resolution must be >= 8")):
         assert tuning_cli.run(argv) == 2, argv
         err = capsys.readouterr().err
         assert fragment in err and "loading classes" not in err, err
@@ -229,7 +237,7 @@ def test_cli_tune_usage_and_errors(tmp_path, capsys):
     assert tuning_cli.run(["--steps", "x"]) == 2
     assert tuning_cli.run(["--data", str(tmp_path / "missing"), "--steps", "0"]) == 1
     assert tuning_cli.run(["--solver", "newton"]) == 2
-    assert tuning_cli.run(["--variants", "plain,bogus", "--steps", "0"]) == 1
+    assert tuning_cli.run(["--variants", "plain,bogus", "--steps", "0"]) == 2  # a usage error, before loading
     # an existing --json is refused before any work (bench and evaluate do the same), kept intact: a usage
     # error (exit 2), as every output path that cannot be used
     out = tmp_path / "r.json"

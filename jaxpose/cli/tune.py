@@ -138,12 +138,13 @@ def _run(args) -> int:
                       args.holdout if args.holdout is not None else 0.0, args.seed, args.count,
                       **{k: v for k, v in options.items() if k in ("gamma0", "nu0", "power0")})
         check_dataset_choice(args.instances, args.classes)
+        variants = tuple(v.strip() for v in args.variants.split(",") if v.strip())
+        names = args.classes.split(",") if args.classes else None
+        _check_choices(args, options, variants, names)
     except InvalidInputError as exc:  # a usage error: before any work
         print(f"jaxpose tune: error: {exc}", file=sys.stderr)
         return 2
     try:
-        variants = tuple(v.strip() for v in args.variants.split(",") if v.strip())
-        names = args.classes.split(",") if args.classes else None
         say("loading classes ...")
         classes = load_classes(args.data, names, args.align_core, variants, args.seed, args.instances)
         held = (load_classes(args.holdout_data, None, args.align_core, variants, args.seed)
@@ -218,6 +219,23 @@ def _reason(classes, names, args, options):
     except Exception:  # a diagnosis only: the failure is reported without it
         return None
     return f"{names[0]}: {Status(status).message}" if status else None
+def _check_choices(args, options, variants, names):
+    """What the run would refuse only after loading the classes, refused before (InvalidInputError,
+    a usage error): the variants, the built-in dataset's class names, the grid and solver options
+    (``--resolution``, ``--refine``, ``--band``, ``--tol``; the robust method's ``--resolution``)."""
+    from ..config import PoseConfig, RobustConfig
+    from ..evaluation.variants import VARIANTS
+
+    unknown = [v for v in variants if v not in VARIANTS]
+    if unknown or not variants:
+        raise InvalidInputError(f"unknown variants {unknown}; valid: {', '.join(VARIANTS)}")
+    if args.data is None and names:
+        from ..datasets.procedural import _check_class
+
+        for name in names:
+            _check_class(name)
+    grid = {k: v for k, v in options.items() if k not in ("gamma0", "nu0", "power0")}
+    (RobustConfig if args.method == "robust" else PoseConfig).create(**grid)
 
 
 # the command's own defaults for tuning (a coarse OCSVM grid); the parameters' defaults are config's

@@ -231,6 +231,13 @@ def test_evaluate_wiring(tmp_path, capsys, fake_evaluation):
     assert cli.main(["evaluate", "--core-weight", "area"]) == 2  # it says how --align-core chooses; alone it is refused
     err = capsys.readouterr().err
     assert "add --align-core" in err and "Traceback" not in err, err
+    for bad, unknown in (("bogus", "['bogus']"), ("core,Head", "['Head']"), (",", "[]")):
+        # a usage error before the dataset is made (exit 1 from the evaluation, after making it)
+        fake_evaluation.clear()
+        assert cli.main(["evaluate", "--rotation", bad]) == 2
+        err = capsys.readouterr().err
+        assert f"--rotation: unknown rotation methods {unknown}; valid: all, core, head" in err, err
+        assert "classes" not in fake_evaluation
 
 
 def test_evaluate_plots(tmp_path, capsys, fake_evaluation, monkeypatch):

@@ -62,6 +62,9 @@ def _evaluate_usage(args):
     _check_variants(variants)
     if args.rotation:
         rotations = ROTATIONS if args.rotation == "all" else [m for m in args.rotation.split(",") if m]
+        unknown = [m for m in rotations if m not in ROTATIONS]
+        if unknown or not rotations:  # the evaluation's own check, before the dataset is made or read
+            raise _Usage(f"--rotation: unknown rotation methods {unknown}; valid: all, {', '.join(ROTATIONS)}")
         uses_ocsvm = "ocsvm" in rotations
     else:
         names = [str(m).partition(":")[0] for m in _check_methods(methods)]

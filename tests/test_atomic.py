@@ -61,3 +61,41 @@ def test_check_folder_writable(tmp_path):
                 check_folder_writable(tmp_path)
         finally:
             os.chmod(tmp_path, 0o700)
+
+
+def test_what_is_not_a_regular_file_is_never_replaced(tmp_path):
+    """A FIFO, a device and a link to an open file descriptor (/dev/stdout -> /proc/self/fd/1,
+    whatever that is: a pipe, a terminal, a redirected file) are refused, force or not, and left as
+    they are; the rename replaced them with a file (as root, --transform /dev/stdout --force
+    replaced the system's /dev/stdout link). A regular file and a link to one are written as before."""
+    from jaxpose import cli
+    from jaxpose.io.atomic import check_output_file
+
+    fifo = tmp_path / "fifo.json"
+    os.mkfifo(fifo)
+    device = tmp_path / "null.json"
+    os.symlink(os.devnull, device)
+    with open(tmp_path / "stream", "wb") as stream:  # a redirected stdout: a regular file behind the link
+        fd_link = tmp_path / "stdout.json"
+        os.symlink(f"/proc/self/fd/{stream.fileno()}", fd_link)
+        for path, kind in ((fifo, "a FIFO"), (device, "a character device"),
+                           (fd_link, r"a link to an open file descriptor \(a standard stream\)")):
+            with pytest.raises(InvalidInputError, match=rf"{path} is {kind}, not a file: .* name a regular file"):
+                write_atomic(path, b"{}", force=True)
+            with pytest.raises(InvalidInputError, match=rf"--json {path} is {kind}"):
+                check_output_file(path, force=True)
+            source = tmp_path / "tetra.off"
+            source.write_text("OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n")
+            assert cli.main(["normalize", str(source), "--method", "vertex_mean", "-o", str(tmp_path / "o.ply"),
+                             "--transform", str(path), "--force"]) == 2  # before any work
+            assert not (tmp_path / "o.ply").exists()
+    assert (tmp_path / "stream").read_bytes() == b""
+    assert os.path.islink(fd_link) and os.path.islink(device) and os.stat(fifo).st_mode & 0o170000 == 0o010000
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["fifo.json", "null.json", "stdout.json", "stream",
+                                                           "tetra.off"]  # no temporary left
+    target = tmp_path / "target.json"
+    target.write_text("old")
+    link = tmp_path / "link.json"
+    os.symlink(target, link)
+    write_atomic(link, b"new", force=True)  # a link to a regular file: replaced, as before
+    assert link.read_bytes() == b"new"

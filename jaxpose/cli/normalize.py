@@ -221,7 +221,7 @@ def _normalize_one(args, options, source, fail):
 def _check_outputs(source, output, json_path, force):
     """Refuse, before any work: unknown output formats, aliasing files, unusable folders, existing files
     (UsageError: exit 2)."""
-    from ..io.atomic import check_folder_writable
+    from ..io.atomic import _check_replaceable, check_folder_writable
     from ..errors import InvalidInputError, UsageError
     from ..mesh import output_format
 
@@ -242,6 +242,7 @@ def _check_outputs(source, output, json_path, force):
         if folder.exists() and not folder.is_dir():
             raise UsageError(f"{what} {path}: {folder} is a file, not a folder")
         check_folder_writable(folder, what=f"{what} {path}: the")
+        _check_replaceable(path, what)
         if path.exists() and not force:
             raise UsageError(f"{path} exists (use --force to overwrite)")
 

@@ -98,6 +98,53 @@ def check_folder_writable(folder, what="output") -> Path:
     return folder
 
 
+def _not_a_file(path):
+    """Why an existing `path` (its link followed) cannot be replaced by a written file: "a FIFO",
+    "a character device" (a terminal), "a link to an open file descriptor" (``/dev/stdout``,
+    ``/dev/fd/1``, ``/proc/self/fd/1``, whatever they point to), ...; None for a regular file or a
+    missing one. Replacing it would put a file where the device, FIFO or socket was, or where the
+    link was: ``--transform /dev/stdout --force`` as root replaced the system's /dev/stdout."""
+    import stat
+
+    if _fd_link(path):
+        return "a link to an open file descriptor (a standard stream)"
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return None
+    if stat.S_ISREG(mode) or stat.S_ISDIR(mode):  # a folder: the callers' own refusals name it
+        return None
+    for test, kind in ((stat.S_ISFIFO, "a FIFO"), (stat.S_ISCHR, "a character device"),
+                       (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket")):
+        if test(mode):
+            return kind
+    return "not a regular file"
+
+
+def _fd_link(path) -> bool:
+    """Whether `path` is, or passes through links to, a link in ``/proc`` or ``/dev/fd`` (a
+    process's file descriptors: ``/dev/stdout`` -> ``/proc/self/fd/1``)."""
+    current = os.path.abspath(path)
+    for _ in range(40):  # the kernel's own limit on links followed
+        if current.startswith(("/proc/", "/dev/fd/")):
+            return True
+        if not os.path.islink(current):
+            return False
+        try:
+            target = os.readlink(current)
+        except OSError:
+            return False
+        current = os.path.normpath(os.path.join(os.path.dirname(current), target))
+    return False
+
+
+def _check_replaceable(path, what=""):
+    kind = _not_a_file(path)
+    if kind is not None:
+        raise UsageError(f"{what}{' ' if what else ''}{path} is {kind}, not a file: jaxpose writes whole files (a "
+                         "temporary, then renamed over the name), which would replace it; name a regular file")
+
+
 def write_atomic(path, data, force=False) -> Path:
     """Write bytes (or text, as UTF-8) to `path` via a temporary file and ``os.replace``.
 
@@ -110,10 +157,13 @@ def write_atomic(path, data, force=False) -> Path:
       `path` as a :class:`Path`.
 
     Raises:
-      InvalidInputError: `path` exists (without `force`), or its folder is missing or not writable.
+      InvalidInputError: `path` exists (without `force`), is not a regular file (a FIFO, a device
+        such as ``/dev/stdout``, a link to one: even with `force`), or its folder is missing or
+        not writable.
       OSError: the write itself failed (disk full, ...); nothing is left behind.
     """
     path = Path(path)
+    _check_replaceable(path)
     if path.exists() and not force:
         raise InvalidInputError(f"{path} exists (use force / --force to overwrite)")
     check_folder_writable(path.parent, what=f"{path}: the")
@@ -147,10 +197,12 @@ def write_atomic(path, data, force=False) -> Path:
 def check_output_file(path, force=False, what="--json"):
     """Refuse, before any work, an output file that cannot be written: a folder, an existing file
     without ``force``, or a folder that cannot be made or written (raises UsageError, an InvalidInputError).
-    A missing folder is made when the file is written."""
+    A missing folder is made when the file is written. A FIFO or a device (``/dev/stdout``) is
+    refused, ``force`` or not."""
     path = Path(path)
     if path.is_dir():
         raise UsageError(f"{what} {path} is a folder; name a file")
+    _check_replaceable(path, what)
     if path.exists() and not force:
         raise UsageError(f"{path} exists (use --force to overwrite)")
     check_creatable(path.parent, f"{what} {path}")

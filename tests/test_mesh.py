@@ -324,6 +324,21 @@ def test_a_byte_order_mark_is_not_part_of_the_first_line(tmp_path):
         mesh.load(tmp_path / "off_as.obj")
 
 
+def test_an_off_comment_after_the_counts_line_is_a_comment(tmp_path):
+    """'OFF\\n4 5 0\\n# the vertices\\n...' reads as without the comment, through the fast reader and
+    through trimesh (a face of 2 corners: the fast reader declines): trimesh read the counts line
+    a second time as the first vertex, every vertex one line late, the last face lost, silently."""
+    vertices = "0 0 0\n1 0 0\n0 1 0\n0 0 1\n"
+    faces = "3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n"
+    for name, counts, more in (("fast", "4 4 0", ""), ("trimesh", "4 5 0", "2 0 1\n")):
+        (tmp_path / f"{name}.off").write_text(f"OFF\n{counts}\n# the vertices\n{vertices}# faces\n{more}{faces}")
+        (tmp_path / f"{name}_plain.off").write_text(f"OFF\n{counts}\n{vertices}{more}{faces}")
+        loaded, plain = mesh.load(tmp_path / f"{name}.off"), mesh.load(tmp_path / f"{name}_plain.off")
+        np.testing.assert_array_equal(loaded.vertices, plain.vertices)
+        np.testing.assert_array_equal(loaded.faces, plain.faces)
+        assert len(loaded.faces) == 4 and loaded.vertices.min() == 0.0 and loaded.vertices.max() == 1.0
+
+
 def test_content_that_does_not_match_its_suffix_is_named(tmp_path):
     sphere = trimesh.creation.icosphere(subdivisions=1)
     cases = {

@@ -169,6 +169,30 @@ OFF_NOT_PLAIN = {
 }
 
 
+OFF_LATE_COMMENTS = {  # a comment after the first line end: trimesh's comment_strip repeats lines before it
+    "after_counts": "OFF\n4 2 0\n# the vertices\n" + TRIANGLES,
+    "between_blocks": "OFF\n4 2 0\n" + TRIANGLES.replace("3 0 1 2", "# the faces\n3 0 1 2"),
+    "end_of_lines": "OFF\n4 2 0\n" + TRIANGLES.replace("\n", " # note\n"),
+    "header_line": "OFF # made by hand\n4 2 0\n" + TRIANGLES,
+    "crlf": ("OFF\n4 2 0\n# the vertices\n" + TRIANGLES).replace("\n", "\r\n"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(OFF_LATE_COMMENTS))
+def test_off_comments_anywhere_are_cut_to_their_line_end(name):
+    """Read as the file without its comments: trimesh (and the reader, which copied it) read
+    'OFF\\n4 2 0\\n# the vertices\\n...' with '4 2 0' a second time as the first vertex, every vertex
+    one line late and a face lost, without a word."""
+    data = OFF_LATE_COMMENTS[name].encode()
+    plain = b"\n".join(line.split(b"#")[0].rstrip() for line in data.split(b"\n"))
+    got, expected = readers.read(data, "off"), readers.read(plain, "off")
+    np.testing.assert_array_equal(got.vertices, expected.vertices)
+    np.testing.assert_array_equal(got.faces, expected.faces)
+    np.testing.assert_array_equal(got.vertices, trimesh_load(OFF_PLAIN["lf"].encode(), "off").vertices)
+    assert readers.off.without_comments(data).count(b"\n") == data.count(b"\n") and b"#" not in \
+        readers.off.without_comments(data)
+
+
 @pytest.mark.parametrize("name", sorted(OFF_PLAIN))
 def test_off_plain_layouts(name):
     """Read on the bytes, and equal to trimesh's mesh."""

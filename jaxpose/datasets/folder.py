@@ -35,8 +35,8 @@ def _load(path: Path) -> trimesh.Trimesh:
 
 def _read_trimesh(path: Path) -> trimesh.Trimesh:
     try:
-        text = _text_after_bom(path)
-        if text is not None:  # trimesh reads the mark as part of the first line (an OBJ's first vertex lost)
+        text = _text_fixed(path)
+        if text is not None:  # what trimesh misreads: a byte-order mark, an OFF's comments (module docs)
             mesh = trimesh.load(io.BytesIO(text), file_type=path.suffix.lower()[1:], force="mesh", process=False,
                                 resolver=trimesh.resolvers.FilePathResolver(str(path)))
         else:
@@ -48,17 +48,21 @@ def _read_trimesh(path: Path) -> trimesh.Trimesh:
     return mesh
 
 
-def _text_after_bom(path: Path):
-    """The bytes after the UTF-8 byte-order mark that starts a text mesh file (OBJ, OFF, an ASCII
-    STL), or None (no mark, another format)."""
-    if path.suffix.lower() not in (".obj", ".off", ".stl"):
-        return None
-    with open(path, "rb") as handle:
-        head = handle.read(3)
-    if formats.without_bom(head) == head:
+def _text_fixed(path: Path):
+    """A text mesh file's bytes as trimesh reads them right, where it would misread them, else None:
+    without the UTF-8 byte-order mark that starts an OBJ, OFF or ASCII STL file (read as part of the
+    first line: an OBJ's first vertex lost), an OFF file without its comments (one after the first
+    line end garbles it: :func:`jaxpose.io.readers.off.without_comments`)."""
+    suffix = path.suffix.lower()
+    if suffix not in (".obj", ".off", ".stl"):
         return None
     data = path.read_bytes()
-    return None if formats.binary_stl(data) else formats.without_bom(data)
+    if suffix == ".stl" and formats.binary_stl(data):
+        return None
+    fixed = formats.without_bom(data)
+    if suffix == ".off":
+        fixed = readers.off.without_comments(fixed)
+    return None if fixed == data else fixed
 
 
 def _read_fast(path: Path):
@@ -72,6 +76,8 @@ def _read_fast(path: Path):
         data = path.read_bytes()
         if ext in ("obj", "off") or (ext == "stl" and not formats.binary_stl(data)):  # text: no byte-order mark
             data = formats.without_bom(data)
+        if ext == "off":
+            data = readers.off.without_comments(data)
         loaded = readers.read(data, ext)
     except (readers.Unsupported, OSError):
         return None

@@ -11,7 +11,10 @@ What they read (anything else raises :class:`Unsupported`, and the caller reads 
 trimesh: never a silently different mesh):
 
 * OFF (text): ``OFF`` / ``COFF`` headers, ``#`` comments, blank lines, any line endings, extra
-  values on a line (colors), triangles, quads and polygons.
+  values on a line (colors), triangles, quads and polygons. A comment runs to the end of its
+  line wherever it is (trimesh's own reading of a comment after the first line end repeats the
+  lines before it: the counts line read as the first vertex; here, and in
+  :func:`jaxpose.mesh.load`, which hands trimesh the file without comments, as the file says).
 * PLY: ``ascii``, ``binary_little_endian`` and ``binary_big_endian``; a ``vertex`` element with
   ``x``, ``y``, ``z`` and any other scalar properties (``nx ny nz`` become vertex normals,
   ``red green blue [alpha]`` colors, as trimesh does); a ``face`` element with a

@@ -10,7 +10,7 @@ from ...errors import InvalidInputError
 from .base import (Loaded, Unsupported, file_bytes, _checked, _floats, _in_range, _ints, _runs, _starts, _take, _text,
                    _tokens, _triangulate)
 
-__all__ = ["read_off"]
+__all__ = ["read_off", "without_comments"]
 
 
 def _line_tokens(block: bytes, lines: int) -> np.ndarray:
@@ -41,11 +41,22 @@ _OFF = re.compile("(COFF|OFF)")
 
 
 def _comment_strip(text):
-    """trimesh.util.comment_strip (``#`` to the end of its line, the newline included)."""
-    split = (text + "\n").split("#")
-    lead = "" if text.startswith("#") else split[0]
-    removed = [i.split("\n", 1) for i in split]
-    return (lead + "\n" + "\n".join(i[1] for i in removed if len(i) > 1 and len(i[1]) > 0)).strip()
+    """Each line cut at its first ``#`` (a comment runs to the end of its line), as
+    ``trimesh.util.comment_strip`` does where the text before the first ``#`` holds no line end
+    (a file that starts with a comment, or whose first comment is on its first line). Where it
+    does, trimesh repeats that text's lines after the first (``OFF\\n4 4 0\\n# vertices\\n...``:
+    ``4 4 0`` a second time, read as the first vertex, every vertex one line late, the last face
+    lost, without a word); here the file is read as it says."""
+    return "\n".join(line.split("#", 1)[0] for line in text.split("\n")).strip()
+
+
+def without_comments(data: bytes) -> bytes:
+    """An OFF file's bytes with every ``#`` comment cut (to the end of its line, the line end
+    kept), for a reader that would garble them (trimesh: :func:`_comment_strip`); `data` itself
+    when it holds none."""
+    if b"#" not in data:
+        return data
+    return re.sub(rb"#[^\r\n]*", b"", data)
 
 
 @file_bytes

@@ -190,6 +190,19 @@ def test_load_folder_reads_past_a_byte_order_mark(tmp_path):
         np.testing.assert_array_equal(mesh.faces, plain.faces)
 
 
+def test_load_folder_reads_tabs_in_an_obj_as_spaces(tmp_path):
+    """'v\\t0 0 1' is a vertex, through the fast reader and trimesh (a material line); it was dropped."""
+    tetra = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"
+    (tmp_path / "a").mkdir()
+    for name, text in (("fast.obj", tetra), ("material.obj", tetra.replace("f 1 3 2", "usemtl skin\nf 1 3 2", 1))):
+        (tmp_path / "a" / name).write_text(text.replace("v 0 0 1", "v\t0\t0\t1"))
+        (tmp_path / name).write_text(text)
+    for mesh, name in zip(load_folder(tmp_path / "a")["a"], ("fast.obj", "material.obj")):
+        plain = trimesh.load(tmp_path / name, force="mesh", process=False)
+        np.testing.assert_array_equal(mesh.vertices, plain.vertices)
+        np.testing.assert_array_equal(mesh.faces, plain.faces)
+
+
 def test_load_folder_reads_an_off_comment_after_the_counts_line_as_a_comment(tmp_path):
     """Fast reader and trimesh (a face of 2 corners: the fast reader declines) alike; trimesh read
     the counts line a second time as the first vertex, every vertex one line late."""

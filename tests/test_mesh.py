@@ -339,6 +339,23 @@ def test_an_off_comment_after_the_counts_line_is_a_comment(tmp_path):
         assert len(loaded.faces) == 4 and loaded.vertices.min() == 0.0 and loaded.vertices.max() == 1.0
 
 
+def test_tabs_separate_an_obj_lines_values_as_spaces_do(tmp_path):
+    """'v\\t0 0 1' is a vertex (OBJ's values are separated by white space): trimesh's loader and the
+    fast reader know 'v ' only and dropped it, every later vertex one number off (silently another
+    mesh where the last vertex is unused); a file of tabs only was 'empty geometry'. Fast reader
+    and trimesh's path (a material line) alike."""
+    spare = TETRA.replace("f 1 3 2", "v 0 0 -1\nf 1 3 2", 1)  # a fifth vertex no face uses
+    cases = {"one_tab": spare.replace("v 0 0 1", "v\t0 0 1"), "all_tabs": TETRA.replace(" ", "\t"),
+             "material": spare.replace("v 0 0 1", "v\t0 0 1").replace("f 1 3 2", "usemtl skin\nf 1 3 2")}
+    for name, text in cases.items():
+        (tmp_path / f"{name}.obj").write_text(text)
+        (tmp_path / f"{name}_spaces.obj").write_text(text.replace("\t", " "))
+        loaded, plain = mesh.load(tmp_path / f"{name}.obj"), mesh.load(tmp_path / f"{name}_spaces.obj")
+        np.testing.assert_array_equal(loaded.vertices, plain.vertices)
+        np.testing.assert_array_equal(loaded.faces, plain.faces)
+        assert loaded.vertices.min() == 0.0 and len(loaded.faces) == 4, name
+
+
 def test_content_that_does_not_match_its_suffix_is_named(tmp_path):
     sphere = trimesh.creation.icosphere(subdivisions=1)
     cases = {

@@ -588,6 +588,20 @@ def test_obj_by_hand(name):
     check_same(OBJ_VARIANTS[name], "obj")
 
 
+@pytest.mark.parametrize("name", ["triangles", "negative", "v_vt_vn", "mixed_polygons"])
+def test_obj_tabs_are_white_space(name):
+    """Values (and keywords) separated by tabs: the mesh of the same file with spaces (trimesh,
+    which the reader copied, knows 'v ' and 'f ' only: 'v\\t' lines were dropped, every later
+    vertex one number off)."""
+    spaces = OBJ_VARIANTS[name]
+    tabs = spaces.replace(" ", "\t")
+    got, expected = readers.read(tabs.encode(), "obj"), check_same(spaces, "obj")
+    np.testing.assert_array_equal(got.vertices, expected.vertices)
+    np.testing.assert_array_equal(got.faces, expected.faces)
+    mixed = spaces.replace("v 1 0", "v\t1 0", 1)
+    np.testing.assert_array_equal(readers.read(mixed.encode(), "obj").vertices, expected.vertices)
+
+
 @pytest.mark.parametrize("text", [
     OBJ_HEAD + "usemtl a\nf 1 2 3\nusemtl b\nf 1 3 4\n",   # materials split the mesh
     OBJ_HEAD + "f 1 2 3\nf 1/1 3/1 4/1\n",                 # several kinds of references

@@ -51,17 +51,15 @@ def _read_trimesh(path: Path) -> trimesh.Trimesh:
 def _text_fixed(path: Path):
     """A text mesh file's bytes as trimesh reads them right, where it would misread them, else None:
     without the UTF-8 byte-order mark that starts an OBJ, OFF or ASCII STL file (read as part of the
-    first line: an OBJ's first vertex lost), an OFF file without its comments (one after the first
-    line end garbles it: :func:`jaxpose.io.readers.off.without_comments`)."""
+    first line: an OBJ's first vertex lost), an OFF file without its comments and an OBJ file with
+    its tabs as spaces (:func:`jaxpose.io.formats.as_read`)."""
     suffix = path.suffix.lower()
     if suffix not in (".obj", ".off", ".stl"):
         return None
     data = path.read_bytes()
     if suffix == ".stl" and formats.binary_stl(data):
         return None
-    fixed = formats.without_bom(data)
-    if suffix == ".off":
-        fixed = readers.off.without_comments(fixed)
+    fixed = formats.as_read(formats.without_bom(data), suffix[1:])
     return None if fixed == data else fixed
 
 
@@ -76,9 +74,7 @@ def _read_fast(path: Path):
         data = path.read_bytes()
         if ext in ("obj", "off") or (ext == "stl" and not formats.binary_stl(data)):  # text: no byte-order mark
             data = formats.without_bom(data)
-        if ext == "off":
-            data = readers.off.without_comments(data)
-        loaded = readers.read(data, ext)
+        loaded = readers.read(formats.as_read(data, ext), ext)
     except (readers.Unsupported, OSError):
         return None
     except InvalidInputError as exc:  # broken where trimesh would read part of it

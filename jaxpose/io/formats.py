@@ -8,7 +8,8 @@ from __future__ import annotations
 
 from .._validate import InvalidInputError
 
-__all__ = ["TEXT_FORMATS", "sniff_format", "binary_stl", "binary_stl_mismatch", "as_text", "without_bom"]
+__all__ = ["TEXT_FORMATS", "sniff_format", "binary_stl", "binary_stl_mismatch", "as_text", "without_bom",
+           "as_read"]
 
 TEXT_FORMATS = ("obj", "off", "xyz")  # text formats: decoded here (UTF-8, else Latin-1), any encoding reads
 _BOM = b"\xef\xbb\xbf"  # UTF-8's byte-order mark (Windows editors and .NET writers put it first)
@@ -19,6 +20,21 @@ def without_bom(data: bytes) -> bytes:
     """`data` without a leading UTF-8 byte-order mark (trimesh reads one as part of the first line:
     an OBJ lost its first vertex, every face then one vertex off; an XYZ's first number failed)."""
     return data[len(_BOM):] if data.startswith(_BOM) else data
+
+
+def as_read(data: bytes, ext: str) -> bytes:
+    """A text mesh file's bytes (after :func:`as_text`) in the form trimesh's loaders and the fast
+    readers read as the file says: an OFF file without its ``#`` comments (trimesh repeats the
+    lines before a comment that follows the first line end: the counts line read as the first
+    vertex); an OBJ file with its tabs as spaces (trimesh's and the fast reader's keywords are
+    ``v `` and ``f ``: a ``v\\t0 0 1`` line was dropped, every later vertex one number off)."""
+    if ext == "off":
+        from .readers.off import without_comments
+
+        return without_comments(data)
+    if ext == "obj" and b"\t" in data:
+        return data.replace(b"\t", b" ")
+    return data
 
 
 _OFF_HEADERS = (b"OFF", b"COFF", b"NOFF", b"CNOFF", b"STOFF", b"4OFF")

@@ -281,8 +281,8 @@ def _read(path):
         raise InvalidInputError(f"{path}: {problem}")
     if ext in formats.TEXT_FORMATS or (ext == "stl" and found == "stl" and not formats.binary_stl(data)):
         data = formats.as_text(data, f"{path}", ext)
-    if ext == "off":  # trimesh garbles a comment after the first line end (the counts line read as a vertex)
-        data = readers.off.without_comments(data)
+    if ext in ("off", "obj"):  # what trimesh misreads: an OFF's late comments, an OBJ's tabs
+        data = formats.as_read(data, ext)
     if ext in readers.READERS:
         try:
             return readers.read(data, ext)

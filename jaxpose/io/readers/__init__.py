@@ -23,7 +23,9 @@ trimesh: never a silently different mesh):
 * OBJ: ``v`` (3, 4 or 6 values: ``x y z [w]`` or ``x y z r g b``), ``vt``, ``vn``, faces of
   ``v``, ``v/vt``, ``v//vn`` and ``v/vt/vn`` references (negative ones count from the end of the
   file's vertices, as in trimesh), triangles, quads and polygons, ``o`` / ``g`` / ``s`` lines,
-  comments, ``\\`` line continuations. No ``usemtl`` (materials split the mesh).
+  comments, ``\\`` line continuations; values separated by spaces or tabs (trimesh's loader
+  knows ``v `` and ``f `` only and drops ``v\\t`` lines: :func:`jaxpose.mesh.load` hands it the
+  tabs as spaces). No ``usemtl`` (materials split the mesh).
 * STL: binary, and ASCII with one solid.
 
 Polygons are split into triangles as trimesh splits them: where every face has the same number

@@ -35,7 +35,7 @@ def read_obj(data: bytes) -> Loaded:
     without ``vt`` lines: those data are never used (:func:`jaxpose.io.mesh.read` drops the file's
     normals; a file without UV has none to lose), and trimesh reads such a file as this reader does.
     """
-    text = _text(data)
+    text = _text(data).replace("\t", " ")  # white space (trimesh knows "v " and "f ": it dropped "v\t" lines)
     text = "\n{}\n".format(text.strip().replace("\r\n", "\n")).replace("\\\n", "")
     if "usemtl" in text or "+e" in text or "-e" in text or "\r" in text:
         _cut_last_line(text)  # (a cut file's last line: trimesh drops it without a word)

@@ -130,6 +130,10 @@ def test_inputs_of_a_format_jaxpose_does_not_write_need_an_output_format(tmp_pat
     assert not (tmp_path / "out").exists()  # refused before the folder was made
     rows = run([root / "model.gltf"], tmp_path / "glb", file_format="glb").rows
     assert [r.status for r in rows] == ["ok"] and (tmp_path / "glb" / "model.glb").is_file()
+    (tmp_path / "list.txt").write_text("scans/sphere.off\nnotes\nscans/readme.md\n")  # names of no mesh format
+    rows = run([tmp_path / "list.txt"], tmp_path / "listed").rows  # each fails as before, unread
+    assert [r.status for r in rows] == ["ok", "failed", "failed"]
+    assert "no such file" in rows[1].error and "no such file" in rows[2].error
 
 
 def test_glob_ignores_case_as_the_suffix_filter_does(tmp_path, tree):

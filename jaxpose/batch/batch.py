@@ -278,8 +278,10 @@ def _refuse_unwritable(items):
     """Refuse (before any work) inputs kept in their own format where jaxpose cannot write it
     (``.gltf``: read, never written): every one of them would be read and normalized, then fail."""
     from ..mesh import OUTPUT_FORMATS
+    from .inputs import MESH_SUFFIXES
 
-    unwritable = [item for item in items if item.output.suffix.lower().lstrip(".") not in OUTPUT_FORMATS]
+    unwritable = [item for item in items if item.output.suffix.lower() in MESH_SUFFIXES
+                  and item.output.suffix.lower().lstrip(".") not in OUTPUT_FORMATS]  # (other names fail unread)
     if unwritable:
         suffixes = sorted({item.output.suffix.lower() for item in unwritable})
         count = len(unwritable)

@@ -172,6 +172,22 @@ def test_a_manifest_of_missing_files(tmp_path):
     assert all(rows[p.name].ok for p in good)
 
 
+def test_a_point_cloud_named_as_a_manifest_is_named_so(tmp_path):
+    """A point cloud in a .txt or .csv (the manifests' suffixes): refused before any work, naming
+    .xyz; every line was an input of its own, each failing 'no such file: /tmp/0 0 0'. With
+    -o out.ply the refusal says the INPUT is a manifest (it read 'pts.txt give many files')."""
+    points = np.random.default_rng(0).normal(size=(30, 3))
+    (tmp_path / "pts.txt").write_text("".join(f"{x} {y} {z}\n" for x, y, z in points))
+    (tmp_path / "pts.csv").write_text("x,y,z\n" + "".join(f"{x},{y},{z}\n" for x, y, z in points))
+    for name in ("pts.txt", "pts.csv"):
+        code, _, err = cli(tmp_path / name, "-o", tmp_path / "out", "--workers", "1")
+        assert code == 1 and f"{name}: a manifest (.txt and .csv INPUTs list mesh paths, one a line) whose lines are " \
+            "numbers" in err and "is it a point cloud? name it .xyz" in err, err
+        assert not (tmp_path / "out").exists()
+    code, _, err = cli(tmp_path / "pts.txt", "-o", tmp_path / "p.ply")
+    assert code == 2 and "pts.txt is a manifest (a list of mesh paths): it gives many files: -o OUTDIR" in err, err
+
+
 def children_holding(path):
     """Process ids of this process's children that have `path` open."""
     found = []

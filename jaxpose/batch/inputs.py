@@ -106,7 +106,8 @@ def find_inputs(inputs, glob=None, exclude=()) -> Found:
 
     Raises:
       InvalidInputError: inputs that are not paths, an INPUT that does not exist, an unreadable
-        manifest, nothing found, INPUTs on different file systems.
+        manifest or one of numbers (a point cloud named .txt / .csv), nothing found, INPUTs on
+        different file systems.
     """
     paths = (str, os.PathLike, RemotePath)
     if not isinstance(inputs, paths) and (isinstance(inputs, bytes) or not hasattr(inputs, "__iter__")):
@@ -240,9 +241,22 @@ def _read_manifest(path):
     else:
         entries = [line.strip() for line in text.splitlines()]
     entries = [e for e in entries if e and not e.startswith("#")]
+    body = entries[1:101] if len(entries) > 1 else entries  # (below a header line such as "x,y,z")
+    if body and all(_numbers(e) for e in body):  # every path would fail "no such file: 0 0 0"
+        raise InvalidInputError(f"{path}: a manifest (.txt and .csv INPUTs list mesh paths, one a line) whose lines "
+                                f"are numbers ({body[0]!r}): is it a point cloud? name it .xyz")
     if isinstance(path, RemotePath):  # relative to the manifest, on its file system
         return [location(e) if is_url(e) else path.parent / e for e in entries]
     return [location(e) if is_url(e) else Path(os.path.abspath(path.parent / Path(e).expanduser())) for e in entries]
+
+
+def _numbers(entry) -> bool:
+    """Whether a manifest's entry is numbers (``0 0 0``, ``1.5,2,3``): a coordinate line, not a path."""
+    values = entry.replace(",", " ").split()
+    try:
+        return bool(values) and all(float(v) == float(v) for v in values)
+    except ValueError:
+        return False
 
 
 def plan_outputs(files, root, output_dir, file_format=None, table=None, given=()) -> list:

@@ -158,8 +158,10 @@ def run(args):
         args.output and (os.path.isdir(args.output) or args.output.endswith(("/", os.sep))))
     if many:
         if args.output and Path(args.output).suffix.lower() in MESH_SUFFIXES and not os.path.isdir(args.output):
-            return fail(f"-o {args.output} names a mesh file, but {'these INPUTs' if len(inputs) > 1 else inputs[0]} "
-                        "give many files: -o OUTDIR (a folder, created if missing)", code=2)
+            given = "these INPUTs give" if len(inputs) > 1 else \
+                f"{inputs[0]} is a {'folder' if os.path.isdir(inputs[0]) else 'manifest (a list of mesh paths)'}: it gives"
+            return fail(f"-o {args.output} names a mesh file, but {given} many files: -o OUTDIR (a folder, created if "
+                        "missing)", code=2)
         return _normalize_many(args, options, fail)
     given = [f"--{name.replace('_', '-')}" for name in _MANY_ONLY if getattr(args, name) not in (None, False)]
     if given:

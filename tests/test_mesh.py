@@ -356,6 +356,32 @@ def test_tabs_separate_an_obj_lines_values_as_spaces_do(tmp_path):
         assert loaded.vertices.min() == 0.0 and len(loaded.faces) == 4, name
 
 
+def test_xyz_files_with_commas_comments_or_uneven_lines(tmp_path):
+    """Commas as separators and comment lines ('#', CloudCompare's '//X Y Z' header) read as the
+    plain file: trimesh counted the first line's columns before it took commas as spaces ('not
+    enough columns in xyz file!' for every 'x,y,z' file) and failed on comments. A line of another
+    length than the first is refused naming it: trimesh read the values in rows of the first line's
+    count (where the total divides, silently other points)."""
+    points = np.random.default_rng(0).normal(size=(40, 3))
+    (tmp_path / "plain.xyz").write_text("".join(f"{x} {y} {z}\n" for x, y, z in points))
+    plain = mesh.load(tmp_path / "plain.xyz").vertices
+    variants = {"commas": "".join(f"{x},{y},{z}\n" for x, y, z in points),
+                "comma_space": "".join(f"{x}, {y}, {z}\n" for x, y, z in points),
+                "cloudcompare": "//X,Y,Z\n" + "".join(f"{x},{y},{z}\n" for x, y, z in points),
+                "comments": "# scan 1\n" + "".join(f"{x} {y} {z}\n" for x, y, z in points[:20]) + "  # half\n"
+                            + "".join(f"{x} {y} {z}\n" for x, y, z in points[20:])}
+    for name, text in variants.items():
+        (tmp_path / f"{name}.xyz").write_text(text)
+        np.testing.assert_array_equal(mesh.load(tmp_path / f"{name}.xyz").vertices, plain)
+    lines = [f"{x} {y} {z}" for x, y, z in points]
+    lines[6] += " 7"
+    lines[9] = lines[9].rpartition(" ")[0]  # 4 and 2 values: 120 in all, 40 rows of 3 to trimesh
+    (tmp_path / "uneven.xyz").write_text("\n".join(lines) + "\n")
+    with pytest.raises(InvalidInputError, match=r"uneven.xyz: cannot read XYZ file: line 7 holds 4 values, line 1 "
+                                                r"\(the first\) 3: a truncated or malformed file"):
+        mesh.load(tmp_path / "uneven.xyz")
+
+
 def test_content_that_does_not_match_its_suffix_is_named(tmp_path):
     sphere = trimesh.creation.icosphere(subdivisions=1)
     cases = {

@@ -6,6 +6,8 @@ optional ``charset_normalizer`` for text that is not UTF-8).
 """
 from __future__ import annotations
 
+import re
+
 from .._validate import InvalidInputError
 
 __all__ = ["TEXT_FORMATS", "sniff_format", "binary_stl", "binary_stl_mismatch", "as_text", "without_bom",
@@ -34,6 +36,40 @@ def as_read(data: bytes, ext: str) -> bytes:
         return without_comments(data)
     if ext == "obj" and b"\t" in data:
         return data.replace(b"\t", b" ")
+    if ext == "xyz":
+        return _xyz(data)
+    return data
+
+
+_XYZ_COMMENT = re.compile(rb"(?m)^[ \t]*(?:#|//)[^\n]*")
+
+
+def _xyz(data: bytes) -> bytes:
+    """An XYZ file's bytes as trimesh's loader reads them right: comment lines (``#``, and ``//``
+    as CloudCompare's header ``//X Y Z``) blanked, commas as spaces (trimesh counts the columns of
+    the first line before it replaces them: every ``x,y,z`` file was "not enough columns").
+
+    Raises:
+      InvalidInputError: a line holding another number of values than the first (trimesh reads
+        the values in rows of the first line's count: where the total divides, silently other points).
+    """
+    import numpy as np
+
+    if b"#" in data or b"//" in data:
+        data = _XYZ_COMMENT.sub(b"", data)
+    if b"," in data:
+        data = data.replace(b",", b" ")
+    chars = np.frombuffer(data, np.uint8)
+    space = (chars == 32) | ((chars >= 9) & (chars <= 13))  # C's isspace (as trimesh's split)
+    start = ~space
+    start[1:] &= space[:-1]
+    ends = np.flatnonzero(chars == 10)
+    counts = np.bincount(np.searchsorted(ends, np.flatnonzero(start)), minlength=len(ends) + 1)
+    lines = np.flatnonzero(counts)
+    if len(lines) > 1 and np.any(counts[lines] != counts[lines[0]]):
+        line = int(lines[np.argmax(counts[lines] != counts[lines[0]])])
+        raise InvalidInputError(f"cannot read XYZ file: line {line + 1} holds {int(counts[line])} values, line "
+                                f"{int(lines[0]) + 1} (the first) {int(counts[lines[0]])}: a truncated or malformed file")
     return data
 
 

@@ -281,8 +281,11 @@ def _read(path):
         raise InvalidInputError(f"{path}: {problem}")
     if ext in formats.TEXT_FORMATS or (ext == "stl" and found == "stl" and not formats.binary_stl(data)):
         data = formats.as_text(data, f"{path}", ext)
-    if ext in ("off", "obj"):  # what trimesh misreads: an OFF's late comments, an OBJ's tabs
-        data = formats.as_read(data, ext)
+    if ext in ("off", "obj", "xyz"):  # what trimesh misreads: an OFF's late comments, an OBJ's tabs, an XYZ's commas
+        try:
+            data = formats.as_read(data, ext)
+        except InvalidInputError as exc:
+            raise InvalidInputError(f"{path}: {exc}") from None
     if ext in readers.READERS:
         try:
             return readers.read(data, ext)

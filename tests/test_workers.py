@@ -60,6 +60,29 @@ def test_cli_on_a_dask_scheduler(tmp_path, cluster, capsys):
     assert code == 2 and "workers (--workers) is for local runs" in capsys.readouterr().err  # usage
 
 
+@pytest.mark.parametrize("address, why", [
+    ("localhost:8786x", r"invalid literal for int\(\) with base 10: '8786x'"),
+    ("tcp://", "missing port number"),
+    ("127.0.0.1", "missing port number"),
+    ("http://localhost:8786", "unknown address scheme 'http'"),
+    ("tcp://localhost:99999", r"port 99999 is not in \[1, 65535\]"),  # Dask tried it until its connect timeout
+])
+def test_a_scheduler_address_dask_cannot_read_is_a_usage_error(tmp_path, capsys, address, why):
+    """Refused before any work, naming --scheduler (exit 2); it was Dask's raw ValueError from
+    Client(), exit 1 ('jaxpose: error: ValueError: invalid literal for int() with base 10: ...')."""
+    import re
+
+    from jaxpose.errors import UsageError
+
+    write_mesh_tree(tmp_path / "scans")
+    message = rf"scheduler \(--scheduler\) '{re.escape(address)}' is not a Dask scheduler address: {why}"
+    with pytest.raises(UsageError, match=message):
+        jaxpose.normalize_files(tmp_path / "scans", tmp_path / "out", scheduler=address, progress=False)
+    assert cli.main(["normalize", str(tmp_path / "scans"), "-o", str(tmp_path / "out"), "--scheduler", address]) == 2
+    assert re.search(message, capsys.readouterr().err)
+    assert not (tmp_path / "out").exists()
+
+
 def test_an_unreachable_scheduler_gives_up_after_dasks_own_connect_timeout(tmp_path):
     """The scheduler's connect timeout is Dask's setting ``distributed.comm.timeouts.connect``
     (default 30 s; here 1 s), not a fixed 30 s: a real address where nothing listens (a port held

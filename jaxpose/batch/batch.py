@@ -189,9 +189,10 @@ def normalize_files(inputs, output_dir, options=None, **kwargs) -> list:
         ``output_dir/transforms.parquet`` (``.csv`` without pyarrow).
       workers: local worker processes (default: the cores available; 1 runs in this process).
       scheduler: a dask.distributed scheduler address (``"tcp://host:8786"``) to run on instead; its
-        workers must see the input and the output paths' parent folders are only used here. Not
-        reached within Dask's ``distributed.comm.timeouts.connect`` (30 s by default), the run
-        stops with an error.
+        workers must see the input and the output paths' parent folders are only used here. One
+        Dask cannot read (no port, an unknown scheme) is refused before any work; not reached
+        within Dask's ``distributed.comm.timeouts.connect`` (30 s by default), the run stops with
+        an error.
       dask_local: run on a new dask ``LocalCluster`` of this many worker processes instead.
       check: how a rerun recognizes an unchanged input: ``"mtime"`` (size and modification time,
         default) or ``"hash"`` (SHA-256 of its bytes).
@@ -266,6 +267,10 @@ def _check_run(workers, scheduler, dask_local, timeout=None):
         dask_local = check_int(dask_local, "dask_local", 1)
     if scheduler is not None and not (isinstance(scheduler, str) and scheduler):
         raise UsageError(f"scheduler must be an address such as 'tcp://host:8786', got {scheduler!r}")
+    if scheduler is not None:
+        from .workers import check_scheduler
+
+        check_scheduler(scheduler)  # Dask's own reading of it (its raw ValueError came after the folder was opened)
     if workers is not None:
         if scheduler is not None or dask_local is not None:
             raise UsageError("workers (--workers) is for local runs; a Dask cluster brings its own")

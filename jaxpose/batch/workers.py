@@ -242,6 +242,33 @@ def _distributed():
     return distributed
 
 
+def check_scheduler(address):
+    """A dask.distributed scheduler address as Dask reads it (a known scheme, a host and a port in
+    [1, 65535] where the scheme takes them), before any work; returns it.
+
+    Raises:
+      UsageError: what Dask's Client would refuse (its raw ValueError: "invalid literal for int()
+        with base 10: '8786x'", "unknown address scheme 'http'", "missing port number"), and a
+        port beyond 65535 (which it would try to reach until its connect timeout).
+    """
+    from distributed.comm.addressing import parse_address, parse_host_port
+    from distributed.comm.registry import get_backend
+
+    from ..errors import UsageError
+
+    try:
+        scheme, location = parse_address(address)
+        get_backend(scheme)
+        if scheme in ("tcp", "tls", "ws", "wss"):
+            port = parse_host_port(location)[1]
+            if not 0 < int(port) < 65536:
+                raise ValueError(f"port {port} is not in [1, 65535]")
+    except ValueError as exc:
+        raise UsageError(f"scheduler (--scheduler) {address!r} is not a Dask scheduler address: "
+                         f"{' '.join(str(exc).split())}; give one such as 'tcp://host:8786'") from None
+    return address
+
+
 class DaskExecutor:
     """Tasks on a dask.distributed cluster: a running one (`scheduler` address) or a new
     ``LocalCluster`` of `local` single-threaded worker processes (closed with the executor).

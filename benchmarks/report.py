@@ -281,6 +281,30 @@ def _ints(text):
     return [int(v) for v in text.split(",") if v.strip()] if text else None
 
 
+def _usage_problem(args):
+    """What else the run would take wrongly or fail on after starting, or None: --repeats 0 (the
+    tables reported times of no warm run), comma lists that are not ints of their least size
+    (ValueError after the start), tolerances that are not finite and > 0 (refused by the solver
+    after the first section started), --scaling-max-iter below 1."""
+    import math
+
+    if args.repeats is not None and args.repeats < 1:
+        return f"--repeats must be >= 1, got {args.repeats}"
+    for name, text, least in (("--scaling-m", args.scaling_m, 8), ("--resolutions", args.resolutions, 8)):
+        try:
+            values = _ints(text)
+        except ValueError:
+            return f"{name} must be a comma list of ints, got {text!r}"
+        if values is not None and (not values or min(values) < least):
+            return f"{name} must list ints >= {least}, got {text!r}"
+    for name, value in (("--tol", args.tol), ("--solver-tol", args.solver_tol)):
+        if value is not None and not (math.isfinite(value) and value > 0):
+            return f"{name} must be finite and > 0, got {value}"
+    if args.scaling_max_iter is not None and args.scaling_max_iter < 1:
+        return f"--scaling-max-iter must be >= 1, got {args.scaling_max_iter}"
+    return None
+
+
 def cli(argv=None) -> int:
     """``jaxpose bench [--quick] [--json PATH] [--m M] [--repeats N] [--sections ...]``."""
     p = _parser()
@@ -316,6 +340,10 @@ def cli(argv=None) -> int:
         return 2
     if args.objects is not None and args.objects < 1:
         print("jaxpose bench: error: --objects must be >= 1", file=sys.stderr)
+        return 2
+    problem = _usage_problem(args)
+    if problem:
+        print(f"jaxpose bench: error: {problem}", file=sys.stderr)
         return 2
     if args.x64:
         import jax

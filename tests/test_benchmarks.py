@@ -137,6 +137,17 @@ def test_bench_usage_errors(capsys):
     assert bench.cli(["--resolution", "4"]) == 2
     assert bench.cli(["--sk-resolution", "1"]) == 2
     assert bench.cli(["--objects", "0"]) == 2
+    capsys.readouterr()
+    for argv, message in ((["--repeats", "0"], "--repeats must be >= 1, got 0"),  # timed no warm run
+                          (["--resolutions", "x"], "--resolutions must be a comma list of ints, got 'x'"),  # ValueError
+                          (["--scaling-m", "500,x"], "--scaling-m must be a comma list of ints"),
+                          (["--resolutions", "32,4"], "--resolutions must list ints >= 8"),
+                          (["--tol", "-1"], "--tol must be finite and > 0, got -1.0"),  # after the start, exit 1
+                          (["--solver-tol", "nan"], "--solver-tol must be finite and > 0"),
+                          (["--scaling-max-iter", "0"], "--scaling-max-iter must be >= 1")):
+        assert bench.cli(argv) == 2, argv
+        err = capsys.readouterr().err
+        assert message in err and "jaxpose bench: solver" not in err, err
     assert bench.cli(["--help"]) == 0
     assert "--quick" in capsys.readouterr().out
 

@@ -282,14 +282,14 @@ def _ints(text):
 
 
 def _usage_problem(args):
-    """What else the run would take wrongly or fail on after starting, or None: --repeats 0 (the
-    tables reported times of no warm run), comma lists that are not ints of their least size
-    (ValueError after the start), tolerances that are not finite and > 0 (refused by the solver
-    after the first section started), --scaling-max-iter below 1."""
+    """What else the run would take wrongly or fail on after starting, or None: a negative --repeats
+    (taken as 0: one cold run), comma lists that are not ints of their least size (ValueError after
+    the start), tolerances that are not finite and > 0 (refused by the solver after the first
+    section started), --scaling-max-iter below 1."""
     import math
 
-    if args.repeats is not None and args.repeats < 1:
-        return f"--repeats must be >= 1, got {args.repeats}"
+    if args.repeats is not None and args.repeats < 0:
+        return f"--repeats must be >= 0 (0: one cold run each), got {args.repeats}"
     for name, text, least in (("--scaling-m", args.scaling_m, 8), ("--resolutions", args.resolutions, 8)):
         try:
             values = _ints(text)

@@ -138,7 +138,7 @@ def test_bench_usage_errors(capsys):
     assert bench.cli(["--sk-resolution", "1"]) == 2
     assert bench.cli(["--objects", "0"]) == 2
     capsys.readouterr()
-    for argv, message in ((["--repeats", "0"], "--repeats must be >= 1, got 0"),  # timed no warm run
+    for argv, message in ((["--repeats", "-1"], "--repeats must be >= 0 (0: one cold run each), got -1"),
                           (["--resolutions", "x"], "--resolutions must be a comma list of ints, got 'x'"),  # ValueError
                           (["--scaling-m", "500,x"], "--scaling-m must be a comma list of ints"),
                           (["--resolutions", "32,4"], "--resolutions must list ints >= 8"),

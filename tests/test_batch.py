@@ -149,6 +149,21 @@ def test_glob_ignores_case_as_the_suffix_filter_does(tmp_path, tree):
     assert find_inputs([root], glob="A/POSE_*").files == [upper]
 
 
+def test_a_globstar_stands_for_any_folders_none_too(tmp_path):
+    """'**/' is zero or more folders, as in pathlib and shells: '**/*.off' left out the searched
+    folder's own files, 'sub/**/*.off' sub's own, and '**/sub/**/*.off' found nothing."""
+    root = tmp_path / "scans"
+    for name in ("top.off", "sub/s.off", "sub/deep/d.off", "other/o.off"):
+        (root / name).parent.mkdir(parents=True, exist_ok=True)
+        (root / name).write_text("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n")
+    found = lambda glob: [p.relative_to(root).as_posix() for p in find_inputs([root], glob=glob).files]
+    everything = found(None)
+    assert found("**/*.off") == everything == found("*.off")
+    assert found("sub/**/*.off") == ["sub/s.off", "sub/deep/d.off"] == found("**/sub/**/*.off")
+    assert found("**/deep/*.off") == ["sub/deep/d.off"]
+    assert found("**/top.off") == ["top.off"]
+
+
 def test_rerun_skips_what_is_done_and_redoes_what_changed(tmp_path, tree):
     root, out = tmp_path / "scans", tmp_path / "out"
     first = run([root], out)

@@ -95,8 +95,8 @@ def find_inputs(inputs, glob=None, exclude=()) -> Found:
         manifests, all on one file system.
       glob: narrows folder searches (fnmatch): matched against the file name, or, when it contains
         ``/``, against the path relative to the searched folder, where ``*`` also spans folders
-        (``"kid_*/pose_0?.ply"``); case is ignored, as the suffixes are (``"*.ply"`` takes
-        ``SCAN.PLY``).
+        (``"kid_*/pose_0?.ply"``) and ``**/`` is any number of folders, none too (``"**/*.ply"``);
+        case is ignored, as the suffixes are (``"*.ply"`` takes ``SCAN.PLY``).
       exclude: folders never searched (the output folder, when it lies inside an input folder);
         folders below a searched one that hold ``.jaxpose/`` (other runs' output folders) are not
         searched either.
@@ -219,9 +219,21 @@ def _search(folder, glob, exclude, irregular):
 
 def _matches(relative, glob):
     """Whether a found file matches `glob`, ignoring case as the suffix filter does (on every system:
-    ``fnmatch.fnmatch`` ignores it on Windows only)."""
-    text = relative.as_posix() if "/" in glob else relative.name
-    return fnmatch.fnmatchcase(text.casefold(), glob.casefold())
+    ``fnmatch.fnmatch`` ignores it on Windows only). ``**/`` stands for any number of folders, none
+    too (as in ``pathlib`` and shells' globstar: ``**/*.ply`` takes the searched folder's own files;
+    to ``fnmatch`` it is ``*`` then ``/``, at least one folder, and those files were left out)."""
+    text = (relative.as_posix() if "/" in glob else relative.name).casefold()
+    return any(fnmatch.fnmatchcase(text, pattern) for pattern in _globstar_patterns(glob.casefold()))
+
+
+def _globstar_patterns(glob):
+    """`glob` with each subset of its ``**/`` taken out (``a/**/b`` -> ``a/**/b``, ``a/b``): their
+    union matches ``**/`` as zero or more folders, since ``*`` spans folders."""
+    parts = glob.split("**/")
+    patterns = {parts[0]}
+    for part in parts[1:]:
+        patterns = {p + "**/" + part for p in patterns} | {p + part for p in patterns}
+    return sorted(patterns)
 
 
 def _read_manifest(path):

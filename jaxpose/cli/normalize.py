@@ -48,8 +48,9 @@ def add_parser(sub):
                                            f"{', '.join(ROTATIONS)}); off by default")
     p.add_argument("--force", action="store_true", help="overwrite existing outputs (many: redo every input)")
     many = p.add_argument_group("many files (several INPUTs, folders or manifests, with -o OUTDIR)")
-    many.add_argument("--glob", help="narrow folder searches: 'pose_*.ply', 'kid_*/pose_0?.ply' (case ignored, "
-                                     "as the suffixes are: '*.ply' takes SCAN.PLY)")
+    many.add_argument("--glob", help="narrow folder searches: 'pose_*.ply', 'kid_*/pose_0?.ply', '**/pose_*.ply' "
+                                     "('**/': any folders, none too; case ignored, as the suffixes are: '*.ply' "
+                                     "takes SCAN.PLY)")
     many.add_argument("--format", choices=OUTPUT_FORMATS, help="output format (default: each input's)")
     many.add_argument("--table", help="the transforms table, .parquet or .csv (default OUTDIR/transforms.parquet; "
                                       ".csv without pyarrow)")

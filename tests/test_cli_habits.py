@@ -203,3 +203,36 @@ def test_tune_and_bench_check_json_before_the_work(tmp_path, capsys, command):
     blocker.write_text("x")
     assert cli.main([command, "--json", str(blocker / "r.json")]) == 2
     assert "is a file" in _err(capsys)
+
+
+def test_a_glob_pattern_the_shell_expanded_is_named(tmp_path, monkeypatch, capsys):
+    """`--glob *.off` unquoted reaches jaxpose as `--glob a.off b.off`: after the INPUTs, an
+    unrecognized argument (now with the hint to quote it); before them, b.off became an INPUT and
+    the folder search took only what matched a.off, without a word (now refused: exit 2, nothing
+    done). One expanded name alone is warned about."""
+    from jaxpose import cli
+
+    scans = tmp_path / "scans"
+    scans.mkdir()
+    tetra = "OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n"
+    for name in ("a.off", "c.off"):
+        (scans / name).write_text(tetra)
+    here = tmp_path / "here"
+    here.mkdir()
+    for name in ("a.off", "b.off"):
+        (here / name).write_text(tetra)
+    monkeypatch.chdir(here)
+    out = tmp_path / "out"
+    with pytest.raises(SystemExit) as info:
+        cli.main(["normalize", str(scans), "-o", str(out), "--glob", "a.off", "b.off"])
+    assert info.value.code == 2
+    err = capsys.readouterr().err
+    assert "unrecognized arguments: b.off; did the shell expand --glob's pattern" in err and "--glob '*.off'" in err
+    assert cli.main(["normalize", "--glob", "a.off", "b.off", str(scans), "-o", str(out), "--method", "vertex_mean"]) == 2
+    err = capsys.readouterr().err
+    assert "--glob a.off and the INPUTs b.off are files here: the shell expanded --glob's pattern" in err, err
+    assert not out.exists()
+    (here / "b.off").unlink()
+    assert cli.main(["normalize", "--glob", "a.off", str(scans), "-o", str(out), "--method", "vertex_mean",
+                     "--workers", "1"]) == 0
+    assert "warning: --glob a.off has no wildcard and names a file here" in capsys.readouterr().err

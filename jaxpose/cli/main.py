@@ -8,6 +8,7 @@ value, an output path that cannot be used, options that conflict: found before a
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
 from ..errors import JaxposeError, UsageError
@@ -44,7 +45,11 @@ def main(argv=None) -> int:
     parser = build_parser()
     args, extra = parser.parse_known_args(argv)
     if extra and args.command not in _DELEGATED:
-        parser.error(f"unrecognized arguments: {' '.join(extra)}")
+        glob = getattr(args, "glob", None)
+        hint = "" if not glob or any(c in glob for c in "*?[") else \
+            f"; did the shell expand --glob's pattern into file names ({glob} {extra[0]} ...)? quote it: --glob " \
+            f"'*{os.path.splitext(glob)[1] or '.ply'}'"
+        parser.error(f"unrecognized arguments: {' '.join(extra)}{hint}")
     args.extra = extra
     try:
         return int(args.handler(args) or 0)

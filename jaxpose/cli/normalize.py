@@ -157,6 +157,9 @@ def run(args):
     inputs = list(args.inputs)
     many = len(inputs) > 1 or any(p != EXAMPLE and is_batch_input(p) for p in inputs) or bool(
         args.output and (os.path.isdir(args.output) or args.output.endswith(("/", os.sep))))
+    expanded = _expanded_glob(args.glob, inputs)
+    if expanded:
+        return fail(expanded, code=2)
     if many:
         if args.output and Path(args.output).suffix.lower() in MESH_SUFFIXES and not os.path.isdir(args.output):
             given = "these INPUTs give" if len(inputs) > 1 else \
@@ -169,6 +172,26 @@ def run(args):
         return fail(f"{', '.join(given)} apply to many files: several INPUTs, folders or manifests, with "
                      "-o OUTDIR", code=2)
     return _normalize_one(args, options, inputs[0] if inputs else None, fail)
+
+
+def _expanded_glob(glob, inputs):
+    """Why ``--glob`` looks expanded by the shell (``--glob *.ply`` unquoted: ``--glob a.ply b.ply
+    c.ply``, the other names taken as INPUTs, and the run normalizing b.ply, c.ply and what matches
+    a.ply in the folders, without a word), or None: a pattern without wildcards that names a file
+    here, beside INPUTs that are files of its suffix in its folder. A pattern without wildcards
+    that only names a file here is warned about (a name to look for is a pattern too)."""
+    if not glob or any(c in glob for c in "*?[") or not os.path.isfile(glob):
+        return None
+    folder, suffix = os.path.dirname(os.path.abspath(glob)), os.path.splitext(glob)[1].lower()
+    siblings = [p for p in inputs if os.path.isfile(p) and os.path.dirname(os.path.abspath(p)) == folder
+                and os.path.splitext(p)[1].lower() == suffix]
+    hint = f"quote the pattern: --glob '*{suffix}'"
+    if siblings:
+        return (f"--glob {glob} and the INPUTs {', '.join(siblings[:3])}{' ...' if len(siblings) > 3 else ''} are "
+                f"files here: the shell expanded --glob's pattern into their names; {hint}")
+    print(f"jaxpose: warning: --glob {glob} has no wildcard and names a file here: if the shell expanded a pattern, "
+          f"{hint}", file=sys.stderr)
+    return None
 
 
 def _normalize_one(args, options, source, fail):

@@ -236,3 +236,25 @@ def test_a_glob_pattern_the_shell_expanded_is_named(tmp_path, monkeypatch, capsy
     assert cli.main(["normalize", "--glob", "a.off", str(scans), "-o", str(out), "--method", "vertex_mean",
                      "--workers", "1"]) == 0
     assert "warning: --glob a.off has no wildcard and names a file here" in capsys.readouterr().err
+
+
+def test_an_input_after_a_bare_rotation_is_named_as_the_input(tmp_path, capsys):
+    """`--rotation body.off -o out.ply`: argparse gives --rotation's optional METHOD the next word;
+    the refusal says so (it read only "invalid choice: 'body.off'"); a method or no method as before."""
+    from jaxpose import cli
+
+    body = tmp_path / "body.off"
+    body.write_text("OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n")
+    with pytest.raises(SystemExit) as info:
+        cli.main(["normalize", "--rotation", str(body), "-o", str(tmp_path / "out.ply")])
+    assert info.value.code == 2
+    err = capsys.readouterr().err
+    assert f"invalid choice: '{body}'" in err and "looks like the INPUT: --rotation takes the word after it as its " \
+        "METHOD, so put the INPUT before --rotation" in err, err
+    with pytest.raises(SystemExit):
+        cli.main(["normalize", str(body), "--rotation", "bogus"])
+    err = capsys.readouterr().err
+    assert "invalid choice: 'bogus' (choose from core, head," in err and "looks like the INPUT" not in err, err
+    for argv in (["--rotation"], ["--rotation", "pca_vertices"]):
+        assert cli.main(["normalize", str(body), "-o", str(tmp_path / "out.ply"), "--force", "--method", "vertex_mean",
+                         *argv]) == 0

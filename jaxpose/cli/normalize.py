@@ -44,8 +44,8 @@ def add_parser(sub):
     p.add_argument("--resolution", type=int, default=None, help="grid resolution of the volume moments (>= 8)")
     p.add_argument("--transform", help="one INPUT: where to write the transform JSON (default: OUTPUT.transform.json)")
     p.add_argument("--rotation", nargs="?", const=DEFAULT_ROTATION, default=None, metavar="METHOD",
-                   choices=ROTATIONS, help=f"also the canonical orientation (default method {DEFAULT_ROTATION}; "
-                                           f"{', '.join(ROTATIONS)}); off by default")
+                   type=_rotation_method, help=f"also the canonical orientation (default method {DEFAULT_ROTATION}; "
+                                               f"{', '.join(ROTATIONS)}); off by default")
     p.add_argument("--force", action="store_true", help="overwrite existing outputs (many: redo every input)")
     many = p.add_argument_group("many files (several INPUTs, folders or manifests, with -o OUTDIR)")
     many.add_argument("--glob", help="narrow folder searches: 'pose_*.ply', 'kid_*/pose_0?.ply', '**/pose_*.ply' "
@@ -79,6 +79,22 @@ def add_parser(sub):
 _CLOSED_FORMS = ("solid_centroid", "gyration_radius", "depth_weighted_solid")  # what --strict applies to
 _MANY_ONLY = ("glob", "format", "table", "workers", "scheduler", "dask_local", "check", "fail_fast", "shard",
               "timeout")
+
+
+def _rotation_method(text):
+    """--rotation's optional METHOD; a file name in its place (``--rotation body.ply -o out.ply``:
+    argparse gives the optional value the next word) is named as the INPUT it is."""
+    import argparse
+
+    from ..rotation.rotation import ROTATIONS
+
+    if text in ROTATIONS:
+        return text
+    hint = ""
+    if os.path.splitext(text)[1] or os.path.exists(text) or text == EXAMPLE:
+        hint = (f"; {text!r} looks like the INPUT: --rotation takes the word after it as its METHOD, so put the "
+                f"INPUT before --rotation, or name the method (--rotation head {text})")
+    raise argparse.ArgumentTypeError(f"invalid choice: {text!r} (choose from {', '.join(ROTATIONS)}){hint}")
 
 
 def _shard(text):

@@ -195,6 +195,13 @@ def test_help_describes_every_option():
     assert len(ocsvm_only) == len(OCSVM_ONLY)
     for action in ocsvm_only:
         assert "ocsvm" in action.help, action.option_strings
+    # --resolution's meaning and default for the default method (robust) too; it said only "grid resolution
+    # of the volume moments (>= 8)", the OCSVM's grid
+    from jaxpose.config import GridConfig, RobustConfig
+
+    resolution = next(action for action in normalize._actions if action.dest == "resolution").help
+    assert f"robust: voxels along the main body's largest extent (default {RobustConfig().resolution})" in resolution
+    assert f"ocsvm: cells per axis of the volume integral's grid (default {GridConfig().resolution})" in resolution
 
 
 @pytest.mark.parametrize("command", ["tune", "bench"])

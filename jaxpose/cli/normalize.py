@@ -25,6 +25,7 @@ def add_parser(sub):
     from ..pose.estimators import CENTERS, DEFAULT_METHOD, METHODS, SCALES
     from ..mesh import OUTPUT_FORMATS, SAMPLING
     from ..rotation.rotation import DEFAULT_ROTATION, ROTATIONS
+    from ..config import GridConfig, RobustConfig
 
     p = sub.add_parser("normalize", help="normalize meshes or point clouds: one file, or folders and manifests")
     p.add_argument("inputs", nargs="*", metavar="INPUT",
@@ -41,7 +42,9 @@ def add_parser(sub):
     p.add_argument("--strict", action="store_true", help="closed-surface estimators refuse open meshes")
     p.add_argument("--sampling", choices=SAMPLING, default=None, help="surface sampling of the ocsvm method "
                                                                         "(default even)")
-    p.add_argument("--resolution", type=int, default=None, help="grid resolution of the volume moments (>= 8)")
+    p.add_argument("--resolution", type=int, default=None,
+                   help=f"robust: voxels along the main body's largest extent (default {RobustConfig().resolution}); ocsvm: "
+                        f"cells per axis of the volume integral's grid (default {GridConfig().resolution}); >= 8")
     p.add_argument("--transform", help="one INPUT: where to write the transform JSON (default: OUTPUT.transform.json)")
     p.add_argument("--rotation", nargs="?", const=DEFAULT_ROTATION, default=None, metavar="METHOD",
                    type=_rotation_method, help=f"also the canonical orientation (default method {DEFAULT_ROTATION}; "

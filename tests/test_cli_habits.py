@@ -265,3 +265,44 @@ def test_an_input_after_a_bare_rotation_is_named_as_the_input(tmp_path, capsys):
     for argv in (["--rotation"], ["--rotation", "pca_vertices"]):
         assert cli.main(["normalize", str(body), "-o", str(tmp_path / "out.ply"), "--force", "--method", "vertex_mean",
                          *argv]) == 0
+
+
+def test_one_file_writes_its_mesh_and_transform_both_or_neither(tmp_path, monkeypatch, capsys):
+    """A Ctrl-C that lands between the mesh and its transform JSON is held until both are written
+    (it left out.ply without out.transform.json, under "nothing partial was left"); a JSON that
+    cannot be written takes the mesh this run made with it (a rerun refused out.ply as existing)."""
+    import os
+    import signal
+
+    from jaxpose import cli, mesh
+    from jaxpose.batch import interrupts
+
+    body = tmp_path / "body.off"
+    body.write_text("OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n")
+    out, json_path = tmp_path / "out.ply", tmp_path / "out.transform.json"
+    export = mesh.export
+
+    def export_then_ctrl_c(*args, **kwargs):
+        written = export(*args, **kwargs)
+        os.kill(os.getpid(), signal.SIGINT)  # Ctrl-C right after the mesh
+        return written
+
+    monkeypatch.setattr(mesh, "export", export_then_ctrl_c)
+    with interrupts.SignalGuard():
+        assert cli.main(["normalize", str(body), "-o", str(out), "--method", "vertex_mean"]) == 130
+    assert out.is_file() and json_path.is_file()  # both whole
+    monkeypatch.setattr(mesh, "export", export)
+    out.unlink()
+    json_path.unlink()
+    write_atomic = mesh.write_atomic
+
+    def json_fails(path, data, force=False):
+        if str(path).endswith(".json"):
+            raise OSError(28, "No space left on device")
+        return write_atomic(path, data, force=force)
+
+    monkeypatch.setattr(mesh, "write_atomic", json_fails)
+    assert cli.main(["normalize", str(body), "-o", str(out), "--method", "vertex_mean"]) == 1
+    assert "No space left on device" in capsys.readouterr().err
+    assert not out.exists() and not json_path.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["body.off"]  # no temporary either

@@ -253,14 +253,33 @@ def _normalize_one(args, options, source, fail):
     for path in (output, json_path):  # folders checked creatable before the work, made now (as OUTDIRs are)
         if path is not None:
             path.parent.mkdir(parents=True, exist_ok=True)
-    if output is not None:
-        mesh.export(normalized, output, force=args.force)
-    if json_path is not None:
-        mesh.write_atomic(json_path, json_text(record), force=args.force)
+    _write_both(normalized, output, json_path, json_text(record), args.force)
     _print_transform(record, args.output, json_path)
     if not record["converged"]:
         print("jaxpose: warning: the solver stopped at its iteration cap", file=sys.stderr)
     return 0
+
+
+def _write_both(normalized, output, json_path, record_text, force):
+    """The normalized mesh and its transform JSON, both or neither where it can be: a signal that
+    comes between the two writes is held until both are done (it left the mesh without its
+    transform, under "nothing partial was left"), and a mesh this run created is removed when the
+    JSON cannot be written (a rerun then refused the mesh as existing). A mesh that ``--force``
+    replaced stays replaced."""
+    from ..batch import interrupts
+    from .. import mesh
+
+    created = output is not None and not output.exists()
+    with interrupts.deferred():
+        if output is not None:
+            mesh.export(normalized, output, force=force)
+        if json_path is not None:
+            try:
+                mesh.write_atomic(json_path, record_text, force=force)
+            except BaseException:
+                if created:
+                    output.unlink(missing_ok=True)
+                raise
 
 
 def _check_outputs(source, output, json_path, force):

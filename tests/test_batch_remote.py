@@ -120,3 +120,22 @@ def test_without_fsspec_the_error_names_the_extra(tmp_path, monkeypatch):
         batch.run_batch(["s3://bucket/scans"], tmp_path / "out", FAST, workers=1)
     with pytest.raises(InvalidInputError, match=r"pip install 'jaxpose\[remote\]'"):
         jaxpose.read_transforms("gs://bucket/out/transforms.parquet")
+
+
+def test_a_remote_gltf_with_buffer_files_is_named_as_read_alone(tmp_path):
+    """A remote .gltf is fetched alone (the buffer files beside it are not): its failed row says so
+    and what to do; it named the run's temporary folder as where the buffers were missing."""
+    fs = fsspec.filesystem("memory")
+    base = f"/jaxpose-test-{uuid.uuid4().hex}"
+    files = trimesh.Scene(trimesh.creation.icosphere(subdivisions=1)).export(file_type="gltf")
+    try:
+        for name, data in files.items():
+            fs.pipe_file(f"{base}/g/{name}", data)
+        rows = batch.run_batch([f"memory://{base}/g/"], f"memory://{base}/out/", FAST, file_format="glb",
+                               workers=1, progress=False).rows
+        assert [r.status for r in rows] == ["failed"]
+        assert rows[0].error == (f"memory://{base}/g/model.gltf: a remote .gltf is read alone, without the buffer "
+                                 "files beside it that it refers to; convert it to .glb (one file), or copy its "
+                                 "folder to a local one")
+    finally:
+        fs.rm(base, recursive=True)

@@ -285,6 +285,9 @@ def _load_remote(url, check, record):
         try:
             return mesh.read(local)
         except JaxposeError as exc:  # its message names the temporary file: name the URL
+            if local.suffix == ".gltf" and "it refers to" in str(exc):  # (the temporary folder holds the .gltf alone)
+                raise type(exc)(f"{url}: a remote .gltf is read alone, without the buffer files beside it that it "
+                                "refers to; convert it to .glb (one file), or copy its folder to a local one") from None
             raise type(exc)(str(exc).replace(str(local), url)) from None
 
 

@@ -1,8 +1,9 @@
 """What a mesh file's bytes hold: the format its first bytes announce, and text in any encoding.
 
 Plain functions of bytes (no trimesh): :mod:`jaxpose.mesh` uses them to name a file whose content
-is another format than its suffix, and to decode text formats itself (trimesh falls back to the
-optional ``charset_normalizer`` for text that is not UTF-8).
+is another format than its suffix, to decode text formats itself (trimesh falls back to the
+optional ``charset_normalizer`` for text that is not UTF-8), and to hand trimesh and the fast
+readers text in the form they read as the file says (:func:`as_read`).
 """
 from __future__ import annotations
 

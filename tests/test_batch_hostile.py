@@ -183,6 +183,7 @@ def test_a_point_cloud_named_as_a_manifest_is_named_so(tmp_path):
         code, _, err = cli(tmp_path / name, "-o", tmp_path / "out", "--workers", "1")
         assert code == 1 and f"{name}: a manifest (.txt and .csv INPUTs list mesh paths, one a line) whose lines are " \
             "numbers" in err and "is it a point cloud? name it .xyz" in err, err
+        assert ("a column named neither 'path' nor 'input': the first column is read" in err) == name.endswith(".csv")
         assert not (tmp_path / "out").exists()
     code, _, err = cli(tmp_path / "pts.txt", "-o", tmp_path / "p.ply")
     assert code == 2 and "pts.txt is a manifest (a list of mesh paths): it gives many files: -o OUTDIR" in err, err

@@ -255,8 +255,10 @@ def _read_manifest(path):
     entries = [e for e in entries if e and not e.startswith("#")]
     body = entries[1:101] if len(entries) > 1 else entries  # (below a header line such as "x,y,z")
     if body and all(_numbers(e) for e in body):  # every path would fail "no such file: 0 0 0"
+        csv_hint = (" (or a CSV whose paths are in a column named neither 'path' nor 'input': the first column is "
+                    "read then)") if path.suffix.lower() == ".csv" else ""
         raise InvalidInputError(f"{path}: a manifest (.txt and .csv INPUTs list mesh paths, one a line) whose lines "
-                                f"are numbers ({body[0]!r}): is it a point cloud? name it .xyz")
+                                f"are numbers ({body[0]!r}): is it a point cloud? name it .xyz{csv_hint}")
     if isinstance(path, RemotePath):  # relative to the manifest, on its file system
         return [location(e) if is_url(e) else path.parent / e for e in entries]
     return [location(e) if is_url(e) else Path(os.path.abspath(path.parent / Path(e).expanduser())) for e in entries]

@@ -186,6 +186,26 @@ def check_options(method="ocsvm", steps=TUNE.steps, lr=TUNE.lr, reg=TUNE.reg, sc
     return out
 
 
+def _invalid_reason(samplers, seed, method, start, normalize_options):
+    """Why the start's pose of the first training class's first object is not valid (``"name: "``
+    and its :class:`jaxpose.pose.result.Status` message), or None (valid, or not found): a
+    diagnosis for a run where no step had every pose valid."""
+    import warnings
+
+    from .pose.pose import normalize
+    from .pose.result import Status
+
+    name = sorted(samplers)[0]
+    try:
+        points = samplers[name](seed)[0]
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            status = int(normalize(points, method=method, **start, **normalize_options).status)
+    except Exception:  # a diagnosis only: the failure is reported without it
+        return None
+    return f"{name}: {Status(status).message}" if status else None
+
+
 def tune(classes, gamma0=OCSVM.gamma, nu0=OCSVM.nu, steps=TUNE.steps, lr=TUNE.lr, scale_weight=TUNE.scale_weight,
          holdout=TUNE.holdout, holdout_classes=None, seed=0, count=TUNE.count, reg=TUNE.reg, progress=None, method="ocsvm", power0=ROBUST.power, **normalize_options) -> dict:
     """Tune (gamma, nu) or the robust power by gradient descent on the mean within-class center
@@ -211,11 +231,13 @@ def tune(classes, gamma0=OCSVM.gamma, nu0=OCSVM.nu, steps=TUNE.steps, lr=TUNE.lr
       A JSON-able dict: ``gamma``, ``nu`` (ocsvm) or ``power`` (robust): the parameters to use
       (the tuned ones, or the start when they do not lower the held-out spread), ``tuned``
       {gamma, nu} or {power}, ``method``, ``kept_defaults``,
-      ``verdict`` (a sentence; where no step had every pose valid it says so: nothing was tuned,
-      and the start it keeps gave invalid poses), ``train`` and ``holdout`` {sigma_tr_start, sigma_tr_tuned,
-      classes, names, objects} on a fresh draw, the ``trajectory`` [{step, gamma, nu (or power),
+      ``verdict`` (a sentence), ``train`` and ``holdout`` {sigma_tr_start, sigma_tr_tuned,
+      classes, names} on a fresh draw, the ``trajectory`` [{step, gamma, nu (or power),
       loss, sigma_tr, cv_scale, grad, valid}] (one draw per step; sigma_tr NaN where not every
-      pose of the step is valid), ``options``, ``seconds``.
+      pose of the step is valid), ``options``, ``seconds``. Where no step had every pose valid
+      nothing was tuned: ``error`` (= ``verdict``) says so and why (the first training object's
+      :class:`jaxpose.pose.result.Status` at the start), and the parameters, ``tuned``,
+      ``kept_defaults`` and the spreads are None (no recommendation).
 
     Raises:
       InvalidInputError: bad classes, parameters or options.
@@ -270,27 +292,37 @@ def tune(classes, gamma0=OCSVM.gamma, nu0=OCSVM.nu, steps=TUNE.steps, lr=TUNE.lr
             break
         upd, state = update(grad, state, theta)
         theta = optax.apply_updates(theta, upd)
+    fmt = lambda d: ", ".join(f"{k} {v:.4g}" for k, v in d.items())
+    result = dict(method=method, **{f"{k}0": v for k, v in start.items()}, trajectory=trajectory, steps=int(steps),
+                  lr=float(lr), reg=float(reg), scale_weight=float(scale_weight), seed=int(seed), count=int(count),
+                  options=config.flat())
+    if not any(rec["valid"] for rec in trajectory):  # nothing tuned: the start's poses were invalid at every step
+        reason = _invalid_reason(train_s, int(seed), method, start, normalize_options)
+        names = lambda samplers: dict(sigma_tr_start=None, sigma_tr_tuned=None, classes=len(samplers),
+                                      names=sorted(samplers))
+        result.update(tuned=None, kept_defaults=None, **{k: None for k in start}, train=names(train_s),
+                      holdout=names(test_s) if test_s else None, seconds=time.perf_counter() - t0)
+        result["verdict"] = result["error"] = (f"no step had every pose valid, from ({fmt(start)})"
+                                               + (f"; e.g. {reason}" if reason else "")
+                                               + ": nothing was tuned, no recommendation")
+        say(result["verdict"])
+        return result
     tuned = jnp.mean(jnp.stack(iterates), axis=0) if iterates else theta0
     tuned_params = {k: float(v) for k, v in _params(tuned, method).items()}
     check = int(seed) + 100_003  # a draw no step has seen
     block = lambda samplers: dict(sigma_tr_start=objective(samplers, theta0, class_loss, check)[1],
                                   sigma_tr_tuned=objective(samplers, tuned, class_loss, check)[1],
                                   classes=len(samplers), names=sorted(samplers))
-    result = dict(method=method, tuned=tuned_params, **{f"{k}0": v for k, v in start.items()}, train=block(train_s),
-                  holdout=block(test_s) if test_s else None, trajectory=trajectory, steps=int(steps), lr=float(lr),
-                  reg=float(reg), scale_weight=float(scale_weight), seed=int(seed), count=int(count),
-                  options=config.flat(), seconds=time.perf_counter() - t0)
+    result.update(tuned=tuned_params, train=block(train_s), holdout=block(test_s) if test_s else None,
+                  seconds=time.perf_counter() - t0)
     judge = result["holdout"] or result["train"]
     where = "held-out classes" if result["holdout"] else "training classes (fresh draw; no held-out classes)"
     lower = judge["sigma_tr_tuned"] < judge["sigma_tr_start"]
     change = judge["sigma_tr_tuned"] / judge["sigma_tr_start"] - 1.0
     result["kept_defaults"] = not lower
     result.update(tuned_params if lower else start)
-    fmt = lambda d: ", ".join(f"{k} {v:.4g}" for k, v in d.items())
     result["verdict"] = (f"tuned ({fmt(tuned_params)}) changes the center spread of the {where} by "
                          f"{change:+.1%}: " + ("use them" if lower else
                                                f"they do not transfer; keeping ({fmt(start)})"))
-    if not any(rec["valid"] for rec in trajectory):  # nothing tuned: the start's poses were invalid at every step
-        result["verdict"] = f"no step had every pose valid, from ({fmt(start)}): nothing was tuned"
     say(result["verdict"])
     return result

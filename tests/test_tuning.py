@@ -113,7 +113,11 @@ def test_tune_where_no_step_is_valid_says_so():
     step = res["trajectory"][0]
     assert not step["valid"] and np.isnan(step["sigma_tr"])
     assert "invalid poses" in messages[0] and "sigma_tr" not in messages[0]
-    assert res["verdict"] == "no step had every pose valid, from (gamma 1e+06, nu 0.5): nothing was tuned"
+    assert res["verdict"] == res["error"] and res["error"].startswith("no step had every pose valid, from (gamma 1e+06, "
+                                                                       "nu 0.5); e.g. box: the samples are too sparse")
+    assert res["error"].endswith(": nothing was tuned, no recommendation")
+    assert res["gamma"] is res["nu"] is res["tuned"] is res["kept_defaults"] is None  # no recommendation
+    assert res["train"]["sigma_tr_start"] is res["train"]["sigma_tr_tuned"] is None  # no spread of invalid poses
 
 
 @pytest.mark.parametrize("kw, fragment", [
@@ -309,10 +313,10 @@ def test_cli_tune_writes_a_nan_measure_as_null(tmp_path, capsys):
     assert '"loss": null' in text
     assert captured.out == ""  # no summary, no "use: gamma 1e+06, nu 0.5"
     errors = [line for line in captured.err.splitlines() if line.startswith("jaxpose tune: error:")]
-    assert len(errors) == 1 and "no valid poses at any step" in errors[0] and "no recommendation" in errors[0]
+    assert len(errors) == 1 and "no step had every pose valid" in errors[0] and "no recommendation" in errors[0]
     assert "too sparse for gamma" in errors[0] and "--gamma 47" in errors[0]  # why, and what to try
     assert "keeping" not in captured.err and "invalid poses" in captured.err  # the step's line: no sigma_tr
     assert step["sigma_tr"] is None and res["gamma"] is None and res["nu"] is None and res["tuned"] is None
-    assert res["error"] == res["verdict"] == errors[0].removeprefix("jaxpose tune: error: ")
+    assert res["error"] == res["verdict"] and errors[0].startswith("jaxpose tune: error: " + res["error"] + "; ")
     for block in (res["train"], res["holdout"]):
         assert block["sigma_tr_start"] is None and block["sigma_tr_tuned"] is None

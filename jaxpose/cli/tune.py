@@ -158,7 +158,7 @@ def _run(args) -> int:
         return 1
     result["data"] = dict(data=args.data, holdout_data=args.holdout_data, align_core=bool(args.align_core),
                           variants=list(variants))
-    failure = _no_valid_step(result, classes, args, options)
+    failure = _failure(result, args.method)
     if args.json:
         Path(args.json).parent.mkdir(parents=True, exist_ok=True)
         write_atomic(args.json, json_text(result).encode(), force=True)  # checked before the run
@@ -175,50 +175,18 @@ def _run(args) -> int:
     return 0
 
 
-def _no_valid_step(result, classes, args, options):
-    """None, or (no step of the run had every pose valid: nothing was tuned, and the start the
-    result would recommend gave invalid poses) the one-line message of the failure. The result is
-    then rewritten as a failed run's record: its recommendation (the parameters, ``tuned``,
-    ``kept_defaults``) and its spreads (of invalid poses) None, ``verdict`` and ``error`` the
-    message."""
-    steps = result["trajectory"]
-    if any(step["valid"] for step in steps):
+def _failure(result, method):
+    """None, or the command's one-line error for a run that tuned nothing (no step had every pose
+    valid: :func:`jaxpose.tuning.tune`'s ``error``), with the options to try."""
+    if not result.get("error"):
         return None
-    start = ", ".join(f"{k} {result[k + '0']:.4g}" for k in result["tuned"])
-    reason = _reason(classes, result["train"]["names"], args, options)
-    if args.method == "robust":
+    if method == "robust":
         hint = f"start from another --power (the default {ROBUST.power:g})"
     else:
         hint = f"start nearer the defaults (--gamma {OCSVM.gamma:g} --nu {OCSVM.nu:g}) or draw more samples (--count)"
-    message = (f"no valid poses at any step ({len(steps)} of {len(steps)} with invalid poses, from {start}"
-               + (f"; e.g. {reason}" if reason else "") + f"): no recommendation; {hint}")
-    for key in ("tuned", "kept_defaults", *result["tuned"]):
-        result[key] = None
-    for block in (result["train"], result["holdout"] or {}):
-        block.update(sigma_tr_start=None, sigma_tr_tuned=None)
-    result["verdict"] = result["error"] = message
-    return message
+    return f"{result['error']}; {hint}"
 
 
-def _reason(classes, names, args, options):
-    """Why the start's pose of the first training class's first object is not valid (its
-    :class:`jaxpose.pose.result.Status` message), or None (valid, or not found)."""
-    import warnings
-
-    from .. import normalize
-    from ..mesh import sample_surface
-    from ..pose.result import Status
-
-    try:
-        obj = classes[names[0]][0]
-        points = sample_surface(obj, args.count, seed=args.seed) if hasattr(obj, "vertices") else obj
-        kw = {("power" if k == "power0" else k[:-1] if k in ("gamma0", "nu0") else k): v for k, v in options.items()}
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            status = int(normalize(points, method=args.method, **kw).status)
-    except Exception:  # a diagnosis only: the failure is reported without it
-        return None
-    return f"{names[0]}: {Status(status).message}" if status else None
 def _check_choices(args, options, variants, names):
     """What the run would refuse only after loading the classes, refused before (InvalidInputError,
     a usage error): the variants, the built-in dataset's class names, the grid and solver options

@@ -231,8 +231,9 @@ def test_evaluate_wiring(tmp_path, capsys, fake_evaluation):
     assert cli.main(["evaluate", "--core-weight", "area"]) == 2  # it says how --align-core chooses; alone it is refused
     err = capsys.readouterr().err
     assert "add --align-core" in err and "Traceback" not in err, err
-    for bad, unknown in (("bogus", "['bogus']"), ("core,Head", "['Head']"), (",", "[]")):
-        # a usage error before the dataset is made (exit 1 from the evaluation, after making it)
+    for bad, unknown in (("bogus", "['bogus']"), ("core,Head", "['Head']"), (",", "[]"), ("", "[]")):
+        # a usage error before the dataset is made (exit 1 from the evaluation, after making it; '' ran the
+        # center/scale evaluation instead)
         fake_evaluation.clear()
         assert cli.main(["evaluate", "--rotation", bad]) == 2
         err = capsys.readouterr().err

@@ -60,7 +60,8 @@ def _evaluate_usage(args):
     if variants == ["all"]:
         variants = list(evaluation.VARIANTS)
     _check_variants(variants)
-    if args.rotation:
+    rotation = args.rotation is not None  # '--rotation ""' names no method: refused, not the center/scale run
+    if rotation:
         rotations = ROTATIONS if args.rotation == "all" else [m for m in args.rotation.split(",") if m]
         unknown = [m for m in rotations if m not in ROTATIONS]
         if unknown or not rotations:  # the evaluation's own check, before the dataset is made or read
@@ -73,8 +74,8 @@ def _evaluate_usage(args):
     if given and not uses_ocsvm:
         flags = ", ".join(f"--{name}" for name in given)
         raise _Usage(f"{flags} {'apply' if len(given) > 1 else 'applies'} to the ocsvm method (the paper's), which "
-                     f"this evaluation does not run (add ocsvm to {'--rotation' if args.rotation else '--methods'}"
-                     f"{'' if args.rotation else ' or --sweep'}, or drop {'them' if len(given) > 1 else 'it'})")
+                     f"this evaluation does not run (add ocsvm to {'--rotation' if rotation else '--methods'}"
+                     f"{'' if rotation else ' or --sweep'}, or drop {'them' if len(given) > 1 else 'it'})")
     if args.data and (args.classes or args.instances is not None):
         raise _Usage("--classes and --instances choose from the built-in dataset; --data takes every class of DIR")
     check_dataset_choice(args.instances, args.classes)
@@ -125,7 +126,7 @@ def run(args):
                                             classes=names)
         except InvalidInputError as exc:
             return fail(str(exc), code=2)
-    if args.rotation:
+    if args.rotation is not None:
         return _evaluate_rotation(args, classes, variants, ocsvm)
     with _ProgressBar() as progress:
         result = evaluation.evaluate(classes, seed=args.seed, align_core=args.align_core, core_weight=args.core_weight,

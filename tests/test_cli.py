@@ -284,6 +284,22 @@ def test_tune_and_bench_delegate(command, monkeypatch):
     assert seen == [["--quick", "--json", "x.json"]]
 
 
+def test_version(capsys):
+    """`jaxpose --version` prints the package's version (jaxpose.__version__, the installed
+    metadata's and pyproject.toml's) on stdout and exits 0, as --help does."""
+    import importlib.metadata
+    import tomllib
+
+    import jaxpose
+
+    with pytest.raises(SystemExit) as exit_:
+        cli.main(["--version"])
+    assert exit_.value.code == 0
+    assert capsys.readouterr().out == f"jaxpose {jaxpose.__version__}\n"
+    assert jaxpose.__version__ == tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["version"]
+    assert jaxpose.__version__ == importlib.metadata.version("jaxpose")
+
+
 # --------------------------------------------------------------------------- python -m jaxpose
 def test_python_m_jaxpose(tmp_path):
     missing = tmp_path / "nope.obj"

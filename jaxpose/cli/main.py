@@ -11,6 +11,7 @@ import argparse
 import os
 import sys
 
+from .. import __version__
 from ..errors import JaxposeError, UsageError
 from . import bench, evaluate, normalize, tune
 from .common import fail
@@ -32,6 +33,8 @@ def build_parser() -> argparse.ArgumentParser:
                "output path that cannot be used, before any work), "
                "130 Ctrl-C, 143 SIGTERM. 'jaxpose COMMAND --help' describes each command.",
     )
+    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}",
+                        help="print jaxpose's version and exit")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
     for command in (normalize, evaluate, tune, bench):

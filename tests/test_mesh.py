@@ -356,6 +356,25 @@ def test_tabs_separate_an_obj_lines_values_as_spaces_do(tmp_path):
         assert loaded.vertices.min() == 0.0 and len(loaded.faces) == 4, name
 
 
+def test_comments_that_end_an_obj_data_line_are_cut(tmp_path):
+    """'v 0 0 1 # a' and 'f 1 2 3 # tri' read as the file says (a comment to the end of the line):
+    trimesh's loader, and the fast reader that copied it, failed 'could not be read to its end due
+    to unmatched data', naming no line. Fast reader and trimesh's path (a material line) alike; a
+    name's '#' (usemtl) is kept."""
+    cases = {"fast": (TETRA.replace("v 0 0 1", "v 0 0 1 # apex").replace("f 1 3 2", "f 1 3 2\t# base"),
+                      TETRA),
+             "tight": (TETRA.replace("v 0 0 1", "v 0 0 1#apex").replace("f 1 3 2", "f 1 3 2#"), TETRA),
+             "material": (TETRA.replace("v 0 0 1", "v 0 0 1 # apex").replace("f 1 3 2", "usemtl s#2\nf 1 3 2 # b"),
+                          TETRA.replace("f 1 3 2", "usemtl s#2\nf 1 3 2"))}
+    for name, (text, plain) in cases.items():
+        (tmp_path / f"{name}.obj").write_text(text)
+        (tmp_path / f"{name}_plain.obj").write_text(plain)
+        loaded, expected = mesh.load(tmp_path / f"{name}.obj"), mesh.load(tmp_path / f"{name}_plain.obj")
+        np.testing.assert_array_equal(loaded.vertices, expected.vertices)
+        np.testing.assert_array_equal(loaded.faces, expected.faces)
+        assert loaded.vertices.max() == 1.0 and len(loaded.faces) == 4, name
+
+
 def test_xyz_files_with_commas_comments_or_uneven_lines(tmp_path):
     """Commas as separators and comment lines ('#', CloudCompare's '//X Y Z' header) read as the
     plain file: trimesh counted the first line's columns before it took commas as spaces ('not

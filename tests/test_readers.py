@@ -602,6 +602,18 @@ def test_obj_tabs_are_white_space(name):
     np.testing.assert_array_equal(readers.read(mixed.encode(), "obj").vertices, expected.vertices)
 
 
+@pytest.mark.parametrize("name", ["triangles", "v_vt_vn", "mixed_polygons"])
+def test_obj_comments_that_end_a_data_line_are_cut(name):
+    """'v 1 0 0 # a', 'f 1 2 3 # tri': the mesh of the file without them (the reader, as trimesh's
+    loader it copied, read the comment as values: Unsupported, then trimesh's 'could not be read to
+    its end due to unmatched data')."""
+    plain = OBJ_VARIANTS[name]
+    commented = "\n".join(line + (" # c" if line[:1] in "vf" else "") for line in plain.split("\n"))
+    got, expected = readers.read(commented.encode(), "obj"), check_same(plain, "obj")
+    np.testing.assert_array_equal(got.vertices, expected.vertices)
+    np.testing.assert_array_equal(got.faces, expected.faces)
+
+
 @pytest.mark.parametrize("text", [
     OBJ_HEAD + "usemtl a\nf 1 2 3\nusemtl b\nf 1 3 4\n",   # materials split the mesh
     OBJ_HEAD + "f 1 2 3\nf 1/1 3/1 4/1\n",                 # several kinds of references

@@ -30,13 +30,19 @@ def as_read(data: bytes, ext: str) -> bytes:
     readers read as the file says: an OFF file without its ``#`` comments (trimesh repeats the
     lines before a comment that follows the first line end: the counts line read as the first
     vertex); an OBJ file with its tabs as spaces (trimesh's and the fast reader's keywords are
-    ``v `` and ``f ``: a ``v\\t0 0 1`` line was dropped, every later vertex one number off)."""
+    ``v `` and ``f ``: a ``v\\t0 0 1`` line was dropped, every later vertex one number off) and
+    without the ``#`` comments that end its data lines (``v 0 0 0 # a``: trimesh read the comment
+    as values, "could not be read to its end due to unmatched data";
+    :func:`jaxpose.io.readers.obj.without_comments`)."""
     if ext == "off":
         from .readers.off import without_comments
 
         return without_comments(data)
-    if ext == "obj" and b"\t" in data:
-        return data.replace(b"\t", b" ")
+    if ext == "obj":
+        from .readers.obj import without_comments
+
+        data = without_comments(data)
+        return data.replace(b"\t", b" ") if b"\t" in data else data
     if ext == "xyz":
         return _xyz(data)
     return data

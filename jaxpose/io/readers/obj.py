@@ -9,13 +9,33 @@ from ...errors import InvalidInputError
 from .base import (Loaded, Unsupported, file_bytes, _checked, _floats, _ints, _text, _tokens, _triangulate,
                    _triangulate_inline)
 
-__all__ = ["read_obj", "check_vertex_references", "check_texture_references"]
+__all__ = ["read_obj", "check_vertex_references", "check_texture_references", "without_comments"]
 
 
 _INDEX = r"-?[0-9]+"
 _OBJ_FORMS = {form: re.compile(rf"{ref}(?: {ref})*") for form, ref in (
     ((0, False), _INDEX), ((1, False), f"{_INDEX}/{_INDEX}"), ((2, True), f"{_INDEX}//{_INDEX}"),
     ((2, False), f"{_INDEX}/{_INDEX}/{_INDEX}"))}
+
+_INLINE_COMMENT = re.compile(rb"(?m)^([ \t]*(?:v|vt|vn|vp|f|l|p)[ \t][^#\r\n]*)#[^\r\n]*")
+
+
+def without_comments(data: bytes) -> bytes:
+    """An OBJ file's bytes with the ``#`` comment that ends a data line (``v``, ``vt``, ``vn``,
+    ``vp``, ``f``, ``l``, ``p``: ``v 0 0 0 # a``, ``f 1 2 3 # tri``) cut to its line end (the line
+    end kept), as the file says; trimesh's loader and the fast reader's copy of it read such a line's
+    comment as values ("could not be read to its end due to unmatched data"). Other lines are kept
+    whole: comment lines (every reader skips them) and names (``o``, ``g``, ``usemtl``, ``mtllib``
+    may hold a ``#``). `data` itself where it holds no ``#``."""
+    at = data.find(b"#")
+    while at >= 0:  # (comment lines only, as most files' headers: the bytes left as they are, unsearched)
+        start = data.rfind(b"\n", 0, at) + 1
+        if data[start:at].strip(b" \t\r"):  # a '#' after some text on its line
+            return _INLINE_COMMENT.sub(rb"\1", data)
+        end = data.find(b"\n", at)
+        at = -1 if end < 0 else data.find(b"#", end)
+    return data
+
 
 @file_bytes
 def read_obj(data: bytes) -> Loaded:
@@ -31,11 +51,13 @@ def read_obj(data: bytes) -> Loaded:
         :func:`check_texture_references`). A file cut at the end of a line, or within a number,
         reads as a valid OBJ file: no reader can tell.
 
+    A ``#`` comment that ends a data line (``f 1 2 3 # tri``) is cut (:func:`without_comments`).
     Normal references (``v//vn``, ``v/vt/vn``) are not checked, nor texture references of a file
     without ``vt`` lines: those data are never used (:func:`jaxpose.io.mesh.read` drops the file's
     normals; a file without UV has none to lose), and trimesh reads such a file as this reader does.
     """
-    text = _text(data).replace("\t", " ")  # white space (trimesh knows "v " and "f ": it dropped "v\t" lines)
+    text = _text(without_comments(data))  # "v 0 0 0 # a": the comment cut (trimesh read it as values)
+    text = text.replace("\t", " ")  # white space (trimesh knows "v " and "f ": it dropped "v\t" lines)
     text = "\n{}\n".format(text.strip().replace("\r\n", "\n")).replace("\\\n", "")
     if "usemtl" in text or "+e" in text or "-e" in text or "\r" in text:
         _cut_last_line(text)  # (a cut file's last line: trimesh drops it without a word)

@@ -514,6 +514,50 @@ def test_ply_ascii_index_not_of_its_type_is_an_error(tmp_path, kind, faces):
         jmesh.load(path)
 
 
+PLY_SHORT_HEAD = ("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                  "{extra}element face 1\nproperty list uchar int vertex_indices\nend_header\n")
+PLY_RGB = "property uchar red\nproperty uchar green\nproperty uchar blue\n"
+
+
+@pytest.mark.parametrize("extra, body, line", [
+    ("", "0 0 0\n1 0\n0 1 0\n3 0 1 2\n", 11),
+    (PLY_RGB, "0 0 0 255 0 0\n1 0\n0 1 0 0 0 255\n3 0 1 2\n", 14),
+    (PLY_RGB, "0 0\n1 0\n0 1\n3 0 1 2\n", 13),  # every line (trimesh: KeyError 'z')
+])
+def test_ply_ascii_vertex_line_without_its_coordinates_is_an_error(tmp_path, extra, body, line):
+    """An ASCII PLY vertex line with fewer values than its x, y, z: refused, naming the vertex and
+    the file's line; trimesh's error named neither ('setting an array element with a sequence.').
+    Also through trimesh's path (a point cloud: no faces)."""
+    from jaxpose import mesh as jmesh
+    from jaxpose.errors import InvalidInputError
+
+    data = (PLY_SHORT_HEAD.format(extra=extra) + body).encode()
+    vertex = 1 if body.startswith("0 0\n") else 2
+    with pytest.raises(InvalidInputError, match=f"vertex {vertex} \\(line {line} of the file\\) holds 2 values, fewer "
+                                                "than the 3 its properties need up to x, y, z"):
+        readers.read(data, "ply")
+    cloud = data.replace(b"element face 1\nproperty list uchar int vertex_indices\n", b"").replace(b"3 0 1 2\n", b"")
+    for name, text, at in (("mesh.ply", data, line), ("cloud.ply", cloud, line - 2)):  # (2 header lines fewer)
+        (tmp_path / name).write_bytes(text)
+        with pytest.raises(InvalidInputError, match=f"{name}: cannot read PLY file: vertex {vertex} \\(line {at} of"):
+            jmesh.load(tmp_path / name)
+
+
+def test_ply_ascii_vertex_line_without_its_color_is_read_as_trimesh_does(tmp_path):
+    """A vertex line that lacks only its color columns: trimesh reads the file (its colors
+    dropped); so does mesh.load (trimesh's path), no error."""
+    from jaxpose import mesh as jmesh
+
+    data = (PLY_SHORT_HEAD.format(extra=PLY_RGB) + "0 0 0 255 0 0\n1 0 0\n0 1 0 0 0 255\n3 0 1 2\n").encode()
+    expected = trimesh_load(data, "ply")
+    with pytest.raises(Unsupported):
+        readers.read(data, "ply")
+    (tmp_path / "rgb.ply").write_bytes(data)
+    loaded = jmesh.load(tmp_path / "rgb.ply")
+    np.testing.assert_array_equal(loaded.vertices, expected.vertices)
+    np.testing.assert_array_equal(loaded.faces, [[0, 1, 2]])
+
+
 def test_ply_ascii_value_beyond_its_type_is_left_to_trimesh():
     """A vertex color beyond its uchar (300): the cast is the machine's choice, so the reader does
     not guess trimesh's value; trimesh reads the file. With a face index beyond its type too, the

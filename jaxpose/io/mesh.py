@@ -308,9 +308,9 @@ def _read(path):
         raise InvalidInputError(f"{path}: cannot read {ext.upper()} file: it refers to {exc}, which is not in its "
                                 f"folder {path.parent} (a .gltf's buffers are files beside it; a .glb holds them)") from None
     except Exception as exc:  # every reader has its own errors for corrupt files
-        if ext == "obj" and isinstance(exc, IndexError):  # a face beyond the vertices: the fast reader's words
-            try:
-                readers.obj.check_vertex_references(data)
+        if (ext == "obj" and isinstance(exc, IndexError)) or ext == "ply":  # the fast reader's words: a face
+            try:  # beyond the vertices, a vertex line without its coordinates
+                (readers.obj.check_vertex_references if ext == "obj" else readers.ply.check_vertex_lines)(data)
             except InvalidInputError as named:
                 raise InvalidInputError(f"{path}: {named}") from None
         detail = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__

@@ -7,7 +7,7 @@ from ...errors import InvalidInputError
 from .base import (Loaded, Unsupported, file_bytes, _checked, _floats, _runs, _starts, _take, _text, _tokens,
                    _triangulate)
 
-__all__ = ["read_ply"]
+__all__ = ["read_ply", "check_vertex_lines"]
 
 
 _PLY_TYPES = {
@@ -123,16 +123,19 @@ def read_ply(data: bytes) -> Loaded:
       Unsupported: anything this reader does not reproduce exactly (read it with trimesh).
       InvalidInputError: a file shorter than its header's counts (an ASCII file with fewer lines,
         a binary one with fewer bytes than its elements need at the least; whatever its elements:
-        a point cloud's too), or a face line with fewer values than its count, or a negative
-        element count (trimesh reads part of such a file without a word), or an ASCII face index
-        that is not an integer of its type (``4294967296`` or ``1e300`` for a ``uint``, ``-1`` for
-        a ``uchar``, ``nan``, ``1.5``: trimesh casts it to some index without a word).
+        a point cloud's too), an ASCII vertex line without all of its x, y, z (fewer values than its
+        properties up to them: trimesh's "setting an array element with a sequence."; a line that
+        lacks only a later column, a color, is read by trimesh), or a face line with fewer values
+        than its count, or a negative element count (trimesh reads part of such a file without a
+        word), or an ASCII face index that is not an integer of its type (``4294967296`` or
+        ``1e300`` for a ``uint``, ``-1`` for a ``uchar``, ``nan``, ``1.5``: trimesh casts it to some
+        index without a word).
     """
     elements, ascii, endian, start = _ply_header(data)
     lines = _ply_length(data, start, elements, ascii)
     _ply_check(elements)
     if ascii:
-        vertex, face, flat, counts = _ply_ascii(lines, elements, endian)
+        vertex, face, flat, counts = _ply_ascii(lines, elements, endian, data[:start].count(b"\n") + 1)
     else:
         vertex, face, flat, counts = _ply_binary(data, start, elements, endian)
     vertices = np.column_stack([vertex[k] for k in "xyz"])
@@ -181,12 +184,61 @@ def _as(values, kind):
     return values.astype(dtype)
 
 
-def _ply_ascii(lines, elements, endian):
-    """The columns of an ASCII file's `lines` (as many as the header's counts at least: _ply_length)."""
+def _refuse_short_vertex(block, counts, vprops, first_line=None):
+    """Raise the InvalidInputError for the first of the vertex lines `block` (their value `counts`)
+    that lacks a coordinate: fewer values than the vertex's scalar properties up to the last of x,
+    y, z (trimesh: "setting an array element with a sequence."). A line that lacks only later
+    columns (a color) passes: trimesh reads it (it drops the colors); so do lines among which one is
+    blank (the lines after it shifted: no line is known to be short). `first_line`: the file's line
+    number of the first vertex line, named where given."""
+    names = [p[0] for p in vprops]
+    if not {"x", "y", "z"} <= set(names) or any(p[2] for p in vprops[:max(map(names.index, "xyz")) + 1]):
+        return
+    need = max(map(names.index, "xyz")) + 1
+    short = np.asarray(counts) < need
+    if np.any(short) and np.all(np.asarray(counts) > 0):  # (a blank line: every later line shifted, not short)
+        at = int(np.argmax(short))
+        where = "" if first_line is None else f" (line {first_line + at} of the file)"
+        raise InvalidInputError(f"cannot read PLY file: vertex {at + 1}{where} holds {int(counts[at])} values, fewer "
+                                f"than the {need} its properties need up to x, y, z ({block[at]!r}): a truncated or "
+                                "malformed file")
+
+
+@file_bytes
+def check_vertex_lines(data: bytes):
+    """Raise :func:`read_ply`'s InvalidInputError where a vertex line of an ASCII PLY file lacks
+    a coordinate (fewer values than its properties up to the last of x, y, z), naming the line: for
+    a file trimesh reads (other elements, lists), whose loader fails with "setting an array element
+    with a sequence." there. Returns None otherwise (a binary file, a header this module does not
+    read, a line that lacks only a color: trimesh reads it)."""
+    try:
+        elements, ascii, _, start = _ply_header(data)
+        if not ascii or "vertex" not in elements:
+            return None
+        lines = _text(data[start:]).splitlines()
+    except Unsupported:
+        return None
+    before = 0
+    for name, (count, _) in elements.items():  # (trimesh: one line per element, in the header's order)
+        if name == "vertex":
+            break
+        before += count
+    block = lines[before:before + elements["vertex"][0]]
+    if not all(line.split() for line in lines[:before]):  # (a blank line: every later line shifted)
+        return None
+    counts = [len(line.split()) for line in block]
+    _refuse_short_vertex(block, counts, elements["vertex"][1], data[:start].count(b"\n") + before + 1)
+    return None
+
+
+def _ply_ascii(lines, elements, endian, first_line):
+    """The columns of an ASCII file's `lines` (as many as the header's counts at least: _ply_length);
+    `first_line`: the file's line number of the first vertex line (named in an error)."""
     (nv, vprops), (nf, fprops) = elements["vertex"], elements["face"]
     block = lines[:nv]
     tokens, counts = _tokens(block, c_numbers=True)
     if np.any(counts != len(vprops)):
+        _refuse_short_vertex(block, counts, vprops, first_line)  # (one that lacks only later columns: trimesh reads it)
         raise Unsupported("a vertex line with more or fewer values than properties")
     columns = _floats(tokens).reshape(nv, len(vprops))
     block = lines[nv:nv + nf]

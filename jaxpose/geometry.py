@@ -107,7 +107,17 @@ def triangle_areas(triangles):
     """Areas |(b - a) x (c - a)| / 2 of triangles (f, 3, 3) float, in squared units -> (f,) float.
 
     The cross product and its norm are written per component (the values of ``np.cross`` and
-    ``np.linalg.norm``, without their temporaries)."""
+    ``np.linalg.norm``, without their temporaries).
+
+    Raises:
+      InvalidInputError: `triangles` not of shape (f, 3, 3) (one triangle (3, 3): ``triangles[None]``).
+    """
+    if not hasattr(triangles, "shape"):  # (a list: its indexing below is NumPy's)
+        triangles = np.asarray(triangles, dtype=np.float64)
+    if len(triangles.shape) != 3 or tuple(triangles.shape[1:]) != (3, 3):  # (a (3, 3) array: an IndexError)
+        raise InvalidInputError(f"triangles must have shape (f, 3, 3), f triangles of 3 corners, got "
+                                f"{tuple(triangles.shape)}" + (" (one triangle: pass triangles[None])"
+                                                               if tuple(triangles.shape) == (3, 3) else ""))
     u = triangles[:, 1] - triangles[:, 0]
     v = triangles[:, 2] - triangles[:, 0]
     x = u[:, 1] * v[:, 2] - u[:, 2] * v[:, 1]

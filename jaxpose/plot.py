@@ -624,7 +624,20 @@ def rotation_angles(result, variant=None, *, ax=None, path=None):
 
 def rotation_overlay(meshes, poses, *, max_points=3000, ax=None, path=None, title=None):
     """The instances of one class, each normalized by its Pose (center, scale and rotation), overlaid
-    as points in the canonical planes (axes 1-0 and 2-0): a frame that holds makes them coincide."""
+    as points in the canonical planes (axes 1-0 and 2-0): a frame that holds makes them coincide.
+
+    Raises:
+      InvalidInputError: a pose that is no :class:`jaxpose.Pose` (nor has its ``apply``: a
+        (center, scale) pair has no frame to overlay), or not one pose per mesh.
+    """
+    meshes, poses = list(meshes), list(poses)
+    for k, pose in enumerate(poses):
+        if not hasattr(pose, "apply"):  # (a (center, scale) pair: AttributeError, no attribute 'apply')
+            raise InvalidInputError(f"poses[{k}] must be a Pose with its rotation (normalize(..., rotation=True), "
+                                    f"normalize_mesh(..., rotation=...)), got {type(pose).__name__}: a (center, "
+                                    "scale) pair has no frame to overlay (plot.overlay_pairs draws those)")
+    if len(poses) != len(meshes):
+        raise InvalidInputError(f"{len(poses)} poses for {len(meshes)} meshes: one pose per mesh")
     fig, axes = _figure(ax, 1, 2, size=(3.2, 3.6))
     rng = np.random.default_rng(0)
     colors = [f"C{k % 10}" for k in range(len(meshes))]

@@ -1,4 +1,6 @@
 """Vertices and faces of any input, triangle areas, closed surfaces."""
+import re
+
 import numpy as np
 import pytest
 import trimesh
@@ -57,6 +59,20 @@ def test_triangle_areas_and_closedness():
     assert geometry.is_closed(box.faces)
     assert not geometry.is_closed(box.faces[:-1])  # one triangle off: a hole
     assert not geometry.is_closed(np.concatenate([box.faces, box.faces[:1]]))  # an edge shared three times
+
+
+def test_triangle_areas_refuses_what_is_no_set_of_triangles():
+    """One triangle (3, 3) was an IndexError ('too many indices'), (f, 4, 3) and (f, 3) arrays
+    areas of something else or NumPy's errors: InvalidInputError naming the shape (f, 3, 3)."""
+    tri = [[0, 0, 0], [2, 0, 0], [0, 3, 0.0]]
+    with pytest.raises(InvalidInputError, match=r"triangles must have shape \(f, 3, 3\).*got \(3, 3\) \(one "
+                                                r"triangle: pass triangles\[None\]\)"):
+        geometry.triangle_areas(np.array(tri))
+    for bad in (np.zeros((2, 4, 3)), np.zeros((2, 3, 2)), np.zeros(3)):
+        with pytest.raises(InvalidInputError, match=r"triangles must have shape \(f, 3, 3\).*got " + re.escape(str(bad.shape))):
+            geometry.triangle_areas(bad)
+    np.testing.assert_allclose(geometry.triangle_areas([tri]), [3.0])  # a list of triangles reads as its array
+    assert geometry.triangle_areas(np.zeros((0, 3, 3))).shape == (0,)
 
 
 def _solid_of(mesh, strict=False):

@@ -137,6 +137,18 @@ def test_overlay_pairs_turns_a_pose_with_a_rotation(monkeypatch, shape):
     np.testing.assert_allclose(drawn[1], (np.asarray(shape.vertices) - [0.1, 0.2, 0.3]) / 2.0, rtol=0, atol=1e-12)
 
 
+def test_rotation_overlay_refuses_a_center_scale_pair(shape):
+    """A (center, scale) pair for a pose was an AttributeError ('tuple' object has no attribute
+    'apply'); it has no frame to overlay: InvalidInputError naming the pose and what to pass. One
+    pose per mesh (zip dropped the extra meshes silently)."""
+    from jaxpose import Pose
+
+    with pytest.raises(InvalidInputError, match=r"poses\[1\] must be a Pose with its rotation .*got tuple"):
+        plot.rotation_overlay([shape, shape], [Pose.from_center_scale(np.zeros(3), 1.0), ((0, 0, 0), 1.0)])
+    with pytest.raises(InvalidInputError, match="1 poses for 2 meshes"):
+        plot.rotation_overlay([shape, shape], [Pose.from_center_scale(np.zeros(3), 1.0)])
+
+
 def test_figures_of_a_result_name_the_result_they_take(tmp_path, fake_result):
     """An evaluate result given to the rotation figures (and an evaluate_rotation result to the
     others) was a KeyError deep in the figure ('raw', 'per_class'); each names where it belongs."""

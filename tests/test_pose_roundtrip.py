@@ -277,6 +277,26 @@ def x64_off():
     yield
 
 
+def test_host_refuses_a_traced_pose_or_no_pose():
+    """host() of a traced pose was a TypeError, of a (center, scale) pair an AttributeError: each an
+    InvalidInputError naming the field or the type, and the fix."""
+    pose = Pose.from_center_scale(np.array([1.0, 2.0, 3.0]), 2.0)
+    refused = []
+
+    def convert(center):
+        try:
+            host(pose._replace(center=center))
+        except InvalidInputError as exc:
+            refused.append(str(exc))
+        return center
+
+    jax.jit(convert)(jnp.zeros(3))
+    assert refused and "host(pose): Pose.center is traced (under jit, vmap or grad)" in refused[0], refused
+    with pytest.raises(InvalidInputError, match=r"host takes a Pose, got tuple: .*Pose.from_center_scale"):
+        host(((1.0, 2.0, 3.0), 2.0))
+    assert host(pose).center.dtype == np.float64
+
+
 def test_traced_and_jax_poses_stay_in_jax():
     rotation = jnp.asarray(_rotation(2), jnp.float32)
     pose = Pose(jnp.array([1.0, -2.0, 3.0]), jnp.asarray(2.0), rotation=rotation)

@@ -182,15 +182,25 @@ def host(pose):
 
     The type of every pose the host entry points return (:func:`jaxpose.normalize_mesh`,
     :func:`jaxpose.pose.estimators.estimate`, the command line, the batch runner), whatever the method.
-    Reads JAX arrays back from the device once; a traced pose is refused (use it inside JAX).
+    Reads JAX arrays back from the device once.
+
+    Raises:
+      InvalidInputError: `pose` is no :class:`Pose`, or a field of it is traced (under jit, vmap or
+        grad: use the pose's JAX arrays there, and host() outside).
     """
+    if not isinstance(pose, Pose):  # (a (center, scale) pair: AttributeError 'tuple' object has no attribute)
+        raise InvalidInputError(f"host takes a Pose, got {type(pose).__name__}: make one of a center and scale with "
+                                "Pose.from_center_scale(center, scale)")
+
     def convert(name, value):
         if value is None:
             return None
         if isinstance(value, Pose):  # inverse_of
             return host(value)
-        if is_traced(value):
-            raise TypeError(f"Pose.{name} is traced: host() is for concrete poses")
+        if is_traced(value):  # (was a TypeError)
+            raise InvalidInputError(f"host(pose): Pose.{name} is traced (under jit, vmap or grad): host() converts "
+                                    "concrete poses; use the pose's JAX arrays inside the transformation, host() "
+                                    "outside it")
         a = np.asarray(value)
         if a.dtype.kind == "f":
             return a.astype(np.float64)

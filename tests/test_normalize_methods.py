@@ -97,6 +97,17 @@ def test_points_by_the_documented_keyword_and_the_old_one():
         jaxpose.normalize(method="robust")
 
 
+def test_method_none_is_the_default():
+    """method=None is the default (robust), as normalize_mesh's method=None: it was refused ('method
+    must be one of 'robust', 'ocsvm', got None')."""
+    pts = _body(1024, seed=1)  # the SMALL program of test_robust_options_and_config_object_agree
+    a, b = jaxpose.normalize(pts, power=2.0, **SMALL), jaxpose.normalize(pts, None, power=2.0, **SMALL)
+    np.testing.assert_array_equal(b.center, a.center)
+    assert float(b.scale) == float(a.scale)
+    with pytest.raises(InvalidInputError, match="gamma is an option of method='ocsvm'"):  # read as robust
+        jaxpose.normalize_batch([pts], method=None, gamma=1.0)
+
+
 def test_bad_method_and_parameters_are_refused():
     pts = _body(200)
     with pytest.raises(InvalidInputError, match="method must be one of 'robust', 'ocsvm'.*keywords"):

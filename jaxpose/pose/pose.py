@@ -241,6 +241,8 @@ def _top_level(program, staged, *args, **kwargs):
 
 
 def _check_method(method):
+    if method is None:  # the default, as normalize_mesh's and estimate's None (it was refused)
+        return DEFAULT_METHOD
     if method not in METHODS:
         hint = (" (gamma and nu are keywords: normalize(points, method='ocsvm', gamma=..., nu=...))"
                 if isinstance(method, numbers.Number) else "")
@@ -316,7 +318,7 @@ def _points_argument(points, options):
     return points
 
 
-def normalize(points=_UNSET, method: str = DEFAULT_METHOD, *, power=_UNSET, gamma=_UNSET, nu=_UNSET, config=None,
+def normalize(points=_UNSET, method: str | None = DEFAULT_METHOD, *, power=_UNSET, gamma=_UNSET, nu=_UNSET, config=None,
               throw=False, rotation=False, max_points=_UNSET, seed=0, **options) -> Pose:
     """The pose (center, scale) of a point cloud: the robust estimator (default) or the OCSVM.
 
@@ -325,8 +327,8 @@ def normalize(points=_UNSET, method: str = DEFAULT_METHOD, *, power=_UNSET, gamm
         (float32, float64; float16, bfloat16 and integers are promoted, concrete or traced alike:
         :func:`jaxpose._validate.compute_dtype`); concrete or traced. The keyword ``x=`` (its
         name before it followed the documented API) still works and warns (DeprecationWarning).
-      method: ``"robust"`` (default: the depth^p-weighted centroid of the points' robust voxel
-        solid and its volume's cube root, :func:`robust_pipeline`; the same default as
+      method: ``"robust"`` (default, also for None: the depth^p-weighted centroid of the points'
+        robust voxel solid and its volume's cube root, :func:`robust_pipeline`; the same default as
         :func:`jaxpose.normalize_mesh`) or ``"ocsvm"`` (the paper's centroid c_m and mean
         distance d_m of the OCSVM region, :func:`pose_pipeline`).
       power: robust only: () depth exponent p >= 0 (default 4; traced and differentiable).
@@ -530,7 +532,7 @@ def _finish(pose, shift, size, throw, gamma=None, nu=None, tol=None):
     return pose
 
 
-def normalize_batch(list_of_points: Iterable, method: str = DEFAULT_METHOD, *, power=_UNSET, gamma=_UNSET,
+def normalize_batch(list_of_points: Iterable, method: str | None = DEFAULT_METHOD, *, power=_UNSET, gamma=_UNSET,
                     nu=_UNSET, pad_to=None, throw=False, strategy="auto", config=None, rotation=False,
                     max_points=_UNSET, seed=0, **options) -> Pose:
     """Normalize many point clouds in one compiled call: padded to one row count, masked, and mapped.

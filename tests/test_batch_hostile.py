@@ -189,6 +189,25 @@ def test_a_point_cloud_named_as_a_manifest_is_named_so(tmp_path):
     assert code == 2 and "pts.txt is a manifest (a list of mesh paths): it gives many files: -o OUTDIR" in err, err
 
 
+def test_a_csv_manifest_whose_paths_column_is_named_otherwise_is_refused(tmp_path):
+    """A .csv manifest's paths are its 'path' or 'input' column, else its first (docs/batch.md);
+    a header naming them 'file' (or 'filename', 'mesh', ...) is refused before any work, naming the
+    columns read and the fix: 'id,file' read the ids as paths (the header 'id' too, each a failed
+    row 'no such file'), 'file' alone the header as a path."""
+    from jaxpose.batch import inputs
+
+    trimesh.creation.box().export(tmp_path / "a.off")
+    for name, text, column in (("ids.csv", "id,file\nx1,a.off\n", "file"), ("one.csv", "File\na.off\n", "file"),
+                               ("mesh.csv", "Mesh, notes\na.off,x\n", "mesh")):
+        (tmp_path / name).write_text(text)
+        with pytest.raises(InvalidInputError, match=rf"{name}: a .csv manifest's paths are read from its column "
+                                                    rf"named 'path' or 'input', else from its first column .*names "
+                                                    rf"'{column}': rename that column 'path'"):
+            inputs.find_inputs(tmp_path / name)
+    (tmp_path / "ok.csv").write_text("id,Path,file\n1,a.off,b.off\n")  # a 'path' column is read as before
+    assert [p.name for p in inputs.find_inputs(tmp_path / "ok.csv").files] == ["a.off"]
+
+
 def children_holding(path):
     """Process ids of this process's children that have `path` open."""
     found = []

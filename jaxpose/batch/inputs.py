@@ -3,8 +3,9 @@
 An INPUT is a mesh file, a folder (searched recursively for :data:`MESH_SUFFIXES`, hidden files
 and folders skipped, and folders below it that hold ``.jaxpose/``: earlier runs' output folders,
 whose outputs are not inputs again; narrowed by a glob) or a manifest (:data:`MANIFEST_SUFFIXES`: one path per
-line, ``#`` comments; or a CSV whose ``path`` / ``input`` column, else first column, holds them;
-relative paths are relative to the manifest). Outputs mirror the inputs' tree: each input's path
+line, ``#`` comments; or a CSV whose ``path`` / ``input`` column, else first column, holds them:
+a header naming that column ``file``, ``filename``, ``mesh`` ... is refused; relative paths are
+relative to the manifest). Outputs mirror the inputs' tree: each input's path
 relative to the deepest folder common to all inputs (a folder INPUT counts as that folder, a file
 or a manifest's entry as the file's folder: one folder INPUT is its own root, several folders
 keep their names), under the output folder, with the input's format or the one asked for.
@@ -106,8 +107,9 @@ def find_inputs(inputs, glob=None, exclude=()) -> Found:
 
     Raises:
       InvalidInputError: inputs that are not paths, an INPUT that does not exist, an unreadable
-        manifest or one of numbers (a point cloud named .txt / .csv), nothing found, INPUTs on
-        different file systems.
+        manifest or one of numbers (a point cloud named .txt / .csv), a .csv manifest whose header
+        names its paths' column otherwise than ``path`` / ``input`` (``file``, ``filename``, ...:
+        :data:`_PATH_LIKE`), nothing found, INPUTs on different file systems.
     """
     paths = (str, os.PathLike, RemotePath)
     if not isinstance(inputs, paths) and (isinstance(inputs, bytes) or not hasattr(inputs, "__iter__")):
@@ -236,6 +238,11 @@ def _globstar_patterns(glob):
     return sorted(patterns)
 
 
+_PATH_LIKE = ("file", "filename", "file_name", "filepath", "file_path", "mesh")
+"""Header names of a .csv manifest's column of paths that are not 'path' or 'input': refused, naming
+those (its first column, header included, was read: 'id,file' gave ids as paths)."""
+
+
 def _read_manifest(path):
     try:
         text = path.read_bytes().decode("utf-8-sig")
@@ -249,6 +256,11 @@ def _read_manifest(path):
             named = [header.index(n) for n in ("path", "input") if n in header]
             if named:
                 column, rows = named[0], rows[1:]
+            elif likely := [c for c in header if c in _PATH_LIKE]:  # (its first column, the header line too)
+                raise InvalidInputError(f"{path}: a .csv manifest's paths are read from its column named 'path' or "
+                                        "'input', else from its first column (the first line too); its header "
+                                        f"{','.join(c.strip() for c in rows[0])!r:.80} names {likely[0]!r}: rename "
+                                        "that column 'path'")
         entries = [r[column].strip() if column < len(r) else "" for r in rows]
     else:
         entries = [line.strip() for line in text.splitlines()]

@@ -11,7 +11,7 @@ import sys
 
 import numpy as np
 
-from .config import _bool, _int
+from .config import _bool, _int, check_known  # (config's rules: NumPy-free, config is imported before NumPy)
 from .errors import ConvergenceError, InvalidInputError, InvalidPoseWarning, JaxposeError, OpenMeshWarning
 
 __all__ = [
@@ -28,6 +28,7 @@ __all__ = [
     "check_bool",
     "check_real",
     "check_names",
+    "check_known",
     "check_callback",
     "compute_dtype",
     "is_real_dtype",

@@ -109,16 +109,22 @@ def _set(obj, **values):
         object.__setattr__(obj, key, value)
 
 
+def check_known(given, valid, what="option", show=str):
+    """Refuse the names in ``given`` that are not in ``valid`` (InvalidInputError: "unknown
+    option(s) a, b; valid: ..." in ``valid``'s order; ``what`` names them, ``show`` writes each)."""
+    unknown = sorted(set(given) - set(valid))
+    if unknown:
+        raise InvalidInputError(f"unknown {what}{'s' if len(unknown) > 1 else ''} {', '.join(map(show, unknown))}; "
+                                f"valid: {', '.join(valid)}")
+
+
 def _base(cls, config, options, valid):
     """The config a ``create`` starts from: ``config`` (default ``cls()``), which must be a ``cls``;
     refuses, naming them, the keyword ``options`` not in ``valid`` (listed in that order)."""
     base = cls() if config is None else config
     if not isinstance(base, cls):
         raise InvalidInputError(f"config must be a {cls.__name__}, got {type(base).__name__}")
-    unknown = sorted(set(options) - set(valid))
-    if unknown:
-        raise InvalidInputError(f"unknown option{'s' if len(unknown) > 1 else ''} {', '.join(unknown)}; "
-                                f"valid: {', '.join(valid)}")
+    check_known(options, valid)
     return base
 
 

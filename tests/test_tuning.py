@@ -199,6 +199,16 @@ sys.exit(main(sys.argv[2:]))
 """
 
 
+def _write_two_classes(folder, sphere):
+    """Two classes of 4 stretched spheres each, "tall" and "flat", as PLY files under ``folder``."""
+    for name, extents in {"tall": [1.0, 0.5, 2.0], "flat": [2.0, 1.0, 0.4]}.items():
+        (folder / name).mkdir(parents=True)
+        for i in range(4):
+            m = sphere.copy()
+            m.apply_scale(np.asarray(extents) * (1.0 + 0.05 * i))
+            m.export(folder / name / f"{i}.ply")
+
+
 def test_cli_tune_runs_on_the_runtime_dependencies(tmp_path):
     """``jaxpose tune`` with every test-only package unimportable (a real subprocess): a folder of
     class sub-folders, core alignment, two input variants (each a class), a held-out class, JSON
@@ -217,12 +227,7 @@ def test_cli_tune_runs_on_the_runtime_dependencies(tmp_path):
     sphere = trimesh.creation.icosphere(subdivisions=2)
     # 4 objects of 120 samples per class and FAST's options (sizes incidental): the command's programs
     # are those test_tune_result_is_json_and_says_whether_it_transfers compiles, loaded from the run's cache
-    for name, extents in {"tall": [1.0, 0.5, 2.0], "flat": [2.0, 1.0, 0.4]}.items():
-        (tmp_path / "data" / name).mkdir(parents=True)
-        for i in range(4):
-            m = sphere.copy()
-            m.apply_scale(np.asarray(extents) * (1.0 + 0.05 * i))
-            m.export(tmp_path / "data" / name / f"{i}.ply")
+    _write_two_classes(tmp_path / "data", sphere)
     out = tmp_path / "r.json"
     args = ["tune", "--data", str(tmp_path / "data"), "--align-core", "--variants", "plain,outliers",
             "--steps", "1", "--count", "120", "--json", str(out), "--resolution", "8", "--band", "256",
@@ -296,12 +301,7 @@ def test_cli_tune_writes_a_nan_measure_as_null(tmp_path, capsys):
     from jaxpose import cli
 
     sphere = trimesh.creation.icosphere(subdivisions=2)
-    for name, extents in {"tall": [1.0, 0.5, 2.0], "flat": [2.0, 1.0, 0.4]}.items():
-        (tmp_path / "data" / name).mkdir(parents=True)
-        for i in range(4):
-            m = sphere.copy()
-            m.apply_scale(np.asarray(extents) * (1.0 + 0.05 * i))
-            m.export(tmp_path / "data" / name / f"{i}.ply")
+    _write_two_classes(tmp_path / "data", sphere)
     out = tmp_path / "r.json"
     assert cli.main(["tune", "--data", str(tmp_path / "data"), "--gamma", "1e6", "--steps", "0", "--count", "120",
                      "--resolution", "8", "--band", "256", "--json", str(out)]) == 1

@@ -21,7 +21,8 @@ import time
 
 import numpy as np
 
-from .._validate import InvalidInputError, JaxposeError, check_bool, check_callback, check_int, check_names, is_real_dtype
+from .._validate import (InvalidInputError, JaxposeError, check_bool, check_callback, check_int, check_known, check_names,
+                         is_real_dtype)
 from . import alignment
 from .tables import check_result, class_tables
 from .variants import VARIANTS, make_class
@@ -174,10 +175,7 @@ def evaluate_rotation(classes, methods=None, variants=("plain",), align_core=Fal
     seed = check_int(seed, "seed", 0)  # a NumPy or JAX integer scalar as its int (a bool, a float refused)
     align_core, frames = check_bool(align_core, "align_core"), check_bool(frames, "frames")
     check_callback(progress, "progress")
-    unknown = sorted(set(options) - {"resolution", "ocsvm"})
-    if unknown:  # frame_of's TypeError at the first shape
-        raise InvalidInputError(f"unknown option{'s' if len(unknown) > 1 else ''} {', '.join(unknown)}; valid: "
-                                "resolution, ocsvm")
+    check_known(options, ("resolution", "ocsvm"))  # (frame_of's TypeError at the first shape)
     check_frame_options(options.get("resolution"), options.get("ocsvm"))  # not each method's error cell
     if align_core:
         classes = {name: alignment.align_core(meshes, weight=core_weight) for name, meshes in classes.items()}

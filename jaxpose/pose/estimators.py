@@ -413,9 +413,7 @@ def estimate(geometry, method=None, *, center=None, scale=None, strict=False, **
 def _check_options(options):
     """The options' names and values, before any work (a bad value was an error of each method that
     read it, or none where no method read it: gamma=-1 with bbox, ocsvm=5)."""
-    unknown = sorted(set(options) - {"power", "resolution", "ocsvm", *_OCSVM_KEYS})
-    if unknown:
-        raise InvalidInputError(f"unknown option{'s' if len(unknown) > 1 else ''} {', '.join(unknown)}")
+    _validate.check_known(options, ("power", "resolution", "ocsvm", *_OCSVM_KEYS))
     checks = {"power": lambda v: _validate.check_real(v, "power", 0), "resolution": solid.check_resolution,
               "gamma": _validate.check_gamma, "nu": _validate.check_nu, "count": sample.check_count,
               "seed": lambda v: _validate.check_int(v, "seed", 0)}

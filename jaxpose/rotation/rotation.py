@@ -18,7 +18,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from .. import baselines, sample
-from .._validate import InvalidInputError, JaxposeError, check_gamma, check_int, check_nu
+from .._validate import InvalidInputError, JaxposeError, check_gamma, check_int, check_known, check_nu
 from ..config import OCSVM, SAMPLING
 from ..occupancy import solid
 from ..orientation import (GAP_MIN, SIGN_MIN, SYMMETRY_MIN, Frame, ambiguity, complete_signs, proper, region_frame,
@@ -52,10 +52,7 @@ def check_frame_options(resolution=None, ocsvm=None):
         return resolution, None
     if not isinstance(ocsvm, Mapping):
         raise InvalidInputError(f"ocsvm must be a dict of {', '.join(OCSVM_FRAME_KEYS)}, got {ocsvm!r:.80}")
-    unknown = sorted(set(ocsvm) - set(OCSVM_FRAME_KEYS))
-    if unknown:
-        raise InvalidInputError(f"unknown ocsvm key{'s' if len(unknown) > 1 else ''} {', '.join(map(repr, unknown))}; "
-                                f"valid: {', '.join(OCSVM_FRAME_KEYS)}")
+    check_known(ocsvm, OCSVM_FRAME_KEYS, "ocsvm key", repr)
     checks = {"gamma": check_gamma, "nu": check_nu, "count": sample.check_count,
               "seed": lambda v: check_int(v, "seed", 0)}
     for key, value in ocsvm.items():

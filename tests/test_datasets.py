@@ -190,6 +190,28 @@ def test_load_folder_reads_past_a_byte_order_mark(tmp_path):
         np.testing.assert_array_equal(mesh.faces, plain.faces)
 
 
+def test_load_folder_prepares_a_file_as_load_does(tmp_path):
+    """load_folder reads a file through the text preparation of jaxpose.load (one helper): a UTF-16
+    OBJ (PowerShell's Out-File) is the OBJ (it failed: "No module named 'charset_normalizer'"), and
+    an OBJ whose face references a texture coordinate that is not there is refused by name, as by
+    load (it was read with its UV dropped without a word)."""
+    from jaxpose import mesh
+
+    tetra = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"
+    (tmp_path / "a").mkdir()
+    for name, text in (("fast.obj", tetra), ("material.obj", tetra.replace("f 1 3 2", "usemtl skin\nf 1 3 2", 1))):
+        (tmp_path / "a" / name).write_bytes(text.encode("utf-16"))
+    loaded = load_folder(tmp_path)["a"]
+    assert [m.vertices.tolist() for m in loaded] == [[[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]] * 2
+    assert [len(m.faces) for m in loaded] == [4, 4]
+    (tmp_path / "a" / "fast.obj").write_text("usemtl a\nvt 0 0\n" + tetra.replace("f 1 2 4", "f 1/1 2/1 4/2"))
+    match = r"cannot read mesh .*fast.obj: .*texture coordinate 2 of the 1 it has"
+    with pytest.raises(InvalidInputError, match=match):
+        load_folder(tmp_path)
+    with pytest.raises(InvalidInputError, match=r"fast.obj: .*texture coordinate 2 of the 1 it has"):
+        mesh.load(tmp_path / "a" / "fast.obj")
+
+
 def test_load_folder_reads_tabs_in_an_obj_as_spaces(tmp_path):
     """'v\\t0 0 1' is a vertex, through the fast reader and trimesh (a material line); it was dropped."""
     tetra = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"

@@ -406,6 +406,26 @@ def test_normal_references_and_uv_references_without_uv_are_not_checked(tmp_path
             np.testing.assert_array_equal(np.asarray(got.faces), np.asarray(expected.faces))
 
 
+def test_a_valid_textured_obj_read_by_trimesh_is_not_scanned_for_texture_references(tmp_path, monkeypatch):
+    """An OBJ with materials and UV that trimesh keeps is not scanned again for its texture
+    references (the scan cost 5.2 s and ~650 MB on a 1e6-vertex, 2e6-face file): only a file with
+    'vt' lines whose mesh lost its UV is (then named as before, test_broken_references_are_errors)."""
+    from jaxpose import mesh as jmesh
+
+    def scan(data):
+        raise AssertionError("scanned")
+
+    monkeypatch.setattr(readers.obj, "check_texture_references", scan)
+    path = tmp_path / "textured.obj"
+    path.write_text(OBJ_TET + "vt 0 0\nvt 1 0\nvt 0 1\nusemtl a\nf 1/1 3/3 2/2\nf 1/1 2/2 4/3\nf 1/1 4/3 3/3\n"
+                    "f 2/2 3/3 4/3\n")
+    loaded = jmesh.load(path)
+    assert loaded.visual.uv is not None and len(loaded.faces) == 4
+    path.write_text(OBJ_TET + "vt 0 0\nusemtl a\nf 1/1 3/1 2/1\nf 1/1 2/5 4/1\n")  # UV lost: scanned
+    with pytest.raises(AssertionError, match="scanned"):
+        jmesh.load(path)
+
+
 PLY_TET_TEXT = ("ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
                 "element face 2\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n"
                 "3 0 1 2\n3 0 2 3\n")

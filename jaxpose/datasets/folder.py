@@ -1,7 +1,6 @@
 """Load a folder of classes: ``root/<class>/<mesh files>``, or a flat folder as one class."""
 from __future__ import annotations
 
-import io
 import os
 from pathlib import Path
 
@@ -9,7 +8,8 @@ import numpy as np
 import trimesh
 
 from jaxpose._validate import InvalidInputError
-from jaxpose.io import formats, readers
+from jaxpose.io import readers
+from jaxpose.io.mesh import read_stored
 
 __all__ = ["load_folder", "MESH_SUFFIXES"]
 
@@ -22,66 +22,31 @@ def _mesh_files(folder: Path) -> list[Path]:
 
 
 def _load(path: Path) -> trimesh.Trimesh:
-    mesh = _read_fast(path)
-    if mesh is None:
-        mesh = _read_trimesh(path)
+    """The mesh of a file as :func:`jaxpose.io.mesh.read_stored` reads it (the text preparation,
+    decoding and checks of :func:`jaxpose.load`), vertices as stored (nothing merged), a Scene's
+    meshes concatenated."""
+    try:
+        geometry = read_stored(path)
+    except InvalidInputError as exc:
+        raise InvalidInputError(f"cannot read mesh {exc}") from None  # (the message starts with the path)
+    if isinstance(geometry, readers.Loaded):
+        mesh = trimesh.Trimesh(**geometry.kwargs(), process=False)
+    elif isinstance(geometry, trimesh.Scene):
+        try:
+            mesh = geometry.to_mesh() if hasattr(geometry, "to_mesh") else geometry.dump(concatenate=True)
+        except Exception as exc:  # trimesh's own errors for a scene it made of a broken file
+            raise InvalidInputError(f"cannot read mesh {path}: {exc}") from None
+    else:
+        mesh = geometry
+    if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+        raise InvalidInputError(f"{path} holds no triangle mesh")
+    name = mesh.metadata.get("name", path.name)  # an ASCII STL's solid names it, as trimesh.load(path) does
+    mesh.metadata.update(name=name, node=name)
     bad = int(np.count_nonzero(~np.all(np.isfinite(mesh.vertices), axis=1)))
     if bad:  # named here: the evaluation's own check names no file ("vertices has 1 rows with NaN ...")
         raise InvalidInputError(f"cannot read mesh {path}: {bad} of its {len(mesh.vertices)} vertices have NaN or inf "
                                 "coordinates")
     mesh.metadata.setdefault("file_name", path.name)
-    return mesh
-
-
-def _read_trimesh(path: Path) -> trimesh.Trimesh:
-    try:
-        text = _text_fixed(path)
-        if text is not None:  # what trimesh misreads: a byte-order mark, an OFF's comments (module docs)
-            mesh = trimesh.load(io.BytesIO(text), file_type=path.suffix.lower()[1:], force="mesh", process=False,
-                                resolver=trimesh.resolvers.FilePathResolver(str(path)))
-        else:
-            mesh = trimesh.load(path, force="mesh", process=False)
-    except Exception as exc:  # trimesh raises many types on bad files
-        raise InvalidInputError(f"cannot read mesh {path}: {exc}") from None
-    if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
-        raise InvalidInputError(f"{path} holds no triangle mesh")
-    return mesh
-
-
-def _text_fixed(path: Path):
-    """A text mesh file's bytes as trimesh reads them right, where it would misread them, else None:
-    without the UTF-8 byte-order mark that starts an OBJ, OFF or ASCII STL file (read as part of the
-    first line: an OBJ's first vertex lost), an OFF file without its comments and an OBJ file with
-    its tabs as spaces (:func:`jaxpose.io.formats.as_read`)."""
-    suffix = path.suffix.lower()
-    if suffix not in (".obj", ".off", ".stl"):
-        return None
-    data = path.read_bytes()
-    if suffix == ".stl" and formats.binary_stl(data):
-        return None
-    fixed = formats.as_read(formats.without_bom(data), suffix[1:])
-    return None if fixed == data else fixed
-
-
-def _read_fast(path: Path):
-    """``trimesh.load(path, force="mesh", process=False)`` through :mod:`jaxpose.io.readers`
-    (vertices as stored, nothing merged; trimesh's names in the metadata), or None where they do
-    not apply."""
-    ext = path.suffix.lower().lstrip(".")
-    if ext not in readers.READERS:
-        return None
-    try:
-        data = path.read_bytes()
-        if ext in ("obj", "off") or (ext == "stl" and not formats.binary_stl(data)):  # text: no byte-order mark
-            data = formats.without_bom(data)
-        loaded = readers.read(formats.as_read(data, ext), ext)
-    except (readers.Unsupported, OSError):
-        return None
-    except InvalidInputError as exc:  # broken where trimesh would read part of it
-        raise InvalidInputError(f"cannot read mesh {path}: {exc}") from None
-    mesh = trimesh.Trimesh(**loaded.kwargs(), process=False)
-    name = mesh.metadata.get("name", path.name)  # an ASCII STL's solid names it, as in trimesh
-    mesh.metadata.update(name=name, node=name)
     return mesh
 
 

@@ -293,11 +293,6 @@ def _read(path):
             pass
         except InvalidInputError as exc:  # broken where trimesh would read part of it
             raise InvalidInputError(f"{path}: {exc}") from None
-    if ext == "obj":
-        try:  # (the fast reader's check: trimesh would drop the file's UV without a word)
-            readers.obj.check_texture_references(data)
-        except InvalidInputError as exc:
-            raise InvalidInputError(f"{path}: {exc}") from None
     trimesh = _trimesh()
     # a .gltf names its buffers (and images) as files beside it: read them from its folder (the
     # bytes alone leave trimesh nothing to read them with: "'NoneType' object is not subscriptable")
@@ -308,9 +303,12 @@ def _read(path):
         raise InvalidInputError(f"{path}: cannot read {ext.upper()} file: it refers to {exc}, which is not in its "
                                 f"folder {path.parent} (a .gltf's buffers are files beside it; a .glb holds them)") from None
     except Exception as exc:  # every reader has its own errors for corrupt files
-        if (ext == "obj" and isinstance(exc, IndexError)) or ext == "ply":  # the fast reader's words: a face
-            try:  # beyond the vertices, a vertex line without its coordinates
-                (readers.obj.check_vertex_references if ext == "obj" else readers.ply.check_vertex_lines)(data)
+        if ext == "obj" or ext == "ply":  # the fast reader's words: a texture coordinate or a face beyond its
+            try:  # count, a vertex line without its coordinates
+                if ext == "obj":
+                    readers.obj.check_texture_references(data)
+                if (ext == "obj" and isinstance(exc, IndexError)) or ext == "ply":
+                    (readers.obj.check_vertex_references if ext == "obj" else readers.ply.check_vertex_lines)(data)
             except InvalidInputError as named:
                 raise InvalidInputError(f"{path}: {named}") from None
         detail = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
@@ -321,7 +319,37 @@ def _read(path):
     if not _has_vertices(geometry):
         raise InvalidInputError(f"{path}: empty geometry: no vertices read as {ext.upper()} (the file is empty, "
                                 f"or its content is not {ext.upper()})")
+    if ext == "obj" and _lost_uv(data, geometry):
+        try:  # (the fast reader's check: trimesh drops every UV of a file with a reference out of range)
+            readers.obj.check_texture_references(data)
+        except InvalidInputError as exc:
+            raise InvalidInputError(f"{path}: {exc}") from None
     return geometry
+
+
+def _lost_uv(data, geometry):
+    """Whether an OBJ file's text `data` has ``vt`` lines and a mesh trimesh read of it holds no UV
+    coordinates (what trimesh's loader leaves where a face references a texture coordinate that is
+    not there): only then is :func:`jaxpose.io.readers.obj.check_texture_references` run, so a
+    file whose UV trimesh kept is not scanned again."""
+    if not (data.startswith((b"vt ", b"vt\t")) or b"\nvt " in data or b"\nvt\t" in data):
+        return False
+    parts = geometry.geometry.values() if _is(geometry, "Scene") else [geometry]
+    return any(getattr(getattr(part, "visual", None), "uv", None) is None for part in parts
+               if _is(part, "Trimesh"))
+
+
+def read_stored(path):
+    """A file's geometry as :func:`read` reads it (the same checks, text decoding and fixes of the
+    text: :func:`jaxpose.io.formats.as_text`, :func:`jaxpose.io.formats.as_read`, an OBJ's texture
+    references) before anything is merged or checked beyond reading: the fast readers'
+    :class:`jaxpose.io.readers.Loaded`, else trimesh's geometry as loaded (``process=False``; a
+    Scene, a Trimesh or a PointCloud).
+
+    Raises:
+      InvalidInputError: a missing, unreadable or unsupported file, naming it.
+    """
+    return _read(Path(path))
 
 
 PIPE_WAIT_S = 60.0

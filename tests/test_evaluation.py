@@ -242,8 +242,9 @@ def test_align_core_keeps_faces_and_checks_counts():
     (lambda: sweep({"boxes": _boxes()}, progress=5), "progress must be a callable or None"),
     (lambda: align_core(_boxes(), keep="0.3"), "keep must be a finite number > 0, got '0.3'"),  # '<'s TypeError
     # sweep: a fixed without the other parameter was KeyError 'nu'; values="47" swept 4 and 7
-    (lambda: sweep({"boxes": _boxes()}, "gamma", fixed={"mu": 0.1}), r"fixed must give the other parameter only, \{'nu'"),
-    (lambda: sweep({"boxes": _boxes()}, "nu", fixed={"nu": 0.1}), r"fixed must give the other parameter only, \{'gamma'"),
+    (lambda: sweep({"boxes": _boxes()}, "gamma", fixed={"mu": 0.1}), r"fixed must give the other parameter, \{'nu'"),
+    (lambda: sweep({"boxes": _boxes()}, "gamma", fixed={"nu": 0.1, "mu": 0.1}), r"keys 'gamma' and 'nu' only"),
+    (lambda: sweep({"boxes": _boxes()}, "nu", fixed={"nu": 0.1}), r"fixed must give the other parameter, \{'gamma'"),
     (lambda: sweep({"boxes": _boxes()}, "gamma", values="47"), "values must be a list of numbers, got the string '47'"),
 ])
 def test_arguments_of_the_wrong_kind_are_refused_by_name(call, message):
@@ -353,6 +354,9 @@ def test_sweep_with_fake_normalize(fake_normalize, monkeypatch):
     assert s3 == pytest.approx(3.0 * s1, rel=1e-12)  # the fake center scales with gamma
     assert out["average"]["sigma_tr"] == [s1, s3]
     assert out["surface_centroid"]["average"]["sigma_tr"] == pytest.approx(1.0)
+    # the swept parameter in fixed is overridden by each value (it was accepted so; a check refused it)
+    both = sweep(classes, "gamma", values=[1.0, 3.0], fixed={"gamma": 47.0, "nu": 0.0}, count=300)
+    assert both["fixed"] == {"nu": 0.0} and both["per_class"] == out["per_class"]
     out = sweep(classes, "nu", values=[0.1, 0.5], count=300)
     assert out["fixed"] == {"gamma": 47.0}
     assert out["average"]["sigma_scale"] == [0.0, 0.0]

@@ -276,7 +276,9 @@ def sweep(classes, param="gamma", values=None, fixed=None, count=OCSVM.count, se
 
     param : "gamma" or "nu"; values : default :data:`SWEEP_VALUES` [param]
     fixed : the other parameter, default :data:`SWEEP_FIXED` [param] (nu = 0 for the gamma
-        sweep, the default gamma for the nu sweep, as in the paper)
+        sweep, the default gamma for the nu sweep, as in the paper); keys "gamma" and "nu" only,
+        the other one required; a value given for the swept parameter is overridden by each of
+        ``values`` (``{"gamma": 47.0, "nu": 0.3}`` sweeps gamma at nu = 0.3)
     Surface samples are drawn once per mesh and reused for every value.
 
     Returns ``{"param", "values", "fixed", "per_class": {class: {"sigma_tr": [...],
@@ -297,12 +299,14 @@ def sweep(classes, param="gamma", values=None, fixed=None, count=OCSVM.count, se
         raise InvalidInputError(f"values must be a non-empty list of numbers, got {values!r:.80}")
     other = "nu" if param == "gamma" else "gamma"
     fixed = SWEEP_FIXED[param] if fixed is None else fixed
-    if not isinstance(fixed, Mapping) or set(fixed) != {other}:  # (a typo, or the swept one: KeyError)
-        raise InvalidInputError(f"fixed must give the other parameter only, {{{other!r}: value}}, got {fixed!r:.80}")
+    if not isinstance(fixed, Mapping) or other not in fixed or not set(fixed) <= {"gamma", "nu"}:  # (a typo: KeyError)
+        raise InvalidInputError(f"fixed must give the other parameter, {{{other!r}: value}} (keys 'gamma' and 'nu' "
+                                f"only; the swept one is overridden by each value), got {fixed!r:.80}")
     check = {"gamma": check_gamma, "nu": check_nu}
     for value in values:  # every value before any work (a bad one failed after the samples were drawn)
         check[param](value)
-    check[other](fixed[other])
+    for name in fixed:
+        check[name](fixed[name])
     seed = _check_ocsvm(OCSVM.gamma, OCSVM.nu, count, seed, normalize_options)  # count, seed, the options
     values, fixed = [float(v) for v in values], {other: float(fixed[other])}
     points = {name: [_sample(m, count, seed) for m in meshes] for name, meshes in classes.items()}

@@ -105,9 +105,11 @@ def check_arguments(gamma=None, nu=None, count=None, seed=None, sampling=None, m
             options = {**options, "resolution": resolution}
         elif "robust_depth" in (c_name,) or s_name == "robust_volume":
             extra["resolution"] = solid.check_resolution(resolution)
+        elif ocsvm_runs:  # the ocsvm frame alone: its option, as the other options reach it
+            options = {**options, "resolution": resolution}
         else:
-            raise InvalidInputError(f"resolution applies to the robust and ocsvm estimators (options), "
-                                    f"not {c_name} / {s_name}")
+            raise InvalidInputError(f"resolution applies to the robust and ocsvm estimators (options) and to "
+                                    f"rotation='ocsvm', not {c_name} / {s_name}")
     if ocsvm_runs:
         PoseConfig.create(**options)  # every option's value and the grid's memory
     frame_name = _rotation_name(rotation)
@@ -149,7 +151,9 @@ def normalize_mesh(
       strict: closed-surface estimators raise on an open mesh instead of warning.
       power: depth exponent (robust_depth: ``jaxpose.config.ROBUST.power``; depth_weighted_solid: 2).
       resolution: for the robust solid, voxels along the body's largest extent (96); for
-        ``ocsvm``, the grid resolution of :func:`jaxpose.normalize`.
+        ``ocsvm``, the grid resolution of :func:`jaxpose.normalize`, also of the frame of
+        ``rotation="ocsvm"`` where the center and scale read no resolution (``vertex_mean``), as
+        the other OCSVM options reach that frame.
       rotation: False (default: translation and scale only, exactly as without the option), True
         (the ``head`` frame of :mod:`jaxpose.rotation.head`: the head and chest of the robust solid, or
         its depth^4-weighted ``core`` frame, flagged, where no neck is found; meshes and point clouds) or a

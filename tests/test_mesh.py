@@ -451,6 +451,12 @@ def test_the_ocsvm_frame_takes_the_ocsvm_options(monkeypatch):
     box = trimesh.creation.box((1.0, 2.0, 3.0))
     _, pose = mesh.normalize_mesh(box, method="vertex_mean", rotation="ocsvm", gamma=20.0, tol=1e-4, refine=4)
     assert seen == [("ocsvm", {"tol": 1e-4, "refine": 4}, 20.0)] and pose.rotation.shape == (3, 3)
+    # resolution too, an OCSVM option as refine is (refine=4 was taken, resolution=32 refused:
+    # 'resolution applies to the robust and ocsvm estimators (options), not vertex_mean / ...')
+    mesh.normalize_mesh(box, method="vertex_mean", rotation="ocsvm", resolution=32, refine=4)
+    assert seen[-1] == ("ocsvm", {"resolution": 32, "refine": 4}, 47.0)
+    with pytest.raises(InvalidInputError, match="resolution"):
+        mesh.check_arguments(method="vertex_mean", rotation="ocsvm", resolution=4)
     with pytest.raises(InvalidInputError, match="tol must be finite and > 0"):
         mesh.check_arguments(method="vertex_mean", rotation="ocsvm", tol=-1.0)
     with pytest.raises(InvalidInputError, match=r"options \['tol'\] apply to the ocsvm estimator only \(pass"):

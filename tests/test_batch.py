@@ -117,17 +117,25 @@ def test_glob_and_format(tmp_path, tree):
     assert not (tmp_path / "stl" / "cloud.stl").exists()
 
 
-def test_inputs_of_a_format_jaxpose_does_not_write_need_an_output_format(tmp_path, tree):
-    """A .gltf kept in its own format (no file_format): refused before any work, naming --format
-    (each was read and normalized, then failed 'output.gltf: cannot write '.gltf' files')."""
+def test_inputs_of_a_format_jaxpose_does_not_write_are_written_as_glb(tmp_path, tree):
+    """A .gltf kept in its own format (no file_format) is written as .glb, the other inputs as
+    they were (one .gltf in a folder of meshes refused the whole run, exit 2, and --glob could not
+    leave one suffix out; before that, each was read and normalized, then failed 'output.gltf:
+    cannot write '.gltf' files'). A model.glb beside it is a second input with that output."""
     root = tmp_path / "scans"
     shape = trimesh.load(root / "sphere.off", process=False)
     (root / "model.gltf").write_bytes(
         trimesh.exchange.gltf.export_gltf(trimesh.Scene(shape), embed_buffers=True)["model.gltf"])
-    with pytest.raises(UsageError, match=r"model.gltf is in a format jaxpose reads but does not write \(.gltf\): "
-                                         r"give an output format, --format / file_format"):
-        run([root], tmp_path / "out")
-    assert not (tmp_path / "out").exists()  # refused before the folder was made
+    rows = run([root], tmp_path / "out").rows
+    by_name = {os.path.basename(r.input): r for r in rows}
+    assert by_name["model.gltf"].status == "ok" and by_name["sphere.off"].status == "ok"
+    written = mesh.load(tmp_path / "out" / "model.glb")
+    assert isinstance(written, trimesh.Trimesh) and len(written.faces) == len(shape.faces)
+    assert not (tmp_path / "out" / "model.gltf").exists()
+    (root / "model.glb").write_bytes(b"")
+    with pytest.raises(UsageError, match=r"model.gl(b|tf) and .*model.gl(b|tf) would both be written to .*model.glb"):
+        run([root], tmp_path / "out2")
+    (root / "model.glb").unlink()
     rows = run([root / "model.gltf"], tmp_path / "glb", file_format="glb").rows
     assert [r.status for r in rows] == ["ok"] and (tmp_path / "glb" / "model.glb").is_file()
     (tmp_path / "list.txt").write_text("scans/sphere.off\nnotes\nscans/readme.md\n")  # names of no mesh format

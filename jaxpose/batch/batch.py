@@ -105,8 +105,6 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
     given = [inputs] if isinstance(inputs, (str, os.PathLike)) else list(inputs)
     items = plan_outputs(found.files, found.root, output_dir, file_format=file_format, table=table, given=given)
     transforms.check_replaceable(table, force)
-    if file_format is None:  # each input's own format: one jaxpose reads but cannot write fails every such input
-        _refuse_unwritable(items)
     if shard is not None:  # after the checks of the whole plan: every shard refuses alike
         items = [item for item in items if shard_index(item.source.relative_to(found.root), shard[1]) == shard[0]]
     # each input by its folder's real path (its own name kept): a folder named through a link, or
@@ -183,8 +181,8 @@ def normalize_files(inputs, output_dir, options=None, **kwargs) -> list:
         another run holds it, or when it holds files jaxpose did not write, unless ``force``).
       options: :class:`NormalizeOptions` (method, gamma, ..., rotation); default the defaults.
       glob: narrows folder searches (``"pose_*.ply"``, ``"kid_*/pose_0?.ply"``).
-      file_format: output format for all (``"ply"``); default each input's (inputs of a format
-        jaxpose reads but does not write, ``.gltf``, need one).
+      file_format: output format for all (``"ply"``); default each input's, except a format
+        jaxpose reads but does not write: a ``.gltf`` is written as ``.glb`` (``model.glb``).
       table: the transforms table's path or URL (``.parquet`` or ``.csv``); default
         ``output_dir/transforms.parquet`` (``.csv`` without pyarrow).
       workers: local worker processes (default: the cores available; 1 runs in this process).
@@ -220,8 +218,9 @@ def normalize_files(inputs, output_dir, options=None, **kwargs) -> list:
       then the rows of earlier runs into `output_dir` whose outputs are still there.
 
     Raises:
-      InvalidInputError: bad arguments, missing INPUTs, aliasing outputs, inputs kept in a format
-        jaxpose does not write (no `file_format`), an unusable output folder,
+      InvalidInputError: bad arguments, missing INPUTs, aliasing outputs (``model.gltf`` and
+        ``model.glb`` in one folder, without `file_format`: both written ``model.glb``), an unusable
+        output folder,
         an output that an earlier run wrote from another input or a `table` that is a folder or a
         file other than a transforms table (unless `force`) (all before any work). Those of the
         output paths and of conflicting run options are its subclass
@@ -277,23 +276,6 @@ def _check_run(workers, scheduler, dask_local, timeout=None):
         workers = check_int(workers, "workers", 1)
     return {"workers": workers or default_workers(), "scheduler": scheduler, "dask_local": dask_local,
             "timeout": timeout}
-
-
-def _refuse_unwritable(items):
-    """Refuse (before any work) inputs kept in their own format where jaxpose cannot write it
-    (``.gltf``: read, never written): every one of them would be read and normalized, then fail."""
-    from ..mesh import OUTPUT_FORMATS
-    from .inputs import MESH_SUFFIXES
-
-    unwritable = [item for item in items if item.output.suffix.lower() in MESH_SUFFIXES
-                  and item.output.suffix.lower().lstrip(".") not in OUTPUT_FORMATS]  # (other names fail unread)
-    if unwritable:
-        suffixes = sorted({item.output.suffix.lower() for item in unwritable})
-        count = len(unwritable)
-        which = f"{count} inputs (such as {unwritable[0].source}) are" if count > 1 else f"{unwritable[0].source} is"
-        raise UsageError(f"{which} in a format jaxpose reads but does not write "
-                         f"({', '.join(suffixes)}): give an output format, --format / file_format (one of "
-                         f"{', '.join(OUTPUT_FORMATS)}), or leave {'them' if count > 1 else 'it'} out (--glob)")
 
 
 def write_file(path, data):

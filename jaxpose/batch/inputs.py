@@ -41,6 +41,7 @@ __all__ = ["MESH_SUFFIXES", "MANIFEST_SUFFIXES", "Item", "Found", "find_inputs",
 
 MESH_SUFFIXES = (".ply", ".obj", ".off", ".stl", ".glb", ".gltf", ".xyz")
 MANIFEST_SUFFIXES = (".txt", ".csv", ".lst", ".list")
+WRITTEN_AS = {".gltf": ".glb"}  # read but not written: an input kept in its own format is written as this one
 
 
 class Item(NamedTuple):
@@ -291,8 +292,9 @@ def plan_outputs(files, root, output_dir, file_format=None, table=None, given=()
     Args:
       files, root: from :func:`find_inputs`.
       output_dir: the output folder.
-      file_format: an output format for all (``"ply"``), or None to keep each input's; an input
-        already in it keeps its name (``A.PLY`` is written ``A.PLY``, as without a format).
+      file_format: an output format for all (``"ply"``), or None to keep each input's (one jaxpose
+        reads but does not write, :data:`WRITTEN_AS`: ``model.gltf`` is written ``model.glb``); an
+        input already in it keeps its name (``A.PLY`` is written ``A.PLY``, as without a format).
       table: the transforms table's path, checked against inputs and outputs too.
       given: the INPUTs as given (manifests among them), which the table must not overwrite either.
 
@@ -313,6 +315,8 @@ def plan_outputs(files, root, output_dir, file_format=None, table=None, given=()
         output = output_dir / relative
         if file_format and source.suffix.lower() != "." + file_format:  # its own format keeps its name: A.PLY
             output = output.with_suffix("." + file_format)
+        elif not file_format and source.suffix.lower() in WRITTEN_AS:  # model.gltf -> model.glb
+            output = output.with_suffix(WRITTEN_AS[source.suffix.lower()])
         key = identity(output)
         if key in owner:
             raise UsageError(f"{owner[key]} and {source} would both be written to {output}; "

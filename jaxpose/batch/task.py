@@ -201,7 +201,7 @@ def normalize_file(source, options=None, file_type=None, check="mtime") -> FileR
       source: a path (anything :func:`jaxpose.mesh.load` reads) or a Trimesh / PointCloud.
       options: :class:`NormalizeOptions` (default: the defaults).
       file_type: output format (:data:`jaxpose.mesh.OUTPUT_FORMATS`); default the source's suffix
-        (give it for a geometry object).
+        (GLB for a ``.gltf``, which jaxpose reads but does not write; give it for a geometry object).
       check: ``"hash"`` also records the SHA-256 of a regular file's bytes (``input_sha256``).
 
     Returns:
@@ -250,6 +250,10 @@ def _output_format(mesh, file_type, source, geometry):
 
     own = file_type is None
     kind = (Path(str(source)).suffix.lstrip(".") if own else file_type).lower()
+    if own:  # a format read but not written (.gltf) is written as another (.glb): the output's name says so
+        from .inputs import WRITTEN_AS
+
+        kind = WRITTEN_AS.get("." + kind, "." + kind)[1:]
     placeholder = f"output.{kind}"
     try:
         return mesh.output_format(placeholder, geometry)

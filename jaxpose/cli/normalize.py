@@ -54,7 +54,8 @@ def add_parser(sub):
     many.add_argument("--glob", help="narrow folder searches: 'pose_*.ply', 'kid_*/pose_0?.ply', '**/pose_*.ply' "
                                      "('**/': any folders, none too; case ignored, as the suffixes are: '*.ply' "
                                      "takes SCAN.PLY)")
-    many.add_argument("--format", choices=OUTPUT_FORMATS, help="output format (default: each input's)")
+    many.add_argument("--format", choices=OUTPUT_FORMATS, help="output format (default: each input's; "
+                      "a .gltf input is written as .glb)")
     many.add_argument("--table", help="the transforms table, .parquet or .csv (default OUTDIR/transforms.parquet; "
                                       ".csv without pyarrow)")
     many.add_argument("--workers", type=checked(int, lambda n: check_int(n, "workers", 1)), metavar="N",

@@ -170,6 +170,10 @@ def test_a_globstar_stands_for_any_folders_none_too(tmp_path):
     assert found("sub/**/*.off") == ["sub/s.off", "sub/deep/d.off"] == found("**/sub/**/*.off")
     assert found("**/deep/*.off") == ["sub/deep/d.off"]
     assert found("**/top.off") == ["top.off"]
+    # within a name '**/' is two '*' (glob(recursive=True)): 'su**/s.off' took 'sus.off' as 'su' + no folder
+    (root / "sus.off").write_text("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n")
+    assert found("su**/s.off") == ["sub/s.off"]
+    assert found("**/su**/s.off") == ["sub/s.off"]
 
 
 def test_rerun_skips_what_is_done_and_redoes_what_changed(tmp_path, tree):

@@ -26,6 +26,7 @@ import fnmatch
 import hashlib
 import os
 import posixpath
+import re
 import stat
 from pathlib import Path
 from typing import NamedTuple
@@ -231,8 +232,10 @@ def _matches(relative, glob):
 
 def _globstar_patterns(glob):
     """`glob` with each subset of its ``**/`` taken out (``a/**/b`` -> ``a/**/b``, ``a/b``): their
-    union matches ``**/`` as zero or more folders, since ``*`` spans folders."""
-    parts = glob.split("**/")
+    union matches ``**/`` as zero or more folders, since ``*`` spans folders. Only a ``**/`` that
+    starts the pattern or follows a ``/`` is any folders, as in ``glob(recursive=True)``: in a name
+    (``kid**/x.ply``) it is two ``*`` (``kid1/x.ply``, not ``kidx.ply``)."""
+    parts = re.split(r"(?<![^/])\*\*/", glob)
     patterns = {parts[0]}
     for part in parts[1:]:
         patterns = {p + "**/" + part for p in patterns} | {p + part for p in patterns}

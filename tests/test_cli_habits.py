@@ -235,6 +235,13 @@ def test_a_glob_pattern_the_shell_expanded_is_named(tmp_path, monkeypatch, capsy
     assert info.value.code == 2
     err = capsys.readouterr().err
     assert "unrecognized arguments: b.off; did the shell expand --glob's pattern" in err and "--glob '*.off'" in err
+    # only where the extra argument is a file of the glob's suffix here (the hint came with any unknown option)
+    for extra in (["--bogus"], ["c.off"], ["a.ply"]):
+        (here / "a.ply").write_text("")
+        with pytest.raises(SystemExit):
+            cli.main(["normalize", str(scans), "-o", str(out), "--glob", "a.off", *extra])
+        err = capsys.readouterr().err
+        assert f"unrecognized arguments: {extra[0]}" in err and "did the shell expand" not in err, err
     assert cli.main(["normalize", "--glob", "a.off", "b.off", str(scans), "-o", str(out), "--method", "vertex_mean"]) == 2
     err = capsys.readouterr().err
     assert "--glob a.off and the INPUTs b.off are files here: the shell expanded --glob's pattern" in err, err

@@ -49,9 +49,10 @@ def main(argv=None) -> int:
     args, extra = parser.parse_known_args(argv)
     if extra and args.command not in _DELEGATED:
         glob = getattr(args, "glob", None)
-        hint = "" if not glob or any(c in glob for c in "*?[") else \
-            f"; did the shell expand --glob's pattern into file names ({glob} {extra[0]} ...)? quote it: --glob " \
-            f"'*{os.path.splitext(glob)[1] or '.ply'}'"
+        expanded = normalize.expanded_glob_names(glob, extra)  # (not for any unknown option)
+        hint = "" if not expanded else \
+            f"; did the shell expand --glob's pattern into file names ({glob} {expanded[0]} ...)? quote it: --glob " \
+            f"'*{os.path.splitext(glob)[1].lower()}'"
         parser.error(f"unrecognized arguments: {' '.join(extra)}{hint}")
     args.extra = extra
     try:

@@ -202,16 +202,27 @@ def _expanded_glob(glob, inputs):
     that only names a file here is warned about (a name to look for is a pattern too)."""
     if not glob or any(c in glob for c in "*?[") or not os.path.isfile(glob):
         return None
-    folder, suffix = os.path.dirname(os.path.abspath(glob)), os.path.splitext(glob)[1].lower()
-    siblings = [p for p in inputs if os.path.isfile(p) and os.path.dirname(os.path.abspath(p)) == folder
-                and os.path.splitext(p)[1].lower() == suffix]
-    hint = f"quote the pattern: --glob '*{suffix}'"
+    siblings = expanded_glob_names(glob, inputs)
+    hint = f"quote the pattern: --glob '*{os.path.splitext(glob)[1].lower()}'"
     if siblings:
         return (f"--glob {glob} and the INPUTs {', '.join(siblings[:3])}{' ...' if len(siblings) > 3 else ''} are "
                 f"files here: the shell expanded --glob's pattern into their names; {hint}")
     print(f"jaxpose: warning: --glob {glob} has no wildcard and names a file here: if the shell expanded a pattern, "
           f"{hint}", file=sys.stderr)
     return None
+
+
+def expanded_glob_names(glob, names):
+    """Those of `names` (INPUTs, or arguments argparse did not recognize) that look like the rest of
+    ``--glob``'s pattern expanded by the shell: files here of the suffix and folder of a `glob`
+    without wildcards that is itself a file here. Empty where the pattern has a wildcard (the shell
+    left it alone) or is not a file. The one rule of :func:`_expanded_glob` and of the command line's
+    hint on unrecognized arguments."""
+    if not glob or any(c in glob for c in "*?[") or not os.path.isfile(glob):
+        return []
+    folder, suffix = os.path.dirname(os.path.abspath(glob)), os.path.splitext(glob)[1].lower()
+    return [p for p in names if os.path.isfile(p) and os.path.dirname(os.path.abspath(p)) == folder
+            and os.path.splitext(p)[1].lower() == suffix]
 
 
 def _normalize_one(args, options, source, fail):

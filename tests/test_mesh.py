@@ -388,7 +388,10 @@ def test_xyz_files_with_commas_comments_or_uneven_lines(tmp_path):
                 "comma_space": "".join(f"{x}, {y}, {z}\n" for x, y, z in points),
                 "cloudcompare": "//X,Y,Z\n" + "".join(f"{x},{y},{z}\n" for x, y, z in points),
                 "comments": "# scan 1\n" + "".join(f"{x} {y} {z}\n" for x, y, z in points[:20]) + "  # half\n"
-                            + "".join(f"{x} {y} {z}\n" for x, y, z in points[20:])}
+                            + "".join(f"{x} {y} {z}\n" for x, y, z in points[20:]),
+                # '#' at a line's end, as OFF's (it was 'line 2 holds 5 values ... truncated or malformed')
+                "end_comments": "".join(f"{x} {y} {z} # c{i}\n" for i, (x, y, z) in enumerate(points)),
+                "end_comments_commas": "".join(f"{x},{y},{z}#c\n" for x, y, z in points)}
     for name, text in variants.items():
         (tmp_path / f"{name}.xyz").write_text(text)
         np.testing.assert_array_equal(mesh.load(tmp_path / f"{name}.xyz").vertices, plain)
@@ -399,6 +402,9 @@ def test_xyz_files_with_commas_comments_or_uneven_lines(tmp_path):
     with pytest.raises(InvalidInputError, match=r"uneven.xyz: cannot read XYZ file: line 7 holds 4 values, line 1 "
                                                 r"\(the first\) 3: a truncated or malformed file"):
         mesh.load(tmp_path / "uneven.xyz")
+    (tmp_path / "slashes.xyz").write_text("\n".join(f"{x} {y} {z} // c" for x, y, z in points) + "\n")
+    with pytest.raises(InvalidInputError, match=r"slashes.xyz: cannot read XYZ file"):  # "//" a whole line only
+        mesh.load(tmp_path / "slashes.xyz")
 
 
 def test_content_that_does_not_match_its_suffix_is_named(tmp_path):

@@ -48,12 +48,13 @@ def as_read(data: bytes, ext: str) -> bytes:
     return data
 
 
-_XYZ_COMMENT = re.compile(rb"(?m)^[ \t]*(?:#|//)[^\n]*")
+_XYZ_COMMENT = re.compile(rb"(?m)^[ \t]*//[^\n]*|#[^\n]*")  # '#' to the line's end anywhere; '//' a whole line
 
 
 def _xyz(data: bytes) -> bytes:
-    """An XYZ file's bytes as trimesh's loader reads them right: comment lines (``#``, and ``//``
-    as CloudCompare's header ``//X Y Z``) blanked, commas as spaces (trimesh counts the columns of
+    """An XYZ file's bytes as trimesh's loader reads them right: ``#`` comments cut to the line's
+    end wherever they start (``1 0 0 # c`` is a point), as an OFF's are, ``//`` lines (CloudCompare's
+    header ``//X Y Z``) blanked, commas as spaces (trimesh counts the columns of
     the first line before it replaces them: every ``x,y,z`` file was "not enough columns").
 
     Raises:

@@ -103,9 +103,20 @@ def _center_scale(pose):
     """(center (3,), scale) of a Pose-like object or a (center, scale) pair."""
     c, s = (pose.center, pose.scale) if hasattr(pose, "center") else pose
     c, s = np.asarray(c, float), np.asarray(s, float)
-    if c.shape != (3,) or s.shape != () or not (np.all(np.isfinite(c)) and np.isfinite(s) and s > 0):
+    if c.shape != (3,) or s.shape != ():
         raise InvalidInputError(f"a pose must be one center (3,) and a scale () > 0, finite (one pose of a batch: "
                                 f"index it), got shapes {c.shape} and {s.shape}")
+    if not (np.all(np.isfinite(c)) and np.isfinite(s)):
+        status = getattr(pose, "status", None)
+        why = ""
+        if status is not None and np.ndim(status) == 0 and int(status) != 0:
+            from .pose.result import status_message
+
+            why = f", status {int(status)} ({status_message(int(status))})"
+        raise InvalidInputError(f"an invalid pose{why}: its center {c.tolist()} and scale {float(s)} must be finite "
+                                "(check pose.valid before plotting)")
+    if not s > 0:
+        raise InvalidInputError(f"a pose's scale must be > 0, got {float(s)}")
     return c, float(s)
 
 

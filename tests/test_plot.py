@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from conftest import sphere_with_arm
+from jaxpose import Pose
 from jaxpose.errors import InvalidInputError
 
 plot = pytest.importorskip("jaxpose.plot")
@@ -113,7 +114,14 @@ _POINTS = np.random.default_rng(0).normal(size=(60, 3))
     (lambda shape: plot.region_slices(np.vstack([_POINTS, [np.nan] * 3])), "points has 1 rows with NaN"),
     (lambda shape: plot.centers_plot(shape, ((0.0, 0.0, 0.0), 1.0), count=200, plane="zx"), "plane must be one of"),
     (lambda shape: plot.centers_plot(shape, (np.zeros((2, 3)), np.ones(2)), count=200, methods=()),
-     r"a pose must be one center \(3,\) and a scale \(\) > 0"),
+     r"a pose must be one center \(3,\) and a scale \(\) > 0.*got shapes \(2, 3\) and \(2,\)"),
+    # a scale <= 0 or a NaN center reported 'got shapes (3,) and ()', the right shapes
+    (lambda shape: plot.centers_plot(shape, ((0.0, 0.0, 0.0), -1.0), count=200, methods=()),
+     r"^a pose's scale must be > 0, got -1.0$"),
+    (lambda shape: plot.centers_plot(shape, ((np.nan, 0.0, 0.0), 1.0), count=200, methods=()),
+     r"^an invalid pose: its center \[nan, 0.0, 0.0\] and scale 1.0 must be finite"),
+    (lambda shape: plot.centers_plot(shape, Pose.from_center_scale(np.array([np.nan, 0.0, 0.0]), 1.0), count=200,
+                                     methods=()), r"^an invalid pose, status \d+ \(.+\): its center \[nan"),
     (lambda shape: plot.mesh_3d("body.ply"), "expected a mesh or an \\(n, 3\\) array of points, got 'body.ply'"),
 ])
 def test_bad_arguments_are_refused_by_name(call, message, shape):

@@ -25,6 +25,7 @@ from .atomic import write_atomic
 __all__ = [
     "load",
     "read",
+    "read_stored",
     "MESH_FORMATS",
     "POINT_FORMATS",
     "OUTPUT_FORMATS",

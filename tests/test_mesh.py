@@ -375,6 +375,21 @@ def test_comments_that_end_an_obj_data_line_are_cut(tmp_path):
         assert loaded.vertices.max() == 1.0 and len(loaded.faces) == 4, name
 
 
+def test_indented_obj_lines_are_read(tmp_path):
+    """Lines that start with white space read as the file says, by the fast reader and on trimesh's
+    path (a material line) alike: an indented vertex was dropped (a face then 'references vertex 4
+    of the 3 it has') and a file whose faces were all indented loaded as a point cloud, silently."""
+    for name, plain in {"fast": TETRA, "material": TETRA.replace("f 1 3 2", "usemtl s\nf 1 3 2")}.items():
+        for tag, text in {"some": plain.replace("v 0 0 1", "  v 0 0 1"),
+                          "all": "\n".join("\t " + line for line in plain.split("\n"))}.items():
+            (tmp_path / f"{name}_{tag}.obj").write_text(text)
+            (tmp_path / f"{name}_plain.obj").write_text(plain)
+            loaded, expected = mesh.load(tmp_path / f"{name}_{tag}.obj"), mesh.load(tmp_path / f"{name}_plain.obj")
+            np.testing.assert_array_equal(loaded.vertices, expected.vertices)
+            np.testing.assert_array_equal(loaded.faces, expected.faces)
+            assert len(loaded.faces) == 4, (name, tag)
+
+
 def test_xyz_files_with_commas_comments_or_uneven_lines(tmp_path):
     """Commas as separators and comment lines ('#', CloudCompare's '//X Y Z' header) read as the
     plain file: trimesh counted the first line's columns before it took commas as spaces ('not

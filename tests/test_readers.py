@@ -678,6 +678,24 @@ def test_obj_comments_that_end_a_data_line_are_cut(name):
     np.testing.assert_array_equal(got.faces, expected.faces)
 
 
+@pytest.mark.parametrize("name", ["triangles", "v_vt_vn", "mixed_polygons"])
+def test_obj_lines_that_start_with_white_space_are_read(name):
+    """'  v 1 0 0', '\tf 1 2 3': the mesh of the file without the indent (the reader, as trimesh's
+    loader it copied, knew a line by its first characters: an indented vertex was dropped, every
+    later face one vertex off, and a file of indented faces read as a point cloud); a line continued
+    by a backslash keeps its leading space (there it separates values)."""
+    plain = OBJ_VARIANTS[name]
+    expected = check_same(plain, "obj")
+    for indent in ("  ", "\t", " \t"):
+        indented = "\n".join(indent + line if line else line for line in plain.split("\n"))
+        got = readers.read(indented.encode(), "obj")
+        np.testing.assert_array_equal(got.vertices, expected.vertices)
+        np.testing.assert_array_equal(got.faces, expected.faces)
+    if "f 1 2 3" in plain:  # (a backslash at a line's end continues it: its next line's indent separates)
+        continued = plain.replace("f 1 2 3", "f 1 2\\\n  3", 1)
+        np.testing.assert_array_equal(readers.read(continued.encode(), "obj").faces, expected.faces)
+
+
 @pytest.mark.parametrize("text", [
     OBJ_HEAD + "usemtl a\nf 1 2 3\nusemtl b\nf 1 3 4\n",   # materials split the mesh
     OBJ_HEAD + "f 1 2 3\nf 1/1 3/1 4/1\n",                 # several kinds of references

@@ -33,17 +33,18 @@ def as_read(data: bytes, ext: str) -> bytes:
     ``v `` and ``f ``: a ``v\\t0 0 1`` line was dropped, every later vertex one number off) and
     without the ``#`` comments that end its data lines (``v 0 0 0 # a``: trimesh read the comment
     as values, "could not be read to its end due to unmatched data";
-    :func:`jaxpose.io.readers.obj.without_comments`); an XYZ file with its commas as spaces and its
-    comments cut (:func:`_xyz`: trimesh counted the first line's columns before it took commas
-    as spaces)."""
+    :func:`jaxpose.io.readers.obj.without_comments`) and without the white space that starts its
+    lines (``  v 0 0 0``: trimesh dropped the line; :func:`jaxpose.io.readers.obj.without_indent`);
+    an XYZ file with its commas as spaces and its comments cut (:func:`_xyz`: trimesh counted the
+    first line's columns before it took commas as spaces)."""
     if ext == "off":
         from .readers.off import without_comments
 
         return without_comments(data)
     if ext == "obj":
-        from .readers.obj import without_comments
+        from .readers.obj import without_comments, without_indent
 
-        data = without_comments(data)
+        data = without_indent(without_comments(data))
         return data.replace(b"\t", b" ") if b"\t" in data else data
     if ext == "xyz":
         return _xyz(data)

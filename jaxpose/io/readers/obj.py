@@ -9,7 +9,7 @@ from ...errors import InvalidInputError
 from .base import (Loaded, Unsupported, file_bytes, _checked, _floats, _ints, _text, _tokens, _triangulate,
                    _triangulate_inline)
 
-__all__ = ["read_obj", "check_vertex_references", "check_texture_references", "without_comments"]
+__all__ = ["read_obj", "check_vertex_references", "check_texture_references", "without_comments", "without_indent"]
 
 
 _INDEX = r"-?[0-9]+"
@@ -37,6 +37,21 @@ def without_comments(data: bytes) -> bytes:
     return data
 
 
+_INDENT = re.compile(rb"(?m)(?<!\\\n)^[ \t]+")  # white space that starts a line (not a continued one)
+
+
+def without_indent(data: bytes) -> bytes:
+    """An OBJ file's bytes without the white space that starts its lines (``  v 1 0 0``), a line
+    continued by a ``\\`` at the end of the one before excepted (there it separates values);
+    trimesh's loader and the fast reader's copy of it know a line by its first characters (``v ``,
+    ``f ``): an indented vertex was dropped (every later face then one vertex off) and a file whose
+    faces were all indented read as a point cloud, without a word. `data` itself where no line
+    starts with white space."""
+    if not (data[:1] in (b" ", b"\t") or b"\n " in data or b"\n\t" in data):
+        return data
+    return _INDENT.sub(b"", data)
+
+
 @file_bytes
 def read_obj(data: bytes) -> Loaded:
     """An OBJ file's mesh, as ``trimesh.load(..., file_type="obj", process=False)``.
@@ -56,7 +71,8 @@ def read_obj(data: bytes) -> Loaded:
     without ``vt`` lines: those data are never used (:func:`jaxpose.io.mesh.read` drops the file's
     normals; a file without UV has none to lose), and trimesh reads such a file as this reader does.
     """
-    text = _text(without_comments(data))  # "v 0 0 0 # a": the comment cut (trimesh read it as values)
+    text = _text(without_indent(without_comments(data)))  # "v 0 0 0 # a": the comment cut (trimesh read it
+    # as values); "  v 0 0 0": the line's indent (trimesh dropped the line)
     text = text.replace("\t", " ")  # white space (trimesh knows "v " and "f ": it dropped "v\t" lines)
     text = "\n{}\n".format(text.strip().replace("\r\n", "\n")).replace("\\\n", "")
     if "usemtl" in text or "+e" in text or "-e" in text or "\r" in text:

@@ -4,10 +4,10 @@ from __future__ import annotations
 import numpy as np
 
 from .config import MEMORY_BUDGET, SAMPLING
-from ._validate import InvalidInputError, check_int, check_real
+from ._validate import InvalidInputError, check_gamma, check_int, check_nu, check_real
 from .geometry import split_geometry, triangle_areas
 
-__all__ = ["SAMPLING", "SAMPLE_BYTES", "check_count", "sample_surface", "lattice_points"]
+__all__ = ["SAMPLING", "SAMPLE_BYTES", "check_count", "check_fit_values", "sample_surface", "lattice_points"]
 
 SAMPLE_BYTES = 128  # peak bytes per sample: face index, barycentric pair, its triangle's corners, the point
 LATTICE_BYTES = 64  # peak bytes per lattice point (lattice_points): the point, its copy in the result, the lattice
@@ -21,6 +21,18 @@ def check_count(count):
         raise InvalidInputError(f"count={count} samples need about {count * SAMPLE_BYTES / 2**30:.3g} GiB; the limit is "
                                 f"{MEMORY_BUDGET / 2**30:g} GiB: use at most {MEMORY_BUDGET // SAMPLE_BYTES}")
     return count
+
+
+def check_fit_values(values):
+    """Check, by their rules, those of the OCSVM's sampled-fit arguments that ``values`` (a mapping)
+    holds: ``gamma``, ``nu``, ``count`` (:func:`check_count`), ``seed`` (an int >= 0), ``sampling``
+    (one of :data:`SAMPLING`); InvalidInputError naming the first bad one. Other keys are not read."""
+    checks = {"gamma": check_gamma, "nu": check_nu, "count": check_count, "seed": lambda v: check_int(v, "seed", 0)}
+    for key, value in values.items():
+        if key in checks:
+            checks[key](value)
+    if "sampling" in values and values["sampling"] not in SAMPLING:
+        raise InvalidInputError(f"unknown sampling {values['sampling']!r}; valid: {', '.join(SAMPLING)}")
 
 
 def sample_surface(geometry, count, seed=0, method="even"):

@@ -37,7 +37,7 @@ from scipy import ndimage
 from .. import _validate, baselines, sample
 from ..occupancy import solid, voxels
 from .._validate import InvalidInputError, InvalidPoseWarning, JaxposeError
-from ..config import OCSVM, ROBUST, SAMPLING, PoseConfig
+from ..config import OCSVM, ROBUST, PoseConfig
 from ..geometry import Surface, triangle_areas
 from ..host import anchor
 from ..weighted import depth_power_weights, grid_axes, solid_occupancy, weighted_center
@@ -414,14 +414,11 @@ def _check_options(options):
     """The options' names and values, before any work (a bad value was an error of each method that
     read it, or none where no method read it: gamma=-1 with bbox, ocsvm=5)."""
     _validate.check_known(options, ("power", "resolution", "ocsvm", *_OCSVM_KEYS))
-    checks = {"power": lambda v: _validate.check_real(v, "power", 0), "resolution": solid.check_resolution,
-              "gamma": _validate.check_gamma, "nu": _validate.check_nu, "count": sample.check_count,
-              "seed": lambda v: _validate.check_int(v, "seed", 0)}
-    for name, value in options.items():
-        if name in checks:
-            checks[name](value)
-    if "sampling" in options and options["sampling"] not in SAMPLING:
-        raise InvalidInputError(f"unknown sampling {options['sampling']!r}; valid: {', '.join(SAMPLING)}")
+    if "power" in options:
+        _validate.check_real(options["power"], "power", 0)
+    if "resolution" in options:
+        solid.check_resolution(options["resolution"])
+    sample.check_fit_values(options)
     if "ocsvm" in options:
         if not isinstance(options["ocsvm"], dict):
             raise InvalidInputError(f"ocsvm must be a dict of jaxpose.normalize's ocsvm options, got {options['ocsvm']!r:.80}")

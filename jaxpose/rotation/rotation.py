@@ -18,8 +18,8 @@ from collections.abc import Mapping
 import numpy as np
 
 from .. import baselines, sample
-from .._validate import InvalidInputError, JaxposeError, check_gamma, check_int, check_known, check_nu
-from ..config import OCSVM, SAMPLING
+from .._validate import InvalidInputError, JaxposeError, check_known
+from ..config import OCSVM
 from ..occupancy import solid
 from ..orientation import (GAP_MIN, SIGN_MIN, SYMMETRY_MIN, Frame, ambiguity, complete_signs, proper, region_frame,
                            relative_gaps)
@@ -53,13 +53,7 @@ def check_frame_options(resolution=None, ocsvm=None):
     if not isinstance(ocsvm, Mapping):
         raise InvalidInputError(f"ocsvm must be a dict of {', '.join(OCSVM_FRAME_KEYS)}, got {ocsvm!r:.80}")
     check_known(ocsvm, OCSVM_FRAME_KEYS, "ocsvm key", repr)
-    checks = {"gamma": check_gamma, "nu": check_nu, "count": sample.check_count,
-              "seed": lambda v: check_int(v, "seed", 0)}
-    for key, value in ocsvm.items():
-        if key in checks:
-            checks[key](value)
-    if "sampling" in ocsvm and ocsvm["sampling"] not in SAMPLING:
-        raise InvalidInputError(f"unknown sampling {ocsvm['sampling']!r}; valid: {', '.join(SAMPLING)}")
+    sample.check_fit_values(ocsvm)
     if not isinstance(ocsvm.get("options", {}), Mapping):
         raise InvalidInputError(f"ocsvm['options'] must be a dict of jaxpose.normalize's ocsvm options, got "
                                 f"{ocsvm['options']!r:.80}")

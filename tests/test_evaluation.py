@@ -223,6 +223,25 @@ def test_align_core_keeps_faces_and_checks_counts():
         align_core([box], keep=0.0)
 
 
+def test_align_core_names_the_class_and_the_file_that_differs(tmp_path):
+    """A class folder holding another body's file: the error names the class and the file."""
+    from jaxpose.datasets import load_folder
+    from jaxpose.evaluation import align_classes
+
+    for name, mesh in [("a/0.ply", trimesh.creation.box()), ("a/1.ply", trimesh.creation.box()),
+                       ("a/2.ply", trimesh.creation.icosphere(subdivisions=1)), ("b/0.ply", trimesh.creation.box()),
+                       ("b/1.ply", trimesh.creation.box())]:
+        (tmp_path / name).parent.mkdir(exist_ok=True)
+        mesh.export(tmp_path / name)
+    classes = load_folder(tmp_path)
+    with pytest.raises(InvalidInputError, match=r"class 'a': .*same vertex count.* \(42, 3\) for mesh 2 \(2.ply\) and \(8, 3\) for mesh 0 \(0.ply\)"):
+        align_classes(classes)
+    with pytest.raises(InvalidInputError, match=r"class 'a': .*mesh 2 \(2.ply\)"):
+        evaluate(classes, align_core=True, methods=["vertex_mean"])
+    aligned = align_classes({"b": classes["b"]}, weight="area")
+    np.testing.assert_allclose(aligned["b"][1].vertices, classes["b"][0].vertices, atol=1e-12)
+
+
 @pytest.mark.parametrize("call, message", [
     # one string was taken as its characters: "unknown method 'v'", "unknown variants ['p', 'l', ...]"
     (lambda: evaluate({"boxes": _boxes()}, methods="surface_centroid"), r"methods must be a list of names, got the "

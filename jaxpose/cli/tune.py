@@ -91,7 +91,7 @@ def load_classes(folder, names=None, align_core=False, variants=("plain",), seed
                 raise InvalidInputError(f"no classes {missing} in {folder}; found {sorted(meshes)}")
             meshes = {k: v for k, v in meshes.items() if k in names}
     if align_core:
-        meshes = {k: alignment.align_core(v) for k, v in meshes.items()}
+        meshes = alignment.align_classes(meshes)
     out = {}
     for variant in variants:
         for k, (name, objs) in enumerate(meshes.items()):

@@ -5,7 +5,7 @@ import numpy as np
 
 from .._validate import InvalidInputError, check_array, check_int, check_real, is_real_dtype
 
-__all__ = ["align_core", "kabsch", "CORE_WEIGHTS", "check_core_weight", "vertex_weights"]
+__all__ = ["align_core", "align_classes", "kabsch", "CORE_WEIGHTS", "check_core_weight", "vertex_weights"]
 
 #: What a vertex's share of the body is when the stable core is chosen (:func:`align_core`).
 CORE_WEIGHTS = ("vertices", "area")
@@ -73,6 +73,26 @@ def vertex_weights(meshes, weight="vertices"):
     return total / total.sum()
 
 
+def _named(meshes, i: int) -> str:
+    """'mesh i' and its file's name where it was read from one (``metadata["file_name"]``)."""
+    name = getattr(meshes[i], "metadata", {}).get("file_name")
+    return f"mesh {i} ({name})" if name else f"mesh {i}"
+
+
+def align_classes(classes: dict, weight: str = "vertices") -> dict:
+    """:func:`align_core` on each class of ``{name: meshes}``; an error names the class.
+
+    >>> aligned = align_classes({"dog": dogs, "horse": horses}, weight="area")  # doctest: +SKIP
+    """
+    out = {}
+    for name, meshes in classes.items():
+        try:
+            out[name] = align_core(meshes, weight=weight)
+        except InvalidInputError as e:
+            raise InvalidInputError(f"class {name!r}: {e}") from None
+    return out
+
+
 def align_core(meshes, keep: float = 0.3, iterations: int = 5, weight: str = "vertices"):
     """Rigidly align meshes sharing a vertex order onto the first one, on their stable part.
 
@@ -100,9 +120,13 @@ def align_core(meshes, keep: float = 0.3, iterations: int = 5, weight: str = "ve
         raise InvalidInputError(f"keep must be in (0, 1], got {keep}")
     iterations = check_int(iterations, "iterations", 0)
     vs = [np.asarray(getattr(m, "vertices", m), dtype=np.float64) for m in meshes]
-    counts = {v.shape for v in vs}
-    if len(counts) != 1 or vs[0].ndim != 2 or vs[0].shape[1] != 3:
-        raise InvalidInputError(f"align_core needs meshes with the same vertex count, got shapes {sorted(counts)}")
+    if vs[0].ndim != 2 or vs[0].shape[1] != 3:
+        raise InvalidInputError(f"align_core needs (n, 3) vertices, got shape {vs[0].shape} for {_named(meshes, 0)}")
+    for i, v in enumerate(vs):
+        if v.shape != vs[0].shape:  # the one that differs, by file name where it was read from one
+            raise InvalidInputError(
+                f"align_core needs meshes with the same vertex count (one vertex order), got shape {v.shape} "
+                f"for {_named(meshes, i)} and {vs[0].shape} for {_named(meshes, 0)}")
     w = vertex_weights(meshes, weight)
     n = len(vs[0])
     target, subset = vs[0], np.flatnonzero(w > 0)

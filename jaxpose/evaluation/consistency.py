@@ -227,7 +227,7 @@ def evaluate(classes, gamma=OCSVM.gamma, nu=OCSVM.nu, methods=None, count=OCSVM.
     align_core, sweep = check_bool(align_core, "align_core"), check_bool(sweep, "sweep")
     check_callback(progress, "progress")
     if align_core:
-        classes = {name: alignment.align_core(meshes, weight=core_weight) for name, meshes in classes.items()}
+        classes = alignment.align_classes(classes, weight=core_weight)
     options = {"gamma": gamma, "nu": nu, "count": count, "seed": seed, "ocsvm": normalize_options}
     total, done, out = len(variants) * len(classes), 0, {}
     for variant in variants:

@@ -178,7 +178,7 @@ def evaluate_rotation(classes, methods=None, variants=("plain",), align_core=Fal
     check_known(options, ("resolution", "ocsvm"))  # (frame_of's TypeError at the first shape)
     check_frame_options(options.get("resolution"), options.get("ocsvm"))  # not each method's error cell
     if align_core:
-        classes = {name: alignment.align_core(meshes, weight=core_weight) for name, meshes in classes.items()}
+        classes = alignment.align_classes(classes, weight=core_weight)
     ocsvm = {"seed": seed, **options.pop("ocsvm", {})}
     total, done, out = len(variants) * len(classes), 0, {}
     for variant in variants:

@@ -164,7 +164,8 @@ def test_cli_tune_bad_numbers_are_usage_errors(capsys):
                            (["--resolution", "4"], "resolution must be >= 8"),
                            (["--refine", "3"], "refine must be a power of 2"),
                            (["--tol", "-1"], "tol must be finite and > 0"),
-                           (["--method", "robust", "--resolution", "4"], "resolution must be >= 8")):
+                           (["--method", "robust", "--resolution", "4"], "resolution must be >= 8"),
+                           (["--core-weight", "area"], "add --align-core")):  # as evaluate's
         assert tuning_cli.run(argv) == 2, argv
         err = capsys.readouterr().err
         assert fragment in err and "loading classes" not in err, err
@@ -229,7 +230,7 @@ def test_cli_tune_runs_on_the_runtime_dependencies(tmp_path):
     # are those test_tune_result_is_json_and_says_whether_it_transfers compiles, loaded from the run's cache
     _write_two_classes(tmp_path / "data", sphere)
     out = tmp_path / "r.json"
-    args = ["tune", "--data", str(tmp_path / "data"), "--align-core", "--variants", "plain,outliers",
+    args = ["tune", "--data", str(tmp_path / "data"), "--align-core", "--core-weight", "area", "--variants", "plain,outliers",
             "--steps", "1", "--count", "120", "--json", str(out), "--resolution", "8", "--band", "256",
             "--refine", "2", "--tol", "1e-5"]
     proc = subprocess.run([sys.executable, "-c", BLOCKER, ",".join(sorted(modules))] + args,
@@ -239,7 +240,22 @@ def test_cli_tune_runs_on_the_runtime_dependencies(tmp_path):
     assert len(res["trajectory"]) == 2 and res["train"]["classes"] + res["holdout"]["classes"] == 4
     assert {"tall/outliers", "flat/plain"} <= set(res["train"]["names"]) | set(res["holdout"]["names"])
     assert res["data"]["align_core"] and res["data"]["variants"] == ["plain", "outliers"]
+    assert res["data"]["core_weight"] == "area"
     assert "step 1/1" in proc.stderr and ("use: gamma" in proc.stdout)
+
+
+def test_load_classes_aligns_on_the_core_weight_it_is_given(tmp_path):
+    """``tune --core-weight area``: the classes are aligned as evaluate's ``--core-weight area`` aligns them."""
+    from jaxpose.datasets import load_folder
+    from jaxpose.evaluation import align_classes
+
+    _write_two_classes(tmp_path, trimesh.creation.icosphere(subdivisions=1))
+    for weight in ("vertices", "area"):
+        got = tuning_cli.load_classes(tmp_path, align_core=True, core_weight=weight)
+        want = align_classes(load_folder(tmp_path), weight=weight)
+        for name in want:
+            for a, b in zip(got[name], want[name]):
+                np.testing.assert_array_equal(a.vertices, b.vertices)
 
 
 def test_cli_tune_usage_and_errors(tmp_path, capsys):

@@ -40,6 +40,22 @@ def check_dataset_choice(instances, classes):
         raise InvalidInputError(f"--classes names no class ({classes!r}); give some, comma-separated")
 
 
+def add_core_options(p):
+    """``--align-core`` and ``--core-weight`` (evaluate, tune): the rigid-core alignment of each class
+    (:func:`jaxpose.evaluation.alignment.align_classes`) and what the core is a share of."""
+    p.add_argument("--align-core", action="store_true", help="rigidly align each class on its stable core first "
+                   "(meshes of a class share their vertex order)")
+    p.add_argument("--core-weight", choices=("vertices", "area"), default="vertices",  # alignment.CORE_WEIGHTS
+                   help="with --align-core: the stable core is a share of the vertices (default) or of the surface "
+                        "area (the same whatever the meshing density)")
+
+
+def check_core_options(align_core, core_weight):
+    """``--core-weight`` without ``--align-core``: InvalidInputError, a usage error (exit 2)."""
+    if core_weight != "vertices" and not align_core:
+        raise InvalidInputError(f"--core-weight {core_weight} says how --align-core chooses the core; add --align-core")
+
+
 def add_svm_options(p, count=OCSVM.count, seed="random seed"):
     """``--gamma``, ``--nu``, ``--count`` and ``--seed`` with :data:`jaxpose.config.OCSVM`'s defaults;
     ``seed``: what the command's seed seeds (its help text)."""

@@ -9,7 +9,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from .common import add_svm_options, check_creatable, check_dataset_choice, check_output_file, fail, json_text
+from .common import add_core_options, add_svm_options, check_core_options, check_creatable, check_dataset_choice, check_output_file, fail, json_text
 
 __all__ = ["add_parser", "run"]
 
@@ -23,10 +23,7 @@ def add_parser(sub):
     p.add_argument("--data", help="folder of classes (one subfolder of meshes per class); default: procedural dataset")
     p.add_argument("--classes", help="built-in dataset: comma-separated subset of its 12 classes (default all)")
     p.add_argument("--instances", type=int, default=None, help="built-in dataset: objects per class (default 10)")
-    p.add_argument("--align-core", action="store_true", help="align the rigid core of each class before measuring")
-    p.add_argument("--core-weight", choices=("vertices", "area"), default="vertices",
-                   help="with --align-core: the stable core is a share of the vertices (default) or of the surface "
-                        "area (the same whatever the meshing density)")
+    add_core_options(p)
     add_svm_options(p)
     p.set_defaults(**dict.fromkeys(("gamma", "nu", "count")))  # None when not given: refused where nothing uses them
     p.add_argument("--methods", help="comma-separated methods, name or name:power (default: all)")
@@ -79,8 +76,7 @@ def _evaluate_usage(args):
     if args.data and (args.classes or args.instances is not None):
         raise _Usage("--classes and --instances choose from the built-in dataset; --data takes every class of DIR")
     check_dataset_choice(args.instances, args.classes)
-    if args.core_weight != "vertices" and not args.align_core:
-        raise _Usage(f"--core-weight {args.core_weight} says how --align-core chooses the core; add --align-core")
+    check_core_options(args.align_core, args.core_weight)
     checked = NormalizeOptions(method="ocsvm", seed=args.seed, **given)  # gamma > 0, nu in [0, 1], count >= 4, seed
     return methods, variants, {"gamma": checked.gamma, "nu": checked.nu, "count": checked.count}
 

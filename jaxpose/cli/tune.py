@@ -11,6 +11,7 @@ from pathlib import Path
 
 from ..config import OCSVM, ROBUST, TUNE
 from ..errors import InvalidInputError, JaxposeError  # (not _validate: it imports NumPy)
+from .common import add_core_options
 
 __all__ = ["add_parser", "run", "parser", "load_classes"]
 
@@ -33,8 +34,7 @@ def parser():
     p.add_argument("--holdout-data", default=None, help="another such folder, only evaluated (e.g. another dataset)")
     p.add_argument("--holdout", type=float, default=None,
                    help="fraction of the classes held out of tuning (default 0.25 without --holdout-data, else 0)")
-    p.add_argument("--align-core", action="store_true", help="rigidly align each class on its stable core first "
-                   "(meshes of a class share their vertex order)")
+    add_core_options(p)
     p.add_argument("--variants", default="plain", help="comma list of input variants (plain, outliers, big_outliers, "
                    "points, holes); each variant of a class counts as a class")
     p.add_argument("--classes", default=None, help="comma-separated subset of classes")
@@ -71,9 +71,10 @@ def parser():
     return p
 
 
-def load_classes(folder, names=None, align_core=False, variants=("plain",), seed=0, instances=TUNE.instances):
+def load_classes(folder, names=None, align_core=False, variants=("plain",), seed=0, instances=TUNE.instances,
+                 core_weight="vertices"):
     """{class[/variant]: [mesh, ...]} from a folder of class sub-folders (None: the procedural dataset),
-    optionally rigid-core aligned, in each input variant (:mod:`jaxpose.evaluation.variants`)."""
+    optionally rigid-core aligned (the core a share of ``core_weight``: "vertices" or "area"), in each input variant (:mod:`jaxpose.evaluation.variants`)."""
     from .. import datasets
     from ..evaluation import alignment
     from ..evaluation.variants import VARIANTS, make_class
@@ -91,7 +92,7 @@ def load_classes(folder, names=None, align_core=False, variants=("plain",), seed
                 raise InvalidInputError(f"no classes {missing} in {folder}; found {sorted(meshes)}")
             meshes = {k: v for k, v in meshes.items() if k in names}
     if align_core:
-        meshes = alignment.align_classes(meshes)
+        meshes = alignment.align_classes(meshes, weight=core_weight)
     out = {}
     for variant in variants:
         for k, (name, objs) in enumerate(meshes.items()):
@@ -129,7 +130,7 @@ def run(argv) -> int:
 def _run(args) -> int:
     from ..mesh import write_atomic
     from ..tuning import check_options, tune
-    from .common import check_dataset_choice, json_text
+    from .common import check_core_options, check_dataset_choice, json_text
 
     say = lambda s: print(s, file=sys.stderr, flush=True)
     try:
@@ -138,6 +139,7 @@ def _run(args) -> int:
                       args.holdout if args.holdout is not None else 0.0, args.seed, args.count,
                       **{k: v for k, v in options.items() if k in ("gamma0", "nu0", "power0")})
         check_dataset_choice(args.instances, args.classes)
+        check_core_options(args.align_core, args.core_weight)
         variants = tuple(v.strip() for v in args.variants.split(",") if v.strip())
         names = args.classes.split(",") if args.classes else None
         _check_choices(args, options, variants, names)
@@ -146,8 +148,9 @@ def _run(args) -> int:
         return 2
     try:
         say("loading classes ...")
-        classes = load_classes(args.data, names, args.align_core, variants, args.seed, args.instances)
-        held = (load_classes(args.holdout_data, None, args.align_core, variants, args.seed)
+        classes = load_classes(args.data, names, args.align_core, variants, args.seed, args.instances,
+                               args.core_weight)
+        held = (load_classes(args.holdout_data, None, args.align_core, variants, args.seed, core_weight=args.core_weight)
                 if args.holdout_data else None)
         holdout = args.holdout if args.holdout is not None else (0.0 if held else 0.25)
         result = tune(classes, steps=args.steps, lr=args.lr, reg=args.reg, scale_weight=args.scale_weight,
@@ -157,7 +160,7 @@ def _run(args) -> int:
         print(f"jaxpose tune: error: {exc}", file=sys.stderr)
         return 1
     result["data"] = dict(data=args.data, holdout_data=args.holdout_data, align_core=bool(args.align_core),
-                          variants=list(variants))
+                          core_weight=args.core_weight, variants=list(variants))
     failure = _failure(result, args.method)
     if args.json:
         Path(args.json).parent.mkdir(parents=True, exist_ok=True)

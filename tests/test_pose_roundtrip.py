@@ -328,3 +328,32 @@ def test_dev_meshes_round_trip_far_and_near():
                                                                  pose.rotation))
         error = np.abs(back - x).max()
         assert error == 0.0 if offset else error <= 8 * np.spacing(np.abs(x).max()), (offset, error)
+
+
+@pytest.mark.parametrize("rotated", [False, True])
+def test_replace_on_an_inverse_is_the_pose_it_describes(rotated):
+    """An inverse (pose.inverse()) given a new center, scale or rotation by _replace kept inverse_of:
+    its apply, matrix and inverse() still computed from the pose it had inverted (apply(0) gave
+    the old center back, whatever its own fields said). New diagnostics reach the pose it
+    inverts, so inverting back keeps them; the pytree round trip keeps every field."""
+    rotation = _rotation(3) if rotated else None
+    pose = Pose.from_center_scale(np.array([1.0, 2.0, 3.0]), 2.0, rotation=rotation)
+    inv = pose.inverse()
+    moved = inv._replace(center=np.zeros(3), scale=np.float64(1.0), rotation=None if rotation is None else np.eye(3))
+    assert moved.inverse_of is None
+    np.testing.assert_array_equal(moved.apply(np.ones((1, 3))), np.ones((1, 3)))  # the identity it now is
+    np.testing.assert_array_equal(moved.matrix, np.eye(4))
+    np.testing.assert_array_equal(moved.inverse().center, np.zeros(3))
+    only_scale = inv._replace(scale=np.float64(1.0))
+    fresh = Pose.from_center_scale(inv.center, 1.0, rotation=inv.rotation)  # the pose its fields describe
+    np.testing.assert_array_equal(only_scale.apply(np.ones((1, 3))), fresh.apply(np.ones((1, 3))))
+    flagged = inv._replace(valid=np.bool_(False), status=np.int32(int(Status.NOT_FINITE)))
+    assert flagged.inverse_of is not None  # the same similarity: still computed from the pose it inverts
+    np.testing.assert_array_equal(flagged.apply(np.ones((1, 3))), inv.apply(np.ones((1, 3))))
+    back = flagged.inverse()
+    assert not bool(back.valid) and int(back.status) == int(Status.NOT_FINITE)
+    np.testing.assert_array_equal(back.center, pose.center)
+    assert inv._replace(inverse_of=None).inverse_of is None and inv._replace().inverse_of is pose
+    again = jax.tree_util.tree_unflatten(*reversed(jax.tree_util.tree_flatten(inv)))
+    assert again.inverse_of is not None and all(
+        np.array_equal(a, b) for a, b in zip(jax.tree_util.tree_leaves(again), jax.tree_util.tree_leaves(inv)))

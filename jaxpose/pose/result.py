@@ -255,7 +255,9 @@ class Pose(NamedTuple):
         ``MAX_POINTS``).
       inverse_of: None, or the Pose this one is the inverse of (set by :meth:`inverse`; its
         ``apply`` and ``matrix`` are then computed from that pose's center, scale and rotation, so
-        that they do not round through 1 / scale and -R center / scale).
+        that they do not round through 1 / scale and -R center / scale); ``_replace`` of its
+        center, scale or rotation makes a pose of its own (``inverse_of`` None), of its
+        diagnostics makes them in ``inverse_of`` too.
 
     Example::
 
@@ -401,6 +403,28 @@ class Pose(NamedTuple):
             return self._replace(center=-c / s[..., None], scale=1.0 / s, inverse_of=self)
         center = -xp.einsum("...ij,...j->...i", r, c) / s[..., None]
         return self._replace(center=center, scale=1.0 / s, rotation=xp.swapaxes(r, -1, -2), inverse_of=self)
+
+
+_SIMILARITY = ("center", "scale", "rotation")  # the fields an inverse's apply and matrix read from inverse_of
+_tuple_replace = Pose._replace
+
+
+def _replace(self, **changes) -> "Pose":
+    """The pose with ``changes`` (field: value) made, as NamedTuple's ``_replace``; an inverse
+    (``inverse_of`` set) stays the inverse of the pose it names only while it is that pose's
+    inverse: a new center, scale or rotation makes it a pose of its own (``inverse_of`` None:
+    ``apply``, ``matrix`` and ``inverse()`` then compute from its fields), and new diagnostics
+    are made in ``inverse_of`` too (``pose.inverse()._replace(valid=False).inverse().valid`` is
+    False). ``inverse_of`` given is kept as given."""
+    if self.inverse_of is not None and "inverse_of" not in changes:
+        if any(name in changes for name in _SIMILARITY):
+            changes["inverse_of"] = None
+        elif changes:
+            changes["inverse_of"] = self.inverse_of._replace(**changes)
+    return _tuple_replace(self, **changes)
+
+
+Pose._replace = _replace  # (typing.NamedTuple refuses a _replace written in the class body)
 
 
 def _per_set(center, scale):

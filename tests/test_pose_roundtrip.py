@@ -357,3 +357,25 @@ def test_replace_on_an_inverse_is_the_pose_it_describes(rotated):
     again = jax.tree_util.tree_unflatten(*reversed(jax.tree_util.tree_flatten(inv)))
     assert again.inverse_of is not None and all(
         np.array_equal(a, b) for a, b in zip(jax.tree_util.tree_leaves(again), jax.tree_util.tree_leaves(inv)))
+
+
+def test_from_center_scale_mixes_traced_and_concrete_into_a_float_pose():
+    """A traced scale beside a concrete integer center (or a traced integer center) made an
+    integer pose: the scale 2.5 became 2 and a rotation was cast to integers, silently. Every mix
+    of traced and concrete center and scale gives a Pose of JAX floats, the values as given."""
+    r = _rotation(4)
+    cases = {"concrete int center, traced scale": (lambda s: Pose.from_center_scale(np.array([1, 2, 3]), s, r), 2.5),
+             "traced int center, concrete scale": (lambda c: Pose.from_center_scale(c, 2.5, r), jnp.array([1, 2, 3])),
+             "concrete float center, traced scale": (lambda s: Pose.from_center_scale(np.array([1.0, 2, 3]), s, r), 2.5),
+             "traced float center, concrete scale": (lambda c: Pose.from_center_scale(c, 2.5, r),
+                                                     jnp.array([1.0, 2.0, 3.0]))}
+    for name, (make, arg) in cases.items():
+        batched = lambda f: lambda a: jax.tree.map(lambda v: v[0], jax.vmap(f)(jnp.stack([jnp.asarray(a)] * 2)))
+        for transform in (jax.jit, batched):
+            pose = transform(make)(arg)
+            assert isinstance(pose, Pose), name
+            for field in ("center", "scale", "rotation", "ambiguity"):
+                assert jnp.issubdtype(getattr(pose, field).dtype, jnp.floating), (name, field)
+            assert float(pose.scale) == 2.5 and bool(pose.valid), name
+            np.testing.assert_array_equal(np.asarray(pose.center), [1.0, 2.0, 3.0])
+            np.testing.assert_allclose(np.asarray(pose.rotation), r, rtol=0, atol=1e-7)

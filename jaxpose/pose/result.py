@@ -295,7 +295,8 @@ class Pose(NamedTuple):
 
         Concrete values stay NumPy float64 (every digit of a center far from the origin is kept);
         traced values stay JAX arrays (a traced rotation or ambiguity beside a concrete center: in
-        JAX's default float dtype).
+        JAX's default float dtype). Where the center or the scale is traced, every float field takes
+        the center's float dtype, JAX's default float dtype for an integer center (traced or not).
         """
         c_shape, s_shape = _shape_of(center, "center"), _shape_of(scale, "scale")
         batch = c_shape[:-1]
@@ -317,6 +318,8 @@ class Pose(NamedTuple):
                                             f"determined at all), got {bad}")
         xp = _jnp() if is_traced(center) or is_traced(scale) else np
         center = xp.asarray(center, dtype=None if xp is not np else np.float64)
+        if not xp.issubdtype(center.dtype, xp.floating):  # integers: a float pose (a scale 2.5 was cast to 2)
+            center = center.astype(xp.result_type(float))
         scale = xp.asarray(scale, center.dtype)
         valid = xp.all(xp.isfinite(center), axis=-1) & xp.isfinite(scale) & (scale > 0)  # per pose of a batch
         if rotation is not None:

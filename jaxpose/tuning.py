@@ -158,18 +158,33 @@ def spread_of(samplers, gamma, nu, class_loss, seed):
     return objective(samplers, _start_theta(float(gamma), float(nu)), class_loss, seed)[1]
 
 
+_STARTS = {"gamma0": "ocsvm", "nu0": "ocsvm", "power0": "robust"}  # a start -> the method that tunes it
+
+
 def check_options(method="ocsvm", steps=TUNE.steps, lr=TUNE.lr, reg=TUNE.reg, scale_weight=TUNE.scale_weight,
-                  holdout=TUNE.holdout, seed=0, count=TUNE.count, gamma0=OCSVM.gamma, nu0=OCSVM.nu, power0=ROBUST.power) -> dict:
+                  holdout=TUNE.holdout, seed=0, count=TUNE.count, gamma0=None, nu0=None, power0=None) -> dict:
     """:func:`tune`'s scalar arguments checked (before any class is loaded or anything compiled),
     as {name: value}: steps, seed int >= 0; lr, power0 finite > 0; reg, scale_weight finite >= 0;
     holdout in [0, 1); count a sample count (:func:`jaxpose.sample.check_count`); gamma0, nu0 as
-    :func:`jaxpose.normalize`'s with nu0 in (0.02, 0.98) (ocsvm).
+    :func:`jaxpose.normalize`'s with nu0 in (0.02, 0.98) (ocsvm). The method's starts left None
+    are :data:`jaxpose.config.OCSVM`'s (gamma, nu) or :data:`jaxpose.config.ROBUST`'s (power);
+    those of the other method must be left None (refused by name, as :func:`jaxpose.normalize`
+    refuses the other method's options).
 
     Raises:
       InvalidInputError: naming the first bad argument.
     """
     if method not in METHODS:
         raise _validate.InvalidInputError(f"method must be one of {', '.join(map(repr, METHODS))}, got {method!r}")
+    given = {"gamma0": gamma0, "nu0": nu0, "power0": power0}
+    for key, owner in _STARTS.items():
+        if owner != method and given[key] is not None:
+            raise _validate.InvalidInputError(
+                f"{key} is an option of method={owner!r}; method={method!r} does not use it (pass "
+                f"method={owner!r} or leave {key} out)")
+    gamma0 = OCSVM.gamma if gamma0 is None else gamma0
+    nu0 = OCSVM.nu if nu0 is None else nu0
+    power0 = ROBUST.power if power0 is None else power0
     out = dict(method=method, steps=_validate.check_int(steps, "steps", 0), lr=_validate.check_real(lr, "lr", 0, True),
                reg=_validate.check_real(reg, "reg", 0), scale_weight=_validate.check_real(scale_weight, "scale_weight", 0),
                holdout=_validate.check_real(holdout, "holdout", 0), seed=_validate.check_int(seed, "seed", 0),
@@ -206,15 +221,15 @@ def _invalid_reason(samplers, seed, method, start, normalize_options):
     return f"{name}: {Status(status).message}" if status else None
 
 
-def tune(classes, gamma0=OCSVM.gamma, nu0=OCSVM.nu, steps=TUNE.steps, lr=TUNE.lr, scale_weight=TUNE.scale_weight,
-         holdout=TUNE.holdout, holdout_classes=None, seed=0, count=TUNE.count, reg=TUNE.reg, progress=None, method="ocsvm", power0=ROBUST.power, **normalize_options) -> dict:
+def tune(classes, gamma0=None, nu0=None, steps=TUNE.steps, lr=TUNE.lr, scale_weight=TUNE.scale_weight,
+         holdout=TUNE.holdout, holdout_classes=None, seed=0, count=TUNE.count, reg=TUNE.reg, progress=None, method="ocsvm", power0=None, **normalize_options) -> dict:
     """Tune (gamma, nu) or the robust power by gradient descent on the mean within-class center
     spread (module docs).
 
     Args:
       classes: {name: [Trimesh | PointCloud, ...]} (sampled afresh at every step), or {name:
         [(m, 3) arrays]} (the same m within a class; used as given); at least 2 objects each.
-      gamma0, nu0: the start (default :data:`jaxpose.config.OCSVM`, the paper's; nu0 in (0.02, 0.98)); steps: optax.adam steps
+      gamma0, nu0: the start (None: :data:`jaxpose.config.OCSVM`'s, the paper's; nu0 in (0.02, 0.98)); steps: optax.adam steps
         (>= 0); lr: initial rate (cosine decay to lr / 10).
       scale_weight: weight of the coefficient of variation of the scale in the loss.
       holdout: fraction of ``classes`` held out of the steps (whole classes, at least one held out
@@ -223,7 +238,9 @@ def tune(classes, gamma0=OCSVM.gamma, nu0=OCSVM.nu, steps=TUNE.steps, lr=TUNE.lr
         start (module docs; >= 0).
       progress: optional callable(str), told about every step.
       method: ``"ocsvm"`` (tunes gamma, nu) or ``"robust"`` (tunes ``power`` from ``power0`` > 0,
-        on the classes' points; gamma0 and nu0 are not used).
+        None: :data:`jaxpose.config.ROBUST`'s, on the classes' points). The other method's starts
+        are refused by name (:func:`check_options`): gamma0, nu0 with ``"robust"``, power0 with
+        ``"ocsvm"``.
       normalize_options: static options of :func:`jaxpose.normalize` for that method
         (ocsvm: resolution, tol, ...; robust: resolution, coarse, ...).
 

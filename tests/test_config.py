@@ -170,8 +170,11 @@ def test_every_entry_point_reads_the_one_default():
 
     assert pose_module._options("ocsvm", None, {}, False) == (PoseConfig(), {"gamma": OCSVM.gamma, "nu": OCSVM.nu})
     assert pose_module._options("robust", None, {}, False) == (RobustConfig(), {"power": ROBUST.power})
+    # tune leaves the starts None (refused with the other method); unset, each method's is config's
     params = inspect.signature(tuning.tune).parameters
-    assert (params["gamma0"].default, params["nu0"].default) == (OCSVM.gamma, OCSVM.nu)
+    assert (params["gamma0"].default, params["nu0"].default, params["power0"].default) == (None, None, None)
+    checked = tuning.check_options("ocsvm"), tuning.check_options("robust")
+    assert (checked[0]["gamma0"], checked[0]["nu0"], checked[1]["power0"]) == (OCSVM.gamma, OCSVM.nu, ROBUST.power)
     # tune's schedule: config.TUNE, read by tune, check_options and the command (each kept its own copy)
     from jaxpose.config import TUNE
     command = tune.parser().parse_args([])

@@ -152,6 +152,26 @@ def test_tune_refuses_bad_numbers_before_any_work(kw, fragment):
         tuning.tune({"a": "not loaded: the check comes first"}, **kw)
 
 
+@pytest.mark.parametrize("kw", [dict(method="robust", gamma0=30.0), dict(method="robust", nu0=0.3),
+                                dict(method="robust", gamma0=47.0), dict(method="ocsvm", power0=2.0),
+                                dict(power0=4.0)])
+def test_tune_refuses_the_other_methods_start_by_name(kw):
+    """method="robust" tunes the power: a gamma0 or nu0 given with it was dropped without a word
+    (check_options(method="robust", gamma0=-5.0) passed), as a power0 with the OCSVM. Refused by
+    name, as normalize refuses the other method's options, before any work; unset, each start is
+    config's."""
+    key = next(k for k in kw if k != "method")
+    owner = "robust" if key == "power0" else "ocsvm"
+    fragment = rf"{key} is an option of method='{owner}'; method='{kw.get('method', 'ocsvm')}' does not use it"
+    with pytest.raises(jaxpose.InvalidInputError, match=fragment):
+        tuning.check_options(**kw)
+    with pytest.raises(jaxpose.InvalidInputError, match=fragment):
+        tuning.tune({"a": "not loaded: the check comes first"}, **kw)
+    assert tuning.check_options(method="robust", gamma0=None, nu0=None)["power0"] == jaxpose.config.ROBUST.power
+    checked = tuning.check_options(method="ocsvm", power0=None)
+    assert (checked["gamma0"], checked["nu0"]) == (jaxpose.config.OCSVM.gamma, jaxpose.config.OCSVM.nu)
+
+
 def test_cli_tune_bad_numbers_are_usage_errors(capsys):
     for argv, fragment in ((["--lr", "nan"], "lr must be"), (["--holdout", "-0.5"], "holdout must be"),
                            (["--scale-weight", "nan"], "scale_weight must be"), (["--steps", "-1"], "steps must be"),

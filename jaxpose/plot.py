@@ -639,7 +639,9 @@ def rotation_overlay(meshes, poses, *, max_points=3000, ax=None, path=None, titl
 
     Raises:
       InvalidInputError: a pose that is no :class:`jaxpose.Pose` (nor has its ``apply``: a
-        (center, scale) pair has no frame to overlay), or not one pose per mesh.
+        (center, scale) pair has no frame to overlay), a Pose without a rotation (its frame would
+        be the input's axes, drawn as if canonical: give ``rotation=np.eye(3)`` to draw those), one
+        that is not one finite pose (as :func:`overlay_pairs`), or not one pose per mesh.
     """
     meshes, poses = list(meshes), list(poses)
     for k, pose in enumerate(poses):
@@ -649,6 +651,16 @@ def rotation_overlay(meshes, poses, *, max_points=3000, ax=None, path=None, titl
                                     "scale) pair has no frame to overlay (plot.overlay_pairs draws those)")
     if len(poses) != len(meshes):
         raise InvalidInputError(f"{len(poses)} poses for {len(meshes)} meshes: one pose per mesh")
+    for k, pose in enumerate(poses):
+        try:
+            _center_scale(pose)  # one finite pose (a NaN one was drawn as nothing, a batch's a shape error)
+        except InvalidInputError as exc:
+            raise InvalidInputError(f"poses[{k}]: {exc}") from None
+        if getattr(pose, "rotation", None) is None:  # (was drawn in the input's axes, labelled as canonical)
+            raise InvalidInputError(f"poses[{k}] has no rotation: rotation_overlay compares canonical frames; "
+                                    "normalize with rotation=True (normalize_mesh(..., rotation=...)), or give "
+                                    "Pose.from_center_scale(center, scale, rotation=np.eye(3)) to overlay the "
+                                    "input's axes")
     fig, axes = _figure(ax, 1, 2, size=(3.2, 3.6))
     rng = np.random.default_rng(0)
     colors = [f"C{k % 10}" for k in range(len(meshes))]

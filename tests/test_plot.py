@@ -157,6 +157,24 @@ def test_rotation_overlay_refuses_a_center_scale_pair(shape):
         plot.rotation_overlay([shape, shape], [Pose.from_center_scale(np.zeros(3), 1.0)])
 
 
+def test_rotation_overlay_refuses_a_pose_without_a_frame(shape):
+    """A Pose without a rotation was drawn in the input's axes, labelled as the canonical ones, without
+    a word (normalize's default pose has none); a NaN pose was drawn as nothing, a batch's refused as
+    'points must have shape (2, n, 3) for this pose'. Each refused, naming the pose and the fix; the
+    identity given as the rotation draws the input's axes."""
+    from jaxpose import Pose
+
+    framed = Pose.from_center_scale(np.zeros(3), 1.0, rotation=np.eye(3))
+    with pytest.raises(InvalidInputError, match=r"poses\[1\] has no rotation: .*rotation=True"):
+        plot.rotation_overlay([shape, shape], [framed, Pose.from_center_scale(np.zeros(3), 1.0)])
+    with pytest.raises(InvalidInputError, match=r"poses\[0\]: an invalid pose, status 7"):
+        plot.rotation_overlay([shape], [Pose.from_center_scale(np.array([np.nan, 0, 0]), 1.0, rotation=np.eye(3))])
+    batch = Pose.from_center_scale(np.zeros((2, 3)), np.ones(2), rotation=np.broadcast_to(np.eye(3), (2, 3, 3)))
+    with pytest.raises(InvalidInputError, match=r"poses\[0\]: a pose must be one center .*index it"):
+        plot.rotation_overlay([shape], [batch])
+    plot.rotation_overlay([shape, shape], [framed, framed])
+
+
 def test_figures_of_a_result_name_the_result_they_take(tmp_path, fake_result):
     """An evaluate result given to the rotation figures (and an evaluate_rotation result to the
     others) was a KeyError deep in the figure ('raw', 'per_class'); each names where it belongs."""

@@ -136,15 +136,26 @@ def _create(cls, config, options):
     return dataclasses.replace(base, **options) if options else base
 
 
-def _real(value, name, low, high, closed=True):
-    """``value`` as a float in [low, high] (or (low, high] with ``closed=False``); bools refused."""
-    try:
-        v = math.nan if isinstance(value, bool) else float(value)
-    except (TypeError, ValueError):
-        v = math.nan
+def _real(value, name, low, high, closed=True, interval=None):
+    """``value`` as a float in [low, high] (or (low, high] with ``closed=False``): a real number
+    (Python's, NumPy's or a () NumPy or JAX array of reals); bools, strings (``"0.1"``), arrays of
+    other shapes and ints beyond a float's range refused by name, as
+    :func:`jaxpose._validate.check_real` refuses them (told without importing NumPy: its dtype's
+    kind). ``interval``: the range as the message writes it (default from low, high, closed)."""
+    dtype, shown = getattr(value, "dtype", None), None
+    if (isinstance(value, (bool, str, bytes)) or getattr(value, "shape", ()) != ()
+            or (dtype is not None and getattr(dtype, "kind", None) not in ("f", "i", "u", "V"))):
+        v = math.nan  # (float() took "0.1", a (1,) array, NumPy's bools)
+    else:
+        try:
+            v = float(value)
+        except (TypeError, ValueError):
+            v = math.nan
+        except OverflowError:  # an int no float holds (was the OverflowError itself)
+            v, shown = math.nan, f"an int of {int(value).bit_length()} bits"
     if not (math.isfinite(v) and (low <= v if closed else low < v) and v <= high):
-        interval = f"{'[' if closed else '('}{low:g}, {high:g}{']' if math.isfinite(high) else ')'}"
-        raise InvalidInputError(f"{name} must be a number in {interval}, got {value!r}")
+        interval = interval or f"{'[' if closed else '('}{low:g}, {high:g}{']' if math.isfinite(high) else ')'}"
+        raise InvalidInputError(f"{name} must be a number in {interval}, got {shown or repr(value)}")
     return v
 
 
@@ -209,6 +220,9 @@ class TuneOptions:
       count: surface samples per object, drawn afresh at every step (>= 4).
       instances: objects per class of the built-in procedural dataset (``jaxpose tune``; >= 2).
 
+    The one check of these values: :func:`jaxpose.tuning.check_options` (``tune``, ``jaxpose
+    tune``) checks them by building one, field by field in this order.
+
     Example::
 
         result = tuning.tune(classes, steps=TUNE.steps * 2)  # twice the default schedule
@@ -223,12 +237,10 @@ class TuneOptions:
     instances: int = 6
 
     def __post_init__(self):
-        holdout = _real(self.holdout, "holdout", 0.0, 1.0)
-        if holdout == 1.0:
-            raise InvalidInputError(f"holdout must be a number in [0, 1), got {self.holdout!r}")
         _set(self, steps=_int(self.steps, "steps", 0), lr=_real(self.lr, "lr", 0.0, math.inf, closed=False),
              reg=_real(self.reg, "reg", 0.0, math.inf), scale_weight=_real(self.scale_weight, "scale_weight", 0.0, math.inf),
-             holdout=holdout, count=_int(self.count, "count", 4), instances=_int(self.instances, "instances", 2))
+             holdout=_real(self.holdout, "holdout", 0.0, math.nextafter(1.0, 0.0), interval="[0, 1)"),
+             count=_int(self.count, "count", 4), instances=_int(self.instances, "instances", 2))
 
 
 OCSVM = OCSVMOptions()  # the defaults, read by every function that takes these parameters

@@ -41,7 +41,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from . import _validate
-from .config import OCSVM, ROBUST, TUNE, PoseConfig, RobustConfig
+from .config import OCSVM, ROBUST, TUNE, PoseConfig, RobustConfig, TuneOptions
 from .mesh import sample_surface
 from .sample import check_count
 from .occupancy.points import spacing_subset
@@ -164,8 +164,10 @@ _STARTS = {"gamma0": "ocsvm", "nu0": "ocsvm", "power0": "robust"}  # a start -> 
 def check_options(method="ocsvm", steps=TUNE.steps, lr=TUNE.lr, reg=TUNE.reg, scale_weight=TUNE.scale_weight,
                   holdout=TUNE.holdout, seed=0, count=TUNE.count, gamma0=None, nu0=None, power0=None) -> dict:
     """:func:`tune`'s scalar arguments checked (before any class is loaded or anything compiled),
-    as {name: value}: steps, seed int >= 0; lr, power0 finite > 0; reg, scale_weight finite >= 0;
-    holdout in [0, 1); count a sample count (:func:`jaxpose.sample.check_count`); gamma0, nu0 as
+    as {name: value}: steps, lr, reg, scale_weight, holdout, count by
+    :class:`jaxpose.config.TuneOptions` (their one check: steps int >= 0; lr finite > 0; reg,
+    scale_weight finite >= 0; holdout in [0, 1); count int >= 4), count then a sample count
+    (:func:`jaxpose.sample.check_count`: its memory); seed int >= 0; power0 finite > 0; gamma0, nu0 as
     :func:`jaxpose.normalize`'s with nu0 in (0.02, 0.98) (ocsvm). The method's starts left None
     are :data:`jaxpose.config.OCSVM`'s (gamma, nu) or :data:`jaxpose.config.ROBUST`'s (power);
     those of the other method must be left None (refused by name, as :func:`jaxpose.normalize`
@@ -185,12 +187,9 @@ def check_options(method="ocsvm", steps=TUNE.steps, lr=TUNE.lr, reg=TUNE.reg, sc
     gamma0 = OCSVM.gamma if gamma0 is None else gamma0
     nu0 = OCSVM.nu if nu0 is None else nu0
     power0 = ROBUST.power if power0 is None else power0
-    out = dict(method=method, steps=_validate.check_int(steps, "steps", 0), lr=_validate.check_real(lr, "lr", 0, True),
-               reg=_validate.check_real(reg, "reg", 0), scale_weight=_validate.check_real(scale_weight, "scale_weight", 0),
-               holdout=_validate.check_real(holdout, "holdout", 0), seed=_validate.check_int(seed, "seed", 0),
-               count=check_count(count))
-    if not out["holdout"] < 1:
-        raise _validate.InvalidInputError(f"holdout must be in [0, 1), got {holdout!r}")
+    schedule = TuneOptions(steps=steps, lr=lr, reg=reg, scale_weight=scale_weight, holdout=holdout, count=count)
+    out = dict(method=method, **{k: getattr(schedule, k) for k in ("steps", "lr", "reg", "scale_weight", "holdout")},
+               seed=_validate.check_int(seed, "seed", 0), count=check_count(schedule.count))  # (+ the samples' memory)
     if method == "robust":
         out["power0"] = _validate.check_real(power0, "power0", 0, True)
     else:

@@ -143,6 +143,26 @@ def test_tune_options_are_validated(bad, message):
         TuneOptions(**bad)
 
 
+@pytest.mark.parametrize("bad", [
+    dict(steps=-1), dict(steps=2.5), dict(lr=0.0), dict(lr=float("nan")), dict(reg=-1.0), dict(scale_weight=float("nan")),
+    dict(holdout=1.0), dict(holdout=-0.5), dict(count=3), dict(lr="0.1"), dict(holdout=np.array([0.1])),
+    dict(reg=np.bool_(True)), dict(lr=10**400),
+])
+def test_tune_options_are_the_one_check_of_tunes_schedule(bad):
+    """TuneOptions and tuning.check_options (tune, the command) checked the same values twice, in two
+    wordings; check_options builds a TuneOptions: one check, one message. TuneOptions took what
+    check_options refused (lr="0.1", a (1,) array, a NumPy bool) and raised OverflowError for an int
+    beyond a float's range; both refuse them now, by name."""
+    from jaxpose import tuning
+    from jaxpose.config import TuneOptions
+
+    with pytest.raises(InvalidInputError) as direct:
+        TuneOptions(**bad)
+    with pytest.raises(InvalidInputError) as through:
+        tuning.check_options(**bad)
+    assert str(direct.value) == str(through.value) and str(direct.value).startswith(f"{next(iter(bad))} must be")
+
+
 def test_every_entry_point_reads_the_one_default():
     """The functions, the batch options and the command line all default to jaxpose.config's values."""
     import inspect

@@ -88,6 +88,30 @@ def test_non_finite_coordinates_are_not_written(tmp_path, name):
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.parametrize("name", ["out.ply", "out.stl", "out.glb", "points.ply", "points.glb", "surface.ply"])
+def test_coordinates_beyond_float32_are_not_written_as_float32(tmp_path, name):
+    """PLY, STL and GLB hold float32 coordinates: one of 1e39 (finite in float64) was cast to inf
+    with a RuntimeWarning, and the file written held inf (which jaxpose's readers refuse). Refused
+    by name, nothing written; the text formats (float64 digits) write it."""
+    from jaxpose import mesh
+    from jaxpose.errors import InvalidInputError
+    from jaxpose.geometry import Surface
+
+    box = trimesh.creation.box()
+    box.vertices[3] = [1e39, 0.0, -2.0]
+    geometry = {"out": box, "points": trimesh.PointCloud(box.vertices),
+                "surface": Surface(box.vertices, box.faces)}[name.split(".")[0]]
+    with pytest.raises(InvalidInputError, match=r"beyond float32's range \(3\.4e\+38\).* largest \|coordinate\| 1e\+39"):
+        mesh.export(geometry, tmp_path / name)
+    assert list(tmp_path.iterdir()) == []
+    for text in ("out.obj", "out.off", "out.xyz"):
+        kept = trimesh.PointCloud(box.vertices) if text.endswith(".xyz") else box
+        assert mesh.load(mesh.export(kept, tmp_path / text)).vertices.max() == 1e39
+    box.vertices[3] = [3.4e38, 0.0, -2.0]  # float32's largest is 3.40282e38: written, as float32
+    written = mesh.load(mesh.export(box, tmp_path / "edge.ply")).vertices
+    np.testing.assert_array_equal(written, box.vertices.astype(np.float32))
+
+
 def test_export_refuses_what_is_not_a_geometry_or_a_path(tmp_path):
     """export("abc", path) was an AttributeError ('str' object has no attribute 'vertices') and
     export(mesh, None) Path()'s TypeError: refused by name, nothing written."""

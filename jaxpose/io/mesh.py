@@ -424,6 +424,7 @@ def _flatten(scene, source):
 MESH_FORMATS = ("ply", "obj", "off", "stl", "glb")  # hold triangles
 POINT_FORMATS = ("ply", "obj", "glb", "xyz")  # hold a point cloud
 OUTPUT_FORMATS = tuple(sorted(set(MESH_FORMATS) | set(POINT_FORMATS)))
+_FLOAT32_FORMATS = ("glb", "ply", "stl")  # store coordinates as float32 (the text formats as decimals)
 
 
 def _check_path(path):
@@ -469,14 +470,24 @@ def encode(geometry, file_type) -> bytes:
 
     Raises:
       InvalidInputError: not one of those, the geometry cannot be written in that format, or has
-        NaN or inf coordinates (written, it would be a file that jaxpose refuses to read).
+        NaN or inf coordinates, or coordinates beyond float32's range for a float32 format
+        (PLY, STL, GLB) (written, it would be a file that jaxpose refuses to read).
     """
     if not (isinstance(geometry, Surface) or _is(geometry, "Trimesh") or _is(geometry, "PointCloud")):
         raise InvalidInputError(f"cannot write a {type(geometry).__name__}: give a Trimesh, PointCloud or "
                                 "jaxpose.geometry.Surface (jaxpose.mesh.load makes one of an array or a file)")
     output_format(f"geometry.{file_type}", geometry)
-    if not np.all(np.isfinite(np.asarray(geometry.vertices, np.float64))):  # a file no reader takes back
+    vertices = np.asarray(geometry.vertices, np.float64)
+    if not np.all(np.isfinite(vertices)):  # a file no reader takes back
         raise InvalidInputError(f"cannot write {type(geometry).__name__} with NaN or inf coordinates")
+    if file_type in _FLOAT32_FORMATS and len(vertices):
+        with np.errstate(over="ignore"):  # the cast each writer makes: past float32's range it is inf
+            representable = np.all(np.isfinite(vertices.astype(np.float32)))
+        if not representable:
+            raise InvalidInputError(
+                f"cannot write coordinates beyond float32's range (3.4e+38) as {file_type.upper()}, which stores "
+                f"float32 (they would be inf): largest |coordinate| {np.abs(vertices).max():.3g}; write "
+                f"a text format (.obj, .off for a mesh; .obj, .xyz for points), or rescale")
     surface = isinstance(geometry, Surface)
     if file_type == "off" and (surface or _is(geometry, "Trimesh")):
         try:

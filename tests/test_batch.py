@@ -195,6 +195,38 @@ def test_rerun_skips_what_is_done_and_redoes_what_changed(tmp_path, tree):
     assert {r["method"] for r in records.values()} == {"bbox"}
 
 
+def test_a_rerun_redoes_a_gltf_whose_buffer_file_changed(tmp_path):
+    """A .gltf's geometry is in the .bin files it names: a rerun skipped it when only a buffer
+    changed (its key was the .gltf's own size and time, or bytes, and the table kept the old
+    scale). The key covers the buffers: sizes summed, the latest time, every file's bytes."""
+    root, out = tmp_path / "in", tmp_path / "out"
+    root.mkdir()
+    for name, data in trimesh.creation.box(extents=[1.0, 1.0, 1.0]).export(file_type="gltf").items():
+        (root / name).write_bytes(data)
+    gltf = root / "model.gltf"
+    positions = root / json.loads(gltf.read_text())["buffers"][1]["uri"]
+    bbox = NormalizeOptions(method="bbox")
+    for check in ("mtime", "hash"):
+        first = run([root], out, options=bbox, check=check, force=True)
+        assert first.written == 1 and first.rows[0].scale == {"mtime": 1.0, "hash": 3.0}[check]
+        assert run([root], out, options=bbox, check=check).skipped == 1
+        stamp = positions.stat().st_mtime_ns
+        stretched = np.frombuffer(positions.read_bytes(), "<f4") * np.float32(3.0)  # the same size
+        positions.write_bytes(stretched.tobytes())
+        os.utime(positions, ns=(stamp + 10**9, stamp + (10**9 if check == "mtime" else 0)))  # hash: the same time
+        again = run([root], out, options=bbox, check=check)
+        assert (again.written, again.skipped) == (1, 0), check
+        assert again.rows[0].scale == 3.0 * first.rows[0].scale
+    from jaxpose.batch.task import input_key
+
+    key = input_key(gltf, "hash")
+    assert key["input_size"] == sum(p.stat().st_size for p in root.iterdir())
+    assert key["input_mtime_ns"] == max(p.stat().st_mtime_ns for p in root.iterdir())
+    assert input_key(root / "plain.bin", "hash")["input_size"] is None  # not there
+    positions.write_bytes(b"")
+    assert input_key(gltf, "mtime")["input_size"] == gltf.stat().st_size + (root / "gltf_buffer_0.bin").stat().st_size
+
+
 def test_a_rerun_with_other_options_is_refused_unless_forced_and_a_stopped_forced_run_resumes(tmp_path, tree):
     """A folder's outputs are of one option set: other options are refused before any work (they
     replaced outputs silently, and a run stopped early left a table of two methods)."""

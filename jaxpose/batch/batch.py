@@ -31,7 +31,7 @@ from typing import NamedTuple
 
 from .._validate import check_bool, check_int, check_real
 from ..errors import InvalidInputError, UsageError
-from .task import FileResult, NormalizeOptions, normalize_file, one_line, recorded_settings, sha256_file, warm_up
+from .task import FileResult, NormalizeOptions, input_key, normalize_file, one_line, recorded_settings, warm_up
 
 __all__ = ["CHECKS", "NormalizeOptions", "BatchResult", "normalize_files", "run_batch"]
 
@@ -306,8 +306,9 @@ def _remove_superseded_table(table):
 
 
 def _input_key(path, check):
-    """Size, modification time (and SHA-256) of a regular file now; None for others (never opened
-    here: a FIFO would block)."""
+    """Size, modification time (and SHA-256) of a regular file now (a local one's:
+    :func:`jaxpose.batch.task.input_key`, a .gltf's with its buffer files); None for others (never
+    opened here: a FIFO would block)."""
     from ..io.remote import RemotePath, modified_ns
 
     key = {"input_size": None, "input_mtime_ns": None, "input_sha256": ""}
@@ -321,17 +322,9 @@ def _input_key(path, check):
             key["input_size"] = None
         return key
     try:
-        info = os.stat(path)
-    except OSError:
+        return input_key(path, check)
+    except OSError:  # unreadable: not done; its read says why
         return key
-    if stat.S_ISREG(info.st_mode):
-        key.update(input_size=info.st_size, input_mtime_ns=info.st_mtime_ns)
-        if check == "hash":
-            try:
-                key["input_sha256"] = sha256_file(path)
-            except OSError:
-                key["input_size"] = None  # unreadable: not done; its read says why
-    return key
 
 
 def _not_regular(path, kind):

@@ -21,7 +21,7 @@ import numpy as np
 
 from ..config import OCSVM, OCSVM_ONLY, GridConfig, RobustConfig
 
-__all__ = ["NormalizeOptions", "FileResult", "normalize_file", "one_line", "sha256_file", "warm_up", "recorded_settings"]
+__all__ = ["NormalizeOptions", "FileResult", "normalize_file", "one_line", "sha256_file", "input_key", "gltf_buffers", "warm_up", "recorded_settings"]
 
 
 # --------------------------------------------------------------------------- options
@@ -310,7 +310,26 @@ def warm_up(options=None) -> None:
 
 def _input_stat(path, check):
     """The input's table columns from ``os.stat`` (nothing for a file that cannot be stat'ed: the
-    read says why), with its SHA-256 for a regular file when `check` is ``"hash"``."""
+    read says why), with its SHA-256 for a regular file when `check` is ``"hash"``: those of
+    :func:`input_key`, and the inode of the file itself (to see it replaced while it is read)."""
+    out = input_key(path, check)
+    if out["input_size"] is not None:
+        info = os.stat(path)
+        out["input_inode"] = (info.st_dev, info.st_ino)
+    return out
+
+
+def input_key(path, check) -> dict:
+    """What a rerun compares of a local input (``input_size``, ``input_mtime_ns``, ``input_sha256``):
+    those of the file; for a ``.gltf``, of the file and the buffer files it names
+    (:func:`gltf_buffers`), which hold its geometry: their sizes summed, the latest modification
+    time, and the SHA-256 of each file's bytes after its size (the file's own SHA-256 where it names
+    none). None (size and time) for a path that is not a regular file or cannot be stat'ed (never
+    opened here: a FIFO would block; its read says why).
+
+    Raises:
+      OSError: the file (or a buffer) could not be read for its SHA-256.
+    """
     out = {"input_size": None, "input_mtime_ns": None, "input_sha256": ""}
     try:
         info = os.stat(path)
@@ -318,23 +337,53 @@ def _input_stat(path, check):
         return out
     if not stat.S_ISREG(info.st_mode):  # a FIFO or device: no size, nothing to compare afterwards
         return out
-    out.update(input_size=info.st_size, input_mtime_ns=info.st_mtime_ns, input_inode=(info.st_dev, info.st_ino))
+    files = [(path, info)]
+    for buffer in gltf_buffers(path):
+        try:
+            files.append((buffer, os.stat(buffer)))
+        except OSError:  # missing: the read fails, naming it
+            pass
+    out.update(input_size=sum(i.st_size for _, i in files), input_mtime_ns=max(i.st_mtime_ns for _, i in files))
     if check == "hash":
-        out["input_sha256"] = sha256_file(path)
+        if len(files) == 1:
+            out["input_sha256"] = sha256_file(path)
+        else:
+            digest = hashlib.sha256()
+            for name, _ in files:
+                digest.update(b"%d\0%s" % (os.stat(name).st_size, sha256_file(name).encode("ascii")))
+            out["input_sha256"] = digest.hexdigest()
     return out
+
+
+def gltf_buffers(path) -> list:
+    """The local files a ``.gltf`` names as its buffers (URIs relative to its folder, not ``data:``
+    ones), in its order; none for another file, or a .gltf that does not parse (its read says why)."""
+    from urllib.parse import unquote
+
+    path = Path(path)
+    if path.suffix.lower() != ".gltf":
+        return []
+    try:
+        with open(path, "rb") as handle:
+            buffers = json.loads(handle.read()).get("buffers") or []
+        uris = [b["uri"] for b in buffers if isinstance(b, dict) and isinstance(b.get("uri"), str)]
+    except (OSError, ValueError, AttributeError):
+        return []
+    return [path.parent / unquote(uri) for uri in uris if ":" not in uri.split("/")[0]]
 
 
 def _check_unchanged(path, before):
     from .._validate import InvalidInputError
 
     try:
-        info = os.stat(path)
+        os.stat(path)
+        now = _input_stat(path, "mtime")
     except OSError as exc:
         raise InvalidInputError(f"{path}: removed while it was read ({exc.strerror})") from None
-    after = (info.st_size, info.st_mtime_ns, (info.st_dev, info.st_ino))
+    after = (now["input_size"], now["input_mtime_ns"], now["input_inode"])
     if after != (before["input_size"], before["input_mtime_ns"], before["input_inode"]):
         raise InvalidInputError(f"{path}: changed while it was read (size {before['input_size']} -> "
-                                f"{info.st_size} bytes); run again to read it whole")
+                                f"{now['input_size']} bytes); run again to read it whole")
 
 
 def sha256_file(path) -> str:

@@ -31,7 +31,8 @@ resolution         int64    the grid/voxel resolution asked for; null for the es
 seconds            float64  seconds to read, normalize and encode this input in its worker
 worker             str      ``host:pid`` of the process that did it
 worker_peak_mb     float64  that process's peak resident memory so far, MiB
-input_size         int64    bytes of the input when it was read
+input_size         int64    bytes of the input when it was read (a local .gltf's with those of
+                            the buffer files it names; its time the latest, its SHA-256 of all)
 input_mtime_ns     int64    its modification time, ns since the epoch
 input_sha256       str      its SHA-256 (only with ``--check hash``; empty otherwise)
 version            str      the jaxpose version of the worker that made the row

@@ -422,6 +422,29 @@ def test_xyz_files_with_commas_comments_or_uneven_lines(tmp_path):
         mesh.load(tmp_path / "slashes.xyz")
 
 
+def test_a_one_line_xyz_file_is_one_point(tmp_path):
+    """An XYZ file of one line of values is a point cloud of that point, as a one-vertex OBJ or PLY
+    is: trimesh's loader counted the columns of a file without a line end after its values (its
+    text stripped) without the last character, 'not enough columns in xyz file!' for '1 2 3'
+    (and '1 2 3 255 0 0' a reshape error) though '10 20 30' read. Normalizing it says why not."""
+    texts = {"plain": "1 2 3\n", "bare": "1 2 3", "comment": "# one\n1 2 3  # c\n\n", "commas": "1,2,3\r\n",
+             "wide": "10 20 30\n"}
+    for name, text in texts.items():
+        (tmp_path / f"{name}.xyz").write_text(text)
+        loaded = mesh.load(tmp_path / f"{name}.xyz")
+        assert isinstance(loaded, trimesh.PointCloud), name
+        np.testing.assert_array_equal(loaded.vertices, [[10.0, 20, 30] if name == "wide" else [1.0, 2, 3]])
+    (tmp_path / "color.xyz").write_text("1 2 3 255 0 7\n")
+    colored = mesh.load(tmp_path / "color.xyz")
+    np.testing.assert_array_equal(colored.vertices, [[1.0, 2, 3]])
+    np.testing.assert_array_equal(colored.colors, [[255, 0, 7, 255]])
+    (tmp_path / "two.xyz").write_text("1 2\n")
+    with pytest.raises(InvalidInputError, match=r"two.xyz: cannot read XYZ file: not enough columns"):
+        mesh.load(tmp_path / "two.xyz")
+    with pytest.raises(InvalidInputError, match=r"all 1 vertices are identical: no shape to normalize"):
+        mesh.normalize_mesh(tmp_path / "plain.xyz", method="bbox")
+
+
 def test_content_that_does_not_match_its_suffix_is_named(tmp_path):
     sphere = trimesh.creation.icosphere(subdivisions=1)
     cases = {

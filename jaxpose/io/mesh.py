@@ -295,6 +295,10 @@ def _read(path):
         except InvalidInputError as exc:  # broken where trimesh would read part of it
             raise InvalidInputError(f"{path}: {exc}") from None
     trimesh = _trimesh()
+    values = data.strip() if ext == "xyz" else b""
+    one_point = bool(values) and b"\n" not in values  # one line of values (comments cut): trimesh counts its
+    if one_point:  # columns without the last character (no line end after strip()): "1 2 3" "not enough
+        data = values + b"\n" + values  # columns"; read twice, keep one
     # a .gltf names its buffers (and images) as files beside it: read them from its folder (the
     # bytes alone leave trimesh nothing to read them with: "'NoneType' object is not subscriptable")
     resolver = trimesh.resolvers.FilePathResolver(str(path)) if ext == "gltf" else None
@@ -317,6 +321,9 @@ def _read(path):
             detail = (f"the content is not {ext.upper()} as jaxpose and trimesh read it (trimesh wanted its optional "
                       f"module {exc.name!r} to try further)")
         raise InvalidInputError(f"{path}: cannot read {ext.upper()} file: {detail}") from None
+    if one_point and len(geometry.vertices) == 2:
+        colors = np.asarray(geometry.colors)
+        geometry = trimesh.PointCloud(geometry.vertices[:1], colors=colors[:1] if len(colors) else None)
     if not _has_vertices(geometry):
         raise InvalidInputError(f"{path}: empty geometry: no vertices read as {ext.upper()} (the file is empty, "
                                 f"or its content is not {ext.upper()})")

@@ -60,7 +60,7 @@ def read(data: bytes, file_type: str) -> Loaded:
       Unsupported: no fast reader for the format, or one that cannot reproduce trimesh exactly.
       InvalidInputError: a file that is certainly broken, where trimesh would read part of it
         (or a wrong mesh) without a word: an OFF or ASCII PLY file with fewer vertex or face lines
-        than its counts say, a binary PLY file with fewer bytes than its elements need (a PLY
+        than its counts say or a blank line among them (one element a line), a binary PLY file with fewer bytes than its elements need (a PLY
         point cloud too), a face line with fewer indices than its count, a PLY element with a
         negative count, an ASCII PLY face index that is not an integer of its type, an OBJ face
         referencing vertex 0 (OBJ counts from 1), an OBJ face of fewer than 3 corners or vertex of

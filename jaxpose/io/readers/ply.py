@@ -1,6 +1,8 @@
 """PLY: ``ascii``, ``binary_little_endian`` and ``binary_big_endian``, as trimesh reads them."""
 from __future__ import annotations
 
+import re
+
 import numpy as np
 
 from ...errors import InvalidInputError
@@ -90,6 +92,7 @@ def _ply_length(data, start, elements, ascii):
     declared = ", ".join(f"{count} {name}" for name, count in counts.items())
     if ascii:  # trimesh reads one element per line
         lines = _text(data[start:]).splitlines()
+        _refuse_blank_line(data, start, lines, elements)
         if len(lines) < sum(counts.values()):
             raise InvalidInputError(f"cannot read PLY file: truncated, {len(lines)} lines of the "
                                     f"{sum(counts.values())} ({declared}) its header says")
@@ -101,6 +104,30 @@ def _ply_length(data, start, elements, ascii):
         raise InvalidInputError(f"cannot read PLY file: truncated, {len(data) - start} bytes after the header, fewer "
                                 f"than the {least} its {declared} elements need at the least")
     return None
+
+
+_BLANK_LINE = re.compile(rb"\n[ \t\r\f\v]*\n")
+
+
+def _refuse_blank_line(data, start, lines, elements):
+    """Refuse an ASCII file whose first blank line lies among its elements' lines: one element a
+    line, every later line would be read as the element before it (trimesh failed: "setting an
+    array element with a sequence.", "index 0 is out of bounds"). Blank lines after them (nothing
+    reads them), or among an element's of no properties, pass."""
+    found = _BLANK_LINE.search(data, start - 1)
+    if found is None:
+        return
+    at = data.count(b"\n", start, found.start() + 1)  # the blank line's index among `lines`
+    end = 0
+    for name, (count, properties) in elements.items():
+        end += max(count, 0)
+        if at < end:
+            if properties and at < len(lines) and not lines[at].strip():
+                number = data.count(b"\n", 0, start) + at + 1
+                raise InvalidInputError(f"cannot read PLY file: line {number} is blank, inside its {name} data "
+                                        "(ASCII PLY holds one element a line: every later line would be read as "
+                                        "the element before it); remove the line")
+            return
 
 
 def _ply_extras(vertex, face):
@@ -123,7 +150,7 @@ def read_ply(data: bytes) -> Loaded:
       Unsupported: anything this reader does not reproduce exactly (read it with trimesh).
       InvalidInputError: a file shorter than its header's counts (an ASCII file with fewer lines,
         a binary one with fewer bytes than its elements need at the least; whatever its elements:
-        a point cloud's too), an ASCII vertex line without all of its x, y, z (fewer values than its
+        a point cloud's too), a blank line among an ASCII file's element lines, an ASCII vertex line without all of its x, y, z (fewer values than its
         properties up to them: trimesh's "setting an array element with a sequence."; a line that
         lacks only a later column, a color, is read by trimesh), or a face line with fewer values
         than its count, or a negative element count (trimesh reads part of such a file without a

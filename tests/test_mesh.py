@@ -375,6 +375,26 @@ def test_comments_that_end_an_obj_data_line_are_cut(tmp_path):
         assert loaded.vertices.max() == 1.0 and len(loaded.faces) == 4, name
 
 
+def test_a_comment_on_a_continued_obj_line_is_cut(tmp_path):
+    """A '#' comment on the second line of a data line continued by a backslash ('f 1 3 \\' then
+    '2 # base') is cut as the file says, by the fast reader and on trimesh's path (a material line)
+    alike: only a line that began with its keyword was seen as data, so the comment stayed and was
+    read as values ("invalid literal for int() with base 10: '#'"; a vertex's: "could not be read
+    to its end due to unmatched data"). CRLF line ends too."""
+    continued = {"face": ("f 1 3 2", "f 1 3 \\\n2 # base"), "vertex": ("v 0 0 1", "v 0 \\\n 0 \\\n1#apex"),
+                 "comment_line": ("f 1 2 4", "f 1 2 4 \\\n# side")}
+    for name, plain in {"fast": TETRA, "material": TETRA.replace("f 1 3 2", "usemtl s\nf 1 3 2")}.items():
+        for tag, (line, text) in continued.items():
+            for end in ("\n", "\r\n"):
+                (tmp_path / f"{name}_{tag}.obj").write_bytes(plain.replace(line, text).replace("\n", end).encode())
+                (tmp_path / f"{name}_plain.obj").write_text(plain)
+                loaded = mesh.load(tmp_path / f"{name}_{tag}.obj")
+                expected = mesh.load(tmp_path / f"{name}_plain.obj")
+                np.testing.assert_array_equal(loaded.vertices, expected.vertices)
+                np.testing.assert_array_equal(loaded.faces, expected.faces)
+                assert len(loaded.faces) == 4, (name, tag)
+
+
 def test_indented_obj_lines_are_read(tmp_path):
     """Lines that start with white space read as the file says, by the fast reader and on trimesh's
     path (a material line) alike: an indented vertex was dropped (a face then 'references vertex 4

@@ -17,20 +17,22 @@ _OBJ_FORMS = {form: re.compile(rf"{ref}(?: {ref})*") for form, ref in (
     ((0, False), _INDEX), ((1, False), f"{_INDEX}/{_INDEX}"), ((2, True), f"{_INDEX}//{_INDEX}"),
     ((2, False), f"{_INDEX}/{_INDEX}/{_INDEX}"))}
 
-_INLINE_COMMENT = re.compile(rb"(?m)^([ \t]*(?:v|vt|vn|vp|f|l|p)[ \t][^#\r\n]*)#[^\r\n]*")
+_INLINE_COMMENT = re.compile(  # a data line, with the lines a backslash at its end continues it into, to its '#'
+    rb"(?m)^([ \t]*(?:v|vt|vn|vp|f|l|p)[ \t](?:[^#\r\n]|\\\r?\n)*)#[^\r\n]*")
 
 
 def without_comments(data: bytes) -> bytes:
     """An OBJ file's bytes with the ``#`` comment that ends a data line (``v``, ``vt``, ``vn``,
-    ``vp``, ``f``, ``l``, ``p``: ``v 0 0 0 # a``, ``f 1 2 3 # tri``) cut to its line end (the line
-    end kept), as the file says; trimesh's loader and the fast reader's copy of it read such a line's
+    ``vp``, ``f``, ``l``, ``p``: ``v 0 0 0 # a``, ``f 1 2 3 # tri``; on a line such a line continues
+    into, ``f 1 2 \\`` then ``3 # c``) cut to its line end (the line end kept), as the file says; trimesh's loader and the fast reader's copy of it read such a line's
     comment as values ("could not be read to its end due to unmatched data"). Other lines are kept
     whole: comment lines (every reader skips them) and names (``o``, ``g``, ``usemtl``, ``mtllib``
     may hold a ``#``). `data` itself where it holds no ``#``."""
     at = data.find(b"#")
     while at >= 0:  # (comment lines only, as most files' headers: the bytes left as they are, unsearched)
         start = data.rfind(b"\n", 0, at) + 1
-        if data[start:at].strip(b" \t\r"):  # a '#' after some text on its line
+        if data[start:at].strip(b" \t\r") or data[max(start - 3, 0):start].rstrip(b"\r\n").endswith(b"\\"):
+            # a '#' after some text on its line, or on a line continued into
             return _INLINE_COMMENT.sub(rb"\1", data)
         end = data.find(b"\n", at)
         at = -1 if end < 0 else data.find(b"#", end)

@@ -97,5 +97,6 @@ def test_what_is_not_a_regular_file_is_never_replaced(tmp_path):
     target.write_text("old")
     link = tmp_path / "link.json"
     os.symlink(target, link)
-    write_atomic(link, b"new", force=True)  # a link to a regular file: replaced, as before
+    write_atomic(link, b"new", force=True)  # a link to a regular file: written through, the link kept
     assert link.read_bytes() == b"new"
+    assert os.path.islink(link) and target.read_bytes() == b"new"  # (the link was replaced by a file, its target left)

@@ -227,6 +227,34 @@ def test_a_rerun_redoes_a_gltf_whose_buffer_file_changed(tmp_path):
     assert input_key(gltf, "mtime")["input_size"] == gltf.stat().st_size + (root / "gltf_buffer_0.bin").stat().st_size
 
 
+def test_an_output_that_is_a_symbolic_link_is_written_through(tmp_path, tree):
+    """An output path that is a link (OUTDIR/a/capsule.ply -> a file elsewhere; a dangling one) is
+    written through, atomically: the file it points to gets the output, the link stays (the rename
+    replaced the link with a file and left its target as it was, silently). The plan already took
+    an output by its real path (a link to an input is refused as 'would overwrite its input')."""
+    root, out, store = tmp_path / "scans", tmp_path / "out", tmp_path / "store"
+    inputs = [root / "a" / "capsule.ply", root / "sphere.off"]
+    (out / "a").mkdir(parents=True)
+    store.mkdir()
+    (store / "capsule.ply").write_bytes(b"old")
+    os.symlink(store / "capsule.ply", out / "a" / "capsule.ply")
+    os.symlink(os.path.join("..", "store", "sphere.off"), out / "sphere.off")  # dangling, relative
+    first = run(inputs, out, force=True)
+    assert first.written == 2
+    for source in inputs:
+        link = out / source.relative_to(root)
+        assert os.path.islink(link) and (store / source.name).is_file(), link
+        row = next(r for r in first.rows if r.output == str(link))
+        written = mesh.load(store / source.name).vertices
+        np.testing.assert_allclose(written, row.apply(mesh.load(source).vertices), rtol=0, atol=1e-6)
+    assert sorted(os.listdir(store)) == ["capsule.ply", "sphere.off"]  # no temporary left
+    assert run(inputs, out).skipped == 2  # done: the outputs are there through their links
+    os.unlink(out / "sphere.off")
+    os.symlink(root / "a" / "capsule.ply", out / "sphere.off")
+    with pytest.raises(UsageError, match=r"sphere.off would overwrite its input"):
+        run(inputs, out, force=True)
+
+
 def test_a_rerun_with_other_options_is_refused_unless_forced_and_a_stopped_forced_run_resumes(tmp_path, tree):
     """A folder's outputs are of one option set: other options are refused before any work (they
     replaced outputs silently, and a run stopped early left a table of two methods)."""

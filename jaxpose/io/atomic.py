@@ -14,7 +14,7 @@ from pathlib import Path
 
 from ..errors import InvalidInputError, UsageError  # (not _validate: the command line imports this before NumPy)
 
-__all__ = ["write_atomic", "temporary_path", "is_temporary", "remove_temporaries", "check_folder_writable",
+__all__ = ["write_atomic", "written_path", "temporary_path", "is_temporary", "remove_temporaries", "check_folder_writable",
            "check_output_file", "check_creatable"]
 
 _SUFFIX = ".tmp"
@@ -61,7 +61,7 @@ def remove_temporaries(path) -> int:
     Returns:
       How many were removed.
     """
-    path = Path(path)
+    path = written_path(path)  # (a link's: those beside its target)
     folder = path.parent if str(path.parent) else Path(".")
     prefix = f".{_stem(path.name)}."
     removed = 0
@@ -152,6 +152,8 @@ def write_atomic(path, data, force=False) -> Path:
       path: the target file; its folder must exist and be writable.
       data: bytes or str.
       force: replace an existing `path` (its permission bits are kept); otherwise refuse it.
+        A symbolic link is written through: the file it points to is replaced atomically (its
+        temporary beside it), the link kept (:func:`written_path`).
 
     Returns:
       `path` as a :class:`Path`.
@@ -166,11 +168,12 @@ def write_atomic(path, data, force=False) -> Path:
     _check_replaceable(path)
     if path.exists() and not force:
         raise InvalidInputError(f"{path} exists (use force / --force to overwrite)")
-    check_folder_writable(path.parent, what=f"{path}: the")
+    target = written_path(path)
+    check_folder_writable(target.parent, what=f"{path}{'' if target == path else f' (a link to {target})'}: the")
     if isinstance(data, str):
         data = data.encode("utf-8")
-    old_mode = (path.stat().st_mode & 0o777) if path.exists() else None
-    tmp = temporary_path(path)
+    old_mode = (target.stat().st_mode & 0o777) if target.exists() else None
+    tmp = temporary_path(target)
     try:
         try:
             fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)  # the umask applies
@@ -183,7 +186,7 @@ def write_atomic(path, data, force=False) -> Path:
             handle.write(data)
             handle.flush()
             os.fsync(handle.fileno())
-        os.replace(tmp, path)
+        os.replace(tmp, target)
     except BaseException:  # errors, KeyboardInterrupt, SystemExit: never leave the temporary
         if tmp is not None:
             try:
@@ -192,6 +195,14 @@ def write_atomic(path, data, force=False) -> Path:
                 pass
         raise
     return path
+
+
+def written_path(path) -> Path:
+    """The file that :func:`write_atomic` replaces for `path`: `path` itself, or for a symbolic
+    link the file it points to (its real path; a dangling link's target, made): written through,
+    the link kept (the rename replaced the link with a file and left its target as it was)."""
+    path = Path(path)
+    return Path(os.path.realpath(path)) if os.path.islink(path) else path
 
 
 def check_output_file(path, force=False, what="--json"):

@@ -88,6 +88,21 @@ def _int(value, name, minimum):
     return number
 
 
+DATASET_INSTANCES = 200  # objects per class of the built-in dataset at most: it is built whole in memory
+# (0.1-0.75 MB an object, the spider's the most: 12 classes of 200, about 1.8 GB, within MEMORY_BUDGET)
+
+
+def _instances(value, name, minimum):
+    """``value`` as the built-in dataset's objects per class: an int in [minimum, DATASET_INSTANCES]
+    (the one rule of make_dataset, evaluate's and tune's ``--instances`` and TuneOptions)."""
+    number = _int(value, name, minimum)
+    if number > DATASET_INSTANCES:
+        raise InvalidInputError(f"{name} must be <= {DATASET_INSTANCES} (the built-in dataset is built in memory, "
+                                f"up to 0.75 MB an object), got {number}; for more objects, write them to a folder "
+                                "and give it as --data / load_folder")
+    return number
+
+
 def _bool(value, name):
     """``value`` as a bool: Python's or NumPy's, as :func:`jaxpose._validate.check_bool` takes;
     NumPy's told by its type, without importing NumPy (the command line imports this module
@@ -218,7 +233,8 @@ class TuneOptions:
       scale_weight: weight of the scale's spread (cv) in the loss, >= 0.
       holdout: share of the classes held out of the loss (whole classes) and evaluated, in [0, 1).
       count: surface samples per object, drawn afresh at every step (>= 4).
-      instances: objects per class of the built-in procedural dataset (``jaxpose tune``; >= 2).
+      instances: objects per class of the built-in procedural dataset (``jaxpose tune``; 2 to
+        :data:`DATASET_INSTANCES`).
 
     The one check of these values: :func:`jaxpose.tuning.check_options` (``tune``, ``jaxpose
     tune``) checks them by building one, field by field in this order.
@@ -240,7 +256,7 @@ class TuneOptions:
         _set(self, steps=_int(self.steps, "steps", 0), lr=_real(self.lr, "lr", 0.0, math.inf, closed=False),
              reg=_real(self.reg, "reg", 0.0, math.inf), scale_weight=_real(self.scale_weight, "scale_weight", 0.0, math.inf),
              holdout=_real(self.holdout, "holdout", 0.0, math.nextafter(1.0, 0.0), interval="[0, 1)"),
-             count=_int(self.count, "count", 4), instances=_int(self.instances, "instances", 2))
+             count=_int(self.count, "count", 4), instances=_instances(self.instances, "instances", 2))
 
 
 OCSVM = OCSVMOptions()  # the defaults, read by every function that takes these parameters

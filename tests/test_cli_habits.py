@@ -124,6 +124,8 @@ def no_work(monkeypatch):
     (["--methods", "robust:nan"], "the power after ':' must be a finite number >= 0"),
     (["--methods", "vertex_mean:2"], "vertex_mean takes no power"),  # was the vertex mean, labelled :2
     (["--instances", "1"], "--instances must be >= 2"),  # was exit 1 after making the dataset
+    # was a dataset built in memory without a word (3.9 GB in 15 s, one class), never reaching the work
+    (["--instances", "1000000000"], "--instances must be <= 200 (the built-in dataset is built in memory"),
     (["--classes", ","], "--classes names no class"),  # was exit 1 naming the library's dict argument
 ])
 def test_evaluate_usage_errors_exit_2_before_the_work(capsys, no_work, args, fragment):
@@ -202,6 +204,15 @@ def test_help_describes_every_option():
     resolution = next(action for action in normalize._actions if action.dest == "resolution").help
     assert f"robust: voxels along the main body's largest extent (default {RobustConfig().resolution})" in resolution
     assert f"ocsvm: cells per axis of the volume integral's grid (default {GridConfig().resolution})" in resolution
+
+
+def test_tune_bounds_instances_before_the_work(capsys, monkeypatch):
+    """tune --instances 1000000000 built the dataset in memory for ever; refused before any work."""
+    from jaxpose import datasets
+
+    monkeypatch.setattr(datasets, "make_dataset", lambda *a, **k: pytest.fail("the work started"))
+    assert cli.main(["tune", "--instances", "201"]) == 2
+    assert "--instances must be <= 200" in _err(capsys)
 
 
 @pytest.mark.parametrize("command", ["tune", "bench"])

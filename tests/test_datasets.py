@@ -106,6 +106,7 @@ def test_vertices_sample_every_surface_densely(dataset):
     lambda: make_object("dog", 1, seed=True),
     lambda: make_dataset(seed=2.5, classes=["dog"], instances=1),
     lambda: make_dataset(instances=2.0),
+    lambda: make_dataset(instances=10**9, classes=["dog"]),  # was built until memory ran out
 ])
 def test_bad_arguments(call):
     with pytest.raises(InvalidInputError, match="class|instance|seed"):

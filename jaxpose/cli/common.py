@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import sys
 
-from ..config import OCSVM
+from ..config import OCSVM, _instances
 from ..errors import InvalidInputError
 from ..io.atomic import check_creatable, check_output_file  # shared by the commands
 from ..io.jsontext import json_text  # the commands' JSON records (benchmarks/ write theirs with it too)
@@ -36,6 +36,8 @@ def check_dataset_choice(instances, classes):
     all), checked before any work (evaluate, tune): InvalidInputError, a usage error (exit 2)."""
     if instances is not None and instances < 2:
         raise InvalidInputError(f"--instances must be >= 2 (a class's spread needs at least 2 objects), got {instances}")
+    if instances is not None:
+        _instances(instances, "--instances", 2)  # at most DATASET_INSTANCES: the dataset is built in memory
     if classes is not None and not [c for c in classes.split(",") if c]:
         raise InvalidInputError(f"--classes names no class ({classes!r}); give some, comma-separated")
 

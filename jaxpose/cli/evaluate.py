@@ -9,6 +9,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from ..config import DATASET_INSTANCES
 from .common import add_core_options, add_svm_options, check_core_options, check_creatable, check_dataset_choice, check_output_file, fail, json_text
 
 __all__ = ["add_parser", "run"]
@@ -22,7 +23,8 @@ def add_parser(sub):
                                    "on stderr; a table per variant and a legend on stdout.")
     p.add_argument("--data", help="folder of classes (one subfolder of meshes per class); default: procedural dataset")
     p.add_argument("--classes", help="built-in dataset: comma-separated subset of its 12 classes (default all)")
-    p.add_argument("--instances", type=int, default=None, help="built-in dataset: objects per class (default 10)")
+    p.add_argument("--instances", type=int, default=None,
+                   help=f"built-in dataset: objects per class (default 10, at most {DATASET_INSTANCES})")
     add_core_options(p)
     add_svm_options(p)
     p.set_defaults(**dict.fromkeys(("gamma", "nu", "count")))  # None when not given: refused where nothing uses them

@@ -9,7 +9,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..config import OCSVM, ROBUST, TUNE
+from ..config import DATASET_INSTANCES, OCSVM, ROBUST, TUNE
 from ..errors import InvalidInputError, JaxposeError  # (not _validate: it imports NumPy)
 from .common import add_core_options
 
@@ -39,7 +39,7 @@ def parser():
                    "points, holes); each variant of a class counts as a class")
     p.add_argument("--classes", default=None, help="comma-separated subset of classes")
     p.add_argument("--instances", type=int, default=TUNE.instances,
-                   help=f"objects per class (procedural dataset; default {TUNE.instances})")
+                   help=f"objects per class (procedural dataset; default {TUNE.instances}, at most {DATASET_INSTANCES})")
     p.add_argument("--steps", type=int, default=TUNE.steps, help=f"Adam steps (default {TUNE.steps})")
     p.add_argument("--lr", type=float, default=TUNE.lr,
                    help=f"Adam's learning rate in (log gamma, logit nu) or log power (default {TUNE.lr:g})")

@@ -28,6 +28,7 @@ import numpy as np
 import trimesh
 
 from jaxpose._validate import InvalidInputError, check_int, check_names
+from jaxpose.config import _instances
 from jaxpose.datasets._classes import BUILDERS as _BUILDERS
 from jaxpose.datasets._classes import CLASSES
 from jaxpose.datasets._parts import ball_part, Part
@@ -214,11 +215,16 @@ def make_object(class_name: str, instance: int, seed: int = 0) -> trimesh.Trimes
 
 
 def make_dataset(seed: int = 0, instances: int = 10, classes=None) -> dict[str, list[trimesh.Trimesh]]:
-    """``{class_name: [instance 0, ..., instance instances-1]}`` for `classes` (default: all 12)."""
+    """``{class_name: [instance 0, ..., instance instances-1]}`` for `classes` (default: all 12).
+
+    Raises:
+      InvalidInputError: an unknown class, `instances` below 1 or above
+        :data:`jaxpose.config.DATASET_INSTANCES` (the dataset is built in memory), a bad `seed`.
+    """
     classes = CLASSES if classes is None else check_names(classes, "classes")
     for name in classes:
         _check_class(name)
-    instances = check_int(instances, "instances", 1)
+    instances = _instances(instances, "instances", 1)  # (at most config.DATASET_INSTANCES: built in memory)
     seed = check_int(seed, "seed", 0)  # before any object is built
     return {name: [make_object(name, i, seed) for i in range(instances)] for name in classes}
 

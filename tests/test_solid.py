@@ -44,6 +44,54 @@ def test_union_kept_separate_small_part_dropped():
     np.testing.assert_allclose(s.centers().mean(0), main.centers().mean(0), atol=1e-9)  # the stray part is gone
 
 
+@pytest.mark.parametrize("far", [5.0, 10.0, 30.0, 1e3, 1e6])
+def test_a_speck_far_away_changes_nothing(far):
+    """A speck of 1 % of the body's length, ``far`` body lengths away (a scan's stray bit): the solid
+    is the body's alone, voxel for voxel, and so is normalize_mesh's pose. The first pass's grid was
+    the box of everything: at 10 lengths the body's limbs fell between its voxel centers and the
+    fine grid cut them off (center 0.59 of the scale off, scale +14 %, valid; at 30 lengths and more
+    'the shape encloses no volume')."""
+    import jaxpose
+    from jaxpose.datasets import make_object
+
+    body = make_object("human", 0, 0)  # thin arms and legs; 1 unit tall
+    speck = trimesh.creation.icosphere(subdivisions=1, radius=0.01)
+    speck.apply_translation([far, 0.0, 0.0])
+    both = trimesh.util.concatenate([body, speck])
+    alone, with_speck = _solid(body), _solid(both)
+    assert with_speck.pitch == alone.pitch and with_speck.inside.shape == alone.inside.shape
+    np.testing.assert_array_equal(with_speck.origin, alone.origin)
+    np.testing.assert_array_equal(with_speck.inside, alone.inside)
+    _, pose = jaxpose.normalize_mesh(both)
+    _, reference = jaxpose.normalize_mesh(body)
+    np.testing.assert_allclose(pose.center, reference.center, rtol=0, atol=1e-12)
+    assert float(pose.scale) == pytest.approx(float(reference.scale), rel=1e-12) and bool(pose.valid)
+
+
+def test_surface_box_finds_the_main_surface_by_area():
+    """surface_box: the box of everything where no part lies apart, or where the parts apart hold at
+    least keep_ratio of the largest one's area; the main surface's box where a small part lies far."""
+    from jaxpose.occupancy.solid import surface_box
+
+    body = trimesh.creation.box(extents=(1.0, 2.0, 3.0))  # 12 faces, each longer than a voxel: their lattice joins them
+    lo, hi = body.bounds
+    assert all(np.array_equal(a, b) for a, b in zip(surface_box(body.vertices, body.faces, lo, hi), (lo, hi)))
+    # a dense small sphere (1280 faces, 642 vertices) 100 lengths away: the body's 12 faces hold more area
+    speck = trimesh.creation.icosphere(subdivisions=3, radius=0.05)
+    speck.apply_translation([300.0, 0.0, 0.0])
+    both = trimesh.util.concatenate([body, speck])
+    got = surface_box(both.vertices, both.faces, *both.bounds)
+    np.testing.assert_array_equal(got[0], lo)
+    np.testing.assert_array_equal(got[1], hi)
+    # a second body as large as the first, far away: both kept, no zoom (keep_main keeps both too)
+    twin = body.copy()
+    twin.apply_translation([300.0, 0.0, 0.0])
+    pair = trimesh.util.concatenate([body, twin])
+    got = surface_box(pair.vertices, pair.faces, *pair.bounds)
+    np.testing.assert_array_equal(got[0], pair.bounds[0])
+    np.testing.assert_array_equal(got[1], pair.bounds[1])
+
+
 def test_sharp_tips_stay_on_the_fine_grid():
     """A tetrahedron's corners and a cone's apex lie more than a coarse voxel from the coarse
     solid, so the first pass finds few of their vertices on the main body: the fine grid must

@@ -25,7 +25,10 @@ Stray parts. 26-connected components of the solid are sized by their boundary vo
 area proxy); the largest is the main body and another component is kept only when it is at least
 ``keep_ratio`` of its size (:func:`keep_main`). Parts that overlap or touch the main volume belong to
 its component and are always kept. A first pass at ``coarse`` voxels over everything finds the main
-body, so that stray parts neither coarsen the grid nor enter it.
+body, so that stray parts neither coarsen the grid nor enter it. Where that pass finds the main body
+in under 1 / :data:`ZOOM` of its grid, or none (a speck of a mesh far away: the body a few coarse
+voxels, its thin parts between their centers), it is repeated over the main surface's box
+(:func:`surface_box`, the surface's own voxel components weighed by area).
 
 Memory. A grid of ``resolution`` voxels along the largest extent holds at most about
 (resolution + 31)^3 voxels (a cube, with the widest margins) of ``VOXEL_BYTES`` each at the peak;
@@ -48,10 +51,11 @@ from scipy.sparse.csgraph import connected_components
 
 from .._validate import InvalidInputError, check_array, check_bool, check_int, check_real
 from ..config import MEMORY_BUDGET, RobustConfig
+from ..sample import lattice_points
 
 __all__ = ["Solid", "robust_solid", "cap_holes", "ray_vote_solid", "point_solid", "exterior_fill", "keep_main", "MESH_REACH",
            "depth", "make_grid", "closing_radius", "linked_parts", "LINK", "neighbour_distances", "check_resolution", "RESOLUTION", "COARSE",
-           "KEEP_RATIO", "SPACING_SAMPLES", "VOXEL_BYTES", "MESH_BIAS", "POINT_BIAS", "GRID_OFFSET"]
+           "KEEP_RATIO", "ZOOM", "surface_box", "SPACING_SAMPLES", "VOXEL_BYTES", "MESH_BIAS", "POINT_BIAS", "GRID_OFFSET"]
 
 _DEFAULTS = RobustConfig()  # the defaults are written once, in jaxpose.config.RobustConfig
 RESOLUTION = _DEFAULTS.resolution  # voxels along the main body's largest extent
@@ -444,6 +448,84 @@ def near_solid(x, kept, origin, pitch, grow=1):
     return padded[idx[:, 0] + 1, idx[:, 1] + 1, idx[:, 2] + 1]
 
 
+ZOOM = 4  # meshes: the first pass's grid is laid over the main surface once it spans under 1 / ZOOM of it
+
+
+def surface_box(vertices, faces, lo, hi, coarse=COARSE, keep_ratio=KEEP_RATIO):
+    """The box of a mesh's main surface, found before any solid, for the first pass's grid.
+
+    A stray part far from the body (a speck of a scan metres away) makes the box of everything
+    so large that at ``coarse`` voxels across it the body is a few voxels or less: the first pass
+    cannot find it (its thin parts fall between voxel centers) and the fine grid then misses part
+    of the body, or holds the stray part. Here the surface itself is voxelized at ``coarse``
+    voxels along the box's largest extent: the vertices and, on every face longer than a voxel,
+    the points of :func:`jaxpose.sample.lattice_points` at one voxel's spacing, so that a
+    connected surface occupies 26-connected voxels. Each occupied component weighs the area of
+    its faces; components of at least ``keep_ratio`` of the heaviest
+    are kept (:func:`keep_main`'s rule, by area). While the kept points' box spans under
+    1 / :data:`ZOOM` of the grid's extent, the grid is laid over that box and the step repeats
+    (each step narrows the box at least ZOOM-fold). A body that spans a quarter of the box
+    already, as the outliers of :mod:`jaxpose.evaluation.variants` leave it, keeps ``(lo, hi)``
+    as given.
+
+    Args:
+      vertices: (n, 3) float64; faces: (f, 3) int (the input's, without hole caps).
+      lo, hi: (3,) the box of everything.
+      coarse, keep_ratio: as :func:`robust_solid`'s.
+
+    Returns:
+      (lo, hi): the box to lay the first pass over, (3,) float64 each.
+
+    Example::
+
+        lo, hi = surface_box(v, f, v.min(0), v.max(0))  # a body and a speck 100 body lengths away: the body's box
+    """
+    v, faces = np.asarray(vertices, np.float64), np.asarray(faces, np.int64)
+    lo, hi = np.asarray(lo, np.float64), np.asarray(hi, np.float64)
+    for _ in range(64):  # (4^64: beyond any float64 box a body could be found in)
+        extent = float((hi - lo).max())
+        pitch = extent / coarse
+        if not pitch > 0:
+            break
+        shape = np.floor((hi - lo) / pitch).astype(np.int64) + 3  # one voxel of margin each side
+        cell = lambda x: np.floor((x - lo) / pitch).astype(np.int64) + 1
+        near = np.all((v >= lo - pitch) & (v <= hi + pitch), axis=1)
+        c = cell(v)
+        occupied = np.zeros(shape, bool)
+        occupied[tuple(np.clip(c[near], 0, shape - 1).T)] = True
+        lab, n = ndimage.label(occupied, structure=np.ones((3, 3, 3), bool))
+        if n <= 1:  # one connected set of vertex voxels: no part lies apart (the usual case, decided here)
+            break
+        held = faces[np.all(near[faces], axis=1)]  # the faces in this grid
+        long = np.abs(np.diff(c[held], axis=1, append=c[held][:, :1])).max(axis=(1, 2)) > 1
+        if long.any():  # faces longer than a voxel: their lattice joins the voxels between their corners
+            try:
+                extra = lattice_points(v, held[long], pitch)[len(v):]
+            except InvalidInputError:  # too large a lattice for the memory budget: stop zooming
+                break
+            extra = extra[np.all((extra >= lo - pitch) & (extra <= hi + pitch), axis=1)]
+            occupied[tuple(np.clip(cell(extra), 0, shape - 1).T)] = True
+            lab, n = ndimage.label(occupied, structure=np.ones((3, 3, 3), bool))
+            if n <= 1:
+                break
+        else:
+            extra = np.zeros((0, 3))
+        t = v[held]
+        area = 0.5 * np.linalg.norm(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]), axis=1)
+        corner = np.clip(c[held[:, 0]], 0, shape - 1)  # a face's corners share its component (joined above)
+        weight = np.bincount(lab[tuple(corner.T)], weights=area, minlength=n + 1)[1:]
+        if not weight.max() > 0:
+            break
+        keep = np.concatenate([[False], weight >= keep_ratio * weight.max()])
+        points = np.concatenate([v[near], extra])
+        main = points[keep[lab[tuple(np.clip(cell(points), 0, shape - 1).T)]]]
+        b_lo, b_hi = main.min(axis=0), main.max(axis=0)
+        if not float((b_hi - b_lo).max()) * ZOOM < extent:
+            break
+        lo, hi = b_lo, b_hi
+    return lo, hi
+
+
 # ------------------------------------------------------------------ driver
 def robust_solid(vertices, faces=None, *, resolution=RESOLUTION, coarse=COARSE, keep_ratio=KEEP_RATIO,
                  min_votes=3, frame=None, with_depth=True, capped=None, reach=MESH_REACH) -> Solid:
@@ -527,13 +609,14 @@ def robust_solid(vertices, faces=None, *, resolution=RESOLUTION, coarse=COARSE, 
     def coarsest(pitch):  # a point cloud's spacing limits its detail: closing radius <= MAX_CLOSING voxels
         return max(pitch, float(np.quantile(r_gap, 0.9)) / MAX_CLOSING) if faces is None else pitch
 
-    # pass 1: the main body at a coarse pitch over everything (stray parts included)
-    pitch1 = coarsest(float((hi - lo).max()) / coarse)
-    origin1, shape1 = make_grid(lo, hi, pitch1, margin(pitch1))
-    kept1 = keep_main(solid_at(origin1, pitch1, shape1)[0], keep_ratio)[0]
-    on1 = near_solid(v[:n_input], kept1, origin1, pitch1, grow=1) if kept1.any() else None
-    if on1 is not None and on1.any():  # the exact box of the input on the main body
-        lo, hi = v[:n_input][on1].min(0), v[:n_input][on1].max(0)
+    def first_pass(lo, hi):  # pass 1: the main body at a coarse pitch over the box (stray parts included)
+        pitch1 = coarsest(float((hi - lo).max()) / coarse)
+        origin1, shape1 = make_grid(lo, hi, pitch1, margin(pitch1))
+        kept1 = keep_main(solid_at(origin1, pitch1, shape1)[0], keep_ratio)[0]
+        on1 = near_solid(v[:n_input], kept1, origin1, pitch1, grow=1) if kept1.any() else None
+        if on1 is None or not on1.any():
+            return None
+        b_lo, b_hi = v[:n_input][on1].min(0), v[:n_input][on1].max(0)  # the exact box of the input on the main body
         # a mesh's sharp tip (a tetrahedron's corner, a cone's apex) lies more than a voxel from
         # the coarse solid; where the box then misses some of the solid's voxel centers (inside
         # the surface, so within its vertices' box), it takes in their voxels, so that the fine
@@ -542,8 +625,20 @@ def robust_solid(vertices, faces=None, *, resolution=RESOLUTION, coarse=COARSE, 
         if faces is not None:
             centers = origin1 + (np.argwhere(kept1) + 0.5) * pitch1
             c_lo, c_hi = centers.min(0), centers.max(0)
-            if np.any(c_lo < lo) or np.any(c_hi > hi):
-                lo, hi = np.minimum(lo, c_lo - pitch1 / 2), np.maximum(hi, c_hi + pitch1 / 2)
+            if np.any(c_lo < b_lo) or np.any(c_hi > b_hi):
+                b_lo, b_hi = np.minimum(b_lo, c_lo - pitch1 / 2), np.maximum(b_hi, c_hi + pitch1 / 2)
+        return b_lo, b_hi
+
+    box = first_pass(lo, hi)
+    if faces is not None and (box is None or float((box[1] - box[0]).max()) * ZOOM < float((hi - lo).max())):
+        # the main body in under 1 / ZOOM of the first grid, or none: the grid was set by a part far
+        # from the body, at whose pitch the body's thin parts fall between voxel centers; the first
+        # pass again, over the main surface's box (surface_box)
+        s_lo, s_hi = surface_box(v[:n_input], faces, lo, hi, coarse, keep_ratio)
+        if not (np.array_equal(s_lo, lo) and np.array_equal(s_hi, hi)):
+            box = first_pass(s_lo, s_hi) or box
+    if box is not None:
+        lo, hi = box
     # pass 2: the fine grid on the main body's box
     pitch = coarsest(float((hi - lo).max()) / resolution)
     origin, shape = make_grid(lo, hi, pitch, margin(pitch))

@@ -35,6 +35,7 @@ __all__ = [
     "default_float",
     "check_default_float",
     "is_traced",
+    "check_traced_scalar",
 ]
 
 MIN_POINTS = 4
@@ -133,8 +134,23 @@ def compute_dtype(points):
     return np.dtype(dtypes.canonicalize_dtype(dtype if np.issubdtype(dtype, np.floating) else np.float32))
 
 
+def check_traced_scalar(value, name):
+    """A traced parameter's shape and dtype, which are known while tracing (its value is not: the
+    pose's validity flag reports a bad one): a () real number (not bool, not complex), as a
+    concrete one must be; InvalidInputError naming ``name`` otherwise. Returns ``value``;
+    concrete values pass unchecked (their own checks read them)."""
+    # (a traced (2,) gamma failed deep inside JAX, 'Incompatible shapes for broadcasting'; a complex
+    # one lost its imaginary part with only a NumPy warning; a bool was taken as 0 or 1)
+    if is_traced(value) and (tuple(value.shape) != () or not is_real_dtype(value.dtype)):
+        shape = "".join(f"{n}, " for n in value.shape).rstrip(", ")
+        raise InvalidInputError(f"{name} must be a real scalar, got a traced {np.dtype(value.dtype)}[{shape}] "
+                                f"(one value: to vary {name}, jax.vmap over it)")
+    return value
+
+
 def _scalar(value, name):
     if is_traced(value):
+        check_traced_scalar(value, name)
         return None
     arr = np.asarray(value)
     if arr.ndim != 0 or not is_real_dtype(arr.dtype):

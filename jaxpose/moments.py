@@ -51,7 +51,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ._hyper import instantiate, is_zero
-from ._validate import InvalidInputError, check_real, is_traced
+from ._validate import InvalidInputError, check_real, check_traced_scalar, is_traced
 from .config import GridConfig
 from .depth import depth_weights, to_bucket
 from .occupancy.svdd.problem import SVDD, check_svdd
@@ -302,6 +302,7 @@ def solid_moments(sol, power) -> Moments:
     InvalidInputError for a power that is not a finite number >= 0."""
     if not is_traced(power):
         check_real(power, "power", 0)
+    check_traced_scalar(power, "power")
     inside, extent, axes = to_bucket(sol.inside)
     occupied = np.zeros_like(inside) if sol.occupied is None else to_bucket(sol.occupied)[0]
     dtype = jnp.result_type(float)

@@ -419,6 +419,44 @@ def test_traced_points_of_no_real_dtype_are_refused():
             with pytest.raises(InvalidInputError, match=f"points must be real numbers, got dtype {jnp.dtype(dtype)}"):
                 jax.jit(call)(jnp.asarray(P).astype(dtype))
 
+TRACED_BAD_SCALARS = {"vector": jnp.ones(2), "complex": jnp.asarray(4.0 + 0j), "bool": jnp.asarray(True)}
+
+
+@pytest.mark.parametrize("kind", sorted(TRACED_BAD_SCALARS))
+def test_traced_parameters_of_no_real_scalar_are_refused(kind):
+    """A traced power, gamma or nu has a shape and a dtype while tracing: anything but a () real is
+    refused by name, as a concrete one is (a (2,) one failed deep inside JAX, 'Incompatible shapes
+    for broadcasting'; a complex one lost its imaginary part with a NumPy warning; a bool was 0 or 1).
+    Refused while tracing: nothing compiles."""
+    value = TRACED_BAD_SCALARS[kind]
+    calls = {
+        "power": [lambda v: normalize(P, power=v).scale, lambda v: jaxpose.normalize_batch([P], power=v).scale],
+        "gamma": [lambda v: normalize(P, method="ocsvm", gamma=v).scale, lambda v: fit_svdd(P, v, 0.5).offset,
+                  lambda v: jaxpose.normalize_batch([P], method="ocsvm", gamma=v).scale],
+        "nu": [lambda v: normalize(P, method="ocsvm", nu=v).scale, lambda v: fit_svdd(P, 1.0, v).offset],
+    }
+    for name, fns in calls.items():
+        for fn in fns:
+            with pytest.raises(InvalidInputError, match=rf"^{name} must be a real scalar, got a traced "
+                                                        rf"{jnp.dtype(value.dtype)}\[{value.size if value.ndim else ''}\]"):
+                jax.jit(fn)(value)
+
+
+def test_traced_pose_arrays_of_no_real_dtype_are_refused():
+    """Pose.apply's points and from_center_scale's fields, traced: bools and complex numbers are
+    refused as concrete ones are (a complex center gave a complex matrix, bool points 0s and 1s)."""
+    pose = jaxpose.Pose.from_center_scale(np.zeros(3), 2.0)
+    for dtype in (jnp.bool_, jnp.complex64):
+        with pytest.raises(InvalidInputError, match=f"^points must be real numbers, got a traced {jnp.dtype(dtype)}"):
+            jax.jit(pose.apply)(jnp.ones((2, 3), dtype))
+        with pytest.raises(InvalidInputError, match=f"^center must be real numbers, got a traced {jnp.dtype(dtype)}"):
+            jax.jit(lambda c: jaxpose.Pose.from_center_scale(c, 2.0).matrix)(jnp.ones(3, dtype))
+        with pytest.raises(InvalidInputError, match=f"^rotation must be real numbers, got a traced {jnp.dtype(dtype)}"):
+            jax.jit(lambda r: jaxpose.Pose.from_center_scale(np.zeros(3), 2.0, r).matrix)(jnp.eye(3, dtype=dtype))
+    y = jax.jit(pose.apply)(jnp.ones((2, 3), jnp.int32))  # integers are real numbers: moved
+    np.testing.assert_allclose(np.asarray(y), 0.5)
+
+
 # --------------------------------------------------------------------------- degenerate, legal
 def test_degenerate_but_legal_shapes():
     rng = np.random.default_rng(0)

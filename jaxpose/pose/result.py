@@ -147,8 +147,11 @@ def _floats(xp, *values):
 
 
 def _shape_of(value, name):
-    """The shape of a real array (or array-like); InvalidInputError for anything else."""
+    """The shape of a real array (or array-like); InvalidInputError for anything else (a traced
+    one's dtype is known while tracing: bools and complex numbers are refused as concrete ones)."""
     if is_traced(value):
+        if not is_real_dtype(value.dtype):  # (a complex center or points were taken as complex, bools as 0 / 1)
+            raise InvalidInputError(f"{name} must be real numbers, got a traced {np.dtype(value.dtype)} array")
         return tuple(value.shape)
     try:
         arr = np.asarray(value)

@@ -36,6 +36,7 @@ __all__ = [
     "check_default_float",
     "is_traced",
     "check_traced_scalar",
+    "check_concrete",
 ]
 
 MIN_POINTS = 4
@@ -48,6 +49,18 @@ def is_traced(x) -> bool:
     """
     jax = sys.modules.get("jax")
     return jax is not None and isinstance(x, jax.core.Tracer)
+
+
+def check_concrete(name: str, *values):
+    """Refuse traced values (under jit, vmap or grad) given to a function that computes on the host
+    in NumPy (the geometry readers and estimators): InvalidInputError naming ``name`` and the fix.
+    Returns None."""
+    # (np.asarray of a tracer raised JAX's TracerArrayConversionError, naming no argument)
+    if any(is_traced(v) for v in values):
+        raise InvalidInputError(f"{name}: a traced array (under jit, vmap or grad): meshes, point clouds and their "
+                                "estimators (jaxpose.baselines, estimators.estimate, rotation.frame_of, sample_surface, "
+                                "normalize_mesh) are computed on the host in NumPy; call them on concrete values "
+                                "outside the transformation, or trace jaxpose.normalize(points) instead")
 
 
 def is_real_dtype(dtype) -> bool:

@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import sample
-from ._validate import InvalidInputError, JaxposeError, is_real_dtype
+from ._validate import InvalidInputError, JaxposeError, check_concrete, is_real_dtype
 from .geometry import is_closed, require_faces, split_geometry, triangle_areas, warn_if_open
 from .host import anchor
 from .orientation import SIGN_MIN, Frame, ambiguity, complete_signs, proper, relative_gaps
@@ -73,6 +73,7 @@ _CHUNK_NODES = 1 << 22  # quadrature nodes per block (bounds memory)
 def _coerce_center(mesh_or_points, center_point):
     if center_point is None:
         return surface_centroid(mesh_or_points)
+    check_concrete("center", center_point)
     try:
         given = np.asarray(center_point)
     except (TypeError, ValueError):  # ragged and the like

@@ -11,7 +11,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ._validate import InvalidInputError, OpenMeshWarning, check_points
+from ._validate import InvalidInputError, OpenMeshWarning, check_concrete, check_points
 
 __all__ = ["Surface", "split_geometry", "triangle_areas", "is_closed", "require_faces", "warn_if_open"]
 
@@ -49,14 +49,17 @@ def split_geometry(mesh_or_points):
     vertices : (n, 3) float64
     faces : (f, 3) int or None   (None for point clouds and meshes without faces)
 
-    Raises InvalidInputError for bad vertices or faces, and for faces of zero total area
-    ("the mesh has no area": such a mesh is not silently taken as its points).
+    Raises InvalidInputError for bad vertices or faces, for faces of zero total area
+    ("the mesh has no area": such a mesh is not silently taken as its points), and for traced
+    vertices or faces (under jit, vmap or grad: every function that reads a geometry here is NumPy).
 
     Example::
 
         vertices, faces = split_geometry(trimesh.creation.box())   # (8, 3), (12, 3)
         vertices, faces = split_geometry(points)                   # (n, 3), None
     """
+    check_concrete("the geometry (mesh or points)", getattr(mesh_or_points, "vertices", mesh_or_points),
+                   getattr(mesh_or_points, "faces", None))
     faces = None
     if hasattr(mesh_or_points, "vertices"):  # Trimesh, PointCloud
         vertices = np.asarray(mesh_or_points.vertices, dtype=np.float64)
@@ -112,6 +115,7 @@ def triangle_areas(triangles):
     Raises:
       InvalidInputError: `triangles` not of shape (f, 3, 3) (one triangle (3, 3): ``triangles[None]``).
     """
+    check_concrete("triangles", triangles)
     if not hasattr(triangles, "shape"):  # (a list: its indexing below is NumPy's)
         triangles = np.asarray(triangles, dtype=np.float64)
     if len(triangles.shape) != 3 or tuple(triangles.shape[1:]) != (3, 3):  # (a (3, 3) array: an IndexError)

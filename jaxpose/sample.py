@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from .config import MEMORY_BUDGET, SAMPLING
-from ._validate import InvalidInputError, check_gamma, check_int, check_nu, check_real
+from ._validate import InvalidInputError, check_concrete, check_gamma, check_int, check_nu, check_real
 from .geometry import split_geometry, triangle_areas
 
 __all__ = ["SAMPLING", "SAMPLE_BYTES", "check_count", "check_fit_values", "sample_surface", "lattice_points"]
@@ -101,6 +101,7 @@ def lattice_points(vertices, faces, spacing):
         lattice_points(box.vertices, box.faces, 0.5)  # (8 + 12 * 7, 3): n = 3 on every face
     """
     spacing = check_real(spacing, "spacing", 0, strict=True)  # (must be > 0: the message names it)
+    check_concrete("vertices and faces", vertices, faces)
     v = np.asarray(vertices, np.float64)
     if faces is None or not len(faces):
         return v.copy()

@@ -93,3 +93,35 @@ def test_require_faces_and_warn_if_open():
     assert record[0].filename == __file__  # reported at the caller's line, not inside jaxpose
     with pytest.raises(InvalidInputError, match=r"not closed.*strict=True"):
         _solid_of(holed, strict=True)
+
+
+def test_host_functions_refuse_traced_geometry_by_name():
+    """The NumPy functions of a geometry under jit / vmap / grad: an InvalidInputError naming the
+    argument and the fix (trace jaxpose.normalize), not JAX's TracerArrayConversionError from
+    np.asarray (it named no argument). Refused while tracing: nothing compiles."""
+    import jax
+
+    import jaxpose
+    from jaxpose import baselines, sample
+    from jaxpose.geometry import Surface
+    from jaxpose.occupancy.solid import robust_solid
+    from jaxpose.pose.estimators import estimate
+    from jaxpose.rotation.rotation import frame_of
+
+    box = trimesh.creation.box()
+    points = np.asarray(box.vertices, np.float32)
+    calls = {
+        "the geometry": [lambda p: baselines.center(p, "bbox_center"), lambda p: baselines.frame(p, "pca_vertices"),
+                         lambda p: estimate(p, "vertex_mean").scale, lambda p: frame_of(p, "pca_vertices").rotation,
+                         lambda p: geometry.split_geometry(Surface(p, box.faces))[0],
+                         lambda p: sample.sample_surface(Surface(p, box.faces), 8)],
+        "center": [lambda p: baselines.scale(points, "mean_distance", center=p[0])],
+        "input": [lambda p: jaxpose.sample_surface(Surface(p, box.faces), 8)],
+        "vertices and faces": [lambda p: robust_solid(p, box.faces, resolution=16),
+                               lambda p: sample.lattice_points(p, box.faces, 0.5)],
+        "triangles": [lambda p: geometry.triangle_areas(p[box.faces])],
+    }
+    for name, fns in calls.items():
+        for fn in fns:
+            with pytest.raises(InvalidInputError, match=f"^{name}.*: a traced array .*trace jaxpose.normalize"):
+                jax.jit(fn)(points)

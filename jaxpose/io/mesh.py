@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from . import formats, readers, writers
-from .._validate import InvalidInputError, check_points, is_traced
+from .._validate import InvalidInputError, check_concrete, check_points
 from ..geometry import Surface
 from .atomic import write_atomic
 
@@ -92,6 +92,7 @@ def _trimesh_of(surface):
 def _checked(geometry, source):
     """A geometry object or array as :func:`load` returns it (a Surface kept as a Surface)."""
     if isinstance(geometry, Surface):
+        check_concrete(source, *geometry)
         vertices, faces = (np.asarray(a) for a in geometry)
         check_points(vertices, name=f"vertices of {source}", min_points=1)
         kind = faces.dtype.kind  # indices: integers (whole floats taken; 7.5 or a bool is no index)
@@ -105,9 +106,7 @@ def _checked(geometry, source):
     if isinstance(geometry, trimesh.Scene):
         geometry = _flatten(geometry, source)
     if not isinstance(geometry, (trimesh.Trimesh, trimesh.PointCloud)):
-        if is_traced(geometry):  # np.asarray would raise JAX's TracerArrayConversionError
-            raise InvalidInputError(f"{source}: a traced array (under jit, vmap or grad): meshes and point clouds "
-                                    "are read on the host; trace jaxpose.normalize instead")
+        check_concrete(source, geometry)  # np.asarray would raise JAX's TracerArrayConversionError
         # arrays: NumPy's, lists, and any array NumPy converts (a JAX array)
         if hasattr(geometry, "vertices") or isinstance(geometry, (np.ndarray, list, tuple)) or (
                 hasattr(geometry, "__array__") and not isinstance(geometry, (str, bytes))):

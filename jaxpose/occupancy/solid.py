@@ -49,7 +49,7 @@ from scipy import ndimage
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from .._validate import InvalidInputError, check_array, check_bool, check_int, check_real
+from .._validate import InvalidInputError, check_array, check_bool, check_concrete, check_int, check_real
 from ..config import MEMORY_BUDGET, RobustConfig
 from ..sample import lattice_points
 
@@ -560,6 +560,7 @@ def robust_solid(vertices, faces=None, *, resolution=RESOLUTION, coarse=COARSE, 
         reach); vertices that all coincide.
     """
     resolution, coarse = check_resolution(resolution), check_resolution(coarse, name="coarse")
+    check_concrete("vertices and faces", vertices, faces)
     v = np.asarray(check_array(vertices, "vertices", 1), np.float64)  # a NaN read 'the shape has no extent'
     if faces is not None and len(faces):
         faces = np.asarray(faces)

@@ -37,6 +37,7 @@ __all__ = [
     "is_traced",
     "check_traced_scalar",
     "check_concrete",
+    "check_power",
 ]
 
 MIN_POINTS = 4
@@ -208,6 +209,17 @@ def check_default_float(value: float, name: str, normal: bool = False) -> float:
         raise InvalidInputError(f"{name}={value:g} is outside the range of {finfo.dtype} (JAX's default float), "
                                 f"{low:.3g} ... {float(finfo.max):.3g}")
     return value
+
+
+def check_power(power, name: str = "power"):
+    """A depth exponent p: concrete, a finite number >= 0 (:func:`check_real`; a () array of reals
+    is its number) that JAX's default float holds (:func:`check_default_float`: beyond its max it is
+    inf inside the pipeline); traced, a () real (:func:`check_traced_scalar`). Returns ``power``
+    unchanged."""
+    if is_traced(power):
+        return check_traced_scalar(power, name)
+    check_default_float(check_real(power, name, 0), name)
+    return power
 
 
 def check_nu(nu):

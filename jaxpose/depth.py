@@ -43,6 +43,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax import lax
 
+from ._validate import check_power
 from .errors import InvalidInputError
 from .weighted import depth_power_weights
 
@@ -169,7 +170,6 @@ def distance(inside, extent=None, dtype=None):
     return jnp.sqrt(squared_distance(inside, extent).astype(dtype))
 
 
-@jax.jit
 def depth_weights(inside, power, bias=0.0, extent=None):
     """Weights (depth / largest depth)^power of the cells of an occupancy (0 outside it):
     :func:`jaxpose.weighted.depth_power_weights` of :func:`distance` (the host computes the same
@@ -186,7 +186,20 @@ def depth_weights(inside, power, bias=0.0, extent=None):
     Returns:
       (n_0, ..., n_{d-1}) float weights in [0, 1]; 1 on every True cell when no cell is deeper than
       ``bias``. Their derivative in ``power`` is log(ratio) * weight (0 where the depth is 0).
+
+    Raises:
+      InvalidInputError: a power that is not a () real (known while tracing too), or concrete and
+        not a finite number >= 0 (:func:`jaxpose._validate.check_power`); a bias that is not ().
     """
+    check_power(power)
+    if jnp.ndim(bias) != 0:
+        raise InvalidInputError(f"bias must be a scalar, got shape {tuple(jnp.shape(bias))}")
+    return _depth_weights(inside, power, bias, extent)
+
+
+@jax.jit
+def _depth_weights(inside, power, bias, extent):
+    """:func:`depth_weights` without its checks (compiled)."""
     power = jnp.asarray(power, jnp.result_type(float))
     inside = jnp.asarray(inside).astype(bool)
     if extent is not None:  # cells beyond the extent are not part of the occupancy

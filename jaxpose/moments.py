@@ -51,7 +51,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ._hyper import instantiate, is_zero
-from ._validate import InvalidInputError, check_real, check_traced_scalar, is_traced
+from ._validate import InvalidInputError, check_power
 from .config import GridConfig
 from .depth import depth_weights, to_bucket
 from .occupancy.svdd.problem import SVDD, check_svdd
@@ -263,7 +263,6 @@ def region_moments(svdd, grid: GridConfig, outside: bool = True) -> Moments:
 
 
 # --------------------------------------------------------------------------- a voxel solid, in JAX
-@jax.jit
 def robust_moments(inside, occupied, origin, pitch, power, bias, extent=None) -> Moments:
     """Moments of a depth^p-weighted voxel solid in JAX: :func:`jaxpose.depth.depth_weights` (the
     exact distance transform, then :func:`jaxpose.weighted.depth_power_weights`), then
@@ -283,7 +282,27 @@ def robust_moments(inside, occupied, origin, pitch, power, bias, extent=None) ->
       :class:`Moments` in the grid's frame: center sum_v d_v^p x_v / sum_v d_v^p, volume pitch^3
       (#inside - #occupied / 2). Differentiable in ``power``, ``pitch`` and ``origin``; the
       occupancy itself carries no derivative.
+
+    Raises:
+      InvalidInputError: arguments of other shapes (known while tracing too), a concrete power that
+        is not a finite number >= 0 (:func:`jaxpose._validate.check_power`).
     """
+    check_power(power)
+    shape = tuple(jnp.shape(inside))
+    if len(shape) != 3:
+        raise InvalidInputError(f"inside must be a 3-D grid (nx, ny, nz), got shape {shape}")
+    wanted = {"occupied": (occupied, shape), "origin": (origin, (3,)), "pitch": (pitch, ()), "bias": (bias, ()),
+              "extent": (extent, (3,))}
+    for name, (value, want) in wanted.items():
+        if value is not None and tuple(jnp.shape(value)) != want:  # (a (2,) origin was read as (o0, o1, o1))
+            raise InvalidInputError(f"{name} must have shape {want}{', the shape of inside' if name == 'occupied' else ''}, "
+                                    f"got {tuple(jnp.shape(value))}")
+    return _robust_moments(inside, occupied, origin, pitch, power, bias, extent)
+
+
+@jax.jit
+def _robust_moments(inside, occupied, origin, pitch, power, bias, extent=None) -> Moments:
+    """:func:`robust_moments` without its checks (compiled)."""
     w = depth_weights(inside, power, bias, extent)
     return grid_moments(solid_occupancy(inside, occupied, w.dtype), w, origin, pitch)
 
@@ -300,9 +319,7 @@ def solid_moments(sol, power) -> Moments:
     The world moments are ``sol.origin + sol.pitch * center`` (then ``@ sol.frame``), ``pitch^3 *
     volume``. Differentiable in ``power`` (a traced power is not checked). Raises
     InvalidInputError for a power that is not a finite number >= 0."""
-    if not is_traced(power):
-        check_real(power, "power", 0)
-    check_traced_scalar(power, "power")
+    check_power(power)
     inside, extent, axes = to_bucket(sol.inside)
     occupied = np.zeros_like(inside) if sol.occupied is None else to_bucket(sol.occupied)[0]
     dtype = jnp.result_type(float)

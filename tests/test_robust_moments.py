@@ -153,3 +153,31 @@ def test_power_gradient_on_dev_shapes(path):
     geometry, _ = estimators.centered(mesh.load(file))
     sol = estimators._robust_solid(geometry, solid.RESOLUTION)
     check_gradients(sol, float(np.ptp(geometry.vertices, axis=0).max()))
+
+
+def test_robust_moments_and_depth_weights_check_their_arguments():
+    """moments.robust_moments and depth.depth_weights (public, jittable): arguments of other shapes
+    and a bad power are refused by name before anything compiles; they were JAX's 'Incompatible
+    shapes for broadcasting' (a (2,) power; occupied of another shape), an IndexError (a 2-D grid),
+    a silently wrong center (a (2,) origin read as (o0, o1, o1)) or weights above 1 (power -2)."""
+    from jaxpose import depth
+
+    inside, occupied = np.ones((4, 4, 4), bool), np.zeros((4, 4, 4), bool)
+    origin, pitch = np.zeros(3), 1.0
+    refused = [
+        (lambda: moments.robust_moments(inside[0], occupied[0], origin, pitch, 2.0, 0.5), r"^inside must be a 3-D grid"),
+        (lambda: moments.robust_moments(inside, occupied[:3], origin, pitch, 2.0, 0.5), r"^occupied must have shape \(4, 4, 4\)"),
+        (lambda: moments.robust_moments(inside, occupied, np.zeros(2), pitch, 2.0, 0.5), r"^origin must have shape \(3,\)"),
+        (lambda: moments.robust_moments(inside, occupied, origin, np.ones(3), 2.0, 0.5), r"^pitch must have shape \(\)"),
+        (lambda: moments.robust_moments(inside, occupied, origin, pitch, np.ones(2), 0.5), r"^power must be a finite number >= 0"),
+        (lambda: moments.robust_moments(inside, occupied, origin, pitch, -2.0, 0.5), r"^power must be a finite number >= 0"),
+        (lambda: jax.jit(lambda p: moments.robust_moments(inside, occupied, origin, pitch, p, 0.5).center)(np.ones(2)),
+         r"^power must be a real scalar, got a traced float32\[2\]"),
+        (lambda: depth.depth_weights(inside, -2.0), r"^power must be a finite number >= 0"),
+        (lambda: depth.depth_weights(inside, 2.0, bias=np.ones(2)), r"^bias must be a scalar"),
+        (lambda: jax.jit(lambda p: depth.depth_weights(inside, p))(jnp.asarray(2.0 + 0j)),
+         r"^power must be a real scalar, got a traced complex64\[\]"),
+    ]
+    for call, message in refused:
+        with pytest.raises(InvalidInputError, match=message):
+            call()

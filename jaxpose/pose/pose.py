@@ -281,12 +281,7 @@ def _options(method, config, given, rotation):
 
 
 def _check_power(power):
-    if _validate.is_traced(power):
-        return _validate.check_traced_scalar(power, "power")  # its shape and dtype, known while tracing
-    # a () array of reals (NumPy or a concrete JAX array) is checked as its number, and returned as it is
-    value = _validate.check_real(power, "power", 0)
-    _validate.check_default_float(value, "power")  # beyond its max: inf inside the pipeline
-    return power
+    return _validate.check_power(power)  # a () array of reals (NumPy or a concrete JAX array) is checked as its number
 
 
 def _check_params(method, params, given):

@@ -204,6 +204,9 @@ def test_decision_function_bad_input():
     for call in (lambda: decision_function(batch, P), lambda: jaxpose.volume_moments(batch)):
         with pytest.raises(InvalidInputError, match=r"^svdd\.points must have shape \(m, 3\), got \(2, 300, 3\): .*jax\.vmap"):
             call()
+    # a model whose alpha does not fit its points was named 'svdd.points must have shape (m, 3), got (300, 3)'
+    with pytest.raises(InvalidInputError, match=r"^svdd\.alpha must have shape \(300,\), one weight per point .*got \(3,\)"):
+        decision_function(svdd._replace(alpha=svdd.alpha[:3]), P)
     assert decision_function(svdd, np.zeros((0, 3))).shape == (0,)
     f = decision_function(svdd, [[0.0, 0.0, 0.0], [50.0, 0.0, 0.0]])  # lists are fine
     assert np.all(np.isfinite(np.asarray(f))) and float(f[0]) > 0 > float(f[1])

@@ -81,10 +81,13 @@ def check_svdd(svdd, use: str):
     if not isinstance(svdd, SVDD):
         raise _validate.InvalidInputError(f"svdd must be an SVDD from fit_svdd, got {type(svdd).__name__}")
     shape = tuple(jnp.shape(svdd.points))
-    if len(shape) != 2 or shape[1] != 3 or tuple(jnp.shape(svdd.alpha)) != shape[:1]:
+    if len(shape) != 2 or shape[1] != 3:
         batch = (f": a batch of {shape[0]} models (jax.vmap(fit_svdd)'s)? map over it too, {use}"
                  if len(shape) == 3 else "")
         raise _validate.InvalidInputError(f"svdd.points must have shape (m, 3), got {shape}{batch}")
+    if tuple(jnp.shape(svdd.alpha)) != shape[:1]:  # (its message named the points, of the right shape)
+        raise _validate.InvalidInputError(f"svdd.alpha must have shape {shape[:1]}, one weight per point of svdd.points, "
+                                          f"got {tuple(jnp.shape(svdd.alpha))}")
     return svdd
 
 

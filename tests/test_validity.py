@@ -5,7 +5,7 @@ import pytest
 import trimesh
 
 import jaxpose
-from jaxpose import InvalidPoseWarning, JaxposeError, Status
+from jaxpose import InvalidInputError, InvalidPoseWarning, JaxposeError, Status
 from jaxpose.pose.validity import MAX_CELL, MAX_SPACING, median_distance, median_spacing, status_message
 from conftest import sphere_with_arm
 
@@ -34,6 +34,22 @@ def test_status_codes_and_messages():
     pose = jaxpose.Pose.from_center_scale(np.zeros(3), 1.0)
     assert int(pose.status) == 0 and pose.count is None
     assert int(jaxpose.Pose.from_center_scale(np.zeros(3), -1.0).status) == Status.NOT_FINITE
+
+
+def test_status_message_refuses_what_is_no_status_code_by_name():
+    """status_message reads one concrete code: True was BAD_PARAMETERS and 1.9 was 1 (int()), a traced
+    code JAX's ConcretizationTypeError, a batch's codes NumPy's TypeError, 99 enum's ValueError."""
+    import jax
+    import jax.numpy as jnp
+
+    assert status_message(jnp.int32(2)) == status_message(np.array(2)) == Status.DEGENERATE_INPUT.message
+    for code, message in [(True, "^code must be an int"), (1.9, "^code must be an int"),
+                          (np.array([0, 2]), "^code must be an int"), (99, r"^code 99 is no Status code; valid: 0 \.\.\. 12"),
+                          (-1, "^code must be >= 0")]:
+        with pytest.raises(InvalidInputError, match=message):
+            status_message(code)
+    with pytest.raises(InvalidInputError, match="^code must be a concrete int, not a traced value"):
+        jax.jit(lambda c: len(status_message(c)) + c)(jnp.int32(2))
 
 
 def test_too_few_samples_are_not_a_plain_number():

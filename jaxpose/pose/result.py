@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
-from .._validate import InvalidInputError, is_real_dtype, is_traced
+from .._validate import InvalidInputError, check_int, is_real_dtype, is_traced
 from ..host import MAX_ROUNDING  # the one bound, on the host's side (host.check_cast)
 
 if TYPE_CHECKING:  # annotations only
@@ -107,8 +107,21 @@ _MESSAGES = {
 
 
 def status_message(code) -> str:
-    """The message of a status code (an int, or a NumPy/JAX integer scalar)."""
-    return Status(int(code)).message
+    """The message of a status code: a concrete integer scalar (an int, a NumPy integer, a () NumPy
+    or JAX integer array; :func:`jaxpose._validate.check_int`) that is a :class:`Status` code.
+
+    Raises:
+      InvalidInputError: a bool, a float, an array of several codes (one pose's status: index a
+        batch's first), a traced code (under jit, vmap or grad: read it outside), or an int that is
+        no Status code.
+    """
+    # (int(code) took True as BAD_PARAMETERS and 1.9 as 1; a traced code was JAX's ConcretizationTypeError,
+    # a batch's codes NumPy's TypeError, an unknown code enum's ValueError)
+    value = check_int(code, "code", 0)
+    if value not in Status._value2member_map_:
+        raise InvalidInputError(f"code {value} is no Status code; valid: 0 ... {max(Status)._value_} "
+                                f"({', '.join(s.name for s in Status)})")
+    return Status(value).message
 
 
 

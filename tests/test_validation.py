@@ -422,7 +422,8 @@ def test_traced_points_of_no_real_dtype_are_refused():
             with pytest.raises(InvalidInputError, match=f"points must be real numbers, got dtype {jnp.dtype(dtype)}"):
                 jax.jit(call)(jnp.asarray(P).astype(dtype))
 
-TRACED_BAD_SCALARS = {"vector": jnp.ones(2), "complex": jnp.asarray(4.0 + 0j), "bool": jnp.asarray(True)}
+TRACED_BAD_SCALARS = {"vector": np.ones(2, np.float32), "complex": np.asarray(4.0 + 0j, np.complex64),
+                      "bool": np.asarray(True)}  # (NumPy: traced as the jit's arguments)
 
 
 @pytest.mark.parametrize("kind", sorted(TRACED_BAD_SCALARS))

@@ -130,6 +130,9 @@ def squared_distance(inside, extent=None):
     Returns:
       int32 array of the same shape: 0 on False cells, the squared distance in cells elsewhere.
 
+    Raises:
+      InvalidInputError: a scalar or too large grid; an extent of another shape than (d,).
+
     Example::
 
         >>> squared_distance(jnp.array([False, True, True, True, False, True]))
@@ -137,6 +140,9 @@ def squared_distance(inside, extent=None):
     """
     inside = jnp.asarray(inside).astype(bool)
     _check_shape(inside.shape)
+    if extent is not None and tuple(jnp.shape(extent)) != (inside.ndim,):  # (a short one was read clamped: extent[-1] again)
+        raise InvalidInputError(f"extent must have shape ({inside.ndim},), one count per axis of inside, got "
+                                f"{tuple(jnp.shape(extent))}")
     if inside.size == 0:
         return jnp.zeros(inside.shape, jnp.int32)
     grids = [lax.broadcasted_iota(jnp.int32, inside.shape, a) for a in range(inside.ndim)]

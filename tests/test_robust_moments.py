@@ -177,6 +177,9 @@ def test_robust_moments_and_depth_weights_check_their_arguments():
         (lambda: depth.depth_weights(inside, 2.0, bias=np.ones(2)), r"^bias must be a scalar"),
         (lambda: jax.jit(lambda p: depth.depth_weights(inside, p))(jnp.asarray(2.0 + 0j)),
          r"^power must be a real scalar, got a traced complex64\[\]"),
+        # a (2,) extent of a 3-D grid was read as (e0, e1, e1) (JAX clamps the index): silently another grid
+        (lambda: depth.distance(inside, np.array([4, 4])), r"^extent must have shape \(3,\), one count per axis"),
+        (lambda: depth.depth_weights(inside, 2.0, extent=np.array([4, 4])), r"^extent must have shape \(3,\)"),
     ]
     for call, message in refused:
         with pytest.raises(InvalidInputError, match=message):

@@ -317,7 +317,7 @@ def solid_moments(sol, power) -> Moments:
     (the host entry points take :func:`jaxpose.pose.estimators.solid_center_volume`, NumPy).
 
     The world moments are ``sol.origin + sol.pitch * center`` (then ``@ sol.frame``), ``pitch^3 *
-    volume``. Differentiable in ``power`` (a traced power is not checked). Raises
+    volume``. Differentiable in ``power`` (a traced power: only its shape and dtype are checked). Raises
     InvalidInputError for a power that is not a finite number >= 0."""
     check_power(power)
     inside, extent, axes = to_bucket(sol.inside)

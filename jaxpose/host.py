@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._validate import InvalidInputError, compute_dtype
+from ._validate import InvalidInputError, check_concrete, compute_dtype, is_real_dtype
 
 __all__ = ["host_frame", "anchor", "check_cast", "check_query_cast", "MAX_ROUNDING"]
 
@@ -28,9 +28,14 @@ def host_frame(points, name: str = "points"):
       coordinates of order 1 that keep their shape in float32, whatever the offset or the units.
 
     Raises:
-      InvalidInputError: if the frame cannot be represented in the compute dtype.
+      InvalidInputError: traced or complex points (named ``name``); a frame the compute dtype cannot
+        represent.
     """
-    arr = np.asarray(points, dtype=np.float64)
+    check_concrete(name, points)  # (np.asarray of a tracer: JAX's TracerArrayConversionError)
+    given = np.asarray(points)
+    if not is_real_dtype(given.dtype):  # (a complex one lost its imaginary part with a NumPy warning)
+        raise InvalidInputError(f"{name} must be real numbers, got dtype {given.dtype}")
+    arr = np.asarray(given, dtype=np.float64)
     big = float(np.max(np.abs(arr)))
     # the mean as an input point plus the mean of the differences from it: far from the origin the
     # differences are exact (Sterbenz), so the mean keeps every digit the offset leaves
@@ -122,8 +127,14 @@ def anchor(vertices):
     Far from the origin (coordinates much larger than the shape's extent) x - a is exact
     (Sterbenz's lemma: nearby floats), so geometry moved by it keeps every digit of its shape; near
     the origin the difference rounds by at most half an ulp of the coordinate.
+
+    Raises:
+      InvalidInputError: traced vertices, or none.
     """
+    check_concrete("vertices", vertices)
     v = np.asarray(vertices, np.float64)
+    if v.ndim != 2 or not len(v):  # (NumPy's 'zero-size array to reduction operation minimum')
+        raise InvalidInputError(f"vertices must have shape (n >= 1, d), got {v.shape}")
     columns = [v[:, axis] for axis in range(v.shape[1])]  # (per column: NumPy's axis-0 min of (n, 3) is slow)
     middle = [0.5 * (c.min() + c.max()) for c in columns]
     with np.errstate(over="ignore"):  # beyond ~1e154 from the middle: inf, never the nearest

@@ -155,3 +155,26 @@ def test_anchor_of_coordinates_whose_squares_overflow():
 
     vertices = np.array([[0.0, 0.0, 0.0], [1e300, 0.0, 0.0], [0.0, 1e300, 0.0], [5e299, 5e299, 0.0]])
     np.testing.assert_array_equal(anchor(vertices), vertices[3])  # (the others' squares are inf)
+
+
+def test_host_frames_refuse_traced_complex_and_empty_points_by_name():
+    """host.host_frame, host.anchor, sizes.pad and rotation.core.frame_solid (host helpers in
+    docs/api.md): traced arrays were JAX's TracerArrayConversionError, complex points lost their
+    imaginary part (host_frame: a NumPy warning), no vertices NumPy's 'zero-size array to reduction
+    operation minimum' (anchor). Refused while tracing: nothing compiles."""
+    import jax
+
+    from jaxpose import host
+    from jaxpose.pose import sizes
+    from jaxpose.rotation import core
+
+    points = trimesh.creation.box().vertices.astype(np.float32)
+    for call, name in [(lambda p: host.host_frame(p)[1], "points"), (host.anchor, "vertices"),
+                       (lambda p: sizes.pad([p], 16, np.float32)[0], "sets"),
+                       (lambda p: core.frame_solid(p, None, 16), "vertices and faces")]:
+        with pytest.raises(jaxpose.InvalidInputError, match=f"^{name}: a traced array"):
+            jax.jit(call)(points)
+    with pytest.raises(jaxpose.InvalidInputError, match="^points must be real numbers, got dtype complex128"):
+        host.host_frame(points.astype(complex))
+    with pytest.raises(jaxpose.InvalidInputError, match=r"^vertices must have shape \(n >= 1, d\), got \(0, 3\)"):
+        host.anchor(np.zeros((0, 3)))

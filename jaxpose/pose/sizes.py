@@ -10,7 +10,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
-from .._validate import InvalidInputError, check_int
+from .._validate import InvalidInputError, check_concrete, check_int
 
 __all__ = ["MAX_POINTS", "bucket", "subsample_index", "pad"]
 
@@ -76,6 +76,7 @@ def pad(sets, rows, dtype):
         broadcast ValueError and IndexError).
     """
     rows = check_int(rows, "rows", 1)
+    check_concrete("sets", *sets)  # (padding is NumPy: under jit, vmap normalize instead)
     for i, a in enumerate(sets):
         if np.ndim(a) != 2 or np.shape(a)[1] != 3 or not 1 <= len(a) <= rows:
             raise InvalidInputError(f"sets[{i}] must have shape (m, 3) with 1 <= m <= rows={rows}, got {np.shape(a)}")

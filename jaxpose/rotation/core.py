@@ -42,6 +42,7 @@ import numpy as np
 from scipy import ndimage, sparse
 from scipy.sparse import csgraph
 
+from .._validate import check_concrete
 from ..occupancy import solid
 from ..orientation import SIGN_MIN, SYMMETRY_MIN, Frame, ambiguity, complete_signs, descending_axes, relative_gaps
 
@@ -132,6 +133,7 @@ def frame_solid(vertices, faces=None, resolution=None):
     its points'.)
     """
     resolution = solid.check_resolution(solid.RESOLUTION if resolution is None else resolution)  # 7.5 is not 7
+    check_concrete("vertices and faces", vertices, faces)
     v = np.asarray(vertices, np.float64)
     if faces is None or not len(faces):
         return solid.robust_solid(v, faces, resolution=resolution, frame=pre_frame(v, faces), reach=0)

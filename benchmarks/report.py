@@ -10,6 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
+from jaxpose.cli.common import fail  # every command's one-line error
+
 from . import common
 from .common import GAMMA, NU, UNAVAILABLE, load_points
 from .scaling import bench_scaling
@@ -315,8 +317,7 @@ def cli(argv=None) -> int:
     sections = [s.strip() for s in args.sections.split(",") if s.strip()]
     bad = [s for s in sections if s not in SECTIONS]
     if bad or not sections:
-        print(f"jaxpose bench: error: unknown sections {bad}; valid: {','.join(SECTIONS)}", file=sys.stderr)
-        return 2
+        return fail(f"unknown sections {bad}; valid: {','.join(SECTIONS)}", code=2)
     if args.json:  # before the work: an existing file, a folder that cannot be made or written
         from jaxpose.io.atomic import check_output_file
         from jaxpose.errors import InvalidInputError
@@ -324,27 +325,20 @@ def cli(argv=None) -> int:
         try:
             check_output_file(args.json, args.force, "--json")
         except InvalidInputError as exc:
-            print(f"jaxpose bench: error: {exc}", file=sys.stderr)
-            return 2  # a usage error, as the other checks before the work
+            return fail(exc, code=2)  # a usage error, as the other checks before the work
     if args.m is not None and args.m < 8:
-        print("jaxpose bench: error: --m must be >= 8", file=sys.stderr)
-        return 2
+        return fail("--m must be >= 8", code=2)
     if args.refine is not None and (args.refine < 1 or args.refine & (args.refine - 1)):
-        print("jaxpose bench: error: --refine must be a power of 2", file=sys.stderr)
-        return 2
+        return fail("--refine must be a power of 2", code=2)
     if args.resolution is not None and args.resolution < 8:
-        print("jaxpose bench: error: --resolution must be >= 8", file=sys.stderr)
-        return 2
+        return fail("--resolution must be >= 8", code=2)
     if args.sk_resolution is not None and args.sk_resolution < 2:
-        print("jaxpose bench: error: --sk-resolution must be >= 2", file=sys.stderr)
-        return 2
+        return fail("--sk-resolution must be >= 2", code=2)
     if args.objects is not None and args.objects < 1:
-        print("jaxpose bench: error: --objects must be >= 1", file=sys.stderr)
-        return 2
+        return fail("--objects must be >= 1", code=2)
     problem = _usage_problem(args)
     if problem:
-        print(f"jaxpose bench: error: {problem}", file=sys.stderr)
-        return 2
+        return fail(problem, code=2)
     if args.x64:
         import jax
 

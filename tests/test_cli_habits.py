@@ -220,7 +220,9 @@ def test_tune_and_bench_check_json_before_the_work(tmp_path, capsys, command):
     blocker = tmp_path / "file"
     blocker.write_text("x")
     assert cli.main([command, "--json", str(blocker / "r.json")]) == 2
-    assert "is a file" in _err(capsys)
+    err = _err(capsys)
+    assert "is a file" in err
+    assert err.startswith("jaxpose: error: ") and err.count("\n") == 1, err  # every command's one line (tune's was 'jaxpose tune: error:')
 
 
 def test_a_glob_pattern_the_shell_expanded_is_named(tmp_path, monkeypatch, capsys):

@@ -349,11 +349,11 @@ def test_cli_tune_writes_a_nan_measure_as_null(tmp_path, capsys):
     assert not step["valid"] and step["loss"] is None and step["cv_scale"] is None and step["grad"] == [None, None]
     assert '"loss": null' in text
     assert captured.out == ""  # no summary, no "use: gamma 1e+06, nu 0.5"
-    errors = [line for line in captured.err.splitlines() if line.startswith("jaxpose tune: error:")]
+    errors = [line for line in captured.err.splitlines() if line.startswith("jaxpose: error:")]
     assert len(errors) == 1 and "no step had every pose valid" in errors[0] and "no recommendation" in errors[0]
     assert "too sparse for gamma" in errors[0] and "--gamma 47" in errors[0]  # why, and what to try
     assert "keeping" not in captured.err and "invalid poses" in captured.err  # the step's line: no sigma_tr
     assert step["sigma_tr"] is None and res["gamma"] is None and res["nu"] is None and res["tuned"] is None
-    assert res["error"] == res["verdict"] and errors[0].startswith("jaxpose tune: error: " + res["error"] + "; ")
+    assert res["error"] == res["verdict"] and errors[0].startswith("jaxpose: error: " + res["error"] + "; ")
     for block in (res["train"], res["holdout"]):
         assert block["sigma_tr_start"] is None and block["sigma_tr_tuned"] is None

@@ -11,7 +11,7 @@ from pathlib import Path
 
 from ..config import DATASET_INSTANCES, OCSVM, ROBUST, TUNE
 from ..errors import InvalidInputError, JaxposeError  # (not _validate: it imports NumPy)
-from .common import add_core_options
+from .common import add_core_options, fail
 
 __all__ = ["add_parser", "run", "parser", "load_classes"]
 
@@ -114,8 +114,7 @@ def run(argv) -> int:
         try:
             check_output_file(args.json, args.force, "--json")
         except InvalidInputError as exc:
-            print(f"jaxpose tune: error: {exc}", file=sys.stderr)
-            return 2  # a usage error, as the other checks before the work
+            return fail(exc, code=2)  # a usage error, as the other checks before the work
     import jax
 
     # float64: the trend derivatives are differences of solutions 2 % apart
@@ -144,8 +143,7 @@ def _run(args) -> int:
         names = args.classes.split(",") if args.classes else None
         _check_choices(args, options, variants, names)
     except InvalidInputError as exc:  # a usage error: before any work
-        print(f"jaxpose tune: error: {exc}", file=sys.stderr)
-        return 2
+        return fail(exc, code=2)
     try:
         say("loading classes ...")
         classes = load_classes(args.data, names, args.align_core, variants, args.seed, args.instances,
@@ -157,8 +155,7 @@ def _run(args) -> int:
                       holdout=holdout, holdout_classes=held, seed=args.seed, count=args.count, progress=say,
                       method=args.method, **options)
     except JaxposeError as exc:
-        print(f"jaxpose tune: error: {exc}", file=sys.stderr)
-        return 1
+        return fail(exc)
     result["data"] = dict(data=args.data, holdout_data=args.holdout_data, align_core=bool(args.align_core),
                           core_weight=args.core_weight, variants=list(variants))
     failure = _failure(result, args.method)
@@ -166,8 +163,7 @@ def _run(args) -> int:
         Path(args.json).parent.mkdir(parents=True, exist_ok=True)
         write_atomic(args.json, json_text(result).encode(), force=True)  # checked before the run
     if failure:
-        print(f"jaxpose tune: error: {failure}", file=sys.stderr)
-        return 1
+        return fail(failure)
     tr, ho = result["train"], result["holdout"]
     print(", ".join(f"{k} {result[k + '0']:.4g} -> {v:.4g}" for k, v in result["tuned"].items()))
     print(f"train sigma_tr {tr['sigma_tr_start']:.5g} -> {tr['sigma_tr_tuned']:.5g}")

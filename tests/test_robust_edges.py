@@ -38,6 +38,10 @@ def _cloud(n, seed=0):
     (lambda: _sheet(), "mostly open"),  # an open sheet: the fan caps would make its solid
     (lambda: trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], [[0, 1, 2], [0, 2, 3]]), "encloses no volume"),
     (lambda: _cloud(30), "too sparse for a closing"),
+    # fewer than 5 points: the 4-neighbour spacing is the farthest other point's (was inf, NumPy's
+    # 'invalid value encountered in scalar subtract', and 'N separate bodies')
+    (lambda: _cloud(2), "too sparse for a closing"),
+    (lambda: _cloud(4), "too sparse for a closing"),
     (lambda: _spheres((1, (0, 0, 0)), (1, (5, 0, 0))), "2 separate bodies of equal size"),
     (lambda: _spheres((1, (0, 0, 0)), (1, (5, 0, 0)), (1, (0, 5, 0))), "3 separate bodies of equal size"),
 ])
@@ -60,6 +64,14 @@ def test_shapes_inside_the_edges_keep_their_pose():
     holed.update_faces(np.arange(len(holed.faces)) % 10 != 0)  # a tenth of the faces gone: holes, not a sheet
     _, pose = jaxpose.normalize_mesh(holed)
     np.testing.assert_allclose(pose.center, 0.0, atol=0.02)
+
+
+def test_a_two_point_file_is_refused_without_numpy_warnings(tmp_path, capsys):
+    path = tmp_path / "two.xyz"
+    path.write_text("0 0 0\n1 1 1\n")
+    assert cli.main(["normalize", str(path), "-o", str(tmp_path / "out.xyz")]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith("jaxpose: error: the point cloud is too sparse for a closing") and err.count("\n") == 1, err
 
 
 def test_command_line_says_why_and_what_to_use(tmp_path, capsys):

@@ -278,7 +278,9 @@ def neighbour_distances(points, k=4, samples=None, seed=0):
         replacement (``numpy.random.default_rng(seed)``), queried against all the points.
 
     Returns:
-      (q, k) float, q = n or min(n, samples), rows ascending.
+      (q, k) float, q = n or min(n, samples), rows ascending; with fewer than k other points, the
+      columns past them hold the farthest of them (as :mod:`jaxpose.occupancy.points`' spacing), inf
+      only for a single point.
 
     Raises:
       InvalidInputError: seed not an int >= 0 (:func:`jaxpose._validate.check_int`).
@@ -292,7 +294,10 @@ def neighbour_distances(points, k=4, samples=None, seed=0):
         queries = points[np.random.default_rng(seed).choice(len(points), size=int(samples), replace=False)]
     tree = cKDTree(points, balanced_tree=False, compact_nodes=False)  # the faster build for one query
     dist, _ = tree.query(queries, k=k + 1, workers=1)
-    return dist[:, 1:]
+    dist = dist[:, 1:]
+    if 1 < len(points) <= k:  # cKDTree pads the missing neighbours with inf
+        dist[:, len(points) - 1:] = dist[:, len(points) - 2:len(points) - 1]
+    return dist
 
 
 def check_resolution(resolution, budget=MEMORY_BUDGET, name="resolution"):

@@ -98,6 +98,14 @@ def test_faceless_geometry_is_a_point_cloud(tmp_path):
         ("corrupt.ply", b"garbage\x00\x01\x02", "cannot read"),
         ("corrupt.off", b"OFF\n3 1 0\n0 0\n", "cannot read"),
         ("empty.obj", b"", "empty geometry"),
+        # one message for a file with nothing in it, whatever its format (were trimesh's words: 'not enough
+        # columns in xyz file!', 'not enough values to unpack', 'Not a ply file!', 'index 0 is out of bounds')
+        ("empty.xyz", b"", "empty.xyz: empty geometry: no vertices read as XYZ"),
+        ("comments.xyz", b"# a\n// b\n\n", "empty geometry: no vertices read as XYZ"),
+        ("empty.off", b"", "empty geometry: no vertices read as OFF"),
+        ("comments.off", b"# a\n", "empty geometry: no vertices read as OFF"),
+        ("empty.ply", b"", "empty geometry: no vertices read as PLY"),
+        ("empty.glb", b"", "empty geometry: no vertices read as GLB"),
         ("nan.obj", b"v nan 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "NaN"),
     ],
 )

@@ -293,6 +293,8 @@ def _read(path):
             pass
         except InvalidInputError as exc:  # broken where trimesh would read part of it
             raise InvalidInputError(f"{path}: {exc}") from None
+    if not (data.strip() if ext in formats.TEXT_FORMATS else data):  # 0 bytes, or a text's white space and comments:
+        raise _empty(path, ext)  # each reader's own words else ("not enough columns", "Not a ply file!", ...)
     trimesh = _trimesh()
     values = data.strip() if ext == "xyz" else b""
     one_point = bool(values) and b"\n" not in values  # one line of values (comments cut): trimesh counts its
@@ -324,14 +326,20 @@ def _read(path):
         colors = np.asarray(geometry.colors)
         geometry = trimesh.PointCloud(geometry.vertices[:1], colors=colors[:1] if len(colors) else None)
     if not _has_vertices(geometry):
-        raise InvalidInputError(f"{path}: empty geometry: no vertices read as {ext.upper()} (the file is empty, "
-                                f"or its content is not {ext.upper()})")
+        raise _empty(path, ext)
     if ext == "obj" and _lost_uv(data, geometry):
         try:  # (the fast reader's check: trimesh drops every UV of a file with a reference out of range)
             readers.obj.check_texture_references(data)
         except InvalidInputError as exc:
             raise InvalidInputError(f"{path}: {exc}") from None
     return geometry
+
+
+def _empty(path, ext):
+    """The error of a file that holds no vertices (an empty file, one of comments only, a content
+    the reader found nothing in)."""
+    return InvalidInputError(f"{path}: empty geometry: no vertices read as {ext.upper()} (the file is empty, "
+                             f"or its content is not {ext.upper()})")
 
 
 def _lost_uv(data, geometry):

@@ -100,3 +100,25 @@ def test_what_is_not_a_regular_file_is_never_replaced(tmp_path):
     write_atomic(link, b"new", force=True)  # a link to a regular file: written through, the link kept
     assert link.read_bytes() == b"new"
     assert os.path.islink(link) and target.read_bytes() == b"new"  # (the link was replaced by a file, its target left)
+
+
+def test_a_link_whose_target_folder_is_missing_is_refused_before_the_work(tmp_path, monkeypatch):
+    """An output that is a dangling symbolic link into a folder that does not exist (the write goes
+    to its target, whose folder is never made) is a usage error before any work, as other unusable
+    output paths are: -o was refused only when written, after the normalization."""
+    from jaxpose import cli, mesh
+    from jaxpose.io.atomic import check_output_file
+
+    link = tmp_path / "link.ply"
+    os.symlink(tmp_path / "nowhere" / "x.ply", link)
+    message = rf"{link} \(a link to {tmp_path / 'nowhere' / 'x.ply'}\): the folder {tmp_path / 'nowhere'} does not exist"
+    with pytest.raises(InvalidInputError, match="--json " + message):
+        check_output_file(link)
+    with pytest.raises(InvalidInputError, match=message):
+        write_atomic(link, b"x")
+    source = tmp_path / "tetra.off"
+    source.write_text("OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n")
+    monkeypatch.setattr(mesh, "normalize_mesh", lambda *a, **k: pytest.fail("the work started"))
+    assert cli.main(["normalize", str(source), "-o", str(link)]) == 2
+    assert cli.main(["normalize", str(source), "-o", str(tmp_path / "o.ply"), "--transform", str(link)]) == 2
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["link.ply", "tetra.off"] and os.path.islink(link)

@@ -139,10 +139,17 @@ def _fd_link(path) -> bool:
 
 
 def _check_replaceable(path, what=""):
+    """Refuse (UsageError) a `path` a write cannot replace: not a regular file (:func:`_not_a_file`),
+    or a symbolic link whose target's folder is missing or not writable (its file is written
+    there, :func:`written_path`; that folder is never made)."""
+    named = f"{what}{' ' if what else ''}{path}"
     kind = _not_a_file(path)
     if kind is not None:
-        raise UsageError(f"{what}{' ' if what else ''}{path} is {kind}, not a file: jaxpose writes whole files (a "
+        raise UsageError(f"{named} is {kind}, not a file: jaxpose writes whole files (a "
                          "temporary, then renamed over the name), which would replace it; name a regular file")
+    target = written_path(path)
+    if target != Path(path):
+        check_folder_writable(target.parent, what=f"{named} (a link to {target}): the")
 
 
 def write_atomic(path, data, force=False) -> Path:
@@ -168,8 +175,8 @@ def write_atomic(path, data, force=False) -> Path:
     _check_replaceable(path)
     if path.exists() and not force:
         raise InvalidInputError(f"{path} exists (use force / --force to overwrite)")
-    target = written_path(path)
-    check_folder_writable(target.parent, what=f"{path}{'' if target == path else f' (a link to {target})'}: the")
+    target = written_path(path)  # (a link's target folder: checked above)
+    check_folder_writable(target.parent, what=f"{path}: the")
     if isinstance(data, str):
         data = data.encode("utf-8")
     old_mode = (target.stat().st_mode & 0o777) if target.exists() else None

@@ -248,7 +248,12 @@ def test_an_output_that_is_a_symbolic_link_is_written_through(tmp_path, tree):
         written = mesh.load(store / source.name).vertices
         np.testing.assert_allclose(written, row.apply(mesh.load(source).vertices), rtol=0, atol=1e-6)
     assert sorted(os.listdir(store)) == ["capsule.ply", "sphere.off"]  # no temporary left
+    # what a SIGKILL mid-write leaves beside a link's target, outside OUTDIR: an unsharded rerun
+    # removes it as a shard's does (it walked OUTDIR only); another file's temporary is not its own
+    for name in (".capsule.ply.0123456789ab.tmp", ".sphere.off.ba9876543210.tmp", ".other.ply.0123456789ab.tmp"):
+        (store / name).write_bytes(b"a killed run's")
     assert run(inputs, out).skipped == 2  # done: the outputs are there through their links
+    assert sorted(os.listdir(store)) == [".other.ply.0123456789ab.tmp", "capsule.ply", "sphere.off"]
     os.unlink(out / "sphere.off")
     os.symlink(root / "a" / "capsule.ply", out / "sphere.off")
     with pytest.raises(UsageError, match=r"sphere.off would overwrite its input"):

@@ -139,7 +139,7 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
             def tidy():  # the temporaries killed runs left, once this run starts (one that cannot leaves them)
                 if not isinstance(table, RemotePath):
                     remove_temporaries(table)
-                folder.remove_temporaries(None if shard is None else [item.output for item in items])
+                folder.remove_temporaries([item.output for item in items], everywhere=shard is None)
 
             run = _Run(folder, fixed, fingerprint, fail_fast, progress, len(todo), tidy)
             work = []

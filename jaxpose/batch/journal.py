@@ -166,27 +166,40 @@ class OutputFolder:
         if written != len(line):  # a full disk: leave no half line to the next record
             raise OSError(f"{self.journal}: short write ({written} of {len(line)} bytes)")
 
-    def remove_temporaries(self, targets=None) -> int:
+    def remove_temporaries(self, targets=(), everywhere=False) -> int:
         """Remove the temporaries that killed runs left; returns how many.
 
         Args:
-          targets: only those of these files (a shard's outputs: other shards may be writing
-            theirs); None: anywhere under the folder (this run holds it alone).
+          targets: the run's outputs: each one's own temporaries, beside it or, for a symbolic
+            link, beside its target (:func:`jaxpose.io.atomic.remove_temporaries`).
+          everywhere: also every temporary under the folder (this run holds it alone; a shard's
+            does not: other shards may be writing theirs); `targets` are then searched only where
+            their temporaries lie outside it (a link's target elsewhere, a linked subfolder).
         """
-        if targets is not None:
-            from ..io.atomic import remove_temporaries
+        from ..io.atomic import remove_temporaries
 
-            return sum(remove_temporaries(t) for t in targets)
         removed = 0
-        for folder, dirs, files in os.walk(self.root):
-            for name in files:
-                if is_temporary(name):
-                    try:
-                        os.unlink(os.path.join(folder, name))
-                        removed += 1
-                    except FileNotFoundError:
-                        pass
-        return removed
+        if everywhere:
+            for folder, dirs, files in os.walk(self.root):
+                for name in files:
+                    if is_temporary(name):
+                        try:
+                            os.unlink(os.path.join(folder, name))
+                            removed += 1
+                        except FileNotFoundError:
+                            pass
+            root, parents = os.path.join(os.path.realpath(self.root), ""), {}
+
+            def within(target):  # where its temporaries lie: beside it, or beside a link's target
+                if os.path.islink(target):
+                    return os.path.join(os.path.dirname(os.path.realpath(target)), "").startswith(root)
+                parent = os.path.dirname(target)  # (one realpath a folder)
+                if parent not in parents:
+                    parents[parent] = os.path.join(os.path.realpath(parent), "").startswith(root)
+                return parents[parent]
+
+            targets = [t for t in targets if not within(t)]
+        return removed + sum(remove_temporaries(t) for t in targets)
 
 
     def exists(self, path) -> bool:
@@ -293,7 +306,7 @@ class RemoteOutputFolder:
         line = json.dumps(record, separators=(",", ":"), allow_nan=True).encode("utf-8")
         (self.journal / name).write_bytes(line)
 
-    def remove_temporaries(self, targets=None) -> int:
+    def remove_temporaries(self, targets=(), everywhere=False) -> int:
         """Nothing to remove: remote outputs are written in one PUT, without temporaries."""
         return 0
 

@@ -28,7 +28,9 @@ its component and are always kept. A first pass at ``coarse`` voxels over everyt
 body, so that stray parts neither coarsen the grid nor enter it. Where that pass finds the main body
 in under 1 / :data:`ZOOM` of its grid, or none (a speck of a mesh far away: the body a few coarse
 voxels, its thin parts between their centers), it is repeated over the main surface's box
-(:func:`surface_box`, the surface's own voxel components weighed by area).
+(:func:`surface_box`, the surface's own voxel components weighed by area); where no part lies apart
+there (a needle or a floor beside the body), the box of the coarse body takes in the surfaces that
+lie on it (:func:`whole_surfaces`).
 
 Memory. A grid of ``resolution`` voxels along the largest extent holds at most about
 (resolution + 31)^3 voxels (a cube, with the widest margins) of ``VOXEL_BYTES`` each at the peak;
@@ -55,7 +57,7 @@ from ..sample import lattice_points
 
 __all__ = ["Solid", "robust_solid", "cap_holes", "ray_vote_solid", "point_solid", "exterior_fill", "keep_main", "MESH_REACH",
            "depth", "make_grid", "closing_radius", "linked_parts", "LINK", "neighbour_distances", "check_resolution", "RESOLUTION", "COARSE",
-           "KEEP_RATIO", "ZOOM", "surface_box", "SPACING_SAMPLES", "VOXEL_BYTES", "MESH_BIAS", "POINT_BIAS", "GRID_OFFSET"]
+           "KEEP_RATIO", "ZOOM", "surface_box", "whole_surfaces", "SPACING_SAMPLES", "VOXEL_BYTES", "MESH_BIAS", "POINT_BIAS", "GRID_OFFSET"]
 
 _DEFAULTS = RobustConfig()  # the defaults are written once, in jaxpose.config.RobustConfig
 RESOLUTION = _DEFAULTS.resolution  # voxels along the main body's largest extent
@@ -453,6 +455,38 @@ def near_solid(x, kept, origin, pitch, grow=1):
     return padded[idx[:, 0] + 1, idx[:, 1] + 1, idx[:, 2] + 1]
 
 
+def _centroids(vertices, faces):
+    """(f, 3) the centroids of the faces."""
+    return vertices[faces].mean(axis=1)
+
+
+def whole_surfaces(vertices, faces, on, near):
+    """The vertices on the main body, ``on`` (n,) bool, with the whole of every face-connected
+    surface most of whose area lies on it, and of the surface with the most area on it (the
+    body's own): ``near`` (f,) bool, the faces whose centroids lie on the main body.
+
+    Where the body is a few voxels of the first pass's coarse grid, its thin limbs (arms, legs)
+    fall between the voxel centers and their vertices lie off the coarse solid, so the fine grid,
+    laid over the vertices found, would cut them off; a limb's surface is connected to the
+    torso's, which lies on the solid. Any other surface of which less than half the area lies on
+    it (a thin needle beside the body, a floor under it) stays as found. Returns (n,) bool, a
+    superset of ``on``.
+    """
+    n = len(vertices)
+    faces = np.asarray(faces, np.int64)
+    g = coo_matrix((np.ones(2 * len(faces)), (np.concatenate([faces[:, 0], faces[:, 1]]),
+                                               np.concatenate([faces[:, 1], faces[:, 2]]))), shape=(n, n))
+    k, lab = connected_components(g, directed=False)
+    t = vertices[faces]
+    area = 0.5 * np.linalg.norm(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]), axis=1)
+    total = np.bincount(lab[faces[:, 0]], weights=area, minlength=k)
+    held = np.bincount(lab[faces[:, 0]], weights=np.where(near, area, 0.0), minlength=k)
+    whole = held >= 0.5 * total
+    whole[np.argmax(held)] |= held.max() > 0  # the surface with the most area on it: the body's own
+    whole &= np.bincount(lab, weights=on, minlength=k) > 0  # (a surface with no vertex found stays off)
+    return on | whole[lab]
+
+
 ZOOM = 4  # meshes: the first pass's grid is laid over the main surface once it spans under 1 / ZOOM of it
 
 
@@ -615,13 +649,15 @@ def robust_solid(vertices, faces=None, *, resolution=RESOLUTION, coarse=COARSE, 
     def coarsest(pitch):  # a point cloud's spacing limits its detail: closing radius <= MAX_CLOSING voxels
         return max(pitch, float(np.quantile(r_gap, 0.9)) / MAX_CLOSING) if faces is None else pitch
 
-    def first_pass(lo, hi):  # pass 1: the main body at a coarse pitch over the box (stray parts included)
+    def first_pass(lo, hi, whole=False):  # pass 1: the main body at a coarse pitch over the box (stray parts included)
         pitch1 = coarsest(float((hi - lo).max()) / coarse)
         origin1, shape1 = make_grid(lo, hi, pitch1, margin(pitch1))
         kept1 = keep_main(solid_at(origin1, pitch1, shape1)[0], keep_ratio)[0]
         on1 = near_solid(v[:n_input], kept1, origin1, pitch1, grow=1) if kept1.any() else None
         if on1 is None or not on1.any():
             return None
+        if whole:  # the body a few coarse voxels: its thin limbs lie off them, their surface joins the torso's
+            on1 = whole_surfaces(v[:n_input], faces, on1, near_solid(_centroids(v, faces), kept1, origin1, pitch1, grow=1))
         b_lo, b_hi = v[:n_input][on1].min(0), v[:n_input][on1].max(0)  # the exact box of the input on the main body
         # a mesh's sharp tip (a tetrahedron's corner, a cone's apex) lies more than a voxel from
         # the coarse solid; where the box then misses some of the solid's voxel centers (inside
@@ -643,6 +679,9 @@ def robust_solid(vertices, faces=None, *, resolution=RESOLUTION, coarse=COARSE, 
         s_lo, s_hi = surface_box(v[:n_input], faces, lo, hi, coarse, keep_ratio)
         if not (np.array_equal(s_lo, lo) and np.array_equal(s_hi, hi)):
             box = first_pass(s_lo, s_hi) or box
+        elif box is not None:  # no part lies apart at that pitch (a needle or a floor beside the body): the
+            # coarse body's box, taking in the surfaces that mostly lie on it (whole_surfaces)
+            box = first_pass(lo, hi, whole=True)
     if box is not None:
         lo, hi = box
     # pass 2: the fine grid on the main body's box

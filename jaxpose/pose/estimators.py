@@ -33,6 +33,8 @@ import warnings
 
 import numpy as np
 from scipy import ndimage
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 
 from .. import _validate, baselines, sample
 from ..occupancy import solid, voxels
@@ -182,7 +184,7 @@ def _robust_solid(geometry, resolution):
         raise JaxposeError(f"the shape encloses no volume (a flat or open sheet, or a scan of one side): "
                            f"the robust solid is empty; {_OTHER}")
     if faces is not None:
-        _check_mostly_closed(faces, *capped)
+        _check_mostly_closed(faces, *capped, sol)
     if faces is not None:  # a point cloud's closing can break thin parts into pieces of any size
         _check_one_body(sol)
     else:
@@ -201,18 +203,64 @@ MAX_CAP_SHARE = 0.6  # meshes: closing the holes may add at most this share of t
 EQUAL_BODIES = 0.1  # separate bodies whose sizes (voxels) differ by less than this share are equal
 
 
-def _check_mostly_closed(faces, capped, caps):
+def _check_mostly_closed(faces, capped, caps, sol=None):
     """Refuse a mesh whose hole caps (``capped, caps = jaxpose.occupancy.solid.cap_holes(vertices,
     faces)``) would make much of its solid: an open sheet, a bowl-less scan; small holes (a few %
-    to a third of the area) pass."""
+    to a third of the area) pass. Separate surfaces that enclose no volume with their caps (a flat
+    sheet: a floor under a scanned body, a stray plane; :func:`_open_share` at the voxel of ``sol``,
+    the robust solid) make none of the solid, capped or not, and are left out of the share; where
+    they are left out, the solid must lie inside its grid (one that reaches the grid's edge was cut
+    off by a box the sheets misled: refused, saying so)."""
     faces = np.asarray(faces, np.int64)
     if len(caps) == 0:
         return
     share = float(triangle_areas(capped[caps]).sum() / max(triangle_areas(capped[faces]).sum(), 1e-300))
+    if share > MAX_CAP_SHARE and sol is not None:
+        rest, sheets = _open_share(faces, capped, caps, sol.pitch)
+        if rest <= MAX_CAP_SHARE and _reaches_edge(sol.inside):
+            raise JaxposeError(f"the mesh holds flat sheets apart from its body ({100 * sheets:.0f} % of its area: a "
+                               "floor, a stray plane), and the robust solid's box, found among them, cuts the body "
+                               f"off (its solid reaches the edge of its grid); remove the sheets, or {_OTHER}")
+        share = rest
     if share > MAX_CAP_SHARE:
         raise JaxposeError(f"the mesh is mostly open (a sheet, or a scan of one side): closing its holes would add "
                            f"{100 * share:.0f} % of its own area (at most {100 * MAX_CAP_SHARE:.0f} %), so the caps, "
                            f"not the shape, would make the robust solid; {_OTHER}")
+
+
+def _reaches_edge(inside):
+    """Whether a grid's True cells reach one of its six faces."""
+    return any(np.take(inside, i, axis=a).any() for a in range(inside.ndim) for i in (0, -1))
+
+
+def _open_share(faces, capped, caps, pitch):
+    """The caps' share of the area of a mesh (as :func:`_check_mostly_closed`'s) without its flat
+    sheets: each face-connected surface with its own caps closes a volume V (the divergence
+    theorem) and has an area A (faces and caps); one with 2 V / A, its mean thickness, under one
+    voxel (``pitch``) holds on average less than one layer of voxel centers: it is a sheet that
+    makes no solid (a flat sheet and its cap close none), and its faces and caps are left out.
+    Where every surface is such a sheet, the share over all of them. Returns (share, the sheets'
+    share of the faces' area)."""
+    n = len(capped)
+    tri = np.vstack([faces, caps])
+    g = coo_matrix((np.ones(2 * len(tri)), (np.concatenate([tri[:, 0], tri[:, 1]]),
+                                             np.concatenate([tri[:, 1], tri[:, 2]]))), shape=(n, n))
+    k, lab = connected_components(g, directed=False)
+    part = lab[tri[:, 0]]
+    t = capped[tri]
+    t = t - np.stack([np.bincount(lab, capped[:, a], minlength=k) / np.maximum(np.bincount(lab, minlength=k), 1)
+                      for a in range(3)], axis=1)[part][:, None, :]  # from each surface's own vertex mean
+    volume = np.abs(np.bincount(part, np.einsum("ij,ij->i", t[:, 0], np.cross(t[:, 1], t[:, 2])) / 6.0, minlength=k))
+    area = triangle_areas(capped[tri])
+    is_cap = np.arange(len(tri)) >= len(faces)
+    total = np.bincount(part, area, minlength=k)
+    solid_part = 2.0 * volume >= pitch * total
+    if not solid_part.any():
+        solid_part[:] = True
+    keep = solid_part[part]
+    faces_area = max(area[~is_cap].sum(), 1e-300)
+    return (float(area[keep & is_cap].sum() / max(area[keep & ~is_cap].sum(), 1e-300)),
+            float(area[~keep & ~is_cap].sum() / faces_area))
 
 
 def _check_one_cloud(sol):

@@ -1,6 +1,6 @@
 """The robust pose of real bodies with scan defects, against the same body without them.
 
-``python -m benchmarks.scan_defects [--bodies faust,kid,dog,human] [--points] [--json OUT]``
+``python -m benchmarks.scan_defects [--bodies faust,kid,dog,human] [--points] [--dev-edges] [--json OUT]``
 
 Bodies: faust-dev's ``tr_reg_000`` (a 1.7 m person), kids-dev's ``kid_0001/pose_00``, tosca-dev's
 ``dog0`` (``../shared/data``) and the built-in ``make_object("human", 0, 0)``. Each defect is added to
@@ -10,7 +10,8 @@ the body's area, a needle, a duplicate, degenerate and huge triangles, an unrefe
 row: the center's offset from the body's own robust center over the body's scale, the scale's
 ratio, ``valid``, or the error's first words. ``--points`` adds the vertices as a point cloud with
 far points, a far cluster and uniform noise, through ``normalize_mesh(PointCloud)`` and
-``jaxpose.normalize(points)``. Asserts nothing; docs/estimators.md ("Scan defects") quotes it.
+``jaxpose.normalize(points)``. ``--dev-edges`` instead lists the plain dev meshes whose fine solid reaches
+its grid's edge (cut by the first pass's box) and what that costs. Asserts nothing; docs/estimators.md ("Scan defects") quotes it.
 """
 from __future__ import annotations
 
@@ -162,13 +163,53 @@ def measure(run, x, reference):
             "valid": bool(pose.valid), "status": int(pose.status)}
 
 
+def dev_edges():
+    """Rows (class, meshes cut, of, largest center shift / scale, scale changes) of the plain meshes
+    of the built-in set (seed 0, 10 a class) and faust-dev, kids-dev, tosca-dev whose fine robust
+    solid reaches its grid's edge, against the solid over the whole vertex box."""
+    from jaxpose import datasets
+    from jaxpose.occupancy import solid
+    from jaxpose.pose.estimators import _reaches_edge, solid_center_volume
+
+    sets = dict(datasets.make_dataset(0, instances=10))
+    for folder in ("faust-dev", "kids-dev", "tosca-dev"):
+        sets.update(datasets.load_folder(DATA / folder))
+    near, rows = solid.near_solid, []
+    for name, meshes in sets.items():
+        found = []
+        for m in meshes:
+            v, f = np.asarray(m.vertices, float), np.asarray(m.faces)
+            cut = solid.robust_solid(v, f, with_depth=False)
+            if not _reaches_edge(cut.inside):
+                continue
+            solid.near_solid = lambda x, *a, **k: np.ones(len(x), bool)  # every vertex on the body: its whole box
+            try:
+                whole = solid.robust_solid(v, f, with_depth=False)
+            finally:
+                solid.near_solid = near
+            (c0, v0), (c1, v1) = solid_center_volume(cut), solid_center_volume(whole)
+            found.append((float(np.linalg.norm(c0 - c1)) / v1 ** (1 / 3), (v0 / v1) ** (1 / 3) - 1))
+        if found:
+            a = np.array(found)
+            rows.append((name, len(found), len(meshes), float(a[:, 0].max()), float(a[:, 1].min()), float(a[:, 1].max())))
+            print(f"| {name} | {len(found)} of {len(meshes)} | {a[:, 0].max():.4f} | "
+                  f"{100 * a[:, 1].min():+.2f} ... {100 * a[:, 1].max():+.2f} % |", flush=True)
+    return rows
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--bodies", default="faust,kid,dog,human")
     parser.add_argument("--points", action="store_true")
+    parser.add_argument("--dev-edges", action="store_true", help="only the dev meshes whose solid reaches its grid's edge")
     parser.add_argument("--json")
     args = parser.parse_args(argv)
     warnings.simplefilter("ignore")
+    if args.dev_edges:
+        rows = dev_edges()
+        if args.json:
+            Path(args.json).write_text(json.dumps(rows, indent=1))
+        return 0
     import trimesh
 
     import jaxpose

@@ -158,8 +158,10 @@ def robust_center_scale(geometry, power=ROBUST_POWER, resolution=solid.RESOLUTIO
     Raises:
       JaxposeError: the shape has no robust pose, with the reason: it encloses no volume (a flat
         sheet), it is mostly open (hole caps would add more than :data:`MAX_CAP_SHARE` of its
-        area), it is several separate bodies of equal size (:data:`EQUAL_BODIES`), a point cloud
-        too sparse for a closing (its solid under :data:`MIN_POINT_VOXELS` voxels across), a point
+        area, flat sheets apart from the body left out; where those sheets cut the body off its
+        grid, saying so), it is several separate bodies of equal size (:data:`EQUAL_BODIES`), a point cloud
+        too sparse for a closing (its solid under :data:`MIN_POINT_VOXELS` voxels across; where points
+        far from the body, not the spacing, set the voxel, saying so), a point
         cloud of several separate bodies (a second part of at least :data:`SECOND_BODY` of the
         largest, :func:`jaxpose.occupancy.solid.linked_parts`).
     """
@@ -190,6 +192,12 @@ def _robust_solid(geometry, resolution):
     else:
         idx = np.nonzero(sol.inside)
         across = max(int(i.max() - i.min()) + 1 for i in idx)
+        if across < MIN_POINT_VOXELS and _stretched(vertices, sol):
+            raise JaxposeError(f"the point cloud's solid spans {across} voxels (at least {MIN_POINT_VOXELS} are needed): "
+                               f"its grid, {resolution} voxels across, spans the points its first pass kept, "
+                               f"{_spread(vertices, sol):.3g} times the solid's extent, so points apart from the body (a "
+                               "stray point or cluster far away), not its spacing, set the voxel; remove them, or use "
+                               "the vertex_mean or ocsvm method")
         if across < MIN_POINT_VOXELS:
             raise JaxposeError(f"the point cloud is too sparse for a closing: at the voxel size its spacing allows "
                                f"(the 90th percentile of the 4-neighbour distance / {solid.MAX_CLOSING}) its solid "
@@ -197,6 +205,24 @@ def _robust_solid(geometry, resolution):
                                "the vertex_mean or ocsvm method")
         _check_one_cloud(sol)
     return sol
+
+
+def _stretched(points, sol):
+    """Whether a point solid's voxel is finer than the points' spacing asks (the 90th percentile
+    of the 4-neighbour distance / ``MAX_CLOSING``, :func:`jaxpose.occupancy.solid.robust_solid`'s
+    floor), so that the grid's extent, not the spacing, set it."""
+    gap = solid.neighbour_distances(np.asarray(points, np.float64), 4, samples=solid.SPACING_SAMPLES)[:, 3]
+    return sol.pitch > float(np.quantile(gap, 0.9)) / solid.MAX_CLOSING * (1 + 1e-9)
+
+
+def _spread(points, sol):
+    """How many times the kept solid's largest extent the points within the grid spread."""
+    inside = np.nonzero(sol.inside)
+    solid_extent = max(int(i.max() - i.min()) + 1 for i in inside) * sol.pitch
+    x = np.asarray(points, np.float64) @ np.asarray(sol.frame).T
+    upper = sol.origin + sol.pitch * np.asarray(sol.inside.shape)
+    x = x[np.all((x >= sol.origin) & (x <= upper), axis=1)]
+    return float((x.max(0) - x.min(0)).max()) / solid_extent
 
 
 MAX_CAP_SHARE = 0.6  # meshes: closing the holes may add at most this share of the surface's own area

@@ -13,7 +13,7 @@ import numpy as np
 
 from ._validate import InvalidInputError, OpenMeshWarning, check_concrete, check_points
 
-__all__ = ["Surface", "split_geometry", "triangle_areas", "is_closed", "require_faces", "warn_if_open"]
+__all__ = ["Surface", "split_geometry", "triangle_areas", "surface_labels", "is_closed", "require_faces", "warn_if_open"]
 
 
 # the extents (largest coordinate range) whose face areas float64 holds: the cross product of two edges
@@ -128,6 +128,27 @@ def triangle_areas(triangles):
     y = u[:, 2] * v[:, 0] - u[:, 0] * v[:, 2]
     z = u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]
     return 0.5 * np.sqrt(x * x + y * y + z * z)
+
+
+def surface_labels(count, faces):
+    """The face-connected surfaces of a mesh: vertices joined by the edges of its faces.
+
+    count: the number of vertices n; faces: (f, 3) int indices of them.
+    Returns (k, labels): the number of surfaces and (n,) int64, each vertex's surface in
+    0 ... k - 1 (a vertex in no face is a surface of its own).
+
+    Example::
+
+        k, labels = surface_labels(len(mesh.vertices), mesh.faces)  # a box and a stray sphere: k = 2
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    f = np.asarray(faces, np.int64).reshape(-1, 3)
+    edges = np.concatenate([f[:, [0, 1]], f[:, [1, 2]]])
+    graph = coo_matrix((np.ones(len(edges), bool), (edges[:, 0], edges[:, 1])), shape=(count, count))
+    k, labels = connected_components(graph, directed=False)
+    return int(k), labels.astype(np.int64)
 
 
 def is_closed(faces):

@@ -125,3 +125,21 @@ def test_host_functions_refuse_traced_geometry_by_name():
         for fn in fns:
             with pytest.raises(InvalidInputError, match=f"^{name}.*: a traced array .*trace jaxpose.normalize"):
                 jax.jit(fn)(points)
+
+
+def test_surface_labels_match_trimesh_split():
+    """geometry.surface_labels: the face-connected surfaces, as trimesh's own split finds them."""
+    import trimesh
+
+    from jaxpose.geometry import surface_labels
+
+    parts = [trimesh.creation.box(), trimesh.creation.icosphere(subdivisions=1), trimesh.creation.cylinder(0.2, 1.0)]
+    for k, part in enumerate(parts):
+        part.apply_translation([3.0 * k, 0.0, 0.0])
+    mesh = trimesh.util.concatenate(parts)
+    count, labels = surface_labels(len(mesh.vertices) + 1, mesh.faces)  # one vertex in no face
+    assert count == len(mesh.split(only_watertight=False)) + 1 == 4
+    offsets = np.cumsum([0] + [len(p.vertices) for p in parts])
+    for a, b in zip(offsets[:-1], offsets[1:]):
+        assert len(np.unique(labels[a:b])) == 1
+    assert len(np.unique(labels[offsets[:-1]])) == 3 and labels[-1] not in labels[:-1]

@@ -53,6 +53,7 @@ from scipy.sparse.csgraph import connected_components
 
 from .._validate import InvalidInputError, check_array, check_bool, check_concrete, check_int, check_real
 from ..config import MEMORY_BUDGET, RobustConfig
+from ..geometry import surface_labels
 from ..sample import lattice_points
 
 __all__ = ["Solid", "robust_solid", "cap_holes", "ray_vote_solid", "point_solid", "exterior_fill", "keep_main", "MESH_REACH",
@@ -472,11 +473,8 @@ def whole_surfaces(vertices, faces, on, near):
     it (a thin needle beside the body, a floor under it) stays as found. Returns (n,) bool, a
     superset of ``on``.
     """
-    n = len(vertices)
     faces = np.asarray(faces, np.int64)
-    g = coo_matrix((np.ones(2 * len(faces)), (np.concatenate([faces[:, 0], faces[:, 1]]),
-                                               np.concatenate([faces[:, 1], faces[:, 2]]))), shape=(n, n))
-    k, lab = connected_components(g, directed=False)
+    k, lab = surface_labels(len(vertices), faces)
     t = vertices[faces]
     area = 0.5 * np.linalg.norm(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]), axis=1)
     total = np.bincount(lab[faces[:, 0]], weights=area, minlength=k)

@@ -33,14 +33,12 @@ import warnings
 
 import numpy as np
 from scipy import ndimage
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 
 from .. import _validate, baselines, sample
 from ..occupancy import solid, voxels
 from .._validate import InvalidInputError, InvalidPoseWarning, JaxposeError
 from ..config import OCSVM, ROBUST, PoseConfig
-from ..geometry import Surface, triangle_areas
+from ..geometry import Surface, surface_labels, triangle_areas
 from ..host import anchor
 from ..weighted import depth_power_weights, grid_axes, solid_occupancy, weighted_center
 from .result import MIN_POINT_VOXELS, SECOND_BODY, Pose, host, status_message
@@ -267,11 +265,8 @@ def _open_share(faces, capped, caps, pitch):
     makes no solid (a flat sheet and its cap close none), and its faces and caps are left out.
     Where every surface is such a sheet, the share over all of them. Returns (share, the sheets'
     share of the faces' area)."""
-    n = len(capped)
     tri = np.vstack([faces, caps])
-    g = coo_matrix((np.ones(2 * len(tri)), (np.concatenate([tri[:, 0], tri[:, 1]]),
-                                             np.concatenate([tri[:, 1], tri[:, 2]]))), shape=(n, n))
-    k, lab = connected_components(g, directed=False)
+    k, lab = surface_labels(len(capped), tri)
     part = lab[tri[:, 0]]
     t = capped[tri]
     t = t - np.stack([np.bincount(lab, capped[:, a], minlength=k) / np.maximum(np.bincount(lab, minlength=k), 1)

@@ -39,10 +39,10 @@ grid may then come out mirrored (voxel-level differences).
 from __future__ import annotations
 
 import numpy as np
-from scipy import ndimage, sparse
-from scipy.sparse import csgraph
+from scipy import ndimage
 
 from .._validate import check_concrete
+from ..geometry import surface_labels
 from ..occupancy import solid
 from ..orientation import SIGN_MIN, SYMMETRY_MIN, Frame, ambiguity, complete_signs, descending_axes, relative_gaps
 
@@ -143,9 +143,7 @@ def frame_solid(vertices, faces=None, resolution=None):
     if not sol.inside.any():
         return sol
     n = len(v)
-    edges = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
-    graph = sparse.coo_matrix((np.ones(len(edges), bool), (edges[:, 0], edges[:, 1])), shape=(n, n))
-    _, piece = csgraph.connected_components(graph, directed=False)
+    _, piece = surface_labels(n, f)
     on = solid.near_solid(_turned(v, sol.frame.T), sol.inside, sol.origin, sol.pitch, grow=OFF_SOLID)
     kept = np.zeros(piece.max() + 1, bool)
     kept[piece[on]] = True

@@ -422,6 +422,23 @@ def test_second_run_on_one_folder_is_refused(tmp_path, tree):
     assert run([tmp_path / "scans" / "sphere.off"], out).written == 1  # released
 
 
+def test_output_folder_remove_temporaries_without_targets_removes_every_one(tmp_path):
+    """OutputFolder.remove_temporaries() (public): every temporary under the folder, as before c29da10
+    (it removed none; None raised TypeError); with targets, only theirs."""
+    from jaxpose.io.atomic import temporary_path
+
+    out = tmp_path / "out"
+    with OutputFolder(out) as folder:
+        (out / "sub").mkdir()
+        left = [temporary_path(out / "a.ply"), temporary_path(out / "sub" / "b.ply")]
+        for path in left:
+            path.write_bytes(b"x")
+        assert folder.remove_temporaries([out / "c.ply"]) == 0 and all(p.exists() for p in left)
+        assert folder.remove_temporaries() == 2 and not any(p.exists() for p in left)
+        left[0].write_bytes(b"x")
+        assert folder.remove_temporaries(None) == 1 and not left[0].exists()
+
+
 def test_a_lock_file_that_cannot_be_written_keeps_its_pid_line_and_no_lock_stays_held(tmp_path, monkeypatch):
     """A failing write of a lock file (a full disk): the earlier pid line stays (it was cut before the
     write), and every lock is released, also where writing a pid line back fails on leaving (it was

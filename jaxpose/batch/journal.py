@@ -166,18 +166,23 @@ class OutputFolder:
         if written != len(line):  # a full disk: leave no half line to the next record
             raise OSError(f"{self.journal}: short write ({written} of {len(line)} bytes)")
 
-    def remove_temporaries(self, targets=(), everywhere=False) -> int:
+    def remove_temporaries(self, targets=None, everywhere=None) -> int:
         """Remove the temporaries that killed runs left; returns how many.
 
         Args:
           targets: the run's outputs: each one's own temporaries, beside it or, for a symbolic
-            link, beside its target (:func:`jaxpose.io.atomic.remove_temporaries`).
+            link, beside its target (:func:`jaxpose.io.atomic.remove_temporaries`); None: none.
           everywhere: also every temporary under the folder (this run holds it alone; a shard's
             does not: other shards may be writing theirs); `targets` are then searched only where
             their temporaries lie outside it (a link's target elsewhere, a linked subfolder).
+            None (the default): ``targets is None``, so that ``remove_temporaries()`` removes every
+            temporary under the folder and ``remove_temporaries(outputs)`` only those outputs'.
         """
         from ..io.atomic import remove_temporaries
 
+        if everywhere is None:
+            everywhere = targets is None
+        targets = () if targets is None else targets
         removed = 0
         if everywhere:
             for folder, dirs, files in os.walk(self.root):
@@ -306,7 +311,7 @@ class RemoteOutputFolder:
         line = json.dumps(record, separators=(",", ":"), allow_nan=True).encode("utf-8")
         (self.journal / name).write_bytes(line)
 
-    def remove_temporaries(self, targets=(), everywhere=False) -> int:
+    def remove_temporaries(self, targets=None, everywhere=None) -> int:
         """Nothing to remove: remote outputs are written in one PUT, without temporaries."""
         return 0
 

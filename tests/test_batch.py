@@ -227,6 +227,85 @@ def test_a_rerun_redoes_a_gltf_whose_buffer_file_changed(tmp_path):
     assert input_key(gltf, "mtime")["input_size"] == gltf.stat().st_size + (root / "gltf_buffer_0.bin").stat().st_size
 
 
+def test_a_gltf_whose_buffers_are_not_a_list_of_objects_fails_alone(tmp_path, tree):
+    """A .gltf whose "buffers" is not a list of objects (5; [5]) fails by itself, named by its read:
+    the plan's key raised TypeError ('int' object is not iterable) and the whole run died."""
+    from jaxpose.batch.task import gltf_buffers, input_key
+
+    gltf = tmp_path / "broken.gltf"
+    for bad in (5, [5], {"uri": "a.bin"}):
+        gltf.write_text(json.dumps({"asset": {"version": "2.0"}, "buffers": bad}))
+        assert gltf_buffers(gltf) == [] and input_key(gltf, "hash")["input_size"] == gltf.stat().st_size
+    result = run([*tree["good"], gltf], tmp_path / "out")
+    assert (result.written, result.failed) == (len(tree["good"]), 1)
+    assert [r.input for r in result.rows if r.status == "failed"] == [str(gltf)]
+
+
+def test_a_gltf_buffer_is_the_file_trimesh_reads(tmp_path):
+    """The rerun key watches the buffer file trimesh's reader opens: the name taken literally
+    (``pos%41.bin``, not ``posA.bin``), then without a leading '/', then its last part; never one
+    out of the folder (trimesh.resolvers.FilePathResolver.get, pinned here name by name)."""
+    from trimesh.resolvers import FilePathResolver
+
+    from jaxpose.batch.task import _buffer_file, gltf_buffers
+
+    root = tmp_path / "in"
+    (root / "sub").mkdir(parents=True)
+    for name in ("pos%41.bin", "posA.bin", "b.bin", "sub/c.bin"):
+        (root / name).write_bytes(name.encode())
+    (tmp_path / "outside.bin").write_bytes(b"outside")
+    resolver = FilePathResolver(str(root / "model.gltf"))
+    names = ["pos%41.bin", "posA.bin", "/b.bin", " b.bin ", "x/b.bin", "sub/c.bin", "c.bin", "sub/../b.bin",
+             "../outside.bin", "../in/b.bin", "missing.bin", "x/missing.bin"]
+    for name in names:
+        try:
+            expected = resolver.get(name)
+        except (FileNotFoundError, ValueError):
+            expected = None
+        found = _buffer_file(root, name)
+        assert (found and found.read_bytes()) == expected, name
+    gltf = root / "model.gltf"
+    gltf.write_text(json.dumps({"asset": {"version": "2.0"}, "buffers": [{"uri": "pos%41.bin"}, {"uri": "data:,"}]}))
+    assert gltf_buffers(gltf) == [root / "pos%41.bin"]
+
+
+def test_a_gltf_buffer_that_is_a_fifo_is_never_opened(tmp_path):
+    """input_key(..., "hash") of a .gltf naming a FIFO as its buffer leaves it out (it hashed it:
+    blocked until a writer came), as it does an input that is a FIFO."""
+    import threading
+
+    from jaxpose.batch.task import input_key
+
+    gltf, fifo = tmp_path / "model.gltf", tmp_path / "fifo.bin"
+    gltf.write_text(json.dumps({"asset": {"version": "2.0"}, "buffers": [{"uri": "fifo.bin", "byteLength": 4}]}))
+    os.mkfifo(fifo)
+    keys = []
+    thread = threading.Thread(target=lambda: keys.append(input_key(gltf, "hash")), daemon=True)
+    thread.start()
+    thread.join(10)
+    blocked = thread.is_alive()
+    if blocked:  # let it go: a writer that closes at once
+        os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
+        thread.join(10)
+    assert not blocked and keys[0]["input_size"] == gltf.stat().st_size
+
+
+def test_an_input_replaced_by_a_fifo_while_read_is_changed(tmp_path):
+    """An input replaced by a file that is not regular while it was read: 'changed while it was
+    read', named (it raised KeyError 'input_inode')."""
+    from jaxpose.batch.task import _check_unchanged, _input_stat
+    from jaxpose.errors import InvalidInputError
+
+    path = tmp_path / "a.off"
+    path.write_bytes(b"OFF\n0 0 0\n")
+    before = _input_stat(path, "mtime")
+    _check_unchanged(path, before)  # unchanged
+    path.unlink()
+    os.mkfifo(path)
+    with pytest.raises(InvalidInputError, match=r"changed while it was read \(size 10 bytes -> not a regular file\)"):
+        _check_unchanged(path, before)
+
+
 def test_an_output_that_is_a_symbolic_link_is_written_through(tmp_path, tree):
     """An output path that is a link (OUTDIR/a/capsule.ply -> a file elsewhere; a dangling one) is
     written through, atomically: the file it points to gets the output, the link stays (the rename

@@ -340,9 +340,11 @@ def input_key(path, check) -> dict:
     files = [(path, info)]
     for buffer in gltf_buffers(path):
         try:
-            files.append((buffer, os.stat(buffer)))
+            buffer_info = os.stat(buffer)
         except OSError:  # missing: the read fails, naming it
-            pass
+            continue
+        if stat.S_ISREG(buffer_info.st_mode):  # a FIFO is never opened here (hashing it would block)
+            files.append((buffer, buffer_info))
     out.update(input_size=sum(i.st_size for _, i in files), input_mtime_ns=max(i.st_mtime_ns for _, i in files))
     if check == "hash":
         if len(files) == 1:
@@ -357,19 +359,36 @@ def input_key(path, check) -> dict:
 
 def gltf_buffers(path) -> list:
     """The local files a ``.gltf`` names as its buffers (URIs relative to its folder, not ``data:``
-    ones), in its order; none for another file, or a .gltf that does not parse (its read says why)."""
-    from urllib.parse import unquote
-
+    ones), in its order, each found as trimesh's reader finds it (:func:`_buffer_file`; a name
+    found nowhere is left out: the read fails, naming it); none for another file, or a .gltf that
+    does not parse or whose ``buffers`` is not a list of objects (its read says why)."""
     path = Path(path)
     if path.suffix.lower() != ".gltf":
         return []
     try:
         with open(path, "rb") as handle:
-            buffers = json.loads(handle.read()).get("buffers") or []
-        uris = [b["uri"] for b in buffers if isinstance(b, dict) and isinstance(b.get("uri"), str)]
-    except (OSError, ValueError, AttributeError):
+            tree = json.loads(handle.read())
+        buffers = tree.get("buffers") or []
+        if not (isinstance(buffers, list) and all(isinstance(b, dict) for b in buffers)):
+            return []
+        uris = [b["uri"] for b in buffers if isinstance(b.get("uri"), str)]
+    except (OSError, ValueError, AttributeError, TypeError):
         return []
-    return [path.parent / unquote(uri) for uri in uris if ":" not in uri.split("/")[0]]
+    found = (_buffer_file(path.parent, uri) for uri in uris if ":" not in uri.split("/")[0])
+    return [file for file in found if file is not None]
+
+
+def _buffer_file(folder, name):
+    """The file trimesh's reader opens for a buffer (or image) name of a .gltf in `folder`, or None:
+    the rule of ``trimesh.resolvers.FilePathResolver.get`` (the name as it is, without its leading
+    ``/``, its last part; each taken literally (no %-decoding) in the folder, the first that exists
+    and does not lead out of the folder)."""
+    parent = Path(folder).resolve()
+    for candidate in (name.strip(), name.strip().lstrip("/"), os.path.split(name)[-1]):
+        file = (parent / candidate.strip()).resolve()
+        if (file == parent or parent in file.parents) and file.exists():
+            return file
+    return None
 
 
 def _check_unchanged(path, before):
@@ -380,10 +399,12 @@ def _check_unchanged(path, before):
         now = _input_stat(path, "mtime")
     except OSError as exc:
         raise InvalidInputError(f"{path}: removed while it was read ({exc.strerror})") from None
-    after = (now["input_size"], now["input_mtime_ns"], now["input_inode"])
-    if after != (before["input_size"], before["input_mtime_ns"], before["input_inode"]):
-        raise InvalidInputError(f"{path}: changed while it was read (size {before['input_size']} -> "
-                                f"{now['input_size']} bytes); run again to read it whole")
+    after = (now["input_size"], now["input_mtime_ns"], now.get("input_inode"))  # no inode, no size: not a
+    if now["input_size"] is None or after != (before["input_size"], before["input_mtime_ns"],  # regular file now
+                                              before.get("input_inode")):
+        size = (f"{before['input_size']} bytes -> not a regular file" if now["input_size"] is None
+                else f"{before['input_size']} -> {now['input_size']} bytes")
+        raise InvalidInputError(f"{path}: changed while it was read (size {size}); run again to read it whole")
 
 
 def sha256_file(path) -> str:

@@ -112,6 +112,20 @@ def test_coordinates_beyond_float32_are_not_written_as_float32(tmp_path, name):
     np.testing.assert_array_equal(written, box.vertices.astype(np.float32))
 
 
+def test_encode_takes_a_format_name_in_any_case():
+    """encode(m, "PLY") is encode(m, "ply"): the float32-range check compared the name as given and
+    wrote inf into an upper-case "PLY", "STL", "GLB"."""
+    from jaxpose import mesh
+    from jaxpose.errors import InvalidInputError
+
+    box = trimesh.creation.box()
+    assert mesh.encode(box, "OFF") == mesh.encode(box, "off") and mesh.encode(box, "Ply") == mesh.encode(box, "ply")
+    box.vertices[3] = [1e39, 0.0, -2.0]
+    for name in ("PLY", "Stl", "GLB"):
+        with pytest.raises(InvalidInputError, match=rf"beyond float32's range .* as {name.upper()}, which"):
+            mesh.encode(box, name)
+
+
 def test_export_refuses_what_is_not_a_geometry_or_a_path(tmp_path):
     """export("abc", path) was an AttributeError ('str' object has no attribute 'vertices') and
     export(mesh, None) Path()'s TypeError: refused by name, nothing written."""

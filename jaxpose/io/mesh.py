@@ -490,7 +490,7 @@ def encode(geometry, file_type) -> bytes:
     if not (isinstance(geometry, Surface) or _is(geometry, "Trimesh") or _is(geometry, "PointCloud")):
         raise InvalidInputError(f"cannot write a {type(geometry).__name__}: give a Trimesh, PointCloud or "
                                 "jaxpose.geometry.Surface (jaxpose.mesh.load makes one of an array or a file)")
-    output_format(f"geometry.{file_type}", geometry)
+    file_type = output_format(f"geometry.{file_type}", geometry)  # lower case: "PLY" is "ply" below
     vertices = np.asarray(geometry.vertices, np.float64)
     if not np.all(np.isfinite(vertices)):  # a file no reader takes back
         raise InvalidInputError(f"cannot write {type(geometry).__name__} with NaN or inf coordinates")

@@ -122,3 +122,27 @@ def test_a_link_whose_target_folder_is_missing_is_refused_before_the_work(tmp_pa
     assert cli.main(["normalize", str(source), "-o", str(link)]) == 2
     assert cli.main(["normalize", str(source), "-o", str(tmp_path / "o.ply"), "--transform", str(link)]) == 2
     assert sorted(p.name for p in tmp_path.iterdir()) == ["link.ply", "tetra.off"] and os.path.islink(link)
+
+
+def test_a_loop_of_links_or_a_folder_is_refused_not_replaced(tmp_path):
+    """A loop of links (loop1 -> loop2 -> loop1) was replaced by a regular file (the link is to be
+    kept); a folder, or a link to one, raised a raw IsADirectoryError: all refused by name, as
+    check_output_file (--json, -o) does before any work."""
+    from jaxpose.errors import UsageError
+    from jaxpose.io.atomic import check_output_file
+
+    loop1, loop2, folder, to_folder = (tmp_path / n for n in ("loop1", "loop2", "folder", "to_folder"))
+    os.symlink(loop2, loop1)
+    os.symlink(loop1, loop2)
+    folder.mkdir()
+    os.symlink(folder, to_folder)
+    for path, fragment in ((loop1, "is a symbolic link that cannot be resolved"), (folder, "is a folder"),
+                           (to_folder, "is a folder")):
+        for force in (False, True):
+            with pytest.raises(UsageError, match=f"{path.name} {fragment}"):
+                write_atomic(path, b"x", force=force)
+        with pytest.raises(UsageError, match=fragment):
+            check_output_file(path, force=True)
+    assert os.readlink(loop1) == str(loop2) and os.readlink(loop2) == str(loop1)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["folder", "loop1", "loop2", "to_folder"]
+    assert list(folder.iterdir()) == []

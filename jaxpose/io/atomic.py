@@ -139,10 +139,21 @@ def _fd_link(path) -> bool:
 
 
 def _check_replaceable(path, what=""):
-    """Refuse (UsageError) a `path` a write cannot replace: not a regular file (:func:`_not_a_file`),
-    or a symbolic link whose target's folder is missing or not writable (its file is written
+    """Refuse (UsageError) a `path` a write cannot replace: a folder (or a link to one), not a regular
+    file (:func:`_not_a_file`), a symbolic link that cannot be resolved (a loop), or one whose
+    target's folder is missing or not writable (its file is written
     there, :func:`written_path`; that folder is never made)."""
     named = f"{what}{' ' if what else ''}{path}"
+    if os.path.islink(path):
+        try:
+            os.stat(path)
+        except FileNotFoundError:  # dangling: its target is made
+            pass
+        except OSError as exc:  # a loop of links: realpath stops somewhere in it, and the rename replaced that link
+            raise UsageError(f"{named} is a symbolic link that cannot be resolved ({exc.strerror}); "
+                             "name a regular file") from None
+    if os.path.isdir(path):  # (also through a link)
+        raise UsageError(f"{named} is a folder; name a file")
     kind = _not_a_file(path)
     if kind is not None:
         raise UsageError(f"{named} is {kind}, not a file: jaxpose writes whole files (a "
@@ -166,8 +177,8 @@ def write_atomic(path, data, force=False) -> Path:
       `path` as a :class:`Path`.
 
     Raises:
-      InvalidInputError: `path` exists (without `force`), is not a regular file (a FIFO, a device
-        such as ``/dev/stdout``, a link to one: even with `force`), or its folder is missing or
+      InvalidInputError: `path` exists (without `force`), is not a regular file (a folder, a FIFO,
+        a device such as ``/dev/stdout``, a link to one, a loop of links: even with `force`), or its folder is missing or
         not writable.
       OSError: the write itself failed (disk full, ...); nothing is left behind.
     """

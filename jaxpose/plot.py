@@ -636,6 +636,8 @@ def rotation_angles(result, variant=None, *, ax=None, path=None):
 def rotation_overlay(meshes, poses, *, max_points=3000, ax=None, path=None, title=None):
     """The instances of one class, each normalized by its Pose (center, scale and rotation), overlaid
     as points in the canonical planes (axes 1-0 and 2-0): a frame that holds makes them coincide.
+    A pose is a :class:`jaxpose.Pose` or any object with its ``apply`` and ``rotation``; one with a
+    ``center`` and ``scale`` must also be one finite pose.
 
     Raises:
       InvalidInputError: a pose that is no :class:`jaxpose.Pose` (nor has its ``apply``: a
@@ -652,8 +654,9 @@ def rotation_overlay(meshes, poses, *, max_points=3000, ax=None, path=None, titl
     if len(poses) != len(meshes):
         raise InvalidInputError(f"{len(poses)} poses for {len(meshes)} meshes: one pose per mesh")
     for k, pose in enumerate(poses):
-        try:
-            _center_scale(pose)  # one finite pose (a NaN one was drawn as nothing, a batch's a shape error)
+        try:  # one finite pose (a NaN one was drawn as nothing, a batch's a shape error); an object with
+            if hasattr(pose, "center") and hasattr(pose, "scale"):  # apply but no center, scale: its apply alone
+                _center_scale(pose)
         except InvalidInputError as exc:
             raise InvalidInputError(f"poses[{k}]: {exc}") from None
         if getattr(pose, "rotation", None) is None:  # (was drawn in the input's axes, labelled as canonical)

@@ -175,6 +175,24 @@ def test_rotation_overlay_refuses_a_pose_without_a_frame(shape):
     plot.rotation_overlay([shape, shape], [framed, framed])
 
 
+def test_rotation_overlay_draws_a_pose_like_object_through_its_apply(shape, monkeypatch):
+    """An object with apply and rotation but no center or scale (the docstring takes any object with
+    apply) was a TypeError 'cannot unpack non-iterable P object' from the finite-pose check: drawn
+    through its apply."""
+    class P:
+        rotation = np.eye(3)
+
+        def apply(self, v):
+            return np.asarray(v, np.float64) * 2.0
+
+    from matplotlib.axes import Axes
+
+    drawn = []
+    monkeypatch.setattr(Axes, "scatter", lambda self, x, y, **k: drawn.append(np.asarray(x)))
+    plot.rotation_overlay([shape], [P()])
+    assert len(drawn) == 2 and np.isin(drawn[0], 2.0 * np.asarray(shape.vertices, np.float64)[:, 1]).all()
+
+
 def test_figures_of_a_result_name_the_result_they_take(tmp_path, fake_result):
     """An evaluate result given to the rotation figures (and an evaluate_rotation result to the
     others) was a KeyError deep in the figure ('raw', 'per_class'); each names where it belongs."""

@@ -104,7 +104,9 @@ def test_host_functions_refuse_traced_geometry_by_name():
     import jaxpose
     from jaxpose import baselines, sample
     from jaxpose.geometry import Surface
-    from jaxpose.occupancy.solid import robust_solid
+    from jaxpose.occupancy.solid import near_solid, robust_solid
+    from jaxpose.occupancy.voxels import weighted_centroid
+    from jaxpose.rotation.core import pre_frame
     from jaxpose.pose.estimators import estimate
     from jaxpose.rotation.rotation import frame_of
 
@@ -118,8 +120,10 @@ def test_host_functions_refuse_traced_geometry_by_name():
         "center": [lambda p: baselines.scale(points, "mean_distance", center=p[0])],
         "input": [lambda p: jaxpose.sample_surface(Surface(p, box.faces), 8)],
         "vertices and faces": [lambda p: robust_solid(p, box.faces, resolution=16),
-                               lambda p: sample.lattice_points(p, box.faces, 0.5)],
+                               lambda p: sample.lattice_points(p, box.faces, 0.5), lambda p: pre_frame(p, box.faces)],
         "triangles": [lambda p: geometry.triangle_areas(p[box.faces])],
+        "x, kept, origin and pitch": [lambda p: near_solid(p, np.ones((2, 2, 2), bool), np.zeros(3), 1.0)],
+        "x and w": [lambda p: weighted_centroid(p, np.ones(len(points)))],
     }
     for name, fns in calls.items():
         for fn in fns:

@@ -449,6 +449,7 @@ def depth(kept, pitch, bias=MESH_BIAS):
 def near_solid(x, kept, origin, pitch, grow=1):
     """(m,) bool: the voxel of each point x (m, 3) (the grid's frame, units) lies within ``grow``
     voxels of ``kept`` ((nx, ny, nz) bool; lower corner ``origin``, edge ``pitch``)."""
+    check_concrete("x, kept, origin and pitch", x, kept, origin, pitch)
     near = ndimage.binary_dilation(kept, structure=np.ones((3, 3, 3), bool), iterations=grow) if grow else kept
     idx = np.floor((x - origin) / pitch).astype(np.int64)
     np.clip(idx, -1, np.array(kept.shape), out=idx)

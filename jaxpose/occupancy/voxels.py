@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validate import check_int, check_real
+from .._validate import check_concrete, check_int, check_real
 from ..geometry import require_faces, warn_if_open
 from ..host import anchor
 
@@ -56,6 +56,7 @@ def weighted_centroid(x, w):
     The second pass adds the weighted mean of the residuals x - c, so points far from the origin
     (scanner coordinates) lose no digits to the first sum's rounding. Returns (3,) float64.
     """
+    check_concrete("x and w", x, w)
     x, w = np.asarray(x, np.float64), np.asarray(w, np.float64)
     total = w.sum()
     c = (w @ x) / total

@@ -94,6 +94,7 @@ def pre_frame(vertices, faces=None):
     Returns:
       (3, 3) orthonormal rows (largest second moment first; not necessarily proper).
     """
+    check_concrete("vertices and faces", vertices, faces)
     v = np.asarray(vertices, np.float64)
     if faces is not None and len(faces):
         t = v[np.asarray(faces, np.int64)]

@@ -153,14 +153,16 @@ def _create(cls, config, options):
 
 def _real(value, name, low, high, closed=True, interval=None):
     """``value`` as a float in [low, high] (or (low, high] with ``closed=False``): a real number
-    (Python's, NumPy's or a () NumPy or JAX array of reals); bools, strings (``"0.1"``), arrays of
-    other shapes and ints beyond a float's range refused by name, as
+    (a ``numbers.Real``: Python's, NumPy's; or a () NumPy or JAX array of reals); bools, strings
+    (``"0.1"``), other objects that ``float()`` takes (``Decimal``, a class with ``__float__``), arrays
+    of other shapes and ints beyond a float's range refused by name, as
     :func:`jaxpose._validate.check_real` refuses them (told without importing NumPy: its dtype's
     kind). ``interval``: the range as the message writes it (default from low, high, closed)."""
     dtype, shown = getattr(value, "dtype", None), None
     if (isinstance(value, (bool, str, bytes)) or getattr(value, "shape", ()) != ()
-            or (dtype is not None and getattr(dtype, "kind", None) not in ("f", "i", "u", "V"))):
-        v = math.nan  # (float() took "0.1", a (1,) array, NumPy's bools)
+            or (dtype is not None and getattr(dtype, "kind", None) not in ("f", "i", "u", "V"))
+            or (dtype is None and not isinstance(value, numbers.Real))):
+        v = math.nan  # (float() took "0.1", a (1,) array, NumPy's bools, Decimal, any object with __float__)
     else:
         try:
             v = float(value)

@@ -163,6 +163,29 @@ def test_tune_options_are_the_one_check_of_tunes_schedule(bad):
     assert str(direct.value) == str(through.value) and str(direct.value).startswith(f"{next(iter(bad))} must be")
 
 
+def test_config_real_and_check_real_take_the_same_values():
+    """config._real took whatever float() takes (Decimal("0.1"), an object with __float__) where
+    _validate.check_real refuses it (the docstring: they refuse the same): both refuse those, both
+    take Python's and NumPy's reals and () arrays of reals."""
+    from decimal import Decimal
+    from fractions import Fraction
+
+    from jaxpose._validate import check_real
+    from jaxpose.config import _real
+
+    class Floaty:
+        def __float__(self):
+            return 0.5
+
+    for bad in (Decimal("0.1"), Floaty(), "0.1", True, np.bool_(True), np.array([0.5]), None, 1 + 0j):
+        with pytest.raises(InvalidInputError):
+            check_real(bad, "x", 0.0)
+        with pytest.raises(InvalidInputError, match="^x must be a number in"):
+            _real(bad, "x", 0.0, 1.0)
+    for good in (0.5, 1, Fraction(1, 2), np.float32(0.5), np.int64(1), np.array(0.5), np.array(1, np.uint8)):
+        assert _real(good, "x", 0.0, 1.0) == check_real(good, "x", 0.0) == float(good)
+
+
 def test_every_entry_point_reads_the_one_default():
     """The functions, the batch options and the command line all default to jaxpose.config's values."""
     import inspect

@@ -326,3 +326,21 @@ def test_one_file_writes_its_mesh_and_transform_both_or_neither(tmp_path, monkey
     assert "No space left on device" in capsys.readouterr().err
     assert not out.exists() and not json_path.exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["body.off"]  # no temporary either
+
+
+def test_core_weight_choices_are_the_alignments():
+    """--core-weight's choices are a literal of evaluation.alignment.CORE_WEIGHTS (the command line
+    imports no NumPy): pinned equal, the default first; --instances' bounds are config._instances' (one check)."""
+    import argparse
+
+    from jaxpose.cli.common import add_core_options, check_dataset_choice
+    from jaxpose.errors import InvalidInputError
+    from jaxpose.evaluation.alignment import CORE_WEIGHTS
+
+    parser = argparse.ArgumentParser()
+    add_core_options(parser)
+    action = next(a for a in parser._actions if a.dest == "core_weight")
+    assert tuple(action.choices) == CORE_WEIGHTS and action.default == CORE_WEIGHTS[0]
+    for bad, message in ((1, "--instances must be >= 2, got 1"), (201, "--instances must be <= 200")):
+        with pytest.raises(InvalidInputError, match=message):
+            check_dataset_choice(bad, None)

@@ -34,10 +34,8 @@ def checked(convert, check):
 def check_dataset_choice(instances, classes):
     """The built-in dataset's ``--instances`` (None: the command's default) and ``--classes`` (None:
     all), checked before any work (evaluate, tune): InvalidInputError, a usage error (exit 2)."""
-    if instances is not None and instances < 2:
-        raise InvalidInputError(f"--instances must be >= 2 (a class's spread needs at least 2 objects), got {instances}")
-    if instances is not None:
-        _instances(instances, "--instances", 2)  # at most DATASET_INSTANCES: the dataset is built in memory
+    if instances is not None:  # at least 2 (a class's spread), at most DATASET_INSTANCES (built in memory)
+        _instances(instances, "--instances", 2)
     if classes is not None and not [c for c in classes.split(",") if c]:
         raise InvalidInputError(f"--classes names no class ({classes!r}); give some, comma-separated")
 
@@ -47,7 +45,8 @@ def add_core_options(p):
     (:func:`jaxpose.evaluation.alignment.align_classes`) and what the core is a share of."""
     p.add_argument("--align-core", action="store_true", help="rigidly align each class on its stable core first "
                    "(meshes of a class share their vertex order)")
-    p.add_argument("--core-weight", choices=("vertices", "area"), default="vertices",  # alignment.CORE_WEIGHTS
+    # the choices are alignment.CORE_WEIGHTS, written out: that module imports NumPy (test_cli_habits pins them equal)
+    p.add_argument("--core-weight", choices=("vertices", "area"), default="vertices",
                    help="with --align-core: the stable core is a share of the vertices (default) or of the surface "
                         "area (the same whatever the meshing density)")
 

@@ -92,6 +92,25 @@ def test_surface_box_finds_the_main_surface_by_area():
     np.testing.assert_array_equal(got[1], pair.bounds[1])
 
 
+def test_surface_box_refuses_bad_arguments_by_name():
+    """surface_box (in __all__) checked nothing: coarse=0 was a ZeroDivisionError, faces beyond the
+    vertices an IndexError, keep_ratio=-1 taken; each refused as robust_solid refuses it."""
+    from jaxpose.occupancy.solid import surface_box
+
+    body = trimesh.creation.box(extents=(1.0, 2.0, 3.0))
+    twin = body.copy()
+    twin.apply_translation([300.0, 0.0, 0.0])
+    pair = trimesh.util.concatenate([body, twin])  # parts apart: the faces are read
+    v, f, (lo, hi) = pair.vertices, pair.faces, pair.bounds
+    for kwargs, message in ((dict(coarse=0), "coarse must be"), (dict(keep_ratio=-1), "keep_ratio must be"),
+                            (dict(keep_ratio=1.5), r"keep_ratio must be in \[0, 1\]"),
+                            (dict(faces=f + len(v)), "faces index vertices that do not exist"),
+                            (dict(faces=f[:, :2]), r"faces must be \(f, 3\)")):
+        args = {"vertices": v, "faces": f, "lo": lo, "hi": hi, "coarse": 32, **kwargs}
+        with pytest.raises(InvalidInputError, match=message):
+            surface_box(**args)
+
+
 def test_sharp_tips_stay_on_the_fine_grid():
     """A tetrahedron's corners and a cone's apex lie more than a coarse voxel from the coarse
     solid, so the first pass finds few of their vertices on the main body: the fine grid must

@@ -489,6 +489,22 @@ def whole_surfaces(vertices, faces, on, near):
 ZOOM = 4  # meshes: the first pass's grid is laid over the main surface once it spans under 1 / ZOOM of it
 
 
+def _check_faces(faces, n):
+    """`faces` as an (f, 3) integer array of indices of `n` vertices (f >= 1), else InvalidInputError."""
+    faces = np.asarray(faces)
+    if faces.ndim != 2 or faces.shape[1] != 3 or faces.dtype.kind not in "iu":
+        raise InvalidInputError(f"faces must be (f, 3) integer indices of the vertices, got {faces.dtype} {faces.shape}")
+    if faces.min() < 0 or faces.max() >= n:  # (an IndexError deep in the ray votes)
+        raise InvalidInputError(f"faces index vertices that do not exist (indices {faces.min()} ... {faces.max()}, "
+                                f"{n} vertices)")
+    return faces
+
+
+def _check_keep_ratio(keep_ratio):
+    if not check_real(keep_ratio, "keep_ratio", 0) <= 1:  # above 1 every part was dropped: an empty solid
+        raise InvalidInputError(f"keep_ratio must be in [0, 1], got {keep_ratio!r}")
+
+
 def surface_box(vertices, faces, lo, hi, coarse=COARSE, keep_ratio=KEEP_RATIO):
     """The box of a mesh's main surface, found before any solid, for the first pass's grid.
 
@@ -514,11 +530,19 @@ def surface_box(vertices, faces, lo, hi, coarse=COARSE, keep_ratio=KEEP_RATIO):
     Returns:
       (lo, hi): the box to lay the first pass over, (3,) float64 each.
 
+    Raises:
+      InvalidInputError: traced arrays, faces that are not (f, 3) indices of the vertices, coarse
+        not a resolution (:func:`check_resolution`), keep_ratio outside [0, 1]; named.
+
     Example::
 
         lo, hi = surface_box(v, f, v.min(0), v.max(0))  # a body and a speck 100 body lengths away: the body's box
     """
-    v, faces = np.asarray(vertices, np.float64), np.asarray(faces, np.int64)
+    check_concrete("vertices and faces", vertices, faces)
+    coarse = check_resolution(coarse, name="coarse")
+    _check_keep_ratio(keep_ratio)
+    v = np.asarray(vertices, np.float64)
+    faces = np.asarray(_check_faces(faces, len(v)) if len(faces) else faces, np.int64)
     lo, hi = np.asarray(lo, np.float64), np.asarray(hi, np.float64)
     for _ in range(64):  # (4^64: beyond any float64 box a body could be found in)
         extent = float((hi - lo).max())
@@ -601,14 +625,8 @@ def robust_solid(vertices, faces=None, *, resolution=RESOLUTION, coarse=COARSE, 
     check_concrete("vertices and faces", vertices, faces)
     v = np.asarray(check_array(vertices, "vertices", 1), np.float64)  # a NaN read 'the shape has no extent'
     if faces is not None and len(faces):
-        faces = np.asarray(faces)
-        if faces.ndim != 2 or faces.shape[1] != 3 or faces.dtype.kind not in "iu":
-            raise InvalidInputError(f"faces must be (f, 3) integer indices of the vertices, got {faces.dtype} {faces.shape}")
-        if faces.min() < 0 or faces.max() >= len(v):  # (an IndexError deep in the ray votes)
-            raise InvalidInputError(f"faces index vertices that do not exist (indices {faces.min()} ... {faces.max()}, "
-                                    f"{len(v)} vertices)")
-    if not check_real(keep_ratio, "keep_ratio", 0) <= 1:  # above 1 every part was dropped: an empty solid
-        raise InvalidInputError(f"keep_ratio must be in [0, 1], got {keep_ratio!r}")
+        faces = _check_faces(faces, len(v))
+    _check_keep_ratio(keep_ratio)
     if check_int(min_votes, "min_votes", 1) > 6:  # 0: the whole grid inside; above 6: nothing
         raise InvalidInputError(f"min_votes must be in 1 ... 6 (of the 6 one-sided windings), got {min_votes!r}")
     with_depth = check_bool(with_depth, "with_depth")

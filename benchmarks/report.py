@@ -10,12 +10,19 @@ from pathlib import Path
 
 import numpy as np
 
-from jaxpose.cli.common import fail  # every command's one-line error
-
 from . import common
 from .common import GAMMA, NU, UNAVAILABLE, load_points
 from .scaling import bench_scaling
 from .sections import bench_accuracy, bench_batch, bench_end2end, bench_solver
+
+
+def fail(message, code=1) -> int:
+    """``jaxpose bench``'s error: one line on stderr, as every jaxpose command writes it
+    (``jaxpose.cli.common.fail``'s format; not imported: the command line runs this package, not the
+    other way round). Returns ``code``."""
+    print(f"jaxpose: error: {' '.join(str(message).split()) or 'failed'}", file=sys.stderr)
+    return code
+
 
 SCHEMA_VERSION = 1
 SECTIONS = ("solver", "end2end", "batch", "scaling", "accuracy")

@@ -34,7 +34,7 @@ import operator
 from .errors import InvalidInputError  # (not _validate: the command line imports this module before NumPy)
 
 __all__ = ["SAMPLING", "OCSVMOptions", "OCSVM", "OCSVM_ONLY", "RobustOptions", "ROBUST", "RobustConfig", "SolverConfig", "GridConfig", "PoseConfig", "BLOCK", "KERNELS", "SOLVERS", "DERIVATIVES", "MEMORY_BUDGET",
-           "CELL_BYTES", "ITERATION_LIMIT", "TuneOptions", "TUNE"]
+           "CELL_BYTES", "ITERATION_LIMIT", "TuneOptions", "TUNE", "DATASET_INSTANCES", "check_instances"]
 
 SAMPLING = ("even", "random")  # how surface samples are drawn (jaxpose.sample.sample_surface)
 BLOCK = 2048  # rows per block: kernel products and grid cells (memory O(BLOCK * m))
@@ -92,7 +92,7 @@ DATASET_INSTANCES = 200  # objects per class of the built-in dataset at most: it
 # (0.1-0.75 MB an object, the spider's the most: 12 classes of 200, about 1.8 GB, within MEMORY_BUDGET)
 
 
-def _instances(value, name, minimum):
+def check_instances(value, name, minimum):
     """``value`` as the built-in dataset's objects per class: an int in [minimum, DATASET_INSTANCES]
     (the one rule of make_dataset, evaluate's and tune's ``--instances`` and TuneOptions)."""
     number = _int(value, name, minimum)
@@ -258,7 +258,7 @@ class TuneOptions:
         _set(self, steps=_int(self.steps, "steps", 0), lr=_real(self.lr, "lr", 0.0, math.inf, closed=False),
              reg=_real(self.reg, "reg", 0.0, math.inf), scale_weight=_real(self.scale_weight, "scale_weight", 0.0, math.inf),
              holdout=_real(self.holdout, "holdout", 0.0, math.nextafter(1.0, 0.0), interval="[0, 1)"),
-             count=_int(self.count, "count", 4), instances=_instances(self.instances, "instances", 2))
+             count=_int(self.count, "count", 4), instances=check_instances(self.instances, "instances", 2))
 
 
 OCSVM = OCSVMOptions()  # the defaults, read by every function that takes these parameters

@@ -330,7 +330,7 @@ def test_one_file_writes_its_mesh_and_transform_both_or_neither(tmp_path, monkey
 
 def test_core_weight_choices_are_the_alignments():
     """--core-weight's choices are a literal of evaluation.alignment.CORE_WEIGHTS (the command line
-    imports no NumPy): pinned equal, the default first; --instances' bounds are config._instances' (one check)."""
+    imports no NumPy): pinned equal, the default first; --instances' bounds are config.check_instances' (one check)."""
     import argparse
 
     from jaxpose.cli.common import add_core_options, check_dataset_choice

@@ -99,7 +99,7 @@ def test_bfloat16_points_are_real_numbers():
     assert _validate.check_gamma(jnp.bfloat16(47.0)) == 47.0 and _validate.check_nu(jnp.bfloat16(0.5)) == 0.5
     with pytest.raises(InvalidInputError, match="gamma must be a real scalar"):
         _validate.check_gamma(True)
-    from jaxpose.pose.pose import _check_power  # normalize's power check, before any compilation
+    from jaxpose._validate import check_power as _check_power  # normalize's power check, before any compilation
 
     assert _check_power(jnp.bfloat16(2.0)) == 2.0
     with pytest.raises(InvalidInputError, match="power must be a finite number >= 0"):

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import sys
 
-from ..config import OCSVM, _instances
+from ..config import OCSVM, check_instances
 from ..errors import InvalidInputError
 from ..io.atomic import check_creatable, check_output_file  # shared by the commands
 from ..io.jsontext import json_text  # the commands' JSON records (benchmarks/ write theirs with it too)
@@ -35,7 +35,7 @@ def check_dataset_choice(instances, classes):
     """The built-in dataset's ``--instances`` (None: the command's default) and ``--classes`` (None:
     all), checked before any work (evaluate, tune): InvalidInputError, a usage error (exit 2)."""
     if instances is not None:  # at least 2 (a class's spread), at most DATASET_INSTANCES (built in memory)
-        _instances(instances, "--instances", 2)
+        check_instances(instances, "--instances", 2)
     if classes is not None and not [c for c in classes.split(",") if c]:
         raise InvalidInputError(f"--classes names no class ({classes!r}); give some, comma-separated")
 

@@ -28,7 +28,7 @@ import numpy as np
 import trimesh
 
 from jaxpose._validate import InvalidInputError, check_int, check_names
-from jaxpose.config import _instances
+from jaxpose.config import check_instances
 from jaxpose.datasets._classes import BUILDERS as _BUILDERS
 from jaxpose.datasets._classes import CLASSES
 from jaxpose.datasets._parts import ball_part, Part
@@ -224,7 +224,7 @@ def make_dataset(seed: int = 0, instances: int = 10, classes=None) -> dict[str, 
     classes = CLASSES if classes is None else check_names(classes, "classes")
     for name in classes:
         _check_class(name)
-    instances = _instances(instances, "instances", 1)  # (at most config.DATASET_INSTANCES: built in memory)
+    instances = check_instances(instances, "instances", 1)  # (at most config.DATASET_INSTANCES: built in memory)
     seed = check_int(seed, "seed", 0)  # before any object is built
     return {name: [make_object(name, i, seed) for i in range(instances)] for name in classes}
 

@@ -280,15 +280,11 @@ def _options(method, config, given, rotation):
     return PoseConfig.create(config, **flat), {"gamma": given.get("gamma", OCSVM.gamma), "nu": given.get("nu", OCSVM.nu)}
 
 
-def _check_power(power):
-    return _validate.check_power(power)  # a () array of reals (NumPy or a concrete JAX array) is checked as its number
-
-
 def _check_params(method, params, given):
     """Check the method's concrete parameters (power; gamma, nu, max_points; traced ones pass) and
     return how many points a set may have before it is subsampled (None: no limit; robust)."""
     if method == "robust":
-        _check_power(params["power"])
+        _validate.check_power(params["power"])  # a () array of reals is checked as its number
         return None
     _validate.check_gamma(params["gamma"])
     _validate.check_nu(params["nu"])

@@ -333,6 +333,38 @@ def test_python_m_jaxpose_normalize(tmp_path):
     assert digest(source) == before
 
 
+def test_ocsvm_runs_under_python_w_error(tmp_path):
+    """``python -W error -m jaxpose normalize ... --method ocsvm``: jaxopt's notice that it is no
+    longer maintained (a DeprecationWarning on its import) was raised there, a traceback and exit
+    1. The one module that imports jaxopt leaves that notice out, and only it: another warning
+    jaxopt's import gives still reaches the caller's filters (a stand-in jaxopt giving both)."""
+    source = tmp_path / "in.ply"
+    shape().export(source)
+    run = subprocess.run(
+        [sys.executable, "-W", "error", "-m", "jaxpose", "normalize", str(source), "-o", str(tmp_path / "o.ply"),
+         "--method", "ocsvm"], capture_output=True, text=True, cwd=ROOT, timeout=300)
+    assert run.returncode == 0 and "Traceback" not in run.stderr, run.stderr
+    assert (tmp_path / "o.ply").exists()
+    fake = tmp_path / "fake" / "jaxopt"
+    fake.mkdir(parents=True)
+    (fake / "__init__.py").write_text(
+        "import warnings\n"
+        "warnings.warn('JAXopt is no longer maintained. See elsewhere.', DeprecationWarning)\n"
+        "warnings.warn('another notice', DeprecationWarning)\n")
+    code = ("import warnings\n"
+            "from jaxpose.occupancy.svdd import pg\n"
+            "with warnings.catch_warnings(record=True) as seen:\n"
+            "    warnings.simplefilter('always')\n"
+            "    pg._jaxopt()\n"
+            "print(sorted(str(w.message) for w in seen))\n")
+    import os
+
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tmp_path / "fake"), str(ROOT)])}
+    seen = subprocess.run([sys.executable, "-W", "error", "-c", code], capture_output=True, text=True, cwd=ROOT,
+                          env=env, timeout=120)
+    assert seen.returncode == 0 and seen.stdout.strip() == "['another notice']", seen.stdout + seen.stderr
+
+
 # --------------------------------------------------------------------------- far from the origin, files, limits
 def test_cli_translation_is_exact_at_1e9(tmp_path):
     """``jaxpose normalize`` (a real subprocess, the robust default) on a closed mesh written at 1e9

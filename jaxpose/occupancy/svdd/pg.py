@@ -15,6 +15,8 @@ Gershgorin bound of K (the largest row sum, a guaranteed upper bound), whichever
 """
 from __future__ import annotations
 
+import warnings
+
 import jax
 import jax.numpy as jnp
 
@@ -23,6 +25,21 @@ from .projection import projection_capped_simplex
 from .problem import kernel_ops, kkt_violation
 
 __all__ = ["solve_pg"]
+
+
+_JAXOPT_NOTICE = r"JAXopt is no longer maintained"
+"""The start of the DeprecationWarning jaxopt (archived) gives when it is imported: the one warning
+:func:`_jaxopt` leaves out."""
+
+
+def _jaxopt():
+    """jaxopt, imported on first use (its import warns), without its notice that it is no longer
+    maintained (:data:`_JAXOPT_NOTICE`), which is this module's to know (``python -W error`` runs
+    ``--method ocsvm``). Every other warning is left to the caller's filters."""
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=_JAXOPT_NOTICE, category=DeprecationWarning)
+        import jaxopt
+    return jaxopt
 
 
 def solve_pg(points, gamma, caps, mask, init_alpha, config, *, tol=None, max_iter=None, restart=True):
@@ -39,7 +56,7 @@ def solve_pg(points, gamma, caps, mask, init_alpha, config, *, tol=None, max_ite
       alpha (m,), K alpha (m,), iterations (), relative KKT violation ().
       The stopping rule (:func:`kkt_violation` <= tol) is checked every ``check_every`` steps.
     """
-    import jaxopt  # deferred: jaxopt warns on import
+    jaxopt = _jaxopt()
 
     tol = config.tol if tol is None else tol
     max_iter = config.max_iter if max_iter is None else max_iter

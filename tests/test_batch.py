@@ -290,6 +290,54 @@ def test_a_gltf_buffer_that_is_a_fifo_is_never_opened(tmp_path):
     assert not blocked and keys[0]["input_size"] == gltf.stat().st_size
 
 
+def test_a_gltf_whose_buffer_file_is_a_fifo_fails_unread(tmp_path):
+    """A .gltf beside a FIFO as its buffer file (a link to one too), in a batch (one worker, no
+    time limit) and read alone: the buffer is refused by name before it is opened (trimesh's
+    resolver opened it and waited for a writer, for ever); the other inputs are done."""
+    import threading
+
+    root, out = tmp_path / "in", tmp_path / "out"
+    (root / "sub").mkdir(parents=True)
+    for name, data in trimesh.creation.box().export(file_type="gltf").items():
+        (root / "sub" / name).write_bytes(data)
+    good = root / "box.ply"
+    trimesh.creation.box().export(good)
+    gltf = root / "sub" / "model.gltf"
+    positions = root / "sub" / json.loads(gltf.read_text())["buffers"][1]["uri"]
+    positions.unlink()
+    (root / "sub" / "pipes").mkdir()
+    pipe = root / "sub" / "pipes" / "fifo.bin"
+    os.mkfifo(pipe)
+    os.symlink(os.path.join("pipes", "fifo.bin"), positions)  # a link to a FIFO
+    linked = root / "sub" / "linked.gltf"
+    tree = json.loads(gltf.read_text())
+    tree["buffers"][0]["uri"] = "fifo0.bin"
+    linked.write_text(json.dumps(tree))
+    os.mkfifo(root / "sub" / "fifo0.bin")  # the buffer itself a FIFO
+    done = []
+    thread = threading.Thread(target=lambda: done.append(run([root], out, options=NormalizeOptions(method="bbox"))),
+                              daemon=True)
+    thread.start()
+    thread.join(60)
+    blocked = thread.is_alive()
+    while thread.is_alive():  # let it go: writers that close at once
+        for fifo in (pipe, root / "sub" / "fifo0.bin"):
+            try:
+                os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
+            except OSError:
+                pass
+        thread.join(1)
+    assert not blocked, "the run waited on a FIFO buffer"
+    rows = {os.path.relpath(r.input, root): r for r in done[0].rows}
+    assert rows["box.ply"].ok and (done[0].written, done[0].failed) == (1, 2)
+    assert rows["sub/model.gltf"].error == (
+        f"{gltf}: the file '{positions.name}' it refers to ({pipe}) is a FIFO, not a regular file: "
+        "a .gltf's buffer files are read as regular files only (it was not opened)")
+    assert f"the file 'fifo0.bin' it refers to ({root / 'sub' / 'fifo0.bin'}) is a FIFO" in rows["sub/linked.gltf"].error
+    with pytest.raises(InvalidInputError, match="fifo0.bin.* is a FIFO, not a regular file"):
+        mesh.load(linked)  # read alone: the same refusal
+
+
 def test_an_input_replaced_by_a_fifo_while_read_is_changed(tmp_path):
     """An input replaced by a file that is not regular while it was read: 'changed while it was
     read', named (it raised KeyError 'input_inode')."""

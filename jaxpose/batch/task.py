@@ -379,16 +379,11 @@ def gltf_buffers(path) -> list:
 
 
 def _buffer_file(folder, name):
-    """The file trimesh's reader opens for a buffer (or image) name of a .gltf in `folder`, or None:
-    the rule of ``trimesh.resolvers.FilePathResolver.get`` (the name as it is, without its leading
-    ``/``, its last part; each taken literally (no %-decoding) in the folder, the first that exists
-    and does not lead out of the folder)."""
-    parent = Path(folder).resolve()
-    for candidate in (name.strip(), name.strip().lstrip("/"), os.path.split(name)[-1]):
-        file = (parent / candidate.strip()).resolve()
-        if (file == parent or parent in file.parents) and file.exists():
-            return file
-    return None
+    """The file trimesh's reader opens for a buffer name of a .gltf in `folder`, or None: the
+    reader's own rule (:func:`jaxpose.io.mesh.gltf_file`)."""
+    from ..io.mesh import gltf_file
+
+    return gltf_file(folder, name)
 
 
 def _check_unchanged(path, before):

@@ -302,9 +302,11 @@ def _read(path):
         data = values + b"\n" + values  # columns"; read twice, keep one
     # a .gltf names its buffers (and images) as files beside it: read them from its folder (the
     # bytes alone leave trimesh nothing to read them with: "'NoneType' object is not subscriptable")
-    resolver = trimesh.resolvers.FilePathResolver(str(path)) if ext == "gltf" else None
+    resolver = _gltf_resolver(path) if ext == "gltf" else None
     try:
         geometry = trimesh.load(io.BytesIO(data), file_type=ext, process=False, resolver=resolver)
+    except _NotRegular as exc:  # a FIFO beside it: never opened (a plain open waited for a writer)
+        raise InvalidInputError(str(exc)) from None
     except FileNotFoundError as exc:  # only the resolver opens files: one the .gltf refers to is missing
         raise InvalidInputError(f"{path}: cannot read {ext.upper()} file: it refers to {exc}, which is not in its "
                                 f"folder {path.parent} (a .gltf's buffers are files beside it; a .glb holds them)") from None
@@ -333,6 +335,46 @@ def _read(path):
         except InvalidInputError as exc:
             raise InvalidInputError(f"{path}: {exc}") from None
     return geometry
+
+
+def gltf_file(folder, name):
+    """The file trimesh's reader opens for a buffer (or image) name of a .gltf in `folder`, or None:
+    the rule of ``trimesh.resolvers.FilePathResolver.get`` (the name as it is, without its leading
+    ``/``, its last part; each taken literally (no %-decoding) in the folder, the first that exists
+    and does not lead out of the folder)."""
+    parent = Path(folder).resolve()
+    for candidate in (name.strip(), name.strip().lstrip("/"), os.path.split(name)[-1]):
+        file = (parent / candidate.strip()).resolve()
+        if (file == parent or parent in file.parents) and file.exists():
+            return file
+    return None
+
+
+class _NotRegular(Exception):
+    """A file a .gltf names that is not a regular file (its message names both)."""
+
+
+def _gltf_resolver(path):
+    """trimesh's resolver of the files beside the .gltf `path`, refusing (:class:`_NotRegular`)
+    one that is not a regular file before it is opened: a FIFO's ``open`` waits for a writer, for
+    ever when none comes (a folder, a device: named as well). Images trimesh reads on its own
+    terms (it skips one it cannot read)."""
+    import stat
+
+    class Resolver(_trimesh().resolvers.FilePathResolver):
+        def get(self, name):
+            file = gltf_file(self.parent, name)
+            if file is not None:
+                mode = os.stat(file).st_mode
+                if not stat.S_ISREG(mode):
+                    kind = next((kind for test, kind in ((stat.S_ISFIFO, "a FIFO"), (stat.S_ISDIR, "a folder"),
+                                                         (stat.S_ISSOCK, "a socket"), (stat.S_ISCHR, "a character device"),
+                                                         (stat.S_ISBLK, "a block device")) if test(mode)), "not a file")
+                    raise _NotRegular(f"{path}: the file {name!r} it refers to ({file}) is {kind}, not a regular "
+                                      "file: a .gltf's buffer files are read as regular files only (it was not opened)")
+            return super().get(name)
+
+    return Resolver(str(path))
 
 
 def _empty(path, ext):

@@ -387,6 +387,35 @@ def test_an_output_that_is_a_symbolic_link_is_written_through(tmp_path, tree):
         run(inputs, out, force=True)
 
 
+def test_an_output_link_into_a_missing_folder_fails_before_its_work(tmp_path, tree, monkeypatch):
+    """An output path that is a dangling link into a folder that does not exist (its target's folder
+    is never made) fails its input before the input is read or normalized, named as the write
+    names it (it failed only when written, after the work); a link into a folder that is there is
+    written through, and the other inputs are done."""
+    root, out = tmp_path / "scans", tmp_path / "out"
+    inputs = [root / "a" / "capsule.ply", root / "sphere.off", root / "cloud.ply"]
+    (out / "a").mkdir(parents=True)
+    (tmp_path / "store").mkdir()
+    nowhere = tmp_path / "store" / "gone" / "capsule.ply"
+    os.symlink(nowhere, out / "a" / "capsule.ply")  # dangling, into a missing folder
+    os.symlink(os.path.join("..", "store", "sphere.off"), out / "sphere.off")  # dangling, its folder there
+    worked, original = [], batch.normalize_file
+
+    def normalize_file(source, *args, **kwargs):
+        worked.append(os.path.basename(source))
+        return original(source, *args, **kwargs)
+
+    monkeypatch.setattr(batch, "normalize_file", normalize_file)
+    result = run(inputs, out, force=True)
+    assert sorted(worked) == ["cloud.ply", "sphere.off"]  # never read: capsule.ply
+    assert (result.written, result.failed) == (2, 1)
+    row = next(r for r in result.rows if r.status == "failed")
+    link = out / "a" / "capsule.ply"
+    assert row.input == str(inputs[0]) and row.error == (
+        f"cannot write {link}: {link} (a link to {nowhere}): the folder {nowhere.parent} does not exist")
+    assert os.path.islink(link) and not nowhere.parent.exists() and (tmp_path / "store" / "sphere.off").is_file()
+
+
 def test_a_rerun_with_other_options_is_refused_unless_forced_and_a_stopped_forced_run_resumes(tmp_path, tree):
     """A folder's outputs are of one option set: other options are refused before any work (they
     replaced outputs silently, and a run stopped early left a table of two methods)."""

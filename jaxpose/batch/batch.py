@@ -146,6 +146,8 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
             for item, key in todo:  # what a folder search met that is not a file: failed unread
                 if item.source in irregular:
                     run.finish(item, key, _not_regular(item.source, irregular[item.source]))
+                elif (refused := _unwritable(item.output)) is not None:  # failed before its work, as when written
+                    run.finish(item, key, refused)
                 else:
                     work.append((item, key))
             if work and not run.stopped:
@@ -330,6 +332,24 @@ def _input_key(path, check):
 def _not_regular(path, kind):
     hint = " (name it as an INPUT to read it)" if kind == "a FIFO" else ""  # other kinds: 'not a file' there too
     return _failed(f"{path}: {kind}, not a regular file: a folder search reads regular files only{hint}")
+
+
+def _unwritable(output):
+    """The failed result of an input whose output path the write would refuse, told before the
+    input's work: something there that :func:`jaxpose.io.atomic.write_atomic` does not replace (a
+    symbolic link whose target's folder is missing or not writable, a loop of links, a folder, a
+    FIFO), in the words of that write's failure; None for a remote output, a path with nothing
+    there (its folders are made) or a regular file (or a link to one)."""
+    from ..io.atomic import _check_replaceable
+    from ..io.remote import RemotePath
+
+    if isinstance(output, RemotePath) or not os.path.lexists(output):
+        return None
+    try:
+        _check_replaceable(output)
+    except InvalidInputError as exc:
+        return _failed(f"cannot write {output}: {one_line(exc)}")
+    return None
 
 
 _OPTION_NAMES = {"method": "--method", "center": "--center", "scale": "--scale", "gamma": "--gamma", "nu": "--nu",

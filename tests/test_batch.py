@@ -227,6 +227,125 @@ def test_a_rerun_redoes_a_gltf_whose_buffer_file_changed(tmp_path):
     assert input_key(gltf, "mtime")["input_size"] == gltf.stat().st_size + (root / "gltf_buffer_0.bin").stat().st_size
 
 
+def test_a_rerun_redoes_a_file_replaced_with_its_size_and_times_kept(tmp_path):
+    """--check mtime: a .gltf's buffer replaced by one of the same size and an older time (cp -p)
+    was skipped as done (the .gltf's later time stayed the latest, the size sum the same): each
+    file's size and time are in the key, in order (input_stat), and it is redone. A file replaced
+    by one of the same size and the same time (cp -p from a copy with the same fixed time, as
+    archives give) is the documented limit of --check mtime: skipped; --check hash redoes it. A
+    record of an earlier version, without input_stat, is compared by size and time as before."""
+    import shutil
+
+    root, out, spare, kept = tmp_path / "in", tmp_path / "out", tmp_path / "spare", tmp_path / "kept"
+    root.mkdir()
+    spare.mkdir()
+    kept.mkdir()
+    for name, data in trimesh.creation.box(extents=[1.0, 1.0, 1.0]).export(file_type="gltf").items():
+        (root / name).write_bytes(data)
+    gltf = root / "model.gltf"
+    positions = root / json.loads(gltf.read_text())["buffers"][1]["uri"]
+    stamp = gltf.stat().st_mtime_ns
+    os.utime(positions, ns=(stamp - 10**10, stamp - 10**10))  # the buffer older than the .gltf
+    plain = root / "plain.ply"
+    trimesh.creation.box(extents=[1.0, 1.0, 1.0]).export(plain)
+    shutil.copy2(plain, kept / plain.name)  # the unit box, its time kept
+    bbox = NormalizeOptions(method="bbox")
+    first = run([root], out, options=bbox)
+    assert first.written == 2 and run([root], out, options=bbox).skipped == 2
+    unit = {os.path.basename(r.input): r.scale for r in first.rows}
+    stretched = spare / positions.name
+    stretched.write_bytes((np.frombuffer(positions.read_bytes(), "<f4") * np.float32(3.0)).tobytes())  # same size
+    os.utime(stretched, ns=(stamp - 2 * 10**10, stamp - 2 * 10**10))  # older still
+    shutil.copy2(stretched, positions)  # cp -p
+    wide = trimesh.creation.box(extents=[2.0, 1.0, 1.0])
+    wide.export(spare / plain.name)
+    assert (spare / plain.name).stat().st_size == plain.stat().st_size
+    times = plain.stat().st_mtime_ns
+    os.utime(spare / plain.name, ns=(times, times))  # the same time
+    shutil.copy2(spare / plain.name, plain)
+    assert plain.stat().st_mtime_ns == times and gltf.stat().st_mtime_ns == stamp
+    again = run([root], out, options=bbox)
+    assert (again.written, again.skipped) == (1, 1)  # the buffer redone; the .ply: the limit of mtime
+    scales = {os.path.basename(r.input): r.scale for r in again.rows}
+    assert scales == {"model.gltf": 3.0 * unit["model.gltf"], "plain.ply": unit["plain.ply"]}  # (stale)
+    assert run([root], out, options=bbox).skipped == 2
+    hashed = run([root], out, options=bbox, check="hash")  # (no hash recorded yet: both)
+    assert {os.path.basename(r.input): r.scale for r in hashed.rows}["plain.ply"] == 2.0 * unit["plain.ply"]
+    assert run([root], out, options=bbox, check="hash").skipped == 2
+    shutil.copy2(kept / plain.name, plain)  # the unit box back: the same size and time
+    assert plain.stat().st_mtime_ns == times
+    rehashed = run([root], out, options=bbox, check="hash")
+    assert (rehashed.written, rehashed.skipped) == (1, 1)  # its bytes differ
+    assert {os.path.basename(r.input): r.scale for r in rehashed.rows}["plain.ply"] == unit["plain.ply"]
+    assert run([root], out, options=bbox).skipped == 2  # mtime after hash: the same sizes and times
+    journal = out / ".jaxpose" / "journal.jsonl"
+    lines = [json.loads(line) for line in journal.read_text().splitlines()]
+    files = {"model.gltf": [gltf] + sorted(root.glob("*.bin")), "plain.ply": [plain]}  # the .gltf and its buffers
+    stats = {name: [[p.stat().st_size, p.stat().st_mtime_ns] for p in paths] for name, paths in files.items()}
+    latest = {os.path.basename(r["input"]): r["input_stat"] for r in lines if r["status"] == "ok"}
+    assert latest["plain.ply"] == stats["plain.ply"]
+    assert latest["model.gltf"][0] == stats["model.gltf"][0]  # the .gltf, then its buffers
+    assert sorted(latest["model.gltf"]) == sorted(stats["model.gltf"])
+    # an earlier version's records: no input_stat, compared by the sum and the latest time
+    journal.write_text("".join(json.dumps({k: v for k, v in r.items() if k != "input_stat"}) + "\n" for r in lines))
+    assert run([root], out, options=bbox).skipped == 2
+
+
+def test_a_rerun_under_mtime_redoes_nothing_for_a_move_a_chmod_or_a_hard_link(tmp_path):
+    """--check mtime compares sizes and modification times only: the input folder moved elsewhere
+    on the same filesystem and back, each file moved away and back (its status-change time moves,
+    its inode stays), a chmod and a new hard link (status-change time) redo nothing. They redid
+    every input when the key held the inode number and status-change time."""
+    import stat
+
+    root, out, away = tmp_path / "in", tmp_path / "out", tmp_path / "away"
+    root.mkdir()
+    away.mkdir()
+    for name, data in trimesh.creation.box(extents=[1.0, 1.0, 1.0]).export(file_type="gltf").items():
+        (root / name).write_bytes(data)
+    trimesh.creation.box(extents=[2.0, 1.0, 1.0]).export(root / "plain.ply")
+    bbox = NormalizeOptions(method="bbox")
+    first = run([root], out, options=bbox)
+    assert first.written == 2
+    files = sorted(root.iterdir())
+    before = {p.name: p.stat() for p in files}
+    os.rename(root, tmp_path / "moved")  # the folder elsewhere, and back
+    os.rename(tmp_path / "moved", root)
+    for path in files:  # each file away and back: a new status-change time, the same inode
+        os.rename(path, away / path.name)
+        os.rename(away / path.name, path)
+    for path in files:
+        path.chmod(0o600 if stat.S_IMODE(path.stat().st_mode) != 0o600 else 0o644)
+    os.link(root / "plain.ply", away / "plain.ply")
+    os.link(root / "model.gltf", away / "model.gltf")
+    now = {p.name: p.stat() for p in files}
+    assert all(now[n].st_ino == before[n].st_ino and now[n].st_ctime_ns != before[n].st_ctime_ns for n in now)
+    assert all((now[n].st_size, now[n].st_mtime_ns) == (before[n].st_size, before[n].st_mtime_ns) for n in now)
+    again = run([root], out, options=bbox)
+    assert (again.written, again.skipped, again.failed) == (0, 2, 0)
+    assert stable(again.rows) == stable(first.rows)
+
+
+def test_an_input_rewritten_with_its_size_and_time_while_read_is_changed(tmp_path):
+    """An input rewritten in place while it is read, its size the same and its modification time
+    set back (cp -p over it): 'changed while it was read' (size, time and inode were the same: the
+    bytes read passed as the file's). Its status-change time moved."""
+    import time
+
+    from jaxpose.batch.task import _check_unchanged, _input_stat
+    from jaxpose.errors import InvalidInputError
+
+    path = tmp_path / "a.off"
+    path.write_bytes(b"OFF\n0 0 0\n")
+    before = _input_stat(path, "mtime")
+    time.sleep(0.05)  # (file times move by the kernel's tick)
+    info = path.stat()
+    path.write_bytes(b"OFF\n1 1 1\n")
+    os.utime(path, ns=(info.st_atime_ns, info.st_mtime_ns))
+    with pytest.raises(InvalidInputError, match=r"changed while it was read \(size 10 -> 10 bytes\)"):
+        _check_unchanged(path, before)
+
+
 def test_a_gltf_whose_buffers_are_not_a_list_of_objects_fails_alone(tmp_path, tree):
     """A .gltf whose "buffers" is not a list of objects (5; [5]) fails by itself, named by its read:
     the plan's key raised TypeError ('int' object is not iterable) and the whole run died."""

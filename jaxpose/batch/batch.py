@@ -194,8 +194,11 @@ def normalize_files(inputs, output_dir, options=None, **kwargs) -> list:
         within Dask's ``distributed.comm.timeouts.connect`` (30 s by default), the run stops with
         an error.
       dask_local: run on a new dask ``LocalCluster`` of this many worker processes instead.
-      check: how a rerun recognizes an unchanged input: ``"mtime"`` (size and modification time,
-        default) or ``"hash"`` (SHA-256 of its bytes).
+      check: how a rerun recognizes an unchanged input: ``"mtime"`` (default: the size and
+        modification time of each of its files, the input and a .gltf's buffer files,
+        :func:`jaxpose.batch.task.input_key`; not their inode or status-change time, which a
+        ``chmod``, a hard link or a restored copy change; a file replaced by one of the same size
+        and modification time is skipped as done) or ``"hash"`` (SHA-256 of its bytes).
       fail_fast: stop at the first failed input.
       force: redo every input, write into a folder jaxpose did not make, and replace a `table`
         file that is not a transforms table.
@@ -313,7 +316,7 @@ def _input_key(path, check):
     opened here: a FIFO would block)."""
     from ..io.remote import RemotePath, modified_ns
 
-    key = {"input_size": None, "input_mtime_ns": None, "input_sha256": ""}
+    key = {"input_size": None, "input_mtime_ns": None, "input_sha256": "", "input_stat": None}
     if isinstance(path, RemotePath):
         try:
             info = path.info()
@@ -490,6 +493,8 @@ def _is_done(record, key, fingerprint, settings, item):
     if record.get("output") != str(output) or not output.exists() or key["input_size"] is None:
         return False
     fields = ("input_size", "input_sha256") if key["input_sha256"] else ("input_size", "input_mtime_ns")
+    if not key["input_sha256"] and "input_stat" in record:  # (an earlier version's record: size and time alone)
+        fields += ("input_stat",)  # each file's size and time: a .gltf's buffer replaced by an older one
     return all(record.get(f) == key[f] for f in fields)
 
 

@@ -180,7 +180,8 @@ class FileResult(NamedTuple):
       record: table columns known to the worker (``status``, ``error``, ``kind``, ``vertices``,
         ``faces``, ``center_x/_y/_z``, ``scale``, ``valid``, ``converged``, rotation columns,
         ``seconds``, ``worker``, ``worker_peak_mb``, ``version``, and for a path ``input_size``,
-        ``input_mtime_ns``, ``input_sha256``) and ``matrix`` (4 x 4 nested lists, or None).
+        ``input_mtime_ns``, ``input_sha256``, ``input_stat``: :func:`input_key`) and ``matrix``
+        (4 x 4 nested lists, or None).
       data: the encoded normalized file, or None when the input failed.
     """
 
@@ -222,9 +223,9 @@ def normalize_file(source, options=None, file_type=None, check="mtime") -> FileR
             geometry = _load_remote(source, check, record)
         else:
             before = _input_stat(source, check) if isinstance(source, (str, os.PathLike)) else {}
-            record.update({k: v for k, v in before.items() if k != "input_inode"})
+            record.update({k: v for k, v in before.items() if k != "input_identity"})
             geometry = mesh.read(source) if isinstance(source, (str, os.PathLike)) else mesh.load(source)
-            if before.get("input_inode") is not None:
+            if before.get("input_identity") is not None:
                 _check_unchanged(source, before)
         record.update(kind="mesh" if hasattr(geometry, "faces") else "points",
                       vertices=len(geometry.vertices), faces=len(getattr(geometry, "faces", ())))
@@ -311,32 +312,44 @@ def warm_up(options=None) -> None:
 def _input_stat(path, check):
     """The input's table columns from ``os.stat`` (nothing for a file that cannot be stat'ed: the
     read says why), with its SHA-256 for a regular file when `check` is ``"hash"``: those of
-    :func:`input_key`, and the inode of the file itself (to see it replaced while it is read)."""
-    out = input_key(path, check)
-    if out["input_size"] is not None:
-        info = os.stat(path)
-        out["input_inode"] = (info.st_dev, info.st_ino)
+    :func:`input_key`, and ``input_identity``, for each of its files in that order, ``[device,
+    inode number, status-change time (ns)]``, to see a file replaced or rewritten while it is read
+    (even keeping its size and modification time); not recorded, not compared by a rerun."""
+    out, files = _key_files(path, check)
+    if files:
+        out["input_identity"] = [[i.st_dev, i.st_ino, i.st_ctime_ns] for _, i in files]
     return out
 
 
 def input_key(path, check) -> dict:
-    """What a rerun compares of a local input (``input_size``, ``input_mtime_ns``, ``input_sha256``):
-    those of the file; for a ``.gltf``, of the file and the buffer files it names
+    """What a rerun compares of a local input (``input_size``, ``input_mtime_ns``, ``input_sha256``,
+    ``input_stat``): those of the file; for a ``.gltf``, of the file and the buffer files it names
     (:func:`gltf_buffers`), which hold its geometry: their sizes summed, the latest modification
     time, and the SHA-256 of each file's bytes after its size (the file's own SHA-256 where it names
-    none). None (size and time) for a path that is not a regular file or cannot be stat'ed (never
-    opened here: a FIFO would block; its read says why).
+    none); ``input_stat``, for each file in that order, ``[size, modification time (ns)]``, so that
+    a buffer replaced by an older one of the same size differs. Not its inode number or
+    status-change time: moving, restoring or ``chmod``-ing a file, a new hard link or another
+    mount change those and not the bytes. A file replaced by one of the same size and the same
+    modification time is not seen by these (``"hash"``'s SHA-256 sees it). None (size, time, stat)
+    for a path that is not a regular file or cannot be stat'ed (never opened here: a FIFO would
+    block; its read says why).
 
     Raises:
       OSError: the file (or a buffer) could not be read for its SHA-256.
     """
-    out = {"input_size": None, "input_mtime_ns": None, "input_sha256": ""}
+    return _key_files(path, check)[0]
+
+
+def _key_files(path, check):
+    """:func:`input_key`'s dict, and the files it covers: ``(path, os.stat result)`` each, in
+    order (none where the key is None)."""
+    out = {"input_size": None, "input_mtime_ns": None, "input_sha256": "", "input_stat": None}
     try:
         info = os.stat(path)
     except OSError:
-        return out
+        return out, []
     if not stat.S_ISREG(info.st_mode):  # a FIFO or device: no size, nothing to compare afterwards
-        return out
+        return out, []
     files = [(path, info)]
     for buffer in gltf_buffers(path):
         try:
@@ -345,7 +358,8 @@ def input_key(path, check) -> dict:
             continue
         if stat.S_ISREG(buffer_info.st_mode):  # a FIFO is never opened here (hashing it would block)
             files.append((buffer, buffer_info))
-    out.update(input_size=sum(i.st_size for _, i in files), input_mtime_ns=max(i.st_mtime_ns for _, i in files))
+    out.update(input_size=sum(i.st_size for _, i in files), input_mtime_ns=max(i.st_mtime_ns for _, i in files),
+               input_stat=[[i.st_size, i.st_mtime_ns] for _, i in files])
     if check == "hash":
         if len(files) == 1:
             out["input_sha256"] = sha256_file(path)
@@ -354,7 +368,7 @@ def input_key(path, check) -> dict:
             for name, _ in files:
                 digest.update(b"%d\0%s" % (os.stat(name).st_size, sha256_file(name).encode("ascii")))
             out["input_sha256"] = digest.hexdigest()
-    return out
+    return out, files
 
 
 def gltf_buffers(path) -> list:
@@ -394,9 +408,8 @@ def _check_unchanged(path, before):
         now = _input_stat(path, "mtime")
     except OSError as exc:
         raise InvalidInputError(f"{path}: removed while it was read ({exc.strerror})") from None
-    after = (now["input_size"], now["input_mtime_ns"], now.get("input_inode"))  # no inode, no size: not a
-    if now["input_size"] is None or after != (before["input_size"], before["input_mtime_ns"],  # regular file now
-                                              before.get("input_inode")):
+    fields = ("input_size", "input_mtime_ns", "input_stat", "input_identity")  # no size: not a regular file now
+    if now["input_size"] is None or any(now.get(f) != before.get(f) for f in fields):
         size = (f"{before['input_size']} bytes -> not a regular file" if now["input_size"] is None
                 else f"{before['input_size']} -> {now['input_size']} bytes")
         raise InvalidInputError(f"{path}: changed while it was read (size {size}); run again to read it whole")

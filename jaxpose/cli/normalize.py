@@ -65,8 +65,9 @@ def add_parser(sub):
     many.add_argument("--dask-local", type=checked(int, lambda n: check_int(n, "dask_local", 1)), metavar="N",
                       help="run on a new local Dask cluster of N workers")
     many.add_argument("--check", choices=CHECKS, default=None,
-                      help="how a rerun recognizes finished inputs: mtime (size and modification time, "
-                           "default) or hash (SHA-256)")
+                      help="how a rerun recognizes finished inputs: mtime (each file's size and modification "
+                           "time, a .gltf's buffers too; default: a file replaced by one of the same size and "
+                           "time is skipped) or hash (SHA-256 of the bytes)")
     many.add_argument("--fail-fast", action="store_true", help="stop at the first input that fails")
     many.add_argument("--shard", type=_shard, metavar="I/N",
                       help="only shard I of N (0 <= I < N), by a stable hash of each input's relative path: N "

@@ -1,10 +1,10 @@
 """The README's and docs/data.md's commands in a FRESH virtual environment: ``python -m venv`` (no
-system site packages) and ``pip install -e`` of this checkout with its runtime dependencies only,
-then each command as a user types it, in a real subprocess, its output checked against what the
-README says it does. Long commands run in the small versions the README documents
-(``--classes human,chair --instances 3``, one variant). Marked ``venv``: one test, so one
-install per run whatever the pytest-xdist split (pip's cache and wheel links make it fast), every
-command under a timeout; ``-m "not venv"`` leaves it out.
+system site packages, no pip) and ``pip install -e`` of this checkout into it (this interpreter's pip,
+``pip --python``) with its runtime dependencies only, then each command as a user types it, in a
+real subprocess, its output checked against what the README says it does. Long commands run in the
+small versions the README documents (``--classes human,chair --instances 3``, one variant). Marked
+``venv``: one test, so one install per run whatever the pytest-xdist split (pip's cache and wheel
+links make it fast), every command under a timeout; ``-m "not venv"`` leaves it out.
 The README's test command (``pip install -e ".[test]" && python -m pytest -q``) is what .ci/run runs."""
 from __future__ import annotations
 
@@ -43,7 +43,14 @@ def test_readme_and_docs_commands_in_a_fresh_venv(tmp_path):
 def _venv(root):
     """(bin folder, environment) of a new venv with this checkout installed (runtime dependencies)."""
     root.mkdir()
-    subprocess.run([sys.executable, "-m", "venv", str(root / "env")], check=True, timeout=300)
+    # an empty venv (no pip, no setuptools: ensurepip's copy of pip was ~4.5 CPU s of unpacking and
+    # byte-compiling that no command uses); this interpreter's pip installs the checkout into it
+    # (`pip --python`: the venv's interpreter and site-packages), resolving its dependencies from
+    # pyproject.toml, so the venv holds only jaxpose and what it declares it needs. Where this
+    # interpreter has no pip that can (a uv-made environment; pip < 22.3), the venv's own, as before.
+    pip = [sys.executable, "-m", "pip", "--python", str(root / "env" / "bin" / "python")] if _pip_python() else None
+    subprocess.run([sys.executable, "-m", "venv", *(["--without-pip"] if pip else []), str(root / "env")],
+                   check=True, timeout=300)
     bin_dir = root / "env" / "bin"
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV", "PYTHONHOME")}
     # pip byte-compiles every module it installs (jax, scipy, ...: 18 of its 32 CPU s here); with
@@ -52,7 +59,7 @@ def _venv(root):
     env.pop("PYTHONDONTWRITEBYTECODE", None)
     env.update(PATH=f"{bin_dir}{os.pathsep}{env.get('PATH', '')}", VIRTUAL_ENV=str(root / "env"),
                JAXPOSE_DATA=str(root / "no-data"), PYTHONPYCACHEPREFIX=str(root / "pycache"))
-    install = subprocess.run([str(bin_dir / "pip"), "install", "--quiet", "--no-compile", "-e", str(ROOT)],
+    install = subprocess.run([*(pip or [str(bin_dir / "pip")]), "install", "--quiet", "--no-compile", "-e", str(ROOT)],
                              env=env, capture_output=True, text=True, timeout=900)
     if install.returncode != 0:
         pytest.fail(f"pip install -e . failed in a fresh venv:\n{install.stderr[-3000:]}")
@@ -61,6 +68,15 @@ def _venv(root):
                            timeout=300)
     assert probe.returncode == 0 and probe.stdout.startswith(str(ROOT / "jaxpose")), probe
     return bin_dir, env
+
+
+def _pip_python():
+    """Whether this interpreter's pip can install into another interpreter (``pip --python``: 22.3)."""
+    try:
+        from pip import __version__
+    except ImportError:
+        return False
+    return tuple(int(p) for p in re.findall(r"\d+", __version__)[:2]) >= (22, 3)
 
 
 def _run(venv, command, cwd, timeout=600):

@@ -192,6 +192,25 @@ def test_cli_tune_bad_numbers_are_usage_errors(capsys):
         assert fragment in err and "loading classes" not in err, err
 
 
+def test_cli_tune_variants_all_is_every_variant(monkeypatch, capsys):
+    """``--variants all`` is every input variant, as evaluate's (tune refused it: unknown variants
+    ['all'], exit 2); names may carry spaces ("plain, holes")."""
+    from jaxpose.errors import JaxposeError
+    from jaxpose.evaluation.variants import VARIANTS
+
+    seen = []
+
+    def load_classes(folder, names, align_core, variants, *rest):
+        seen.append(variants)
+        raise JaxposeError("stop: the variants are what this test reads")
+
+    monkeypatch.setattr(tuning_cli, "load_classes", load_classes)
+    assert tuning_cli.run(["--variants", "all", "--steps", "0"]) == 1
+    assert tuning_cli.run(["--variants", "plain, holes", "--steps", "0"]) == 1
+    assert seen == [tuple(VARIANTS), ("plain", "holes")]
+    assert "stop: the variants" in capsys.readouterr().err
+
+
 def test_gradient_matches_finite_difference_of_objective():
     classes = {"box": _classes()["box"]}
     config = jaxpose.PoseConfig.create(**FAST)

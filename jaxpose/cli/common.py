@@ -9,7 +9,7 @@ from ..io.atomic import check_creatable, check_output_file  # shared by the comm
 from ..io.jsontext import json_text  # the commands' JSON records (benchmarks/ write theirs with it too)
 
 __all__ = ["add_svm_options", "fail", "checked", "check_output_file", "check_creatable", "check_dataset_choice",
-           "json_text"]
+           "variant_names", "json_text"]
 
 
 def checked(convert, check):
@@ -38,6 +38,16 @@ def check_dataset_choice(instances, classes):
         check_instances(instances, "--instances", 2)
     if classes is not None and not [c for c in classes.split(",") if c]:
         raise InvalidInputError(f"--classes names no class ({classes!r}); give some, comma-separated")
+
+
+def variant_names(text):
+    """``--variants``' comma list (evaluate, tune): the names, spaces around them dropped; ``all``
+    alone is every variant (:data:`jaxpose.evaluation.variants.VARIANTS`). Unknown names are the
+    caller's to refuse (with the valid ones)."""
+    from ..evaluation.variants import VARIANTS  # (NumPy: at run time, not when the parser is built)
+
+    names = [name.strip() for name in text.split(",") if name.strip()]
+    return list(VARIANTS) if names == ["all"] else names
 
 
 def add_core_options(p):

@@ -10,7 +10,7 @@ import sys
 from pathlib import Path
 
 from ..config import DATASET_INSTANCES
-from .common import add_core_options, add_svm_options, check_core_options, check_creatable, check_dataset_choice, check_output_file, fail, json_text
+from .common import add_core_options, add_svm_options, check_core_options, check_creatable, check_dataset_choice, check_output_file, fail, json_text, variant_names
 
 __all__ = ["add_parser", "run"]
 
@@ -49,15 +49,12 @@ _OCSVM_OPTIONS = ("gamma", "nu", "count")
 def _evaluate_usage(args):
     """The evaluation's arguments checked and resolved before any work: (methods, variants, ocsvm
     options), or a usage error (exit 2) naming what is wrong."""
-    from .. import evaluation
     from ..evaluation.consistency import _check_methods, _check_variants
     from ..rotation.rotation import ROTATIONS
     from ..batch.task import NormalizeOptions
 
     methods = [m for m in args.methods.split(",") if m] if args.methods else None
-    variants = [v for v in args.variants.split(",") if v]
-    if variants == ["all"]:
-        variants = list(evaluation.VARIANTS)
+    variants = variant_names(args.variants)
     _check_variants(variants)
     rotation = args.rotation is not None  # '--rotation ""' names no method: refused, not the center/scale run
     if rotation:

@@ -36,7 +36,7 @@ def parser():
                    help="fraction of the classes held out of tuning (default 0.25 without --holdout-data, else 0)")
     add_core_options(p)
     p.add_argument("--variants", default="plain", help="comma list of input variants (plain, outliers, big_outliers, "
-                   "points, holes); each variant of a class counts as a class")
+                   "points, holes), or all; each variant of a class counts as a class (default plain)")
     p.add_argument("--classes", default=None, help="comma-separated subset of classes")
     p.add_argument("--instances", type=int, default=TUNE.instances,
                    help=f"objects per class (procedural dataset; default {TUNE.instances}, at most {DATASET_INSTANCES})")
@@ -129,7 +129,7 @@ def run(argv) -> int:
 def _run(args) -> int:
     from ..mesh import write_atomic
     from ..tuning import check_options, tune
-    from .common import check_core_options, check_dataset_choice, json_text
+    from .common import check_core_options, check_dataset_choice, json_text, variant_names
 
     say = lambda s: print(s, file=sys.stderr, flush=True)
     try:
@@ -139,7 +139,7 @@ def _run(args) -> int:
                       **{k: v for k, v in options.items() if k in ("gamma0", "nu0", "power0")})
         check_dataset_choice(args.instances, args.classes)
         check_core_options(args.align_core, args.core_weight)
-        variants = tuple(v.strip() for v in args.variants.split(",") if v.strip())
+        variants = tuple(variant_names(args.variants))
         names = args.classes.split(",") if args.classes else None
         _check_choices(args, options, variants, names)
     except InvalidInputError as exc:  # a usage error: before any work

@@ -226,7 +226,9 @@ def test_every_entry_point_reads_the_one_default():
         if field.name != "instances":
             for fn in (tuning.tune, tuning.check_options):
                 assert inspect.signature(fn).parameters[field.name].default == default, (fn.__name__, field.name)
-        if field.name != "holdout":  # the command's holdout: 0.25 of the classes unless --holdout-data
+        if field.name == "instances":  # unset (refused with --data, as evaluate's); the dataset made with TUNE's
+            assert command.instances is None and f"default {default}," in " ".join(tune.parser().format_help().split())
+        elif field.name != "holdout":  # the command's holdout: 0.25 of the classes unless --holdout-data
             assert getattr(command, field.name) == default, field.name
     assert inspect.signature(tune.load_classes).parameters["instances"].default == TUNE.instances
     assert (NormalizeOptions().gamma, NormalizeOptions().nu, NormalizeOptions().count) == (

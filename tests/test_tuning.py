@@ -186,7 +186,9 @@ def test_cli_tune_bad_numbers_are_usage_errors(capsys):
                            (["--refine", "3"], "refine must be a power of 2"),
                            (["--tol", "-1"], "tol must be finite and > 0"),
                            (["--method", "robust", "--resolution", "4"], "resolution must be >= 8"),
-                           (["--core-weight", "area"], "add --align-core")):  # as evaluate's
+                           (["--core-weight", "area"], "add --align-core"),  # as evaluate's
+                           # was ignored without a word (every mesh of DIR taken); evaluate refused it
+                           (["--data", "DIR", "--instances", "3"], "--instances chooses from the built-in dataset")):
         assert tuning_cli.run(argv) == 2, argv
         err = capsys.readouterr().err
         assert fragment in err and "loading classes" not in err, err

@@ -38,8 +38,8 @@ def parser():
     p.add_argument("--variants", default="plain", help="comma list of input variants (plain, outliers, big_outliers, "
                    "points, holes), or all; each variant of a class counts as a class (default plain)")
     p.add_argument("--classes", default=None, help="comma-separated subset of classes")
-    p.add_argument("--instances", type=int, default=TUNE.instances,
-                   help=f"objects per class (procedural dataset; default {TUNE.instances}, at most {DATASET_INSTANCES})")
+    p.add_argument("--instances", type=int, default=None,  # None: not given (refused with --data, as evaluate's)
+                   help=f"built-in dataset: objects per class (default {TUNE.instances}, at most {DATASET_INSTANCES})")
     p.add_argument("--steps", type=int, default=TUNE.steps, help=f"Adam steps (default {TUNE.steps})")
     p.add_argument("--lr", type=float, default=TUNE.lr,
                    help=f"Adam's learning rate in (log gamma, logit nu) or log power (default {TUNE.lr:g})")
@@ -138,6 +138,9 @@ def _run(args) -> int:
                       args.holdout if args.holdout is not None else 0.0, args.seed, args.count,
                       **{k: v for k, v in options.items() if k in ("gamma0", "nu0", "power0")})
         check_dataset_choice(args.instances, args.classes)
+        if args.data and args.instances is not None:  # it was ignored without a word
+            raise InvalidInputError("--instances chooses from the built-in dataset; --data takes every mesh of each "
+                                    "class of DIR")
         check_core_options(args.align_core, args.core_weight)
         variants = tuple(variant_names(args.variants))
         names = args.classes.split(",") if args.classes else None
@@ -146,8 +149,8 @@ def _run(args) -> int:
         return fail(exc, code=2)
     try:
         say("loading classes ...")
-        classes = load_classes(args.data, names, args.align_core, variants, args.seed, args.instances,
-                               args.core_weight)
+        classes = load_classes(args.data, names, args.align_core, variants, args.seed,
+                               TUNE.instances if args.instances is None else args.instances, args.core_weight)
         held = (load_classes(args.holdout_data, None, args.align_core, variants, args.seed, core_weight=args.core_weight)
                 if args.holdout_data else None)
         holdout = args.holdout if args.holdout is not None else (0.0 if held else 0.25)

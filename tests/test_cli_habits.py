@@ -111,6 +111,7 @@ def no_work(monkeypatch):
     from jaxpose import evaluation
 
     monkeypatch.setattr(evaluation, "evaluate", lambda *a, **k: pytest.fail("the work started"))
+    monkeypatch.setattr(evaluation, "evaluate_rotation", lambda *a, **k: pytest.fail("the work started"))
 
 
 @pytest.mark.parametrize("args, fragment", [
@@ -127,6 +128,10 @@ def no_work(monkeypatch):
     # was a dataset built in memory without a word (3.9 GB in 15 s, one class), never reaching the work
     (["--instances", "1000000000"], "--instances must be <= 200 (the built-in dataset is built in memory"),
     (["--classes", ","], "--classes names no class"),  # was exit 1 naming the library's dict argument
+    # the frames' run reads neither: it measured the frames and dropped them without a word
+    (["--rotation", "pca_vertices", "--methods", "bbox"], "--methods chooses what the center and scale run measures"),
+    (["--rotation", "--sweep"], "--sweep chooses what the center and scale run measures"),
+    (["--rotation", "head", "--methods", "robust", "--sweep"], "--methods and --sweep choose"),
 ])
 def test_evaluate_usage_errors_exit_2_before_the_work(capsys, no_work, args, fragment):
     assert cli.main(["evaluate", *args]) == 2

@@ -58,6 +58,11 @@ def _evaluate_usage(args):
     _check_variants(variants)
     rotation = args.rotation is not None  # '--rotation ""' names no method: refused, not the center/scale run
     if rotation:
+        ignored = [flag for flag, given in (("--methods", args.methods is not None), ("--sweep", args.sweep)) if given]
+        if ignored:  # the frames' run reads neither (it measured the frames without a word)
+            raise _Usage(f"{' and '.join(ignored)} {'choose' if len(ignored) > 1 else 'chooses'} what the center "
+                         "and scale run measures; --rotation measures canonical frames instead (name its methods "
+                         f"there: --rotation {','.join(ROTATIONS[:2])}), so drop {'them' if len(ignored) > 1 else 'it'}")
         rotations = ROTATIONS if args.rotation == "all" else [m for m in args.rotation.split(",") if m]
         unknown = [m for m in rotations if m not in ROTATIONS]
         if unknown or not rotations:  # the evaluation's own check, before the dataset is made or read

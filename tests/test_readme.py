@@ -1,6 +1,7 @@
 """Every snippet of the README runs as written: the Python block, and each command of the
 command-line block (in-process, in a temporary folder). The two fresh-machine commands are the
-install plus the main job and the install plus the tests: the second is what .ci/run runs."""
+install plus the main job and the install plus the tests: the second is what .ci/run runs.
+docs/api.md's signatures are the code's (names, order, keyword-only, defaults)."""
 import re
 import shlex
 from pathlib import Path
@@ -68,3 +69,168 @@ def _robust_vs_reference(text):
             cell = line.split()[2]
             out[variant] = None if cell == "n/a" else float(cell.rstrip("%"))
     return out
+
+
+# --------------------------------------------------------------------------- docs/api.md's signatures
+API = README.parent / "docs" / "api.md"
+# parameters whose default in the code is a marker (not given), resolved where the pose is computed
+_RESOLVED = {"power": "config.ROBUST.power", "gamma": "config.OCSVM.gamma", "nu": "config.OCSVM.nu",
+             "max_points": "pose.sizes.MAX_POINTS"}
+# where a function's **options go: the names docs/api.md writes out for them are that target's
+_FORWARDED = {"jaxpose.normalize": "jaxpose.config.RobustConfig", "jaxpose.normalize_batch": "jaxpose.config.RobustConfig",
+              "jaxpose.normalize_files": "jaxpose.batch.batch.run_batch"}
+
+
+def _api_signatures():
+    """[(written name, resolved qualified name, object, parameter text)] of every call signature in the
+    first column of docs/api.md's tables (``name(params)``); an unqualified name after a qualified
+    one in the same cell is looked up where that one was found (`estimators.estimate(...)`,
+    `estimate_many(...)`)."""
+    import importlib
+    import inspect
+    import pkgutil
+
+    import jaxpose
+
+    modules = ["jaxpose"] + [m.name for m in pkgutil.walk_packages(jaxpose.__path__, "jaxpose.")]
+
+    def lookup(dotted, context):
+        if context is jaxpose and hasattr(jaxpose, dotted.split(".")[0]):  # a public name (normalize, not cli.normalize)
+            obj = container = jaxpose
+            for name in dotted.split("."):
+                container, obj = obj, getattr(obj, name, None)
+                if obj is None:
+                    break
+            else:
+                return obj, f"jaxpose.{dotted}", obj if inspect.ismodule(obj) else container
+        for i in range(len(dotted.split(".")), 0, -1):
+            parts = dotted.split(".")
+            prefix, rest = ".".join(parts[:i]), parts[i:]
+            found = [m for m in modules if m == f"jaxpose.{prefix}" or m.endswith(f".{prefix}")]
+            if found:
+                found = [f"jaxpose.{prefix}"] if f"jaxpose.{prefix}" in found else found
+                assert len(found) == 1, f"docs/api.md: {dotted!r} names one of several modules {found}"
+                obj, where = importlib.import_module(found[0]), found[0]
+                break
+        else:
+            obj, where, rest = context, getattr(context, "__name__", "jaxpose"), dotted.split(".")
+        for name in rest:
+            container = obj
+            assert hasattr(obj, name), f"docs/api.md names {dotted!r}: {where} has no {name}"
+            obj, where = getattr(obj, name), f"{where}.{name}"
+        return obj, where, (obj if inspect.ismodule(obj) else container if rest else obj)
+
+    out = []
+    for row in API.read_text().splitlines():
+        if not row.startswith("| `"):
+            continue
+        context = jaxpose
+        for item in re.findall(r"`([^`]+)`", row.split(" | ")[0]):
+            match = re.fullmatch(r"([A-Za-z_][\w.]*)(?:\(((?:[^()]|\([^()]*\))*)\))?(?: -> .*)?", item)
+            if not match:
+                continue
+            name, params = match.groups()
+            start = jaxpose if "." in name or hasattr(jaxpose, name.split(".")[0]) else context
+            try:
+                obj, where, found_in = lookup(name, start)
+            except AssertionError:
+                if params is not None:  # a signature of nothing
+                    raise
+                continue  # a plain name the row's text places (its own test is the row's module's)
+            context = found_in if "." in name else context
+            names = [p.partition("=")[0].strip() for p in _split_params(params or "")]
+            if not all(n.isidentifier() or n in ("*", "...", "…") or n[2:].isidentifier() for n in names):
+                continue  # a call (`task.recorded_settings(row.options)`), not a signature
+            if params is not None and callable(obj):
+                out.append((name, where, obj, params))
+    return out
+
+
+def _split_params(text):
+    """'a, b=(1, 2), *, c=None, **kw' -> ['a', 'b=(1, 2)', '*', 'c=None', '**kw'] (commas in brackets kept)."""
+    parts, depth, current = [], 0, ""
+    for char in text:
+        depth += (char in "([{") - (char in ")]}")
+        if char == "," and depth == 0:
+            parts.append(current.strip())
+            current = ""
+        else:
+            current += char
+    return [p for p in parts + [current.strip()] if p]
+
+
+def test_api_md_signatures_are_the_codes():
+    """The signatures docs/api.md writes (``name(params)`` in its tables' first column) are the
+    code's: each parameter it names exists, under that name (a keyword argument a user copies must
+    work), positional or keyword-only as written (``*``), in the code's order up to an ``...``; each
+    default it writes is the code's (but ``method=`` in a row per method; a marker default: the configuration value it resolves to;
+    ``**options`` written out: the defaults of where they go, ``_FORWARDED``); every parameter the
+    code requires is written, unless ``...`` elides some. (``baselines.center(mesh, name)`` was
+    ``method=``; ``voxels.filled_voxels(mesh, ...)`` ``mesh_or_points``.)"""
+    import ast
+    import importlib
+    import inspect
+
+    from jaxpose.pose.estimators import METHODS
+
+    def resolve(path):  # "jaxpose.config.ROBUST.power": attributes, importing submodules on the way
+        obj = importlib.import_module("jaxpose")
+        for part in path.split(".")[1:]:
+            obj = getattr(obj, part) if hasattr(obj, part) else importlib.import_module(f"{obj.__name__}.{part}")
+        return obj
+
+    signatures = _api_signatures()
+    assert len(signatures) >= 25, [s[0] for s in signatures]
+    problems = []
+    for written, where, obj, text in signatures:
+        params = inspect.signature(obj).parameters
+        has_kwargs = any(p.kind is p.VAR_KEYWORD for p in params.values())
+        forwarded = {k: v for k, v in inspect.signature(resolve(_FORWARDED[where])).parameters.items()} \
+            if where in _FORWARDED else {}
+        keyword_only, order, elided = False, [], False
+        for item in _split_params(text):
+            if item == "*":
+                keyword_only = True
+                continue
+            if item in ("...", "…"):
+                elided = True
+                continue
+            if item.startswith("**"):
+                if not has_kwargs:
+                    problems.append(f"{written}: {item} written, the code takes no **keywords")
+                continue
+            name, _, default = (s.strip() for s in item.partition("="))
+            param = params.get(name)
+            if param is None or param.kind is param.VAR_KEYWORD:
+                if name in forwarded and has_kwargs:
+                    param = forwarded[name]
+                else:
+                    problems.append(f"{written}: no parameter {name!r} (the code's: {', '.join(params)})")
+                    continue
+            elif not elided:
+                order.append(name)
+                kw_only = param.kind is param.KEYWORD_ONLY
+                if kw_only != keyword_only:
+                    problems.append(f"{written}: {name} is {'keyword-only' if kw_only else 'positional'} in the code")
+            if default:
+                code = param.default
+                if code is not inspect.Parameter.empty and not isinstance(code, (int, float, str, tuple, type(None))):
+                    code = resolve(f"jaxpose.{_RESOLVED[name]}") if name in _RESOLVED else code
+                try:
+                    stated = ast.literal_eval(default)
+                except ValueError:
+                    problems.append(f"{written}: {name}={default} is not a value")
+                    continue
+                if name == "method" and stated != code and stated in METHODS:
+                    continue  # a row per method (normalize's "robust" and "ocsvm"): the row's method, not a default
+                if code is inspect.Parameter.empty or stated != code or type(stated) is bool and code is not stated:
+                    problems.append(f"{written}: {name}={default}, the code's default {code!r}")
+        in_code = [n for n in params if n in order]
+        if in_code != order:
+            problems.append(f"{written}: parameters in the order {order}, the code's {in_code}")
+        if not elided:
+            required = [n for n, p in params.items() if p.default is p.empty and p.kind in (p.POSITIONAL_ONLY,
+                        p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY) and n not in order]
+            if required:
+                problems.append(f"{written}: the code also requires {required}")
+    assert not problems, "\n".join(problems)

@@ -59,6 +59,22 @@ def test_command_line_snippets_run(tmp_path, monkeypatch, capsys):
     assert f"robust {measured['holes']:+.1f} %" in " ".join(README.read_text().split())
 
 
+def test_exit_codes_are_the_commands():
+    """The exit codes README.md and docs/api.md list are those `jaxpose --help` lists (the README
+    left out 143, SIGTERM's, which api.md and the command's help name)."""
+    from jaxpose.cli import build_parser
+
+    def codes(text):
+        text = " ".join(text.split())
+        return re.findall(r"\b(\d{1,3})\b(?= \(| [A-Za-z])", text[text.index("Exit codes:"):].split(".")[0])
+
+    helped = codes(build_parser().epilog)
+    assert helped == ["0", "1", "2", "130", "143"], helped
+    assert codes(README.read_text()) == helped
+    api = " ".join((README.parent / "docs" / "api.md").read_text().split())
+    assert re.findall(r"\b(\d{1,3}) ?[(,]", api[api.index("Exit codes:"):api.index("(SIGTERM)") + 1]) == helped
+
+
 def _robust_vs_reference(text):
     """{variant: robust's sigma_tr change against the reference, in %} from format_table's output."""
     out, variant = {}, None

@@ -59,6 +59,52 @@ def test_command_line_snippets_run(tmp_path, monkeypatch, capsys):
     assert f"robust {measured['holes']:+.1f} %" in " ".join(README.read_text().split())
 
 
+def test_batch_md_snippets_run(tmp_path, monkeypatch, capsys):
+    """docs/batch.md's commands run as written, each alone in a folder holding the dataset they name
+    (scans/, more/, list.txt; the cluster ones, --dask-local and --scheduler, are the README's test's
+    and need a cluster), and its Python blocks after them (``jaxpose`` imported, as the page's
+    first line implies): the normalize_files call, and the shards' tables read back and joined."""
+    import shutil
+
+    import trimesh
+
+    import jaxpose
+    from jaxpose import cli
+
+    data = tmp_path / "data"
+    (data / "scans" / "a").mkdir(parents=True)
+    (data / "more").mkdir()
+    trimesh.creation.capsule(height=1.0, radius=0.4, count=[8, 8]).export(data / "scans" / "a" / "pose_01.ply")
+    trimesh.creation.box(extents=(1.0, 0.6, 0.3)).export(data / "scans" / "box.obj")
+    trimesh.creation.icosphere(subdivisions=1).export(data / "more" / "pose_02.ply")
+    trimesh.creation.icosphere(subdivisions=1).export(data / "more" / "ball.stl")
+    (data / "list.txt").write_text("# a manifest\nmore/ball.stl\n")
+    page = (README.parent / "docs" / "batch.md").read_text()
+    commands = [line.split("  #")[0].strip() for block in re.findall(r"```text\n(.*?)```", page, flags=re.S)
+                for line in block.splitlines() if line.strip().startswith("jaxpose normalize")]
+    local = [c for c in commands if not any(k in c for k in ("--dask-local", "--scheduler", "://"))]
+    assert len(local) >= 4, commands
+    for k, command in enumerate(local):
+        here = tmp_path / f"run{k}"
+        shutil.copytree(data, here)
+        monkeypatch.chdir(here)
+        assert cli.main(shlex.split(command)[1:]) == 0, (command, capsys.readouterr().err)
+        capsys.readouterr()
+        assert list((here / "normalized").glob("transforms*.*")), command  # .parquet (.csv without pyarrow)
+    here = tmp_path / "python"
+    shutil.copytree(data, here)
+    monkeypatch.chdir(here)
+    blocks = re.findall(r"```python\n(.*?)```", page, flags=re.S)
+    assert len(blocks) == 2
+    namespace = {"jaxpose": jaxpose}
+    exec(compile(blocks[0], "docs/batch.md", "exec"), namespace)
+    assert len(namespace["rows"]) == 2 and namespace["failed"] == []
+    for i in range(3):  # the shards' OUTDIRs the second block reads
+        jaxpose.normalize_files("scans/", f"out{i}/", shard=(i, 3), workers=1)
+    exec(compile(blocks[1], "docs/batch.md", "exec"), namespace)
+    assert len(namespace["rows"]) == 2 and len(jaxpose.read_transforms("all.parquet")) == 2
+
+
 def test_exit_codes_are_the_commands():
     """The exit codes README.md and docs/api.md list are those `jaxpose --help` lists (the README
     left out 143, SIGTERM's, which api.md and the command's help name)."""

@@ -600,6 +600,12 @@ def test_a_spelled_out_default_resolution_is_the_same_options(tmp_path, tree, ca
         assert NormalizeOptions(**fields).settings() == NormalizeOptions(**fields, resolution=ocsvm).settings()
         assert NormalizeOptions(**fields).settings() != NormalizeOptions(**fields, resolution=robust).settings()
     assert NormalizeOptions(method="bbox").settings()["resolution"] is None  # no estimator reads one
+    # and a refusal says so, as it says a frame's absence: it read "--resolution 96 there, default here"
+    # (96 is the default) and "--rotation default there, head here"
+    with pytest.raises(UsageError, match=f"--method robust there, bbox here; --resolution {robust} there, none here"):
+        run([sphere], out, options=NormalizeOptions(method="bbox"))
+    with pytest.raises(UsageError, match="--rotation off there, head here"):
+        run([sphere], out, options=NormalizeOptions(rotation=True))
 
 
 def test_a_spelled_out_format_of_the_inputs_own_is_the_same_options(tmp_path, tree):

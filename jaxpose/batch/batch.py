@@ -391,7 +391,7 @@ def _refuse_mixing(items, entries, other_entries, settings, force, exists, outpu
     if theirs is None:
         how = "options this version cannot read (an earlier jaxpose's)"
     else:
-        how = "; ".join(f"{_OPTION_NAMES.get(k, k)} {_shown(theirs[k])} there, {_shown(mine[k])} here"
+        how = "; ".join(f"{_OPTION_NAMES.get(k, k)} {_shown(theirs[k], k)} there, {_shown(mine[k], k)} here"
                         for k in mine if k in theirs and theirs[k] != mine[k]
                         and (k not in ("center", "scale") or theirs["method"] == mine["method"])) or "other options"
     count = len(staying or differing)
@@ -419,9 +419,12 @@ def _without_format(settings):
     return None if settings is None else {k: v for k, v in settings.items() if k != "format"}
 
 
-def _shown(value):
-    return "default" if value is None else str(value).lower() if isinstance(value, bool) else \
-        f"{value:g}" if isinstance(value, float) else str(value)
+def _shown(value, key=None):
+    """A setting as the refusal names it; None is no rotation ("off") and no resolution ("none": the
+    estimators read none, as bbox's), not the default (a robust run's default resolution is 96)."""
+    if value is None:
+        return {"rotation": "off", "resolution": "none"}.get(key, "default")
+    return str(value).lower() if isinstance(value, bool) else f"{value:g}" if isinstance(value, float) else str(value)
 
 
 def _real_folder(path, folders):

@@ -959,7 +959,8 @@ def test_cli_one_file_refusals_before_work(tmp_path, tree, capsys, monkeypatch):
         (["-o", str(cloud / "c.ply")], "is a file"),  # a missing folder is made; a file in the way is refused
         (["-o", str(tmp_path / "c.ply"), "--transform", str(cloud / "t.json")], "is a file"),
         (["-o", str(tmp_path / "c.vtk")], "cannot write '.vtk'"),
-        (["-o", str(tmp_path / "c.ply"), "--workers", "2"], "--workers apply to many files"),
+        (["-o", str(tmp_path / "c.ply"), "--workers", "2"], "--workers applies to many files"),  # was 'apply'
+        (["-o", str(tmp_path / "c.ply"), "--workers", "2", "--fail-fast"], "--workers, --fail-fast apply to many files"),
         (["--count", "2", "--method", "ocsvm"], "count must be >= 4"),
     ]
     for args, fragment in cases:

@@ -190,8 +190,8 @@ def run(args):
         return _normalize_many(args, options, fail)
     given = [f"--{name.replace('_', '-')}" for name in _MANY_ONLY if getattr(args, name) not in (None, False)]
     if given:
-        return fail(f"{', '.join(given)} apply to many files: several INPUTs, folders or manifests, with "
-                     "-o OUTDIR", code=2)
+        return fail(f"{', '.join(given)} {'apply' if len(given) > 1 else 'applies'} to many files: several INPUTs, "
+                     "folders or manifests, with -o OUTDIR", code=2)
     return _normalize_one(args, options, inputs[0] if inputs else None, fail)
 
 

@@ -255,14 +255,16 @@ def format_table(result):
 # --------------------------------------------------------------------------- command line
 def _parser():
     p = argparse.ArgumentParser(prog="jaxpose bench", description="timings of jaxpose against scikit-learn")
-    p.add_argument("--quick", action="store_true", help="small sizes, 2 repeats (well under a minute)")
+    p.add_argument("--quick", action="store_true", help=f"small sizes, {QUICK['repeats']} repeats (well under a minute)")
     p.add_argument("--json", help="write the full result as JSON here")
-    p.add_argument("--m", type=int, default=None, help="points per object for solver / end2end (default 2000)")
-    p.add_argument("--repeats", type=int, default=None, help="warm runs per case (default 5; quick 2)")
+    p.add_argument("--m", type=int, default=None, help=f"points per object for solver / end2end (default {FULL['m']}; quick {QUICK['m']})")
+    p.add_argument("--repeats", type=int, default=None, help=f"warm runs per case (default {FULL['repeats']}; quick {QUICK['repeats']})")
     p.add_argument("--sections", default=",".join(SECTIONS), help=f"comma list of {','.join(SECTIONS)}")
-    p.add_argument("--scaling-m", default=None, help="comma list of m for the scaling section (default 1000..16000)")
-    p.add_argument("--resolutions", default=None, help="comma list of grid resolutions (default 32,64,128)")
-    p.add_argument("--sklearn-max-m", type=int, default=8000, help="largest m the sklearn side runs in scaling")
+    p.add_argument("--scaling-m", default=None, help="comma list of m for the scaling section "
+                   f"(default {_listed(FULL['scaling_m'])}; quick {_listed(QUICK['scaling_m'])})")
+    p.add_argument("--resolutions", default=None, help=f"comma list of grid resolutions (default {_listed(FULL['resolutions'])}; quick "
+                   f"{_listed(QUICK['resolutions'])})")
+    p.add_argument("--sklearn-max-m", type=int, default=8000, help="largest m the sklearn side runs in scaling (default 8000)")
     p.add_argument("--tol", type=float, default=1e-3, help="solver tolerance in the solver section (default 1e-3)")
     p.add_argument("--solver", choices=("pg", "smo", "auto"), default=None,
                    help="jaxpose's solver in end2end, batch and scaling (default: normalize's, pg up to 2500 "
@@ -272,18 +274,25 @@ def _parser():
     p.add_argument("--scaling-max-iter", type=int, default=None,
                    help="cap solver iterations in scaling (peak memory of large m without the full run time)")
     p.add_argument("--resolution", type=int, default=None,
-                   help="normalize's resolution in end2end, batch and accuracy (default: normalize's, 64), "
-                        "and the m-scaling's grid (default 32)")
+                   help="normalize's resolution in end2end, batch and accuracy (default: normalize's, 64; quick "
+                        f"{QUICK['resolution']}), and the m-scaling's grid (default 32; quick {QUICK['resolution']})")
     p.add_argument("--refine", type=int, default=None,
                    help="normalize's refine in end2end, batch and accuracy (default: normalize's, 2)")
     p.add_argument("--sk-resolution", type=int, default=None,
-                   help="scikit-learn pipeline's grid per axis in end2end and batch (default 64; quick 16)")
+                   help="scikit-learn pipeline's grid per axis in end2end and batch "
+                        f"(default {FULL['sk_resolution']}; quick {QUICK['sk_resolution']})")
     p.add_argument("--objects", type=int, default=None,
-                   help="objects in the accuracy section (default 20: FAUST tr_reg_000.. when present)")
+                   help=f"objects in the accuracy section (default {FULL['accuracy_objects']}: FAUST tr_reg_000.. when "
+                        f"present; quick {QUICK['accuracy_objects']})")
     p.add_argument("--no-sklearn", action="store_true", help="time jaxpose only")
     p.add_argument("--x64", action="store_true", help="enable float64 in JAX (default float32)")
     p.add_argument("--force", action="store_true", help="overwrite an existing --json file")
     return p
+
+
+def _listed(values):
+    """(1000, 2000, 4000) -> '1000,2000,4000' (a help text's default, as the option takes it)."""
+    return ",".join(str(v) for v in values)
 
 
 def _ints(text):

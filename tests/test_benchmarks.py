@@ -249,3 +249,20 @@ def test_robust_speed_benchmark_runs_on_the_example_shape():
     assert np.linalg.norm(grad["fd_center"]) > 0
     text = r.markdown(result)
     assert "| example_shape |" in text and "d center / dp" in text
+
+
+def test_help_names_the_quick_presets_defaults():
+    """Each option whose preset --quick changes names both defaults in its help (--m said
+    "default 2000" and --quick ran 300; --resolution "normalize's, 64" and ran 16; --resolutions,
+    --scaling-m and --objects likewise), from the presets themselves."""
+    from benchmarks import report
+
+    actions = {a.option_strings[0]: a.help for a in report._parser()._actions if a.option_strings}
+    listed = lambda v: ",".join(map(str, v)) if isinstance(v, tuple) else str(v)
+    preset = {"--m": "m", "--repeats": "repeats", "--scaling-m": "scaling_m", "--resolutions": "resolutions",
+              "--resolution": "resolution", "--sk-resolution": "sk_resolution", "--objects": "accuracy_objects"}
+    for option, key in preset.items():
+        full, quick = report.FULL[key], report.QUICK[key]
+        assert f"quick {listed(quick)}" in actions[option], (option, actions[option])
+        assert full is None or f"default {listed(full)}" in actions[option], (option, actions[option])
+    assert set(report.FULL) == set(report.QUICK)

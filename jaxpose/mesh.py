@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import sample
-from ._validate import InvalidInputError, check_bool, check_gamma, check_int, check_nu, check_real
+from ._validate import InvalidInputError, check_gamma, check_int, check_nu, check_real
 from .config import OCSVM, OCSVM_ONLY, PoseConfig
 from .geometry import Surface
 from .io import mesh as io_mesh
@@ -75,8 +75,8 @@ def check_arguments(gamma=None, nu=None, count=None, seed=None, sampling=None, m
     check_int(ocsvm["seed"], "seed", minimum=0)
     if ocsvm["sampling"] not in SAMPLING:
         raise InvalidInputError(f"unknown sampling {ocsvm['sampling']!r}; valid: {', '.join(SAMPLING)}")
-    check_bool(strict, "strict")
     c_name, s_name = estimators.resolve(method, center, scale)
+    estimators.check_strict(strict, c_name, s_name)  # refused where ignored, as the command line's --strict
     uses_ocsvm = "ocsvm" in (c_name, s_name)
     ocsvm_runs = uses_ocsvm or _rotation_name(rotation) == "ocsvm"  # as the center, the scale or the frame
     if given and not ocsvm_runs:

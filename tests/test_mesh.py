@@ -515,6 +515,9 @@ def test_content_that_does_not_match_its_suffix_is_named(tmp_path):
     (dict(seed=-1), "seed must be >= 0"),
     (dict(sampling="bogus"), "unknown sampling"),
     (dict(strict="yes"), "strict must be True or False"),
+    # strict=True where it does nothing (robust, bbox, ...): refused, as the command line's --strict (it was taken)
+    (dict(strict=True), "strict applies to the closed-surface estimators .* not robust_depth / robust_volume"),
+    (dict(method="bbox", strict=True), "not bbox_center / unit_cube"),
     (dict(power=-1.0), "power must be a finite number >= 0"),
     (dict(resolution=1000), r"resolution=1000 needs up to .* GiB .* use a resolution in \[8, 291\]"),
     (dict(method="ocsvm", resolution=1000), r"resolution=1000 .* needs about .* GiB .* use a resolution in \[8, 281\]"),
@@ -625,3 +628,18 @@ def test_unknown_keywords_are_named():
     for kwargs in (dict(foo=1), dict(method="ocsvm", foo=1), dict(method="surface_centroid", foo=1)):
         with pytest.raises(InvalidInputError, match="unknown argument foo"):
             mesh.normalize_mesh(box, **kwargs)
+
+
+def test_strict_is_refused_where_no_estimator_reads_it_by_every_entry_point():
+    """strict=True with estimators that are not closed-surface ones does nothing: the command line
+    refused --strict so, normalize_mesh, estimate and the batch's NormalizeOptions took it (one
+    rule now, estimators.check_strict); with a closed-surface center or scale it is taken."""
+    from jaxpose.batch.task import NormalizeOptions
+
+    for call in (lambda: NormalizeOptions(strict=True), lambda: NormalizeOptions(method="ocsvm", strict=True),
+                 lambda: mesh.normalize_mesh("/nonexistent/shape.ply", center="bbox_center", strict=True)):
+        with pytest.raises(InvalidInputError, match="strict applies to the closed-surface estimators"):
+            call()
+    for fields in (dict(method="solid"), dict(method="solid_sqrt_area"), dict(center="depth_weighted_solid"),
+                   dict(scale="gyration_radius")):
+        assert NormalizeOptions(**fields, strict=True).strict is True

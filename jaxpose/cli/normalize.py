@@ -81,7 +81,6 @@ def add_parser(sub):
     p.set_defaults(handler=run, **dict.fromkeys(OCSVM_ONLY))
 
 
-_CLOSED_FORMS = ("solid_centroid", "gyration_radius", "depth_weighted_solid")  # what --strict applies to
 _MANY_ONLY = ("glob", "format", "table", "workers", "scheduler", "dask_local", "check", "fail_fast", "shard",
               "timeout")
 
@@ -143,7 +142,7 @@ def ignored_options(args) -> str | None:
     (``--method ocsvm``, ``--center/--scale ocsvm`` or ``--rotation ocsvm``); ``--strict`` only by
     the closed-surface estimators.
     """
-    from ..pose.estimators import DEFAULT_METHOD, resolve
+    from ..pose.estimators import CLOSED_FORMS, DEFAULT_METHOD, resolve
 
     c_name, s_name = resolve(args.method, args.center, args.scale)
     chosen = f"--method {args.method or DEFAULT_METHOD} (center {c_name}, scale {s_name})"
@@ -152,8 +151,8 @@ def ignored_options(args) -> str | None:
         if given:
             return (f"{', '.join(given)} {'apply' if len(given) > 1 else 'applies'} to the ocsvm method "
                     f"(--method ocsvm), which {chosen} does not use; drop {'them' if len(given) > 1 else 'it'}")
-    if args.strict and not set(_CLOSED_FORMS) & {c_name, s_name}:
-        return (f"--strict applies to the closed-surface estimators ({', '.join(_CLOSED_FORMS)}), which {chosen} "
+    if args.strict and not set(CLOSED_FORMS) & {c_name, s_name}:
+        return (f"--strict applies to the closed-surface estimators ({', '.join(CLOSED_FORMS)}), which {chosen} "
                 "does not use; drop it")
     return None
 

@@ -43,7 +43,8 @@ from ..host import anchor
 from ..weighted import depth_power_weights, grid_axes, solid_occupancy, weighted_center
 from .result import MIN_POINT_VOXELS, SECOND_BODY, Pose, host, status_message
 
-__all__ = ["METHODS", "CENTERS", "SCALES", "DEFAULT_METHOD", "ROBUST_POWER", "POWERED", "resolve", "parse_method", "estimate",
+__all__ = ["METHODS", "CENTERS", "SCALES", "DEFAULT_METHOD", "ROBUST_POWER", "POWERED", "CLOSED_FORMS", "resolve",
+           "parse_method", "check_strict", "estimate",
            "estimate_many", "robust_center_scale", "solid_center_volume", "centered"]
 
 METHODS = {
@@ -85,6 +86,22 @@ def resolve(method=None, center=None, scale=None):
 
 
 POWERED = ("robust_depth", "depth_weighted_solid")  # the centers whose depth weights take a power
+CLOSED_FORMS = ("solid_centroid", "gyration_radius", "depth_weighted_solid")  # what strict=True applies to
+
+
+def check_strict(strict, c_name, s_name):
+    """``strict`` checked (a bool) and refused where neither estimator reads it: only the
+    closed-surface ones (:data:`CLOSED_FORMS`) refuse an open mesh, so ``strict=True`` with
+    another center and scale would do nothing (as the command line's ``--strict`` is refused).
+
+    Raises:
+      InvalidInputError: not a bool, or ``True`` for estimators that ignore it.
+    """
+    strict = _validate.check_bool(strict, "strict")
+    if strict and not set(CLOSED_FORMS) & {c_name, s_name}:
+        raise InvalidInputError(f"strict applies to the closed-surface estimators ({', '.join(CLOSED_FORMS)}), not "
+                                f"{c_name} / {s_name}")
+    return strict
 
 
 def parse_method(spec):
@@ -463,13 +480,14 @@ def estimate(geometry, method=None, *, center=None, scale=None, strict=False, **
 
     Raises:
       InvalidInputError: unknown names or options, an option's bad value (before any work), a
-        ``power`` for a center without depth weights or a ``resolution`` for estimators without a
-        robust solid (they would be ignored); a surface estimator on points.
+        ``power`` for a center without depth weights, a ``resolution`` for estimators without a
+        robust solid or ``strict=True`` for estimators that are not closed-surface ones (they
+        would be ignored); a surface estimator on points.
       JaxposeError: no valid pose (e.g. a shape that encloses no volume for ``robust``).
     """
     c_name, s_name = resolve(method, center, scale)
     _check_options(options)
-    strict = _validate.check_bool(strict, "strict")
+    strict = check_strict(strict, c_name, s_name)
     if "power" in options and c_name not in POWERED:
         raise InvalidInputError(f"power applies to the {' and '.join(POWERED)} centers, not {c_name}")
     if "resolution" in options and "robust_depth" not in (c_name, s_name) and s_name != "robust_volume":

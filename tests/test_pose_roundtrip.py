@@ -148,6 +148,19 @@ def test_a_batch_of_poses_moves_each_set_by_its_pose():
         np.testing.assert_allclose(batch.inverse().apply(y), x, rtol=0, atol=1e-12)
 
 
+def test_one_point_is_moved_as_a_one_row_set():
+    """``apply`` takes one point (3,) as well as (n, 3) (docs/api.md said (n, 3) only, and that other
+    shapes raise), for a pose and its inverse; not for a batch of poses."""
+    pose = Pose.from_center_scale(np.array([1e6, 2.0, 3.0]), 2.0, rotation=_rotation(1))
+    x = np.array([1e6 + 0.5, 1.0, -2.0])
+    np.testing.assert_array_equal(pose.apply(x), pose.apply(x[None])[0])
+    np.testing.assert_array_equal(pose.inverse().apply(pose.apply(x)), pose.inverse().apply(pose.apply(x[None]))[0])
+    with pytest.raises(InvalidInputError, match=r"\(2, n, 3\)"):
+        Pose.from_center_scale(np.ones((2, 3)), np.ones(2)).apply(x)
+    api = " ".join((Path(__file__).resolve().parents[1] / "docs" / "api.md").read_text().split())
+    assert "`apply` takes (n, 3) points or one point (3,)" in api
+
+
 def test_a_batch_from_center_scale_is_valid_pose_by_pose():
     """from_center_scale of a batch: each pose's validity is its own (one non-finite center made
     every pose of the batch invalid: the finiteness was checked over the whole batch), and the

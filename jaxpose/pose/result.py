@@ -379,8 +379,8 @@ class Pose(NamedTuple):
         return _homogeneous(xp, lin, c)
 
     def apply(self, x):
-        """Points x : (n, 3) -> R (x - center) / scale : (n, 3); for an inverse, scale R^T x +
-        center of the pose it inverts (rotated, scaled, then the center added).
+        """Points x : (n, 3), or one point (3,) -> R (x - center) / scale, of x's shape; for an
+        inverse, scale R^T x + center of the pose it inverts (rotated, scaled, then the center added).
 
         The center is subtracted first (exact for points near a center far from the origin). On
         the host (NumPy points, or a NumPy field) in float64, returning NumPy float64; in JAX when

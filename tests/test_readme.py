@@ -105,6 +105,19 @@ def test_batch_md_snippets_run(tmp_path, monkeypatch, capsys):
     assert len(namespace["rows"]) == 2 and len(jaxpose.read_transforms("all.parquet")) == 2
 
 
+def test_api_md_names_every_option_of_the_dataset_form():
+    """docs/api.md's list of `jaxpose normalize INPUT... -o OUTDIR`'s options is the command's "many
+    files" group (it left out --shard and --timeout)."""
+    from jaxpose.cli import build_parser
+
+    normalize = build_parser()._subparsers._group_actions[0].choices["normalize"]
+    (group,) = [g for g in normalize._action_groups if g.title.startswith("many files")]
+    flags = {a.option_strings[-1] for a in group._group_actions}
+    api = " ".join((README.parent / "docs" / "api.md").read_text().split())
+    listed = api[api.index("is the dataset form:"):api.index("Exit codes:", api.index("is the dataset form:"))]
+    assert flags == set(re.findall(r"`(--[a-z-]+)", listed)), (flags, listed)
+
+
 def test_exit_codes_are_the_commands():
     """The exit codes README.md and docs/api.md list are those `jaxpose --help` lists (the README
     left out 143, SIGTERM's, which api.md and the command's help name)."""

@@ -169,7 +169,7 @@ def dev_edges():
     solid reaches its grid's edge, against the solid over the whole vertex box."""
     from jaxpose import datasets
     from jaxpose.occupancy import solid
-    from jaxpose.pose.estimators import _reaches_edge, solid_center_volume
+    from jaxpose.pose.estimators import solid_center_volume
 
     sets = dict(datasets.make_dataset(0, instances=10))
     for folder in ("faust-dev", "kids-dev", "tosca-dev"):
@@ -180,7 +180,7 @@ def dev_edges():
         for m in meshes:
             v, f = np.asarray(m.vertices, float), np.asarray(m.faces)
             cut = solid.robust_solid(v, f, with_depth=False)
-            if not _reaches_edge(cut.inside):
+            if not solid.reaches_edge(cut.inside):
                 continue
             solid.near_solid = lambda x, *a, **k: np.ones(len(x), bool)  # every vertex on the body: its whole box
             try:

@@ -123,6 +123,25 @@ def test_sharp_tips_stay_on_the_fine_grid():
     assert _solid(cone).volume() == pytest.approx(cone.volume, rel=0.01)  # the 64-gon pyramid's exact volume
 
 
+@pytest.mark.parametrize("subdivisions, far", [(2, 3.0), (3, 3.0), (2, 5.0)])
+def test_a_thin_spike_is_not_cut_by_the_fine_grid(subdivisions, far):
+    """A sphere with one vertex pulled out to ``far`` radii: a spike on the same surface, thinner
+    than a coarse voxel before its tip. The first pass's box ends at the vertices within a coarse
+    voxel of the coarse solid, so the fine solid, which resolves the spike farther out, reached the
+    edge of its grid and was cut there (it ended at x = 2.71, 2.28, 3.92; now 2.77, 2.56, 4.34). Now the box takes in the
+    surfaces lying mostly on the fine solid: the solid is, voxel for voxel, the one on its lattice
+    with ten more voxels each side (ray_vote_solid, exterior_fill, keep_main on that grid)."""
+    from jaxpose.occupancy.solid import MESH_REACH, ray_vote_solid
+
+    m = trimesh.creation.icosphere(subdivisions=subdivisions)
+    v = m.vertices.copy()
+    v[np.argmax(v[:, 0])] *= far
+    s = _solid(trimesh.Trimesh(v, m.faces, process=False))
+    wide = ray_vote_solid(v, m.faces, s.origin - 10 * s.pitch, s.pitch, np.array(s.inside.shape) + 20)[0]
+    np.testing.assert_array_equal(np.argwhere(keep_main(exterior_fill(wide, MESH_REACH))[0]),
+                                  np.argwhere(s.inside) + 10)
+
+
 def test_two_equal_parts_are_both_kept():
     a, b = trimesh.creation.box([1, 1, 1]), trimesh.creation.box([1, 1, 1])
     b.apply_translation([3, 0, 0])

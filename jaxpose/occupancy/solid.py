@@ -30,7 +30,11 @@ in under 1 / :data:`ZOOM` of its grid, or none (a speck of a mesh far away: the 
 voxels, its thin parts between their centers), it is repeated over the main surface's box
 (:func:`surface_box`, the surface's own voxel components weighed by area); where no part lies apart
 there (a needle or a floor beside the body), the box of the coarse body takes in the surfaces that
-lie on it (:func:`whole_surfaces`).
+lie on it (:func:`whole_surfaces`). A mesh's thin tip (a finger, a fin, a spike) can lie more than a
+coarse voxel off the coarse solid and so out of the box, while the fine grid resolves it: where the
+fine solid then reaches the edge of its grid (cut off), the box takes in the surfaces lying mostly
+on the fine solid (:func:`whole_surfaces` again) and the fine pass is repeated, at most
+:data:`WIDEN` times.
 
 Memory. A grid of ``resolution`` voxels along the largest extent holds at most about
 (resolution + 31)^3 voxels (a cube, with the widest margins) of ``VOXEL_BYTES`` each at the peak;
@@ -58,7 +62,7 @@ from ..sample import lattice_points
 
 __all__ = ["Solid", "robust_solid", "cap_holes", "ray_vote_solid", "point_solid", "exterior_fill", "keep_main", "MESH_REACH",
            "depth", "make_grid", "closing_radius", "linked_parts", "LINK", "neighbour_distances", "check_resolution", "RESOLUTION", "COARSE",
-           "KEEP_RATIO", "ZOOM", "surface_box", "whole_surfaces", "SPACING_SAMPLES", "VOXEL_BYTES", "MESH_BIAS", "POINT_BIAS", "GRID_OFFSET"]
+           "KEEP_RATIO", "ZOOM", "WIDEN", "surface_box", "whole_surfaces", "reaches_edge", "SPACING_SAMPLES", "VOXEL_BYTES", "MESH_BIAS", "POINT_BIAS", "GRID_OFFSET"]
 
 _DEFAULTS = RobustConfig()  # the defaults are written once, in jaxpose.config.RobustConfig
 RESOLUTION = _DEFAULTS.resolution  # voxels along the main body's largest extent
@@ -446,6 +450,11 @@ def depth(kept, pitch, bias=MESH_BIAS):
     return np.maximum(ndimage.distance_transform_edt(kept) - bias, 0.0) * pitch
 
 
+def reaches_edge(inside):
+    """Whether a grid's True cells reach one of its six faces (a solid cut off by its grid)."""
+    return any(np.take(inside, i, axis=a).any() for a in range(inside.ndim) for i in (0, -1))
+
+
 def near_solid(x, kept, origin, pitch, grow=1):
     """(m,) bool: the voxel of each point x (m, 3) (the grid's frame, units) lies within ``grow``
     voxels of ``kept`` ((nx, ny, nz) bool; lower corner ``origin``, edge ``pitch``)."""
@@ -486,6 +495,7 @@ def whole_surfaces(vertices, faces, on, near):
     return on | whole[lab]
 
 
+WIDEN = 3  # meshes: at most this many wider boxes for a fine solid cut at its grid's edge
 ZOOM = 4  # meshes: the first pass's grid is laid over the main surface once it spans under 1 / ZOOM of it
 
 
@@ -699,13 +709,29 @@ def robust_solid(vertices, faces=None, *, resolution=RESOLUTION, coarse=COARSE, 
         elif box is not None:  # no part lies apart at that pitch (a needle or a floor beside the body): the
             # coarse body's box, taking in the surfaces that mostly lie on it (whole_surfaces)
             box = first_pass(lo, hi, whole=True)
-    if box is not None:
-        lo, hi = box
-    # pass 2: the fine grid on the main body's box
-    pitch = coarsest(float((hi - lo).max()) / resolution)
-    origin, shape = make_grid(lo, hi, pitch, margin(pitch))
-    solid, occupied = solid_at(origin, pitch, shape)
-    kept, components, dropped = keep_main(exterior_fill(solid, reach if faces is not None else 0), keep_ratio)
+
+    def fine(box):  # pass 2: the fine grid on the main body's box
+        b_lo, b_hi = box if box is not None else (lo, hi)
+        pitch = coarsest(float((b_hi - b_lo).max()) / resolution)
+        origin, shape = make_grid(b_lo, b_hi, pitch, margin(pitch))
+        solid, occupied = solid_at(origin, pitch, shape)
+        return (origin, pitch, occupied, *keep_main(exterior_fill(solid, reach if faces is not None else 0), keep_ratio))
+
+    origin, pitch, occupied, kept, components, dropped = fine(box)
+    for _ in range(WIDEN if faces is not None and box is not None else 0):
+        # a thin tip (a finger, a fin) lay more than a coarse voxel off the coarse body, out of the
+        # box, and the fine solid is cut at its grid's edge: the box takes in the surfaces lying
+        # mostly on the fine solid (whole_surfaces), which hold the tip's
+        if not reaches_edge(kept):
+            break
+        u = v[:n_input]
+        on = whole_surfaces(u, faces, near_solid(u, kept, origin, pitch, grow=1),
+                            near_solid(_centroids(v, faces), kept, origin, pitch, grow=1))
+        wider = np.minimum(box[0], u[on].min(0)), np.maximum(box[1], u[on].max(0))
+        if not (np.any(wider[0] < box[0]) or np.any(wider[1] > box[1])):
+            break
+        box = wider
+        origin, pitch, occupied, kept, components, dropped = fine(box)
     bias = MESH_BIAS if faces is not None else POINT_BIAS
     dep = depth(kept, pitch, bias=bias) if with_depth else None
     radius = closing_radius(r_gap, pitch) if faces is None else None

@@ -258,7 +258,7 @@ def _check_mostly_closed(faces, capped, caps, sol=None):
     share = float(triangle_areas(capped[caps]).sum() / max(triangle_areas(capped[faces]).sum(), 1e-300))
     if share > MAX_CAP_SHARE and sol is not None:
         rest, sheets = _open_share(faces, capped, caps, sol.pitch)
-        if rest <= MAX_CAP_SHARE and _reaches_edge(sol.inside):
+        if rest <= MAX_CAP_SHARE and solid.reaches_edge(sol.inside):
             raise JaxposeError(f"the mesh holds flat sheets apart from its body ({100 * sheets:.0f} % of its area: a "
                                "floor, a stray plane), and the robust solid's box, found among them, cuts the body "
                                f"off (its solid reaches the edge of its grid); remove the sheets, or {_OTHER}")
@@ -267,11 +267,6 @@ def _check_mostly_closed(faces, capped, caps, sol=None):
         raise JaxposeError(f"the mesh is mostly open (a sheet, or a scan of one side): closing its holes would add "
                            f"{100 * share:.0f} % of its own area (at most {100 * MAX_CAP_SHARE:.0f} %), so the caps, "
                            f"not the shape, would make the robust solid; {_OTHER}")
-
-
-def _reaches_edge(inside):
-    """Whether a grid's True cells reach one of its six faces."""
-    return any(np.take(inside, i, axis=a).any() for a in range(inside.ndim) for i in (0, -1))
 
 
 def _open_share(faces, capped, caps, pitch):

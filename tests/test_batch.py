@@ -608,6 +608,31 @@ def test_a_spelled_out_default_resolution_is_the_same_options(tmp_path, tree, ca
         run([sphere], out, options=NormalizeOptions(rotation=True))
 
 
+def test_a_folder_an_earlier_version_made_with_an_unread_strict_is_resumed(tmp_path, tree):
+    """strict=True with estimators that do not read it (the robust default, bbox), taken by an
+    earlier version and refused by this one: its folder's outputs are done, not refused as 'options
+    this version cannot read' (NormalizeOptions(**recorded) raised); where a closed-surface
+    estimator reads it, strict stays an option of its own."""
+    from jaxpose.batch.task import recorded_settings
+
+    sphere = tmp_path / "scans" / "sphere.off"
+    for options in (NormalizeOptions(resolution=16), NormalizeOptions(method="bbox")):  # robust (default), bbox
+        out = tmp_path / f"out-{options.method}"
+        assert run([sphere], out, options=options).written == 1
+        journal = out / ".jaxpose" / "journal.jsonl"
+        records = [json.loads(line) for line in journal.read_text().splitlines()]
+        for record in records:  # as the earlier version wrote them: its options, strict=True
+            if "options" in record:
+                record["options"] = json.dumps({**json.loads(record["options"]), "strict": True}, sort_keys=True)
+        assert any('"strict": true' in r.get("options", "") for r in records)
+        journal.write_text("".join(json.dumps(r) + "\n" for r in records))
+        again = run([sphere, tmp_path / "scans" / "a" / "b" / "box.obj"], out, options=options)
+        assert (again.written, again.skipped, again.failed) == (1, 1, 0), options
+    closed = NormalizeOptions(method="solid", strict=True)
+    assert closed.settings()["strict"] is True and NormalizeOptions(method="solid").settings()["strict"] is False
+    assert recorded_settings(closed.fingerprint()) == closed.settings()
+
+
 def test_a_spelled_out_format_of_the_inputs_own_is_the_same_options(tmp_path, tree):
     """The output format is compared resolved: --format ply for .ply inputs is no --format (a rerun
     spelling it out redid every file, as did the reverse); another format is other outputs. An

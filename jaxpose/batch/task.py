@@ -129,19 +129,21 @@ class NormalizeOptions:
         ``method`` (the default's name for None), ``center`` and ``scale`` (the estimators), the
         OCSVM's ``gamma``, ``nu``, ``count``, ``seed``, ``sampling`` only where it runs (no other
         estimator reads them), ``resolution`` (:attr:`resolved_resolution`: a default written out
-        is the default left out), ``rotation`` (the frame's method, or None), ``strict``, and
+        is the default left out), ``rotation`` (the frame's method, or None), ``strict`` (True only
+        where a closed-surface estimator reads it, :data:`jaxpose.pose.estimators.CLOSED_FORMS`), and
         ``format`` (the output format, None: each input's). Equal settings, equal outputs:
         ``NormalizeOptions()``, ``NormalizeOptions(method="robust")`` and
         ``NormalizeOptions(resolution=RobustConfig().resolution)`` have the same settings, not the
         same fingerprint (which keeps the options as given: the ``options`` column).
         """
-        from ..pose.estimators import DEFAULT_METHOD, resolve
+        from ..pose.estimators import CLOSED_FORMS, DEFAULT_METHOD, resolve
 
         c_name, s_name = resolve(self.method, self.center, self.scale)
         out = {"method": self.method or DEFAULT_METHOD, "center": c_name, "scale": s_name}
         if self.uses_jax:
             out.update({name: getattr(self, name) for name in OCSVM_ONLY})
-        out.update(resolution=self.resolved_resolution, rotation=self.rotation_method, strict=self.strict,
+        strict = self.strict and bool(set(CLOSED_FORMS) & {c_name, s_name})
+        out.update(resolution=self.resolved_resolution, rotation=self.rotation_method, strict=strict,
                    format=file_format)
         return out
 
@@ -156,9 +158,15 @@ def recorded_settings(fingerprint) -> dict | None:
 
 @functools.lru_cache(maxsize=256)  # a folder's rows share a few fingerprints; each is checked once
 def _recorded_settings(fingerprint):
+    from ..pose.estimators import CLOSED_FORMS, resolve
+
     try:
         values = json.loads(fingerprint)
         file_format = values.pop("format", None)
+        if values.get("strict") is True:  # an earlier version took strict=True where nothing reads it (the
+            # robust default): its outputs are those of strict=False, which this version's settings record
+            if not set(CLOSED_FORMS) & set(resolve(values.get("method"), values.get("center"), values.get("scale"))):
+                values["strict"] = False
         return tuple(NormalizeOptions(**values).settings(file_format).items())
     except Exception:  # not JSON, unknown fields, values this version refuses
         return None

@@ -1,5 +1,8 @@
 """Mesh I/O, surface sampling, normalize_mesh and atomic export."""
 import hashlib
+import json
+import os
+import re
 
 import numpy as np
 import pytest
@@ -73,6 +76,55 @@ def test_a_gltf_reads_its_buffer_files_from_its_folder(tmp_path):
     with pytest.raises(InvalidInputError, match=r"model.gltf: cannot read GLTF file: it refers to gltf_buffer_0.bin, "
                                                 r"which is not in its folder .*alone"):
         mesh.load(alone)
+
+
+def test_a_gltf_buffer_named_out_of_its_folder_is_never_opened(tmp_path, monkeypatch):
+    """A .gltf naming ``../pipe.bin`` (a FIFO beside its folder) as a buffer: refused as not in its
+    folder, on every trimesh: the reader resolves and reads the names itself, trimesh's own
+    ``FilePathResolver.get`` is never called (trimesh 4's opened ``../pipe.bin`` and waited for a
+    writer, for ever; 5's refused it in its own words); buffers in the folder read as before."""
+    import threading
+
+    folder = tmp_path / "d"
+    folder.mkdir()
+    files = trimesh.creation.box().export(file_type="gltf")
+    for name, data in files.items():
+        (folder / name).write_bytes(data)
+    tree = json.loads(files["model.gltf"])
+    tree["buffers"][0]["uri"] = "../pipe.bin"
+    (folder / "out.gltf").write_text(json.dumps(tree))
+    os.mkfifo(tmp_path / "pipe.bin")
+    asked = []
+
+    def trimesh_get(self, name):  # trimesh's rule, whichever version is installed: not to be used
+        asked.append(name)
+        raise RuntimeError(f"trimesh's resolver asked for {name!r}")
+
+    monkeypatch.setattr(trimesh.resolvers.FilePathResolver, "get", trimesh_get)
+    assert len(mesh.load(folder / "model.gltf").vertices) == 8  # the buffers beside it
+    errors = []
+
+    def load():
+        try:
+            mesh.load(folder / "out.gltf")
+        except Exception as exc:
+            errors.append(exc)
+
+    thread = threading.Thread(target=load, daemon=True)
+    thread.start()
+    thread.join(30)
+    blocked = thread.is_alive()
+    while thread.is_alive():  # let it go: a writer that closes at once
+        try:
+            os.close(os.open(tmp_path / "pipe.bin", os.O_WRONLY | os.O_NONBLOCK))
+        except OSError:
+            pass
+        thread.join(1)
+    assert not blocked, "the reader waited on ../pipe.bin"
+    assert asked == []
+    assert len(errors) == 1 and isinstance(errors[0], InvalidInputError), errors
+    assert re.search(r"out.gltf: cannot read GLTF file: it refers to \.\./pipe.bin, which is not in its folder .*d ",
+                     str(errors[0])), errors[0]
 
 
 def test_faceless_geometry_is_a_point_cloud(tmp_path):

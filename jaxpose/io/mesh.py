@@ -338,10 +338,10 @@ def _read(path):
 
 
 def gltf_file(folder, name):
-    """The file trimesh's reader opens for a buffer (or image) name of a .gltf in `folder`, or None:
-    the rule of ``trimesh.resolvers.FilePathResolver.get`` (the name as it is, without its leading
-    ``/``, its last part; each taken literally (no %-decoding) in the folder, the first that exists
-    and does not lead out of the folder)."""
+    """The file jaxpose's reader opens for a buffer (or image) name of a .gltf in `folder`, or None:
+    the name as it is, without its leading ``/``, its last part; each taken literally (no
+    %-decoding) in the folder, the first that exists and does not lead out of the folder (the rule
+    of trimesh 5's ``FilePathResolver.get``; the reader applies it on every trimesh version)."""
     parent = Path(folder).resolve()
     for candidate in (name.strip(), name.strip().lstrip("/"), os.path.split(name)[-1]):
         file = (parent / candidate.strip()).resolve()
@@ -355,24 +355,36 @@ class _NotRegular(Exception):
 
 
 def _gltf_resolver(path):
-    """trimesh's resolver of the files beside the .gltf `path`, refusing (:class:`_NotRegular`)
-    one that is not a regular file before it is opened: a FIFO's ``open`` waits for a writer, for
-    ever when none comes (a folder, a device: named as well). Images trimesh reads on its own
-    terms (it skips one it cannot read)."""
+    """A resolver of the files beside the .gltf `path` for trimesh's reader: :func:`gltf_file`'s
+    file, its bytes (FileNotFoundError naming the name where there is none), refusing
+    (:class:`_NotRegular`) one that is not a regular file before it is opened: a FIFO's ``open``
+    waits for a writer, for ever when none comes (a folder, a device: named as well). It reads the
+    file itself (trimesh's own ``get`` follows another rule on each major version: 4's opens
+    ``../name``, a file out of the folder). Images trimesh reads on its own terms (it skips one
+    it cannot read)."""
     import stat
+
+    def refuse(name, file, mode):
+        kind = next((kind for test, kind in ((stat.S_ISFIFO, "a FIFO"), (stat.S_ISDIR, "a folder"),
+                                             (stat.S_ISSOCK, "a socket"), (stat.S_ISCHR, "a character device"),
+                                             (stat.S_ISBLK, "a block device")) if test(mode)), "not a file")
+        return _NotRegular(f"{path}: the file {name!r} it refers to ({file}) is {kind}, not a regular "
+                           "file: a .gltf's buffer files are read as regular files only (it was not opened)")
 
     class Resolver(_trimesh().resolvers.FilePathResolver):
         def get(self, name):
             file = gltf_file(self.parent, name)
-            if file is not None:
-                mode = os.stat(file).st_mode
+            if file is None:
+                raise FileNotFoundError(name)
+            mode = os.stat(file).st_mode
+            if not stat.S_ISREG(mode):
+                raise refuse(name, file, mode)
+            fd = os.open(file, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))  # replaced by a FIFO since: not held
+            with os.fdopen(fd, "rb") as handle:
+                mode = os.fstat(handle.fileno()).st_mode
                 if not stat.S_ISREG(mode):
-                    kind = next((kind for test, kind in ((stat.S_ISFIFO, "a FIFO"), (stat.S_ISDIR, "a folder"),
-                                                         (stat.S_ISSOCK, "a socket"), (stat.S_ISCHR, "a character device"),
-                                                         (stat.S_ISBLK, "a block device")) if test(mode)), "not a file")
-                    raise _NotRegular(f"{path}: the file {name!r} it refers to ({file}) is {kind}, not a regular "
-                                      "file: a .gltf's buffer files are read as regular files only (it was not opened)")
-            return super().get(name)
+                    raise refuse(name, file, mode)
+                return handle.read()
 
     return Resolver(str(path))
 

@@ -145,6 +145,12 @@ def test_center_and_scale_are_chosen_independently():
     (lambda box: estimators.estimate_many(box, "robust"), r"methods must be a list of names, got the string 'robust'"),
     (lambda box: estimators.estimate_many(box, ["vertex_mean", "robust"], resolution=4), "resolution must be >= 8"),
     (lambda box: estimators.estimate_many(box, ["bbox"], ocsvm={"tol": -1.0}), "tol must be finite and > 0"),
+    # as estimate: an option none of the methods reads (they were taken and ignored)
+    (lambda box: estimators.estimate_many(box, ["robust"], strict=True), "strict applies to the closed-surface"),
+    (lambda box: estimators.estimate_many(box, ["bbox", "vertex_mean"], strict=True), "none of which the methods bbox, "),
+    (lambda box: estimators.estimate_many(box, ["bbox"], power=2), "power applies to the robust_depth and"),
+    (lambda box: estimators.estimate_many(box, ["robust:2", "solid"], power=2), "none of which the methods robust:2, "),
+    (lambda box: estimators.estimate_many(box, ["bbox", "solid"], resolution=64), "resolution applies to the robust"),
 ])
 def test_bad_options_are_refused_before_any_work(call, message):
     with pytest.raises(InvalidInputError, match=message):
@@ -178,6 +184,12 @@ def test_depth_weighted_solid_and_estimate_many_agree():
     np.testing.assert_allclose(many["robust"].center, estimators.estimate(mesh).center, atol=1e-12)
     np.testing.assert_allclose(many["robust:8"].center, estimators.estimate(mesh, power=8.0).center, atol=1e-12)
     np.testing.assert_allclose(many["solid"].center, 0.0, atol=1e-9)
+    # an option one of the methods reads: taken (by that one)
+    mixed = estimators.estimate_many(mesh, ["bbox", "solid", "robust", "depth_weighted_solid:4"], strict=True,
+                                     power=8.0, resolution=64)
+    np.testing.assert_allclose(mixed["robust"].center, estimators.estimate(mesh, power=8.0, resolution=64).center,
+                               atol=1e-12)
+    np.testing.assert_allclose(mixed["solid"].center, many["solid"].center, atol=1e-12)
     cloud = trimesh.PointCloud(np.asarray(mesh.vertices))
     out = estimators.estimate_many(cloud, ["solid", "vertex_mean"])
     assert isinstance(out["solid"], InvalidInputError) and not isinstance(out["vertex_mean"], Exception)

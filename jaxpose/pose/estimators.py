@@ -525,6 +525,23 @@ def _pose(shape, c_name, s_name, strict):
     return pose
 
 
+def _check_read_by_any(methods, parsed, strict, options):
+    """:func:`estimate`'s refusals of options no estimator reads, for :func:`estimate_many`: refused
+    where none of the methods (``parsed``: ((center, scale), power)) reads ``strict=True``, a
+    ``power`` (a method's own ``"name:p"`` replaces it) or a ``resolution``."""
+    names = ", ".join(methods)
+    if strict and not any(set(CLOSED_FORMS) & set(pair) for pair, _ in parsed):
+        raise InvalidInputError(f"strict applies to the closed-surface estimators ({', '.join(CLOSED_FORMS)}), none "
+                                f"of which the methods {names} use")
+    if "power" in options and not any(c_name in POWERED and key is None for (c_name, _), key in parsed):
+        raise InvalidInputError(f"power applies to the {' and '.join(POWERED)} centers (where a method gives none "
+                                f"as 'name:p'), none of which the methods {names} use")
+    if "resolution" in options and not any("robust_depth" in pair or pair[1] == "robust_volume" for pair, _ in parsed):
+        raise InvalidInputError(f"resolution applies to the robust solid (the robust_depth center, the robust_volume "
+                                f"scale), which none of the methods {names} use; for ocsvm give it in "
+                                f"ocsvm={{'resolution': ...}}")
+
+
 def estimate_many(geometry, methods, strict=False, timings=False, **options):
     """Several methods on one input, sharing what they have in common (the robust solid, the
     voxels of the depth-weighted solid, the OCSVM fit).
@@ -539,12 +556,16 @@ def estimate_many(geometry, methods, strict=False, timings=False, **options):
     Returns:
       {method: Pose, or the JaxposeError it raised (e.g. a surface estimator on points)}, with
       ``timings`` {method: (that, seconds)}.
+
+    Raises:
+      InvalidInputError: as :func:`estimate`, before any work: unknown names or options, a bad
+        value, ``strict=True``, a ``power`` or a ``resolution`` that none of the methods reads.
     """
     _check_options(options)
     strict, timings = _validate.check_bool(strict, "strict"), _validate.check_bool(timings, "timings")
     methods = _validate.check_names(methods, "methods")
-    for spec in methods:  # every name before any work
-        parse_method(spec)
+    parsed = [(resolve(name), key) for name, key in map(parse_method, methods)]  # every name before any work
+    _check_read_by_any(methods, parsed, strict, options)
     geometry, shift = centered(geometry)
     shapes, out = {}, {}
     for spec in methods:

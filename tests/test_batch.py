@@ -328,8 +328,10 @@ def test_a_rerun_under_mtime_redoes_nothing_for_a_move_a_chmod_or_a_hard_link(tm
 
 def test_an_input_rewritten_with_its_size_and_time_while_read_is_changed(tmp_path):
     """An input rewritten in place while it is read, its size the same and its modification time
-    set back (cp -p over it): 'changed while it was read' (size, time and inode were the same: the
-    bytes read passed as the file's). Its status-change time moved."""
+    set back (cp -p over it): 'its status changed while it was read' (size, time and inode were the
+    same: the bytes read passed as the file's). Its status-change time moved, and only that: the
+    message says so, as for a chmod or a new hard link during the read (it read 'size 10 -> 10
+    bytes', no difference named)."""
     import time
 
     from jaxpose.batch.task import _check_unchanged, _input_stat
@@ -342,7 +344,24 @@ def test_an_input_rewritten_with_its_size_and_time_while_read_is_changed(tmp_pat
     info = path.stat()
     path.write_bytes(b"OFF\n1 1 1\n")
     os.utime(path, ns=(info.st_atime_ns, info.st_mtime_ns))
-    with pytest.raises(InvalidInputError, match=r"changed while it was read \(size 10 -> 10 bytes\)"):
+    status = (r"a.off: its status changed while it was read: rewritten keeping its size and time, or its permissions "
+              r"or links changed; run again to read it whole$")
+    with pytest.raises(InvalidInputError, match=status):
+        _check_unchanged(path, before)
+    for change in (lambda: path.chmod(0o600), lambda: os.link(path, tmp_path / "b.off")):  # the bytes as they were
+        before = _input_stat(path, "mtime")
+        time.sleep(0.05)
+        change()
+        with pytest.raises(InvalidInputError, match=status):
+            _check_unchanged(path, before)
+    before = _input_stat(path, "mtime")  # the same size, a later time: named
+    time.sleep(0.05)
+    path.write_bytes(b"OFF\n2 2 2\n")
+    with pytest.raises(InvalidInputError, match=r"changed while it was read \(size 10 bytes, its modification time moved\)"):
+        _check_unchanged(path, before)
+    before = _input_stat(path, "mtime")  # another size: named
+    path.write_bytes(b"OFF\n1 1 1\n\n")
+    with pytest.raises(InvalidInputError, match=r"changed while it was read \(size 10 -> 11 bytes\)"):
         _check_unchanged(path, before)
 
 

@@ -418,8 +418,18 @@ def _check_unchanged(path, before):
         raise InvalidInputError(f"{path}: removed while it was read ({exc.strerror})") from None
     fields = ("input_size", "input_mtime_ns", "input_stat", "input_identity")  # no size: not a regular file now
     if now["input_size"] is None or any(now.get(f) != before.get(f) for f in fields):
-        size = (f"{before['input_size']} bytes -> not a regular file" if now["input_size"] is None
-                else f"{before['input_size']} -> {now['input_size']} bytes")
+        files = [[identity[:2] for identity in key.get("input_identity") or ()] for key in (before, now)]
+        if now["input_size"] is None:
+            size = f"{before['input_size']} bytes -> not a regular file"
+        elif now["input_size"] != before["input_size"]:
+            size = f"{before['input_size']} -> {now['input_size']} bytes"
+        elif any(now.get(f) != before.get(f) for f in ("input_mtime_ns", "input_stat")):
+            size = f"{now['input_size']} bytes, its modification time moved"
+        elif files[0] != files[1]:
+            size = f"{now['input_size']} bytes, replaced by another file"
+        else:  # the same files, sizes and times: only the status-change time moved
+            raise InvalidInputError(f"{path}: its status changed while it was read: rewritten keeping its size and "
+                                    "time, or its permissions or links changed; run again to read it whole")
         raise InvalidInputError(f"{path}: changed while it was read (size {size}); run again to read it whole")
 
 

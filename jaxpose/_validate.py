@@ -5,13 +5,12 @@ Every public entry point calls these first, so that bad input gets a readable
 """
 from __future__ import annotations
 
-import numbers
 import os
 import sys
 
 import numpy as np
 
-from .config import _bool, _int, check_known  # (config's rules: NumPy-free, config is imported before NumPy)
+from .config import _bool, _int, _real, check_known  # (config's rules: NumPy-free, config is imported before NumPy)
 from .errors import ConvergenceError, InvalidInputError, InvalidPoseWarning, JaxposeError, OpenMeshWarning
 
 __all__ = [
@@ -263,20 +262,9 @@ def check_callback(value, name):
 
 
 def check_real(value, name, minimum, strict=False):
-    """``value`` as a finite float >= ``minimum`` (> with ``strict``); bools, non-numbers, NaN, inf
-    and ints beyond a float's range refused by name. A concrete () array of reals (NumPy or JAX)
-    is its number."""
-    number, shown = None, None
-    dtype = getattr(value, "dtype", None)
-    if (getattr(value, "shape", None) == () and dtype is not None and is_real_dtype(dtype)
-            and not isinstance(value, np.generic) and not is_traced(value)):
-        value = np.asarray(value).item()
-    if not isinstance(value, (bool, np.bool_)) and isinstance(value, (numbers.Real, np.floating, np.integer)):
-        try:
-            number = float(value)
-        except OverflowError:  # an int no float holds: not a finite number (nor one to print whole)
-            shown = f"an int of {int(value).bit_length()} bits"
-    if number is None or not np.isfinite(number) or not (number > minimum if strict else number >= minimum):
-        raise InvalidInputError(f"{name} must be a finite number {'>' if strict else '>='} {minimum:g}, "
-                                f"got {shown or repr(value)}")
-    return number
+    """``value`` as a finite float >= ``minimum`` (> with ``strict``): :func:`jaxpose.config._real`,
+    the one number rule and wording of the library (the options objects' too: "{name} must be a
+    finite number >= {minimum}, got ..."). Bools, non-numbers, NaN, inf, timedeltas and ints beyond
+    a float's range refused by name; a concrete () array of reals (NumPy, JAX, ml_dtypes) is its
+    number."""
+    return _real(value, name, minimum, closed=not strict)

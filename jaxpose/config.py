@@ -151,28 +151,40 @@ def _create(cls, config, options):
     return dataclasses.replace(base, **options) if options else base
 
 
-def _real(value, name, low, high, closed=True, interval=None):
-    """``value`` as a float in [low, high] (or (low, high] with ``closed=False``): a real number
-    (a ``numbers.Real``: Python's, NumPy's; or a () NumPy or JAX array of reals); bools, strings
-    (``"0.1"``), other objects that ``float()`` takes (``Decimal``, a class with ``__float__``), arrays
-    of other shapes and ints beyond a float's range refused by name, as
-    :func:`jaxpose._validate.check_real` refuses them (told without importing NumPy: its dtype's
-    kind). ``interval``: the range as the message writes it (default from low, high, closed)."""
+def _real(value, name, low, high=math.inf, closed=True, interval=None):
+    """``value`` as a float in [low, high] (or (low, high] with ``closed=False``): the one number rule
+    of the library (:func:`jaxpose._validate.check_real` is this with ``high`` inf) and its one
+    wording. A real number is a ``numbers.Real`` (Python's, NumPy's) or a () NumPy or JAX array or
+    scalar of reals (ml_dtypes' floats included); bools, strings (``"0.1"``), timedeltas, other
+    objects that ``float()`` takes (``Decimal``, a class with ``__float__``), arrays of other
+    shapes, traced values and ints beyond a float's range are refused by name (told without
+    importing NumPy: by type and dtype kind).
+
+    The message: ``"{name} must be a finite number >= {low}"`` (``> {low}`` with ``closed=False``)
+    where ``high`` is inf, ``"{name} must be a number in {interval}"`` where it is finite
+    (``interval`` default from low, high, closed: ``[0, 1]``); then ``", got {value}"``, a () array
+    shown as its number."""
     dtype, shown = getattr(value, "dtype", None), None
     if (isinstance(value, (bool, str, bytes)) or getattr(value, "shape", ()) != ()
             or (dtype is not None and getattr(dtype, "kind", None) not in ("f", "i", "u", "V"))
             or (dtype is None and not isinstance(value, numbers.Real))):
-        v = math.nan  # (float() took "0.1", a (1,) array, NumPy's bools, Decimal, any object with __float__)
+        v = math.nan  # (float() took "0.1", a (1,) array, NumPy's bools and timedeltas, Decimal, any object with __float__)
     else:
         try:
             v = float(value)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError):  # (a traced value: JAX's ConcretizationTypeError, a TypeError)
             v = math.nan
         except OverflowError:  # an int no float holds (was the OverflowError itself)
             v, shown = math.nan, f"an int of {int(value).bit_length()} bits"
     if not (math.isfinite(v) and (low <= v if closed else low < v) and v <= high):
-        interval = interval or f"{'[' if closed else '('}{low:g}, {high:g}{']' if math.isfinite(high) else ')'}"
-        raise InvalidInputError(f"{name} must be a number in {interval}, got {shown or repr(value)}")
+        if (shown is None and getattr(dtype, "kind", None) in ("f", "i", "u") and getattr(value, "shape", None) == ()
+                and not _is_traced(value)):
+            shown = repr(value.item())  # a () array as its number ("got -2.0", not "got array(-2.)")
+        if math.isinf(high) and interval is None:
+            rule = f"a finite number {'>=' if closed else '>'} {low:g}"
+        else:
+            rule = f"a number in {interval or ('[' if closed else '(') + f'{low:g}, {high:g}]'}"
+        raise InvalidInputError(f"{name} must be {rule}, got {shown or repr(value)}")
     return v
 
 
@@ -200,7 +212,7 @@ class OCSVMOptions:
     sampling: str = "even"
 
     def __post_init__(self):
-        _set(self, gamma=_real(self.gamma, "gamma", 0.0, math.inf, closed=False), nu=_real(self.nu, "nu", 0.0, 1.0),
+        _set(self, gamma=_real(self.gamma, "gamma", 0.0, closed=False), nu=_real(self.nu, "nu", 0.0, 1.0),
              count=_int(self.count, "count", 4), seed=_int(self.seed, "seed", 0),
              sampling=_choice(self.sampling, "sampling", SAMPLING))
 
@@ -221,7 +233,7 @@ class RobustOptions:
     power: float = 4.0
 
     def __post_init__(self):
-        _set(self, power=_real(self.power, "power", 0.0, math.inf))
+        _set(self, power=_real(self.power, "power", 0.0))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -255,8 +267,8 @@ class TuneOptions:
     instances: int = 6
 
     def __post_init__(self):
-        _set(self, steps=_int(self.steps, "steps", 0), lr=_real(self.lr, "lr", 0.0, math.inf, closed=False),
-             reg=_real(self.reg, "reg", 0.0, math.inf), scale_weight=_real(self.scale_weight, "scale_weight", 0.0, math.inf),
+        _set(self, steps=_int(self.steps, "steps", 0), lr=_real(self.lr, "lr", 0.0, closed=False),
+             reg=_real(self.reg, "reg", 0.0), scale_weight=_real(self.scale_weight, "scale_weight", 0.0),
              holdout=_real(self.holdout, "holdout", 0.0, math.nextafter(1.0, 0.0), interval="[0, 1)"),
              count=_int(self.count, "count", 4), instances=check_instances(self.instances, "instances", 2))
 

@@ -131,7 +131,7 @@ def test_estimator_options_are_the_paper_values_and_validated():
 @pytest.mark.parametrize("bad, message", [
     # TuneOptions took any value (its siblings refuse theirs): steps=-1, lr=0, holdout=1.0 ...
     (dict(steps=-1), "steps must be >= 0"), (dict(steps=2.5), "steps must be an int"),
-    (dict(lr=0.0), r"lr must be a number in \(0, inf\)"), (dict(reg=-1.0), "reg must be"),
+    (dict(lr=0.0), "lr must be a finite number > 0"), (dict(reg=-1.0), "reg must be"),
     (dict(scale_weight=float("nan")), "scale_weight must be"), (dict(holdout=1.0), r"holdout must be a number in \[0, 1\)"),
     (dict(count=3), "count must be >= 4"), (dict(instances=1), "instances must be >= 2"),
 ])
@@ -184,6 +184,48 @@ def test_config_real_and_check_real_take_the_same_values():
             _real(bad, "x", 0.0, 1.0)
     for good in (0.5, 1, Fraction(1, 2), np.float32(0.5), np.int64(1), np.array(0.5), np.array(1, np.uint8)):
         assert _real(good, "x", 0.0, 1.0) == check_real(good, "x", 0.0) == float(good)
+
+
+def test_one_number_rule_one_wording():
+    """_validate.check_real ("must be a finite number > 0") and the options objects' config._real
+    ("must be a number in (0, inf)") worded one rule twice, and took different values: check_real
+    took a NumPy timedelta (an integer subtype to NumPy) and refused an ml_dtypes bfloat16 scalar,
+    _real the reverse. check_real is _real now: the same values, the same message, for the half-line
+    and for an options object's field."""
+    import math
+
+    import ml_dtypes
+
+    from jaxpose._validate import check_real
+    from jaxpose.config import RobustOptions, TuneOptions, _real
+
+    for value in (np.timedelta64(3), ml_dtypes.bfloat16(2.0), np.array(-2.0), -1, float("nan"), float("inf"), 10**400,
+                  "1", True, np.array([1.0]), 0.0, 2, np.float32(0.5), np.array(3, np.uint8), jnp_scalar()):
+        for strict in (False, True):
+            outcomes = []
+            for check in (lambda: check_real(value, "x", 0, strict), lambda: _real(value, "x", 0, math.inf, not strict)):
+                try:
+                    outcomes.append(check())
+                except InvalidInputError as exc:
+                    outcomes.append(str(exc))
+            assert outcomes[0] == outcomes[1], (value, strict, outcomes)
+    with pytest.raises(InvalidInputError, match=r"^x must be a finite number > 0, got -2.0$"):
+        check_real(np.array(-2.0), "x", 0, strict=True)
+    with pytest.raises(InvalidInputError, match=r"^lr must be a finite number > 0, got 0.0$"):
+        TuneOptions(lr=0.0)
+    with pytest.raises(InvalidInputError, match=r"^power must be a finite number >= 0, got -1.0$"):
+        RobustOptions(power=-1.0)
+    with pytest.raises(InvalidInputError, match=r"^x must be a finite number >= 0, got np.timedelta64\(3\)$"):
+        check_real(np.timedelta64(3), "x", 0)
+    assert check_real(ml_dtypes.bfloat16(2.0), "x", 0) == 2.0
+    with pytest.raises(InvalidInputError, match=r"^x must be a number in \[0, 1\], got 2.0$"):  # a bounded interval
+        _real(2.0, "x", 0.0, 1.0)
+
+
+def jnp_scalar():
+    import jax.numpy as jnp
+
+    return jnp.asarray(-3)
 
 
 def test_every_entry_point_reads_the_one_default():

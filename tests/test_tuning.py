@@ -134,10 +134,10 @@ def test_tune_refuses_arguments_of_the_wrong_kind_before_any_work(kw, fragment):
 
 
 @pytest.mark.parametrize("kw, fragment", [
-    # (the wording of config.TuneOptions, their one check; it read "lr must be a finite number > 0" here)
-    (dict(lr=float("nan")), r"lr must be a number in \(0, inf\), got nan"),  # ran every step at gamma = nu = nan
-    (dict(lr=0.0), r"lr must be a number in \(0, inf\), got 0.0"),
-    (dict(scale_weight=float("nan")), r"scale_weight must be a number in \[0, inf\), got nan"),  # a nan loss, kept the start
+    # (the wording of config.TuneOptions, their one check, config._real: _validate.check_real's too)
+    (dict(lr=float("nan")), r"lr must be a finite number > 0, got nan"),  # ran every step at gamma = nu = nan
+    (dict(lr=0.0), r"lr must be a finite number > 0, got 0.0"),
+    (dict(scale_weight=float("nan")), r"scale_weight must be a finite number >= 0, got nan"),  # a nan loss, kept the start
     (dict(holdout=-0.5), r"holdout must be a number in \[0, 1\), got -0.5"),  # silently no held-out classes
     (dict(steps=2.5), "steps must be an int"),
     (dict(seed=-1), "seed must be >= 0"),

@@ -244,7 +244,7 @@ def frame_rows(classes, variants=("plain",), methods=("head",)):
                 y, d, _ = _grid_centers(sol)
                 w2 = _weights(d, SYMMETRY_POWER)
                 for m in methods:
-                    fr = frame_of(shape, m, sol=sol)
+                    fr = frame_of(shape, m, sol=sol if m in ("core", "head") else None)
                     sym = symmetry_scores(sol, fr.rotation @ sol.frame.T, (w2 @ y) / w2.sum())
                     found[m].append((fr.rotation, fr.ambiguity, sym))
             for m in methods:

@@ -79,11 +79,8 @@ def check_arguments(gamma=None, nu=None, count=None, seed=None, sampling=None, m
     estimators.check_strict(strict, c_name, s_name)  # refused where ignored, as the command line's --strict
     uses_ocsvm = "ocsvm" in (c_name, s_name)
     ocsvm_runs = uses_ocsvm or _rotation_name(rotation) == "ocsvm"  # as the center, the scale or the frame
-    if given and not ocsvm_runs:
-        raise InvalidInputError(
-            f"{', '.join(given)} {'are options' if len(given) > 1 else 'is an option'} of the ocsvm estimator, "
-            f"which the chosen estimators (center {c_name}, scale {s_name}) do not use (pass method='ocsvm', "
-            f"center or scale 'ocsvm', or rotation='ocsvm'; or leave {'them' if len(given) > 1 else 'it'} out)")
+    if not ocsvm_runs:
+        estimators.check_ocsvm_unused(given, c_name, s_name, frame=True)
     unknown = sorted(set(options) - set(PoseConfig.FLAT))
     if unknown:
         raise InvalidInputError(
@@ -183,11 +180,14 @@ def normalize_mesh(
         resolution=resolution, rotation=rotation, **options)
     ocsvm = ocsvm_arguments(gamma, nu, count, seed, sampling)
     geometry = load(mesh_or_path)
-    pose = estimators.estimate(geometry, method, center=center, scale=scale, strict=strict, ocsvm=options,
-                               **ocsvm, **extra)
+    # each estimator gets the options it reads, the OCSVM's with their defaults filled in (estimate and
+    # frame_of refuse the others, as check_arguments refuses them given where no OCSVM runs)
+    fit = {"ocsvm": options, **ocsvm} if "ocsvm" in (c_name, s_name) else {}
+    pose = estimators.estimate(geometry, method, center=center, scale=scale, strict=strict, **fit, **extra)
     if frame_name is not None:
-        found = frame_of(estimators.centered(geometry)[0], frame_name, resolution=extra.get("resolution"),
-                         ocsvm={**ocsvm, "options": options})
+        frame = ({"ocsvm": {**ocsvm, "options": options}} if frame_name == "ocsvm" else
+                 {"resolution": extra.get("resolution")} if frame_name in ("core", "head") else {})
+        found = frame_of(estimators.centered(geometry)[0], frame_name, **frame)
         pose = pose._replace(ambiguity=np.asarray(found.ambiguity, np.float64),
                              rotation=np.asarray(found.rotation, np.float64))
     return _transformed(geometry, pose), pose

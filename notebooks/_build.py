@@ -58,7 +58,8 @@ fig'''),
     new_code_cell('''plot.centers_plot(shape, paper, count=COUNT)'''),
     new_code_cell('''from jaxpose.pose import estimators
 for method in ("robust", "ocsvm", "surface_centroid", "solid", "bbox", "min_ball"):
-    p = estimators.estimate(shape, method, count=COUNT, ocsvm={"resolution": RESOLUTION})
+    fit = dict(count=COUNT, ocsvm={"resolution": RESOLUTION}) if method == "ocsvm" else {}  # (the OCSVM's options)
+    p = estimators.estimate(shape, method, **fit)
     print(f"{method:18s}", np.round(np.asarray(p.center, float), 4), round(float(p.scale), 4))'''),
 ]
 

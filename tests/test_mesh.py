@@ -608,6 +608,19 @@ def test_the_ocsvm_frame_takes_the_ocsvm_options(monkeypatch):
         mesh.check_arguments(method="vertex_mean", rotation="pca_vertices", tol=1e-4)
 
 
+def test_each_estimator_gets_the_options_it_reads():
+    """normalize_mesh passes estimate and frame_of only what they read (they refuse an option they do
+    not read): the OCSVM's filled-in defaults reach neither a vertex mean nor a PCA frame, a robust
+    resolution not the PCA frame; the same pose as without the frame."""
+    box = trimesh.creation.box((1.0, 2.0, 3.0))
+    _, pose = mesh.normalize_mesh(box, method="vertex_mean", rotation="pca_vertices")
+    np.testing.assert_allclose(pose.center, box.vertices.mean(0), atol=1e-12)
+    _, robust = mesh.normalize_mesh(box, resolution=32, rotation="pca_vertices")
+    _, plain = mesh.normalize_mesh(box, resolution=32)
+    np.testing.assert_array_equal(robust.center, plain.center)
+    assert robust.rotation.shape == (3, 3)
+
+
 def test_vertices_far_from_the_origin_are_not_merged(tmp_path):
     """trimesh's merge_vertices rounds coordinates to 1e-8 as int64, which overflows at 1e12 and
     merges every vertex into one; load merges near the origin, exactly."""

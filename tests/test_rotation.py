@@ -349,7 +349,8 @@ def test_a_hole_in_one_side_of_a_head_is_read_from_the_solid():
 @pytest.mark.parametrize("shape", [trimesh.creation.icosphere(subdivisions=3), trimesh.creation.box()])
 def test_symmetric_shapes_are_flagged(shape):
     for method in ("core", "head", "pca_vertices", "pca_surface"):  # (inertia: always flagged, below)
-        assert rotation.frame_of(shape, method, resolution=32).flag, method
+        grid = {"resolution": 32} if method in ("core", "head") else {}  # (the baselines read none: refused)
+        assert rotation.frame_of(shape, method, **grid).flag, method
 
 
 def test_baseline_frames_are_proper_and_pca_equivariant(body_frame):
@@ -397,6 +398,15 @@ def test_the_inertia_frame_of_a_mesh_without_volume_is_refused():
     (lambda box: rotation.frame_of(box, "ocsvm", ocsvm={"gama": 20.0}), "unknown ocsvm key 'gama'; valid: gamma"),
     (lambda box: rotation.frame_of(box, "ocsvm", ocsvm=5), "ocsvm must be a dict"),
     (lambda box: rotation.frame_of(box, "pca_vertices", ocsvm={"count": 2}), "count must be >= 4"),
+    # an option the frame does not read was ignored (the frame ran without it; normalize_mesh refuses them)
+    (lambda box: rotation.frame_of(box, "pca_vertices", resolution=64),
+     r"^resolution is an option of the core and head frames; rotation 'pca_vertices' does not read it"),
+    (lambda box: rotation.frame_of(box, "core", ocsvm={"gamma": 20.0}),
+     r"^ocsvm is an option of the ocsvm frame; rotation 'core' does not read it"),
+    (lambda box: rotation.frame_of(box, "inertia", sol=rotation.frame_solid(box.vertices, box.faces, 16)),
+     r"^sol is an option of the core and head frames; rotation 'inertia' does not read it"),
+    (lambda box: rotation.frame_of(box, "core", resolution=64, sol=rotation.frame_solid(box.vertices, box.faces, 16)),
+     "^give resolution or sol, not both"),
     # evaluate_rotation: frame_of's TypeError at the first shape; a bad resolution was every core cell's error
     (lambda box: evaluate_rotation({"a": [box, box]}, methods=["pca_vertices"], resolutoin=32), "unknown option resolutoin"),
     (lambda box: evaluate_rotation({"a": [box, box]}, methods=["core"], resolution=4), "resolution must be >= 8"),

@@ -196,7 +196,9 @@ def evaluate_rotation(classes, methods=None, variants=("plain",), align_core=Fal
                     try:
                         if method in ("core", "head") and sol is None:  # one solid for both frames
                             sol = frame_solid(*baselines.split_geometry(shape), options.get("resolution"))
-                        found[method].append(frame_of(shape, method, sol=sol, ocsvm=ocsvm, **options))
+                        # each frame gets what it reads (frame_of refuses the others): the solid holds the resolution
+                        given = {"sol": sol} if method in ("core", "head") else {"ocsvm": ocsvm} if method == "ocsvm" else {}
+                        found[method].append(frame_of(shape, method, **given))
                     except (JaxposeError, ValueError) as exc:
                         found[method].append(exc)
                     seconds[method] += time.perf_counter() - start

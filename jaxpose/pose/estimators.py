@@ -45,7 +45,7 @@ from .result import MIN_POINT_VOXELS, SECOND_BODY, Pose, host, status_message
 
 __all__ = ["METHODS", "CENTERS", "SCALES", "DEFAULT_METHOD", "ROBUST_POWER", "POWERED", "CLOSED_FORMS", "resolve",
            "parse_method", "check_strict", "estimate",
-           "estimate_many", "robust_center_scale", "solid_center_volume", "centered"]
+           "estimate_many", "robust_center_scale", "solid_center_volume", "centered", "check_ocsvm_unused"]
 
 METHODS = {
     "robust": ("robust_depth", "robust_volume"),
@@ -474,10 +474,12 @@ def estimate(geometry, method=None, *, center=None, scale=None, strict=False, **
       different sizes (a mean distance, a volume's cube root, an extent), consistent within a method.
 
     Raises:
-      InvalidInputError: unknown names or options, an option's bad value (before any work), a
-        ``power`` for a center without depth weights, a ``resolution`` for estimators without a
-        robust solid or ``strict=True`` for estimators that are not closed-surface ones (they
-        would be ignored); a surface estimator on points.
+      InvalidInputError: unknown names or options, an option's bad value (before any work), an
+        option the chosen estimators do not read (it would be ignored): a ``power`` for a center
+        without depth weights, a ``resolution`` for estimators without a robust solid,
+        ``strict=True`` for estimators that are not closed-surface ones, ``gamma``, ``nu``,
+        ``count``, ``seed``, ``sampling`` or ``ocsvm`` where neither the center nor the scale is
+        ``ocsvm`` (:func:`check_ocsvm_unused`); a surface estimator on points.
       JaxposeError: no valid pose (e.g. a shape that encloses no volume for ``robust``).
     """
     c_name, s_name = resolve(method, center, scale)
@@ -488,8 +490,26 @@ def estimate(geometry, method=None, *, center=None, scale=None, strict=False, **
     if "resolution" in options and "robust_depth" not in (c_name, s_name) and s_name != "robust_volume":
         raise InvalidInputError(f"resolution applies to the robust solid (the robust_depth center, the robust_volume "
                                 f"scale), not {c_name} / {s_name}; for ocsvm give it in ocsvm={{'resolution': ...}}")
+    if "ocsvm" not in (c_name, s_name):
+        check_ocsvm_unused([k for k in (*_OCSVM_KEYS, "ocsvm") if k in options], c_name, s_name)
     moved, shift = centered(geometry)
     return _shifted(_pose(_Shape(moved, options), c_name, s_name, strict), shift)
+
+
+def check_ocsvm_unused(given, c_name, s_name, frame=False):
+    """Refuse the OCSVM's options ``given`` (names: ``gamma``, ``nu``, ``count``, ``seed``,
+    ``sampling``, ``ocsvm``) where no OCSVM reads them, center ``c_name`` and scale ``s_name`` not
+    ``"ocsvm"`` (and, with ``frame``, no ``rotation="ocsvm"``): InvalidInputError naming them, the
+    one wording of :func:`estimate` and :func:`jaxpose.normalize_mesh` (they were ignored: the
+    estimator named ran with nothing of them). Nothing given: returns None."""
+    if not given:
+        return
+    many = len(given) > 1
+    where = "method='ocsvm', center or scale 'ocsvm', or rotation='ocsvm'" if frame else \
+        "method='ocsvm', or center or scale 'ocsvm'"
+    raise InvalidInputError(
+        f"{', '.join(given)} {'are options' if many else 'is an option'} of the ocsvm estimator, which the chosen "
+        f"estimators (center {c_name}, scale {s_name}) do not use (pass {where}; or leave {'them' if many else 'it'} out)")
 
 
 def _check_options(options):

@@ -69,10 +69,12 @@ def frame_of(geometry, method=DEFAULT_ROTATION, *, resolution=None, sol=None, oc
       method: ``head`` (default; ``core``, flagged, where it finds no neck), ``core``, ``ocsvm`` or a baseline of
         :mod:`jaxpose.baselines`
         (``pca_vertices``, ``pca_surface``: a point cloud's points; ``inertia``: meshes only).
-      resolution: voxels of the robust solid along the body's largest extent (``core``).
-      sol: a solid from :func:`frame_solid` to reuse (``core``).
+      resolution: voxels of the robust solid along the body's largest extent (``core``, ``head``).
+      sol: a solid from :func:`frame_solid` to reuse (``core``, ``head``; instead of ``resolution``).
       ocsvm: for ``ocsvm``, a dict of ``gamma``, ``nu``, ``count``, ``seed``, ``sampling`` and
         ``options`` (of :func:`jaxpose.normalize`).
+
+      Each option is for the frames named; given to another frame it is refused, not ignored.
 
     Returns:
       :class:`Frame` (rotation in the input's world coordinates). ``ocsvm``: the rotation and
@@ -82,11 +84,16 @@ def frame_of(geometry, method=DEFAULT_ROTATION, *, resolution=None, sol=None, oc
       NaN and mirror -1 (not reported) where the frame was not finite (the identity, ambiguity 1).
 
     Raises:
-      InvalidInputError: an unknown method, a bad resolution or ``ocsvm`` (:func:`check_frame_options`).
+      InvalidInputError: an unknown method, a bad resolution or ``ocsvm`` (:func:`check_frame_options`),
+        an option the method does not read (it would be ignored): ``resolution`` or ``sol`` for a
+        frame other than ``core`` and ``head``, ``ocsvm`` for a frame other than ``ocsvm``, a
+        ``resolution`` beside a ``sol``.
     """
     if not isinstance(method, str) or method not in ROTATIONS:
         raise InvalidInputError(f"unknown rotation {method!r}; valid: {', '.join(ROTATIONS)}")
-    resolution, ocsvm = check_frame_options(resolution, ocsvm)
+    checked = check_frame_options(resolution, ocsvm)  # values first, as estimate's
+    _check_read(method, resolution=resolution, sol=sol, ocsvm=ocsvm)
+    resolution, ocsvm = checked
     if method in ("core", "head"):
         if sol is None or method == "head":
             vertices, faces = baselines.split_geometry(geometry)
@@ -106,6 +113,24 @@ def frame_of(geometry, method=DEFAULT_ROTATION, *, resolution=None, sol=None, oc
                                   **o.get("options", {}))
         return _region_frame(pose, found)
     return baselines.frame(geometry, method)
+
+
+_READERS = {"resolution": ("core", "head"), "sol": ("core", "head"), "ocsvm": ("ocsvm",)}  # frame_of's options
+
+
+def _check_read(method, **given):
+    """Refuse an option of :func:`frame_of` (not None) that the frame ``method`` does not read
+    (:data:`_READERS`; a ``resolution`` beside a ``sol``, whose grid is its own): InvalidInputError
+    naming it (it was ignored: the frame ran without it)."""
+    unread = [name for name, value in given.items() if value is not None and method not in _READERS[name]]
+    if unread:
+        name = unread[0]
+        raise InvalidInputError(f"{name} is an option of the {' and '.join(_READERS[name])} frame"
+                                f"{'s' if len(_READERS[name]) > 1 else ''}; rotation {method!r} does not read it "
+                                f"(leave it out)")
+    if given["resolution"] is not None and given["sol"] is not None:
+        raise InvalidInputError("give resolution or sol, not both: a solid's grid is its own (frame_solid(vertices, "
+                                "faces, resolution) builds one at a resolution)")
 
 
 def _region_frame(pose, found):

@@ -57,7 +57,7 @@ from .depth import depth_weights, to_bucket
 from .occupancy.svdd.problem import SVDD, check_svdd
 from .occupancy.grid import (CHILD_OFFSETS, domain, evaluate_children, evaluate_grid, evaluate_on_grid, evaluate_on_grid_jvp,
                    first_true, morton_codes)
-from .weighted import Moments, grid_moments, solid_occupancy, weighted_moments
+from .weighted import Moments, check_shape, grid_moments, solid_occupancy, weighted_moments
 
 __all__ = ["Moments", "volume_moments", "region_moments", "discretize", "occupancy", "moments_from_occupancy",
            "weighted_moments", "grid_moments", "robust_moments", "solid_moments", "band_score", "select_cells",
@@ -294,9 +294,8 @@ def robust_moments(inside, occupied, origin, pitch, power, bias, extent=None) ->
     wanted = {"occupied": (occupied, shape), "origin": (origin, (3,)), "pitch": (pitch, ()), "bias": (bias, ()),
               "extent": (extent, (3,))}
     for name, (value, want) in wanted.items():
-        if value is not None and tuple(jnp.shape(value)) != want:  # (a (2,) origin was read as (o0, o1, o1))
-            raise InvalidInputError(f"{name} must have shape {want}{', the shape of inside' if name == 'occupied' else ''}, "
-                                    f"got {tuple(jnp.shape(value))}")
+        if value is not None:  # (a (2,) origin was read as (o0, o1, o1))
+            check_shape(name, value, want, ", the shape of inside" if name == "occupied" else "")
     return _robust_moments(inside, occupied, origin, pitch, power, bias, extent)
 
 

@@ -20,10 +20,22 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
+import numpy as np
+
 from .backend import array_namespace
+from .errors import InvalidInputError
 
 __all__ = ["Moments", "weighted_center", "weighted_moments", "grid_axes", "grid_moments", "depth_power_weights",
-           "solid_occupancy"]
+           "solid_occupancy", "check_shape"]
+
+
+def check_shape(name, value, want, note=""):
+    """Refuse ``value`` unless its shape is ``want`` (known while tracing too): InvalidInputError
+    "{name} must have shape {want}{note}, got {shape}" (a (2,) origin was read as (o0, o1, o1) in
+    JAX, whose indexing clamps; a (3,) pitch broadcast against the cells). Returns None."""
+    shape = tuple(np.shape(value))
+    if shape != tuple(want):
+        raise InvalidInputError(f"{name} must have shape {tuple(want)}{note}, got {shape}")
 
 
 class Moments(NamedTuple):
@@ -108,7 +120,13 @@ def grid_moments(occupancy, weights, origin, pitch):
     Returns:
       :class:`Moments`: center sum w x / sum w over the cell centers x = origin + pitch (i + 1/2),
       mean distance and second moment with the same weights, volume = pitch^3 sum occupancy,
-      cell = (pitch,) * 3; in the weights' dtype and backend.
+      cell = (pitch,) * 3; in the weights' dtype (integer or bool weights: as floats, NumPy's
+      float64 or JAX's default float) and backend.
+
+    Raises:
+      InvalidInputError: weights that are not a 3-D grid of real numbers, an occupancy of another
+        shape, an origin that is not (3,) or a pitch that is not () (shapes are known while tracing
+        too).
 
     Example::
 
@@ -119,6 +137,16 @@ def grid_moments(occupancy, weights, origin, pitch):
     """
     xp = array_namespace(occupancy, weights, origin, pitch)
     weights = xp.asarray(weights)
+    if weights.ndim != 3:
+        raise InvalidInputError(f"weights must be a 3-D grid (nx, ny, nz), got shape {tuple(weights.shape)}")
+    check_shape("occupancy", occupancy, weights.shape, ", the shape of weights")
+    check_shape("origin", origin, (3,))
+    check_shape("pitch", pitch, ())
+    kind = np.dtype(weights.dtype).kind
+    if kind in "biu":  # (an integer dtype failed in finfo; a bool one in arange, and cast the origin to it)
+        weights = weights.astype(xp.result_type(float))
+    elif kind not in "fV":
+        raise InvalidInputError(f"weights must be real numbers, got dtype {weights.dtype}")
     dtype = weights.dtype
     x = grid_axes(weights.shape, xp.asarray(origin, dtype), pitch, dtype)
     _, c, md, second = weighted_moments(x, weights)

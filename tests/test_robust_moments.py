@@ -184,3 +184,39 @@ def test_robust_moments_and_depth_weights_check_their_arguments():
     for call, message in refused:
         with pytest.raises(InvalidInputError, match=message):
             call()
+
+
+def test_grid_moments_checks_its_arguments():
+    """weighted.grid_moments (public, NumPy and JAX) checked nothing: a (2,) origin was read as
+    (o0, o1, o1) in JAX (its indexing clamps) and a (4,) one as its first three, an occupancy of
+    another shape gave another grid's volume, a (3,) pitch NumPy's broadcasting error, a 2-D grid
+    the same; integer weights failed in finfo ('not inexact'), bool weights in arange. Shapes are
+    refused by name (while tracing too); integer and bool weights are taken as floats."""
+    from jaxpose.weighted import grid_moments
+
+    occ = np.zeros((8, 8, 8))
+    occ[2:6, 2:6, 2:6] = 1.0
+    origin = np.array([0.3, 0.3, 0.3])
+    want = grid_moments(occ, occ, origin, 0.5)
+    np.testing.assert_allclose(want.center, [2.3, 2.3, 2.3], rtol=1e-12)
+    refused = [
+        (lambda: grid_moments(jnp.asarray(occ), jnp.asarray(occ), jnp.array([0.3, 0.3]), 0.5), r"^origin must have shape \(3,\), got \(2,\)$"),
+        (lambda: grid_moments(jnp.asarray(occ), jnp.asarray(occ), jnp.array([0.3, 0.3, 0.3, 9.0]), 0.5), r"^origin must have shape \(3,\)"),
+        (lambda: grid_moments(occ[:4], occ, origin, 0.5), r"^occupancy must have shape \(8, 8, 8\), the shape of weights, got \(4, 8, 8\)$"),
+        (lambda: grid_moments(occ, occ, origin, np.full(3, 0.5)), r"^pitch must have shape \(\), got \(3,\)$"),
+        (lambda: grid_moments(occ[0], occ[0], origin, 0.5), r"^weights must be a 3-D grid \(nx, ny, nz\), got shape \(8, 8\)$"),
+        (lambda: grid_moments(occ, occ + 1j, origin, 0.5), r"^weights must be real numbers, got dtype complex128$"),
+        (lambda: jax.jit(lambda o: grid_moments(jnp.asarray(occ), jnp.asarray(occ), o, 0.5).center)(jnp.zeros(2)),
+         r"^origin must have shape \(3,\), got \(2,\)"),
+    ]
+    for call, message in refused:
+        with pytest.raises(InvalidInputError, match=message):
+            call()
+    for weights in (occ.astype(np.int64), occ.astype(bool)):
+        got = grid_moments(occ, weights, origin, 0.5)
+        assert got.center.dtype == np.float64
+        np.testing.assert_allclose(got.center, want.center, rtol=1e-12)
+        np.testing.assert_allclose(got.second_moment, want.second_moment, rtol=1e-12, atol=1e-15)
+    got = grid_moments(jnp.asarray(occ), jnp.asarray(occ, jnp.int32), jnp.asarray(origin), 0.5)
+    assert got.center.dtype == jnp.result_type(float)
+    np.testing.assert_allclose(got.center, want.center, rtol=1e-6)

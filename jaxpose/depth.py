@@ -187,11 +187,15 @@ def depth_weights(inside, power, bias=0.0, extent=None):
     Args:
       inside: (n_0, ..., n_{d-1}) bool; extent: as :func:`squared_distance`.
       power: () float >= 0 (traced: differentiable). 0 gives weight 1 on every True cell (0^0 = 1).
+        A traced power outside [0, inf) (negative, NaN, inf), which cannot be refused, gives
+        weight 0 on every cell (:func:`jaxpose.weighted.depth_power_weights`; no NaN, derivative 0):
+        a result no power in range gives a grid with a True cell.
       bias: () float, cells subtracted from the distance.
 
     Returns:
       (n_0, ..., n_{d-1}) float weights in [0, 1]; 1 on every True cell when no cell is deeper than
-      ``bias``. Their derivative in ``power`` is log(ratio) * weight (0 where the depth is 0).
+      ``bias``; 0 everywhere for a traced power outside [0, inf). Their derivative in ``power`` is
+      log(ratio) * weight (0 where the depth is 0).
 
     Raises:
       InvalidInputError: a power that is not a () real (known while tracing too), or concrete and

@@ -274,7 +274,12 @@ def robust_moments(inside, occupied, origin, pitch, power, bias, extent=None) ->
       inside: (nx, ny, nz) bool, the solid's voxels; occupied: (nx, ny, nz) bool, voxels that
         straddle the surface (they count half in the volume; all False for a mesh solid).
       origin: (3,) lower corner of voxel (0, 0, 0); pitch: () voxel edge (units).
-      power: () depth exponent p >= 0; bias: () voxels subtracted from the distance transform.
+      power: () depth exponent p >= 0; bias: () voxels subtracted from the distance transform. A
+        traced power outside [0, inf) (negative, NaN, inf), which cannot be refused, weighs every
+        voxel 0 (:func:`jaxpose.depth.depth_weights`): the moments of zero mass, center 0, mean
+        distance 0 and second moment 0 (no NaN, derivatives 0), beside the solid's volume; a power
+        in range gives a mean distance > 0 wherever the volume is > 0. :func:`jaxpose.normalize`
+        reports such a power as ``Status.BAD_PARAMETERS``.
       extent: optional (3,) int, the grid within an array padded with False
         (:func:`jaxpose.depth.to_bucket`).
 

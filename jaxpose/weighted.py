@@ -167,19 +167,31 @@ def depth_power_weights(distance, inside, power, bias=0.0):
         JAX); its dtype is the result's.
       inside: (n_0, ..., n_{d-1}) bool.
       power: () float >= 0 (traced: differentiable). 0 gives weight 1 on every True cell (0^0 = 1).
+        A traced power cannot be refused: one outside [0, inf) (negative, NaN, inf) gives weight 0
+        on every cell (finite, and a derivative 0), which no power in range gives a grid with a
+        True cell (its deepest cells weigh 1): test ``jnp.isfinite(power) & (power >= 0)``, or the
+        weights' maximum, where the power may be out of range. (A negative power gave weights
+        above 1, NaN a NaN grid.)
       bias: () float, cells subtracted from the distance.
 
     Returns:
       (n_0, ..., n_{d-1}) float weights in [0, 1]; 1 on every True cell when no cell is deeper than
-      ``bias``. Their derivative in ``power`` is log(ratio) * weight (0 where the depth is 0).
+      ``bias``; 0 everywhere for a power outside [0, inf). Their derivative in ``power`` is
+      log(ratio) * weight (0 where the depth is 0).
     """
     xp = array_namespace(distance, inside, power, bias)
+    if xp is np:  # concrete (the host path): its callers refuse a power out of range; the same rule
+        ok = bool(np.isfinite(power) and power >= 0)
+        power = power if ok else 0.0
+    else:  # traced: a power out of range weighs every cell 0 (its branch computed at power 0: no NaN derivative)
+        ok = xp.isfinite(power) & (power >= 0)
+        power = xp.where(ok, power, 0.0)
     d = xp.maximum(distance - bias, 0.0)
     top = xp.max(d)
     ratio = d / xp.where(top > 0, top, 1.0)
     positive = ratio > 0
     w = xp.where(positive, xp.where(positive, ratio, 1.0) ** power, xp.where(power == 0, 1.0, 0.0))
-    return xp.where(inside, xp.where(top > 0, w, 1.0), 0.0)
+    return xp.where(inside & ok, xp.where(top > 0, w, 1.0), 0.0)
 
 
 def solid_occupancy(inside, occupied, dtype):

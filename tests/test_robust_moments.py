@@ -220,3 +220,37 @@ def test_grid_moments_checks_its_arguments():
     got = grid_moments(jnp.asarray(occ), jnp.asarray(occ, jnp.int32), jnp.asarray(origin), 0.5)
     assert got.center.dtype == jnp.result_type(float)
     np.testing.assert_allclose(got.center, want.center, rtol=1e-6)
+
+
+def test_a_traced_power_out_of_range_weighs_every_voxel_zero():
+    """depth_weights and robust_moments return no status, and a traced power cannot be refused: a
+    negative one gave weights above 1 (-2: up to 9 on a 4-voxel-deep cube) and a center that looked
+    like any other, NaN a NaN grid. Out of [0, inf) (negative, NaN, inf) every weight is 0 now, which
+    no power in range gives: finite moments of zero mass (mean distance 0 beside a volume > 0), no
+    NaN in the derivative (normalize, which has a status, reports such a power as BAD_PARAMETERS)."""
+    from jaxpose import depth
+
+    inside = np.zeros((10, 10, 10), bool)
+    inside[2:8, 2:8, 2:8] = True
+    occupied = np.zeros_like(inside)
+    origin, pitch = np.zeros(3), 1.0
+    weights = jax.jit(lambda p: depth.depth_weights(inside, p))
+    moments_of = jax.jit(lambda p: moments.robust_moments(inside, occupied, origin, pitch, p, 0.5))
+    good = moments_of(2.0)
+    assert float(jnp.max(weights(2.0))) == 1.0 and float(good.mean_distance) > 0
+    for bad in (-2.0, np.nan, np.inf, -np.inf):
+        w = weights(bad)
+        assert float(jnp.max(w)) == 0.0 and float(jnp.min(w)) == 0.0, bad
+        mom = moments_of(bad)
+        for name, value in mom._asdict().items():
+            assert np.all(np.isfinite(np.asarray(value))), (bad, name)
+        assert float(mom.mean_distance) == 0.0 and float(mom.volume) == float(good.volume) > 0, bad
+        np.testing.assert_array_equal(mom.center, np.zeros(3))
+        grad = jax.grad(lambda p: jnp.sum(depth.depth_weights(inside, p)) + moments.robust_moments(
+            inside, occupied, origin, pitch, p, 0.5).center[0])(jnp.float32(bad))
+        assert float(grad) == 0.0, (bad, grad)
+    # in range, unchanged: the host's weights (scipy's distances) equal the JAX path's
+    from jaxpose.weighted import depth_power_weights
+
+    host = depth_power_weights(ndimage.distance_transform_edt(inside), inside, 2.0, 0.5)
+    np.testing.assert_allclose(np.asarray(depth.depth_weights(inside, 2.0, 0.5)), host, rtol=1e-6)

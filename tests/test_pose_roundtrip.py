@@ -392,3 +392,46 @@ def test_from_center_scale_mixes_traced_and_concrete_into_a_float_pose():
             assert float(pose.scale) == 2.5 and bool(pose.valid), name
             np.testing.assert_array_equal(np.asarray(pose.center), [1.0, 2.0, 3.0])
             np.testing.assert_allclose(np.asarray(pose.rotation), r, rtol=0, atol=1e-7)
+
+
+def test_a_pose_made_directly_of_an_integer_center_is_a_float_pose():
+    """Pose(...) itself (not from_center_scale) kept an integer center: a JAX one, traced or not,
+    computed its matrix with the rotation cast to integers (rows of zeros), silently. An integer
+    center or scale is made floats as from_center_scale makes them (JAX's default float, NumPy's
+    float64), whatever constructs it; JAX rebuilds a Pose as it is (its pytree skips that step):
+    jit, vmap, grad, tree.map and eval_shape keep the leaves they are given."""
+    r = jnp.asarray(_rotation(5))
+    x = jnp.asarray(np.random.default_rng(0).normal(size=(4, 3)))
+    want = Pose.from_center_scale(jnp.array([1.0, 2.0, 3.0]), jnp.float32(2.0), r)
+    made = lambda c: Pose(c, jnp.float32(2.0), rotation=r)
+    for pose in (jax.jit(made)(jnp.array([1, 2, 3])), made(jnp.array([1, 2, 3])),
+                 jax.jit(lambda c: made(c).matrix)(jnp.array([1, 2, 3])),
+                 want._replace(center=jnp.array([1, 2, 3]))):
+        matrix = pose if not isinstance(pose, Pose) else pose.matrix
+        np.testing.assert_allclose(np.asarray(matrix), np.asarray(want.matrix), rtol=1e-6, atol=1e-6)
+        if isinstance(pose, Pose):
+            assert pose.center.dtype == jnp.result_type(float)
+            np.testing.assert_allclose(np.asarray(pose.apply(x)), np.asarray(want.apply(x)), rtol=1e-6, atol=1e-6)
+    host_pose = Pose(np.array([1, 2, 3]), np.int64(2))
+    assert host_pose.center.dtype == np.float64 and host_pose.scale.dtype == np.float64
+    assert Pose([1, 2, 3], 2).center == [1, 2, 3]  # not an array: as given (NumPy float64 where computed with)
+    # the pytree: leaves, order and key paths of a NamedTuple; rebuilds keep what they are given
+    leaves, tree = jax.tree.flatten(want)
+    assert len(leaves) == 8 and jax.tree.unflatten(tree, leaves) == want  # (rotation, ambiguity; count, inverse_of None)
+    paths = [jax.tree_util.keystr(path) for path, _ in jax.tree_util.tree_flatten_with_path(want)[0]]
+    assert paths[:3] == [".center", ".scale", ".converged"]
+    as_ints = jax.tree.map(lambda v: jnp.asarray(v).astype(jnp.int32), want)
+    assert as_ints.center.dtype == jnp.int32 and isinstance(as_ints, Pose)
+    shapes = jax.eval_shape(made, jax.ShapeDtypeStruct((3,), jnp.int32))
+    assert isinstance(shapes.center, jax.ShapeDtypeStruct) and shapes.center.dtype == jnp.result_type(float)
+    assert jax.tree.map(lambda v: v.shape, want).center == (3,)
+    batched = jax.vmap(made)(jnp.array([[1, 2, 3], [4, 5, 6]]))
+    assert batched.center.dtype == jnp.result_type(float) and batched.center.shape == (2, 3)
+    np.testing.assert_allclose(np.asarray(batched.matrix[0]), np.asarray(want.matrix), rtol=1e-6, atol=1e-6)
+    grad = jax.grad(lambda c: jnp.sum(made(c).apply(x)))(jnp.array([1.0, 2.0, 3.0]))  # through Pose(...)
+    np.testing.assert_allclose(np.asarray(grad), -np.asarray(r).sum(0) * len(x) / 2.0, rtol=1e-6)
+    out = jax.jit(jax.grad(lambda s, c: jnp.sum(Pose(c, s, rotation=r).apply(x))))(jnp.float32(2.0), jnp.zeros(3))
+    assert np.isfinite(float(out))
+    inverse = jax.jit(lambda p: p.inverse())(want)
+    assert isinstance(inverse.inverse_of, Pose)
+    np.testing.assert_allclose(np.asarray(inverse.apply(want.apply(x))), np.asarray(x), rtol=1e-5, atol=1e-5)

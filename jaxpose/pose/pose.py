@@ -52,11 +52,13 @@ from ..occupancy.svdd.secant import with_secants
 from ..orientation import region_frame
 from .frame import host_frame, prescale
 from .sizes import MAX_POINTS, bucket, pad, subsample_index
-from .result import MIN_POINT_VOXELS, SECOND_BODY, Pose, Status
+from .result import MIN_POINT_VOXELS, SECOND_BODY, Pose, Status, _register_pytree
 from .validity import flag_offset, flag_range, no_extent, pose_status
 
 __all__ = ["Pose", "METHODS", "DEFAULT_METHOD", "normalize", "normalize_batch", "chained_map", "pose_pipeline", "robust_pipeline",
            "pose_from_svdd", "frame_ocsvm", "FRAME"]
+
+_register_pytree()  # (JAX is imported: Pose's rebuilds skip its constructor's casts)
 
 METHODS = ("robust", "ocsvm")
 FRAME = "frame"  # the pipeline's rotation argument of frame_ocsvm: the frame and its diagnostics

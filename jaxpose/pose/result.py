@@ -255,7 +255,9 @@ class Pose(NamedTuple):
 
     Attributes:
       center: (3,) in the units of the input.
-      scale: () > 0, in the units of the input.
+      scale: () > 0, in the units of the input. ``Pose(...)`` makes an integer array given for either
+        floats, as :meth:`from_center_scale` does (NumPy's float64, JAX's default float dtype, traced
+        or not); JAX's own rebuilds of a Pose (``jit``, ``vmap``, ``jax.tree.map``) keep its leaves.
       converged: () bool, the SVDD solver reached its tolerance.
       valid: () bool, ``status == Status.OK``: parameters in range, samples dense enough for gamma,
         a grid that resolves the kernel, a non-empty region that has not collapsed, a finite center
@@ -440,10 +442,67 @@ def _replace(self, **changes) -> "Pose":
             changes["inverse_of"] = None
         elif changes:
             changes["inverse_of"] = self.inverse_of._replace(**changes)
-    return _tuple_replace(self, **changes)
+    return _tuple_replace(self, **_float_similarity(changes))
 
 
 Pose._replace = _replace  # (typing.NamedTuple refuses a _replace written in the class body)
+_tuple_new = Pose.__new__
+
+
+def _float_field(value):
+    """An integer array (NumPy, or JAX, traced or not) as floats: NumPy's float64, JAX's default
+    float dtype (:meth:`Pose.from_center_scale`'s rule); any other value as it is (Python numbers and
+    lists are NumPy float64 where computed with; a pytree's leaves that are not arrays pass)."""
+    kind = getattr(getattr(value, "dtype", None), "kind", None)
+    if kind not in ("i", "u"):
+        return value
+    if isinstance(value, (np.ndarray, np.generic)):
+        return np.asarray(value, np.float64)
+    if _is_jax(value) or is_traced(value):
+        jnp = _jnp()
+        return jnp.asarray(value, jnp.result_type(float))
+    return value
+
+
+def _float_similarity(fields):
+    """``fields`` (a dict) with an integer ``center`` and ``scale`` made floats (:func:`_float_field`)."""
+    return {name: _float_field(value) if name in ("center", "scale") else value for name, value in fields.items()}
+
+
+def _new(cls, *args, **kwargs):
+    """``Pose(...)``: NamedTuple's constructor, with an integer center or scale made floats as
+    :meth:`Pose.from_center_scale` makes them (a JAX integer center, traced or not, computed its
+    ``matrix`` with the rotation cast to integers: zeros). JAX rebuilds a Pose without this (the
+    pytree registered by :func:`_register_pytree`): ``jax.tree.map`` returns its leaves as they are."""
+    _register_pytree()
+    pose = _tuple_new(cls, *args, **kwargs)
+    center, scale = _float_field(pose.center), _float_field(pose.scale)
+    if center is pose.center and scale is pose.scale:
+        return pose
+    return tuple.__new__(cls, (center, scale, *pose[2:]))
+
+
+Pose.__new__ = staticmethod(_new)  # (typing.NamedTuple refuses a __new__ written in the class body)
+_REGISTERED = []
+
+
+def _register_pytree():
+    """Register :class:`Pose` as a JAX pytree whose rebuild skips :func:`_new` (``tuple.__new__``):
+    the same leaves, order and key paths (``GetAttrKey``) as a NamedTuple's, but JAX's rebuilds
+    (``jit``, ``vmap``, ``grad``, ``tree.map``, ``eval_shape``'s ShapeDtypeStructs) keep the
+    leaves they are given. Once JAX is imported (no import of it here); called by every ``Pose(...)``
+    and by :mod:`jaxpose.pose.pose`."""
+    if _REGISTERED or "jax" not in sys.modules:
+        return
+    from jax import tree_util
+
+    _REGISTERED.append(True)
+    tree_util.register_pytree_with_keys(
+        Pose, lambda pose: ([(tree_util.GetAttrKey(name), value) for name, value in zip(Pose._fields, pose)], None),
+        lambda _, children: tuple.__new__(Pose, tuple(children)), flatten_func=lambda pose: (tuple(pose), None))
+
+
+_register_pytree()
 
 
 def _per_set(center, scale):

@@ -37,6 +37,7 @@ __all__ = [
     "check_traced_scalar",
     "check_concrete",
     "check_power",
+    "check_throw",
 ]
 
 MIN_POINTS = 4
@@ -268,3 +269,22 @@ def check_real(value, name, minimum, strict=False):
     a float's range refused by name; a concrete () array of reals (NumPy, JAX, ml_dtypes) is its
     number."""
     return _real(value, name, minimum, closed=not strict)
+
+
+def check_throw(throw, read="Pose.valid / Pose.status", **values):
+    """``throw`` as a bool (:func:`check_bool`); True refused (InvalidInputError) where the result
+    will be traced, so that no exception can read it: a traced value among ``values`` (named by its
+    keyword; pytrees searched), or a call staged into a trace (``jit`` or ``eval_shape`` around a
+    concrete call). ``read``: the result's flags to read instead. Checked before any work; a
+    ``throw=True`` under jit, vmap or grad did nothing (the invalid pose passed silently)."""
+    throw = check_bool(throw, "throw")
+    jax = sys.modules.get("jax")
+    if not throw or jax is None:  # (no JAX imported: nothing is traced)
+        return throw
+    traced = [name for name, value in values.items() if any(is_traced(leaf) for leaf in jax.tree.leaves(value))]
+    if traced or is_traced(jax.numpy.zeros(())):  # (inside a trace even a new constant is a tracer)
+        where = f"traced {traced[0]}" if traced else "a call staged into jit or eval_shape"
+        raise InvalidInputError(f"throw=True raises on a concrete result only; here ({where}: under jit, vmap or grad) "
+                                f"the result is traced and no exception can read it: leave throw out and read {read} "
+                                "(jnp.where on it inside, or after the transformation), or call with concrete values")
+    return throw

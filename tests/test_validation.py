@@ -364,6 +364,34 @@ def test_iteration_cap_is_reported():
         jaxpose.normalize_batch(PAIR, **PAIR_OPTS, max_iter=10, throw=True)
 
 
+def test_throw_where_the_result_is_traced_is_refused_while_tracing():
+    """throw=True did nothing where the pose or the SVDD is traced (its docstring: 'concrete calls
+    only'): jit(normalize(p, throw=True)) of an open sheet returned valid=False without a word. A
+    demanding caller asked for an exception and got none, so it is refused while tracing, before
+    any work, naming the traced argument and what to read instead; concrete calls raise as
+    before (test_iteration_cap_is_reported), and throw=False is untouched."""
+    from jaxpose.pose.pose import frame_ocsvm
+
+    traced = "^throw=True raises on a concrete result only; here \\(traced {}: under jit, vmap or grad\\)"
+    calls = [
+        (lambda: jax.jit(lambda p: normalize(p, throw=True).valid)(jnp.asarray(P)), traced.format("points")),
+        (lambda: jax.vmap(lambda p: normalize(p, throw=True).valid)(jnp.stack([jnp.asarray(P)] * 2)),
+         traced.format("points")),
+        (lambda: jax.jit(lambda g: normalize(P, method="ocsvm", gamma=g, throw=True).valid)(10.0), traced.format("gamma")),
+        (lambda: jax.grad(lambda p: jaxpose.normalize_batch(PAIR, power=p, throw=True).scale.sum())(4.0),
+         traced.format("power")),
+        (lambda: jax.jit(lambda g: frame_ocsvm(P, gamma=g, throw=True)[0].valid)(10.0), traced.format("gamma")),
+        (lambda: jax.jit(lambda: normalize(P, throw=True).valid)(),
+         r"^throw=True .*here \(a call staged into jit or eval_shape: .*read Pose.valid / Pose.status"),
+        (lambda: jax.jit(lambda p: fit_svdd(p, 10.0, 0.5, throw=True).converged)(jnp.asarray(P)),
+         traced.format("points") + ".*read SVDD.converged"),
+        (lambda: jax.jit(lambda n: fit_svdd(P, 10.0, n, throw=True).converged)(0.5), traced.format("nu")),
+    ]
+    for call, message in calls:
+        with pytest.raises(InvalidInputError, match=message):
+            call()
+
+
 def test_stopping_numbers_share_one_program():
     """tol, max_iter and nu_tol are traced values of the compiled pipeline (normalize and
     normalize_batch): options that differ only in them reuse one program, and the solver still

@@ -334,9 +334,12 @@ def normalize(points=_UNSET, method: str | None = DEFAULT_METHOD, *, power=_UNSE
         ``max_iter``, ``check_every``, ``kernel``, ``solver``; ``block``; ``derivative``
         ("trend" | "exact" | "secant"), ``gamma_delta``, ``nu_delta``, ``secant_iterations``,
         ``nu_tol``. An option of the other method is refused (InvalidInputError naming it).
-      throw: concrete calls only: raise JaxposeError naming the reason if the pose is not valid
-        (and, for ocsvm, ConvergenceError if the solver hit max_iter); otherwise an invalid
-        concrete pose warns with :class:`jaxpose.InvalidPoseWarning`.
+      throw: raise JaxposeError naming the reason if the pose is not valid (and, for ocsvm,
+        ConvergenceError if the solver hit max_iter); otherwise an invalid concrete pose warns with
+        :class:`jaxpose.InvalidPoseWarning`. Concrete calls only: where the pose is traced (traced
+        points or parameters, or a call inside ``jit``) no exception can read it, and
+        ``throw=True`` is refused while tracing (InvalidInputError; read ``Pose.valid`` /
+        ``Pose.status`` there, :func:`jaxpose._validate.check_throw`).
       rotation: ocsvm only: also the canonical frame of the OCSVM region (``Pose.rotation``,
         ``Pose.ambiguity``); off changes nothing. Not differentiated.
       max_points: ocsvm only: int >= 4 or None: above this many points (default 4096) a seeded
@@ -381,7 +384,8 @@ def normalize(points=_UNSET, method: str | None = DEFAULT_METHOD, *, power=_UNSE
     given = {**_given(power=power, gamma=gamma, nu=nu, max_points=max_points), **options}
     config, params = _options(method, config, given, rotation)
     _validate.check_points(x)
-    rotation, throw = _validate.check_bool(rotation, "rotation"), _validate.check_bool(throw, "throw")
+    rotation = _validate.check_bool(rotation, "rotation")
+    throw = _validate.check_throw(throw, points=x, **params)
     seed = _validate.check_int(seed, "seed", 0)
     index = subsample_index(np.shape(x)[0], _check_params(method, params, given), seed)
     shift, size, mask = None, None, None
@@ -435,7 +439,7 @@ def frame_ocsvm(points, *, gamma=_UNSET, nu=_UNSET, config=None, throw=False, ma
     given = {**_given(gamma=gamma, nu=nu, max_points=max_points), **options}
     config, params = _options("ocsvm", config, given, True)
     _validate.check_points(points)
-    throw = _validate.check_bool(throw, "throw")
+    throw = _validate.check_throw(throw, **params)
     seed = _validate.check_int(seed, "seed", 0)
     index = subsample_index(np.shape(points)[0], _check_params("ocsvm", params, given), seed)
     arr = np.asarray(points) if index is None else np.asarray(points)[index]
@@ -569,7 +573,8 @@ def normalize_batch(list_of_points: Iterable, method: str | None = DEFAULT_METHO
         strategy = "map" if jax.default_backend() == "cpu" else "vmap"
     given = {**_given(power=power, gamma=gamma, nu=nu, max_points=max_points), **options}
     config, params = _options(method, config, given, rotation)
-    rotation, throw = _validate.check_bool(rotation, "rotation"), _validate.check_bool(throw, "throw")
+    rotation = _validate.check_bool(rotation, "rotation")
+    throw = _validate.check_throw(throw, **params)
     seed = _validate.check_int(seed, "seed", 0)
     limit = _check_params(method, params, given)
     pad_to = None if pad_to is None else _validate.check_int(pad_to, "pad_to", float("-inf"))  # its range below

@@ -14,6 +14,7 @@ import numpy as np
 from .. import _validate
 from ..config import OCSVM, PoseConfig
 from .pose import Pose, normalize
+from .result import status_message
 
 __all__ = ["pose", "pose_sensitivity", "NU_DELTA"]
 
@@ -40,7 +41,9 @@ def pose_sensitivity(points, gamma=OCSVM.gamma, nu=OCSVM.nu, **options) -> dict:
     """Derivatives of the pose in gamma and nu, as NumPy values.
 
     Args:
-      points: (m, 3) surface samples; gamma, nu: floats; options: as :func:`pose`.
+      points: (m, 3) surface samples; gamma, nu: floats; options: as :func:`pose`; ``throw``
+        (as :func:`jaxpose.normalize`'s) read on the concrete result: JaxposeError for a pose that
+        is not valid, ConvergenceError where the solver hit max_iter.
 
     Returns:
       {"center" (3,), "scale" (), "dcenter_dgamma" (3,), "dcenter_dnu" (3,), "dscale_dgamma" (),
@@ -64,6 +67,7 @@ def pose_sensitivity(points, gamma=OCSVM.gamma, nu=OCSVM.nu, **options) -> dict:
             "under jit / vmap / grad use jax.jacfwd of jaxpose.normalize(points, method='ocsvm', gamma=..., nu=...)")
     _validate.check_gamma(gamma)
     _validate.check_nu(nu)
+    throw = _validate.check_bool(options.pop("throw", False), "throw")  # read here, on the concrete result
     points = np.asarray(_validate.check_points(points))
     theta = jnp.asarray([gamma, nu], _validate.compute_dtype(points))  # float64 points without x64: float32
 
@@ -72,6 +76,11 @@ def pose_sensitivity(points, gamma=OCSVM.gamma, nu=OCSVM.nu, **options) -> dict:
         return jnp.concatenate([p.center, p.scale[None]]), p
 
     J, p = jax.jacfwd(f, has_aux=True)(theta)
+    if throw:  # (normalize's own throw cannot: its pose is traced under jacfwd)
+        if not bool(p.converged):
+            raise _validate.ConvergenceError(f"SVDD solver hit its iteration cap ({int(p.iterations)} iterations)")
+        if not bool(p.valid):
+            raise _validate.JaxposeError(f"no valid pose ({status_message(int(p.status))})")
     J = np.asarray(J)
     return {
         "center": np.asarray(p.center),

@@ -49,7 +49,9 @@ def fit_svdd(points, gamma, nu, *, mask=None, init_alpha=None, config: SolverCon
       init_alpha: optional (m,) warm start (projected onto the feasible set).
       config: a :class:`jaxpose.config.SolverConfig`; or its fields as keywords (``tol``,
         ``max_iter``, ``check_every``, ``kernel``, ``block``, ``solver``).
-      throw: raise ConvergenceError if the iteration cap is hit (concrete calls only).
+      throw: raise ConvergenceError if the iteration cap is hit. Concrete calls only: refused
+        (InvalidInputError, while tracing) where the result is traced (traced inputs, or a call
+        inside ``jit``): read ``SVDD.converged`` there.
 
     Returns:
       :class:`SVDD`, with ``converged``, ``iterations`` and ``kkt_violation`` as diagnostics.
@@ -85,7 +87,8 @@ def fit_svdd(points, gamma, nu, *, mask=None, init_alpha=None, config: SolverCon
     points = _validate.check_points(points)
     _validate.check_gamma(gamma)
     _validate.check_nu(nu)
-    throw = _validate.check_bool(throw, "throw")
+    throw = _validate.check_throw(throw, "SVDD.converged", points=points, gamma=gamma, nu=nu, mask=mask,
+                                  init_alpha=init_alpha)
     m = points.shape[0] if hasattr(points, "shape") else len(points)
     if mask is not None:
         if tuple(getattr(mask, "shape", (len(mask),))) != (m,):

@@ -222,6 +222,30 @@ def test_sensitivity_of_float64_points_without_x64_makes_no_dtype_warning():
         jaxpose.pose_sensitivity(np.asarray(P, np.float64), 25.0, 0.3, not_an_option=1)
 
 
+def test_sensitivity_keeps_a_far_center_in_float64_without_x64():
+    """pose_sensitivity's pose is traced (jacfwd in gamma and nu), and normalize maps a traced pose
+    back in JAX's default float: with x64 off its center was float32, 6e-4 off normalize's at an
+    offset of 1e5 (1.5e-3 of the scale). The points are moved and scaled on the host in float64
+    first, as normalize moves concrete points, and the pose mapped back there: float64, normalize's
+    center to its float32 pipeline's noise. Its throw is read on the concrete result (normalize's
+    own, under jacfwd, is refused)."""
+    assert not jax.config.jax_enable_x64
+    far = np.asarray(P, np.float64) + np.array([1e5, -2e4, 0.0])
+    opts = dict(resolution=8, refine=2, band=256, tol=1e-4)
+    s = jaxpose.pose_sensitivity(far, 25.0, 0.3, throw=True, **opts)
+    want = normalize(far, method="ocsvm", gamma=25.0, nu=0.3, **opts)
+    for key in ("center", "scale", "dcenter_dgamma", "dcenter_dnu", "dscale_dgamma", "dscale_dnu"):
+        assert np.asarray(s[key]).dtype == np.float64 and np.all(np.isfinite(s[key])), key
+    assert s["valid"] and s["converged"]
+    np.testing.assert_allclose(s["center"], want.center, rtol=0, atol=1e-5 * float(want.scale))
+    np.testing.assert_allclose(s["scale"], want.scale, rtol=1e-5)
+    near = jaxpose.pose_sensitivity(np.asarray(P, np.float64), 25.0, 0.3, **opts)  # the same derivatives
+    for key in ("dcenter_dgamma", "dcenter_dnu", "dscale_dgamma", "dscale_dnu"):
+        np.testing.assert_allclose(s[key], near[key], rtol=1e-3, atol=1e-4 * float(want.scale), err_msg=key)
+    with pytest.raises(ConvergenceError, match="iteration cap"):  # (max_iter is traced: the same program)
+        jaxpose.pose_sensitivity(far, 25.0, 0.3, throw=True, **{**opts, "max_iter": 5})
+
+
 @pytest.mark.parametrize("call, fragment", [
     (lambda: normalize(P, throw="yes"), "throw must be True or False"),
     (lambda: normalize(P, method="ocsvm", throw=1), "throw must be True or False"),

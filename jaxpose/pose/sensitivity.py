@@ -12,6 +12,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import _validate
+from ..host import host_frame
 from ..config import OCSVM, PoseConfig
 from .pose import Pose, normalize
 from .result import status_message
@@ -47,8 +48,12 @@ def pose_sensitivity(points, gamma=OCSVM.gamma, nu=OCSVM.nu, **options) -> dict:
 
     Returns:
       {"center" (3,), "scale" (), "dcenter_dgamma" (3,), "dcenter_dnu" (3,), "dscale_dgamma" (),
-      "dscale_dnu" ()} as float NumPy arrays in the units of ``points`` (by default the trend over
-      gamma (1 +- gamma_delta) and nu (1 +- nu_delta)), plus "converged" and "valid" (bools).
+      "dscale_dnu" ()} as float64 NumPy arrays in the units of ``points`` (by default the trend over
+      gamma (1 +- gamma_delta) and nu (1 +- nu_delta)), plus "converged" and "valid" (bools). The
+      pose is computed as :func:`jaxpose.normalize` computes a concrete one, whatever JAX's default
+      float: the points moved near the origin and scaled on the host in float64
+      (:func:`jaxpose.host.host_frame`), the center and scale mapped back there in float64, so a
+      center far from the origin keeps its digits (with x64 off it was float32: 6e-4 off at 1e5).
 
     Raises:
       InvalidInputError: bad points, gamma, nu or option; a traced one (a host function: under
@@ -69,10 +74,16 @@ def pose_sensitivity(points, gamma=OCSVM.gamma, nu=OCSVM.nu, **options) -> dict:
     _validate.check_nu(nu)
     throw = _validate.check_bool(options.pop("throw", False), "throw")  # read here, on the concrete result
     points = np.asarray(_validate.check_points(points))
-    theta = jnp.asarray([gamma, nu], _validate.compute_dtype(points))  # float64 points without x64: float32
+    dtype = _validate.compute_dtype(points)  # float64 points without x64: float32
+    theta = jnp.asarray([gamma, nu], dtype)
+    # normalize's float64 path: its pose is traced here (gamma, nu are), and a traced pose is mapped back
+    # to the points' units in JAX's default float; so the points are moved near the origin and scaled on the
+    # host in float64 first (host_frame, as normalize moves concrete points), and the pose mapped back here
+    shift, size = host_frame(points)
+    moved = ((np.asarray(points, np.float64) - shift) / size).astype(dtype)
 
     def f(t):
-        p = pose(points, t[0], t[1], **options)
+        p = pose(moved, t[0], t[1], **options)
         return jnp.concatenate([p.center, p.scale[None]]), p
 
     J, p = jax.jacfwd(f, has_aux=True)(theta)
@@ -81,10 +92,10 @@ def pose_sensitivity(points, gamma=OCSVM.gamma, nu=OCSVM.nu, **options) -> dict:
             raise _validate.ConvergenceError(f"SVDD solver hit its iteration cap ({int(p.iterations)} iterations)")
         if not bool(p.valid):
             raise _validate.JaxposeError(f"no valid pose ({status_message(int(p.status))})")
-    J = np.asarray(J)
+    J = np.asarray(J, np.float64) * size  # center and scale scale with the points
     return {
-        "center": np.asarray(p.center),
-        "scale": np.asarray(p.scale),
+        "center": shift + size * np.asarray(p.center, np.float64),
+        "scale": size * np.asarray(p.scale, np.float64),
         "dcenter_dgamma": J[:3, 0],
         "dcenter_dnu": J[:3, 1],
         "dscale_dgamma": J[3, 0],

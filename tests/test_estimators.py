@@ -131,7 +131,8 @@ def test_center_and_scale_are_chosen_independently():
 @pytest.mark.parametrize("call, message", [
     # ignored: a power or a resolution the estimators do not read (normalize_mesh and "vertex_mean:2" refuse them)
     (lambda box: estimators.estimate(box, "vertex_mean", power=2.0), "power applies to the robust_depth and "
-                                                                     "depth_weighted_solid centers, not vertex_mean"),
+                                                                     "depth_weighted_solid centers, which the chosen "
+                                                                     r"estimators \(center vertex_mean, "),
     (lambda box: estimators.estimate(box, "bbox", resolution=64), "resolution applies to the robust solid"),
     # the OCSVM's options where no OCSVM runs were ignored (normalize_mesh and the command line refuse them)
     (lambda box: estimators.estimate(box, "vertex_mean", gamma=3.0),
@@ -146,16 +147,21 @@ def test_center_and_scale_are_chosen_independently():
     (lambda box: estimators.estimate(box, "vertex_mean", strict="no"), "strict must be True or False"),
     # ignored: strict=True where no closed-surface estimator reads it (the command line refused --strict so)
     (lambda box: estimators.estimate(box, "bbox", strict=True), "strict applies to the closed-surface estimators"),
-    (lambda box: estimators.estimate(box, strict=True), "not robust_depth / robust_volume"),
+    (lambda box: estimators.estimate(box, strict=True), r"\(center robust_depth, scale robust_volume\) do not use"),
     # one string was its characters ('unknown method 'r''); bad values were each method's row, not an error
     (lambda box: estimators.estimate_many(box, "robust"), r"methods must be a list of names, got the string 'robust'"),
     (lambda box: estimators.estimate_many(box, ["vertex_mean", "robust"], resolution=4), "resolution must be >= 8"),
     (lambda box: estimators.estimate_many(box, ["bbox"], ocsvm={"tol": -1.0}), "tol must be finite and > 0"),
     # as estimate: an option none of the methods reads (they were taken and ignored)
     (lambda box: estimators.estimate_many(box, ["robust"], strict=True), "strict applies to the closed-surface"),
-    (lambda box: estimators.estimate_many(box, ["bbox", "vertex_mean"], strict=True), "none of which the methods bbox, "),
+    (lambda box: estimators.estimate_many(box, ["bbox", "vertex_mean"], strict=True), "which the methods bbox, "),
     (lambda box: estimators.estimate_many(box, ["bbox"], power=2), "power applies to the robust_depth and"),
-    (lambda box: estimators.estimate_many(box, ["robust:2", "solid"], power=2), "none of which the methods robust:2, "),
+    (lambda box: estimators.estimate_many(box, ["robust:2", "solid"], power=2), "which the methods robust:2, "),
+    # the OCSVM's options where none of the methods runs it were taken and ignored (estimate refused them)
+    (lambda box: estimators.estimate_many(box, ["robust"], gamma=3.0, nu=0.2),
+     r"^gamma, nu are options of the ocsvm estimator, which the method robust do not use \(pass 'ocsvm' among the "
+     r"methods; or leave them out\)$"),
+    (lambda box: estimators.estimate_many(box, ["bbox", "robust:2"], seed=1, ocsvm={}), "^seed, ocsvm are options of"),
     (lambda box: estimators.estimate_many(box, ["bbox", "solid"], resolution=64), "resolution applies to the robust"),
 ])
 def test_bad_options_are_refused_before_any_work(call, message):
@@ -268,3 +274,36 @@ def test_one_type_policy_for_host_poses_of_every_method():
             "assert m.dtype == np.float64 and m[0, 3] == -5e8, m; assert 'jax' not in sys.modules")
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stderr
+
+
+def test_strict_refusal_has_one_wording():
+    """strict=True where no closed-surface estimator reads it: estimate, estimate_many and the
+    command line's --strict said it three ways (', not bbox_center / unit_cube', ', none of which
+    the methods ... use', ', which --method bbox (...) does not use; drop it'); one helper now."""
+    import argparse
+
+    from jaxpose.cli.normalize import ignored_options
+
+    rule = (r"strict applies to the closed-surface estimators \(solid_centroid, gyration_radius, depth_weighted_solid\), "
+            r"which {} do not use; leave it out$")
+    with pytest.raises(InvalidInputError, match="^" + rule.format(r"the chosen estimators \(center bbox_center, "
+                                                                  r"scale unit_cube\)")):
+        estimators.estimate(_box(), "bbox", strict=True)
+    with pytest.raises(InvalidInputError, match="^" + rule.format("the methods bbox, vertex_mean")):
+        estimators.estimate_many(_box(), ["bbox", "vertex_mean"], strict=True)
+    args = argparse.Namespace(method="bbox", center=None, scale=None, rotation=None, strict=True,
+                              **dict.fromkeys(("gamma", "nu", "count", "seed", "sampling")))
+    import re
+    assert re.match("^--" + rule.format(r"the chosen estimators \(center bbox_center, scale unit_cube\)"),
+                    ignored_options(args)), ignored_options(args)
+
+
+def test_evaluate_gives_estimate_many_only_the_options_its_methods_read():
+    """evaluate passed the OCSVM's defaults to estimate_many whatever the methods; estimate_many
+    refuses options none of its methods reads, so without an ocsvm method evaluate passes none."""
+    from jaxpose.evaluation import evaluate
+
+    classes = {"boxes": [_box(), _box(at=(1.0, 0.0, 0.0))]}
+    result = evaluate(classes, methods=["bbox", "vertex_mean"])
+    assert [row["method"] for row in result["summary"]] == ["bbox", "vertex_mean"]
+    assert all(row.get("error") is None for row in result["summary"]), result["summary"]

@@ -568,8 +568,9 @@ def test_content_that_does_not_match_its_suffix_is_named(tmp_path):
     (dict(sampling="bogus"), "unknown sampling"),
     (dict(strict="yes"), "strict must be True or False"),
     # strict=True where it does nothing (robust, bbox, ...): refused, as the command line's --strict (it was taken)
-    (dict(strict=True), "strict applies to the closed-surface estimators .* not robust_depth / robust_volume"),
-    (dict(method="bbox", strict=True), "not bbox_center / unit_cube"),
+    (dict(strict=True), r"strict applies to the closed-surface estimators .* \(center robust_depth, scale robust_volume\) "
+                        "do not use"),
+    (dict(method="bbox", strict=True), r"\(center bbox_center, scale unit_cube\) do not use"),
     (dict(power=-1.0), "power must be a finite number >= 0"),
     (dict(resolution=1000), r"resolution=1000 needs up to .* GiB .* use a resolution in \[8, 291\]"),
     (dict(method="ocsvm", resolution=1000), r"resolution=1000 .* needs about .* GiB .* use a resolution in \[8, 281\]"),

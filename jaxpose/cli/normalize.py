@@ -142,7 +142,7 @@ def ignored_options(args) -> str | None:
     (``--method ocsvm``, ``--center/--scale ocsvm`` or ``--rotation ocsvm``); ``--strict`` only by
     the closed-surface estimators.
     """
-    from ..pose.estimators import CLOSED_FORMS, DEFAULT_METHOD, resolve
+    from ..pose.estimators import CLOSED_FORMS, DEFAULT_METHOD, resolve, strict_unread
 
     c_name, s_name = resolve(args.method, args.center, args.scale)
     chosen = f"--method {args.method or DEFAULT_METHOD} (center {c_name}, scale {s_name})"
@@ -152,8 +152,7 @@ def ignored_options(args) -> str | None:
             return (f"{', '.join(given)} {'apply' if len(given) > 1 else 'applies'} to the ocsvm method "
                     f"(--method ocsvm), which {chosen} does not use; drop {'them' if len(given) > 1 else 'it'}")
     if args.strict and not set(CLOSED_FORMS) & {c_name, s_name}:
-        return (f"--strict applies to the closed-surface estimators ({', '.join(CLOSED_FORMS)}), which {chosen} "
-                "does not use; drop it")
+        return strict_unread([(c_name, s_name)], name="--strict")  # the library's wording
     return None
 
 

@@ -107,6 +107,14 @@ def _check_variants(variants):
     return variants
 
 
+def _ocsvm_options(methods, options):
+    """The OCSVM's ``options`` where one of ``methods`` has an ``ocsvm`` center or scale, else none
+    (``estimate_many`` refuses options none of its methods reads)."""
+    from ..pose.estimators import parse_method, resolve
+
+    return options if any("ocsvm" in resolve(parse_method(spec)[0]) for spec in methods) else {}
+
+
 def _measure(centers, scales):
     return {**spread(centers), **scale_spread(scales),
             "centers": centers.tolist(), "scales": scales.tolist()}
@@ -228,7 +236,7 @@ def evaluate(classes, gamma=OCSVM.gamma, nu=OCSVM.nu, methods=None, count=OCSVM.
     check_callback(progress, "progress")
     if align_core:
         classes = alignment.align_classes(classes, weight=core_weight)
-    options = {"gamma": gamma, "nu": nu, "count": count, "seed": seed, "ocsvm": normalize_options}
+    options = _ocsvm_options(methods, {"gamma": gamma, "nu": nu, "count": count, "seed": seed, "ocsvm": normalize_options})
     total, done, out = len(variants) * len(classes), 0, {}
     for variant in variants:
         per_class, seconds, first, objects = {}, dict.fromkeys(methods, 0.0), dict.fromkeys(methods, 0.0), 0

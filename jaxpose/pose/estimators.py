@@ -44,7 +44,7 @@ from ..weighted import depth_power_weights, grid_axes, solid_occupancy, weighted
 from .result import MIN_POINT_VOXELS, SECOND_BODY, Pose, host, status_message
 
 __all__ = ["METHODS", "CENTERS", "SCALES", "DEFAULT_METHOD", "ROBUST_POWER", "POWERED", "CLOSED_FORMS", "resolve",
-           "parse_method", "check_strict", "estimate",
+           "parse_method", "check_strict", "strict_unread", "estimate",
            "estimate_many", "robust_center_scale", "solid_center_volume", "centered", "check_ocsvm_unused"]
 
 METHODS = {
@@ -95,13 +95,30 @@ def check_strict(strict, c_name, s_name):
     another center and scale would do nothing (as the command line's ``--strict`` is refused).
 
     Raises:
-      InvalidInputError: not a bool, or ``True`` for estimators that ignore it.
+      InvalidInputError: not a bool, or ``True`` for estimators that ignore it
+        (:func:`strict_unread`'s wording).
     """
     strict = _validate.check_bool(strict, "strict")
     if strict and not set(CLOSED_FORMS) & {c_name, s_name}:
-        raise InvalidInputError(f"strict applies to the closed-surface estimators ({', '.join(CLOSED_FORMS)}), not "
-                                f"{c_name} / {s_name}")
+        raise InvalidInputError(strict_unread([(c_name, s_name)]))
     return strict
+
+
+def strict_unread(pairs, methods=None, name="strict"):
+    """The one wording of ``strict=True`` refused where no closed-surface estimator reads it
+    (:func:`check_strict`, :func:`estimate`, :func:`estimate_many`, ``jaxpose normalize --strict``
+    with ``name="--strict"``): ``pairs`` the (center, scale) names chosen, ``methods`` the names of
+    several methods (:func:`estimate_many`'s) or None. Returns the message."""
+    return (f"{name} applies to the closed-surface estimators ({', '.join(CLOSED_FORMS)}), which "
+            f"{_chosen(pairs, methods)} do not use; leave it out")
+
+
+def _chosen(pairs, methods=None):
+    """How a refusal names the estimators: one (center, scale) pair, or several ``methods``."""
+    if methods is None:
+        (c_name, s_name), = pairs
+        return f"the chosen estimators (center {c_name}, scale {s_name})"
+    return f"the method{'s' if len(methods) > 1 else ''} {', '.join(methods)}"
 
 
 def parse_method(spec):
@@ -484,14 +501,8 @@ def estimate(geometry, method=None, *, center=None, scale=None, strict=False, **
     """
     c_name, s_name = resolve(method, center, scale)
     _check_options(options)
-    strict = check_strict(strict, c_name, s_name)
-    if "power" in options and c_name not in POWERED:
-        raise InvalidInputError(f"power applies to the {' and '.join(POWERED)} centers, not {c_name}")
-    if "resolution" in options and "robust_depth" not in (c_name, s_name) and s_name != "robust_volume":
-        raise InvalidInputError(f"resolution applies to the robust solid (the robust_depth center, the robust_volume "
-                                f"scale), not {c_name} / {s_name}; for ocsvm give it in ocsvm={{'resolution': ...}}")
-    if "ocsvm" not in (c_name, s_name):
-        check_ocsvm_unused([k for k in (*_OCSVM_KEYS, "ocsvm") if k in options], c_name, s_name)
+    strict = _validate.check_bool(strict, "strict")
+    _check_read(strict, options, [((c_name, s_name), None)])
     moved, shift = centered(geometry)
     return _shifted(_pose(_Shape(moved, options), c_name, s_name, strict), shift)
 
@@ -500,16 +511,42 @@ def check_ocsvm_unused(given, c_name, s_name, frame=False):
     """Refuse the OCSVM's options ``given`` (names: ``gamma``, ``nu``, ``count``, ``seed``,
     ``sampling``, ``ocsvm``) where no OCSVM reads them, center ``c_name`` and scale ``s_name`` not
     ``"ocsvm"`` (and, with ``frame``, no ``rotation="ocsvm"``): InvalidInputError naming them, the
-    one wording of :func:`estimate` and :func:`jaxpose.normalize_mesh` (they were ignored: the
-    estimator named ran with nothing of them). Nothing given: returns None."""
+    one wording of :func:`estimate`, :func:`estimate_many` and :func:`jaxpose.normalize_mesh` (they
+    were ignored: the estimator named ran with nothing of them). Nothing given: returns None."""
+    where = "method='ocsvm', center or scale 'ocsvm', or rotation='ocsvm'" if frame else \
+        "method='ocsvm', or center or scale 'ocsvm'"
+    _refuse_ocsvm_unused(given, _chosen([(c_name, s_name)]), where)
+
+
+def _refuse_ocsvm_unused(given, chosen, where):
     if not given:
         return
     many = len(given) > 1
-    where = "method='ocsvm', center or scale 'ocsvm', or rotation='ocsvm'" if frame else \
-        "method='ocsvm', or center or scale 'ocsvm'"
     raise InvalidInputError(
-        f"{', '.join(given)} {'are options' if many else 'is an option'} of the ocsvm estimator, which the chosen "
-        f"estimators (center {c_name}, scale {s_name}) do not use (pass {where}; or leave {'them' if many else 'it'} out)")
+        f"{', '.join(given)} {'are options' if many else 'is an option'} of the ocsvm estimator, which {chosen} do "
+        f"not use (pass {where}; or leave {'them' if many else 'it'} out)")
+
+
+def _check_read(strict, options, parsed, methods=None):
+    """Refuse what none of the estimators ``parsed`` (((center, scale), power of ``"name:p"`` or
+    None), ...) reads: ``strict=True`` without a closed-surface estimator, a ``power`` without a
+    depth-weighted center (that takes no ``"name:p"`` of its own), a ``resolution`` without the robust
+    solid, the OCSVM's options without an ``ocsvm`` center or scale. One rule and wording for
+    :func:`estimate` (one pair) and :func:`estimate_many` (its ``methods``)."""
+    pairs = [pair for pair, _ in parsed]
+    chosen = _chosen(pairs, methods)
+    if strict and not any(set(CLOSED_FORMS) & set(pair) for pair in pairs):
+        raise InvalidInputError(strict_unread(pairs, methods))
+    if "power" in options and not any(c_name in POWERED and key is None for (c_name, _), key in parsed):
+        own = " (where a method gives none as 'name:p')" if methods is not None else ""
+        raise InvalidInputError(f"power applies to the {' and '.join(POWERED)} centers{own}, which {chosen} do not "
+                                "use; leave it out")
+    if "resolution" in options and not any("robust_depth" in pair or pair[1] == "robust_volume" for pair in pairs):
+        raise InvalidInputError(f"resolution applies to the robust solid (the robust_depth center, the robust_volume "
+                                f"scale), which {chosen} do not use; for ocsvm give it in ocsvm={{'resolution': ...}}")
+    if not any("ocsvm" in pair for pair in pairs):
+        where = "method='ocsvm', or center or scale 'ocsvm'" if methods is None else "'ocsvm' among the methods"
+        _refuse_ocsvm_unused([k for k in (*_OCSVM_KEYS, "ocsvm") if k in options], chosen, where)
 
 
 def _check_options(options):
@@ -545,23 +582,6 @@ def _pose(shape, c_name, s_name, strict):
     return pose
 
 
-def _check_read_by_any(methods, parsed, strict, options):
-    """:func:`estimate`'s refusals of options no estimator reads, for :func:`estimate_many`: refused
-    where none of the methods (``parsed``: ((center, scale), power)) reads ``strict=True``, a
-    ``power`` (a method's own ``"name:p"`` replaces it) or a ``resolution``."""
-    names = ", ".join(methods)
-    if strict and not any(set(CLOSED_FORMS) & set(pair) for pair, _ in parsed):
-        raise InvalidInputError(f"strict applies to the closed-surface estimators ({', '.join(CLOSED_FORMS)}), none "
-                                f"of which the methods {names} use")
-    if "power" in options and not any(c_name in POWERED and key is None for (c_name, _), key in parsed):
-        raise InvalidInputError(f"power applies to the {' and '.join(POWERED)} centers (where a method gives none "
-                                f"as 'name:p'), none of which the methods {names} use")
-    if "resolution" in options and not any("robust_depth" in pair or pair[1] == "robust_volume" for pair, _ in parsed):
-        raise InvalidInputError(f"resolution applies to the robust solid (the robust_depth center, the robust_volume "
-                                f"scale), which none of the methods {names} use; for ocsvm give it in "
-                                f"ocsvm={{'resolution': ...}}")
-
-
 def estimate_many(geometry, methods, strict=False, timings=False, **options):
     """Several methods on one input, sharing what they have in common (the robust solid, the
     voxels of the depth-weighted solid, the OCSVM fit).
@@ -579,13 +599,14 @@ def estimate_many(geometry, methods, strict=False, timings=False, **options):
 
     Raises:
       InvalidInputError: as :func:`estimate`, before any work: unknown names or options, a bad
-        value, ``strict=True``, a ``power`` or a ``resolution`` that none of the methods reads.
+        value, ``strict=True``, a ``power``, a ``resolution`` or an OCSVM option (``gamma``, ``nu``,
+        ``count``, ``seed``, ``sampling``, ``ocsvm``) that none of the methods reads.
     """
     _check_options(options)
     strict, timings = _validate.check_bool(strict, "strict"), _validate.check_bool(timings, "timings")
     methods = _validate.check_names(methods, "methods")
     parsed = [(resolve(name), key) for name, key in map(parse_method, methods)]  # every name before any work
-    _check_read_by_any(methods, parsed, strict, options)
+    _check_read(strict, options, parsed, methods)
     geometry, shift = centered(geometry)
     shapes, out = {}, {}
     for spec in methods:

@@ -1030,3 +1030,21 @@ def test_cli_writes_a_point_cloud_in_a_points_format(tmp_path, tree):
     assert code == 0 and isinstance(mesh.load(tmp_path / "c.xyz"), trimesh.PointCloud)
     record = json.loads((tmp_path / "c.transform.json").read_text())
     assert record["method"] == "robust" and len(record["center"]) == 3
+
+
+def test_normalize_files_refuses_ocsvm_options_given_where_no_ocsvm_runs(tmp_path):
+    """normalize_files(..., gamma=47) with the robust default was taken (47 is the default value, so
+    NormalizeOptions could not tell it was given) and never read; normalize_mesh refuses it. Now
+    refused before any work in normalize_mesh's words; with the ocsvm method it is taken."""
+    import trimesh
+
+    path = tmp_path / "box.ply"
+    trimesh.creation.box().export(path)
+    for named in (dict(gamma=47), dict(method="bbox", nu=0.5, seed=0)):
+        with pytest.raises(InvalidInputError) as caught:
+            jaxpose.normalize_files([path], tmp_path / "out", workers=1, **named)
+        with pytest.raises(InvalidInputError) as mesh_says:
+            jaxpose.normalize_mesh(path, **named)
+        assert str(caught.value) == str(mesh_says.value) and "of the ocsvm estimator" in str(caught.value)
+    assert not (tmp_path / "out").exists()
+    assert NormalizeOptions(method="ocsvm", gamma=47).gamma == 47.0  # read: taken

@@ -173,7 +173,10 @@ def normalize_files(inputs, output_dir, options=None, **kwargs) -> list:
     """Normalize every mesh of files, folders and manifests; outputs mirror the inputs' tree.
 
     Options of :class:`NormalizeOptions` may also be given by name (``method="ocsvm"``), the
-    run's below; an unknown name raises :class:`InvalidInputError`.
+    run's below; an unknown name raises :class:`InvalidInputError`, and so does an OCSVM option
+    (``gamma``, ``nu``, ``count``, ``seed``, ``sampling``) given by name where no OCSVM runs, in
+    :func:`jaxpose.normalize_mesh`'s words (``gamma=47`` with the robust default; a
+    :class:`NormalizeOptions` holds values, so its defaults written out are taken).
 
     Args:
       inputs: a path or paths: mesh files, folders (searched recursively for
@@ -251,6 +254,10 @@ def normalize_files(inputs, output_dir, options=None, **kwargs) -> list:
     named = {k: kwargs.pop(k) for k in list(kwargs) if k in fields}
     if named and options is not None:
         raise InvalidInputError(f"give options either as NormalizeOptions or by name ({', '.join(named)}), not both")
+    if named:  # normalize_mesh's rule on what was given: gamma=47 with method="robust" is refused, not ignored
+        from ..mesh import check_arguments
+
+        check_arguments(**named)
     return run_batch(inputs, output_dir, NormalizeOptions(**named) if named else options, **kwargs).rows
 
 

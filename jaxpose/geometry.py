@@ -6,6 +6,7 @@ anything with ``vertices`` and optional ``faces``) or an ``(n, 3)`` array of poi
 """
 from __future__ import annotations
 
+import os
 import warnings
 from typing import NamedTuple
 
@@ -49,8 +50,9 @@ def split_geometry(mesh_or_points):
     vertices : (n, 3) float64
     faces : (f, 3) int or None   (None for point clouds and meshes without faces)
 
-    Raises InvalidInputError for bad vertices or faces, for faces of zero total area
-    ("the mesh has no area": such a mesh is not silently taken as its points), and for traced
+    Raises InvalidInputError for a path (str, bytes or os.PathLike: the message says how to load
+    it), bad vertices or faces, for faces of zero total area ("the mesh has no area": such a mesh
+    is not silently taken as its points), and for traced
     vertices or faces (under jit, vmap or grad: every function that reads a geometry here is NumPy).
 
     Example::
@@ -58,6 +60,11 @@ def split_geometry(mesh_or_points):
         vertices, faces = split_geometry(trimesh.creation.box())   # (8, 3), (12, 3)
         vertices, faces = split_geometry(points)                   # (n, 3), None
     """
+    if isinstance(mesh_or_points, (str, bytes, os.PathLike)):  # ("vertices must have shape (m, 3), got ()")
+        raise InvalidInputError(
+            f"expected a loaded geometry (a Trimesh, PointCloud, jaxpose.geometry.Surface or (n, 3) points), got the "
+            f"path {os.fsdecode(mesh_or_points)!r}: load it first with jaxpose.mesh.load(path) (jaxpose.sample_surface "
+            "and jaxpose.normalize_mesh read a path themselves)")
     check_concrete("the geometry (mesh or points)", getattr(mesh_or_points, "vertices", mesh_or_points),
                    getattr(mesh_or_points, "faces", None))
     faces = None

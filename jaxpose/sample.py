@@ -45,7 +45,7 @@ def sample_surface(geometry, count, seed=0, method="even"):
     Point clouds (and meshes without faces): `count` of the points, drawn without
     replacement when there are enough.
 
-    geometry : Trimesh | PointCloud | (n, 3) array (loaded: for paths, :func:`jaxpose.mesh.sample_surface`),
+    geometry : Trimesh | PointCloud | Surface | (n, 3) array (loaded; a path is refused, naming :func:`jaxpose.mesh.load` and :func:`jaxpose.mesh.sample_surface`, which reads paths),
     count : int >= 4 (at most :func:`check_count`'s limit), seed : int
     Returns samples : (count, 3) float64, in the units of the geometry
 

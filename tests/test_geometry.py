@@ -147,3 +147,19 @@ def test_surface_labels_match_trimesh_split():
     for a, b in zip(offsets[:-1], offsets[1:]):
         assert len(np.unique(labels[a:b])) == 1
     assert len(np.unique(labels[offsets[:-1]])) == 3 and labels[-1] not in labels[:-1]
+
+
+def test_a_path_where_a_loaded_geometry_is_needed_says_how_to_load_it():
+    """sample.sample_surface('some/path.obj') (and every host function of a geometry) said
+    'vertices must have shape (m, 3), got ()'; now what it takes and how to load a file."""
+    import pathlib
+
+    from jaxpose import baselines, sample
+
+    for path in ("some/path.obj", pathlib.Path("some/path.obj"), b"some/path.obj"):
+        for call in (lambda: sample.sample_surface(path, 100), lambda: baselines.center(path),
+                     lambda: geometry.split_geometry(path)):
+            with pytest.raises(InvalidInputError, match=r"^expected a loaded geometry \(a Trimesh, PointCloud, "
+                               r"jaxpose.geometry.Surface or \(n, 3\) points\), got the path 'some/path.obj': load "
+                               r"it first with jaxpose.mesh.load\(path\)"):
+                call()

@@ -162,19 +162,6 @@ def check_traced_scalar(value, name):
     return value
 
 
-def _scalar(value, name):
-    if is_traced(value):
-        check_traced_scalar(value, name)
-        return None
-    arr = np.asarray(value)
-    if arr.ndim != 0 or not is_real_dtype(arr.dtype):
-        raise InvalidInputError(f"{name} must be a real scalar, got {value!r}")
-    v = float(arr)
-    if not np.isfinite(v):
-        raise InvalidInputError(f"{name} must be finite, got {v}")
-    return v
-
-
 def default_float() -> np.dtype:
     """JAX's default float dtype, the one a Python float becomes under ``jit``: float32, float64
     with ``jax_enable_x64``. Does not import JAX: before JAX is imported its setting is the
@@ -188,14 +175,15 @@ def default_float() -> np.dtype:
     return np.dtype(np.float64 if x64 else np.float32)
 
 
-def check_gamma(gamma):
-    """A concrete gamma: a finite real scalar > 0 that JAX's default float dtype holds as a normal
-    number (float32: 1.2e-38 ... 3.4e38; beyond, it would become inf or 0 inside the pipeline)."""
-    v = _scalar(gamma, "gamma")
-    if v is not None and v <= 0:
-        raise InvalidInputError(f"gamma must be > 0, got {v}")
-    if v is not None:
-        check_default_float(v, "gamma", normal=True)
+def check_gamma(gamma, name="gamma"):
+    """A concrete gamma: a finite real number > 0 (:func:`check_real`'s rule and wording, "gamma
+    must be a finite number > 0, got ...") that JAX's default float dtype holds as a normal number
+    (float32: 1.2e-38 ... 3.4e38; beyond, it would become inf or 0 inside the pipeline); traced, a
+    () real (:func:`check_traced_scalar`). ``name``: the argument's (``gamma0``). Returns ``gamma``
+    unchanged."""
+    if is_traced(gamma):
+        return check_traced_scalar(gamma, name)
+    check_default_float(_real(gamma, name, 0.0, closed=False), name, normal=True)
     return gamma
 
 
@@ -222,10 +210,13 @@ def check_power(power, name: str = "power"):
     return power
 
 
-def check_nu(nu):
-    v = _scalar(nu, "nu")
-    if v is not None and not 0.0 <= v <= 1.0:
-        raise InvalidInputError(f"nu must be in [0, 1], got {v}")
+def check_nu(nu, name="nu"):
+    """A concrete nu: a real number in [0, 1] (:func:`check_real`'s rule and wording, "nu must be a
+    number in [0, 1], got ..."); traced, a () real (:func:`check_traced_scalar`). ``name``: the
+    argument's (``nu0``). Returns ``nu`` unchanged."""
+    if is_traced(nu):
+        return check_traced_scalar(nu, name)
+    _real(nu, name, 0.0, 1.0)
     return nu
 
 

@@ -151,8 +151,9 @@ def _create(cls, config, options):
     return dataclasses.replace(base, **options) if options else base
 
 
-def _real(value, name, low, high=math.inf, closed=True, interval=None):
-    """``value`` as a float in [low, high] (or (low, high] with ``closed=False``): the one number rule
+def _real(value, name, low, high=math.inf, closed=True, interval=None, closed_high=True):
+    """``value`` as a float in [low, high] (or (low, high] with ``closed=False``, [low, high) with
+    ``closed_high=False``): the one number rule
     of the library (:func:`jaxpose._validate.check_real` is this with ``high`` inf) and its one
     wording. A real number is a ``numbers.Real`` (Python's, NumPy's) or a () NumPy or JAX array or
     scalar of reals (ml_dtypes' floats included); bools, strings (``"0.1"``), timedeltas, other
@@ -176,14 +177,14 @@ def _real(value, name, low, high=math.inf, closed=True, interval=None):
             v = math.nan
         except OverflowError:  # an int no float holds (was the OverflowError itself)
             v, shown = math.nan, f"an int of {int(value).bit_length()} bits"
-    if not (math.isfinite(v) and (low <= v if closed else low < v) and v <= high):
+    if not (math.isfinite(v) and (low <= v if closed else low < v) and (v <= high if closed_high else v < high)):
         if (shown is None and getattr(dtype, "kind", None) in ("f", "i", "u") and getattr(value, "shape", None) == ()
                 and not _is_traced(value)):
             shown = repr(value.item())  # a () array as its number ("got -2.0", not "got array(-2.)")
         if math.isinf(high) and interval is None:
             rule = f"a finite number {'>=' if closed else '>'} {low:g}"
         else:
-            rule = f"a number in {interval or ('[' if closed else '(') + f'{low:g}, {high:g}]'}"
+            rule = f"a number in {interval or ('[' if closed else '(') + f'{low:g}, {high:g}' + (']' if closed_high else ')')}"
         raise InvalidInputError(f"{name} must be {rule}, got {shown or repr(value)}")
     return v
 
@@ -312,13 +313,7 @@ class SolverConfig:
     solver: str | None = None
 
     def __post_init__(self):
-        try:
-            tol = float(self.tol)
-        except (TypeError, ValueError):
-            tol = math.nan
-        if not (math.isfinite(tol) and tol > 0) or isinstance(self.tol, bool):
-            raise InvalidInputError(f"tol must be finite and > 0, got {self.tol!r}")
-        _set(self, tol=tol, max_iter=_int(self.max_iter, "max_iter", 1),
+        _set(self, tol=_real(self.tol, "tol", 0.0, closed=False), max_iter=_int(self.max_iter, "max_iter", 1),
              check_every=_int(self.check_every, "check_every", 1),
              kernel=_choice(self.kernel, "kernel", KERNELS), block=_int(self.block, "block", 1),
              solver=_choice(self.solver, "solver", SOLVERS))
@@ -431,19 +426,9 @@ class PoseConfig:
         if not isinstance(self.svdd, SolverConfig) or not isinstance(self.grid, GridConfig):
             raise InvalidInputError("PoseConfig needs a SolverConfig (svdd) and a GridConfig (grid)")
         _choice(self.derivative, "derivative", DERIVATIVES)
-        deltas = {}
-        for name in ("nu_delta", "gamma_delta"):
-            try:
-                delta = float(getattr(self, name))
-            except (TypeError, ValueError):
-                delta = math.nan
-            if not 0.0 < delta < 0.5:
-                raise InvalidInputError(f"{name} must be in (0, 0.5), got {getattr(self, name)!r}")
-            deltas[name] = delta
-        try:
-            nu_tol = None if self.nu_tol is None else SolverConfig(tol=self.nu_tol).tol
-        except InvalidInputError:  # its message would name tol
-            raise InvalidInputError(f"nu_tol must be finite and > 0, got {self.nu_tol!r}") from None
+        deltas = {name: _real(getattr(self, name), name, 0.0, 0.5, closed=False, closed_high=False)
+                  for name in ("nu_delta", "gamma_delta")}
+        nu_tol = None if self.nu_tol is None else _real(self.nu_tol, "nu_tol", 0.0, closed=False)
         iters = None if self.secant_iterations is None else _int(self.secant_iterations, "secant_iterations", 1)
         _set(self, nu_tol=nu_tol, secant_iterations=iters, **deltas)
 

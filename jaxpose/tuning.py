@@ -63,7 +63,7 @@ def _from_theta(theta):
 def _start_theta(gamma0, nu0):
     u = (nu0 - _NU_MIN) / (_NU_MAX - _NU_MIN)
     if not 0.0 < u < 1.0:
-        raise _validate.InvalidInputError(f"nu0 must be in ({_NU_MIN}, {_NU_MAX}), got {nu0}")
+        raise _validate.InvalidInputError(f"nu0 must be a number in ({_NU_MIN}, {_NU_MAX}), got {nu0}")
     return jnp.asarray([math.log(gamma0), math.log(u / (1.0 - u))])
 
 
@@ -193,8 +193,8 @@ def check_options(method="ocsvm", steps=TUNE.steps, lr=TUNE.lr, reg=TUNE.reg, sc
     if method == "robust":
         out["power0"] = _validate.check_real(power0, "power0", 0, True)
     else:
-        _validate.check_gamma(gamma0)
-        _validate.check_nu(nu0)
+        _validate.check_gamma(gamma0, "gamma0")  # the argument the caller passed, by its name
+        _validate.check_nu(nu0, "nu0")
         _start_theta(float(gamma0), float(nu0))  # nu0 inside the tuned interval
         out.update(gamma0=float(gamma0), nu0=float(nu0))
     return out

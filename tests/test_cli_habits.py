@@ -117,7 +117,7 @@ def no_work(monkeypatch):
 @pytest.mark.parametrize("args, fragment", [
     (["--methods", "robust,surface_centroid", "--gamma", "30"], "--gamma applies to the ocsvm method"),
     (["--methods", "robust", "--count", "100", "--nu", "0.2"], "--nu, --count apply to the ocsvm method"),
-    (["--gamma", "-1"], "gamma must be > 0"),
+    (["--gamma", "-1"], "gamma must be a finite number > 0"),
     (["--variants", "plain,wobbly"], "unknown variants"),
     (["--methods", "median"], "unknown method"),
     (["--classes", "unicorn"], "unknown class"),

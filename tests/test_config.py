@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from jaxpose import GridConfig, InvalidInputError, PoseConfig, SolverConfig
+from jaxpose import _validate, tuning
 
 
 def test_defaults_live_in_one_place():
@@ -386,3 +387,31 @@ def test_a_seed_is_any_concrete_integer_scalar_at_every_entry_point(monkeypatch)
         jax.jit(lambda seed: sample.sample_surface(box, 10, seed=seed))(3)
     with pytest.raises(InvalidInputError, match="seed must be a concrete int.*traced"):
         jax.jit(lambda seed: OCSVMOptions(seed=seed))(3)
+
+
+@pytest.mark.parametrize("call, message", [
+    # SolverConfig's tol, PoseConfig's deltas and nu_tol, check_gamma and check_nu each had their own words
+    # ('finite and > 0', 'must be in (0, 0.5)', 'must be > 0' / 'must be finite' / 'a real scalar', 'must be in [0, 1]')
+    (lambda: SolverConfig(tol=-1), "tol must be a finite number > 0, got -1"),
+    (lambda: SolverConfig(tol="1e-3"), "tol must be a finite number > 0, got '1e-3'"),
+    (lambda: PoseConfig.create(gamma_delta=0.7), r"gamma_delta must be a number in \(0, 0.5\), got 0.7"),
+    (lambda: PoseConfig.create(nu_delta=0.5), r"nu_delta must be a number in \(0, 0.5\), got 0.5"),
+    (lambda: PoseConfig.create(nu_tol=float("nan")), "nu_tol must be a finite number > 0, got nan"),
+    (lambda: _validate.check_gamma(-1.0), "gamma must be a finite number > 0, got -1.0"),
+    (lambda: _validate.check_gamma(float("inf")), "gamma must be a finite number > 0, got inf"),
+    (lambda: _validate.check_nu(1.5), r"nu must be a number in \[0, 1\], got 1.5"),
+    # tuning.check_options named gamma0 / nu0 'gamma' / 'nu'
+    (lambda: tuning.check_options(gamma0=-1.0), "gamma0 must be a finite number > 0, got -1.0"),
+    (lambda: tuning.check_options(nu0=2.0), r"nu0 must be a number in \[0, 1\], got 2.0"),
+])
+def test_number_rules_have_config_real_wording(call, message):
+    from jaxpose.errors import InvalidInputError
+
+    with pytest.raises(InvalidInputError, match="^" + message + "$"):
+        call()
+
+
+def test_number_rules_take_what_they_took():
+    assert SolverConfig(tol=1e-3).tol == 1e-3 and PoseConfig.create(gamma_delta=0.49, nu_delta=1e-9).gamma_delta == 0.49
+    assert PoseConfig.create(nu_tol=1e-6).nu_tol == 1e-6 and PoseConfig.create().nu_tol is None
+    assert _validate.check_gamma(47) == 47 and _validate.check_nu(0) == 0 and _validate.check_nu(1.0) == 1.0

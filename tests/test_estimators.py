@@ -141,7 +141,7 @@ def test_center_and_scale_are_chosen_independently():
     (lambda box: estimators.estimate(box, center="solid_centroid", nu=0.2, seed=1, ocsvm={"tol": 1e-4}),
      r"^nu, seed, ocsvm are options of the ocsvm estimator, .*center solid_centroid, scale robust_volume"),
     # values no method read went unchecked; a string was truthy
-    (lambda box: estimators.estimate(box, "bbox", gamma=-1.0), "gamma must be > 0"),
+    (lambda box: estimators.estimate(box, "bbox", gamma=-1.0), "gamma must be a finite number > 0"),
     (lambda box: estimators.estimate(box, "bbox", ocsvm={"resolutoin": 32}), "unknown option resolutoin"),
     (lambda box: estimators.estimate(box, "bbox", ocsvm=5), "ocsvm must be a dict"),
     (lambda box: estimators.estimate(box, "vertex_mean", strict="no"), "strict must be True or False"),
@@ -151,7 +151,7 @@ def test_center_and_scale_are_chosen_independently():
     # one string was its characters ('unknown method 'r''); bad values were each method's row, not an error
     (lambda box: estimators.estimate_many(box, "robust"), r"methods must be a list of names, got the string 'robust'"),
     (lambda box: estimators.estimate_many(box, ["vertex_mean", "robust"], resolution=4), "resolution must be >= 8"),
-    (lambda box: estimators.estimate_many(box, ["bbox"], ocsvm={"tol": -1.0}), "tol must be finite and > 0"),
+    (lambda box: estimators.estimate_many(box, ["bbox"], ocsvm={"tol": -1.0}), "tol must be a finite number > 0"),
     # as estimate: an option none of the methods reads (they were taken and ignored)
     (lambda box: estimators.estimate_many(box, ["robust"], strict=True), "strict applies to the closed-surface"),
     (lambda box: estimators.estimate_many(box, ["bbox", "vertex_mean"], strict=True), "which the methods bbox, "),

@@ -574,7 +574,7 @@ def test_content_that_does_not_match_its_suffix_is_named(tmp_path):
     (dict(power=-1.0), "power must be a finite number >= 0"),
     (dict(resolution=1000), r"resolution=1000 needs up to .* GiB .* use a resolution in \[8, 291\]"),
     (dict(method="ocsvm", resolution=1000), r"resolution=1000 .* needs about .* GiB .* use a resolution in \[8, 281\]"),
-    (dict(method="ocsvm", tol=-1.0), "tol must be finite and > 0"),
+    (dict(method="ocsvm", tol=-1.0), "tol must be a finite number > 0"),
     (dict(count=3), "count must be >= 4"),
 ])
 def test_every_argument_is_checked_before_the_file_is_read(kwargs, message):
@@ -603,7 +603,7 @@ def test_the_ocsvm_frame_takes_the_ocsvm_options(monkeypatch):
     assert seen[-1] == ("ocsvm", {"resolution": 32, "refine": 4}, 47.0)
     with pytest.raises(InvalidInputError, match="resolution"):
         mesh.check_arguments(method="vertex_mean", rotation="ocsvm", resolution=4)
-    with pytest.raises(InvalidInputError, match="tol must be finite and > 0"):
+    with pytest.raises(InvalidInputError, match="tol must be a finite number > 0"):
         mesh.check_arguments(method="vertex_mean", rotation="ocsvm", tol=-1.0)
     with pytest.raises(InvalidInputError, match=r"options \['tol'\] apply to the ocsvm estimator only \(pass"):
         mesh.check_arguments(method="vertex_mean", rotation="pca_vertices", tol=1e-4)

@@ -184,7 +184,7 @@ def test_cli_tune_bad_numbers_are_usage_errors(capsys):
                            (["--classes", "human,nope"], "unknown class 'nope'"),
                            (["--resolution", "4"], "resolution must be >= 8"),
                            (["--refine", "3"], "refine must be a power of 2"),
-                           (["--tol", "-1"], "tol must be finite and > 0"),
+                           (["--tol", "-1"], "tol must be a finite number > 0"),
                            (["--method", "robust", "--resolution", "4"], "resolution must be >= 8"),
                            (["--core-weight", "area"], "add --align-core"),  # as evaluate's
                            # was ignored without a word (every mesh of DIR taken); evaluate refused it

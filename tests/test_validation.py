@@ -97,7 +97,7 @@ def test_bfloat16_points_are_real_numbers():
     with pytest.raises(InvalidInputError, match="points must be real numbers, got dtype timedelta64"):
         normalize(P.astype("m8[s]"))  # an integer subtype to NumPy: its DTypePromotionError before
     assert _validate.check_gamma(jnp.bfloat16(47.0)) == 47.0 and _validate.check_nu(jnp.bfloat16(0.5)) == 0.5
-    with pytest.raises(InvalidInputError, match="gamma must be a real scalar"):
+    with pytest.raises(InvalidInputError, match="gamma must be a finite number > 0, got True"):
         _validate.check_gamma(True)
     from jaxpose._validate import check_power as _check_power  # normalize's power check, before any compilation
 
@@ -109,16 +109,16 @@ def test_bfloat16_points_are_real_numbers():
 @pytest.mark.parametrize(
     "kw,fragment",
     [
-        (dict(gamma=0.0), "gamma must be > 0"),
-        (dict(gamma=-1.0), "gamma must be > 0"),
-        (dict(gamma=np.nan), "gamma must be finite"),
-        (dict(gamma=np.inf), "gamma must be finite"),
-        (dict(gamma="a"), "real scalar"),
-        (dict(gamma=None), "real scalar"),
-        (dict(gamma=np.ones(2)), "real scalar"),
-        (dict(nu=-0.1), r"nu must be in \[0, 1\]"),
-        (dict(nu=1.5), r"nu must be in \[0, 1\]"),
-        (dict(nu=np.nan), "nu must be finite"),
+        (dict(gamma=0.0), "gamma must be a finite number > 0"),
+        (dict(gamma=-1.0), "gamma must be a finite number > 0"),
+        (dict(gamma=np.nan), "gamma must be a finite number > 0"),
+        (dict(gamma=np.inf), "gamma must be a finite number > 0"),
+        (dict(gamma="a"), "gamma must be a finite number > 0"),
+        (dict(gamma=None), "gamma must be a finite number > 0"),
+        (dict(gamma=np.ones(2)), "gamma must be a finite number > 0"),
+        (dict(nu=-0.1), r"nu must be a number in \[0, 1\]"),
+        (dict(nu=1.5), r"nu must be a number in \[0, 1\]"),
+        (dict(nu=np.nan), r"nu must be a number in \[0, 1\]"),
     ],
 )
 def test_bad_hyperparameters(kw, fragment):
@@ -251,7 +251,7 @@ def test_sensitivity_keeps_a_far_center_in_float64_without_x64():
     (lambda: normalize(P, method="ocsvm", throw=1), "throw must be True or False"),
     (lambda: jaxpose.normalize_batch([P], throw="no"), "throw must be True or False"),
     (lambda: fit_svdd(P, gamma=1.0, nu=0.5, throw="no"), "throw must be True or False"),
-    (lambda: normalize(P, method="ocsvm", nu_tol=0.0), "nu_tol must be finite and > 0"),
+    (lambda: normalize(P, method="ocsvm", nu_tol=0.0), "nu_tol must be a finite number > 0"),
 ])
 def test_flags_and_named_options_are_checked(call, fragment):
     """A string flag was truthy (throw="no" raised), and nu_tol's error named tol: each is refused
@@ -675,8 +675,8 @@ def test_cli_bad_and_degenerate_files(tmp_path, capsys):
         ([tmp_path / "corrupt.ply"], 1, "cannot read PLY"),
         ([tmp_path / "nan.obj"], 1, "NaN"),
         ([tmp_path / "empty.obj"], 1, "empty geometry"),
-        ([tmp_path / "cloud.ply", "--method", "ocsvm", "--gamma", "-1"], 2, "gamma must be > 0"),
-        ([tmp_path / "cloud.ply", "--method", "ocsvm", "--nu", "nan"], 2, "nu must be finite"),
+        ([tmp_path / "cloud.ply", "--method", "ocsvm", "--gamma", "-1"], 2, "gamma must be a finite number > 0"),
+        ([tmp_path / "cloud.ply", "--method", "ocsvm", "--nu", "nan"], 2, "nu must be a number in [0, 1]"),
         ([tmp_path / "cloud.ply", "--method", "ocsvm", "--count", "2"], 2, "count must be >= 4"),
         ([tmp_path / "cloud.ply", "--resolution", "2"], 2, "resolution must be >= 8"),
         ([tmp_path / "cloud.ply", "--count", "200"], 2, "applies to the ocsvm method"),

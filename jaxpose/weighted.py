@@ -2,7 +2,8 @@
 NumPy and jax.numpy.
 
 Each function takes its array backend from its arguments (:func:`jaxpose.backend.array_namespace`):
-concrete NumPy arrays compute in NumPy on the host (in their own dtype, no JAX imported); JAX
+concrete NumPy arrays (and Python numbers and lists of them, as their NumPy arrays: a list of floats
+is float64) compute in NumPy on the host (in their own dtype, no JAX imported); JAX
 arrays and tracers compute in ``jax.numpy`` (``jit``, ``vmap``, ``grad``). The operations are the
 same in both, so an estimator's host path and its JAX path are one implementation, and their
 results differ only by the rounding of the float they run in.
@@ -69,6 +70,7 @@ def weighted_center(x, w):
       mass () = sum w, center (3,) = sum w x / mass (0 with mass 0).
     """
     xp = array_namespace(w, *x)
+    w, x = xp.asarray(w), [xp.asarray(xa) for xa in x]  # (lists: the backend's arrays)
     mass = xp.sum(w)
     safe = xp.where(mass > 0, mass, 1.0)
     return mass, xp.stack([xp.sum(w * xa) / safe for xa in x])
@@ -89,6 +91,7 @@ def weighted_moments(x, w):
       Differentiable in x and w (the distance's square root is kept off 0 by the float's tiny).
     """
     xp = array_namespace(w, *x)
+    w, x = xp.asarray(w), [xp.asarray(xa) for xa in x]  # (lists: the backend's arrays)
     mass, c = weighted_center(x, w)
     safe = xp.where(mass > 0, mass, 1.0)
     d = [xa - c[a] for a, xa in enumerate(x)]
@@ -180,6 +183,7 @@ def depth_power_weights(distance, inside, power, bias=0.0):
       log(ratio) * weight (0 where the depth is 0).
     """
     xp = array_namespace(distance, inside, power, bias)
+    distance, inside = xp.asarray(distance), xp.asarray(inside)  # (lists: the backend's arrays)
     if xp is np:  # concrete (the host path): its callers refuse a power out of range; the same rule
         ok = bool(np.isfinite(power) and power >= 0)
         power = power if ok else 0.0

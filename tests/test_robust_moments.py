@@ -254,3 +254,35 @@ def test_a_traced_power_out_of_range_weighs_every_voxel_zero():
 
     host = depth_power_weights(ndimage.distance_transform_edt(inside), inside, 2.0, 0.5)
     np.testing.assert_allclose(np.asarray(depth.depth_weights(inside, 2.0, 0.5)), host, rtol=1e-6)
+
+
+@pytest.mark.parametrize("enable_x64", [False, True])
+def test_lists_compute_as_their_numpy_arrays(enable_x64):
+    """A Python list (concrete, of Python floats: float64) went to jax.numpy: with x64 off an origin
+    [1e4 + 0.1, 0, 0] beside float64 NumPy grids gave a float32 center (10001.099609), and a list of
+    weights or depths failed inside the arithmetic (TypeError). Now a list computes as its NumPy array,
+    float64 on the host, with x64 on or off; a list holding a JAX value still goes to JAX."""
+    from jaxpose import weighted
+    from jaxpose.backend import array_namespace
+
+    old = jax.config.jax_enable_x64
+    jax.config.update("jax_enable_x64", enable_x64)
+    try:
+        occ = np.zeros((4, 4, 4))
+        occ[1:3, 1:3, 1:3] = 1.0
+        origin = [1e4 + 0.1, 0.0, 0.0]
+        want = weighted.grid_moments(occ, occ, np.asarray(origin), 0.5)
+        for args in ((occ, occ, origin, 0.5), (occ.tolist(), occ.tolist(), origin, 0.5)):
+            got = weighted.grid_moments(*args)
+            assert isinstance(got.center, np.ndarray) and got.center.dtype == np.float64
+            np.testing.assert_array_equal(got.center, want.center)
+        x = [[1e4 + 0.1, 1e4 + 0.3], [0.0, 1.0], [0.0, 0.0]]
+        mass, center, _, _ = weighted.weighted_moments(x, [1.0, 1.0])
+        assert center.dtype == np.float64 and center[0] == np.mean([1e4 + 0.1, 1e4 + 0.3])
+        d = np.array([[[0.0, 1.0, 2.0]]])
+        np.testing.assert_array_equal(weighted.depth_power_weights(d.tolist(), (d > 0).tolist(), 2.0),
+                                      weighted.depth_power_weights(d, d > 0, 2.0))
+        assert array_namespace([1.0, (2.0, np.float64(3.0))]) is np
+        assert array_namespace([1.0, jnp.ones(())]) is jnp
+    finally:
+        jax.config.update("jax_enable_x64", old)

@@ -302,3 +302,24 @@ def test_polish_solves_the_active_set_exactly(x64):
     want = np.zeros(m)
     want[ref.support_] = ref.dual_coef_[0] / ref.dual_coef_[0].sum()
     np.testing.assert_allclose(np.asarray(b), want, atol=2e-4)
+
+
+def test_a_traced_gamma_or_nu_out_of_range_is_not_converged():
+    """Concrete out-of-range values are refused; traced ones cannot be. jit(fit_svdd)(nu=1.5) returned
+    converged=True with alpha summing to 0.67 (no solution of the problem), nu=-0.2 and nu=inf
+    converged=True too, with nothing to say they were invalid. Now converged=False for a traced gamma
+    or nu outside the concrete rule (normalize flags the same as Status.BAD_PARAMETERS); values in
+    range are as before."""
+    points = np.random.default_rng(0).normal(size=(120, 3)).astype(np.float32)
+    fit = jax.jit(lambda g, n: fit_svdd(points, g, n))
+    for g, n in [(1.0, 1.5), (1.0, -0.2), (1.0, np.inf), (-1.0, 0.5), (0.0, 0.5), (np.nan, 0.5), (1.0, np.nan)]:
+        assert not bool(fit(g, n).converged), (g, n)
+    good, concrete = fit(1.0, 0.5), fit_svdd(points, 1.0, 0.5)
+    assert bool(good.converged) and bool(concrete.converged)
+    np.testing.assert_allclose(good.alpha, concrete.alpha, atol=1e-6)
+    batch = jax.vmap(lambda n: fit_svdd(points, 1.0, n))(jnp.asarray([0.5, 1.5, 0.3]))
+    assert batch.converged.tolist() == [True, False, True]
+    # the rule is normalize's BAD_PARAMETERS rule, one helper
+    from jaxpose.occupancy.svdd.problem import parameters_in_range
+
+    assert parameters_in_range(jnp.asarray([1.0, -1.0, 1.0]), jnp.asarray([1.0, 0.5, 1.01])).tolist() == [True, False, False]

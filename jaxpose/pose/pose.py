@@ -48,6 +48,7 @@ from ..config import OCSVM, ROBUST, PoseConfig, RobustConfig, SolverConfig
 from ..moments import region_moments, robust_moments
 from ..occupancy.points import POINT_BIAS, erode6, point_solid, spacing_subset
 from ..occupancy.svdd import solve_svdd
+from ..occupancy.svdd.problem import parameters_in_range
 from ..occupancy.svdd.secant import with_secants
 from ..orientation import region_frame
 from .frame import host_frame, prescale
@@ -502,9 +503,7 @@ def _finish(pose, shift, size, throw, gamma=None, nu=None, tol=None):
         status = jnp.where((status == 0) & ~jnp.asarray(finite), int(Status.NOT_FINITE), status)
         pose = pose._replace(center=center, scale=scale)
     if gamma is not None:
-        g, n = jnp.asarray(gamma), jnp.asarray(nu)
-        in_range = jnp.isfinite(g) & (g > 0) & jnp.isfinite(n) & (n >= 0) & (n <= 1)
-        status = jnp.where(in_range, status, int(Status.BAD_PARAMETERS))
+        status = jnp.where(parameters_in_range(gamma, nu), status, int(Status.BAD_PARAMETERS))
     status = status.astype(jnp.int32)
     counts = {k: jnp.asarray(getattr(pose, k)).astype(jnp.int32) for k in ("iterations", "count")
               if getattr(pose, k) is not None}  # int32, every method (the OCSVM's iterations were int64 under x64)

@@ -14,7 +14,7 @@ from ...host import check_cast
 from .implicit import implicit_alpha
 from .pg import solve_pg
 from .polish import polish
-from .problem import SVDD, caps as point_caps, kernel_ops, offset, upper_bound
+from .problem import SVDD, caps as point_caps, kernel_ops, offset, parameters_in_range, upper_bound
 from .smo import solve_smo
 
 __all__ = ["fit_svdd", "solve_svdd", "pick_solver", "PG_MAX_M", "SMO_BUDGET"]
@@ -54,7 +54,11 @@ def fit_svdd(points, gamma, nu, *, mask=None, init_alpha=None, config: SolverCon
         inside ``jit``): read ``SVDD.converged`` there.
 
     Returns:
-      :class:`SVDD`, with ``converged``, ``iterations`` and ``kkt_violation`` as diagnostics.
+      :class:`SVDD`, with ``converged``, ``iterations`` and ``kkt_violation`` as diagnostics. A
+      traced ``gamma`` or ``nu`` cannot be refused: one out of range (gamma not finite and > 0, nu
+      not in [0, 1]; :func:`jaxpose.occupancy.svdd.problem.parameters_in_range`) gives ``converged=False``, whatever the solver
+      did (its other fields are no solution, NaN possible), as :func:`jaxpose.normalize` reports
+      ``Status.BAD_PARAMETERS``; read ``converged`` (``jnp.where`` on it) there.
 
     Solvers: "pg" (accelerated projected gradient, one kernel product per step), "smo" (libsvm's
     pair updates), "auto" (SMO for at most min(SMO_BUDGET m, max_iter // 2) updates, then projected
@@ -112,6 +116,8 @@ def fit_svdd(points, gamma, nu, *, mask=None, init_alpha=None, config: SolverCon
     points = jnp.asarray(points)
     points = points.astype(_validate.compute_dtype(points))
     result = solve_svdd(points, gamma, nu, mask, init_alpha, config)
+    if _validate.is_traced(gamma) or _validate.is_traced(nu):  # (concrete ones out of range are refused above)
+        result = result._replace(converged=result.converged & parameters_in_range(gamma, nu))
     if throw and not _validate.is_traced(result.converged) and not bool(result.converged):
         raise _validate.ConvergenceError(
             f"SVDD solver hit max_iter={config.max_iter} with relative KKT violation "

@@ -26,10 +26,19 @@ from ... import _validate
 from ...config import BLOCK
 from ..kernels import gaussian_kernel, kernel_matvec_blocked, map_blocks
 
-__all__ = ["SVDD", "check_svdd", "upper_bound", "caps", "kernel_ops", "kkt_violation", "offset", "decision_function",
+__all__ = ["SVDD", "parameters_in_range", "check_svdd", "upper_bound", "caps", "kernel_ops", "kkt_violation", "offset", "decision_function",
            "decision_value_and_grad", "DENSE_LIMIT"]
 
 DENSE_LIMIT = 12_000  # kernel="auto": above this many points K is never stored (memory O(m * block))
+
+
+def parameters_in_range(gamma, nu):
+    """() bool (batched: the parameters' shape), traced: gamma finite and > 0, nu in [0, 1], the
+    concrete values' rule (:func:`jaxpose._validate.check_gamma`, ``check_nu``). A traced value
+    cannot be refused; :func:`jaxpose.occupancy.svdd.fit_svdd` reports one out of range as
+    ``converged=False`` and :func:`jaxpose.normalize` as ``Status.BAD_PARAMETERS``."""
+    g, n = jnp.asarray(gamma), jnp.asarray(nu)
+    return jnp.isfinite(g) & (g > 0) & jnp.isfinite(n) & (n >= 0) & (n <= 1)
 
 
 class SVDD(NamedTuple):

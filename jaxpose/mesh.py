@@ -148,9 +148,13 @@ def normalize_mesh(
       strict: closed-surface estimators raise on an open mesh instead of warning.
       power: depth exponent (robust_depth: ``jaxpose.config.ROBUST.power``; depth_weighted_solid: 2).
       resolution: for the robust solid, voxels along the body's largest extent (96); for
-        ``ocsvm``, the grid resolution of :func:`jaxpose.normalize`, also of the frame of
+        ``ocsvm``, the grid resolution of :func:`jaxpose.normalize` (64), also of the frame of
         ``rotation="ocsvm"`` where the center and scale read no resolution (``vertex_mean``), as
-        the other OCSVM options reach that frame.
+        the other OCSVM options reach that frame. It is the center's and scale's: a frame reads it
+        only where it builds their grid (``head`` and ``core`` with the robust solid, their own);
+        with an ``ocsvm`` center or scale the ``head`` and ``core`` frames run at their default
+        (96 voxels, a robust solid, not the OCSVM's grid), and with the robust one the ``ocsvm``
+        frame at the OCSVM's (64).
       rotation: False (default: translation and scale only, exactly as without the option), True
         (the ``head`` frame of :mod:`jaxpose.rotation.head`: the head and chest of the robust solid, or
         its depth^4-weighted ``core`` frame, flagged, where no neck is found; meshes and point clouds) or a

@@ -159,7 +159,7 @@ def test_center_and_scale_are_chosen_independently():
     (lambda box: estimators.estimate_many(box, ["robust:2", "solid"], power=2), "which the methods robust:2, "),
     # the OCSVM's options where none of the methods runs it were taken and ignored (estimate refused them)
     (lambda box: estimators.estimate_many(box, ["robust"], gamma=3.0, nu=0.2),
-     r"^gamma, nu are options of the ocsvm estimator, which the method robust do not use \(pass 'ocsvm' among the "
+     r"^gamma, nu are options of the ocsvm estimator, which the method robust does not use \(pass 'ocsvm' among the "
      r"methods; or leave them out\)$"),
     (lambda box: estimators.estimate_many(box, ["bbox", "robust:2"], seed=1, ocsvm={}), "^seed, ocsvm are options of"),
     (lambda box: estimators.estimate_many(box, ["bbox", "solid"], resolution=64), "resolution applies to the robust"),

@@ -110,15 +110,17 @@ def strict_unread(pairs, methods=None, name="strict"):
     with ``name="--strict"``): ``pairs`` the (center, scale) names chosen, ``methods`` the names of
     several methods (:func:`estimate_many`'s) or None. Returns the message."""
     return (f"{name} applies to the closed-surface estimators ({', '.join(CLOSED_FORMS)}), which "
-            f"{_chosen(pairs, methods)} do not use; leave it out")
+            f"{_chosen(pairs, methods)}; leave it out")
 
 
 def _chosen(pairs, methods=None):
-    """How a refusal names the estimators: one (center, scale) pair, or several ``methods``."""
+    """How a refusal names the estimators that do not use an option: one (center, scale) pair, or
+    ``methods``, with the verb."""
     if methods is None:
         (c_name, s_name), = pairs
-        return f"the chosen estimators (center {c_name}, scale {s_name})"
-    return f"the method{'s' if len(methods) > 1 else ''} {', '.join(methods)}"
+        return f"the chosen estimators (center {c_name}, scale {s_name}) do not use"
+    return f"the method {methods[0]} does not use" if len(methods) == 1 else \
+        f"the methods {', '.join(methods)} do not use"
 
 
 def parse_method(spec):
@@ -523,8 +525,8 @@ def _refuse_ocsvm_unused(given, chosen, where):
         return
     many = len(given) > 1
     raise InvalidInputError(
-        f"{', '.join(given)} {'are options' if many else 'is an option'} of the ocsvm estimator, which {chosen} do "
-        f"not use (pass {where}; or leave {'them' if many else 'it'} out)")
+        f"{', '.join(given)} {'are options' if many else 'is an option'} of the ocsvm estimator, which {chosen} "
+        f"(pass {where}; or leave {'them' if many else 'it'} out)")
 
 
 def _check_read(strict, options, parsed, methods=None):
@@ -539,11 +541,11 @@ def _check_read(strict, options, parsed, methods=None):
         raise InvalidInputError(strict_unread(pairs, methods))
     if "power" in options and not any(c_name in POWERED and key is None for (c_name, _), key in parsed):
         own = " (where a method gives none as 'name:p')" if methods is not None else ""
-        raise InvalidInputError(f"power applies to the {' and '.join(POWERED)} centers{own}, which {chosen} do not "
-                                "use; leave it out")
+        raise InvalidInputError(f"power applies to the {' and '.join(POWERED)} centers{own}, which {chosen}; leave it "
+                                "out")
     if "resolution" in options and not any("robust_depth" in pair or pair[1] == "robust_volume" for pair in pairs):
         raise InvalidInputError(f"resolution applies to the robust solid (the robust_depth center, the robust_volume "
-                                f"scale), which {chosen} do not use; for ocsvm give it in ocsvm={{'resolution': ...}}")
+                                f"scale), which {chosen}; for ocsvm give it in ocsvm={{'resolution': ...}}")
     if not any("ocsvm" in pair for pair in pairs):
         where = "method='ocsvm', or center or scale 'ocsvm'" if methods is None else "'ocsvm' among the methods"
         _refuse_ocsvm_unused([k for k in (*_OCSVM_KEYS, "ocsvm") if k in options], chosen, where)

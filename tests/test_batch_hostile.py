@@ -286,6 +286,28 @@ def test_an_output_folder_that_is_a_file(tmp_path):
     assert rows["other/good_0.ply"].ok
 
 
+def test_a_file_where_the_outputs_need_a_folder_fails_those_inputs_before_their_work(tmp_path):
+    """OUTDIR/sub a regular file where OUTDIR/sub/x.ply (and OUTDIR/sub/deeper/y.ply) needs a folder:
+    those inputs fail before they are read, named as the write would name it (they were read and
+    normalized, then failed on the write: "FileExistsError: [Errno 17] File exists"); the file
+    stays; the other inputs are done."""
+    scans, out = tmp_path / "scans", tmp_path / "out"
+    good_meshes(scans / "sub", count=1)
+    good_meshes(scans / "sub" / "deeper", count=1)
+    good_meshes(scans / "other", count=1)
+    out.mkdir()
+    (out / "sub").write_text("mine")
+    code, _, err = cli(scans, "-o", out, "--force", "--workers", "1")
+    assert code == 1 and "2 of 3 inputs failed" in err and "Traceback" not in err, err
+    rows = {os.path.relpath(r.input, scans): r for r in jaxpose.read_transforms(out / "transforms.parquet")}
+    for name in ("sub/good_0.ply", "sub/deeper/good_0.ply"):
+        row = rows[name]
+        assert row.status == "failed" and row.error == f"cannot write {out / name}: {out / 'sub'} is a file, not a folder"
+        assert f"jaxpose: failed: {scans / name}: cannot write {out / name}" in err
+        assert row.vertices is None and row.seconds is None and not row.worker  # never read: no worker's record
+    assert rows["other/good_0.ply"].ok and (out / "sub").read_text() == "mine"
+
+
 def test_a_file_that_changes_between_the_listing_and_the_read(tmp_path):
     """The listing is done and the run has started (its worker is reading a FIFO) when the file
     is replaced: the row describes the bytes read (size, time, SHA-256) and the output is theirs."""

@@ -348,17 +348,24 @@ def _unwritable(output):
     """The failed result of an input whose output path the write would refuse, told before the
     input's work: something there that :func:`jaxpose.io.atomic.write_atomic` does not replace (a
     symbolic link whose target's folder is missing or not writable, a loop of links, a folder, a
-    FIFO), in the words of that write's failure; None for a remote output, a path with nothing
-    there (its folders are made) or a regular file (or a link to one)."""
-    from ..io.atomic import _check_replaceable
+    FIFO: :func:`jaxpose.io.atomic.check_replaceable`), or a folder it needs that cannot be made or
+    written in (``OUTDIR/a`` a regular file where ``OUTDIR/a/x.ply`` is written:
+    :func:`jaxpose.io.atomic.check_creatable`), in the words of that write's failure ("cannot write
+    OUTDIR/a/x.ply: OUTDIR/a is a file, not a folder"); None for a remote output, or a path whose
+    folders are there or can be made, with nothing there, a regular file or a link to one."""
+    from ..io.atomic import check_creatable, check_replaceable
     from ..io.remote import RemotePath
 
-    if isinstance(output, RemotePath) or not os.path.lexists(output):
+    if isinstance(output, RemotePath):
         return None
     try:
-        _check_replaceable(output)
+        if os.path.lexists(output):
+            check_replaceable(output)
+        else:
+            check_creatable(Path(output).parent, f"cannot write {output}")
     except InvalidInputError as exc:
-        return _failed(f"cannot write {output}: {one_line(exc)}")
+        message = one_line(exc)
+        return _failed(message if message.startswith("cannot write ") else f"cannot write {output}: {message}")
     return None
 
 

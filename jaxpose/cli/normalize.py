@@ -296,7 +296,7 @@ def _write_both(normalized, output, json_path, record_text, force):
 def _check_outputs(source, output, json_path, force):
     """Refuse, before any work: unknown output formats, aliasing files, unusable folders, existing files
     (UsageError: exit 2)."""
-    from ..io.atomic import _check_replaceable, check_folder_writable
+    from ..io.atomic import check_replaceable, check_folder_writable
     from ..errors import InvalidInputError, UsageError
     from ..mesh import output_format
 
@@ -317,7 +317,7 @@ def _check_outputs(source, output, json_path, force):
         if folder.exists() and not folder.is_dir():
             raise UsageError(f"{what} {path}: {folder} is a file, not a folder")
         check_folder_writable(folder, what=f"{what} {path}: the")
-        _check_replaceable(path, what)
+        check_replaceable(path, what)
         if path.exists() and not force:
             raise UsageError(f"{path} exists (use --force to overwrite)")
 

@@ -15,7 +15,7 @@ from pathlib import Path
 from ..errors import InvalidInputError, UsageError  # (not _validate: the command line imports this before NumPy)
 
 __all__ = ["write_atomic", "written_path", "temporary_path", "is_temporary", "remove_temporaries", "check_folder_writable",
-           "check_output_file", "check_creatable"]
+           "check_output_file", "check_creatable", "check_replaceable"]
 
 _SUFFIX = ".tmp"
 
@@ -138,11 +138,16 @@ def _fd_link(path) -> bool:
     return False
 
 
-def _check_replaceable(path, what=""):
+def check_replaceable(path, what=""):
     """Refuse (UsageError) a `path` a write cannot replace: a folder (or a link to one), not a regular
     file (:func:`_not_a_file`), a symbolic link that cannot be resolved (a loop), or one whose
     target's folder is missing or not writable (its file is written
-    there, :func:`written_path`; that folder is never made)."""
+    there, :func:`written_path`; that folder is never made). A missing `path`, a regular file or a
+    link to one passes; `path`'s own folder is not checked (:func:`check_creatable` does).
+
+    Args:
+      path: the file a write would replace; what: how the message names it (``"--json"``), or "".
+    """
     named = f"{what}{' ' if what else ''}{path}"
     if os.path.islink(path):
         try:
@@ -183,7 +188,7 @@ def write_atomic(path, data, force=False) -> Path:
       OSError: the write itself failed (disk full, ...); nothing is left behind.
     """
     path = Path(path)
-    _check_replaceable(path)
+    check_replaceable(path)
     if path.exists() and not force:
         raise InvalidInputError(f"{path} exists (use force / --force to overwrite)")
     target = written_path(path)  # (a link's target folder: checked above)
@@ -231,14 +236,16 @@ def check_output_file(path, force=False, what="--json"):
     path = Path(path)
     if path.is_dir():
         raise UsageError(f"{what} {path} is a folder; name a file")
-    _check_replaceable(path, what)
+    check_replaceable(path, what)
     if path.exists() and not force:
         raise UsageError(f"{path} exists (use --force to overwrite)")
     check_creatable(path.parent, f"{what} {path}")
 
 
 def check_creatable(folder, what):
-    """`folder` exists and is writable, or its nearest existing parent is a writable folder."""
+    """Refuse (UsageError) a `folder` that a write cannot make or write in: it exists and is
+    writable, or its nearest existing parent is a writable folder (not a file: ``out/a`` a regular
+    file where ``out/a/b/`` is needed). The message is ``"{what}: out/a is a file, not a folder"``."""
     folder = Path(folder) if str(folder) else Path(".")
     while not folder.exists() and folder != folder.parent:
         folder = folder.parent

@@ -365,6 +365,24 @@ def test_ocsvm_runs_under_python_w_error(tmp_path):
     assert seen.returncode == 0 and seen.stdout.strip() == "['another notice']", seen.stdout + seen.stderr
 
 
+def test_the_test_runs_filters_hide_jaxopts_archive_notice_and_no_other_deprecation():
+    """pyproject's pytest filterwarnings ignores jaxopt's notice that it is no longer maintained,
+    and only it (``error`` for the rest): they ignored every DeprecationWarning raised in a jaxopt
+    module or naming jaxopt, so a deprecation of a jaxopt API jaxpose calls would never show. A
+    real one here: jaxopt.LBFGS's ``condition`` argument."""
+    import warnings
+
+    from jaxpose.occupancy.svdd import pg
+
+    jaxopt = pg._jaxopt()
+    with pytest.raises(DeprecationWarning, match="Argument condition is deprecated"):
+        jaxopt.LBFGS(fun=lambda x: x @ x, condition="armijo")
+    with pytest.raises(DeprecationWarning, match="jaxopt"):
+        warnings.warn("jaxopt.ProjectedGradient's old argument is deprecated", DeprecationWarning)
+    warnings.warn("JAXopt is no longer maintained. See https://docs.jax.dev/en/latest/ for alternatives.",
+                  DeprecationWarning)  # the notice: ignored (the test fails if it raises)
+
+
 # --------------------------------------------------------------------------- far from the origin, files, limits
 def test_cli_translation_is_exact_at_1e9(tmp_path):
     """``jaxpose normalize`` (a real subprocess, the robust default) on a closed mesh written at 1e9

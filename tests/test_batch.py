@@ -483,6 +483,81 @@ def test_a_gltf_whose_buffer_file_is_a_fifo_fails_unread(tmp_path):
         mesh.load(linked)  # read alone: the same refusal
 
 
+def _textured_gltf(folder, image="tex.png"):
+    """A box .gltf in `folder` with its geometry in model.bin and a texture image file `image`
+    (PNG) named by URI: -> the .gltf's path."""
+    import io
+
+    from PIL import Image
+
+    folder.mkdir(parents=True, exist_ok=True)
+    box = trimesh.creation.box(extents=(1.0, 2.0, 3.0))
+    v, f = box.vertices.astype(np.float32), box.faces.astype(np.uint32)
+    uv = (np.abs(box.vertices[:, :2]) % 1).astype(np.float32)
+    blob = v.tobytes() + f.tobytes() + uv.tobytes()
+    (folder / "model.bin").write_bytes(blob)
+    png = io.BytesIO()
+    Image.new("RGB", (4, 4), (200, 30, 30)).save(png, "PNG")
+    (folder / image).write_bytes(png.getvalue())
+    views = [(0, v.nbytes), (v.nbytes, f.nbytes), (v.nbytes + f.nbytes, uv.nbytes)]
+    tree = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+            "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 2}, "indices": 1, "material": 0}]}],
+            "materials": [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],
+            "textures": [{"source": 0}], "images": [{"uri": image}],
+            "buffers": [{"uri": "model.bin", "byteLength": len(blob)}],
+            "bufferViews": [{"buffer": 0, "byteOffset": o, "byteLength": n} for o, n in views],
+            "accessors": [{"bufferView": 0, "componentType": 5126, "count": len(v), "type": "VEC3",
+                           "min": v.min(0).tolist(), "max": v.max(0).tolist()},
+                          {"bufferView": 1, "componentType": 5125, "count": f.size, "type": "SCALAR"},
+                          {"bufferView": 2, "componentType": 5126, "count": len(v), "type": "VEC2"}]}
+    (folder / "model.gltf").write_text(json.dumps(tree))
+    return folder / "model.gltf"
+
+
+def test_a_gltf_whose_texture_image_is_a_fifo_fails_unread(tmp_path):
+    """A .gltf whose texture image file is a FIFO (or a link to one) is refused by name, as one
+    whose buffer is, never opened: trimesh's reader skips an image it cannot read, so the .gltf
+    was read without its texture and its .glb written without it, without a word. A regular image
+    is read (the texture is in the output)."""
+    import threading
+
+    root, out = tmp_path / "in", tmp_path / "out"
+    _textured_gltf(root / "ok")
+    gltf = _textured_gltf(root / "pipe")
+    image = root / "pipe" / "tex.png"
+    image.unlink()
+    os.mkfifo(image)
+    linked = _textured_gltf(root / "linked")
+    (root / "linked" / "tex.png").unlink()
+    (root / "linked" / "pipes").mkdir()
+    os.mkfifo(root / "linked" / "pipes" / "fifo.png")
+    os.symlink(os.path.join("pipes", "fifo.png"), root / "linked" / "tex.png")  # a link to a FIFO
+    done = []
+    thread = threading.Thread(target=lambda: done.append(run([root], out, options=NormalizeOptions(method="bbox"))),
+                              daemon=True)
+    thread.start()
+    thread.join(60)
+    blocked = thread.is_alive()
+    while thread.is_alive():  # let it go: a writer that closes at once
+        for fifo in (image, root / "linked" / "pipes" / "fifo.png"):
+            try:
+                os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
+            except OSError:
+                pass
+        thread.join(1)
+    assert not blocked, "the run waited on a FIFO image"
+    rows = {os.path.relpath(r.input, root): r for r in done[0].rows}
+    assert rows["ok/model.gltf"].ok and (done[0].written, done[0].failed) == (1, 2)
+    written = trimesh.load(rows["ok/model.gltf"].output)
+    assert [part.visual.material.baseColorTexture.size for part in written.geometry.values()] == [(4, 4)]
+    assert rows["pipe/model.gltf"].error == (
+        f"{gltf}: the file 'tex.png' it refers to ({image}) is a FIFO, not a regular file: "
+        "a .gltf's image files are read as regular files only (it was not opened)")
+    assert f"the file 'tex.png' it refers to ({root / 'linked' / 'pipes' / 'fifo.png'}) is a FIFO" in rows["linked/model.gltf"].error
+    with pytest.raises(InvalidInputError, match="'tex.png' .* is a FIFO, not a regular file"):
+        mesh.load(linked)  # read alone: the same refusal
+
+
 def test_an_input_replaced_by_a_fifo_while_read_is_changed(tmp_path):
     """An input replaced by a file that is not regular while it was read: 'changed while it was
     read', named (it raised KeyError 'input_inode')."""

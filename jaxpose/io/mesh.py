@@ -324,6 +324,8 @@ def _read(path):
             detail = (f"the content is not {ext.upper()} as jaxpose and trimesh read it (trimesh wanted its optional "
                       f"module {exc.name!r} to try further)")
         raise InvalidInputError(f"{path}: cannot read {ext.upper()} file: {detail}") from None
+    if resolver is not None and resolver.refused is not None:  # an image trimesh skipped (the read went on)
+        raise InvalidInputError(str(resolver.refused))
     if one_point and len(geometry.vertices) == 2:
         colors = np.asarray(geometry.colors)
         geometry = trimesh.PointCloud(geometry.vertices[:1], colors=colors[:1] if len(colors) else None)
@@ -360,31 +362,41 @@ def _gltf_resolver(path):
     (:class:`_NotRegular`) one that is not a regular file before it is opened: a FIFO's ``open``
     waits for a writer, for ever when none comes (a folder, a device: named as well). It reads the
     file itself (trimesh's own ``get`` follows another rule on each major version: 4's opens
-    ``../name``, a file out of the folder). Images trimesh reads on its own terms (it skips one
-    it cannot read)."""
+    ``../name``, a file out of the folder). An image (a texture) is refused by the same rule, but
+    trimesh's reader skips an image it cannot get and reads on: the refusal is kept in the
+    resolver's ``refused`` (the first one; None while there is none), for the caller to raise
+    once trimesh returns, worded for an image. A missing or unreadable image that is a regular
+    file is left to trimesh (it skips it)."""
     import stat
 
-    def refuse(name, file, mode):
+    def refuse(name, file, mode, files="buffer files"):
         kind = next((kind for test, kind in ((stat.S_ISFIFO, "a FIFO"), (stat.S_ISDIR, "a folder"),
                                              (stat.S_ISSOCK, "a socket"), (stat.S_ISCHR, "a character device"),
                                              (stat.S_ISBLK, "a block device")) if test(mode)), "not a file")
         return _NotRegular(f"{path}: the file {name!r} it refers to ({file}) is {kind}, not a regular "
-                           "file: a .gltf's buffer files are read as regular files only (it was not opened)")
+                           f"file: a .gltf's {files} are read as regular files only (it was not opened)")
 
     class Resolver(_trimesh().resolvers.FilePathResolver):
+        refused = None
+
         def get(self, name):
             file = gltf_file(self.parent, name)
             if file is None:
                 raise FileNotFoundError(name)
             mode = os.stat(file).st_mode
             if not stat.S_ISREG(mode):
-                raise refuse(name, file, mode)
+                raise self._refuse(name, file, mode)
             fd = os.open(file, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))  # replaced by a FIFO since: not held
             with os.fdopen(fd, "rb") as handle:
                 mode = os.fstat(handle.fileno()).st_mode
                 if not stat.S_ISREG(mode):
-                    raise refuse(name, file, mode)
+                    raise self._refuse(name, file, mode)
                 return handle.read()
+
+        def _refuse(self, name, file, mode):
+            if self.refused is None:  # raised after trimesh returns only where it skipped it: an image
+                self.refused = refuse(name, file, mode, files="image files")
+            return refuse(name, file, mode)
 
     return Resolver(str(path))
 

@@ -4,6 +4,7 @@ one worker; processes and Dask in test_workers.py, signals in test_interrupts.py
 import json
 import logging
 import os
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -324,6 +325,85 @@ def test_a_rerun_under_mtime_redoes_nothing_for_a_move_a_chmod_or_a_hard_link(tm
     again = run([root], out, options=bbox)
     assert (again.written, again.skipped, again.failed) == (0, 2, 0)
     assert stable(again.rows) == stable(first.rows)
+
+
+def test_a_dataset_moved_with_its_output_folder_resumes_where_it_was(tmp_path):
+    """Inputs and OUTDIR moved together (``mv data data2``), each file's size and modification time
+    kept: a rerun skips what is done, the table names the files where they are now, the one option
+    set per OUTDIR still holds, and a run over part of the inputs keeps the others' rows. The
+    journal named absolute paths: the moved dataset was done again from the start, a run with
+    other options was not refused, and a run over part of it wrote a table without the other
+    outputs' rows. The same for a journal an earlier version wrote (no ``outdir`` field), and for
+    an OUTDIR moved alone (its inputs where they were)."""
+    import shutil
+
+    bbox = NormalizeOptions(method="bbox")
+    write_mesh_tree(tmp_path / "data" / "scans")
+    shutil.rmtree(tmp_path / "data" / "scans" / "a" / "b")  # good files only (bad ones are done again)
+    for name in ("corrupt.ply", "empty.stl"):
+        (tmp_path / "data" / "scans" / name).unlink()
+    first = run([tmp_path / "data" / "scans"], tmp_path / "data" / "out", options=bbox)
+    assert (first.written, first.failed) == (3, 0)
+
+    def moved(rows, old, new):
+        return [{**row, "input": row["input"].replace(str(old), str(new)), "output": row["output"].replace(str(old), str(new))}
+                for row in stable(rows)]
+
+    data = tmp_path / "data2"
+    os.rename(tmp_path / "data", data)
+    again = run([data / "scans"], data / "out", options=bbox)
+    assert (again.written, again.skipped, again.failed) == (0, 3, 0)
+    assert stable(again.rows) == moved(first.rows, tmp_path / "data", data)
+    assert all(Path(row.output).is_file() and Path(row.input).is_file() for row in again.rows)
+    with pytest.raises(UsageError, match="--method bbox there, robust here"):
+        run([data / "scans"], data / "out")
+    part = run([data / "scans"], data / "out", options=bbox, glob="a/*")
+    assert (part.written, part.skipped) == (0, 1) and sorted(stable(part.rows), key=str) == sorted(
+        stable(again.rows), key=str)  # the other outputs' rows kept
+    journal = data / "out" / ".jaxpose" / "journal.jsonl"
+    lines = [json.loads(line) for line in journal.read_text().splitlines()]
+    assert {line["outdir"] for line in lines} == {str(tmp_path / "data" / "out")}  # where they were written
+    journal.write_text("".join(json.dumps({k: v for k, v in r.items() if k != "outdir"}) + "\n" for r in lines))
+    older = tmp_path / "data3"
+    os.rename(data, older)  # an earlier version's journal, moved
+    assert run([older / "scans"], older / "out", options=bbox).skipped == 3
+    assert run([older / "scans"], older / "out", options=bbox, force=True).written == 3  # records written here
+    os.rename(older / "out", tmp_path / "elsewhere")  # OUTDIR alone: its inputs stay
+    alone = run([older / "scans"], tmp_path / "elsewhere", options=bbox)
+    assert (alone.written, alone.skipped) == (0, 3)
+    assert {row.input for row in alone.rows} == {row["input"] for row in moved(first.rows, tmp_path / "data", older)}
+
+
+def test_an_input_folder_renamed_is_recognized_by_its_files_size_and_time(tmp_path):
+    """The input folder renamed (``mv scans scans2``), OUTDIR where it was: each output's recorded
+    input is gone, and this run's input for it (the same path relative to the inputs' root) has
+    the record's size and modification time: it is that input, skipped, and the table names it
+    where it is. The run was refused ("holds the output of scans/x.ply ..., not of
+    scans2/x.ply"). A file changed since is refused, saying why and what to do."""
+    bbox = NormalizeOptions(method="bbox")
+    scans, out = tmp_path / "scans", tmp_path / "out"
+    write_mesh_tree(scans)
+    first = run([scans], out, options=bbox)
+    assert (first.written, first.failed) == (4, 3)
+    os.rename(scans, tmp_path / "scans2")
+    scans = tmp_path / "scans2"
+    again = run([scans], out, options=bbox)
+    assert (again.written, again.skipped, again.failed) == (0, 4, 3)
+    assert sorted((r.input, r.output) for r in again.rows if r.ok) == sorted(
+        (r.input.replace(str(tmp_path / "scans"), str(scans)), r.output) for r in first.rows if r.ok)
+    hashed = run([scans], out, options=bbox, check="hash")  # records without a SHA-256: done again, not refused
+    assert (hashed.written, hashed.skipped) == (4, 0)
+    assert run([scans], out, options=bbox, check="hash").skipped == 4
+    os.rename(scans, tmp_path / "scans3")
+    scans = tmp_path / "scans3"
+    trimesh.creation.box(extents=(1.0, 2.0, 3.0)).export(scans / "sphere.off")  # changed since
+    with pytest.raises(UsageError, match=r"sphere.off holds the output of .*scans2/sphere.off \(an earlier run into this "
+                                         r"folder\), which is no longer there; .*scans3/sphere.off, this run's input for "
+                                         r"that output, is not that file moved \(it differs from the record.*use --force"):
+        run([scans], out, options=bbox)
+    forced = run([scans], out, options=bbox, force=True)
+    assert forced.written == 4 and {os.path.relpath(r.input, scans) for r in forced.rows if r.ok} == {
+        "a/capsule.ply", "a/b/box.obj", "sphere.off", "cloud.ply"}
 
 
 def test_an_input_rewritten_with_its_size_and_time_while_read_is_changed(tmp_path):

@@ -115,7 +115,7 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
     fingerprint, settings = options.fingerprint(file_format), options.settings(file_format)
     fixed = options.columns()
     with open_output_folder(output_dir, force=force, shard=shard) as folder:
-        run = None
+        run, moved = None, {}
         try:
             if not isinstance(table, RemotePath):
                 check_folder_writable(table.parent, what="table")
@@ -124,12 +124,14 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
             if file_format:
                 items = _recorded_names(items, entries + others, file_format)
             _refuse_mixing(items, entries, others, settings, force, folder.exists, output_dir)
+            moved, keys = _moved_inputs(items, entries, check)
+            entries = _adopted(entries, moved)
             if not force:
                 _refuse_overwriting_others(items, entries)
             pairs = {(r["input"], r.get("output") or ""): r for r in entries}
             todo, skipped = [], 0
             for item in items:
-                key = _input_key(item.source, check)
+                key = keys.get(item.source) or _input_key(item.source, check)
                 record = pairs.get((str(item.source), str(item.output)))
                 if not force and _is_done(record, key, fingerprint, settings, item):
                     skipped += 1
@@ -161,7 +163,7 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
             raise
         finally:  # also on KeyboardInterrupt: the table holds every finished input
             if run is not None and not folder.discarded:
-                rows = table_rows(items, _resolved(folder.entries(), output_dir), folder.exists)
+                rows = table_rows(items, _adopted(_resolved(folder.entries(), output_dir), moved), folder.exists)
                 write_file(table, transforms.write_transforms(rows, table, rotation=bool(options.rotation_method) or None))
                 if default_table:
                     _remove_superseded_table(table)
@@ -491,13 +493,59 @@ def _recorded_names(items, entries, file_format):
 
 def _refuse_overwriting_others(items, entries):
     """Refuse (before any work) to replace an output that an earlier run wrote from another input."""
+    from ..io.remote import is_url
+
     owners = {r["output"]: r["input"] for r in entries if r.get("status") == "ok" and r.get("output")}
     for item in items:
         owner = owners.get(str(item.output))
         if owner is not None and owner != str(item.source) and item.output.exists():
+            if not is_url(owner) and not os.path.lexists(owner):  # moved, renamed or removed since
+                raise UsageError(
+                    f"{item.output} holds the output of {owner} (an earlier run into this folder), which is no "
+                    f"longer there; {item.source}, this run's input for that output, is not that file moved (it "
+                    "differs from the record: size and modification time, or SHA-256 under --check hash); use "
+                    "--force / force=True to redo it, or another output folder")
             raise UsageError(f"{item.output} holds the output of {owner} (an earlier run into this folder), "
                              f"not of {item.source}; use another output folder, or --force / force=True "
                              "to replace it")
+
+
+def _moved_inputs(items, entries, check):
+    """The inputs of this run found moved while the output folder stayed: -> (moved, keys).
+
+    `moved` maps (recorded input, output) to this run's input for each output of this run whose
+    latest ok record names another input that is no longer there (moved, or its folder renamed),
+    where this run's input is the same file by the rerun's rule (:func:`_same_input`: size and
+    modification time, or SHA-256 with ``check="hash"``): an output's path is its input's path
+    relative to the inputs' root, so that input is the recorded one at its new path (a record
+    without a SHA-256 is compared by size and time; it is then redone under "hash", as where
+    nothing moved). `keys`: the
+    :func:`_input_key` of each input looked at (not taken again). A dataset moved with its output
+    folder is read so by the journal itself (:func:`jaxpose.batch.journal.rebase`)."""
+    from ..io.remote import is_url
+
+    owners = {}
+    for record in entries:  # the latest ok record naming an output owns it (as table_rows)
+        if record.get("status") == "ok" and record.get("output"):
+            owners[record["output"]] = record
+    moved, keys = {}, {}
+    for item in items:
+        record = owners.get(str(item.output))
+        if record is None or record["input"] == str(item.source) or is_url(record["input"]) or \
+                os.path.lexists(record["input"]):
+            continue
+        keys[item.source] = key = _input_key(item.source, check)
+        if _same_input(record, key if record.get("input_sha256") else {**key, "input_sha256": ""}):  # (no hash
+            moved[(record["input"], record["output"])] = str(item.source)  # recorded: size and time)
+    return moved, keys
+
+
+def _adopted(entries, moved):
+    """The records with each input :func:`_moved_inputs` found moved named at its new path."""
+    if not moved:
+        return entries
+    return [{**r, "input": moved[(r["input"], r.get("output") or "")]} if (r["input"], r.get("output") or "") in moved
+            else r for r in entries]
 
 
 def _is_done(record, key, fingerprint, settings, item):
@@ -507,7 +555,16 @@ def _is_done(record, key, fingerprint, settings, item):
                                                                    item.source):
         return False
     output = item.output
-    if record.get("output") != str(output) or not output.exists() or key["input_size"] is None:
+    if record.get("output") != str(output) or not output.exists():
+        return False
+    return _same_input(record, key)
+
+
+def _same_input(record, key):
+    """Whether a record's input is the file of `key` (:func:`_input_key`) by the rerun's rule: the
+    same size and modification time (and each file's, a .gltf's buffers too, where the record has
+    them), or the same SHA-256 where `key` has one (``check="hash"``)."""
+    if key["input_size"] is None:
         return False
     fields = ("input_size", "input_sha256") if key["input_sha256"] else ("input_size", "input_mtime_ns")
     if not key["input_sha256"] and "input_stat" in record:  # (an earlier version's record: size and time alone)

@@ -6,6 +6,14 @@ by SIGKILL) and ``journal.jsonl``, one JSON line per finished input, appended wi
 ``write`` (a killed run leaves whole lines; a torn last line is ignored). The journal is what a
 rerun consults to skip finished inputs; the transforms table is rebuilt from it.
 
+Records name inputs and outputs by absolute path, and each names the folder it was written in
+(``outdir``, its real path). A folder found elsewhere (moved, with its inputs or alone) is read as
+if its records had been written where it is now (:func:`rebase`): each output is the same path
+relative to the folder, each input the same path relative to it where a file is there (a dataset
+moved whole), else where the record says (an OUTDIR moved alone). Records of versions before
+``outdir`` are read so too, the folder they were written in told by where their outputs are
+found now (:func:`former_folder`).
+
 A shard's run (``--shard I/N``, machines sharing one OUTDIR) has a journal and a lock of its own
 (``journal.shard-I-of-N.jsonl``, ``lock.shard-I-of-N``) and holds ``lock`` shared: shards run side
 by side, a second run of one shard is refused, and so is an unsharded run while shards run.
@@ -28,7 +36,7 @@ from ..errors import UsageError
 from ..io.atomic import check_folder_writable, is_temporary
 
 __all__ = ["STATE_FOLDER", "OutputFolder", "RemoteOutputFolder", "open_output_folder", "FolderBusyError",
-           "shard_name"]
+           "shard_name", "rebase", "former_folder"]
 
 STATE_FOLDER = ".jaxpose"
 
@@ -73,6 +81,7 @@ class OutputFolder:
         self._locks = []  # (descriptor, the bytes before this run wrote its pid, or None)
         self._journal = None
         self._made = []  # what opening the folder created, in that order (folders, lock files, journal)
+        self._outdir = None  # its real path, once a record is written
         self.discarded = False
 
     def __enter__(self):
@@ -150,17 +159,26 @@ class OutputFolder:
 
     def entries(self) -> list:
         """The last record of each (input, output) pair (a failed one has output ""), in the order
-        they were written (latest last); torn or foreign lines skipped."""
-        return _read_journal(self.journal)
+        they were written (latest last); torn or foreign lines skipped. Records written where the
+        folder was before it moved are read as written here (:func:`rebase`)."""
+        return _read_journal(self.journal, self.where())
 
     def other_entries(self) -> list:
         """:meth:`entries` of the folder's other journals (the shards' beside the whole run's, or
         the whole run's beside a shard's), one list after the other."""
         return [record for path in sorted(self.state.glob("journal*.jsonl")) if path != self.journal
-                for record in _read_journal(path)]
+                for record in _read_journal(path, self.where())]
+
+    def where(self) -> str:
+        """The folder's real path now (what each record's ``outdir`` holds)."""
+        return os.path.realpath(self.root)
 
     def append(self, record: dict) -> None:
-        """Append one record as one JSON line, in one ``write`` call."""
+        """Append one record as one JSON line, in one ``write`` call, with the folder's real path
+        (``outdir``: where a later run finds it moved, :func:`rebase`)."""
+        if self._outdir is None:
+            self._outdir = self.where()
+        record = {**record, "outdir": self._outdir}
         line = (json.dumps(record, separators=(",", ":"), allow_nan=True) + "\n").encode("utf-8")
         written = os.write(self._journal, line)
         if written != len(line):  # a full disk: leave no half line to the next record
@@ -321,8 +339,10 @@ class RemoteOutputFolder:
         return location(path).exists()
 
 
-def _read_journal(path):
-    out = {}
+def _read_journal(path, outdir=None):
+    """The last record of each (input, output) pair of the journal `path`, in the order written;
+    with `outdir` (the folder's real path now), read as written there (:func:`rebase`)."""
+    records = []
     try:
         with open(path, "rb") as handle:
             for line in handle:
@@ -331,12 +351,89 @@ def _read_journal(path):
                 except ValueError:
                     continue  # a line torn by a crash
                 if isinstance(record, dict) and "input" in record:
-                    key = (record["input"], record.get("output") or "")
-                    out.pop(key, None)
-                    out[key] = record
+                    records.append(record)
     except FileNotFoundError:
         pass
+    if outdir is not None:
+        records = rebase(records, outdir)
+    out = {}
+    for record in records:
+        key = (record["input"], record.get("output") or "")
+        out.pop(key, None)
+        out[key] = record
     return list(out.values())
+
+
+def rebase(records, outdir) -> list:
+    """Journal records as if written in the output folder `outdir` (its real path now), where
+    they were written elsewhere (the folder moved, with its inputs or alone).
+
+    A record's folder is its ``outdir``; for one without (an earlier version's), the folder that
+    the records without one were written in (:func:`former_folder`). Where that is not `outdir`,
+    its ``output`` is the same path relative to `outdir`, and its ``input`` the same path
+    relative to `outdir` where something is there (a dataset moved whole: ``mv data data2``),
+    else as recorded (an OUTDIR moved alone; a URL always). A rerun then compares each input's
+    size and modification time (or SHA-256) with the record's, as for one not moved.
+
+    Args:
+      records: the records (dicts), in the order written; outdir: the folder's real path.
+
+    Returns:
+      The records, each moved one a new dict (the others as they are).
+    """
+    from ..io.remote import is_url
+
+    outdir = str(outdir)
+    legacy = [r["output"] for r in records if "outdir" not in r and r.get("output")]
+    guess = former_folder(legacy, outdir) if legacy else None
+    out = []
+    for record in records:
+        was = record.get("outdir", guess)
+        if not was or was == outdir:
+            out.append(record)
+            continue
+        changed = {}
+        output = record.get("output")
+        if output and not is_url(output) and _inside(output, was):
+            changed["output"] = os.path.join(outdir, os.path.relpath(output, was))
+        source = record.get("input")
+        if source and not is_url(source):
+            there = os.path.normpath(os.path.join(outdir, os.path.relpath(source, was)))
+            if there != source and os.path.lexists(there):
+                changed["input"] = there
+        out.append({**record, **changed} if changed else record)
+    return out
+
+
+def former_folder(outputs, outdir):
+    """The folder where records without ``outdir`` (an earlier version's) were written, told by
+    their `outputs` (absolute paths): None where one of them is inside `outdir` (not moved) or
+    none is found; else, of the folders holding all of them (the deepest and each above it),
+    the one that puts the most of them (the latest 64) at an existing path when taken relative to
+    it under `outdir`, the deepest of those tied."""
+    if any(_inside(output, outdir) for output in outputs):
+        return None
+    sample = [output for output in outputs[-64:] if os.path.isabs(output)]
+    if not sample:
+        return None
+    try:
+        candidate = os.path.commonpath([os.path.dirname(output) for output in sample])
+    except ValueError:
+        return None
+    best, found = None, 0
+    while True:
+        count = sum(os.path.lexists(os.path.join(outdir, os.path.relpath(output, candidate))) for output in sample)
+        if count > found:
+            best, found = candidate, count
+        parent = os.path.dirname(candidate)
+        if parent == candidate:
+            return best
+        candidate = parent
+
+
+def _inside(path, folder) -> bool:
+    """Whether the absolute `path` is in `folder` (at any depth)."""
+    return path.startswith(os.path.join(folder, ""))
 
 
 def _latest_by_input(entries):

@@ -407,15 +407,16 @@ def rebase(records, outdir) -> list:
 
 def former_folder(outputs, outdir):
     """The folder where records without ``outdir`` (an earlier version's) were written, told by
-    their `outputs` (absolute paths): None where one of them is inside `outdir` (not moved) or
-    none is found; else, of the folders holding all of them (the deepest and each above it),
+    their `outputs` (absolute paths): None where one of them is inside `outdir` (not moved; or its
+    folder's real path is, one of the latest 64: named through a link) or none is found; else, of the folders holding all of them (the deepest and each above it),
     the one that puts the most of them (the latest 64) at an existing path when taken relative to
     it under `outdir`, the deepest of those tied."""
     if any(_inside(output, outdir) for output in outputs):
         return None
     sample = [output for output in outputs[-64:] if os.path.isabs(output)]
-    if not sample:
-        return None
+    if not sample or any(_inside(os.path.join(os.path.realpath(os.path.dirname(output)), ""), outdir) or
+                         os.path.realpath(os.path.dirname(output)) == outdir for output in sample):
+        return None  # (named through a link to the folder, as versions before its real path did: not moved)
     try:
         candidate = os.path.commonpath([os.path.dirname(output) for output in sample])
     except ValueError:

@@ -519,9 +519,9 @@ def _moved_inputs(items, entries, check):
     modification time, or SHA-256 with ``check="hash"``): an output's path is its input's path
     relative to the inputs' root, so that input is the recorded one at its new path (a record
     without a SHA-256 is compared by size and time; it is then redone under "hash", as where
-    nothing moved). `keys`: the
-    :func:`_input_key` of each input looked at (not taken again). A dataset moved with its output
-    folder is read so by the journal itself (:func:`jaxpose.batch.journal.rebase`)."""
+    nothing moved). `keys`: the :func:`_input_key` of each input looked at (not taken again). A
+    dataset moved with its output folder is read so by the journal itself
+    (:func:`jaxpose.batch.journal.rebase`)."""
     from ..io.remote import is_url
 
     owners = {}
@@ -535,8 +535,9 @@ def _moved_inputs(items, entries, check):
                 os.path.lexists(record["input"]):
             continue
         keys[item.source] = key = _input_key(item.source, check)
-        if _same_input(record, key if record.get("input_sha256") else {**key, "input_sha256": ""}):  # (no hash
-            moved[(record["input"], record["output"])] = str(item.source)  # recorded: size and time)
+        recorded = key if record.get("input_sha256") else {**key, "input_sha256": ""}  # no hash recorded: size, time
+        if _same_input(record, recorded):
+            moved[(record["input"], record["output"])] = str(item.source)
     return moved, keys
 
 

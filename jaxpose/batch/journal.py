@@ -407,16 +407,17 @@ def rebase(records, outdir) -> list:
 
 def former_folder(outputs, outdir):
     """The folder where records without ``outdir`` (an earlier version's) were written, told by
-    their `outputs` (absolute paths): None where one of them is inside `outdir` (not moved; or its
-    folder's real path is, one of the latest 64: named through a link) or none is found; else, of the folders holding all of them (the deepest and each above it),
-    the one that puts the most of them (the latest 64) at an existing path when taken relative to
-    it under `outdir`, the deepest of those tied."""
+    their `outputs` (absolute paths): None where one of them is inside `outdir` (not moved), or
+    the real path of the folder of one of the latest 64 is (named through a link to it, as
+    versions before its real path did), or none is found; else, of the folder holding all of
+    them and each folder above it, the one that puts the most of them (the latest 64) at an
+    existing path when taken relative to it under `outdir`, the deepest of those tied."""
     if any(_inside(output, outdir) for output in outputs):
         return None
     sample = [output for output in outputs[-64:] if os.path.isabs(output)]
-    if not sample or any(_inside(os.path.join(os.path.realpath(os.path.dirname(output)), ""), outdir) or
-                         os.path.realpath(os.path.dirname(output)) == outdir for output in sample):
-        return None  # (named through a link to the folder, as versions before its real path did: not moved)
+    if not sample or any(_inside(os.path.join(os.path.realpath(os.path.dirname(output)), ""), outdir)
+                         for output in sample):
+        return None
     try:
         candidate = os.path.commonpath([os.path.dirname(output) for output in sample])
     except ValueError:

@@ -243,9 +243,10 @@ def check_output_file(path, force=False, what="--json"):
 
 
 def check_creatable(folder, what):
-    """Refuse (UsageError) a `folder` that a write cannot make or write in: it exists and is
-    writable, or its nearest existing parent is a writable folder (not a file: ``out/a`` a regular
-    file where ``out/a/b/`` is needed). The message is ``"{what}: out/a is a file, not a folder"``."""
+    """Refuse (UsageError) a `folder` that a write cannot make or write in. It passes where it
+    exists and is writable, or where its nearest existing parent is a writable folder; a file there
+    (``out/a`` a regular file where ``out/a/b/`` is needed) is ``"{what}: out/a is a file, not a
+    folder"``, a folder not writable ``"{what}: the folder out/a is not writable"``."""
     folder = Path(folder) if str(folder) else Path(".")
     while not folder.exists() and folder != folder.parent:
         folder = folder.parent

@@ -29,6 +29,13 @@ def _spheres(*placed):
     return trimesh.util.concatenate(parts)
 
 
+def _spiked(length):
+    """SPHERE with one vertex pulled out to ``length`` radii: a closed sphere on a thin spike."""
+    v = SPHERE.vertices.copy()
+    v[0] *= length
+    return trimesh.Trimesh(v, SPHERE.faces, process=False)
+
+
 def _cloud(n, seed=0):
     x = np.random.default_rng(seed).normal(size=(n, 3))
     return x / np.linalg.norm(x, axis=1, keepdims=True)
@@ -37,6 +44,10 @@ def _cloud(n, seed=0):
 @pytest.mark.parametrize("shape, reason", [
     (lambda: _sheet(), "mostly open"),  # an open sheet: the fan caps would make its solid
     (lambda: trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], [[0, 1, 2], [0, 2, 3]]), "encloses no volume"),
+    # a spike 200 radii long sets the grid: the sphere is one or two voxels across, no voxel deeper than the
+    # surface layer (was a valid pose, scale +39 %, center 0.15 of the sphere off); 1000 radii: an empty solid
+    (lambda: _spiked(200), "no volume its grid resolves: its robust solid is nowhere deeper than its surface layer"),
+    (lambda: _spiked(1000), "no volume its grid resolves: its robust solid is empty"),
     (lambda: _cloud(30), "too sparse for a closing"),
     # fewer than 5 points: the 4-neighbour spacing is the farthest other point's (was inf, NumPy's
     # 'invalid value encountered in scalar subtract', and 'N separate bodies')
@@ -55,6 +66,8 @@ def test_shapes_inside_the_edges_keep_their_pose():
     np.testing.assert_allclose(pose.center, 0.0, atol=2e-3)
     _, pose = jaxpose.normalize_mesh(_spheres((1, (0, 0, 0)), (0.78, (5, 0, 0))))  # unequal bodies: kept together
     assert 0.1 < pose.center[0] < 2.5
+    _, pose = jaxpose.normalize_mesh(_spiked(30))  # the sphere a dozen voxels across: resolved
+    np.testing.assert_allclose(pose.center, 0.0, atol=0.02)
     _, pose = jaxpose.normalize_mesh(_cloud(60))  # sparse, still closed: 12 voxels across
     assert np.all(np.isfinite(pose.center))
     _, pose = jaxpose.normalize_mesh(_cloud(2000))  # dense enough for a closing

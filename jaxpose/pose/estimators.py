@@ -191,7 +191,8 @@ def robust_center_scale(geometry, power=ROBUST_POWER, resolution=solid.RESOLUTIO
 
     Raises:
       JaxposeError: the shape has no robust pose, with the reason: it encloses no volume (a flat
-        sheet), it is mostly open (hole caps would add more than :data:`MAX_CAP_SHARE` of its
+        sheet), or none its grid resolves (no voxel deeper than the surface layer: a sheet, or a body
+        thin against its largest extent), it is mostly open (hole caps would add more than :data:`MAX_CAP_SHARE` of its
         area, flat sheets apart from the body left out; where those sheets cut the body off its
         grid, saying so), it is several separate bodies of equal size (:data:`EQUAL_BODIES`), a point cloud
         too sparse for a closing (its solid under :data:`MIN_POINT_VOXELS` voxels across; where points
@@ -217,8 +218,7 @@ def _robust_solid(geometry, resolution):
     capped = None if faces is None else solid.cap_holes(vertices, faces)
     sol = solid.robust_solid(vertices, faces, resolution=resolution, with_depth=False, capped=capped)
     if not sol.inside.any():
-        raise JaxposeError(f"the shape encloses no volume (a flat or open sheet, or a scan of one side): "
-                           f"the robust solid is empty; {_OTHER}")
+        _no_resolved_volume(sol, resolution)
     if faces is not None:
         _check_mostly_closed(faces, *capped, sol)
     if faces is not None:  # a point cloud's closing can break thin parts into pieces of any size
@@ -238,7 +238,19 @@ def _robust_solid(geometry, resolution):
                                f"spans {across} voxels (at least {MIN_POINT_VOXELS} are needed); use more points, or "
                                "the vertex_mean or ocsvm method")
         _check_one_cloud(sol)
+    if not ndimage.binary_erosion(sol.inside).any():  # the point pipeline's EMPTY_SOLID rule (erode6)
+        _no_resolved_volume(sol, resolution)
     return sol
+
+
+def _no_resolved_volume(sol, resolution):
+    """Raise the JaxposeError of a robust solid that is empty or nowhere deeper than its surface
+    layer (every voxel has a face neighbour outside): its volume and depth would be the voxels'."""
+    raise JaxposeError(f"the shape encloses no volume its grid resolves: its robust solid is "
+                       f"{'nowhere deeper than its surface layer (every voxel has a face neighbour outside)' if sol.inside.any() else 'empty'} "
+                       f"at {resolution} voxels along the body's largest extent ({sol.pitch:.3g} units each): a flat "
+                       f"or open sheet, a scan of one side, or a body thin against its extent (a long spike or wire "
+                       f"sets the grid); raise resolution, or {_OTHER}")
 
 
 def _stretched(points, sol):

@@ -800,17 +800,24 @@ def test_registry():
 
 # --------------------------------------------------------------------------- the dev data
 def dev_meshes():
+    """The first mesh of each dev dataset (faust-dev, kids-dev/kid_0001, tosca-dev/dog). The classes
+    of one dataset are stored alike (kid_0001 and kid_0002: the same PLY header, 59,727 vertices and
+    119,344 faces; dog and horse: the same header, units and exporter): a second class of a dataset
+    takes the same reader paths in every format."""
     if not SHARED.is_dir():
         return []
-    return [next(iter(sorted(d.glob("*.ply")))) for d in sorted(SHARED.glob("*/")) + sorted(SHARED.glob("*/*/"))
-            if any(d.glob("*.ply"))]
+    found = []
+    for dataset in sorted(SHARED.glob("*/")):
+        folders = [dataset] + sorted(dataset.glob("*/"))
+        found += [next(iter(sorted(d.glob("*.ply")))) for d in folders if any(d.glob("*.ply"))][:1]
+    return found
 
 
 @pytest.mark.shared
 @pytest.mark.skipif(not SHARED.is_dir(), reason="needs ../shared/data")
 @pytest.mark.parametrize("path", dev_meshes(), ids=lambda p: f"{p.parent.name}/{p.name}")
 def test_dev_data_in_every_format(path):
-    """One mesh of each dev class, written by trimesh's exporters in every format, read alike."""
+    """One mesh of each dev dataset, written by trimesh's exporters in every format, read alike."""
     mesh = trimesh.load(path, process=False)
     check_same(path.read_bytes(), "ply")
     for file_type, kwargs in [("off", {}), ("obj", {}), ("stl", {}), ("stl_ascii", {}),

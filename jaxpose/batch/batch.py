@@ -115,7 +115,7 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
     fingerprint, settings = options.fingerprint(file_format), options.settings(file_format)
     fixed = options.columns()
     with open_output_folder(output_dir, force=force, shard=shard) as folder:
-        run, moved = None, {}
+        run = None
         try:
             if not isinstance(table, RemotePath):
                 check_folder_writable(table.parent, what="table")
@@ -124,10 +124,12 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
             if file_format:
                 items = _recorded_names(items, entries + others, file_format)
             _refuse_mixing(items, entries, others, settings, force, folder.exists, output_dir)
-            moved, keys = _moved_inputs(items, entries, check)
-            entries = _adopted(entries, moved)
+            adopted, keys = _moved_inputs(items, entries, check, output_dir)
+            entries = entries + adopted  # (each the latest record of its pair)
             if not force:
                 _refuse_overwriting_others(items, entries)
+            for record in adopted:  # for good: a later run (over part of the inputs) reads them so
+                folder.append(record)
             pairs = {(r["input"], r.get("output") or ""): r for r in entries}
             todo, skipped = [], 0
             for item in items:
@@ -163,7 +165,8 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
             raise
         finally:  # also on KeyboardInterrupt: the table holds every finished input
             if run is not None and not folder.discarded:
-                rows = table_rows(items, _adopted(_resolved(folder.entries(), output_dir), moved), folder.exists)
+                rows = table_rows(items, _named_where_they_are(_resolved(folder.entries(), output_dir), output_dir),
+                                  folder.exists)
                 write_file(table, transforms.write_transforms(rows, table, rotation=bool(options.rotation_method) or None))
                 if default_table:
                     _remove_superseded_table(table)
@@ -388,12 +391,8 @@ def _refuse_mixing(items, entries, other_entries, settings, force, exists, outpu
     mine = _without_format(settings)
     differing = []  # (output, its settings or None) of every output there made with other options
     for journal in (entries, other_entries):
-        owner = {}
-        for record in journal:  # the latest ok record naming an output owns it (as table_rows)
-            if record.get("status") == "ok" and record.get("output"):
-                owner[record["output"]] = record
-        for output, record in owner.items():
-            theirs = _without_format(recorded_settings(record.get("options")))
+        for output, i in _owners(journal).items():
+            theirs = _without_format(recorded_settings(journal[i].get("options")))
             if theirs != mine and exists(output):
                 differing.append((output, theirs))
     if not differing:
@@ -495,9 +494,9 @@ def _refuse_overwriting_others(items, entries):
     """Refuse (before any work) to replace an output that an earlier run wrote from another input."""
     from ..io.remote import is_url
 
-    owners = {r["output"]: r["input"] for r in entries if r.get("status") == "ok" and r.get("output")}
+    owners = _owners(entries)
     for item in items:
-        owner = owners.get(str(item.output))
+        owner = entries[owners[str(item.output)]]["input"] if str(item.output) in owners else None
         if owner is not None and owner != str(item.source) and item.output.exists():
             if not is_url(owner) and not os.path.lexists(owner):  # moved, renamed or removed since
                 raise UsageError(
@@ -510,43 +509,65 @@ def _refuse_overwriting_others(items, entries):
                              "to replace it")
 
 
-def _moved_inputs(items, entries, check):
-    """The inputs of this run found moved while the output folder stayed: -> (moved, keys).
-
-    `moved` maps (recorded input, output) to this run's input for each output of this run whose
-    latest ok record names another input that is no longer there (moved, or its folder renamed),
-    where this run's input is the same file by the rerun's rule (:func:`_same_input`: size and
-    modification time, or SHA-256 with ``check="hash"``): an output's path is its input's path
-    relative to the inputs' root, so that input is the recorded one at its new path (a record
-    without a SHA-256 is compared by size and time; it is then redone under "hash", as where
-    nothing moved). `keys`: the :func:`_input_key` of each input looked at (not taken again). A
-    dataset moved with its output folder is read so by the journal itself
-    (:func:`jaxpose.batch.journal.rebase`)."""
-    from ..io.remote import is_url
-
+def _owners(entries) -> dict:
+    """{output: the index in `entries` of the latest ok record naming it}: the record that owns an
+    output (its table row; the input an earlier run wrote it from; its options)."""
     owners = {}
-    for record in entries:  # the latest ok record naming an output owns it (as table_rows)
+    for i, record in enumerate(entries):
         if record.get("status") == "ok" and record.get("output"):
-            owners[record["output"]] = record
-    moved, keys = {}, {}
+            owners[record["output"]] = i
+    return owners
+
+
+def _moved_inputs(items, entries, check, output_dir):
+    """The records of this run's outputs whose input moved: -> (adopted, keys).
+
+    An output belongs to this run's input for it (the same path relative to the inputs' root) when
+    its latest ok record names another input, that input is no longer there (moved, or its folder
+    renamed: ``mv scans scans2``) or this run's input is where it would be had it moved with the
+    output folder (:func:`jaxpose.batch.journal.moved_input`: ``mv data data2``), and this run's
+    input is the same file by the rerun's rule (:func:`_same_input`: size and modification time,
+    or SHA-256 with ``check="hash"``; a record without a SHA-256 is compared by size and time, and
+    is then done again under "hash", as where nothing moved). An OUTDIR moved alone beside another
+    folder of the same layout keeps its records' inputs, which are still there. `adopted`: a copy
+    of each such record naming this run's input. `keys`: the :func:`_input_key` of each input
+    looked at (not taken again)."""
+    from ..io.remote import is_url
+    from .journal import moved_input
+
+    owners = _owners(entries)
+    adopted, keys = [], {}
     for item in items:
-        record = owners.get(str(item.output))
-        if record is None or record["input"] == str(item.source) or is_url(record["input"]) or \
-                os.path.lexists(record["input"]):
+        i = owners.get(str(item.output))
+        if i is None:
+            continue
+        record, source = entries[i], str(item.source)
+        if record["input"] == source or is_url(record["input"]) or (
+                os.path.lexists(record["input"]) and moved_input(record, output_dir) != source):
             continue
         keys[item.source] = key = _input_key(item.source, check)
         recorded = key if record.get("input_sha256") else {**key, "input_sha256": ""}  # no hash recorded: size, time
         if _same_input(record, recorded):
-            moved[(record["input"], record["output"])] = str(item.source)
-    return moved, keys
+            adopted.append({**record, "input": source})
+    return adopted, keys
 
 
-def _adopted(entries, moved):
-    """The records with each input :func:`_moved_inputs` found moved named at its new path."""
-    if not moved:
-        return entries
-    return [{**r, "input": moved[(r["input"], r.get("output") or "")]} if (r["input"], r.get("output") or "") in moved
-            else r for r in entries]
+def _named_where_they_are(entries, output_dir):
+    """The records for the table: one whose input is no longer where it was recorded, named where it
+    would be had it moved with the output folder (:func:`jaxpose.batch.journal.moved_input`) where
+    a file is there (an input of an earlier run, moved with the folder, that this run did not
+    take); the others as recorded."""
+    from ..io.remote import is_url
+    from .journal import moved_input
+
+    out = []
+    for record in entries:
+        there = moved_input(record, output_dir)
+        if there is not None and not is_url(record["input"]) and not os.path.lexists(record["input"]) \
+                and os.path.lexists(there):
+            record = {**record, "input": there}
+        out.append(record)
+    return out
 
 
 def _is_done(record, key, fingerprint, settings, item):
@@ -589,11 +610,7 @@ def table_rows(items, entries, exists=os.path.exists) -> list:
       ok record that names it, so every output in the folder has the row that inverts it, even
       when its input has since been written elsewhere, changed, or failed.
     """
-    owner = {}
-    for i, record in enumerate(entries):  # the latest record to name an output owns it
-        if record.get("status") == "ok" and record.get("output"):
-            owner[record["output"]] = i
-    live = {i for output, i in owner.items() if exists(output)}
+    live = {i for output, i in _owners(entries).items() if exists(output)}
     latest = {record["input"]: i for i, record in enumerate(entries)}
     pairs = {(record["input"], record.get("output") or ""): i for i, record in enumerate(entries)}
     chosen = []

@@ -7,12 +7,13 @@ by SIGKILL) and ``journal.jsonl``, one JSON line per finished input, appended wi
 rerun consults to skip finished inputs; the transforms table is rebuilt from it.
 
 Records name inputs and outputs by absolute path, and each names the folder it was written in
-(``outdir``, its real path). A folder found elsewhere (moved, with its inputs or alone) is read as
-if its records had been written where it is now (:func:`rebase`): each output is the same path
-relative to the folder, each input the same path relative to it where a file is there (a dataset
-moved whole), else where the record says (an OUTDIR moved alone). Records of versions before
-``outdir`` are read so too, the folder they were written in told by where their outputs are
-found now (:func:`former_folder`).
+(``outdir``, its real path). A folder found elsewhere (moved, with its inputs or alone) is read with
+each output at the same path relative to the folder where it is now (:func:`rebase`); inputs stay
+as recorded, and which of this run's inputs an output belongs to is the batch's question (it knows
+this run's inputs: :func:`jaxpose.batch.batch.run_batch`; :func:`moved_input` names where a
+record's input would be had it moved with the folder). Records of versions before ``outdir`` are
+read so too, the folder they were written in told by where their outputs are found now
+(:func:`former_folder`).
 
 A shard's run (``--shard I/N``, machines sharing one OUTDIR) has a journal and a lock of its own
 (``journal.shard-I-of-N.jsonl``, ``lock.shard-I-of-N``) and holds ``lock`` shared: shards run side
@@ -36,7 +37,7 @@ from ..errors import UsageError
 from ..io.atomic import check_folder_writable, is_temporary
 
 __all__ = ["STATE_FOLDER", "OutputFolder", "RemoteOutputFolder", "open_output_folder", "FolderBusyError",
-           "shard_name", "rebase", "former_folder"]
+           "shard_name", "rebase", "moved_input", "former_folder"]
 
 STATE_FOLDER = ".jaxpose"
 
@@ -160,7 +161,7 @@ class OutputFolder:
     def entries(self) -> list:
         """The last record of each (input, output) pair (a failed one has output ""), in the order
         they were written (latest last); torn or foreign lines skipped. Records written where the
-        folder was before it moved are read as written here (:func:`rebase`)."""
+        folder was before it moved have their outputs where they are now (:func:`rebase`)."""
         return _read_journal(self.journal, self.where())
 
     def other_entries(self) -> list:
@@ -341,8 +342,10 @@ class RemoteOutputFolder:
 
 def _read_journal(path, outdir=None):
     """The last record of each (input, output) pair of the journal `path`, in the order written;
-    with `outdir` (the folder's real path now), read as written there (:func:`rebase`)."""
-    records = []
+    with `outdir` (the folder's real path now), read as written there (:func:`rebase`). Records are
+    kept one per pair as they are read (memory in proportion to the pairs, not the lines), then
+    rebased, then one per pair again (records written in two places may name one output)."""
+    out = {}
     try:
         with open(path, "rb") as handle:
             for line in handle:
@@ -351,12 +354,14 @@ def _read_journal(path, outdir=None):
                 except ValueError:
                     continue  # a line torn by a crash
                 if isinstance(record, dict) and "input" in record:
-                    records.append(record)
+                    key = (record["input"], record.get("output") or "")
+                    out.pop(key, None)
+                    out[key] = record
     except FileNotFoundError:
         pass
-    if outdir is not None:
-        records = rebase(records, outdir)
-    out = {}
+    if outdir is None:
+        return list(out.values())
+    records, out = rebase(list(out.values()), outdir), {}
     for record in records:
         key = (record["input"], record.get("output") or "")
         out.pop(key, None)
@@ -369,11 +374,11 @@ def rebase(records, outdir) -> list:
     they were written elsewhere (the folder moved, with its inputs or alone).
 
     A record's folder is its ``outdir``; for one without (an earlier version's), the folder that
-    the records without one were written in (:func:`former_folder`). Where that is not `outdir`,
-    its ``output`` is the same path relative to `outdir`, and its ``input`` the same path
-    relative to `outdir` where something is there (a dataset moved whole: ``mv data data2``),
-    else as recorded (an OUTDIR moved alone; a URL always). A rerun then compares each input's
-    size and modification time (or SHA-256) with the record's, as for one not moved.
+    the records without one were written in (:func:`former_folder`), then set as its ``outdir``.
+    Where that is not `outdir`, its ``output`` is the same path relative to `outdir` (a URL as it
+    is). Its ``input`` stays as recorded: whether an output belongs to an input of a run is told by
+    that run, which knows its inputs (the recorded one, or the one at :func:`moved_input`, with the
+    record's size and modification time).
 
     Args:
       records: the records (dicts), in the order written; outdir: the folder's real path.
@@ -392,17 +397,25 @@ def rebase(records, outdir) -> list:
         if not was or was == outdir:
             out.append(record)
             continue
-        changed = {}
+        changed = {"outdir": was}
         output = record.get("output")
         if output and not is_url(output) and _inside(output, was):
             changed["output"] = os.path.join(outdir, os.path.relpath(output, was))
-        source = record.get("input")
-        if source and not is_url(source):
-            there = os.path.normpath(os.path.join(outdir, os.path.relpath(source, was)))
-            if there != source and os.path.lexists(there):
-                changed["input"] = there
-        out.append({**record, **changed} if changed else record)
+        out.append({**record, **changed})
     return out
+
+
+def moved_input(record, outdir):
+    """Where a record's input would be had it moved with the output folder: the same path
+    relative to `outdir` (the folder's real path now) as to the folder the record was written in
+    (its ``outdir``, after :func:`rebase`), ``mv data data2`` moving ``data/scans/a.ply`` with
+    ``data/out`` to ``data2/scans/a.ply``; None for a record written in `outdir`, or a URL."""
+    from ..io.remote import is_url
+
+    was, source = record.get("outdir"), record.get("input")
+    if not was or was == str(outdir) or not source or is_url(source):
+        return None
+    return os.path.normpath(os.path.join(str(outdir), os.path.relpath(source, was)))
 
 
 def former_folder(outputs, outdir):

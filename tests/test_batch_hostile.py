@@ -308,6 +308,34 @@ def test_a_file_where_the_outputs_need_a_folder_fails_those_inputs_before_their_
     assert rows["other/good_0.ply"].ok and (out / "sub").read_text() == "mine"
 
 
+@pytest.mark.parametrize("target", ["missing", "file"])
+def test_a_link_where_the_outputs_need_a_folder_fails_those_inputs_before_their_work(tmp_path, target):
+    """OUTDIR/sub a symbolic link to a missing folder, or to a regular file outside OUTDIR, where
+    OUTDIR/sub/x.ply needs a folder: those inputs fail before they are read, saying what is there;
+    the link stays; the other inputs are done and the table written. A link to nothing was read and
+    normalized, then failed on the write ("FileExistsError: [Errno 17] File exists"); a link to a
+    file ended the whole run (NotADirectoryError from the removal of temporaries: no table, the
+    other inputs not done)."""
+    scans, out = tmp_path / "scans", tmp_path / "out"
+    good_meshes(scans / "sub", count=1)
+    good_meshes(scans / "other", count=1)
+    out.mkdir()
+    pointed = tmp_path / "nowhere" if target == "missing" else tmp_path / "elsewhere.txt"
+    if target == "file":
+        pointed.write_text("mine")
+    (out / "sub").symlink_to(pointed)
+    code, _, err = cli(scans, "-o", out, "--force", "--workers", "1")
+    assert code == 1 and "1 of 2 inputs failed" in err and "Traceback" not in err, err
+    rows = {os.path.relpath(r.input, scans): r for r in jaxpose.read_transforms(out / "transforms.parquet")}
+    row, name = rows["sub/good_0.ply"], "sub/good_0.ply"
+    said = f"a symbolic link to a missing folder ({pointed})" if target == "missing" else \
+        "a symbolic link to a file, not a folder"
+    assert row.status == "failed" and row.error == f"cannot write {out / name}: {out / 'sub'} is {said}"
+    assert row.vertices is None and row.seconds is None and not row.worker  # never read: no worker's record
+    assert rows["other/good_0.ply"].ok and os.readlink(out / "sub") == str(pointed)
+    assert target == "missing" or pointed.read_text() == "mine"
+
+
 def test_a_file_that_changes_between_the_listing_and_the_read(tmp_path):
     """The listing is done and the run has started (its worker is reading a FIFO) when the file
     is replaced: the row describes the bytes read (size, time, SHA-256) and the output is theirs."""

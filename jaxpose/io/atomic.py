@@ -56,7 +56,8 @@ def remove_temporaries(path) -> int:
     """Remove the temporaries of `path` that a killed writer left (``.NAME.<12 hex>.tmp``).
 
     Args:
-      path: the target file (it need not exist); only its own temporaries are touched.
+      path: the target file (it need not exist, nor its folder: a file or a link to one where
+        its folder would be holds none); only its own temporaries are touched.
 
     Returns:
       How many were removed.
@@ -67,7 +68,7 @@ def remove_temporaries(path) -> int:
     removed = 0
     try:
         names = os.listdir(folder)
-    except FileNotFoundError:
+    except (FileNotFoundError, NotADirectoryError):  # no folder there (a file where it is needed): none
         return 0
     for name in names:
         if name.startswith(prefix) and is_temporary(name) and name[len(prefix):-len(_SUFFIX)].count(".") == 0:
@@ -244,13 +245,19 @@ def check_output_file(path, force=False, what="--json"):
 
 def check_creatable(folder, what):
     """Refuse (UsageError) a `folder` that a write cannot make or write in. It passes where it
-    exists and is writable, or where its nearest existing parent is a writable folder; a file there
-    (``out/a`` a regular file where ``out/a/b/`` is needed) is ``"{what}: out/a is a file, not a
-    folder"``, a folder not writable ``"{what}: the folder out/a is not writable"``."""
+    exists and is writable, or where its nearest existing parent (a symbolic link counted as
+    there, as ``mkdir`` meets it) is a writable folder; a file there (``out/a`` a regular file
+    where ``out/a/b/`` is needed) is ``"{what}: out/a is a file, not a folder"``, a symbolic link
+    to one ``"{what}: out/a is a symbolic link to a file, not a folder"``, one to nothing (missing,
+    or a loop of links) ``"{what}: out/a is a symbolic link to a missing folder (TARGET)"``, a
+    folder not writable ``"{what}: the folder out/a is not writable"``."""
     folder = Path(folder) if str(folder) else Path(".")
-    while not folder.exists() and folder != folder.parent:
+    while not os.path.lexists(folder) and folder != folder.parent:
         folder = folder.parent
+    if folder.is_symlink() and not folder.exists():
+        raise UsageError(f"{what}: {folder} is a symbolic link to a missing folder ({os.readlink(folder)})")
     if not folder.is_dir():
-        raise UsageError(f"{what}: {folder} is a file, not a folder")
+        link = " a symbolic link to" if folder.is_symlink() else ""
+        raise UsageError(f"{what}: {folder} is{link} a file, not a folder")
     if not os.access(folder, os.W_OK | os.X_OK):
         raise UsageError(f"{what}: the folder {folder} is not writable")

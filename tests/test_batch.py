@@ -463,6 +463,39 @@ def test_a_journal_is_read_one_record_per_pair_before_it_is_rebased(tmp_path, mo
         (f"/x/{i}.ply", str(tmp_path / "out" / f"{i}.ply"), 9) for i in range(3)]
 
 
+def test_an_earlier_versions_records_naming_outdir_through_a_link_are_not_taken_for_moved(tmp_path):
+    """An earlier version's records (no ``outdir``) whose outputs name OUTDIR through a link to it
+    (``d/e/link`` -> ``out``, as versions before its real path recorded them) were written in OUTDIR,
+    not in a folder it moved from (journal.former_folder: their folder's real path is inside it): a
+    copy of the inputs (``scans``, the same sizes and times) at the same path relative to OUTDIR as
+    the recorded ones (``d/e/scans``) to the link is not taken for them, and the outputs stay
+    theirs. Taken for a moved folder (the link), the copy was adopted and the outputs named it."""
+    import shutil
+
+    from jaxpose.batch import journal
+
+    bbox = NormalizeOptions(method="bbox")
+    scans, out, link = tmp_path / "d" / "e" / "scans", tmp_path / "out", tmp_path / "d" / "e" / "link"
+    for i, name in enumerate(["a.ply", "b.ply"]):
+        (scans / name).parent.mkdir(parents=True, exist_ok=True)
+        trimesh.creation.box(extents=(1.0 + i, 2.0, 3.0)).export(scans / name)
+    assert run([scans], out, options=bbox).written == 2
+    link.symlink_to(out)
+    path = out / ".jaxpose" / "journal.jsonl"
+    lines = [json.loads(line) for line in path.read_text().splitlines()]
+    path.write_text("".join(json.dumps({**{k: v for k, v in r.items() if k != "outdir"},
+                                        "output": r["output"].replace(str(out), str(link))}) + "\n" for r in lines))
+    assert journal.former_folder([str(link / "a.ply"), str(link / "b.ply")], str(out)) is None
+    copy = tmp_path / "scans"
+    shutil.copytree(scans, copy)  # (copy2: sizes and times kept)
+    with pytest.raises(UsageError, match=r"out/a.ply holds the output of .*d/e/scans/a.ply \(an earlier run into this "
+                                         r"folder\), not of .*/scans/a.ply"):
+        run([copy], out, options=bbox)
+    again = run([scans], out, options=bbox)
+    assert (again.written, again.skipped) == (0, 2)
+    assert sorted((r.input, r.output) for r in again.rows) == [(str(scans / n), str(out / n)) for n in ("a.ply", "b.ply")]
+
+
 def test_a_renamed_input_folder_is_adopted_for_good(tmp_path):
     """After ``mv scans scans2`` a run adopts the renamed inputs (their records re-appended under
     their new paths): a later run over part of them (``glob``) writes the others' rows naming them
@@ -1279,3 +1312,6 @@ def test_normalize_files_refuses_ocsvm_options_given_where_no_ocsvm_runs(tmp_pat
         assert str(caught.value) == str(mesh_says.value) and "of the ocsvm estimator" in str(caught.value)
     assert not (tmp_path / "out").exists()
     assert NormalizeOptions(method="ocsvm", gamma=47).gamma == 47.0  # read: taken
+    rows = jaxpose.normalize_files([path], tmp_path / "out", workers=1, method="ocsvm", gamma=47, count=256)
+    assert [row.status for row in rows] == ["ok"] and (tmp_path / "out" / "box.ply").is_file()
+    assert rows[0].gamma == 47.0

@@ -93,8 +93,8 @@ def check_arguments(gamma=None, nu=None, count=None, seed=None, sampling=None, m
                                 "center or scale 'ocsvm', or rotation='ocsvm'; or leave them out)")
     extra = {}
     if power is not None:
-        if c_name not in ("robust_depth", "depth_weighted_solid"):
-            raise InvalidInputError(f"power applies to the robust_depth and depth_weighted_solid centers, not {c_name}")
+        if c_name not in estimators.POWERED:
+            raise InvalidInputError(estimators.power_unread([((c_name, s_name), None)]))
         check_real(power, "power", 0)
         extra["power"] = power
     if resolution is not None:
@@ -105,8 +105,7 @@ def check_arguments(gamma=None, nu=None, count=None, seed=None, sampling=None, m
         elif ocsvm_runs:  # the ocsvm frame alone: its option, as the other options reach it
             options = {**options, "resolution": resolution}
         else:
-            raise InvalidInputError(f"resolution applies to the robust and ocsvm estimators (options) and to "
-                                    f"rotation='ocsvm', not {c_name} / {s_name}")
+            raise InvalidInputError(estimators.resolution_unread([(c_name, s_name)], ocsvm=True))
     if ocsvm_runs:
         PoseConfig.create(**options)  # every option's value and the grid's memory
     frame_name = _rotation_name(rotation)

@@ -156,7 +156,8 @@ def test_center_and_scale_are_chosen_independently():
     (lambda box: estimators.estimate_many(box, ["robust"], strict=True), "strict applies to the closed-surface"),
     (lambda box: estimators.estimate_many(box, ["bbox", "vertex_mean"], strict=True), "which the methods bbox, "),
     (lambda box: estimators.estimate_many(box, ["bbox"], power=2), "power applies to the robust_depth and"),
-    (lambda box: estimators.estimate_many(box, ["robust:2", "solid"], power=2), "which the methods robust:2, "),
+    (lambda box: estimators.estimate_many(box, ["robust:2", "solid"], power=2),
+     r"which the method solid does not use and the method robust:2 replaces with its own; leave it out$"),
     # the OCSVM's options where none of the methods runs it were taken and ignored (estimate refused them)
     (lambda box: estimators.estimate_many(box, ["robust"], gamma=3.0, nu=0.2),
      r"^gamma, nu are options of the ocsvm estimator, which the method robust does not use \(pass 'ocsvm' among the "
@@ -296,6 +297,39 @@ def test_strict_refusal_has_one_wording():
     import re
     assert re.match("^--" + rule.format(r"the chosen estimators \(center bbox_center, scale unit_cube\)"),
                     ignored_options(args)), ignored_options(args)
+
+
+def test_power_and_resolution_refusals_have_one_wording():
+    """normalize_mesh / normalize_files (mesh.check_arguments) said 'power applies to the
+    robust_depth and depth_weighted_solid centers, not bbox_center' and 'resolution applies to the
+    robust and ocsvm estimators (options) and to rotation='ocsvm', not bbox_center / unit_cube',
+    estimate another way; one helper each now (normalize_mesh's resolution names the OCSVM too:
+    there it is the OCSVM grid's). estimate_many(['robust:2', 'solid'], power=2) said 'which the
+    methods robust:2, solid do not use': robust:2's center takes a power, its own. The command
+    line's OCSVM options said 'drop it', its --strict 'leave it out': 'leave it out' both."""
+    import argparse
+
+    from jaxpose import mesh
+    from jaxpose.cli.normalize import ignored_options
+
+    power = (r"^power applies to the robust_depth and depth_weighted_solid centers, which the chosen estimators "
+             r"\(center bbox_center, scale unit_cube\) do not use; leave it out$")
+    for call in (lambda: estimators.estimate(_box(), "bbox", power=2.0), lambda: mesh.check_arguments(method="bbox", power=2),
+                 lambda: mesh.normalize_mesh(_box(), method="bbox", power=2)):
+        with pytest.raises(InvalidInputError, match=power):
+            call()
+    resolution = (r"^resolution applies to the robust solid \(the robust_depth center, the robust_volume scale\){}, "
+                  r"which the chosen estimators \(center bbox_center, scale unit_cube\) do not use; {}$")
+    with pytest.raises(InvalidInputError, match=resolution.format("", r"for ocsvm give it in ocsvm=\{'resolution': \.\.\.\}")):
+        estimators.estimate(_box(), "bbox", resolution=64)
+    with pytest.raises(InvalidInputError, match=resolution.format(" and the ocsvm estimator and frame", "leave it out")):
+        mesh.check_arguments(method="bbox", resolution=32)
+    with pytest.raises(InvalidInputError, match=r"which the methods robust:2, depth_weighted_solid:3 replace with their "
+                                                r"own; leave it out$"):
+        estimators.estimate_many(_box(), ["robust:2", "depth_weighted_solid:3"], power=2)
+    args = argparse.Namespace(method="bbox", center=None, scale=None, rotation=None, strict=False,
+                              **dict(dict.fromkeys(("gamma", "nu", "count", "seed", "sampling")), gamma=3.0))
+    assert ignored_options(args).endswith("does not use; leave it out"), ignored_options(args)
 
 
 def test_evaluate_gives_estimate_many_only_the_options_its_methods_read():

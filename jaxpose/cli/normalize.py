@@ -150,7 +150,7 @@ def ignored_options(args) -> str | None:
         given = [f"--{name}" for name in OCSVM_ONLY if getattr(args, name, None) is not None]
         if given:
             return (f"{', '.join(given)} {'apply' if len(given) > 1 else 'applies'} to the ocsvm method "
-                    f"(--method ocsvm), which {chosen} does not use; drop {'them' if len(given) > 1 else 'it'}")
+                    f"(--method ocsvm), which {chosen} does not use; leave {'them' if len(given) > 1 else 'it'} out")
     if args.strict and not set(CLOSED_FORMS) & {c_name, s_name}:
         return strict_unread([(c_name, s_name)], name="--strict")  # the library's wording
     return None

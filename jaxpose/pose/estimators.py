@@ -113,6 +113,35 @@ def strict_unread(pairs, methods=None, name="strict"):
             f"{_chosen(pairs, methods)}; leave it out")
 
 
+def power_unread(parsed, methods=None):
+    """The one wording of a ``power`` refused where no depth-weighted center (:data:`POWERED`) takes
+    it (:func:`estimate`, :func:`estimate_many`, :func:`jaxpose.normalize_mesh`): ``parsed``
+    (((center, scale), the power of ``"name:p"`` or None), ...), ``methods`` as
+    :func:`strict_unread`'s. A method whose center takes a power of its own (``"robust:2"``) is
+    named as replacing it, the others as not using it. Returns the message."""
+    if methods is None:
+        return f"power applies to the {' and '.join(POWERED)} centers, which {_chosen([parsed[0][0]])}; leave it out"
+    own = [m for m, ((c_name, _), key) in zip(methods, parsed) if c_name in POWERED and key is not None]
+    unused = [m for m, ((c_name, _), _key) in zip(methods, parsed) if c_name not in POWERED]
+    parts = [_chosen(None, unused)] if unused else []
+    if own:
+        parts.append(f"the method {own[0]} replaces with its own" if len(own) == 1 else
+                     f"the methods {', '.join(own)} replace with their own")
+    return (f"power applies to the {' and '.join(POWERED)} centers where a method gives none as 'name:p', which "
+            f"{' and '.join(parts)}; leave it out")
+
+
+def resolution_unread(pairs, methods=None, ocsvm=False):
+    """The one wording of a ``resolution`` refused where no estimator reads it: the robust solid's
+    (the robust_depth center, the robust_volume scale), and with ``ocsvm`` (:func:`jaxpose.normalize_mesh`,
+    where it is also the OCSVM grid's) the OCSVM's; ``pairs``, ``methods`` as
+    :func:`strict_unread`'s. Returns the message."""
+    also = " and the ocsvm estimator and frame" if ocsvm else ""
+    hint = "leave it out" if ocsvm else "for ocsvm give it in ocsvm={'resolution': ...}"
+    return (f"resolution applies to the robust solid (the robust_depth center, the robust_volume scale){also}, "
+            f"which {_chosen(pairs, methods)}; {hint}")
+
+
 def _chosen(pairs, methods=None):
     """How a refusal names the estimators that do not use an option: one (center, scale) pair, or
     ``methods``, with the verb."""
@@ -552,12 +581,9 @@ def _check_read(strict, options, parsed, methods=None):
     if strict and not any(set(CLOSED_FORMS) & set(pair) for pair in pairs):
         raise InvalidInputError(strict_unread(pairs, methods))
     if "power" in options and not any(c_name in POWERED and key is None for (c_name, _), key in parsed):
-        own = " (where a method gives none as 'name:p')" if methods is not None else ""
-        raise InvalidInputError(f"power applies to the {' and '.join(POWERED)} centers{own}, which {chosen}; leave it "
-                                "out")
+        raise InvalidInputError(power_unread(parsed, methods))
     if "resolution" in options and not any("robust_depth" in pair or pair[1] == "robust_volume" for pair in pairs):
-        raise InvalidInputError(f"resolution applies to the robust solid (the robust_depth center, the robust_volume "
-                                f"scale), which {chosen}; for ocsvm give it in ocsvm={{'resolution': ...}}")
+        raise InvalidInputError(resolution_unread(pairs, methods))
     if not any("ocsvm" in pair for pair in pairs):
         where = "method='ocsvm', or center or scale 'ocsvm'" if methods is None else "'ocsvm' among the methods"
         _refuse_ocsvm_unused([k for k in (*_OCSVM_KEYS, "ocsvm") if k in options], chosen, where)

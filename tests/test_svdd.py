@@ -323,3 +323,18 @@ def test_a_traced_gamma_or_nu_out_of_range_is_not_converged():
     from jaxpose.occupancy.svdd.problem import parameters_in_range
 
     assert parameters_in_range(jnp.asarray([1.0, -1.0, 1.0]), jnp.asarray([1.0, 0.5, 1.01])).tolist() == [True, False, False]
+
+
+def test_solve_svdd_with_gamma_or_nu_out_of_range_is_not_converged():
+    """The rule is solve_svdd's (exported, no checks), which fit_svdd and the OCSVM pose call:
+    jit(solve_svdd)(P, 1.0, 1.5) gave converged=True (the rule was fit_svdd's only); concrete
+    out-of-range values, which solve_svdd does not refuse, too. In range: converged as before."""
+    from jaxpose.config import SolverConfig
+    from jaxpose.occupancy.svdd import solve_svdd
+
+    points = jnp.asarray(np.random.default_rng(0).normal(size=(120, 3)).astype(np.float32))
+    solve = jax.jit(lambda g, n: solve_svdd(points, g, n, None, None, SolverConfig()))
+    for g, n in [(1.0, 1.5), (1.0, -0.2), (-1.0, 0.5), (np.nan, 0.5)]:
+        assert not bool(solve(g, n).converged), (g, n)
+        assert not bool(solve_svdd(points, g, n, None, None, SolverConfig()).converged), (g, n)
+    assert bool(solve(1.0, 0.5).converged) and bool(solve_svdd(points, 1.0, 0.5, None, None, SolverConfig()).converged)

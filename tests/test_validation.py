@@ -458,6 +458,7 @@ def test_validity_flag_under_jit():
     for g, n in [(-1.0, 0.5), (0.0, 0.5), (jnp.nan, 0.5), (47.0, 2.0), (47.0, -0.5), (47.0, jnp.nan)]:
         pose = f(pts, g, n)
         assert not bool(pose.valid) and int(pose.status) == jaxpose.Status.BAD_PARAMETERS, (g, n)
+        assert not bool(pose.converged), (g, n)  # (solve_svdd's: no solution; was True for nu 2.0 and -0.5)
     assert int(f(pts, 47.0, 1.0).status) == jaxpose.Status.COLLAPSED_REGION  # traced statuses
     # jit of a concrete-points closure (gamma traced) takes the float64 pre-scaling path
     scale = jax.jit(lambda g: normalize(P, method="ocsvm", gamma=g, nu=0.5).scale)(47.0)

@@ -258,7 +258,7 @@ class Pose(NamedTuple):
       scale: () > 0, in the units of the input. ``Pose(...)`` makes an integer array given for either
         floats, as :meth:`from_center_scale` does (NumPy's float64, JAX's default float dtype, traced
         or not); JAX's own rebuilds of a Pose (``jit``, ``vmap``, ``jax.tree.map``) keep its leaves.
-      converged: () bool, the SVDD solver reached its tolerance.
+      converged: () bool, the SVDD solver reached its tolerance, with gamma and nu in range.
       valid: () bool, ``status == Status.OK``: parameters in range, samples dense enough for gamma,
         a grid that resolves the kernel, a non-empty region that has not collapsed, a finite center
         and a positive finite scale (:mod:`jaxpose.pose.validity`). Convergence is apart (``converged``).

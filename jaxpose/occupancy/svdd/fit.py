@@ -116,8 +116,6 @@ def fit_svdd(points, gamma, nu, *, mask=None, init_alpha=None, config: SolverCon
     points = jnp.asarray(points)
     points = points.astype(_validate.compute_dtype(points))
     result = solve_svdd(points, gamma, nu, mask, init_alpha, config)
-    if _validate.is_traced(gamma) or _validate.is_traced(nu):  # (concrete ones out of range are refused above)
-        result = result._replace(converged=result.converged & parameters_in_range(gamma, nu))
     if throw and not _validate.is_traced(result.converged) and not bool(result.converged):
         raise _validate.ConvergenceError(
             f"SVDD solver hit max_iter={config.max_iter} with relative KKT violation "
@@ -135,6 +133,11 @@ def solve_svdd(points, gamma, nu, mask, init_alpha, config: SolverConfig, tol=No
     Args as :func:`fit_svdd`; ``mask`` and ``init_alpha`` may be None; ``tol``, ``max_iter``:
     the stopping numbers in place of ``config.tol`` and ``config.max_iter`` (None: those; may be
     traced). Pure JAX.
+
+    Returns:
+      :class:`SVDD`; ``converged`` is False where ``gamma`` or ``nu`` is out of range
+      (:func:`jaxpose.occupancy.svdd.problem.parameters_in_range`; nothing is refused here, traced
+      or not), as :func:`fit_svdd`'s and the OCSVM pose's (``Pose.converged``).
     """
     static = dataclasses.replace(config, tol=SolverConfig.tol, max_iter=SolverConfig.max_iter,
                                  solver=pick_solver(config.solver, jnp.shape(points)[0]))
@@ -149,6 +152,7 @@ def _solve_svdd(points, gamma, nu, mask, init_alpha, tol, max_iter, config: Solv
     dtype = points.dtype
     m = points.shape[0]
     solver = pick_solver(config.solver, m)
+    in_range = parameters_in_range(gamma, nu)  # (as given: the rule of the concrete checks)
     gamma = jnp.asarray(gamma, dtype)
     nu = jnp.asarray(nu, dtype)
     mask = jnp.ones((m,), bool) if mask is None else jnp.asarray(mask, bool)
@@ -184,6 +188,6 @@ def _solve_svdd(points, gamma, nu, mask, init_alpha, tol, max_iter, config: Solv
         objective=jnp.vdot(a, Ka),
         iterations=it,
         kkt_violation=viol,
-        converged=viol <= tol,
+        converged=(viol <= tol) & in_range,
         mask=mask,
     )

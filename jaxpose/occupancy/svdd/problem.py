@@ -35,8 +35,9 @@ DENSE_LIMIT = 12_000  # kernel="auto": above this many points K is never stored 
 def parameters_in_range(gamma, nu):
     """() bool (batched: the parameters' shape), traced: gamma finite and > 0, nu in [0, 1], the
     concrete values' rule (:func:`jaxpose._validate.check_gamma`, ``check_nu``). A traced value
-    cannot be refused; :func:`jaxpose.occupancy.svdd.fit_svdd` reports one out of range as
-    ``converged=False`` and :func:`jaxpose.normalize` as ``Status.BAD_PARAMETERS``."""
+    cannot be refused; :func:`jaxpose.occupancy.svdd.solve_svdd` reports one out of range as
+    ``converged=False`` (so do :func:`jaxpose.occupancy.svdd.fit_svdd` and the OCSVM pose's
+    ``converged``, which it computes) and :func:`jaxpose.normalize` as ``Status.BAD_PARAMETERS``."""
     g, n = jnp.asarray(gamma), jnp.asarray(nu)
     return jnp.isfinite(g) & (g > 0) & jnp.isfinite(n) & (n >= 0) & (n <= 1)
 

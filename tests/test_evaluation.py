@@ -327,6 +327,24 @@ def test_evaluate_ocsvm_uses_samples_and_options(fake_normalize):
     assert result["params"]["gamma"] == 2.0 and result["params"]["count"] == 500
 
 
+def test_evaluate_refuses_the_ocsvms_options_where_nothing_reads_them():
+    """evaluate(classes, methods=['bbox'], gamma=3.0, tol=1e-9) ran bbox and recorded gamma 3.0 and
+    tol in result['params'], neither read; refused now, as estimate_many and ``jaxpose evaluate
+    --gamma`` refuse them. An ocsvm method or the sweep reads them; left out, the defaults are
+    recorded as before."""
+    from jaxpose.errors import InvalidInputError
+
+    classes = {"boxes": _boxes()}
+    with pytest.raises(InvalidInputError, match=r"^gamma, tol are options of the ocsvm estimator, which the method bbox "
+                                                r"does not use \(pass 'ocsvm' among the methods, or sweep=True; or "
+                                                r"leave them out\)$"):
+        evaluate(classes, methods=["bbox"], gamma=3.0, tol=1e-9)
+    with pytest.raises(InvalidInputError, match="^count is an option of the ocsvm estimator, which the methods bbox, "):
+        evaluate(classes, methods=["bbox", "vertex_mean"], count=100)
+    params = evaluate(classes, methods=["bbox"])["params"]
+    assert (params["gamma"], params["nu"], params["count"], params["normalize_options"]) == (47.0, 0.5, 2000, {})
+
+
 def test_evaluate_calls_normalize_once_per_object(fake_normalize):
     result = evaluate({"boxes": _boxes()}, methods=["ocsvm"], count=200)
     assert len(fake_normalize) == 1 + 2  # the first call, timed apart, then once per object

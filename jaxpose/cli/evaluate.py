@@ -82,6 +82,8 @@ def _evaluate_usage(args):
     check_dataset_choice(args.instances, args.classes)
     check_core_options(args.align_core, args.core_weight)
     checked = NormalizeOptions(method="ocsvm", seed=args.seed, **given)  # gamma > 0, nu in [0, 1], count >= 4, seed
+    if not uses_ocsvm:  # (the library refuses them where nothing reads them)
+        return methods, variants, {}
     return methods, variants, {"gamma": checked.gamma, "nu": checked.nu, "count": checked.count}
 
 

@@ -191,18 +191,22 @@ def _core(params):
     return f" (core by {weight})" if params.get("align_core") and weight != "vertices" else ""
 
 
-def evaluate(classes, gamma=OCSVM.gamma, nu=OCSVM.nu, methods=None, count=OCSVM.count, seed=OCSVM.seed, align_core=False,
+def evaluate(classes, gamma=None, nu=None, methods=None, count=None, seed=OCSVM.seed, align_core=False,
              progress=None, sweep=False, variants=("plain",), core_weight="vertices", **normalize_options) -> dict:
     """Within-class spread of centers and scales for each method and input variant (paper, sec. 4.2).
 
     Args:
       classes: {class name: [Trimesh, ...]} (at least 2 per class), e.g.
         :func:`jaxpose.datasets.make_dataset` or :func:`jaxpose.datasets.load_folder`.
-      gamma, nu, normalize_options: for ``ocsvm`` (:func:`jaxpose.normalize`).
+      gamma, nu, normalize_options: for ``ocsvm`` (:func:`jaxpose.normalize`); None: the defaults
+        (:data:`jaxpose.config.OCSVM`). Given where no method is ``ocsvm`` and not ``sweep``, they
+        are refused (nothing would read them), as :func:`jaxpose.pose.estimators.estimate_many` and
+        ``jaxpose evaluate`` refuse them.
       methods: names of :data:`jaxpose.pose.estimators.METHODS`, optionally ``"name:power"`` for the
         depth exponent (default :data:`METHODS`: every estimator, the depth-weighted solid at
         powers 2 and 4).
-      count, seed: surface samples per mesh for ``ocsvm``; ``seed`` also seeds the variants.
+      count, seed: surface samples per mesh for ``ocsvm`` (None: the default; refused as gamma
+        where nothing reads it); ``seed`` also seeds the variants.
       align_core: first rigidly align each class with :func:`jaxpose.evaluation.align_core` (the
         meshes of a class must share their vertex order, as registrations do).
       core_weight: what the stable core is a share of when ``align_core``: ``"vertices"`` or
@@ -225,14 +229,22 @@ def evaluate(classes, gamma=OCSVM.gamma, nu=OCSVM.nu, methods=None, count=OCSVM.
 
     Raises:
       InvalidInputError: bad classes, methods, variants or core_weight, or a bad gamma, nu, count,
-        seed or normalize option (named, before any work).
+        seed or normalize option, or one of the OCSVM's given where none runs (named, before any work).
     """
     _check_classes(classes)
     methods = _check_methods(methods)
     variants = _check_variants(variants)
+    given = [name for name, value in (("gamma", gamma), ("nu", nu), ("count", count)) if value is not None]
+    gamma, nu = OCSVM.gamma if gamma is None else gamma, OCSVM.nu if nu is None else nu
+    count = OCSVM.count if count is None else count
     seed = _check_ocsvm(gamma, nu, count, seed, normalize_options)  # a NumPy or JAX integer scalar: its int
     alignment.check_core_weight(core_weight)
     align_core, sweep = check_bool(align_core, "align_core"), check_bool(sweep, "sweep")
+    if not sweep and not _ocsvm_options(methods, {"any": True}):  # given, nothing would read them (as estimate_many)
+        from ..pose.estimators import _chosen, _refuse_ocsvm_unused
+
+        _refuse_ocsvm_unused(given + list(normalize_options), _chosen(None, methods),
+                             "'ocsvm' among the methods, or sweep=True")
     check_callback(progress, "progress")
     if align_core:
         classes = alignment.align_classes(classes, weight=core_weight)

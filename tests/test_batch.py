@@ -374,6 +374,16 @@ def test_a_dataset_moved_with_its_output_folder_resumes_where_it_was(tmp_path):
     alone = run([older / "scans"], tmp_path / "elsewhere", options=bbox)
     assert (alone.written, alone.skipped) == (0, 3)
     assert {row.input for row in alone.rows} == {row["input"] for row in moved(first.rows, tmp_path / "data", older)}
+    # moved whole, then one file changed: that one is done again (its path says it is that input), as
+    # where nothing moved; the others are skipped (was refused: "is not that file moved ... --force")
+    os.rename(tmp_path / "elsewhere", older / "out")
+    os.rename(older, tmp_path / "data4")
+    scans4 = tmp_path / "data4" / "scans"
+    inputs = sorted(scans4 / Path(row["input"]).relative_to(tmp_path / "data" / "scans") for row in stable(first.rows))
+    trimesh.creation.box(extents=(1.0, 2.0, 3.0)).export(inputs[0], file_type=inputs[0].suffix[1:])
+    redo = run([scans4], tmp_path / "data4" / "out", options=bbox)
+    assert (redo.written, redo.skipped, redo.failed) == (1, 2, 0)
+    assert sorted(Path(row.input) for row in redo.rows) == inputs
 
 
 def test_an_input_folder_renamed_is_recognized_by_its_files_size_and_time(tmp_path):

@@ -107,12 +107,12 @@ def _check_variants(variants):
     return variants
 
 
-def _ocsvm_options(methods, options):
-    """The OCSVM's ``options`` where one of ``methods`` has an ``ocsvm`` center or scale, else none
-    (``estimate_many`` refuses options none of its methods reads)."""
+def _any_ocsvm(methods):
+    """Whether one of ``methods`` has an ``ocsvm`` center or scale (``estimate_many`` refuses the
+    OCSVM's options where none has)."""
     from ..pose.estimators import parse_method, resolve
 
-    return options if any("ocsvm" in resolve(parse_method(spec)[0]) for spec in methods) else {}
+    return any("ocsvm" in resolve(parse_method(spec)[0]) for spec in methods)
 
 
 def _measure(centers, scales):
@@ -240,7 +240,8 @@ def evaluate(classes, gamma=None, nu=None, methods=None, count=None, seed=OCSVM.
     seed = _check_ocsvm(gamma, nu, count, seed, normalize_options)  # a NumPy or JAX integer scalar: its int
     alignment.check_core_weight(core_weight)
     align_core, sweep = check_bool(align_core, "align_core"), check_bool(sweep, "sweep")
-    if not sweep and not _ocsvm_options(methods, {"any": True}):  # given, nothing would read them (as estimate_many)
+    uses_ocsvm = _any_ocsvm(methods)
+    if not sweep and not uses_ocsvm:  # given, nothing would read them (as estimate_many)
         from ..pose.estimators import _chosen, _refuse_ocsvm_unused
 
         _refuse_ocsvm_unused(given + list(normalize_options), _chosen(None, methods),
@@ -248,7 +249,7 @@ def evaluate(classes, gamma=None, nu=None, methods=None, count=None, seed=OCSVM.
     check_callback(progress, "progress")
     if align_core:
         classes = alignment.align_classes(classes, weight=core_weight)
-    options = _ocsvm_options(methods, {"gamma": gamma, "nu": nu, "count": count, "seed": seed, "ocsvm": normalize_options})
+    options = {"gamma": gamma, "nu": nu, "count": count, "seed": seed, "ocsvm": normalize_options} if uses_ocsvm else {}
     total, done, out = len(variants) * len(classes), 0, {}
     for variant in variants:
         per_class, seconds, first, objects = {}, dict.fromkeys(methods, 0.0), dict.fromkeys(methods, 0.0), 0

@@ -613,33 +613,43 @@ def test_a_gltf_buffer_is_the_file_trimesh_reads(tmp_path):
     assert gltf_buffers(gltf) == [root / "pos%41.bin"]
 
 
+def _unblocked(call, fifos, seconds):
+    """call() in a daemon thread -> (whether it was still running after `seconds`, its value). One
+    still running (waiting in open() on one of `fifos`) is let go: writers that close at once, until
+    it returns, so that the test ends either way."""
+    import threading
+
+    done = []
+    thread = threading.Thread(target=lambda: done.append(call()), daemon=True)
+    thread.start()
+    thread.join(seconds)
+    blocked = thread.is_alive()
+    while thread.is_alive():
+        for fifo in fifos:
+            try:
+                os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
+            except OSError:  # no reader left
+                pass
+        thread.join(1)
+    return blocked, done[0] if done else None
+
+
 def test_a_gltf_buffer_that_is_a_fifo_is_never_opened(tmp_path):
     """input_key(..., "hash") of a .gltf naming a FIFO as its buffer leaves it out (it hashed it:
     blocked until a writer came), as it does an input that is a FIFO."""
-    import threading
-
     from jaxpose.batch.task import input_key
 
     gltf, fifo = tmp_path / "model.gltf", tmp_path / "fifo.bin"
     gltf.write_text(json.dumps({"asset": {"version": "2.0"}, "buffers": [{"uri": "fifo.bin", "byteLength": 4}]}))
     os.mkfifo(fifo)
-    keys = []
-    thread = threading.Thread(target=lambda: keys.append(input_key(gltf, "hash")), daemon=True)
-    thread.start()
-    thread.join(10)
-    blocked = thread.is_alive()
-    if blocked:  # let it go: a writer that closes at once
-        os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
-        thread.join(10)
-    assert not blocked and keys[0]["input_size"] == gltf.stat().st_size
+    blocked, key = _unblocked(lambda: input_key(gltf, "hash"), [fifo], 10)
+    assert not blocked and key["input_size"] == gltf.stat().st_size
 
 
 def test_a_gltf_whose_buffer_file_is_a_fifo_fails_unread(tmp_path):
     """A .gltf beside a FIFO as its buffer file (a link to one too), in a batch (one worker, no
     time limit) and read alone: the buffer is refused by name before it is opened (trimesh's
     resolver opened it and waited for a writer, for ever); the other inputs are done."""
-    import threading
-
     root, out = tmp_path / "in", tmp_path / "out"
     (root / "sub").mkdir(parents=True)
     for name, data in trimesh.creation.box().export(file_type="gltf").items():
@@ -658,22 +668,11 @@ def test_a_gltf_whose_buffer_file_is_a_fifo_fails_unread(tmp_path):
     tree["buffers"][0]["uri"] = "fifo0.bin"
     linked.write_text(json.dumps(tree))
     os.mkfifo(root / "sub" / "fifo0.bin")  # the buffer itself a FIFO
-    done = []
-    thread = threading.Thread(target=lambda: done.append(run([root], out, options=NormalizeOptions(method="bbox"))),
-                              daemon=True)
-    thread.start()
-    thread.join(60)
-    blocked = thread.is_alive()
-    while thread.is_alive():  # let it go: writers that close at once
-        for fifo in (pipe, root / "sub" / "fifo0.bin"):
-            try:
-                os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
-            except OSError:
-                pass
-        thread.join(1)
+    blocked, result = _unblocked(lambda: run([root], out, options=NormalizeOptions(method="bbox")),
+                                 [pipe, root / "sub" / "fifo0.bin"], 60)
     assert not blocked, "the run waited on a FIFO buffer"
-    rows = {os.path.relpath(r.input, root): r for r in done[0].rows}
-    assert rows["box.ply"].ok and (done[0].written, done[0].failed) == (1, 2)
+    rows = {os.path.relpath(r.input, root): r for r in result.rows}
+    assert rows["box.ply"].ok and (result.written, result.failed) == (1, 2)
     assert rows["sub/model.gltf"].error == (
         f"{gltf}: the file '{positions.name}' it refers to ({pipe}) is a FIFO, not a regular file: "
         "a .gltf's buffer files are read as regular files only (it was not opened)")
@@ -718,8 +717,6 @@ def test_a_gltf_whose_texture_image_is_a_fifo_fails_unread(tmp_path):
     whose buffer is, never opened: trimesh's reader skips an image it cannot read, so the .gltf
     was read without its texture and its .glb written without it, without a word. A regular image
     is read (the texture is in the output)."""
-    import threading
-
     root, out = tmp_path / "in", tmp_path / "out"
     _textured_gltf(root / "ok")
     gltf = _textured_gltf(root / "pipe")
@@ -731,22 +728,11 @@ def test_a_gltf_whose_texture_image_is_a_fifo_fails_unread(tmp_path):
     (root / "linked" / "pipes").mkdir()
     os.mkfifo(root / "linked" / "pipes" / "fifo.png")
     os.symlink(os.path.join("pipes", "fifo.png"), root / "linked" / "tex.png")  # a link to a FIFO
-    done = []
-    thread = threading.Thread(target=lambda: done.append(run([root], out, options=NormalizeOptions(method="bbox"))),
-                              daemon=True)
-    thread.start()
-    thread.join(60)
-    blocked = thread.is_alive()
-    while thread.is_alive():  # let it go: a writer that closes at once
-        for fifo in (image, root / "linked" / "pipes" / "fifo.png"):
-            try:
-                os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
-            except OSError:
-                pass
-        thread.join(1)
+    blocked, result = _unblocked(lambda: run([root], out, options=NormalizeOptions(method="bbox")),
+                                 [image, root / "linked" / "pipes" / "fifo.png"], 60)
     assert not blocked, "the run waited on a FIFO image"
-    rows = {os.path.relpath(r.input, root): r for r in done[0].rows}
-    assert rows["ok/model.gltf"].ok and (done[0].written, done[0].failed) == (1, 2)
+    rows = {os.path.relpath(r.input, root): r for r in result.rows}
+    assert rows["ok/model.gltf"].ok and (result.written, result.failed) == (1, 2)
     written = trimesh.load(rows["ok/model.gltf"].output)
     assert [part.visual.material.baseColorTexture.size for part in written.geometry.values()] == [(4, 4)]
     assert rows["pipe/model.gltf"].error == (

@@ -192,7 +192,7 @@ def fake_evaluation(monkeypatch):
         calls["classes"], calls["kwargs"] = classes, kwargs
         kwargs["progress"](0, 1, "working")
         kwargs["progress"](1, 1, "done")
-        return {"summary": [{"method": "ocsvm", "sigma_tr": 0.1}], "params": {"gamma": kwargs["gamma"]}}
+        return {"summary": [{"method": "ocsvm", "sigma_tr": 0.1}], "params": {"gamma": kwargs.get("gamma")}}
 
     monkeypatch.setattr(evaluation, "evaluate", evaluate)
     monkeypatch.setattr(evaluation, "format_table", lambda result: "TABLE")

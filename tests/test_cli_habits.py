@@ -132,6 +132,10 @@ def no_work(monkeypatch):
     (["--rotation", "pca_vertices", "--methods", "bbox"], "--methods chooses what the center and scale run measures"),
     (["--rotation", "--sweep"], "--sweep chooses what the center and scale run measures"),
     (["--rotation", "head", "--methods", "robust", "--sweep"], "--methods and --sweep choose"),
+    # the sweep sets gamma and nu itself: they were taken and never read
+    (["--methods", "robust", "--sweep", "--gamma", "30", "--nu", "0.2"],
+     "--gamma, --nu apply to the ocsvm method (the paper's), which this evaluation does not run, and --sweep sets "
+     "gamma and nu itself (add ocsvm to --methods, or leave them out)"),
 ])
 def test_evaluate_usage_errors_exit_2_before_the_work(capsys, no_work, args, fragment):
     assert cli.main(["evaluate", *args]) == 2

@@ -341,6 +341,11 @@ def test_evaluate_refuses_the_ocsvms_options_where_nothing_reads_them():
         evaluate(classes, methods=["bbox"], gamma=3.0, tol=1e-9)
     with pytest.raises(InvalidInputError, match="^count is an option of the ocsvm estimator, which the methods bbox, "):
         evaluate(classes, methods=["bbox", "vertex_mean"], count=100)
+    # the sweep reads count and the normalize options, and sets gamma and nu itself (gamma was taken, unread)
+    with pytest.raises(InvalidInputError, match=r"^gamma is an option of the ocsvm estimator, which the method bbox does not "
+                                                r"use \(pass 'ocsvm' among the methods \(the sweep sets gamma and nu itself\); "
+                                                r"or leave it out\)$"):
+        evaluate(classes, methods=["bbox"], gamma=3.0, count=100, sweep=True)
     params = evaluate(classes, methods=["bbox"])["params"]
     assert (params["gamma"], params["nu"], params["count"], params["normalize_options"]) == (47.0, 0.5, 2000, {})
 

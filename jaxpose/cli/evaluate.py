@@ -71,20 +71,25 @@ def _evaluate_usage(args):
     else:
         names = [str(m).partition(":")[0] for m in _check_methods(methods)]
         uses_ocsvm = "ocsvm" in names or args.sweep
+        swept = [name for name in ("gamma", "nu") if getattr(args, name) is not None]
+        if args.sweep and "ocsvm" not in names and swept:  # the sweep sets them itself
+            flags = ", ".join(f"--{name}" for name in swept)
+            raise _Usage(f"{flags} {'apply' if len(swept) > 1 else 'applies'} to the ocsvm method (the paper's), which "
+                         f"this evaluation does not run, and --sweep sets gamma and nu itself (add ocsvm to --methods, "
+                         f"or leave {'them' if len(swept) > 1 else 'it'} out)")
     given = {name: getattr(args, name) for name in _OCSVM_OPTIONS if getattr(args, name) is not None}
     if given and not uses_ocsvm:
         flags = ", ".join(f"--{name}" for name in given)
         raise _Usage(f"{flags} {'apply' if len(given) > 1 else 'applies'} to the ocsvm method (the paper's), which "
                      f"this evaluation does not run (add ocsvm to {'--rotation' if rotation else '--methods'}"
-                     f"{'' if rotation else ' or --sweep'}, or drop {'them' if len(given) > 1 else 'it'})")
+                     f"{'' if rotation else ' or --sweep'}, or leave {'them' if len(given) > 1 else 'it'} out)")
     if args.data and (args.classes or args.instances is not None):
         raise _Usage("--classes and --instances choose from the built-in dataset; --data takes every class of DIR")
     check_dataset_choice(args.instances, args.classes)
     check_core_options(args.align_core, args.core_weight)
     checked = NormalizeOptions(method="ocsvm", seed=args.seed, **given)  # gamma > 0, nu in [0, 1], count >= 4, seed
-    if not uses_ocsvm:  # (the library refuses them where nothing reads them)
-        return methods, variants, {}
-    return methods, variants, {"gamma": checked.gamma, "nu": checked.nu, "count": checked.count}
+    # what was given, checked (the library fills in the defaults, and refuses what nothing reads)
+    return methods, variants, {name: getattr(checked, name) for name in ("gamma", "nu", "count") if name in given}
 
 
 class _Usage(Exception):

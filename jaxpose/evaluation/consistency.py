@@ -199,9 +199,10 @@ def evaluate(classes, gamma=None, nu=None, methods=None, count=None, seed=OCSVM.
       classes: {class name: [Trimesh, ...]} (at least 2 per class), e.g.
         :func:`jaxpose.datasets.make_dataset` or :func:`jaxpose.datasets.load_folder`.
       gamma, nu, normalize_options: for ``ocsvm`` (:func:`jaxpose.normalize`); None: the defaults
-        (:data:`jaxpose.config.OCSVM`). Given where no method is ``ocsvm`` and not ``sweep``, they
-        are refused (nothing would read them), as :func:`jaxpose.pose.estimators.estimate_many` and
-        ``jaxpose evaluate`` refuse them.
+        (:data:`jaxpose.config.OCSVM`). Given where no method is ``ocsvm``, they are refused
+        (nothing would read them: the sweep sets gamma and nu itself, and reads ``count`` and the
+        normalize options), as :func:`jaxpose.pose.estimators.estimate_many` and ``jaxpose
+        evaluate`` refuse them.
       methods: names of :data:`jaxpose.pose.estimators.METHODS`, optionally ``"name:power"`` for the
         depth exponent (default :data:`METHODS`: every estimator, the depth-weighted solid at
         powers 2 and 4).
@@ -241,11 +242,12 @@ def evaluate(classes, gamma=None, nu=None, methods=None, count=None, seed=OCSVM.
     alignment.check_core_weight(core_weight)
     align_core, sweep = check_bool(align_core, "align_core"), check_bool(sweep, "sweep")
     uses_ocsvm = _any_ocsvm(methods)
-    if not sweep and not uses_ocsvm:  # given, nothing would read them (as estimate_many)
+    if not uses_ocsvm:  # given, nothing would read them (as estimate_many); the sweep sets gamma and nu itself
         from ..pose.estimators import _chosen, _refuse_ocsvm_unused
 
-        _refuse_ocsvm_unused(given + list(normalize_options), _chosen(None, methods),
-                             "'ocsvm' among the methods, or sweep=True")
+        unread = [name for name in given if name != "count"] if sweep else given + list(normalize_options)
+        _refuse_ocsvm_unused(unread, _chosen(None, methods), "'ocsvm' among the methods (the sweep sets gamma and nu "
+                             "itself)" if sweep else "'ocsvm' among the methods, or sweep=True")
     check_callback(progress, "progress")
     if align_core:
         classes = alignment.align_classes(classes, weight=core_weight)

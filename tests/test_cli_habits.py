@@ -64,6 +64,14 @@ def test_single_output_folders_are_made_as_for_datasets(tmp_path, box, capsys):
     blocker.write_text("x")
     assert cli.main(["normalize", str(box), "-o", str(blocker / "out.ply"), "--method", "surface_centroid"]) == 2
     assert "is a file" in _err(capsys)  # an output path that cannot be used: a usage error, as README says
+    # a folder on the way that is a link to nothing, or to a file: refused before the work (the first was
+    # read and normalized, then failed writing: exit 1, 'FileExistsError')
+    (tmp_path / "dangling").symlink_to(tmp_path / "missing")
+    (tmp_path / "to_file").symlink_to(blocker)
+    for link, says in (("dangling", "is a symbolic link to a missing folder"), ("to_file", "is a symbolic link to a file")):
+        assert cli.main(["normalize", str(box), "-o", str(tmp_path / link / "sub" / "out.ply"), "--method",
+                         "surface_centroid"]) == 2
+        assert f"-o {tmp_path / link / 'sub' / 'out.ply'}: {tmp_path / link} {says}" in _err(capsys)
 
 
 @pytest.mark.parametrize("args, fragment", [

@@ -296,7 +296,7 @@ def _write_both(normalized, output, json_path, record_text, force):
 def _check_outputs(source, output, json_path, force):
     """Refuse, before any work: unknown output formats, aliasing files, unusable folders, existing files
     (UsageError: exit 2)."""
-    from ..io.atomic import check_replaceable, check_folder_writable
+    from ..io.atomic import check_creatable, check_replaceable
     from ..errors import InvalidInputError, UsageError
     from ..mesh import output_format
 
@@ -311,12 +311,7 @@ def _check_outputs(source, output, json_path, force):
     for path, what in named:
         if source is not None and os.path.realpath(path) == os.path.realpath(source):
             raise UsageError(f"{what} {path} is the input file; write the output elsewhere")
-        folder = path.parent
-        while str(folder) not in ("", ".") and not folder.exists() and folder != folder.parent:
-            folder = folder.parent  # a missing folder is made after the work: its nearest existing one must allow it
-        if folder.exists() and not folder.is_dir():
-            raise UsageError(f"{what} {path}: {folder} is a file, not a folder")
-        check_folder_writable(folder, what=f"{what} {path}: the")
+        check_creatable(path.parent, f"{what} {path}")  # a missing folder is made after the work
         check_replaceable(path, what)
         if path.exists() and not force:
             raise UsageError(f"{path} exists (use --force to overwrite)")

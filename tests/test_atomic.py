@@ -47,6 +47,13 @@ def test_temporaries_of_a_killed_writer_are_found_and_only_they(tmp_path):
     assert is_temporary(left.name) and not any(is_temporary(p.name) for p in keep)
     assert remove_temporaries(target) == 1 and not left.exists() and other.exists()
     assert all(p.exists() for p in keep)
+    # no folder where the target's is needed: a file, a link to one, a loop of links (a shard run's
+    # cleanup raised OSError ELOOP): no temporaries there
+    (tmp_path / "file").write_text("x")
+    (tmp_path / "loop1").symlink_to(tmp_path / "loop2")
+    (tmp_path / "loop2").symlink_to(tmp_path / "loop1")
+    for folder in ("file", "loop1", "missing"):
+        assert remove_temporaries(tmp_path / folder / "x.ply") == 0
 
 
 def test_check_folder_writable(tmp_path):

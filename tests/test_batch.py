@@ -386,6 +386,35 @@ def test_a_dataset_moved_with_its_output_folder_resumes_where_it_was(tmp_path):
     assert sorted(Path(row.input) for row in redo.rows) == inputs
 
 
+def test_a_dataset_copied_with_its_output_folder_resumes_and_redoes_what_changed(tmp_path):
+    """``cp -a data data2`` (sizes and times kept): the copy's inputs are skipped as done; in a copy
+    with one input edited before its first run, that one is done again, the others skipped, as in a
+    dataset moved whole. It was refused
+    ("holds the output of data/scans/x.ply ..., not of data2/scans/x.ply"): the recorded input is
+    still there (the original), and only --force, which redoes the whole dataset, went on."""
+    import shutil
+
+    bbox = NormalizeOptions(method="bbox")
+    write_mesh_tree(tmp_path / "data" / "scans")
+    shutil.rmtree(tmp_path / "data" / "scans" / "a" / "b")  # good files only (bad ones are done again)
+    for name in ("corrupt.ply", "empty.stl"):
+        (tmp_path / "data" / "scans" / name).unlink()
+    first = run([tmp_path / "data" / "scans"], tmp_path / "data" / "out", options=bbox)
+    assert (first.written, first.failed) == (3, 0)
+    shutil.copytree(tmp_path / "data", tmp_path / "data2", symlinks=True)  # copy2: sizes and times kept
+    shutil.copytree(tmp_path / "data", tmp_path / "data3", symlinks=True)
+    scans = tmp_path / "data2" / "scans"
+    again = run([scans], tmp_path / "data2" / "out", options=bbox)
+    assert (again.written, again.skipped, again.failed) == (0, 3, 0)
+    scans = tmp_path / "data3" / "scans"  # a copy edited before its first run
+    inputs = sorted(scans / Path(row["input"]).relative_to(tmp_path / "data" / "scans") for row in stable(first.rows))
+    trimesh.creation.box(extents=(1.0, 2.0, 3.0)).export(inputs[0], file_type=inputs[0].suffix[1:])
+    redo = run([scans], tmp_path / "data3" / "out", options=bbox)
+    assert (redo.written, redo.skipped, redo.failed) == (1, 2, 0)
+    assert sorted(Path(row.input) for row in redo.rows) == inputs
+    assert run([tmp_path / "data" / "scans"], tmp_path / "data" / "out", options=bbox).skipped == 3  # the original
+
+
 def test_an_input_folder_renamed_is_recognized_by_its_files_size_and_time(tmp_path):
     """The input folder renamed (``mv scans scans2``), OUTDIR where it was: each output's recorded
     input is gone, and this run's input for it (the same path relative to the inputs' root) has

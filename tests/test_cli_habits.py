@@ -141,6 +141,10 @@ def no_work(monkeypatch):
     (["--rotation", "--sweep"], "--sweep chooses what the center and scale run measures"),
     (["--rotation", "head", "--methods", "robust", "--sweep"], "--methods and --sweep choose"),
     # the sweep sets gamma and nu itself: they were taken and never read
+    # ... and so the hint for them is not --sweep (it sent the user to a second refusal)
+    (["--methods", "vertex_mean", "--gamma", "47"], "which this evaluation does not run (add ocsvm to --methods, or "
+                                                    "leave it out)"),
+    (["--methods", "vertex_mean", "--count", "300"], "(add ocsvm to --methods or --sweep, or leave it out)"),
     (["--methods", "robust", "--sweep", "--gamma", "30", "--nu", "0.2"],
      "--gamma, --nu apply to the ocsvm method (the paper's), which this evaluation does not run, and --sweep sets "
      "gamma and nu itself (add ocsvm to --methods, or leave them out)"),

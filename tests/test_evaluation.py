@@ -336,9 +336,12 @@ def test_evaluate_refuses_the_ocsvms_options_where_nothing_reads_them():
 
     classes = {"boxes": _boxes()}
     with pytest.raises(InvalidInputError, match=r"^gamma, tol are options of the ocsvm estimator, which the method bbox "
-                                                r"does not use \(pass 'ocsvm' among the methods, or sweep=True; or "
-                                                r"leave them out\)$"):
+                                                r"does not use \(pass 'ocsvm' among the methods \(the sweep sets gamma and "
+                                                r"nu itself\); or leave them out\)$"):
         evaluate(classes, methods=["bbox"], gamma=3.0, tol=1e-9)
+    with pytest.raises(InvalidInputError, match=r"^tol is an option of the ocsvm estimator, .* \(pass 'ocsvm' among "
+                                                r"the methods, or sweep=True; or leave it out\)$"):
+        evaluate(classes, methods=["bbox"], tol=1e-9)  # the sweep reads it
     with pytest.raises(InvalidInputError, match="^count is an option of the ocsvm estimator, which the methods bbox, "):
         evaluate(classes, methods=["bbox", "vertex_mean"], count=100)
     # the sweep reads count and the normalize options, and sets gamma and nu itself (gamma was taken, unread)

@@ -528,9 +528,11 @@ def _moved_inputs(items, entries, check, output_dir):
     output folder (:func:`jaxpose.batch.journal.moved_input`: ``mv data data2``), and this run's
     input is the same file by the rerun's rule (:func:`_same_input`: size and modification time,
     or SHA-256 with ``check="hash"``; a record without a SHA-256 is compared by size and time, and
-    is then done again under "hash", as where nothing moved), or the recorded input is gone and this
-    run's input is where it would be had it moved with the output folder (a dataset moved whole: its
-    path tells it is that input, as where nothing moved, and a file changed since is done again). An OUTDIR moved alone beside another
+    is then done again under "hash", as where nothing moved), or this run's input is where it would
+    be had it moved with the output folder and the recorded input is gone (a dataset moved whole) or
+    the folder the record was written in is still there (a dataset copied whole, ``cp -r data
+    data2``): its path tells it is that input, as where nothing moved, and a file changed since is
+    done again. An OUTDIR moved alone beside another
     folder of the same layout keeps its records' inputs, which are still there. `adopted`: a copy
     of each such record naming this run's input. `keys`: the :func:`_input_key` of each input
     looked at (not taken again)."""
@@ -549,7 +551,10 @@ def _moved_inputs(items, entries, check, output_dir):
             continue
         keys[item.source] = key = _input_key(item.source, check)
         recorded = key if record.get("input_sha256") else {**key, "input_sha256": ""}  # no hash recorded: size, time
-        if (gone and along) or _same_input(record, recorded):  # moved whole: its path says it is the same input
+        # moved whole (the recorded input gone) or copied whole (the folder it was written in still
+        # there): its path says it is that input; else (OUTDIR moved alone) only the same file is
+        copied = os.path.isdir(record.get("outdir") or "")
+        if (along and (gone or copied)) or _same_input(record, recorded):
             adopted.append({**record, "input": source})
     return adopted, keys
 

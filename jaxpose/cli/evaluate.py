@@ -82,7 +82,8 @@ def _evaluate_usage(args):
         flags = ", ".join(f"--{name}" for name in given)
         raise _Usage(f"{flags} {'apply' if len(given) > 1 else 'applies'} to the ocsvm method (the paper's), which "
                      f"this evaluation does not run (add ocsvm to {'--rotation' if rotation else '--methods'}"
-                     f"{'' if rotation else ' or --sweep'}, or leave {'them' if len(given) > 1 else 'it'} out)")
+                     f"{'' if rotation or {'gamma', 'nu'} & set(given) else ' or --sweep'}, or leave "
+                     f"{'them' if len(given) > 1 else 'it'} out)")
     if args.data and (args.classes or args.instances is not None):
         raise _Usage("--classes and --instances choose from the built-in dataset; --data takes every class of DIR")
     check_dataset_choice(args.instances, args.classes)

@@ -246,8 +246,9 @@ def evaluate(classes, gamma=None, nu=None, methods=None, count=None, seed=OCSVM.
         from ..pose.estimators import _chosen, _refuse_ocsvm_unused
 
         unread = [name for name in given if name != "count"] if sweep else given + list(normalize_options)
-        _refuse_ocsvm_unused(unread, _chosen(None, methods), "'ocsvm' among the methods (the sweep sets gamma and nu "
-                             "itself)" if sweep else "'ocsvm' among the methods, or sweep=True")
+        swept = {"gamma", "nu"} & set(unread)  # the sweep sets them itself; it reads the others
+        _refuse_ocsvm_unused(unread, _chosen(None, methods), "'ocsvm' among the methods" + (
+            " (the sweep sets gamma and nu itself)" if swept else ", or sweep=True"))
     check_callback(progress, "progress")
     if align_core:
         classes = alignment.align_classes(classes, weight=core_weight)

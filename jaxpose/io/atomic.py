@@ -8,6 +8,7 @@ rename is atomic); it is removed when the write fails or is interrupted (``Keybo
 """
 from __future__ import annotations
 
+import errno
 import os
 import secrets
 from pathlib import Path
@@ -68,7 +69,9 @@ def remove_temporaries(path) -> int:
     removed = 0
     try:
         names = os.listdir(folder)
-    except (FileNotFoundError, NotADirectoryError):  # no folder there (a file where it is needed): none
+    except OSError as exc:  # no folder there (a file, or a loop of links, where it is needed): none
+        if exc.errno not in (errno.ENOENT, errno.ENOTDIR, errno.ELOOP):
+            raise
         return 0
     for name in names:
         if name.startswith(prefix) and is_temporary(name) and name[len(prefix):-len(_SUFFIX)].count(".") == 0:

@@ -327,6 +327,20 @@ def test_a_rerun_under_mtime_redoes_nothing_for_a_move_a_chmod_or_a_hard_link(tm
     assert stable(again.rows) == stable(first.rows)
 
 
+def _good_dataset_done(data, options):
+    """write_mesh_tree's good files under data/scans (the bad ones would be done again on every
+    run), run into data/out: the run's result (3 written)."""
+    import shutil
+
+    write_mesh_tree(data / "scans")
+    shutil.rmtree(data / "scans" / "a" / "b")
+    for name in ("corrupt.ply", "empty.stl"):
+        (data / "scans" / name).unlink()
+    first = run([data / "scans"], data / "out", options=options)
+    assert (first.written, first.failed) == (3, 0)
+    return first
+
+
 def test_a_dataset_moved_with_its_output_folder_resumes_where_it_was(tmp_path):
     """Inputs and OUTDIR moved together (``mv data data2``), each file's size and modification time
     kept: a rerun skips what is done, the table names the files where they are now, the one option
@@ -338,12 +352,7 @@ def test_a_dataset_moved_with_its_output_folder_resumes_where_it_was(tmp_path):
     import shutil
 
     bbox = NormalizeOptions(method="bbox")
-    write_mesh_tree(tmp_path / "data" / "scans")
-    shutil.rmtree(tmp_path / "data" / "scans" / "a" / "b")  # good files only (bad ones are done again)
-    for name in ("corrupt.ply", "empty.stl"):
-        (tmp_path / "data" / "scans" / name).unlink()
-    first = run([tmp_path / "data" / "scans"], tmp_path / "data" / "out", options=bbox)
-    assert (first.written, first.failed) == (3, 0)
+    first = _good_dataset_done(tmp_path / "data", bbox)
 
     def moved(rows, old, new):
         return [{**row, "input": row["input"].replace(str(old), str(new)), "output": row["output"].replace(str(old), str(new))}
@@ -395,12 +404,7 @@ def test_a_dataset_copied_with_its_output_folder_resumes_and_redoes_what_changed
     import shutil
 
     bbox = NormalizeOptions(method="bbox")
-    write_mesh_tree(tmp_path / "data" / "scans")
-    shutil.rmtree(tmp_path / "data" / "scans" / "a" / "b")  # good files only (bad ones are done again)
-    for name in ("corrupt.ply", "empty.stl"):
-        (tmp_path / "data" / "scans" / name).unlink()
-    first = run([tmp_path / "data" / "scans"], tmp_path / "data" / "out", options=bbox)
-    assert (first.written, first.failed) == (3, 0)
+    first = _good_dataset_done(tmp_path / "data", bbox)
     shutil.copytree(tmp_path / "data", tmp_path / "data2", symlinks=True)  # copy2: sizes and times kept
     shutil.copytree(tmp_path / "data", tmp_path / "data3", symlinks=True)
     scans = tmp_path / "data2" / "scans"

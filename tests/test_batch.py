@@ -349,8 +349,6 @@ def test_a_dataset_moved_with_its_output_folder_resumes_where_it_was(tmp_path):
     other options was not refused, and a run over part of it wrote a table without the other
     outputs' rows. The same for a journal an earlier version wrote (no ``outdir`` field), and for
     an OUTDIR moved alone (its inputs where they were)."""
-    import shutil
-
     bbox = NormalizeOptions(method="bbox")
     first = _good_dataset_done(tmp_path / "data", bbox)
 

@@ -268,16 +268,18 @@ def test_a_pose_with_jax_fields_moves_float64_points_in_float64():
 
 
 def test_normalize_pose_far_from_the_origin_applies_in_float64(x64_off):
+    # 600 points at resolution 16 (incidental): the float32 rotation program of test_rotation.py's
+    # ocsvm frame test (640 rows)
     rng = np.random.default_rng(5)
-    v = rng.normal(size=(400, 3)) * [1.0, 0.6, 0.3]
+    v = rng.normal(size=(600, 3)) * [1.0, 0.6, 0.3]
     v = v / np.linalg.norm(v, axis=1, keepdims=True) * [1.0, 0.6, 0.3]
     x = v + [2.0e6, -1.0e6, 5.0e5]
-    pose = jaxpose.normalize(x, method="ocsvm", rotation=True)
+    pose = jaxpose.normalize(x, method="ocsvm", rotation=True, resolution=16)
     assert bool(pose.valid) and pose.center.dtype == np.float64
     y = pose.apply(x)
     assert isinstance(y, np.ndarray) and y.dtype == np.float64
     np.testing.assert_array_equal(y, host(pose).apply(x))
-    near = jaxpose.normalize(v, method="ocsvm", rotation=True)  # the same shape at the origin
+    near = jaxpose.normalize(v, method="ocsvm", rotation=True, resolution=16)  # the same shape at the origin
     np.testing.assert_allclose(y, host(near).apply(v), atol=1e-4)
     r64 = np.asarray(pose.rotation, np.float64)  # float32: orthogonal to 1e-7
     np.testing.assert_array_equal(pose.inverse().apply(y), _closed_form_inverse(y, pose.center, float(pose.scale), r64))

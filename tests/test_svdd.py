@@ -100,7 +100,8 @@ def test_float32_and_jit_and_vmap():
 
 
 def test_blocked_kernel_matches_dense(x64):
-    pts = clusters(500)
+    # 400 points (incidental): the dense fit is test_pinned.py's float64 solver program (448 rows)
+    pts = clusters(400)
     d = fit_svdd(pts, GAMMA, 0.3, kernel="dense", tol=1e-7)
     b = fit_svdd(pts, GAMMA, 0.3, kernel="blocked", block=128, tol=1e-7)
     np.testing.assert_allclose(np.asarray(d.alpha), np.asarray(b.alpha), atol=1e-7)
@@ -310,7 +311,9 @@ def test_a_traced_gamma_or_nu_out_of_range_is_not_converged():
     converged=True too, with nothing to say they were invalid. Now converged=False for a traced gamma
     or nu outside the concrete rule (normalize flags the same as Status.BAD_PARAMETERS); values in
     range are as before."""
-    points = np.random.default_rng(0).normal(size=(120, 3)).astype(np.float32)
+    # 300 points (incidental): the concrete fit is the float32 program of
+    # test_float32_and_jit_and_vmap and test_tol_and_max_iter_share_one_program[pg] (300 rows)
+    points = np.random.default_rng(0).normal(size=(300, 3)).astype(np.float32)
     fit = jax.jit(lambda g, n: fit_svdd(points, g, n))
     for g, n in [(1.0, 1.5), (1.0, -0.2), (1.0, np.inf), (-1.0, 0.5), (0.0, 0.5), (np.nan, 0.5), (1.0, np.nan)]:
         assert not bool(fit(g, n).converged), (g, n)

@@ -42,7 +42,7 @@ def _body(m=2000, seed=0):
 
 
 def test_default_method_is_robust_and_equals_the_numpy_estimator():
-    pts = _body(5000)  # the size is incidental: the default program of the power-gradient tests (5120 rows)
+    pts = _body(2000)  # the size is incidental: the default program of README.md's Python block (2048 rows)
     pose = jaxpose.normalize(pts)
     center, scale, _ = robust_center_scale(pts)  # the NumPy/SciPy robust solid, float64
     assert isinstance(pose.center, np.ndarray) and pose.center.dtype == np.float64
@@ -302,9 +302,10 @@ def _check_power_gradient(pts, power=4.0, **opts):
 
 
 def test_grad_in_power_matches_central_differences():
-    # 5000 points and the default grid: the size and options of the FAUST case below, whose four
-    # programs (forward, jacfwd, the grad's two) this one compiles and that one reuses
-    _check_power_gradient(_body(5000, seed=3))
+    # 2000 points and the default grid: the size and options of the FAUST case below, whose four
+    # programs (forward, jacfwd, the grad's two) this one compiles and that one reuses; the forward
+    # one is README.md's Python block's (2048 rows)
+    _check_power_gradient(_body(2000, seed=3))
 
 
 def test_robust_derivative_in_the_points_follows_translations_and_scalings():
@@ -330,7 +331,7 @@ def test_robust_derivative_in_the_points_follows_translations_and_scalings():
 
 @pytest.mark.shared
 def test_grad_in_power_on_faust_matches_central_differences():
-    _check_power_gradient(faust_points(5000, index=3))
+    _check_power_gradient(faust_points(2000, index=3))
 
 
 @pytest.mark.parametrize("method", ["robust", "ocsvm"])

@@ -192,7 +192,9 @@ def test_two_faust_bodies_in_one_cloud_are_flagged_and_one_with_outliers_is_not(
     from conftest import faust_points
 
     body = faust_points(5600, index=2)  # with its stray points (+8 %), in the bucket of the clouds above
-    two = _copies(body, 2)
+    # two bodies of 1024 points: 2048 rows, the default-grid program of README.md's Python block
+    # (two of the body above, 11200 points, compiled one of their own at 12288 rows)
+    two = _copies(faust_points(1024, index=2), 2)
     with pytest.raises(JaxposeError, match="point cloud is 2 separate bodies"):
         jaxpose.normalize_mesh(trimesh.PointCloud(two))
     with pytest.warns(jaxpose.InvalidPoseWarning, match="several separate bodies"):

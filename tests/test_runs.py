@@ -100,7 +100,8 @@ def test_keep_main_beyond_cap_falls_back(ratio):
 
 @pytest.mark.parametrize("ratio", [0.5, 0.05])
 def test_keep_main_by_runs_equals_numpy(ratio):
-    s = _random_solid((40, 36, 70), 4, 0.5)
+    # a random solid in the first 40 planes of the stripes' grid: its find_runs and keep_main programs
+    s = _random_solid((130, 130, 40), 4, 0.5) & (np.arange(130) < 40)[:, None, None]
     assert bool(_find(s, runs.default_cap(s.shape)).fits)
     kept, count, dropped = jax.jit(po.keep_main)(jnp.asarray(s), ratio)  # traced ratio: one program
     ref, n, d = host_solid.keep_main(s, ratio)
@@ -111,10 +112,10 @@ def test_keep_main_by_runs_equals_numpy(ratio):
 def test_keep_main_vmapped_mixed_batch():
     """A batch whose members fit the run arrays and one that does not: every member as NumPy
     (the whole batch takes the cell-by-cell branch), and a batch that fits (the run branch)."""
-    small = [_random_solid((130, 130, 40), k, 0.5) & (np.arange(130) < 40)[:, None, None] for k in (5, 6)]
-    mixed = np.stack(small + [_stripes()])
+    small = [_random_solid((130, 130, 40), k, 0.5) & (np.arange(130) < 40)[:, None, None] for k in (5, 6, 7)]
+    mixed = np.stack(small[:2] + [_stripes()])
     keep = jax.jit(jax.vmap(lambda g: po.keep_main(g, 0.5)))
-    for grids in (mixed, mixed[:2]):
+    for grids in (mixed, np.stack(small)):  # batches of three: one compiled program
         kept, found, dropped = keep(jnp.asarray(grids))
         for k in range(len(grids)):
             ref, n, d = host_solid.keep_main(grids[k], 0.5)

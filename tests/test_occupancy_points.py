@@ -121,7 +121,8 @@ def test_keep_main_few_and_many_components(count, ratio):
 
 
 def test_keep_main_vmapped():
-    grids = np.stack([_blobs(3, seed=1), _blobs(12, seed=2), _blobs(1, seed=3)])
+    # on test_runs.py's (130, 130, 40) grids, three of them: its vmapped keep_main program
+    grids = np.stack([_blobs(k, shape=(130, 130, 40), seed=s) for k, s in ((3, 1), (12, 2), (1, 3))])
     kept, found, dropped = jax.jit(jax.vmap(lambda g: po.keep_main(g, 0.5)))(jnp.asarray(grids))
     for k in range(3):
         ref, n, d = host_solid.keep_main(grids[k], 0.5)

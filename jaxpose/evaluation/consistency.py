@@ -243,11 +243,11 @@ def evaluate(classes, gamma=None, nu=None, methods=None, count=None, seed=OCSVM.
     align_core, sweep = check_bool(align_core, "align_core"), check_bool(sweep, "sweep")
     uses_ocsvm = _any_ocsvm(methods)
     if not uses_ocsvm:  # given, nothing would read them (as estimate_many); the sweep sets gamma and nu itself
-        from ..pose.estimators import _chosen, _refuse_ocsvm_unused
+        from ..pose.estimators import check_ocsvm_unread
 
         unread = [name for name in given if name != "count"] if sweep else given + list(normalize_options)
         swept = {"gamma", "nu"} & set(unread)  # the sweep sets them itself; it reads the others
-        _refuse_ocsvm_unused(unread, _chosen(None, methods), "'ocsvm' among the methods" + (
+        check_ocsvm_unread(unread, methods, "'ocsvm' among the methods" + (
             " (the sweep sets gamma and nu itself)" if swept else ", or sweep=True"))
     check_callback(progress, "progress")
     if align_core:

@@ -561,6 +561,14 @@ def check_ocsvm_unused(given, c_name, s_name, frame=False):
     _refuse_ocsvm_unused(given, _chosen([(c_name, s_name)]), where)
 
 
+def check_ocsvm_unread(given, methods, where):
+    """:func:`check_ocsvm_unused` for a list of ``methods`` (names, none of them an OCSVM one), the
+    refusal of :func:`estimate_many` and :func:`jaxpose.evaluation.evaluate`: InvalidInputError
+    naming the options ``given`` and the methods, ``where`` saying how the OCSVM would read them.
+    Nothing given: returns None."""
+    _refuse_ocsvm_unused(given, _chosen(None, methods), where)
+
+
 def _refuse_ocsvm_unused(given, chosen, where):
     if not given:
         return

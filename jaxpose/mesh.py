@@ -20,7 +20,7 @@ from .io.atomic import write_atomic
 from .occupancy import solid
 from .pose import estimators
 from .pose.result import host
-from .rotation.rotation import DEFAULT_ROTATION, ROTATIONS, frame_of
+from .rotation.rotation import DEFAULT_ROTATION, ROTATIONS, SOLID_FRAMES, frame_of
 from .sample import SAMPLING
 
 # its own names, and the names it re-exports: OCSVM_ONLY from jaxpose.config, the file I/O from jaxpose.io.mesh
@@ -92,6 +92,7 @@ def check_arguments(gamma=None, nu=None, count=None, seed=None, sampling=None, m
         raise InvalidInputError(f"options {sorted(options)} apply to the ocsvm estimator only (pass method='ocsvm', "
                                 "center or scale 'ocsvm', or rotation='ocsvm'; or leave them out)")
     extra = {}
+    frame_name = _rotation_name(rotation)
     if power is not None:
         if c_name not in estimators.POWERED:
             raise InvalidInputError(estimators.power_unread([((c_name, s_name), None)]))
@@ -100,15 +101,14 @@ def check_arguments(gamma=None, nu=None, count=None, seed=None, sampling=None, m
     if resolution is not None:
         if uses_ocsvm:
             options = {**options, "resolution": resolution}
-        elif "robust_depth" in (c_name,) or s_name == "robust_volume":
-            extra["resolution"] = solid.check_resolution(resolution)
+        elif c_name == "robust_depth" or s_name == "robust_volume" or frame_name in SOLID_FRAMES:
+            extra["resolution"] = solid.check_resolution(resolution)  # the robust solid's: estimators' and frame's
         elif ocsvm_runs:  # the ocsvm frame alone: its option, as the other options reach it
             options = {**options, "resolution": resolution}
         else:
             raise InvalidInputError(estimators.resolution_unread([(c_name, s_name)], ocsvm=True))
     if ocsvm_runs:
         PoseConfig.create(**options)  # every option's value and the grid's memory
-    frame_name = _rotation_name(rotation)
     return c_name, s_name, extra, options, frame_name
 
 
@@ -147,13 +147,13 @@ def normalize_mesh(
       strict: closed-surface estimators raise on an open mesh instead of warning.
       power: depth exponent (robust_depth: ``jaxpose.config.ROBUST.power``; depth_weighted_solid: 2).
       resolution: for the robust solid, voxels along the body's largest extent (96); for
-        ``ocsvm``, the grid resolution of :func:`jaxpose.normalize` (64), also of the frame of
-        ``rotation="ocsvm"`` where the center and scale read no resolution (``vertex_mean``), as
-        the other OCSVM options reach that frame. It is the center's and scale's: a frame reads it
-        only where it builds their grid (``head`` and ``core`` with the robust solid, their own);
-        with an ``ocsvm`` center or scale the ``head`` and ``core`` frames run at their default
-        (96 voxels, a robust solid, not the OCSVM's grid), and with the robust one the ``ocsvm``
-        frame at the OCSVM's (64).
+        ``ocsvm``, the grid resolution of :func:`jaxpose.normalize` (64). It is the center's and
+        scale's, and the frame's where it builds their grid (``head`` and ``core`` with the robust
+        solid); where the center and scale read none (``vertex_mean``, ``solid``) it is the
+        frame's alone: the ``head`` and ``core`` frames' robust solid, the ``ocsvm`` frame's grid
+        (as the other OCSVM options reach that frame). With an ``ocsvm`` center or scale the
+        ``head`` and ``core`` frames run at their default (96 voxels, a robust solid, not the
+        OCSVM's grid), and with the robust one the ``ocsvm`` frame at the OCSVM's (64).
       rotation: False (default: translation and scale only, exactly as without the option), True
         (the ``head`` frame of :mod:`jaxpose.rotation.head`: the head and chest of the robust solid, or
         its depth^4-weighted ``core`` frame, flagged, where no neck is found; meshes and point clouds) or a
@@ -186,10 +186,13 @@ def normalize_mesh(
     # each estimator gets the options it reads, the OCSVM's with their defaults filled in (estimate and
     # frame_of refuse the others, as check_arguments refuses them given where no OCSVM runs)
     fit = {"ocsvm": options, **ocsvm} if "ocsvm" in (c_name, s_name) else {}
-    pose = estimators.estimate(geometry, method, center=center, scale=scale, strict=strict, **fit, **extra)
+    # a resolution for the frame's robust solid alone (center and scale read none) is the frame's
+    reads = c_name == "robust_depth" or s_name == "robust_volume"
+    own = {k: v for k, v in extra.items() if reads or k != "resolution"}
+    pose = estimators.estimate(geometry, method, center=center, scale=scale, strict=strict, **fit, **own)
     if frame_name is not None:
         frame = ({"ocsvm": {**ocsvm, "options": options}} if frame_name == "ocsvm" else
-                 {"resolution": extra.get("resolution")} if frame_name in ("core", "head") else {})
+                 {"resolution": extra.get("resolution")} if frame_name in SOLID_FRAMES else {})
         found = frame_of(estimators.centered(geometry)[0], frame_name, **frame)
         pose = pose._replace(ambiguity=np.asarray(found.ambiguity, np.float64),
                              rotation=np.asarray(found.rotation, np.float64))

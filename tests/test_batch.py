@@ -1209,7 +1209,7 @@ def test_a_table_path_that_is_a_folder_or_another_file_is_refused_before_any_wor
 @pytest.mark.parametrize("kwargs, fragment", [
     (dict(count=3), "count must be >= 4"), (dict(gamma=-1.0), "gamma must be a finite number > 0"),
     (dict(nu=2.0), r"nu must be a number in \[0, 1\]"), (dict(resolution=7), "resolution must be >= 8"),
-    (dict(method="bbox", resolution=32), "applies to the robust solid .* and the ocsvm estimator and frame"),
+    (dict(method="bbox", resolution=32), "applies to the robust solid .* the core and head frames, and the ocsvm"),
     (dict(method="nope"), "valid: robust, ocsvm"), (dict(sampling="grid"), "even, random"),
     (dict(rotation="up"), "core"), (dict(seed=-1), "seed must be >= 0"),
 ])

@@ -322,7 +322,8 @@ def test_power_and_resolution_refusals_have_one_wording():
                   r"which the chosen estimators \(center bbox_center, scale unit_cube\) do not use; {}$")
     with pytest.raises(InvalidInputError, match=resolution.format("", r"for ocsvm give it in ocsvm=\{'resolution': \.\.\.\}")):
         estimators.estimate(_box(), "bbox", resolution=64)
-    with pytest.raises(InvalidInputError, match=resolution.format(" and the ocsvm estimator and frame", "leave it out")):
+    with pytest.raises(InvalidInputError, match=resolution.format(", the core and head frames, and the ocsvm estimator and frame",
+                                                                        "leave it out")):
         mesh.check_arguments(method="bbox", resolution=32)
     with pytest.raises(InvalidInputError, match=r"which the methods robust:2, depth_weighted_solid:3 replace with their "
                                                 r"own; leave it out$"):
@@ -330,6 +331,37 @@ def test_power_and_resolution_refusals_have_one_wording():
     args = argparse.Namespace(method="bbox", center=None, scale=None, rotation=None, strict=False,
                               **dict(dict.fromkeys(("gamma", "nu", "count", "seed", "sampling")), gamma=3.0))
     assert ignored_options(args).endswith("does not use; leave it out"), ignored_options(args)
+
+
+def test_a_resolution_where_only_the_frame_reads_one_is_the_frames():
+    """With a center and scale that read no resolution (solid) and the head or core frame, a
+    resolution is the frame's robust solid's (it was refused as read by nothing): the rotation is
+    frame_of's at that resolution, the center and scale the method's own; without a frame that
+    reads one it is refused, naming the frames."""
+    from jaxpose import mesh
+    from jaxpose.batch.task import NormalizeOptions
+    from jaxpose.config import RobustConfig
+    from jaxpose.mesh import example_shape
+    from jaxpose.rotation.rotation import frame_of
+
+    body = example_shape()
+    _, plain = mesh.normalize_mesh(body, method="solid")
+    for frame, resolution in (("head", 128), ("core", 64)):
+        _, pose = mesh.normalize_mesh(body, method="solid", rotation=frame, resolution=resolution)
+        want = frame_of(estimators.centered(body)[0], frame, resolution=resolution)
+        np.testing.assert_array_equal(pose.rotation, np.asarray(want.rotation, np.float64))
+        assert not np.array_equal(pose.rotation, mesh.normalize_mesh(body, method="solid", rotation=frame)[1].rotation)
+        np.testing.assert_array_equal(pose.center, plain.center)
+        assert float(pose.scale) == float(plain.scale)
+    with pytest.raises(InvalidInputError, match=r"robust_volume scale\), the core and head frames, and the ocsvm "
+                                                r"estimator and frame, which the chosen estimators \(center "
+                                                r"solid_centroid, scale gyration_radius\) do not use"):
+        mesh.normalize_mesh(body, method="solid", resolution=128)
+    # a dataset's settings: the frame's default written out is the default left out
+    robust = RobustConfig().resolution
+    solid_head = NormalizeOptions(method="solid", rotation=True)
+    assert solid_head.settings() == NormalizeOptions(method="solid", rotation=True, resolution=robust).settings()
+    assert solid_head.settings() != NormalizeOptions(method="solid", rotation=True, resolution=128).settings()
 
 
 def test_evaluate_gives_estimate_many_only_the_options_its_methods_read():

@@ -86,15 +86,17 @@ class NormalizeOptions:
         """The resolution the estimators use: the one given, else the default of the estimator that
         reads it (the OCSVM's grid, :class:`jaxpose.config.GridConfig`, where the OCSVM is the center
         or the scale; else the robust solid's, :class:`jaxpose.config.RobustConfig`, for the
-        ``robust_depth`` center or the ``robust_volume`` scale); None where no estimator reads one."""
+        ``robust_depth`` center, the ``robust_volume`` scale or the ``core`` and ``head`` frames);
+        None where nothing reads one."""
         from ..pose.estimators import resolve
+        from ..rotation.rotation import SOLID_FRAMES
 
         if self.resolution is not None:
             return self.resolution
         c_name, s_name = resolve(self.method, self.center, self.scale)
         if "ocsvm" in (c_name, s_name):  # as jaxpose.mesh.check_arguments routes a resolution
             return GridConfig().resolution
-        if c_name == "robust_depth" or s_name == "robust_volume":
+        if c_name == "robust_depth" or s_name == "robust_volume" or self.rotation_method in SOLID_FRAMES:
             return RobustConfig().resolution
         return None
 

@@ -159,7 +159,7 @@ def evaluate_rotation(classes, methods=None, variants=("plain",), align_core=Fal
       and the per-instance ``raw``, ``sign_free`` angles and ``ambiguity``.
     """
     from ..rotation.core import frame_solid
-    from ..rotation.rotation import ROTATIONS, check_frame_options, frame_of
+    from ..rotation.rotation import ROTATIONS, SOLID_FRAMES, check_frame_options, frame_of
     from .. import baselines
 
     if not isinstance(classes, dict) or not classes or any(len(m) < 2 for m in classes.values()):
@@ -194,10 +194,10 @@ def evaluate_rotation(classes, methods=None, variants=("plain",), align_core=Fal
                 for method in methods:
                     start = time.perf_counter()
                     try:
-                        if method in ("core", "head") and sol is None:  # one solid for both frames
+                        if method in SOLID_FRAMES and sol is None:  # one solid for both frames
                             sol = frame_solid(*baselines.split_geometry(shape), options.get("resolution"))
                         # each frame gets what it reads (frame_of refuses the others): the solid holds the resolution
-                        given = {"sol": sol} if method in ("core", "head") else {"ocsvm": ocsvm} if method == "ocsvm" else {}
+                        given = {"sol": sol} if method in SOLID_FRAMES else {"ocsvm": ocsvm} if method == "ocsvm" else {}
                         found[method].append(frame_of(shape, method, **given))
                     except (JaxposeError, ValueError) as exc:
                         found[method].append(exc)

@@ -134,9 +134,9 @@ def power_unread(parsed, methods=None):
 def resolution_unread(pairs, methods=None, ocsvm=False):
     """The one wording of a ``resolution`` refused where no estimator reads it: the robust solid's
     (the robust_depth center, the robust_volume scale), and with ``ocsvm`` (:func:`jaxpose.normalize_mesh`,
-    where it is also the OCSVM grid's) the OCSVM's; ``pairs``, ``methods`` as
+    where it is also the core and head frames' solid's and the OCSVM grid's) those; ``pairs``, ``methods`` as
     :func:`strict_unread`'s. Returns the message."""
-    also = " and the ocsvm estimator and frame" if ocsvm else ""
+    also = ", the core and head frames, and the ocsvm estimator and frame" if ocsvm else ""
     hint = "leave it out" if ocsvm else "for ocsvm give it in ocsvm={'resolution': ...}"
     return (f"resolution applies to the robust solid (the robust_depth center, the robust_volume scale){also}, "
             f"which {_chosen(pairs, methods)}; {hint}")

@@ -29,7 +29,7 @@ from .head import (CELL, CHEST, CHEST_POWER, FACE, FACE_MIN, GAP, HEAD_MIRROR, M
                    UP_SPLIT, HeadChest, front_back_cues, head_chest, head_frame, head_mirror, head_surface, hole_points,
                    left_right, mirror_error)
 
-__all__ = ["Frame", "ROTATIONS", "DEFAULT_ROTATION", "GAP_MIN", "SIGN_MIN", "SYMMETRY_MIN", "FOOT", "FEET_DEPTH",
+__all__ = ["Frame", "ROTATIONS", "SOLID_FRAMES", "DEFAULT_ROTATION", "GAP_MIN", "SIGN_MIN", "SYMMETRY_MIN", "FOOT", "FEET_DEPTH",
            "FOOT_MIN", "AXES_POWER", "SYMMETRY_POWER", "CHEST", "CHEST_POWER", "FACE", "CELL", "FACE_MIN",
            "MUZZLE", "TURN", "HEAD_MIRROR", "UP_SPLIT", "MIRROR_STEPS", "MIRROR_BEYOND", "GAP", "hole_points", "mirror_error", "head_mirror", "left_right", "pre_frame", "frame_solid",
            "core_frame", "HeadChest", "head_chest", "head_surface", "front_back_cues",
@@ -37,6 +37,7 @@ __all__ = ["Frame", "ROTATIONS", "DEFAULT_ROTATION", "GAP_MIN", "SIGN_MIN", "SYM
            "proper", "check_frame_options", "OCSVM_FRAME_KEYS"]
 
 ROTATIONS = ("core", "head", "ocsvm", "pca_vertices", "pca_surface", "inertia")
+SOLID_FRAMES = ("core", "head")  # the frames of the robust solid: they read its resolution
 DEFAULT_ROTATION = "head"  # rotation=True: the head frame, the core frame (flagged) where no head is found
 OCSVM_FRAME_KEYS = ("gamma", "nu", "count", "seed", "sampling", "options")  # frame_of's ocsvm dict
 
@@ -94,7 +95,7 @@ def frame_of(geometry, method=DEFAULT_ROTATION, *, resolution=None, sol=None, oc
     checked = check_frame_options(resolution, ocsvm)  # values first, as estimate's
     _check_read(method, resolution=resolution, sol=sol, ocsvm=ocsvm)
     resolution, ocsvm = checked
-    if method in ("core", "head"):
+    if method in SOLID_FRAMES:
         if sol is None or method == "head":
             vertices, faces = baselines.split_geometry(geometry)
         if sol is None:
@@ -115,7 +116,7 @@ def frame_of(geometry, method=DEFAULT_ROTATION, *, resolution=None, sol=None, oc
     return baselines.frame(geometry, method)
 
 
-_READERS = {"resolution": ("core", "head"), "sol": ("core", "head"), "ocsvm": ("ocsvm",)}  # frame_of's options
+_READERS = {"resolution": SOLID_FRAMES, "sol": SOLID_FRAMES, "ocsvm": ("ocsvm",)}  # frame_of's options
 
 
 def _check_read(method, **given):

@@ -61,8 +61,10 @@ def check_arguments(gamma=None, nu=None, count=None, seed=None, sampling=None, m
     memory of the grid a resolution asks for.
 
     Returns:
-      (center name, scale name, the robust/depth estimators' options (``power``, ``resolution``),
-      the ocsvm options, the rotation's frame method or None).
+      (center name, scale name, the robust/depth options (``power``; ``resolution``, the robust
+      solid's: the estimators' where :func:`jaxpose.pose.estimators.reads_resolution`, else the
+      ``head`` or ``core`` frame's alone), the ocsvm options (with the OCSVM grid's ``resolution``),
+      the rotation's frame method or None).
 
     Raises:
       InvalidInputError: the first bad argument, named, with its allowed range.
@@ -101,7 +103,7 @@ def check_arguments(gamma=None, nu=None, count=None, seed=None, sampling=None, m
     if resolution is not None:
         if uses_ocsvm:
             options = {**options, "resolution": resolution}
-        elif c_name == "robust_depth" or s_name == "robust_volume" or frame_name in SOLID_FRAMES:
+        elif estimators.reads_resolution(c_name, s_name) or frame_name in SOLID_FRAMES:
             extra["resolution"] = solid.check_resolution(resolution)  # the robust solid's: estimators' and frame's
         elif ocsvm_runs:  # the ocsvm frame alone: its option, as the other options reach it
             options = {**options, "resolution": resolution}
@@ -187,8 +189,7 @@ def normalize_mesh(
     # frame_of refuse the others, as check_arguments refuses them given where no OCSVM runs)
     fit = {"ocsvm": options, **ocsvm} if "ocsvm" in (c_name, s_name) else {}
     # a resolution for the frame's robust solid alone (center and scale read none) is the frame's
-    reads = c_name == "robust_depth" or s_name == "robust_volume"
-    own = {k: v for k, v in extra.items() if reads or k != "resolution"}
+    own = {k: v for k, v in extra.items() if k != "resolution" or estimators.reads_resolution(c_name, s_name)}
     pose = estimators.estimate(geometry, method, center=center, scale=scale, strict=strict, **fit, **own)
     if frame_name is not None:
         frame = ({"ocsvm": {**ocsvm, "options": options}} if frame_name == "ocsvm" else

@@ -340,7 +340,7 @@ def test_a_resolution_where_only_the_frame_reads_one_is_the_frames():
     reads one it is refused, naming the frames."""
     from jaxpose import mesh
     from jaxpose.batch.task import NormalizeOptions
-    from jaxpose.config import RobustConfig
+    from jaxpose.config import GridConfig, RobustConfig
     from jaxpose.mesh import example_shape
     from jaxpose.rotation.rotation import frame_of
 
@@ -362,6 +362,13 @@ def test_a_resolution_where_only_the_frame_reads_one_is_the_frames():
     solid_head = NormalizeOptions(method="solid", rotation=True)
     assert solid_head.settings() == NormalizeOptions(method="solid", rotation=True, resolution=robust).settings()
     assert solid_head.settings() != NormalizeOptions(method="solid", rotation=True, resolution=128).settings()
+    # the ocsvm frame reads the OCSVM grid's (64) where the center and scale read none: its default
+    # written out was another dataset's options ("--resolution none there, 64 here")
+    grid = GridConfig().resolution
+    solid_ocsvm = NormalizeOptions(method="solid", rotation="ocsvm")
+    assert solid_ocsvm.settings() == NormalizeOptions(method="solid", rotation="ocsvm", resolution=grid).settings()
+    assert solid_ocsvm.settings()["resolution"] == grid != robust
+    assert NormalizeOptions(method="solid").settings()["resolution"] is None  # nothing reads one
 
 
 def test_evaluate_gives_estimate_many_only_the_options_its_methods_read():

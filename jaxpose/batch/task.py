@@ -32,8 +32,9 @@ class NormalizeOptions:
     Every value is checked when the object is made, before any file is read or anything compiled,
     by the same function as :func:`jaxpose.normalize_mesh` (:func:`jaxpose.mesh.check_arguments`):
     names (``method``, ``center``, ``scale``, ``sampling``, ``rotation``) against the known ones,
-    ``gamma`` > 0, ``nu`` in [0, 1], ``count`` >= 4, ``seed`` >= 0, ``resolution`` only for the
-    estimators that have one (robust, ocsvm) and within the memory budget of their grid; ``gamma``,
+    ``gamma`` > 0, ``nu`` in [0, 1], ``count`` >= 4, ``seed`` >= 0, ``resolution`` only where
+    an estimator or the frame reads one (the robust solid's, the OCSVM's grid) and within the memory
+    budget of that grid; ``gamma``,
     ``nu``, ``count``, ``seed``, ``sampling`` other than their defaults only where the OCSVM is used
     (center, scale or rotation), as :func:`jaxpose.normalize_mesh` refuses them.
 
@@ -84,11 +85,12 @@ class NormalizeOptions:
     @property
     def resolved_resolution(self) -> int | None:
         """The resolution the estimators use: the one given, else the default of the estimator that
-        reads it (the OCSVM's grid, :class:`jaxpose.config.GridConfig`, where the OCSVM is the center
-        or the scale; else the robust solid's, :class:`jaxpose.config.RobustConfig`, for the
-        ``robust_depth`` center, the ``robust_volume`` scale or the ``core`` and ``head`` frames);
-        None where nothing reads one."""
-        from ..pose.estimators import resolve
+        reads it, in the order of :func:`jaxpose.mesh.check_arguments`: the OCSVM's grid
+        (:class:`jaxpose.config.GridConfig`) where the OCSVM is the center or the scale; else the robust
+        solid's (:class:`jaxpose.config.RobustConfig`) for the ``robust_depth`` center, the
+        ``robust_volume`` scale or the ``core`` and ``head`` frames; else the OCSVM's grid for the
+        ``ocsvm`` frame; None where nothing reads one."""
+        from ..pose.estimators import reads_resolution, resolve
         from ..rotation.rotation import SOLID_FRAMES
 
         if self.resolution is not None:
@@ -96,8 +98,10 @@ class NormalizeOptions:
         c_name, s_name = resolve(self.method, self.center, self.scale)
         if "ocsvm" in (c_name, s_name):  # as jaxpose.mesh.check_arguments routes a resolution
             return GridConfig().resolution
-        if c_name == "robust_depth" or s_name == "robust_volume" or self.rotation_method in SOLID_FRAMES:
+        if reads_resolution(c_name, s_name) or self.rotation_method in SOLID_FRAMES:
             return RobustConfig().resolution
+        if self.rotation_method == "ocsvm":
+            return GridConfig().resolution
         return None
 
     def mesh_arguments(self) -> dict:

@@ -44,7 +44,8 @@ def add_parser(sub):
                                                                         "(default even)")
     p.add_argument("--resolution", type=int, default=None,
                    help=f"robust: voxels along the main body's largest extent (default {RobustConfig().resolution}); ocsvm: "
-                        f"cells per axis of the volume integral's grid (default {GridConfig().resolution}); >= 8")
+                        f"cells per axis of the volume integral's grid (default {GridConfig().resolution}); with a method that "
+                        f"reads none, the --rotation frame's (head, core: the robust solid's; ocsvm: its grid); >= 8")
     p.add_argument("--transform", help="one INPUT: where to write the transform JSON (default: OUTPUT.transform.json)")
     p.add_argument("--rotation", nargs="?", const=DEFAULT_ROTATION, default=None, metavar="METHOD",
                    type=_rotation_method, help=f"also the canonical orientation (default method {DEFAULT_ROTATION}; "

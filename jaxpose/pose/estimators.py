@@ -131,6 +131,12 @@ def power_unread(parsed, methods=None):
             f"{' and '.join(parts)}; leave it out")
 
 
+def reads_resolution(c_name, s_name):
+    """Whether the center ``c_name`` or the scale ``s_name`` builds the robust solid, whose
+    ``resolution`` it reads (the ``robust_depth`` center, the ``robust_volume`` scale)."""
+    return c_name == "robust_depth" or s_name == "robust_volume"
+
+
 def resolution_unread(pairs, methods=None, ocsvm=False):
     """The one wording of a ``resolution`` refused where no estimator reads it: the robust solid's
     (the robust_depth center, the robust_volume scale), and with ``ocsvm`` (:func:`jaxpose.normalize_mesh`,
@@ -590,11 +596,14 @@ def _check_read(strict, options, parsed, methods=None):
         raise InvalidInputError(strict_unread(pairs, methods))
     if "power" in options and not any(c_name in POWERED and key is None for (c_name, _), key in parsed):
         raise InvalidInputError(power_unread(parsed, methods))
-    if "resolution" in options and not any("robust_depth" in pair or pair[1] == "robust_volume" for pair in pairs):
+    if "resolution" in options and not any(reads_resolution(*pair) for pair in pairs):
         raise InvalidInputError(resolution_unread(pairs, methods))
     if not any("ocsvm" in pair for pair in pairs):
-        where = "method='ocsvm', or center or scale 'ocsvm'" if methods is None else "'ocsvm' among the methods"
-        _refuse_ocsvm_unused([k for k in (*_OCSVM_KEYS, "ocsvm") if k in options], chosen, where)
+        given = [k for k in (*_OCSVM_KEYS, "ocsvm") if k in options]
+        if methods is None:
+            _refuse_ocsvm_unused(given, chosen, "method='ocsvm', or center or scale 'ocsvm'")
+        else:
+            check_ocsvm_unread(given, methods, "'ocsvm' among the methods")
 
 
 def _check_options(options):

@@ -411,6 +411,11 @@ def test_the_inertia_frame_of_a_mesh_without_volume_is_refused():
     (lambda box: evaluate_rotation({"a": [box, box]}, methods=["pca_vertices"], resolutoin=32), "unknown option resolutoin"),
     (lambda box: evaluate_rotation({"a": [box, box]}, methods=["core"], resolution=4), "resolution must be >= 8"),
     (lambda box: evaluate_rotation({"a": [box, box]}, methods=["pca_vertices"], ocsvm={"gama": 1.0}), "unknown ocsvm key"),
+    # evaluate_rotation: an option none of its methods reads was ignored (every frame ran without it)
+    (lambda box: evaluate_rotation({"a": [box, box]}, methods=["pca_vertices", "ocsvm"], resolution=128),
+     r"^resolution is an option of the core and head frames, which the methods pca_vertices, ocsvm do not include"),
+    (lambda box: evaluate_rotation({"a": [box, box]}, methods=["head"], ocsvm={"gamma": 20.0}),
+     r"^ocsvm is an option of the ocsvm frame, which the methods head do not include; leave it out$"),
 ])
 def test_frame_options_are_checked_before_any_work(call, message):
     with pytest.raises(jaxpose.InvalidInputError, match=message):

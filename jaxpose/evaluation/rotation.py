@@ -177,6 +177,11 @@ def evaluate_rotation(classes, methods=None, variants=("plain",), align_core=Fal
     check_callback(progress, "progress")
     check_known(options, ("resolution", "ocsvm"))  # (frame_of's TypeError at the first shape)
     check_frame_options(options.get("resolution"), options.get("ocsvm"))  # not each method's error cell
+    unread = [(key, readers) for key, readers in (("resolution", SOLID_FRAMES), ("ocsvm", ("ocsvm",)))
+              if options.get(key) not in (None, {}) and not set(readers) & set(methods)]
+    for key, readers in unread:  # given, nothing would read it (frame_of refuses it where a frame does not)
+        raise InvalidInputError(f"{key} is an option of the {' and '.join(readers)} frame{'s' if len(readers) > 1 else ''}, "
+                                f"which the methods {', '.join(methods)} do not include; leave it out")
     if align_core:
         classes = alignment.align_classes(classes, weight=core_weight)
     ocsvm = {"seed": seed, **options.pop("ocsvm", {})}

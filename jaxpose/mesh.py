@@ -108,7 +108,7 @@ def check_arguments(gamma=None, nu=None, count=None, seed=None, sampling=None, m
         elif ocsvm_runs:  # the ocsvm frame alone: its option, as the other options reach it
             options = {**options, "resolution": resolution}
         else:
-            raise InvalidInputError(estimators.resolution_unread([(c_name, s_name)], ocsvm=True))
+            raise InvalidInputError(estimators.resolution_unread([(c_name, s_name)], ocsvm=True, frame=frame_name))
     if ocsvm_runs:
         PoseConfig.create(**options)  # every option's value and the grid's memory
     return c_name, s_name, extra, options, frame_name

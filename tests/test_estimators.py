@@ -357,6 +357,9 @@ def test_a_resolution_where_only_the_frame_reads_one_is_the_frames():
                                                 r"estimator and frame, which the chosen estimators \(center "
                                                 r"solid_centroid, scale gyration_radius\) do not use"):
         mesh.normalize_mesh(body, method="solid", resolution=128)
+    with pytest.raises(InvalidInputError, match=r"\(center solid_centroid, scale gyration_radius\) and the pca_vertices "
+                                                r"frame do not use; leave it out$"):  # the chosen frame reads none either
+        mesh.check_arguments(method="solid", rotation="pca_vertices", resolution=128)
     # a dataset's settings: the frame's default written out is the default left out
     robust = RobustConfig().resolution
     solid_head = NormalizeOptions(method="solid", rotation=True)

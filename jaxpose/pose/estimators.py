@@ -137,23 +137,25 @@ def reads_resolution(c_name, s_name):
     return c_name == "robust_depth" or s_name == "robust_volume"
 
 
-def resolution_unread(pairs, methods=None, ocsvm=False):
+def resolution_unread(pairs, methods=None, ocsvm=False, frame=None):
     """The one wording of a ``resolution`` refused where no estimator reads it: the robust solid's
     (the robust_depth center, the robust_volume scale), and with ``ocsvm`` (:func:`jaxpose.normalize_mesh`,
     where it is also the core and head frames' solid's and the OCSVM grid's) those; ``pairs``, ``methods`` as
-    :func:`strict_unread`'s. Returns the message."""
+    :func:`strict_unread`'s; ``frame``: the rotation's frame method, named beside the estimators where
+    one is chosen (it reads none either). Returns the message."""
     also = ", the core and head frames, and the ocsvm estimator and frame" if ocsvm else ""
     hint = "leave it out" if ocsvm else "for ocsvm give it in ocsvm={'resolution': ...}"
     return (f"resolution applies to the robust solid (the robust_depth center, the robust_volume scale){also}, "
-            f"which {_chosen(pairs, methods)}; {hint}")
+            f"which {_chosen(pairs, methods, frame)}; {hint}")
 
 
-def _chosen(pairs, methods=None):
-    """How a refusal names the estimators that do not use an option: one (center, scale) pair, or
-    ``methods``, with the verb."""
+def _chosen(pairs, methods=None, frame=None):
+    """How a refusal names the estimators that do not use an option: one (center, scale) pair (and
+    the rotation's ``frame`` method, if any), or ``methods``, with the verb."""
     if methods is None:
         (c_name, s_name), = pairs
-        return f"the chosen estimators (center {c_name}, scale {s_name}) do not use"
+        also = f" and the {frame} frame" if frame else ""
+        return f"the chosen estimators (center {c_name}, scale {s_name}){also} do not use"
     return f"the method {methods[0]} does not use" if len(methods) == 1 else \
         f"the methods {', '.join(methods)} do not use"
 

@@ -148,10 +148,37 @@ def no_work(monkeypatch):
     (["--methods", "robust", "--sweep", "--gamma", "30", "--nu", "0.2"],
      "--gamma, --nu apply to the ocsvm method (the paper's), which this evaluation does not run, and --sweep sets "
      "gamma and nu itself (add ocsvm to --methods, or leave them out)"),
+    # a name given twice: it ran twice, two rows and a 0.0 ms/object, or a class's frames counted twice
+    (["--methods", "robust,bbox,robust"], "methods names 'robust' twice"),
+    (["--methods", "depth_weighted_solid:2,depth_weighted_solid:2.0"], "names 'depth_weighted_solid:2.0' twice "
+                                                                        "(as 'depth_weighted_solid:2')"),
+    (["--variants", "plain,holes,plain"], "variants names 'plain' twice"),
+    (["--rotation", "head,pca_vertices,head"], "--rotation names 'head' twice"),
 ])
 def test_evaluate_usage_errors_exit_2_before_the_work(capsys, no_work, args, fragment):
     assert cli.main(["evaluate", *args]) == 2
     assert fragment in _err(capsys)
+
+
+def test_evaluate_method_lists_may_carry_spaces(capsys, monkeypatch):
+    """``--methods "bbox, vertex_mean"`` and ``--rotation "head, core"`` as ``--variants "plain,
+    holes"`` (they were unknown methods ' vertex_mean', ' core', exit 2)."""
+    from jaxpose import evaluation
+    from jaxpose.errors import JaxposeError
+
+    seen = []
+
+    def stop(classes, **kw):
+        seen.append(kw["methods"])
+        raise JaxposeError("stop: the methods are what this test reads")
+
+    monkeypatch.setattr(evaluation, "evaluate", stop)
+    monkeypatch.setattr(evaluation, "evaluate_rotation", stop)
+    common = ["--classes", "chair", "--instances", "2", "--variants", "plain"]
+    assert cli.main(["evaluate", *common, "--methods", "bbox, vertex_mean"]) == 1
+    assert cli.main(["evaluate", *common, "--rotation", " head, core "]) == 1
+    assert seen == [["bbox", "vertex_mean"], ["head", "core"]]
+    assert "stop: the methods" in _err(capsys)
 
 
 def test_evaluate_output_paths_are_checked_before_the_work(tmp_path, capsys, no_work):

@@ -265,6 +265,22 @@ def test_align_core_names_the_class_and_the_file_that_differs(tmp_path):
     (lambda: sweep({"boxes": _boxes()}, "gamma", fixed={"nu": 0.1, "mu": 0.1}), r"keys 'gamma' and 'nu' only"),
     (lambda: sweep({"boxes": _boxes()}, "nu", fixed={"nu": 0.1}), r"fixed must give the other parameter, \{'gamma'"),
     (lambda: sweep({"boxes": _boxes()}, "gamma", values="47"), "values must be a list of numbers, got the string '47'"),
+    # a name given twice ran twice: two rows, one timed 0.0 ms; a frame's class counted each instance twice
+    (lambda: evaluate({"boxes": _boxes()}, methods=["bbox", "vertex_mean", "bbox"]), "methods names 'bbox' twice"),
+    (lambda: evaluate({"boxes": _boxes()}, methods=["robust:2", "robust:2.0"]), r"'robust:2.0' twice \(as 'robust:2'\)"),
+    (lambda: evaluate({"boxes": _boxes()}, methods=["bbox"], variants=["plain", "plain"]), "variants names 'plain' twice"),
+    (lambda: evaluation.evaluate_rotation({"boxes": _boxes()}, methods=["pca_vertices", "pca_vertices"]),
+     "methods names 'pca_vertices' twice"),
+    (lambda: evaluation.evaluate_rotation({"boxes": _boxes()}, methods=["pca_vertices"], variants=["holes", "holes"]),
+     "variants names 'holes' twice"),
+    # a class that is not a list of meshes: TypeError (no len()) or AttributeError (no .vertices) in the run
+    (lambda: evaluate({"box": _boxes()[0]}, methods=["bbox"]), r"class 'box' must be a list of meshes, got Trimesh: "
+                                                               r"pass \{'box': \[...\]\}"),
+    (lambda: evaluate({"boxes": (m for m in _boxes())}, methods=["bbox"]), "class 'boxes' must be a list of meshes, got generator"),
+    (lambda: evaluate({"boxes": [_boxes()[0], np.zeros((8, 3))]}, methods=["bbox"]),
+     "class 'boxes': object 1 must be a mesh .* got ndarray"),
+    (lambda: evaluation.evaluate_rotation({"box": _boxes()[0]}, methods=["pca_vertices"]), "class 'box' must be a list"),
+    (lambda: sweep({"boxes": [_boxes()[0], "a.ply"]}), "class 'boxes': object 1 must be a mesh .* got str"),
 ])
 def test_arguments_of_the_wrong_kind_are_refused_by_name(call, message):
     with pytest.raises(InvalidInputError, match=message):

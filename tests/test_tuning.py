@@ -181,6 +181,8 @@ def test_cli_tune_bad_numbers_are_usage_errors(capsys):
                            # these were exit 1 after loading every class
                            (["--variants", "plain,bogus"], "unknown variants ['bogus']"),
                            (["--variants", ","], "unknown variants []"),
+                           # its classes were made twice, under one name each
+                           (["--variants", "plain,holes,plain"], "variants names 'plain' twice"),
                            (["--classes", "human,nope"], "unknown class 'nope'"),
                            (["--resolution", "4"], "resolution must be >= 8"),
                            (["--refine", "3"], "refine must be a power of 2"),

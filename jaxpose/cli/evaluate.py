@@ -49,11 +49,11 @@ _OCSVM_OPTIONS = ("gamma", "nu", "count")
 def _evaluate_usage(args):
     """The evaluation's arguments checked and resolved before any work: (methods, variants, ocsvm
     options), or a usage error (exit 2) naming what is wrong."""
-    from ..evaluation.consistency import _check_methods, _check_variants
+    from ..evaluation.consistency import _check_methods, _check_unique, _check_variants
     from ..rotation.rotation import ROTATIONS
     from ..batch.task import NormalizeOptions
 
-    methods = [m for m in args.methods.split(",") if m] if args.methods else None
+    methods = _names(args.methods) if args.methods else None
     variants = variant_names(args.variants)
     _check_variants(variants)
     rotation = args.rotation is not None  # '--rotation ""' names no method: refused, not the center/scale run
@@ -63,10 +63,11 @@ def _evaluate_usage(args):
             raise _Usage(f"{' and '.join(ignored)} {'choose' if len(ignored) > 1 else 'chooses'} what the center "
                          "and scale run measures; --rotation measures canonical frames instead (name its methods "
                          f"there: --rotation {','.join(ROTATIONS[:2])}), so drop {'them' if len(ignored) > 1 else 'it'}")
-        rotations = ROTATIONS if args.rotation == "all" else [m for m in args.rotation.split(",") if m]
+        rotations = ROTATIONS if args.rotation == "all" else _names(args.rotation)
         unknown = [m for m in rotations if m not in ROTATIONS]
         if unknown or not rotations:  # the evaluation's own check, before the dataset is made or read
             raise _Usage(f"--rotation: unknown rotation methods {unknown}; valid: all, {', '.join(ROTATIONS)}")
+        _check_unique(rotations, "--rotation")
         uses_ocsvm = "ocsvm" in rotations
     else:
         names = [str(m).partition(":")[0] for m in _check_methods(methods)]
@@ -91,6 +92,12 @@ def _evaluate_usage(args):
     checked = NormalizeOptions(method="ocsvm", seed=args.seed, **given)  # gamma > 0, nu in [0, 1], count >= 4, seed
     # what was given, checked (the library fills in the defaults, and refuses what nothing reads)
     return methods, variants, {name: getattr(checked, name) for name in ("gamma", "nu", "count") if name in given}
+
+
+def _names(text):
+    """A comma list's names, spaces around them dropped (as ``--variants``': "robust, bbox" named
+    ' bbox', an unknown method)."""
+    return [name.strip() for name in text.split(",") if name.strip()]
 
 
 class _Usage(Exception):
@@ -128,7 +135,7 @@ def run(args):
     if args.data:
         classes = datasets.load_folder(args.data)
     else:
-        names = [c for c in args.classes.split(",") if c] if args.classes else None
+        names = _names(args.classes) if args.classes else None
         try:
             classes = datasets.make_dataset(seed=args.seed, instances=10 if args.instances is None else args.instances,
                                             classes=names)
@@ -150,7 +157,7 @@ def run(args):
 def _evaluate_rotation(args, classes, variants, ocsvm):
     from .. import evaluation
 
-    methods = None if args.rotation == "all" else [m for m in args.rotation.split(",") if m]
+    methods = None if args.rotation == "all" else _names(args.rotation)
     with _ProgressBar() as progress:
         result = evaluation.evaluate_rotation(classes, methods=methods, variants=variants, align_core=args.align_core,
                                               core_weight=args.core_weight, seed=args.seed, progress=progress,

@@ -77,11 +77,10 @@ def load_classes(folder, names=None, align_core=False, variants=("plain",), seed
     optionally rigid-core aligned (the core a share of ``core_weight``: "vertices" or "area"), in each input variant (:mod:`jaxpose.evaluation.variants`)."""
     from .. import datasets
     from ..evaluation import alignment
-    from ..evaluation.variants import VARIANTS, make_class
+    from ..evaluation.consistency import _check_variants
+    from ..evaluation.variants import make_class
 
-    unknown = [v for v in variants if v not in VARIANTS]
-    if unknown or not variants:
-        raise InvalidInputError(f"unknown variants {unknown}; valid: {', '.join(VARIANTS)}")
+    _check_variants(variants)  # unknown, or one named twice (its classes were one, made twice)
     if folder is None:
         meshes = datasets.make_dataset(seed, instances=instances, classes=names)
     else:
@@ -143,7 +142,7 @@ def _run(args) -> int:
                                     "class of DIR")
         check_core_options(args.align_core, args.core_weight)
         variants = tuple(variant_names(args.variants))
-        names = args.classes.split(",") if args.classes else None
+        names = [name.strip() for name in args.classes.split(",") if name.strip()] if args.classes else None
         _check_choices(args, options, variants, names)
     except InvalidInputError as exc:  # a usage error: before any work
         return fail(exc, code=2)
@@ -194,11 +193,9 @@ def _check_choices(args, options, variants, names):
     a usage error): the variants, the built-in dataset's class names, the grid and solver options
     (``--resolution``, ``--refine``, ``--band``, ``--tol``; the robust method's ``--resolution``)."""
     from ..config import PoseConfig, RobustConfig
-    from ..evaluation.variants import VARIANTS
+    from ..evaluation.consistency import _check_variants
 
-    unknown = [v for v in variants if v not in VARIANTS]
-    if unknown or not variants:
-        raise InvalidInputError(f"unknown variants {unknown}; valid: {', '.join(VARIANTS)}")
+    _check_variants(variants)
     if args.data is None and names:
         from ..datasets.procedural import _check_class
 

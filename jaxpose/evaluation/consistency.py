@@ -65,11 +65,36 @@ def _ocsvm(points_list, gamma, nu, options):
 
 
 def _check_classes(classes):
+    """``classes`` as {name: [mesh, ...]} with at least 2 meshes (trimesh.Trimesh, or PointCloud)
+    per class; InvalidInputError naming the class otherwise (a mesh in place of the list, a
+    generator, an array were TypeError or AttributeError deep in the run)."""
     if not isinstance(classes, dict) or not classes:
         raise InvalidInputError("classes must be a non-empty dict {class name: [meshes]}")
     for name, meshes in classes.items():
+        if not isinstance(meshes, (list, tuple)):
+            raise InvalidInputError(f"class {name!r} must be a list of meshes, got {type(meshes).__name__}"
+                                    + (f": pass {{{name!r}: [...]}}" if hasattr(meshes, "vertices") else ""))
         if len(meshes) < 2:
             raise InvalidInputError(f"class {name!r} needs at least 2 objects, got {len(meshes)}")
+        for k, mesh in enumerate(meshes):
+            if not hasattr(mesh, "vertices"):
+                raise InvalidInputError(f"class {name!r}: object {k} must be a mesh (trimesh.Trimesh, or a "
+                                        f"PointCloud), got {type(mesh).__name__}")
+
+
+def _check_unique(names, what, key=None):
+    """Refuse a name given twice in ``names`` (InvalidInputError naming it; ``key(name)``, default
+    the name itself, tells two spellings of one apart, e.g. ``"depth_weighted_solid:2"`` and
+    ``":2.0"``): each is run once and kept under its name, so a repeat ran twice, and its result
+    (a dict keyed by name) kept one of the runs beside two rows, or doubled a class's instances."""
+    seen = {}
+    for name in names:
+        k = name if key is None else key(name)
+        if k in seen:
+            same = "" if seen[k] == name else f" (as {seen[k]!r})"
+            raise InvalidInputError(f"{what} names {name!r} twice{same}; give each once")
+        seen[k] = name
+    return names
 
 
 def _check_methods(methods):
@@ -80,7 +105,7 @@ def _check_methods(methods):
         raise InvalidInputError("methods must not be empty")
     for spec in methods:
         parse_method(spec)
-    return methods
+    return _check_unique(methods, "methods", parse_method)
 
 
 def _check_ocsvm(gamma, nu, count, seed, options):
@@ -104,7 +129,7 @@ def _check_variants(variants):
     unknown = [v for v in variants if v not in VARIANTS]
     if unknown or not variants:
         raise InvalidInputError(f"unknown variants {unknown}; valid: {', '.join(VARIANTS)}")
-    return variants
+    return _check_unique(variants, "variants")
 
 
 def _any_ocsvm(methods):
@@ -205,7 +230,7 @@ def evaluate(classes, gamma=None, nu=None, methods=None, count=None, seed=OCSVM.
         evaluate`` refuse them.
       methods: names of :data:`jaxpose.pose.estimators.METHODS`, optionally ``"name:power"`` for the
         depth exponent (default :data:`METHODS`: every estimator, the depth-weighted solid at
-        powers 2 and 4).
+        powers 2 and 4), each once.
       count, seed: surface samples per mesh for ``ocsvm`` (None: the default; refused as gamma
         where nothing reads it); ``seed`` also seeds the variants.
       align_core: first rigidly align each class with :func:`jaxpose.evaluation.align_core` (the
@@ -214,7 +239,7 @@ def evaluate(classes, gamma=None, nu=None, methods=None, count=None, seed=OCSVM.
         ``"area"`` (:func:`jaxpose.evaluation.align_core`'s ``weight``).
       progress: optional callable(done, total, message), told as each (variant, class) starts.
       sweep: also run :func:`sweep` over gamma and nu (paper, Fig. 5) into ``result["sweeps"]``.
-      variants: names of :data:`jaxpose.evaluation.variants.VARIANTS`, each made from the aligned
+      variants: names of :data:`jaxpose.evaluation.variants.VARIANTS` (each once), each made from the aligned
         meshes (:func:`jaxpose.evaluation.variants.make_class`).
 
     Returns:
@@ -229,7 +254,7 @@ def evaluate(classes, gamma=None, nu=None, methods=None, count=None, seed=OCSVM.
       and the ``centers`` and ``scales`` per object, or ``error``.
 
     Raises:
-      InvalidInputError: bad classes, methods, variants or core_weight, or a bad gamma, nu, count,
+      InvalidInputError: bad classes, methods, variants (unknown, or one named twice) or core_weight, or a bad gamma, nu, count,
         seed or normalize option, or one of the OCSVM's given where none runs (named, before any work).
     """
     _check_classes(classes)

@@ -24,8 +24,9 @@ import numpy as np
 from .._validate import (InvalidInputError, JaxposeError, check_bool, check_callback, check_int, check_known, check_names,
                          is_real_dtype)
 from . import alignment
+from .consistency import _check_classes, _check_unique, _check_variants
 from .tables import check_result, class_tables
-from .variants import VARIANTS, make_class
+from .variants import make_class
 
 __all__ = ["PROPER_FLIPS", "angle", "chordal_mean", "class_angles", "sign_free_angles", "evaluate_rotation",
            "format_rotation_table", "format_rotation_per_class", "ROTATION_KEYS", "FAR"]
@@ -137,8 +138,8 @@ def evaluate_rotation(classes, methods=None, variants=("plain",), align_core=Fal
 
     Args:
       classes: {class name: [Trimesh, ...]} (at least 2 per class).
-      methods: names of :data:`jaxpose.rotation.rotation.ROTATIONS` (default: all of them).
-      variants: names of :data:`jaxpose.evaluation.variants.VARIANTS`, made from the aligned meshes.
+      methods: names of :data:`jaxpose.rotation.rotation.ROTATIONS`, each once (default: all of them).
+      variants: names of :data:`jaxpose.evaluation.variants.VARIANTS`, each once, made from the aligned meshes.
       align_core: first rigidly align each class (:func:`jaxpose.evaluation.align_core`).
       core_weight: ``"vertices"`` or ``"area"``, ``align_core``'s ``weight``.
       seed: seeds the variants (and the OCSVM samples).
@@ -162,15 +163,13 @@ def evaluate_rotation(classes, methods=None, variants=("plain",), align_core=Fal
     from ..rotation.rotation import ROTATIONS, SOLID_FRAMES, check_frame_options, frame_of
     from .. import baselines
 
-    if not isinstance(classes, dict) or not classes or any(len(m) < 2 for m in classes.values()):
-        raise InvalidInputError("classes must be a non-empty dict {class name: [at least 2 meshes]}")
+    _check_classes(classes)
     methods = ROTATIONS if methods is None else check_names(methods, "methods")
     unknown = [m for m in methods if m not in ROTATIONS]
     if unknown or not methods:
         raise InvalidInputError(f"unknown rotation methods {unknown}; valid: {', '.join(ROTATIONS)}")
-    variants = check_names(variants, "variants")
-    if not variants or any(v not in VARIANTS for v in variants):
-        raise InvalidInputError(f"unknown variants {list(variants)}; valid: {', '.join(VARIANTS)}")
+    _check_unique(methods, "methods")  # (a repeat doubled each class's instances)
+    variants = _check_variants(variants)
     alignment.check_core_weight(core_weight)
     seed = check_int(seed, "seed", 0)  # a NumPy or JAX integer scalar as its int (a bool, a float refused)
     align_core, frames = check_bool(align_core, "align_core"), check_bool(frames, "frames")

@@ -80,6 +80,29 @@ def _check_result(result, kind):
     return check_result(result, kind)
 
 
+def _blocks(result):
+    """{variant: {"summary", "per_class"}} of an evaluation result (one without ``variants``: its
+    summary as "plain")."""
+    return result.get("variants") or {"plain": {"summary": result["summary"], "per_class": result["per_class"]}}
+
+
+def _variant(blocks, variant):
+    """(name, block) of ``variant`` in ``blocks`` (None: the first); InvalidInputError naming the
+    variants the result holds otherwise (was a KeyError)."""
+    if variant is None:
+        variant = next(iter(blocks))
+    if not isinstance(variant, str) or variant not in blocks:
+        raise InvalidInputError(f"variant {variant!r} is not in the result; it holds {', '.join(map(repr, blocks))}")
+    return variant, blocks[variant]
+
+
+def _check_metric(metric):
+    """One of :data:`METRIC_LABELS` (InvalidInputError naming them otherwise)."""
+    if not isinstance(metric, str) or metric not in METRIC_LABELS:
+        raise InvalidInputError(f"metric must be one of {', '.join(map(repr, METRIC_LABELS))}, got {metric!r}")
+    return metric
+
+
 def _check_plane(plane, name="plane"):
     """One of the planes "xy", "xz", "yz" (InvalidInputError naming ``name`` otherwise)."""
     if not isinstance(plane, str) or plane not in _PLANES:
@@ -96,6 +119,9 @@ def _vertices_faces(mesh_or_points):
     f = np.asarray(f, dtype=np.int64) if f is not None and len(f) > 0 else None
     if v.ndim != 2 or v.shape[1] != 3 or len(v) == 0:
         raise InvalidInputError(f"expected a mesh or an (n, 3) array of points, got shape {v.shape}")
+    bad = int(np.count_nonzero(~np.all(np.isfinite(v), axis=1)))
+    if bad:  # (matplotlib's "Axis limits cannot be NaN or Inf")
+        raise InvalidInputError(f"expected finite coordinates, got {bad} of {len(v)} points with NaN or inf")
     return v, f
 
 
@@ -294,6 +320,13 @@ _GREEK = {"gamma": "γ", "nu": "ν"}
 
 
 def _sweeps(result_sweeps):
+    if isinstance(result_sweeps, dict) and "summary" in result_sweeps and "sweeps" not in result_sweeps:
+        raise InvalidInputError("the result holds no sweeps (evaluate(..., sweep=True), jaxpose evaluate --sweep, "
+                                "records them)")  # (was KeyError 'average')
+    if not isinstance(result_sweeps, dict) or not ("param" in result_sweeps or "sweeps" in result_sweeps or all(
+            isinstance(v, dict) and "param" in v for v in result_sweeps.values())):  # (a TypeError, AttributeError)
+        raise InvalidInputError("result_sweeps must be evaluate()'s result or its 'sweeps', or one sweep() dict, "
+                                f"got {result_sweeps!r:.80}")
     if "param" in result_sweeps:  # one sweep
         return {result_sweeps["param"]: result_sweeps}
     if "sweeps" in result_sweeps:  # a whole evaluate() result
@@ -408,6 +441,10 @@ def scale_bars(result, *, metric="sigma_scale", methods=("ocsvm", "surface_centr
     :func:`jaxpose.evaluation.evaluate` result, the average over classes last; the legend beside
     the axes, the units on the y axis."""
     _check_result(result, "evaluate")
+    from ._validate import check_names
+
+    _check_metric(metric)
+    methods = check_names(methods, "methods")  # (a string: its letters, none of them a method)
     per_class = result["per_class"]
     classes = list(per_class)
     methods = [m for m in methods if all(metric in per_class[c].get(m, {}) for c in classes)]
@@ -435,11 +472,10 @@ def class_bars(result, variant=None, *, path=None):
     :func:`jaxpose.evaluation.evaluate` result. Methods that do not apply to the variant are left
     out (named in the title)."""
     _check_result(result, "evaluate")
-    blocks = result.get("variants") or {"plain": {"summary": result["summary"], "per_class": result["per_class"]}}
-    variant = variant or next(iter(blocks))
-    per_class = blocks[variant]["per_class"]
+    variant, block = _variant(_blocks(result), variant)
+    per_class = block["per_class"]
     classes = list(per_class)
-    every = [row["method"] for row in blocks[variant]["summary"]]
+    every = [row["method"] for row in block["summary"]]
     methods = [m for m in every if all("sigma_tr" in per_class[c].get(m, {}) for c in classes)]
     if not methods:
         raise InvalidInputError(f"no method applies to variant {variant!r}")
@@ -466,8 +502,9 @@ def variant_bars(result, *, metric="sigma_tr", ax=None, path=None):
     result (averages over classes; methods that do not apply to a variant are left out); one
     colour per method, the legend beside the axes, the units on the y axis."""
     _check_result(result, "evaluate")
-    variants = result["variants"]
-    methods = list(result["params"]["methods"])
+    _check_metric(metric)
+    variants = _blocks(result)
+    methods = [row["method"] for row in next(iter(variants.values()))["summary"]]
     fig, axes = _figure(ax, size=(min(14.0, 1.6 * len(variants) + 4.0), 3.4))
     values = {}
     for m in methods:
@@ -488,8 +525,8 @@ def variants_figure(result, *, path=None):
     averaged over classes, one colour per method; a method that does not apply to a variant has
     no bar there."""
     _check_result(result, "evaluate")
-    variants = result["variants"]
-    methods = list(result["params"]["methods"])
+    variants = _blocks(result)
+    methods = [row["method"] for row in next(iter(variants.values()))["summary"]]
     fig, axes = _figure(None, 2, 1, size=(min(14.0, 1.6 * len(variants) + 6.0), 2.8))
     for a, metric in zip(axes, ("sigma_tr", "cv_scale")):
         values = {}
@@ -566,7 +603,7 @@ def evaluation_figures(result, out_dir) -> list:
     _check_result(result, "evaluate")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    blocks = result.get("variants") or {"plain": {"summary": result["summary"], "per_class": result["per_class"]}}
+    blocks = _blocks(result)
     written = []
     for variant in blocks:
         p = out / f"consistency_{variant}.png"
@@ -598,8 +635,7 @@ def rotation_angles(result, variant=None, *, ax=None, path=None):
     result; each class its own colour and marker, raw angles filled (left), sign-free hollow
     (right), flagged frames ringed in red; 30 degrees dashed."""
     _check_result(result, "evaluate_rotation")
-    variant = variant or next(iter(result["variants"]))
-    block = result["variants"][variant]
+    variant, block = _variant(result["variants"], variant)
     methods = [row["method"] for row in block["summary"]]
     classes = list(block["per_class"])
     fig, axes = _figure(ax, size=(1.2 * len(methods) + 3.0, 3.8))

@@ -213,6 +213,29 @@ def test_sweep_curves_refuses_a_metric_or_param_it_has_not(fake_result):
         plot.sweep_curves(fake_result["sweeps"], param="power")  # was KeyError 'power'
 
 
+def test_result_figures_refuse_what_the_result_does_not_hold(fake_result):
+    """A variant, metric or methods the result has not (or a sweep of a result without sweeps)
+    was a KeyError ('holes', 'sigma', 'average'), a TypeError, or "none of the methods is in the
+    result" for a string's letters; NaN points were matplotlib's "Axis limits cannot be NaN"."""
+    rotation = {"variants": {"plain": {"summary": [{"method": "core"}],
+                                       "per_class": {"dog": {"core": {"raw": [1.0, 2.0], "sign_free": [1.0, 2.0],
+                                                                      "ambiguity": [0.0, 0.0]}}}}}}
+    no_sweeps = {k: v for k, v in fake_result.items() if k != "sweeps"}
+    for call, message in (
+            (lambda: plot.class_bars(fake_result, "holes"), r"^variant 'holes' is not in the result; it holds 'plain'$"),
+            (lambda: plot.rotation_angles(rotation, "holes"), r"^variant 'holes' is not in the result; it holds 'plain'$"),
+            (lambda: plot.variant_bars(fake_result, metric="sigma"), r"^metric must be one of 'sigma_tr', .*got 'sigma'$"),
+            (lambda: plot.scale_bars(fake_result, metric="cv"), r"^metric must be one of 'sigma_tr', .*got 'cv'$"),
+            (lambda: plot.scale_bars(fake_result, methods="ocsvm"), "methods must be a list of names, got the string"),
+            (lambda: plot.sweep_curves(None), "result_sweeps must be evaluate"),
+            (lambda: plot.sweep_curves({"gamma": 1.0}), "result_sweeps must be evaluate"),
+            (lambda: plot.sweep_curves(no_sweeps), r"the result holds no sweeps \(evaluate\(..., sweep=True\)"),
+            (lambda: plot.mesh_3d(np.full((4, 3), np.nan)), "expected finite coordinates, got 4 of 4 points")):
+        with pytest.raises(InvalidInputError, match=message):
+            call()
+    assert len(plot.variant_bars(fake_result).axes) == 1  # a result without "variants" (was KeyError 'variants')
+
+
 def test_sweep_curves(tmp_path, fake_result):
     fig = plot.sweep_curves(fake_result["sweeps"], path=tmp_path / "avg.png")
     assert len(fig.axes) == 2

@@ -532,6 +532,26 @@ def test_measures():
         angle(rs[0], np.eye(2))
 
 
+def test_measures_refuse_matrices_that_are_not_rotations():
+    """Zeros, a scaled rotation or a reflection were measured all the same (zeros: 180 degrees from
+    their "mean"); sign_free_angles(iterations=0) was UnboundLocalError. A float32 frame passes."""
+    from scipy.spatial.transform import Rotation
+
+    rs = Rotation.random(3, random_state=5).as_matrix()
+    np.testing.assert_allclose(class_angles(rs.astype(np.float32)), class_angles(rs), atol=1e-3)
+    np.testing.assert_allclose(chordal_mean(np.stack([rs[0]] * 2).astype(np.float32)), rs[0], atol=1e-6)
+    mirrored = rs.copy()
+    mirrored[1] = np.diag([1.0, 1.0, -1.0]) @ rs[1]
+    for bad, fragment in ((np.zeros((2, 3, 3)), r"2 of 2 are not, e\.g\. rotations\[0\]"),
+                          (rs * 1.01, r"3 of 3 are not"), (mirrored, r"1 of 3 are not, e\.g\. rotations\[1\] .*det -1")):
+        for measure in (chordal_mean, class_angles, sign_free_angles):
+            with pytest.raises(jaxpose.InvalidInputError, match=r"^rotations must be proper rotations .*" + fragment):
+                measure(bad)
+    for bad, message in ((0, ">= 1, got 0"), ("2", "an int, got '2'")):
+        with pytest.raises(jaxpose.InvalidInputError, match=f"^iterations must be {message}"):
+            sign_free_angles(rs, iterations=bad)
+
+
 def _turn_z(degrees):
     t = np.radians(degrees)
     return np.array([[np.cos(t), -np.sin(t), 0.0], [np.sin(t), np.cos(t), 0.0], [0.0, 0.0, 1.0]])

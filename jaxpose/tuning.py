@@ -137,7 +137,10 @@ def _split(classes, holdout, seed):
         raise _validate.InvalidInputError(f"holdout must be in [0, 1), got {holdout}")
     names = sorted(classes)
     if len(names) < 2:
-        raise _validate.InvalidInputError(f"holdout needs at least 2 classes, got {len(names)}")
+        raise _validate.InvalidInputError(
+            f"holdout={holdout:g} holds out whole classes: it needs at least 2 (one held out, one tuned on), got "
+            f"{len(names)} ({', '.join(map(repr, names))}); pass holdout=0 to tune on it alone (checked on a fresh "
+            "draw), or holdout_classes to check on others")
     k = min(max(int(round(holdout * len(names))), 1), len(names) - 1)
     held = set(np.random.default_rng(seed).permutation(len(names))[:k].tolist())
     return ({n: classes[n] for i, n in enumerate(names) if i not in held},

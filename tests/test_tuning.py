@@ -83,8 +83,9 @@ def test_holdout_splits_whole_classes():
     assert all(train[k] == classes[k] for k in train)  # objects of a class stay together
     assert tuning._split(classes, 0.3, seed=0) == (train, test)  # seeded
     assert len(tuning._split({"a": [1, 2], "b": [1, 2]}, 0.01, seed=0)[1]) == 1  # at least one held out
-    with pytest.raises(jaxpose.InvalidInputError):
-        tuning._split({"a": [1, 2]}, 0.5, seed=0)
+    with pytest.raises(jaxpose.InvalidInputError, match=r"^holdout=0.5 holds out whole classes: it needs at least 2 "
+                                                        r".*got 1 \('a'\); pass holdout=0 to tune on it alone"):
+        tuning._split({"a": [1, 2]}, 0.5, seed=0)  # was "holdout needs at least 2 classes, got 1", no way out
     with pytest.raises(jaxpose.InvalidInputError):
         tuning._split(classes, 1.0, seed=0)
 
@@ -194,6 +195,19 @@ def test_cli_tune_bad_numbers_are_usage_errors(capsys):
         assert tuning_cli.run(argv) == 2, argv
         err = capsys.readouterr().err
         assert fragment in err and "loading classes" not in err, err
+
+
+def test_cli_tune_one_class_names_the_flag_that_tunes_it(tmp_path, capsys, monkeypatch):
+    """``jaxpose tune --data DIR`` of one class (a flat folder of poses) was "holdout needs at least
+    2 classes, got 1" (the library's argument, no flag to change): it names --holdout 0, before the work."""
+    for k in range(2):
+        trimesh.creation.box([1.0, 1.0 + k, 1.0]).export(tmp_path / f"pose_{k}.ply")
+    monkeypatch.setattr(tuning, "tune", lambda *a, **k: pytest.fail("the work started"))  # (cli.tune imports it at run)
+    assert tuning_cli.run(["--data", str(tmp_path), "--steps", "0"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert err == (f"jaxpose: error: --holdout 0.25 holds out whole classes, and {tmp_path} has one ('{tmp_path.name}'): "
+                   "pass --holdout 0 to tune on it alone (checked on a fresh draw), or --holdout-data DIR for classes "
+                   "to check on")
 
 
 def test_cli_tune_variants_all_is_every_variant(monkeypatch, capsys):

@@ -153,6 +153,10 @@ def _run(args) -> int:
         held = (load_classes(args.holdout_data, None, args.align_core, variants, args.seed, core_weight=args.core_weight)
                 if args.holdout_data else None)
         holdout = args.holdout if args.holdout is not None else (0.0 if held else 0.25)
+        if holdout > 0 and len(classes) < 2:  # (the library's words name its arguments, not these flags)
+            return fail(f"--holdout {holdout:g} holds out whole classes, and {args.data or 'the dataset'} has one "
+                        f"({', '.join(map(repr, classes))}): pass --holdout 0 to tune on it alone (checked on a fresh "
+                        "draw), or --holdout-data DIR for classes to check on")
         result = tune(classes, steps=args.steps, lr=args.lr, reg=args.reg, scale_weight=args.scale_weight,
                       holdout=holdout, holdout_classes=held, seed=args.seed, count=args.count, progress=say,
                       method=args.method, **options)

@@ -17,7 +17,10 @@ MESH_SUFFIXES = frozenset({".ply", ".obj", ".off", ".stl", ".glb", ".gltf"})
 
 
 def _mesh_files(folder: Path) -> list[Path]:
-    return sorted((p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in MESH_SUFFIXES),
+    """The mesh files of ``folder``, by name; hidden ones (``.name``: macOS's ``._pose.ply``
+    resource forks, editors' copies) skipped, as ``jaxpose normalize`` skips them."""
+    return sorted((p for p in folder.iterdir()
+                   if not p.name.startswith(".") and p.is_file() and p.suffix.lower() in MESH_SUFFIXES),
                   key=lambda p: p.name)
 
 
@@ -55,14 +58,15 @@ def load_folder(path) -> dict[str, list[trimesh.Trimesh]]:
 
     ``path`` holds one sub-folder per class (classes and files sorted by name; sub-folders
     without mesh files are skipped), or mesh files directly, then loaded as a single class
-    named after the folder. Symbolic links are followed. Vertices are kept as stored
-    (``process=False``), so meshes sharing a vertex order keep it (see
-    :func:`jaxpose.evaluation.align_core`).
+    named after the folder. Hidden files and folders (``.name``) are skipped, and so are folders
+    holding ``.jaxpose/`` (``jaxpose normalize``'s outputs), as that command skips them. Symbolic
+    links are followed. Vertices are kept as stored (``process=False``), so meshes sharing a vertex order
+    keep it (see :func:`jaxpose.evaluation.align_core`).
 
     Raises
     ------
-    InvalidInputError : a path that is not a str or Path, missing folder, no mesh files, or an
-    unreadable mesh.
+    InvalidInputError : a path that is not a str or Path, missing folder, no mesh files, mesh
+    files beside class sub-folders with some (one class, or classes?), or an unreadable mesh.
     """
     if not isinstance(path, (str, os.PathLike)):
         raise InvalidInputError(f"path must be a folder (str or Path), got {path!r:.80}")
@@ -70,13 +74,19 @@ def load_folder(path) -> dict[str, list[trimesh.Trimesh]]:
     if not root.is_dir():
         raise InvalidInputError(f"{root} is not a folder")
     files = _mesh_files(root)
+    subs = {sub: _mesh_files(sub) for sub in sorted((p for p in root.iterdir() if not p.name.startswith(".")
+                                                      and p.is_dir() and not (p / ".jaxpose").is_dir()),
+                                                     key=lambda p: p.name)}  # (.jaxpose: normalize's outputs)
+    subs = {sub: found for sub, found in subs.items() if found}
+    if files and subs:  # (the files were taken as the one class, every class folder left out without a word)
+        raise InvalidInputError(
+            f"{root} holds mesh files ({', '.join(f.name for f in files[:3])}{', ...' if len(files) > 3 else ''}) "
+            f"beside class folders with meshes ({', '.join(sub.name for sub in list(subs)[:3])}"
+            f"{', ...' if len(subs) > 3 else ''}): is it one class or a folder of classes? Move the files into a "
+            "class folder, or name one class's folder")
     if files:
         return {root.resolve().name: [_load(f) for f in files]}
-    classes = {}
-    for sub in sorted((p for p in root.iterdir() if p.is_dir()), key=lambda p: p.name):
-        sub_files = _mesh_files(sub)
-        if sub_files:
-            classes[sub.name] = [_load(f) for f in sub_files]
+    classes = {sub.name: [_load(f) for f in found] for sub, found in subs.items()}
     if not classes:
         raise InvalidInputError(
             f"{root} holds no mesh files ({', '.join(sorted(MESH_SUFFIXES))}) nor class sub-folders with some")

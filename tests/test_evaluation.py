@@ -281,6 +281,13 @@ def test_align_core_names_the_class_and_the_file_that_differs(tmp_path):
      "class 'boxes': object 1 must be a mesh .* got ndarray"),
     (lambda: evaluation.evaluate_rotation({"box": _boxes()[0]}, methods=["pca_vertices"]), "class 'box' must be a list"),
     (lambda: sweep({"boxes": [_boxes()[0], "a.ply"]}), "class 'boxes': object 1 must be a mesh .* got str"),
+    # AttributeError ('list' has no 'items'), IndexError, float()'s ValueError, NumPy's errors
+    (lambda: evaluation.align_classes(_boxes()), r"classes must be a dict \{class name: \[meshes\]\}, got list: pass"),
+    (lambda: evaluation.alignment.vertex_weights([]), "vertex_weights needs at least one mesh"),
+    (lambda: align_core(_boxes()[0]), "align_core needs a list of meshes, got Trimesh"),
+    (lambda: align_core(["a.ply", "b.ply"]), "align_core needs meshes or \\(n, 3\\) arrays, got 'a.ply' for mesh 0"),
+    (lambda: evaluation.variants.stray_mask(-1, 0, 0), "n must be >= 0, got -1"),
+    (lambda: evaluation.variants.stray_mask(1.5, 0, 0), "n must be an int, got 1.5"),
 ])
 def test_arguments_of_the_wrong_kind_are_refused_by_name(call, message):
     with pytest.raises(InvalidInputError, match=message):

@@ -56,6 +56,7 @@ def vertex_weights(meshes, weight="vertices"):
     meshes : sequence of Trimesh (or (n, 3) arrays for ``"vertices"``) with the same n
     """
     check_core_weight(weight)
+    meshes = _mesh_list(meshes, "vertex_weights")
     n = len(np.asarray(getattr(meshes[0], "vertices", meshes[0])))
     if weight == "vertices":
         return np.full(n, 1.0 / n)
@@ -73,6 +74,16 @@ def vertex_weights(meshes, weight="vertices"):
     return total / total.sum()
 
 
+def _mesh_list(meshes, what: str) -> list:
+    """``meshes`` as a non-empty list (a string, a dict or a mesh in its place refused by name)."""
+    if isinstance(meshes, (str, bytes, dict)) or hasattr(meshes, "vertices") or not hasattr(meshes, "__iter__"):
+        raise InvalidInputError(f"{what} needs a list of meshes, got {type(meshes).__name__}")
+    meshes = list(meshes)
+    if len(meshes) == 0:
+        raise InvalidInputError(f"{what} needs at least one mesh")
+    return meshes
+
+
 def _named(meshes, i: int) -> str:
     """'mesh i' and its file's name where it was read from one (``metadata["file_name"]``)."""
     name = getattr(meshes[i], "metadata", {}).get("file_name")
@@ -84,6 +95,9 @@ def align_classes(classes: dict, weight: str = "vertices") -> dict:
 
     >>> aligned = align_classes({"dog": dogs, "horse": horses}, weight="area")  # doctest: +SKIP
     """
+    if not isinstance(classes, dict):  # (a list of meshes: 'list' object has no attribute 'items')
+        raise InvalidInputError(f"classes must be a dict {{class name: [meshes]}}, got {type(classes).__name__}"
+                                + (": pass {'name': [...]}" if isinstance(classes, (list, tuple)) else ""))
     out = {}
     for name, meshes in classes.items():
         try:
@@ -113,13 +127,16 @@ def align_core(meshes, keep: float = 0.3, iterations: int = 5, weight: str = "ve
     """
     import trimesh
 
-    meshes = list(meshes)
-    if len(meshes) == 0:
-        raise InvalidInputError("align_core needs at least one mesh")
+    meshes = _mesh_list(meshes, "align_core")
     if not 0.0 < check_real(keep, "keep", 0.0, strict=True) <= 1.0:  # a string, None: by name, not '<'s TypeError
         raise InvalidInputError(f"keep must be in (0, 1], got {keep}")
     iterations = check_int(iterations, "iterations", 0)
-    vs = [np.asarray(getattr(m, "vertices", m), dtype=np.float64) for m in meshes]
+    vs = []
+    for i, m in enumerate(meshes):
+        try:
+            vs.append(np.asarray(getattr(m, "vertices", m), dtype=np.float64))
+        except (TypeError, ValueError):  # a path, a ragged list: float()'s error
+            raise InvalidInputError(f"align_core needs meshes or (n, 3) arrays, got {m!r:.60} for mesh {i}") from None
     if vs[0].ndim != 2 or vs[0].shape[1] != 3:
         raise InvalidInputError(f"align_core needs (n, 3) vertices, got shape {vs[0].shape} for {_named(meshes, 0)}")
     for i, v in enumerate(vs):

@@ -41,7 +41,8 @@ STRAY_FRACTIONS = {"outliers": (0.02, 0.05), "big_outliers": (0.08, 0.15)}
 
 def stray_mask(n: int, seed: int, class_index: int) -> np.ndarray:
     """(n,) bool: which instances of a class get a stray part (first n // 2 of a permutation);
-    seed and class_index ints >= 0 (InvalidInputError otherwise)."""
+    n, seed and class_index ints >= 0 (InvalidInputError otherwise)."""
+    n = check_int(n, "n", 0)  # (-1 was NumPy's "negative dimensions", 1.5 an AxisError)
     seed, class_index = check_int(seed, "seed", 0), check_int(class_index, "class_index", 0)
     perm = np.random.default_rng([seed, class_index]).permutation(n)
     mask = np.zeros(n, bool)

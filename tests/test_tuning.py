@@ -210,6 +210,16 @@ def test_cli_tune_one_class_names_the_flag_that_tunes_it(tmp_path, capsys, monke
                    "to check on")
 
 
+def test_cli_tune_missing_folders_are_named_before_any_class_is_loaded(tmp_path, capsys, monkeypatch):
+    """A --holdout-data that is no folder was found only after --data's classes were loaded (and
+    the built-in dataset made); both are named before."""
+    monkeypatch.setattr(tuning_cli, "load_classes", lambda *a, **k: pytest.fail("classes loaded"))
+    for flag in ("--data", "--holdout-data"):
+        assert tuning_cli.run([flag, str(tmp_path / "missing"), "--steps", "0"]) == 1
+        err = capsys.readouterr().err
+        assert err.strip() == f"jaxpose: error: {flag} {tmp_path / 'missing'} is not a folder", err
+
+
 def test_cli_tune_variants_all_is_every_variant(monkeypatch, capsys):
     """``--variants all`` is every input variant, as evaluate's (tune refused it: unknown variants
     ['all'], exit 2); names may carry spaces ("plain, holes")."""

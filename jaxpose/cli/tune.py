@@ -147,6 +147,9 @@ def _run(args) -> int:
     except InvalidInputError as exc:  # a usage error: before any work
         return fail(exc, code=2)
     try:
+        for flag, folder in (("--data", args.data), ("--holdout-data", args.holdout_data)):
+            if folder is not None and not Path(folder).is_dir():  # (--holdout-data's after loading --data's classes)
+                raise InvalidInputError(f"{flag} {folder} is not a folder")
         say("loading classes ...")
         classes = load_classes(args.data, names, args.align_core, variants, args.seed,
                                TUNE.instances if args.instances is None else args.instances, args.core_weight)

@@ -437,6 +437,17 @@ def test_evaluate_with_sweep_flag(fake_normalize, monkeypatch):
     result = evaluate({"boxes": _boxes()}, methods=["surface_centroid"], count=100, sweep=True)
     assert set(result["sweeps"]) == {"gamma", "nu"}
     assert result["sweeps"]["gamma"]["values"] == [1.0, 2.0]
+    # the table printed no sweep (jaxpose evaluate --sweep showed nothing of it without --json or --plots)
+    lines = format_table(result).splitlines()
+    for param, fixed in (("gamma", "nu=0"), ("nu", "gamma=47")):
+        block = result["sweeps"][param]
+        start = lines.index(next(line for line in lines if line.startswith(f"sweep of the ocsvm method's {param} "
+                                                                               f"({fixed}), averages over classes")))
+        rows = [line.split() for line in lines[start + 3:start + 3 + len(block["values"])]]
+        assert [float(r[0]) for r in rows] == block["values"]
+        np.testing.assert_allclose([[float(r[1]), float(r[2])] for r in rows],
+                                   np.transpose([block["average"]["sigma_tr"], block["average"]["sigma_scale"]]),
+                                   atol=5e-6)
 
 
 def test_the_formatters_name_the_result_they_take():

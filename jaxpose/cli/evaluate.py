@@ -31,7 +31,8 @@ def add_parser(sub):
     p.add_argument("--methods", help="comma-separated methods, name or name:power (default: all)")
     p.add_argument("--variants", default="all",
                    help="comma-separated input variants: plain,outliers,big_outliers,points,holes, or all (default)")
-    p.add_argument("--sweep", action="store_true", help="also sweep gamma and nu of the ocsvm method")
+    p.add_argument("--sweep", action="store_true", help="also sweep gamma and nu of the ocsvm method (a table per parameter after "
+                   "the variants'; the paper's Fig. 5 and 6 with --plots)")
     p.add_argument("--rotation", nargs="?", const="all", default=None, metavar="METHODS",
                    help="measure canonical frames instead: angle to each class's mean frame per rotation "
                         "method (comma-separated, default all: core,head,ocsvm,pca_vertices,pca_surface,inertia)")

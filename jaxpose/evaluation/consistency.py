@@ -411,7 +411,9 @@ def format_table(result) -> str:
     Columns: sigma_tr, its change against the variant's reference (the surface centroid; the
     vertex mean for point clouds), sigma_scale, cv_scale, milliseconds per object after the first
     call, and the first call's seconds (compilation included); n/a where a method does not apply.
-    The header names gamma, nu and count only when the OCSVM runs (nothing else uses them).
+    The header names gamma, nu and count only when the OCSVM runs (nothing else uses them). With
+    ``result["sweeps"]`` (``sweep=True``), a table per swept parameter follows: the class averages
+    of the OCSVM's sigma_tr and sigma_scale per value, against the surface centroid's.
     """
     check_result(result, "evaluate")
     p = result.get("params", {})
@@ -439,8 +441,24 @@ def format_table(result) -> str:
             rel = "" if rel is None else f"{100.0 * rel:+.1f}%"
             lines.append(f"{row['method']:<24}{row['sigma_tr']:>10.5f}{rel:>21}{row['sigma_scale']:>13.5f}"
                          f"{row['cv_scale']:>10.5f}{timing}")
+    lines += _sweep_lines(result.get("sweeps") or {})
     lines += ["", *LEGEND]
     return "\n".join(lines)
+
+
+def _sweep_lines(sweeps) -> list:
+    """The lines of :func:`sweep` results {param: sweep}: per value, the class averages of the
+    OCSVM's sigma_tr and sigma_scale, against the surface centroid's (nothing without sweeps)."""
+    lines = []
+    for param, block in sweeps.items():
+        fixed = ", ".join(f"{k}={v:g}" for k, v in block.get("fixed", {}).items())
+        ref = block["surface_centroid"]["average"]
+        lines += ["", f"sweep of the ocsvm method's {param} ({fixed}), averages over classes; surface centroid: "
+                      f"sigma_tr {ref['sigma_tr']:.5f}, sigma_scale {ref['sigma_scale']:.5f}",
+                  f"{param:>10}{'sigma_tr':>12}{'sigma_scale':>13}", "-" * 35]
+        lines += [f"{value:>10g}{tr:>12.5f}{sc:>13.5f}" for value, tr, sc in
+                  zip(block["values"], block["average"]["sigma_tr"], block["average"]["sigma_scale"])]
+    return lines
 
 
 def format_per_class(result) -> str:

@@ -162,7 +162,8 @@ def test_evaluate_usage_errors_exit_2_before_the_work(capsys, no_work, args, fra
 
 def test_evaluate_method_lists_may_carry_spaces(capsys, monkeypatch):
     """``--methods "bbox, vertex_mean"`` and ``--rotation "head, core"`` as ``--variants "plain,
-    holes"`` (they were unknown methods ' vertex_mean', ' core', exit 2)."""
+    holes"`` (they were unknown methods ' vertex_mean', ' core', exit 2); ``--methods all`` as
+    ``--variants all``."""
     from jaxpose import evaluation
     from jaxpose.errors import JaxposeError
 
@@ -177,7 +178,8 @@ def test_evaluate_method_lists_may_carry_spaces(capsys, monkeypatch):
     common = ["--classes", "chair", "--instances", "2", "--variants", "plain"]
     assert cli.main(["evaluate", *common, "--methods", "bbox, vertex_mean"]) == 1
     assert cli.main(["evaluate", *common, "--rotation", " head, core "]) == 1
-    assert seen == [["bbox", "vertex_mean"], ["head", "core"]]
+    assert cli.main(["evaluate", *common, "--methods", "all"]) == 1  # as --variants all (was "unknown method 'all'")
+    assert seen == [["bbox", "vertex_mean"], ["head", "core"], None]
     assert "stop: the methods" in _err(capsys)
 
 

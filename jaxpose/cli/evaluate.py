@@ -28,7 +28,8 @@ def add_parser(sub):
     add_core_options(p)
     add_svm_options(p)
     p.set_defaults(**dict.fromkeys(("gamma", "nu", "count")))  # None when not given: refused where nothing uses them
-    p.add_argument("--methods", help="comma-separated methods, name or name:power (default: all)")
+    p.add_argument("--methods", help="comma-separated methods, name or name:power, or all (default: all: every "
+                                      "estimator, depth_weighted_solid at powers 2 and 4)")
     p.add_argument("--variants", default="all",
                    help="comma-separated input variants: plain,outliers,big_outliers,points,holes, or all (default)")
     p.add_argument("--sweep", action="store_true", help="also sweep gamma and nu of the ocsvm method (a table per parameter after "
@@ -55,6 +56,7 @@ def _evaluate_usage(args):
     from ..batch.task import NormalizeOptions
 
     methods = _names(args.methods) if args.methods else None
+    methods = None if methods == ["all"] else methods  # as --variants all and --rotation all (was "unknown method 'all'")
     variants = variant_names(args.variants)
     _check_variants(variants)
     rotation = args.rotation is not None  # '--rotation ""' names no method: refused, not the center/scale run

@@ -71,7 +71,8 @@ def _check_classes(classes):
     if not isinstance(classes, dict) or not classes:
         raise InvalidInputError("classes must be a non-empty dict {class name: [meshes]}")
     for name, meshes in classes.items():
-        if not isinstance(meshes, (list, tuple)):
+        if (isinstance(meshes, (str, bytes, Mapping)) or hasattr(meshes, "vertices") or not hasattr(meshes, "__len__")
+                or not hasattr(meshes, "__getitem__")):  # a list, a tuple, a sequence (make_class's rule)
             raise InvalidInputError(f"class {name!r} must be a list of meshes, got {type(meshes).__name__}"
                                     + (f": pass {{{name!r}: [...]}}" if hasattr(meshes, "vertices") else ""))
         if len(meshes) < 2:

@@ -32,8 +32,9 @@ def add_parser(sub):
                                       "estimator, depth_weighted_solid at powers 2 and 4)")
     p.add_argument("--variants", default="all",
                    help="comma-separated input variants: plain,outliers,big_outliers,points,holes, or all (default)")
-    p.add_argument("--sweep", action="store_true", help="also sweep gamma and nu of the ocsvm method (a table per parameter after "
-                   "the variants'; the paper's Fig. 5 and 6 with --plots)")
+    p.add_argument("--sweep", action="store_true",
+                   help="also sweep gamma and nu of the ocsvm method (a table per parameter after the variants'; "
+                        "the paper's Fig. 5 and 6 with --plots)")
     p.add_argument("--rotation", nargs="?", const="all", default=None, metavar="METHODS",
                    help="measure canonical frames instead: angle to each class's mean frame per rotation "
                         "method (comma-separated, default all: core,head,ocsvm,pca_vertices,pca_surface,inertia)")
@@ -56,7 +57,7 @@ def _evaluate_usage(args):
     from ..batch.task import NormalizeOptions
 
     methods = _names(args.methods) if args.methods else None
-    methods = None if methods == ["all"] else methods  # as --variants all and --rotation all (was "unknown method 'all'")
+    methods = None if methods == ["all"] else methods  # as --variants all, --rotation all (was "unknown method")
     variants = variant_names(args.variants)
     _check_variants(variants)
     rotation = args.rotation is not None  # '--rotation ""' names no method: refused, not the center/scale run

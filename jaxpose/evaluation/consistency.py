@@ -240,8 +240,8 @@ def evaluate(classes, gamma=None, nu=None, methods=None, count=None, seed=OCSVM.
         ``"area"`` (:func:`jaxpose.evaluation.align_core`'s ``weight``).
       progress: optional callable(done, total, message), told as each (variant, class) starts.
       sweep: also run :func:`sweep` over gamma and nu (paper, Fig. 5) into ``result["sweeps"]``.
-      variants: names of :data:`jaxpose.evaluation.variants.VARIANTS` (each once), each made from the aligned
-        meshes (:func:`jaxpose.evaluation.variants.make_class`).
+      variants: names of :data:`jaxpose.evaluation.variants.VARIANTS` (each once), each made from
+        the aligned meshes (:func:`jaxpose.evaluation.variants.make_class`).
 
     Returns:
       A JSON-able dict ``{"params", "variants": {variant: {"summary": [row, ...], "per_class":
@@ -255,8 +255,9 @@ def evaluate(classes, gamma=None, nu=None, methods=None, count=None, seed=OCSVM.
       and the ``centers`` and ``scales`` per object, or ``error``.
 
     Raises:
-      InvalidInputError: bad classes, methods, variants (unknown, or one named twice) or core_weight, or a bad gamma, nu, count,
-        seed or normalize option, or one of the OCSVM's given where none runs (named, before any work).
+      InvalidInputError: bad classes, methods, variants (unknown, or one named twice) or core_weight,
+        or a bad gamma, nu, count, seed or normalize option, or one of the OCSVM's given where none
+        runs (named, before any work).
     """
     _check_classes(classes)
     methods = _check_methods(methods)

@@ -220,6 +220,27 @@ def test_cli_tune_missing_folders_are_named_before_any_class_is_loaded(tmp_path,
         assert err.strip() == f"jaxpose: error: {flag} {tmp_path / 'missing'} is not a folder", err
 
 
+def test_cli_tune_holds_out_a_class_with_every_variant(monkeypatch, capsys):
+    """With several --variants each class/variant was a class of the split: 'chair/holes' held out
+    while 'chair/plain' was tuned on, and the held-out verdict judged the tuner on the objects it had
+    seen. The split is by class, every variant of a held-out class held out (as tuning._split's rule)."""
+    seen = {}
+
+    def tune(classes, holdout, holdout_classes, seed, **kw):
+        seen.update(train=sorted(classes), held=sorted(holdout_classes or {}), holdout=holdout)
+        raise jaxpose.errors.JaxposeError("stop: the split is what this test reads")
+
+    monkeypatch.setattr(tuning, "tune", tune)
+    names = ["chair", "pot", "human", "dog"]
+    assert tuning_cli.run(["--classes", ",".join(names), "--instances", "2", "--variants", "plain,holes",
+                           "--steps", "0"]) == 1
+    assert "stop: the split" in capsys.readouterr().err
+    _, out = tuning._split(dict.fromkeys(sorted(names)), 0.25, 0)  # one of the four classes, seeded
+    assert seen["holdout"] == 0 and len(out) == 1
+    assert seen["held"] == sorted(f"{c}/{v}" for c in out for v in ("plain", "holes"))
+    assert seen["train"] == sorted(f"{c}/{v}" for c in names if c not in out for v in ("plain", "holes"))
+
+
 def test_cli_tune_variants_all_is_every_variant(monkeypatch, capsys):
     """``--variants all`` is every input variant, as evaluate's (tune refused it: unknown variants
     ['all'], exit 2); names may carry spaces ("plain, holes")."""

@@ -36,7 +36,8 @@ def parser():
                    help="fraction of the classes held out of tuning (default 0.25 without --holdout-data, else 0)")
     add_core_options(p)
     p.add_argument("--variants", default="plain", help="comma list of input variants (plain, outliers, big_outliers, "
-                   "points, holes), or all; each variant of a class counts as a class (default plain)")
+                   "points, holes), or all; each variant of a class counts as a class in the loss, and a class "
+                   "held out (--holdout) is held out in every variant (default plain)")
     p.add_argument("--classes", default=None, help="comma-separated subset of classes")
     p.add_argument("--instances", type=int, default=None,  # None: not given (refused with --data, as evaluate's)
                    help=f"built-in dataset: objects per class (default {TUNE.instances}, at most {DATASET_INSTANCES})")
@@ -156,17 +157,29 @@ def _run(args) -> int:
         held = (load_classes(args.holdout_data, None, args.align_core, variants, args.seed, core_weight=args.core_weight)
                 if args.holdout_data else None)
         holdout = args.holdout if args.holdout is not None else (0.0 if held else 0.25)
-        if holdout > 0 and len(classes) < 2:  # (the library's words name its arguments, not these flags)
+        # a class's variants ("dog/plain", "dog/holes") are one class: held out together
+        base = {name: name.rpartition("/")[0] if len(variants) > 1 else name for name in classes}
+        if holdout > 0 and len(set(base.values())) < 2:  # (the library's words name its arguments, not these flags)
             return fail(f"--holdout {holdout:g} holds out whole classes, and {args.data or 'the dataset'} has one "
-                        f"({', '.join(map(repr, classes))}): pass --holdout 0 to tune on it alone (checked on a fresh "
-                        "draw), or --holdout-data DIR for classes to check on")
+                        f"({', '.join(map(repr, sorted(set(base.values()))))}): pass --holdout 0 to tune on it alone "
+                        "(checked on a fresh draw), or --holdout-data DIR for classes to check on")
+        fraction = holdout
+        if holdout > 0 and len(variants) > 1:  # split by class, not by class/variant (a variant of a trained class
+            from ..tuning import _split        # was held out: the verdict judged the tuner on what it had seen)
+
+            _, out = _split(dict.fromkeys(sorted(set(base.values()))), holdout, args.seed)
+            split = {name: objs for name, objs in classes.items() if base[name] in out}
+            classes = {name: objs for name, objs in classes.items() if base[name] not in out}
+            other = {(k if k not in split else f"{k} ({args.holdout_data})"): v for k, v in (held or {}).items()}
+            held = {**split, **other}
+            holdout = 0.0
         result = tune(classes, steps=args.steps, lr=args.lr, reg=args.reg, scale_weight=args.scale_weight,
                       holdout=holdout, holdout_classes=held, seed=args.seed, count=args.count, progress=say,
                       method=args.method, **options)
     except JaxposeError as exc:
         return fail(exc)
     result["data"] = dict(data=args.data, holdout_data=args.holdout_data, align_core=bool(args.align_core),
-                          core_weight=args.core_weight, variants=list(variants))
+                          core_weight=args.core_weight, variants=list(variants), holdout=fraction)
     failure = _failure(result, args.method)
     if args.json:
         Path(args.json).parent.mkdir(parents=True, exist_ok=True)

@@ -41,10 +41,11 @@ def good_meshes(folder, count=3):
     return paths
 
 
-def cli(*args, timeout=180):
-    """`python -m jaxpose normalize ...` in a subprocess: (exit code, stdout, stderr)."""
+def cli(*args, timeout=180, prefix=()):
+    """`python -m jaxpose normalize ...` in a subprocess (after the command `prefix`): (exit code,
+    stdout, stderr)."""
     extra = [] if "--method" in args else ["--resolution", "16"]
-    process = subprocess.run([sys.executable, "-m", "jaxpose", "normalize", *map(str, args), *extra],
+    process = subprocess.run([*prefix, sys.executable, "-m", "jaxpose", "normalize", *map(str, args), *extra],
                              cwd=ROOT, capture_output=True, text=True, timeout=timeout)
     return process.returncode, process.stdout, process.stderr
 
@@ -382,3 +383,75 @@ def test_a_fifo_that_never_delivers_times_out_and_the_rest_completes(tmp_path):
     assert rows["never.ply"].status == "failed" and "time limit of 5 s" in rows["never.ply"].error
     assert all(rows[p.name].ok for p in good)
     print(f"FIFO with --timeout 5: the run took {wall:.1f} s")
+
+
+def as_a_user(tmp_path):
+    """A command prefix under which file permissions hold: none for a user; for root, who reads
+    anything, ``setpriv`` dropping the capabilities that override them. Skips where neither works."""
+    if os.geteuid() != 0:
+        return []
+    prefix = ["setpriv", "--bounding-set", "-dac_override,-dac_read_search"]
+    probe = tmp_path / "probe"
+    probe.write_text("x")
+    probe.chmod(0)
+    try:
+        denied = subprocess.run([*prefix, "cat", str(probe)], capture_output=True).returncode != 0
+    except OSError:
+        denied = False
+    probe.unlink()
+    if not denied:
+        pytest.skip("running as root without setpriv: permissions cannot be denied")
+    return prefix
+
+
+def test_a_folder_that_cannot_be_searched_fails_naming_it_and_a_rerun_takes_its_files(tmp_path):
+    """A sub-folder of a searched folder that cannot be listed (chmod 000) is a failed row naming
+    it, and an unreadable file one of its own; the rest of the run completes. The folder's files
+    were left out without a word (exit 0, no row), and a folder INPUT that cannot be listed gave
+    'no mesh files found'."""
+    prefix = as_a_user(tmp_path)
+    scans = tmp_path / "scans"
+    good = good_meshes(scans, count=2)
+    hidden = good_meshes(scans / "locked", count=1)
+    good[1].chmod(0)
+    (scans / "locked").chmod(0)
+    try:
+        code, out, err = cli(scans, "-o", tmp_path / "out", "--workers", "1", prefix=prefix)
+        refused = cli(scans / "locked", "-o", tmp_path / "out2", prefix=prefix)
+    finally:
+        (scans / "locked").chmod(0o755)
+        good[1].chmod(0o644)
+    assert code == 1 and "2 of 3 inputs failed" in err, err
+    rows = by_name(jaxpose.read_transforms(tmp_path / "out"))
+    assert sorted(rows) == ["good_0.ply", "good_1.ply", "locked"]
+    assert rows["locked"].status == "failed" and "cannot search this folder: Permission denied" in rows["locked"].error
+    assert rows["good_1.ply"].status == "failed" and "cannot read: Permission denied" in rows["good_1.ply"].error
+    assert f"jaxpose: failed: {scans / 'locked'}: cannot search this folder" in err
+    assert_normalized(rows["good_0.ply"])
+    assert refused[0] == 1 and "cannot search the folder" in refused[2] and "Permission denied" in refused[2]
+    assert not (tmp_path / "out2").exists()
+    again = jaxpose.normalize_files(scans, tmp_path / "out", FAST, workers=1)  # readable now: its files are done
+    assert [r.input for r in again] == [str(p) for p in good + hidden] and all(r.ok for r in again)
+    assert_normalized(again[-1])
+
+
+def test_a_file_in_a_folder_that_cannot_be_searched_fails_as_unreadable(tmp_path):
+    """A file INPUT in a folder this user may not search (chmod 000) fails as an unreadable file:
+    a failed row beside the others, or the one file's error. It raised PermissionError out of
+    pathlib (``jaxpose: error: PermissionError: [Errno 13] ...``), the whole run with it."""
+    prefix = as_a_user(tmp_path)
+    good = good_meshes(tmp_path / "scans", count=1)
+    locked = good_meshes(tmp_path / "locked", count=1)[0]
+    locked.parent.chmod(0)
+    try:
+        code, out, err = cli(locked, *good, "-o", tmp_path / "out", "--workers", "1", prefix=prefix)
+        one = cli(locked, "-o", tmp_path / "one.ply", prefix=prefix)
+    finally:
+        locked.parent.chmod(0o755)
+    assert code == 1 and "1 of 2 inputs failed" in err and "PermissionError" not in err, err
+    rows = jaxpose.read_transforms(tmp_path / "out")
+    failed = [r for r in rows if not r.ok]
+    assert [r.input for r in failed] == [str(locked)] and "cannot read: Permission denied" in failed[0].error
+    assert_normalized(next(r for r in rows if r.ok))
+    assert one[0] == 1 and one[2].strip() == f"jaxpose: error: {locked}: cannot read: Permission denied", one[2]
+    assert not (tmp_path / "one.ply").exists()

@@ -112,6 +112,7 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
     folders = {}
     items = [item._replace(source=_real_folder(item.source, folders)) for item in items]
     irregular = {_real_folder(path, folders): kind for path, kind in found.irregular.items()}
+    unsearchable = {_real_folder(path, folders): why for path, why in found.unsearchable.items()}
     fingerprint, settings = options.fingerprint(file_format), options.settings(file_format)
     fixed = options.columns()
     with open_output_folder(output_dir, force=force, shard=shard) as folder:
@@ -150,6 +151,9 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
             for item, key in todo:  # what a folder search met that is not a file: failed unread
                 if item.source in irregular:
                     run.finish(item, key, _not_regular(item.source, irregular[item.source]))
+                elif item.source in unsearchable:  # a sub-folder that cannot be listed: its files are not read
+                    run.finish(item, key, _failed(f"{item.source}: cannot search this folder: "
+                                                  f"{unsearchable[item.source]}; its files were not read"))
                 elif (refused := _unwritable(item.output)) is not None:  # failed before its work, as when written
                     run.finish(item, key, refused)
                 else:

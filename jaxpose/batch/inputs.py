@@ -12,7 +12,8 @@ keep their names), under the output folder, with the input's format or the one a
 
 A folder search takes regular files (and links to them); other files it meets (FIFOs, sockets,
 devices, links to them) are returned apart, to be recorded as failed without being opened, and
-links to folders are not followed (a link loop cannot trap it). A regular file or a FIFO named as
+links to folders are not followed (a link loop cannot trap it); a sub-folder it cannot list
+(permissions) is returned apart too, to be recorded as failed, naming it. A regular file or a FIFO named as
 an INPUT or in a manifest is read (a FIFO delivers a stream; a silent one fails after
 :data:`jaxpose.io.mesh.PIPE_WAIT_S` seconds, or sooner with ``--timeout``); sockets and devices
 fail there too ("not a file").
@@ -67,11 +68,15 @@ class Found(NamedTuple):
       root: the common folder their outputs are mirrored from.
       irregular: {path: what it is ("a FIFO", ...)} for the files of `files` that a folder search
         met and that are not regular files: they fail without being opened.
+      unsearchable: {path: why (``"Permission denied"``)} for the folders below a searched folder
+        that could not be listed (a ``chmod 000`` sub-folder): each is in `files`, where its files
+        would be, and fails, naming it (they were left out without a word).
     """
 
     files: list
     root: Path
     irregular: dict
+    unsearchable: dict = {}
 
 
 def file_kind(mode) -> str:
@@ -87,7 +92,26 @@ def file_kind(mode) -> str:
 def is_batch_input(path) -> bool:
     """Whether a command-line INPUT is a folder or a manifest (not a single mesh file)."""
     path = location(path)
-    return path.suffix.lower() in MANIFEST_SUFFIXES or path.is_dir()
+    return path.suffix.lower() in MANIFEST_SUFFIXES or _is_dir(path)
+
+
+def _is_dir(path) -> bool:
+    """``path.is_dir()``, False where the path cannot be looked at (a file in a folder this user may
+    not search: ``pathlib`` raises PermissionError there): it is then taken as a file, which fails
+    when read, saying why ("cannot read: Permission denied")."""
+    try:
+        return path.is_dir()
+    except PermissionError:
+        return False
+
+
+def _exists(path) -> bool:
+    """``path.exists()``, True where the path cannot be looked at (as :func:`_is_dir`): not missing,
+    but unreadable, which its read reports."""
+    try:
+        return path.exists()
+    except PermissionError:
+        return True
 
 
 def find_inputs(inputs, glob=None, exclude=()) -> Found:
@@ -105,10 +129,12 @@ def find_inputs(inputs, glob=None, exclude=()) -> Found:
         searched either.
 
     Returns:
-      :class:`Found`: the files, their root and the irregular files met by folder searches.
+      :class:`Found`: the files, their root, the irregular files and the folders that cannot be
+      listed met by folder searches.
 
     Raises:
-      InvalidInputError: inputs that are not paths, an INPUT that does not exist, an unreadable
+      InvalidInputError: inputs that are not paths, an INPUT that does not exist, an INPUT folder
+        that cannot be listed ("cannot search the folder scans/: Permission denied"), an unreadable
         manifest or one of numbers (a point cloud named .txt / .csv), a .csv manifest whose header
         names its paths' column otherwise than ``path`` / ``input`` (``file``, ``filename``, ...:
         :data:`_PATH_LIKE`), nothing found, INPUTs on different file systems.
@@ -123,16 +149,16 @@ def find_inputs(inputs, glob=None, exclude=()) -> Found:
         if not isinstance(given, paths):
             raise InvalidInputError(f"inputs must be paths (str, Path or URL), got {given!r:.80} among them")
     exclude = {identity(location(e)) for e in exclude}
-    files, roots, irregular = [], [], {}
+    files, roots, irregular, unsearchable = [], [], {}, {}
     for given in inputs:
         path = location(given)
         if isinstance(path, RemotePath) and path.is_dir():
             roots.append(path)
             files += _search_remote(path, glob, exclude)
-        elif path.is_dir():
+        elif _is_dir(path):
             roots.append(path)
-            files += _search(path, glob, exclude, irregular)
-        elif not path.exists():
+            files += _search(path, glob, exclude, irregular, unsearchable, given)
+        elif not _exists(path):
             raise InvalidInputError(f"no such file or folder: {given}")
         elif path.suffix.lower() in MANIFEST_SUFFIXES:
             listed = _read_manifest(path)
@@ -150,7 +176,8 @@ def find_inputs(inputs, glob=None, exclude=()) -> Found:
     if not unique:
         hint = f" matching {glob!r}" if glob else f" ({', '.join(MESH_SUFFIXES)})"
         raise InvalidInputError(f"no mesh files found in {', '.join(map(str, inputs))}{hint}")
-    return Found(unique, _common_root(roots), {p: irregular[p] for p in unique if p in irregular})
+    return Found(unique, _common_root(roots), {p: irregular[p] for p in unique if p in irregular},
+                 {p: unsearchable[p] for p in unique if p in unsearchable})
 
 
 def _is_link(path) -> bool:
@@ -200,9 +227,17 @@ def _walk_order(relative):
     return [(1, p) for p in parts[:-1]] + [(0, parts[-1])]
 
 
-def _search(folder, glob, exclude, irregular):
+def _search(folder, glob, exclude, irregular, unsearchable, given):
     found = []
-    for here, dirs, names in os.walk(folder):  # links to folders are listed in dirs, not followed
+
+    def unlisted(exc):  # a folder os.walk cannot list (it skipped it without a word)
+        if os.path.abspath(exc.filename) == os.path.abspath(folder):
+            raise InvalidInputError(f"cannot search the folder {given}: {exc.strerror}") from None
+        path = Path(exc.filename)
+        found.append(path)  # where its files would be, in walk order: a failed row, naming it
+        unsearchable[path] = exc.strerror or type(exc).__name__
+
+    for here, dirs, names in os.walk(folder, onerror=unlisted):  # links to folders are listed in dirs, not followed
         dirs[:] = sorted(d for d in dirs if not d.startswith(".")
                          and os.path.realpath(os.path.join(here, d)) not in exclude
                          and not os.path.isdir(os.path.join(here, d, STATE_FOLDER)))  # an earlier run's OUTDIR

@@ -256,10 +256,13 @@ def _from_loaded(loaded, source):
 
 
 def _read(path):
-    if not path.exists():
-        raise InvalidInputError(f"no such file: {path}")
-    if not (path.is_file() or path.is_fifo()):  # a named pipe delivers a stream: read it
-        raise InvalidInputError(f"not a file: {path}")
+    try:  # (pathlib raises PermissionError for a file in a folder this user may not search)
+        if not path.exists():
+            raise InvalidInputError(f"no such file: {path}")
+        if not (path.is_file() or path.is_fifo()):  # a named pipe delivers a stream: read it
+            raise InvalidInputError(f"not a file: {path}")
+    except OSError as exc:
+        raise InvalidInputError(f"{path}: cannot read: {exc.strerror}") from None
     ext = path.suffix.lower().lstrip(".")
     if ext not in readers.READERS:  # (trimesh's formats: its list, and names of two suffixes)
         known = set(_trimesh().available_formats())

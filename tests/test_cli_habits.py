@@ -265,6 +265,20 @@ def test_tune_bounds_instances_before_the_work(capsys, monkeypatch):
     assert "--instances must be <= 200" in _err(capsys)
 
 
+@pytest.mark.parametrize("argv, flag", [(["--gamma", "0"], "--gamma"), (["--nu", "0.99"], "--nu"),
+                                        (["--method", "robust", "--power", "0"], "--power"),
+                                        (["--scale-weight", "-1"], "--scale-weight")])
+def test_tune_refusals_name_the_option_as_typed(capsys, monkeypatch, argv, flag):
+    """A bad start or weight is refused naming the option the user typed: it said "gamma0 must be
+    a finite number > 0" for --gamma 0 (nu0, power0, scale_weight alike)."""
+    from jaxpose import datasets
+
+    monkeypatch.setattr(datasets, "make_dataset", lambda *a, **k: pytest.fail("the work started"))
+    assert cli.main(["tune", *argv]) == 2
+    err = _err(capsys)
+    assert err.startswith(f"jaxpose: error: {flag} must be ") and err.count("\n") == 1, err
+
+
 @pytest.mark.parametrize("command", ["tune", "bench"])
 def test_tune_and_bench_check_json_before_the_work(tmp_path, capsys, command):
     blocker = tmp_path / "file"

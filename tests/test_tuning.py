@@ -176,7 +176,7 @@ def test_tune_refuses_the_other_methods_start_by_name(kw):
 
 def test_cli_tune_bad_numbers_are_usage_errors(capsys):
     for argv, fragment in ((["--lr", "nan"], "lr must be"), (["--holdout", "-0.5"], "holdout must be"),
-                           (["--scale-weight", "nan"], "scale_weight must be"), (["--steps", "-1"], "steps must be"),
+                           (["--scale-weight", "nan"], "--scale-weight must be"), (["--steps", "-1"], "steps must be"),
                            (["--instances", "1"], "--instances must be >= 2"),  # were exit 1 after loading classes
                            (["--classes", ","], "--classes names no class"),
                            # these were exit 1 after loading every class

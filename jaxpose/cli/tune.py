@@ -146,7 +146,7 @@ def _run(args) -> int:
         names = [name.strip() for name in args.classes.split(",") if name.strip()] if args.classes else None
         _check_choices(args, options, variants, names)
     except InvalidInputError as exc:  # a usage error: before any work
-        return fail(exc, code=2)
+        return fail(_flag_names(str(exc)), code=2)
     try:
         for flag, folder in (("--data", args.data), ("--holdout-data", args.holdout_data)):
             if folder is not None and not Path(folder).is_dir():  # (--holdout-data's after loading --data's classes)
@@ -194,6 +194,17 @@ def _run(args) -> int:
     print(result["verdict"])
     print("use: " + ", ".join(f"{k} {result[k]:.4g}" for k in result["tuned"]))
     return 0
+
+
+_FLAGS = {"gamma0": "--gamma", "nu0": "--nu", "power0": "--power", "scale_weight": "--scale-weight"}
+"""The library's names of :func:`jaxpose.tuning.check_options`' arguments that the command line spells
+otherwise: its refusals name the option as typed ("--gamma must be ...", not "gamma0 must be ...")."""
+
+
+def _flag_names(message):
+    """`message` with a leading argument name of the library in :data:`_FLAGS` as its option's."""
+    name, space, rest = message.partition(" ")
+    return f"{_FLAGS[name]} {rest}" if space and name in _FLAGS else message
 
 
 def _failure(result, method):

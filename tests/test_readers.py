@@ -379,6 +379,25 @@ def test_binary_noise_is_an_error_about_the_file(tmp_path, name):
     assert "No module named" not in str(info.value), info.value
 
 
+@pytest.mark.parametrize("name, data, match", [
+    # a truncated .gltf said "it refers to model.gltf, which is not in its folder" (trimesh, the JSON
+    # unread, asked for a file of its own name); not JSON at all alike
+    ("cut.gltf", b'{"asset": {"version": "2.0"}, "meshes": [', "cut.gltf: cannot read GLTF file: not a JSON text "),
+    ("text.gltf", b"hello\n", "text.gltf: cannot read GLTF file: not a JSON text "),
+    # it said trimesh's "not enough values to unpack (expected 3, got 1)"
+    ("plain.off", b"4 1 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n", "plain.off: cannot read OFF file: no OFF header "),
+])
+def test_a_file_not_of_its_format_is_named_so(tmp_path, name, data, match):
+    from jaxpose import mesh as jmesh
+    from jaxpose.errors import InvalidInputError
+
+    path = tmp_path / name
+    path.write_bytes(data)
+    with pytest.raises(InvalidInputError, match=match) as info:
+        jmesh.load(path)
+    assert "model.gltf" not in str(info.value) and "unpack" not in str(info.value), info.value
+
+
 OBJ_TET = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n"
 PLY_TET_HEAD = ("ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
                 "element face 4\nproperty list uchar int vertex_indices\nend_header\n")

@@ -311,6 +311,9 @@ def _read(path):
     except _NotRegular as exc:  # a FIFO beside it: never opened (a plain open waited for a writer)
         raise InvalidInputError(str(exc)) from None
     except FileNotFoundError as exc:  # only the resolver opens files: one the .gltf refers to is missing
+        if (problem := _not_json(data)) is not None:  # trimesh then asks for a file of its own name ("model.gltf")
+            raise InvalidInputError(f"{path}: cannot read GLTF file: not a JSON text ({problem}): a truncated or "
+                                    "malformed file (a .gltf is JSON; a binary glTF is .glb)") from None
         raise InvalidInputError(f"{path}: cannot read {ext.upper()} file: it refers to {exc}, which is not in its "
                                 f"folder {path.parent} (a .gltf's buffers are files beside it; a .glb holds them)") from None
     except Exception as exc:  # every reader has its own errors for corrupt files
@@ -323,6 +326,8 @@ def _read(path):
             except InvalidInputError as named:
                 raise InvalidInputError(f"{path}: {named}") from None
         detail = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        if ext == "off" and b"OFF" not in data:  # (trimesh's words: "not enough values to unpack (expected 3, got 1)")
+            detail = "no OFF header (an OFF file starts with the line 'OFF'): not an OFF file, or a malformed one"
         if isinstance(exc, ImportError):  # trimesh's optional modules, wanted for a content it could not parse
             detail = (f"the content is not {ext.upper()} as jaxpose and trimesh read it (trimesh wanted its optional "
                       f"module {exc.name!r} to try further)")
@@ -340,6 +345,17 @@ def _read(path):
         except InvalidInputError as exc:
             raise InvalidInputError(f"{path}: {exc}") from None
     return geometry
+
+
+def _not_json(data):
+    """Why the bytes `data` are not a JSON text (a .gltf's), or None where they are one."""
+    import json
+
+    try:
+        json.loads(data)
+    except ValueError as exc:  # (UnicodeDecodeError too)
+        return str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+    return None
 
 
 def gltf_file(folder, name):

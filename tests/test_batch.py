@@ -1186,6 +1186,26 @@ def test_refusals_before_any_work(tmp_path, tree, monkeypatch):
         run([root], tmp_path / "mine")
 
 
+def test_a_new_output_folder_holding_only_what_file_browsers_leave_is_taken_as_empty(tmp_path, tree):
+    """An OUTDIR made, then shown in a file browser (macOS Finder's .DS_Store, Windows' Thumbs.db),
+    was refused as holding "files that jaxpose did not write"; a file of the user's is still
+    refused, now named, and left as it was."""
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / ".DS_Store").write_bytes(b"\0\0\0\1Bud1")
+    (out / "Thumbs.db").write_bytes(b"x")
+    result = run([tmp_path / "scans"], out)
+    assert (result.written, result.failed) == (len(tree["good"]), len(tree["bad"]))
+    assert (out / ".DS_Store").read_bytes() == b"\0\0\0\1Bud1"
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("mine")
+    (mine / ".DS_Store").write_bytes(b"x")
+    with pytest.raises(UsageError, match=r"did not write \(notes\.txt\)"):
+        run([tmp_path / "scans"], mine)
+    assert sorted(p.name for p in mine.iterdir()) == [".DS_Store", "notes.txt"]
+
+
 def test_a_table_path_that_is_a_folder_or_another_file_is_refused_before_any_work(tmp_path, tree, monkeypatch):
     sphere = tmp_path / "scans" / "sphere.off"
     notes, config = tmp_path / "notes.csv", tmp_path / "config.parquet"

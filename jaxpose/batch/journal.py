@@ -41,6 +41,11 @@ __all__ = ["STATE_FOLDER", "OutputFolder", "RemoteOutputFolder", "open_output_fo
 
 STATE_FOLDER = ".jaxpose"
 
+BROWSER_FILES = frozenset({".DS_Store", "Thumbs.db", "desktop.ini"})
+"""What file browsers leave in a folder they show (macOS Finder, Windows Explorer): a new output
+folder holding only these is taken as empty (a folder made, opened in Finder, then given as OUTDIR
+was refused as holding "files that jaxpose did not write")."""
+
 
 class FolderBusyError(JaxposeError):
     """Another run holds the output folder's lock."""
@@ -62,7 +67,8 @@ class OutputFolder:
     Raises:
       FolderBusyError: another run holds the lock (message names its pid).
       UsageError (an InvalidInputError): the folder is not writable, or (without `force`) it holds files but no
-        ``.jaxpose`` state, i.e. it was not made by jaxpose.
+        ``.jaxpose`` state, i.e. it was not made by jaxpose (named in the message; what file browsers
+        leave, :data:`BROWSER_FILES`, does not count).
 
     Example::
 
@@ -97,9 +103,12 @@ class OutputFolder:
             self.root.mkdir(parents=True, exist_ok=True)
             self._made += reversed(missing)  # outermost first
         check_folder_writable(self.root, what="output")
-        if not self.state.is_dir() and any(self.root.iterdir()) and not self.force:
-            raise UsageError(f"output folder {self.root} holds files that jaxpose did not write; "
-                                    "use an empty or new folder (or --force / force=True to write into it)")
+        if not self.state.is_dir() and not self.force:
+            foreign = sorted(p.name for p in self.root.iterdir() if p.name not in BROWSER_FILES)
+            if foreign:
+                listed = ", ".join(foreign[:3]) + (f" and {len(foreign) - 3} more" if len(foreign) > 3 else "")
+                raise UsageError(f"output folder {self.root} holds files that jaxpose did not write ({listed}); "
+                                 "use an empty or new folder (or --force / force=True to write into it)")
         self._made += [p for p in (self.state, self.state / "lock", self._shard_lock, self.journal)
                        if p is not None and not os.path.lexists(p)]
         self.state.mkdir(exist_ok=True)

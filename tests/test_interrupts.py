@@ -123,6 +123,29 @@ def test_interrupt_mid_run_leaves_nothing_partial(tmp_path, sig, code, word, wor
     assert sorted(r.input for r in rows) == sorted(records)
 
 
+@pytest.mark.skipif(sys.platform != "linux", reason="a FIFO and process groups")
+def test_a_terminals_ctrl_c_on_a_dask_local_run_is_one_line(tmp_path):
+    """A terminal's Ctrl-C reaches the whole foreground process group, the --dask-local cluster's
+    worker processes too: each died of it, printing KeyboardInterrupt tracebacks (dozens of lines
+    on stderr, with "leaked semaphore" warnings) around the command's one line. Now they never see
+    it (SIGINT blocked where they are started) and the command stops them. A FIFO that never
+    delivers keeps the run going until the signal."""
+    pytest.importorskip("distributed")
+    scans = dataset(tmp_path / "scans", count=6)
+    os.mkfifo(tmp_path / "pipe.ply")
+    out = tmp_path / "out"
+    process = start([scans, tmp_path / "pipe.ply", "-o", out, "--dask-local", "2"])
+    wait_for_lines(out, 7, process, timeout=180)  # the 6 meshes and the corrupt file: only the FIFO is left
+    os.killpg(process.pid, signal.SIGINT)
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == 130, err
+    lines = err.strip().splitlines()
+    assert lines[-1] == "jaxpose: error: interrupted; nothing partial was left", err
+    assert all(line.startswith(("jaxpose: failed: ", "jaxpose normalize: [")) for line in lines[:-1]), err
+    assert not [p for p in files_under(out) if is_temporary(p.name)]
+    assert_outputs_complete(out)
+
+
 # --------------------------------------------------------------------------- the guard, in this process
 def test_guard_turns_signals_into_exceptions_and_restores_handlers():
     from jaxpose.batch.interrupts import SignalGuard, Terminated, check

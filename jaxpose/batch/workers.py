@@ -10,6 +10,7 @@ functions of their arguments; nothing is kept in a worker between tasks except w
 from __future__ import annotations
 
 import concurrent.futures as cf
+import contextlib
 import logging
 import os
 import queue
@@ -223,14 +224,47 @@ def local_cluster(workers):
     distributed = _distributed()
     import dask
 
+    cluster = None
     try:
-        with dask.config.set(_DASK_LOCAL):
-            return distributed.LocalCluster(
-                n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
-                scheduler_kwargs={"dashboard_address": ":0"},  # its metrics server: any free port
-                silence_logs=logging.ERROR, env=process_environment())
-    except Exception as exc:  # distributed's own errors (RuntimeError, ...)
-        raise JaxposeError(f"could not start a local Dask cluster of {workers} workers: {exc}") from None
+        with _sigint_blocked():  # (a Ctrl-C meanwhile is held, and raised as the block ends)
+            try:
+                with dask.config.set(_DASK_LOCAL):
+                    cluster = distributed.LocalCluster(
+                        n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                        scheduler_kwargs={"dashboard_address": ":0"},  # its metrics server: any free port
+                        silence_logs=logging.ERROR, env=process_environment())
+            except Exception as exc:  # distributed's own errors (RuntimeError, ...)
+                raise JaxposeError(f"could not start a local Dask cluster of {workers} workers: {exc}") from None
+        return cluster
+    except BaseException:  # a Ctrl-C held while it started: the cluster is closed, not left running
+        if cluster is not None:
+            cluster.close()
+        raise
+
+
+@contextlib.contextmanager
+def _sigint_blocked():
+    """SIGINT blocked in this thread for the block (where the platform can: POSIX), and so in the
+    threads and processes started inside it: a LocalCluster's event-loop thread, and the worker
+    processes it starts from there, now and when it replaces one (the mask is inherited by threads,
+    forks and ``exec``). A terminal's Ctrl-C reaches its whole foreground process group: Dask's
+    worker processes died of it, each printing KeyboardInterrupt tracebacks (dozens of lines), while
+    the command stopped them anyway. A SIGINT that comes inside the block is delivered as it ends."""
+    import signal
+
+    if not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    from multiprocessing import resource_tracker
+
+    # its first start unblocks SIGINT in the thread that starts it (the event loop's, where the
+    # workers are started from): started here first, it is not started again
+    resource_tracker.ensure_running()
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 def _distributed():
@@ -295,7 +329,11 @@ class DaskExecutor:
                 raise InvalidInputError(f"cannot reach the Dask scheduler {scheduler}: {exc}") from None
         else:
             self.cluster = local_cluster(local)
-            self.client = Client(self.cluster)
+            try:
+                self.client = Client(self.cluster)
+            except BaseException:  # (a Ctrl-C too): the cluster is not left running
+                self.cluster.close()
+                raise
         threads = sum(w.get("nthreads", 1) for w in self.client.scheduler_info()["workers"].values())
         self.workers = max(1, threads)
 

@@ -1290,6 +1290,16 @@ def test_cli_many_files_usage(tmp_path, tree, capsys, args, fragment):
     assert code == 2 and fragment in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("args", [["example"], ["--example"]])
+def test_cli_the_example_into_a_folder_names_the_fix(tmp_path, capsys, args):
+    """`jaxpose normalize example -o normalized/` was refused "'example' is one input: normalize it
+    alone", as it was alone: the fix is a mesh file name for -o. Nothing is made."""
+    code = cli.main(["normalize", *args, "-o", str(tmp_path / "normalized") + os.sep])
+    err = capsys.readouterr().err
+    assert code == 2 and "'example' is one mesh: -o names its output file (-o example.ply)" in err, err
+    assert not (tmp_path / "normalized").exists()
+
+
 def test_cli_many_files_output_paths_and_conflicts_are_usage_errors(tmp_path, tree, capsys, monkeypatch):
     """Refused before any work, exit 2 as other usage errors (they exited 1)."""
     monkeypatch.setattr(batch._Run, "execute", lambda *a, **k: pytest.fail("work started"))

@@ -322,6 +322,9 @@ def _normalize_many(args, options, fail):
     from ..batch import batch
 
     if args.example or EXAMPLE in args.inputs:
+        if len(args.inputs) + bool(args.example) == 1:  # the example alone, -o a folder ("said: normalize it alone")
+            return fail(f"'example' is one mesh: -o names its output file (-o example.ply), not a folder "
+                        f"({args.output})", code=2)
         return fail("'example' is one input: normalize it alone", code=2)
     if not args.output:
         return fail("several INPUTs, folders and manifests need -o OUTDIR", code=2)

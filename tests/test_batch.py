@@ -1290,6 +1290,20 @@ def test_cli_many_files_usage(tmp_path, tree, capsys, args, fragment):
     assert code == 2 and fragment in capsys.readouterr().err
 
 
+def test_cli_the_summary_of_failures_names_the_first_failed_input(tmp_path, capsys):
+    """The last line names the input of the error it quotes: an error worded without the file (a point
+    cloud written as STL, a time limit) read "1 of 2 inputs failed: output format stl ...", no file."""
+    scans = tmp_path / "scans"
+    scans.mkdir()
+    trimesh.PointCloud(np.random.default_rng(0).normal(size=(50, 3))).export(scans / "cloud.xyz")
+    trimesh.creation.box().export(scans / "box.obj")
+    code = cli.main(["normalize", str(scans), "-o", str(tmp_path / "out"), "--format", "stl", "--workers", "1",
+                     "--method", "bbox"])
+    last = capsys.readouterr().err.strip().splitlines()[-1]
+    assert code == 1 and last.startswith(f"jaxpose: error: 1 of 2 inputs failed: {scans / 'cloud.xyz'}: output "
+                                         "format stl"), last
+
+
 @pytest.mark.parametrize("args", [["example"], ["--example"]])
 def test_cli_the_example_into_a_folder_names_the_fix(tmp_path, capsys, args):
     """`jaxpose normalize example -o normalized/` was refused "'example' is one input: normalize it

@@ -346,7 +346,9 @@ def _normalize_many(args, options, fail):
         first = next(r for r in result.rows if not r.ok)
         stop = "stopped at the first failure (--fail-fast)" if result.stopped else \
             f"{result.failed} of {result.failed + done} inputs failed"
-        return fail(f"{stop}: {first.error} (all in {result.table})")
+        # named as its "jaxpose: failed:" line names it (a time limit's, a format's error names no file)
+        error = first.error if first.error.startswith(first.input) else f"{first.input}: {first.error}"
+        return fail(f"{stop}: {error} (all in {result.table})")
     return 0
 
 

@@ -455,3 +455,34 @@ def test_a_file_in_a_folder_that_cannot_be_searched_fails_as_unreadable(tmp_path
     assert_normalized(next(r for r in rows if r.ok))
     assert one[0] == 1 and one[2].strip() == f"jaxpose: error: {locked}: cannot read: Permission denied", one[2]
     assert not (tmp_path / "one.ply").exists()
+
+
+def test_a_table_that_cannot_be_written_is_named_and_a_rerun_writes_it(tmp_path):
+    """The table, written last, failing (a full disk; here a file size limit, ``ulimit -f``: the
+    outputs fit, the table does not) ended the run with "jaxpose: error: OSError: [Errno 27] File
+    too large", naming nothing: now the table and why, the outputs kept with their records, and a
+    rerun writes it."""
+    import resource
+
+    scans = tmp_path / "scans"
+    scans.mkdir()
+    tetra = "OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 {}\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n"
+    for i in (1, 2):
+        (scans / f"t{i}.off").write_text(tetra.format(i))
+    args = [sys.executable, "-m", "jaxpose", "normalize", str(scans), "-o", str(tmp_path / "out"), "--workers", "1",
+            "--method", "bbox"]
+    limit = lambda: resource.setrlimit(resource.RLIMIT_FSIZE, (4096, 4096))  # (Python ignores SIGXFSZ: EFBIG)
+    first = subprocess.run(args, cwd=ROOT, capture_output=True, text=True, timeout=120, preexec_fn=limit)
+    last = first.stderr.strip().splitlines()[-1]
+    assert first.returncode == 1 and last.startswith(f"jaxpose: error: cannot write the table {tmp_path / 'out'}/"
+                                                     "transforms."), first.stderr
+    assert "File too large" in last and "OSError" not in last
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [".jaxpose", "t1.off", "t2.off"]  # no temporary
+    again = subprocess.run(args, cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert again.returncode == 0 and "0 files" in again.stdout and "2 already done" in again.stdout, again.stderr
+    rows = jaxpose.read_transforms(tmp_path / "out")
+    assert len(rows) == 2
+    for row in rows:  # bbox: the bounding box's center; the outputs are the inputs under the rows (OFF: 10 decimals)
+        vertices = mesh.load(row.input).vertices
+        np.testing.assert_allclose(row.center, (vertices.min(0) + vertices.max(0)) / 2)
+        np.testing.assert_allclose(mesh.load(row.output).vertices, row.apply(vertices), atol=1e-9)

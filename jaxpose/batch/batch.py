@@ -30,7 +30,7 @@ from pathlib import Path
 from typing import NamedTuple
 
 from .._validate import check_bool, check_int, check_real
-from ..errors import InvalidInputError, UsageError
+from ..errors import InvalidInputError, JaxposeError, UsageError
 from .task import FileResult, NormalizeOptions, input_key, normalize_file, one_line, recorded_settings, warm_up
 
 __all__ = ["CHECKS", "NormalizeOptions", "BatchResult", "normalize_files", "run_batch"]
@@ -171,7 +171,12 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
             if run is not None and not folder.discarded:
                 rows = table_rows(items, _named_where_they_are(_resolved(folder.entries(), output_dir), output_dir),
                                   folder.exists)
-                write_file(table, transforms.write_transforms(rows, table, rotation=bool(options.rotation_method) or None))
+                data = transforms.write_transforms(rows, table, rotation=bool(options.rotation_method) or None)
+                try:
+                    write_file(table, data)
+                except OSError as exc:  # a full disk: it said "OSError: [Errno 28] No space left on device"
+                    raise JaxposeError(f"cannot write the table {table}: {exc.strerror or one_line(exc)}; the outputs "
+                                       "written are kept with their records: a rerun writes it") from None
                 if default_table:
                     _remove_superseded_table(table)
     return BatchResult([transforms.Transform.from_record(r) for r in rows], table, run.written, skipped, run.failed, run.stopped,
@@ -245,6 +250,8 @@ def normalize_files(inputs, output_dir, options=None, **kwargs) -> list:
         not start (a `scheduler` not reached), before recording anything leaves nothing it made
         (neither `output_dir`, had it to make it, nor the table).
       jaxpose.batch.journal.FolderBusyError: another run is writing to `output_dir`.
+      JaxposeError: the table could not be written at the end (a full disk), naming it and why; the
+        outputs written are kept with their journal records, and a rerun writes it.
 
     Example::
 

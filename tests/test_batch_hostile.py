@@ -462,8 +462,6 @@ def test_a_table_that_cannot_be_written_is_named_and_a_rerun_writes_it(tmp_path)
     outputs fit, the table does not) ended the run with "jaxpose: error: OSError: [Errno 27] File
     too large", naming nothing: now the table and why, the outputs kept with their records, and a
     rerun writes it."""
-    import resource
-
     scans = tmp_path / "scans"
     scans.mkdir()
     tetra = "OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 {}\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n"
@@ -471,8 +469,11 @@ def test_a_table_that_cannot_be_written_is_named_and_a_rerun_writes_it(tmp_path)
         (scans / f"t{i}.off").write_text(tetra.format(i))
     args = [sys.executable, "-m", "jaxpose", "normalize", str(scans), "-o", str(tmp_path / "out"), "--workers", "1",
             "--method", "bbox"]
-    limit = lambda: resource.setrlimit(resource.RLIMIT_FSIZE, (4096, 4096))  # (Python ignores SIGXFSZ: EFBIG)
-    first = subprocess.run(args, cwd=ROOT, capture_output=True, text=True, timeout=120, preexec_fn=limit)
+    # the limit set in the child, then exec (a preexec_fn would fork this JAX-threaded process; Python
+    # ignores SIGXFSZ: a write past the limit fails with EFBIG)
+    limited = [sys.executable, "-c", "import os, resource, sys; resource.setrlimit(resource.RLIMIT_FSIZE, "
+               "(4096, 4096)); os.execv(sys.argv[1], sys.argv[1:])", *args]
+    first = subprocess.run(limited, cwd=ROOT, capture_output=True, text=True, timeout=120)
     last = first.stderr.strip().splitlines()[-1]
     assert first.returncode == 1 and last.startswith(f"jaxpose: error: cannot write the table {tmp_path / 'out'}/"
                                                      "transforms."), first.stderr

@@ -87,8 +87,10 @@ points = np.asarray(jaxpose.sample_surface(example_shape(), COUNT, seed=0))'''),
 sens = pose_sensitivity(points, 47.0, 0.5, resolution=RESOLUTION)
 for k in ("center", "scale", "dcenter_dgamma", "dscale_dgamma", "dcenter_dnu", "dscale_dnu"):
     print(f"{k:15s}", np.round(np.asarray(sens[k]), 5))'''),
-    new_markdown_cell("The same with `jax.grad` directly, checked against a central finite difference at a step "
-                      "of 1 % of γ:"),
+    new_markdown_cell("The same with `jax.grad` directly, beside a central finite difference at a step of 1 % of γ. "
+                      "They differ by the grid's steps: at `RESOLUTION = 32` cells the volume integrals move in small "
+                      "jumps as γ changes, and a finite difference over ±1 % reads them (with the 1,500 samples above, 9 % "
+                      "off `jax.grad`, which gives the secant trend of the cell above); at 64 cells they agree within 1 %:"),
     new_code_cell('''scale_of = lambda g: jaxpose.normalize(points, method="ocsvm", gamma=g, nu=0.5, resolution=RESOLUTION).scale
 g0 = 47.0
 h = 0.01 * g0

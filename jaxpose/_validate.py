@@ -233,16 +233,31 @@ def check_bool(value, name):
     return _bool(value, name)  # config's rule (NumPy-free: config is imported before NumPy)
 
 
-def check_names(value, name):
+def check_names(value, name, key=None):
     """``value``, a collection of names (a list, tuple, set, ...), as a tuple; one string is
     refused by name (its characters would be taken as the names: ``methods="vertex_mean"`` read
-    as 'v', 'e', ...), as is anything that is not iterable."""
+    as 'v', 'e', ...), as is anything that is not iterable, and a name given twice (each is run
+    once and kept under its name: a repeat ran twice, its result keyed by name kept one of them).
+    ``key(name)``, default the name itself, tells two spellings of one apart (``"depth_weighted_solid:2"``
+    and ``":2.0"``)."""
     if isinstance(value, (str, bytes)):
         raise InvalidInputError(f"{name} must be a list of names, got the string {value!r}: pass [{value!r}]")
     try:
-        return tuple(value)
+        names = tuple(value)
     except TypeError:
         raise InvalidInputError(f"{name} must be a list of names, got {value!r:.80}") from None
+    seen = {}
+    for item in names:
+        try:
+            k = item if key is None else key(item)
+            hash(k)
+        except TypeError:  # not a name: the caller's own check names it
+            continue
+        if k in seen:
+            same = "" if seen[k] == item else f" (as {seen[k]!r})"
+            raise InvalidInputError(f"{name} names {item!r} twice{same}; give each once")
+        seen[k] = item
+    return names
 
 
 def check_callback(value, name):

@@ -154,6 +154,7 @@ def no_work(monkeypatch):
                                                                         "(as 'depth_weighted_solid:2')"),
     (["--variants", "plain,holes,plain"], "variants names 'plain' twice"),
     (["--rotation", "head,pca_vertices,head"], "--rotation names 'head' twice"),
+    (["--classes", "human, chair,human"], "--classes names 'human' twice"),  # (was one class, silently)
 ])
 def test_evaluate_usage_errors_exit_2_before_the_work(capsys, no_work, args, fragment):
     assert cli.main(["evaluate", *args]) == 2

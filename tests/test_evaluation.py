@@ -8,7 +8,7 @@ import trimesh
 
 import jaxpose
 import jaxpose.pose.pose  # the module the fixtures patch (not imported by "import jaxpose" alone)
-from jaxpose import evaluation
+from jaxpose import datasets, evaluation
 from jaxpose._validate import InvalidInputError
 from jaxpose.evaluation import align_core, evaluate, format_per_class, format_table, scale_spread, spread, sweep
 from jaxpose.pose.result import Pose
@@ -273,6 +273,9 @@ def test_align_core_names_the_class_and_the_file_that_differs(tmp_path):
      "methods names 'pca_vertices' twice"),
     (lambda: evaluation.evaluate_rotation({"boxes": _boxes()}, methods=["pca_vertices"], variants=["holes", "holes"]),
      "variants names 'holes' twice"),
+    # the built-in dataset: a class named twice was made once, none was an empty dataset
+    (lambda: datasets.make_dataset(instances=2, classes=["human", "human"]), "classes names 'human' twice"),
+    (lambda: datasets.make_dataset(instances=2, classes=[]), "classes names no class"),
     # a class that is not a list of meshes: TypeError (no len()) or AttributeError (no .vertices) in the run
     (lambda: evaluate({"box": _boxes()[0]}, methods=["bbox"]), r"class 'box' must be a list of meshes, got Trimesh: "
                                                                r"pass \{'box': \[...\]\}"),

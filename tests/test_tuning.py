@@ -185,6 +185,7 @@ def test_cli_tune_bad_numbers_are_usage_errors(capsys):
                            # its classes were made twice, under one name each
                            (["--variants", "plain,holes,plain"], "variants names 'plain' twice"),
                            (["--classes", "human,nope"], "unknown class 'nope'"),
+                           (["--classes", "human,human"], "--classes names 'human' twice"),  # was one class
                            (["--resolution", "4"], "resolution must be >= 8"),
                            (["--refine", "3"], "refine must be a power of 2"),
                            (["--tol", "-1"], "tol must be a finite number > 0"),

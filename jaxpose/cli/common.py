@@ -9,7 +9,7 @@ from ..io.atomic import check_creatable, check_output_file  # shared by the comm
 from ..io.jsontext import json_text  # the commands' JSON records (benchmarks/ write theirs with it too)
 
 __all__ = ["add_svm_options", "fail", "checked", "check_output_file", "check_creatable", "check_dataset_choice",
-           "variant_names", "json_text"]
+           "comma_names", "variant_names", "json_text"]
 
 
 def checked(convert, check):
@@ -36,8 +36,18 @@ def check_dataset_choice(instances, classes):
     all), checked before any work (evaluate, tune): InvalidInputError, a usage error (exit 2)."""
     if instances is not None:  # at least 2 (a class's spread), at most DATASET_INSTANCES (built in memory)
         check_instances(instances, "--instances", 2)
-    if classes is not None and not [c for c in classes.split(",") if c]:
-        raise InvalidInputError(f"--classes names no class ({classes!r}); give some, comma-separated")
+    if classes is not None:
+        from .._validate import check_names  # (NumPy: at run time, not when the parser is built)
+
+        if not comma_names(classes):
+            raise InvalidInputError(f"--classes names no class ({classes!r}); give some, comma-separated")
+        check_names(comma_names(classes), "--classes")  # each once
+
+
+def comma_names(text):
+    """A comma list's names (``--methods``, ``--rotation``, ``--classes``, ``--variants``), spaces
+    around them dropped and empty ones left out: ``"robust, bbox,"`` is ``["robust", "bbox"]``."""
+    return [name.strip() for name in text.split(",") if name.strip()]
 
 
 def variant_names(text):
@@ -46,7 +56,7 @@ def variant_names(text):
     caller's to refuse (with the valid ones)."""
     from ..evaluation.variants import VARIANTS  # (NumPy: at run time, not when the parser is built)
 
-    names = [name.strip() for name in text.split(",") if name.strip()]
+    names = comma_names(text)
     return list(VARIANTS) if names == ["all"] else names
 
 

@@ -10,7 +10,7 @@ import sys
 from pathlib import Path
 
 from ..config import DATASET_INSTANCES
-from .common import add_core_options, add_svm_options, check_core_options, check_creatable, check_dataset_choice, check_output_file, fail, json_text, variant_names
+from .common import add_core_options, add_svm_options, check_core_options, check_creatable, check_dataset_choice, check_output_file, comma_names, fail, json_text, variant_names
 
 __all__ = ["add_parser", "run"]
 
@@ -52,11 +52,12 @@ _OCSVM_OPTIONS = ("gamma", "nu", "count")
 def _evaluate_usage(args):
     """The evaluation's arguments checked and resolved before any work: (methods, variants, ocsvm
     options), or a usage error (exit 2) naming what is wrong."""
-    from ..evaluation.consistency import _check_methods, _check_unique, _check_variants
+    from .._validate import check_names
+    from ..evaluation.consistency import _check_methods, _check_variants
     from ..rotation.rotation import ROTATIONS
     from ..batch.task import NormalizeOptions
 
-    methods = _names(args.methods) if args.methods else None
+    methods = comma_names(args.methods) if args.methods else None
     methods = None if methods == ["all"] else methods  # as --variants all, --rotation all (was "unknown method")
     variants = variant_names(args.variants)
     _check_variants(variants)
@@ -67,11 +68,11 @@ def _evaluate_usage(args):
             raise _Usage(f"{' and '.join(ignored)} {'choose' if len(ignored) > 1 else 'chooses'} what the center "
                          "and scale run measures; --rotation measures canonical frames instead (name its methods "
                          f"there: --rotation {','.join(ROTATIONS[:2])}), so drop {'them' if len(ignored) > 1 else 'it'}")
-        rotations = ROTATIONS if args.rotation == "all" else _names(args.rotation)
+        rotations = ROTATIONS if args.rotation == "all" else comma_names(args.rotation)
         unknown = [m for m in rotations if m not in ROTATIONS]
         if unknown or not rotations:  # the evaluation's own check, before the dataset is made or read
             raise _Usage(f"--rotation: unknown rotation methods {unknown}; valid: all, {', '.join(ROTATIONS)}")
-        _check_unique(rotations, "--rotation")
+        check_names(rotations, "--rotation")  # (each once)
         uses_ocsvm = "ocsvm" in rotations
     else:
         names = [str(m).partition(":")[0] for m in _check_methods(methods)]
@@ -96,12 +97,6 @@ def _evaluate_usage(args):
     checked = NormalizeOptions(method="ocsvm", seed=args.seed, **given)  # gamma > 0, nu in [0, 1], count >= 4, seed
     # what was given, checked (the library fills in the defaults, and refuses what nothing reads)
     return methods, variants, {name: getattr(checked, name) for name in ("gamma", "nu", "count") if name in given}
-
-
-def _names(text):
-    """A comma list's names, spaces around them dropped (as ``--variants``': "robust, bbox" named
-    ' bbox', an unknown method)."""
-    return [name.strip() for name in text.split(",") if name.strip()]
 
 
 class _Usage(Exception):
@@ -139,7 +134,7 @@ def run(args):
     if args.data:
         classes = datasets.load_folder(args.data)
     else:
-        names = _names(args.classes) if args.classes else None
+        names = comma_names(args.classes) if args.classes else None
         try:
             classes = datasets.make_dataset(seed=args.seed, instances=10 if args.instances is None else args.instances,
                                             classes=names)
@@ -161,7 +156,7 @@ def run(args):
 def _evaluate_rotation(args, classes, variants, ocsvm):
     from .. import evaluation
 
-    methods = None if args.rotation == "all" else _names(args.rotation)
+    methods = None if args.rotation == "all" else comma_names(args.rotation)
     with _ProgressBar() as progress:
         result = evaluation.evaluate_rotation(classes, methods=methods, variants=variants, align_core=args.align_core,
                                               core_weight=args.core_weight, seed=args.seed, progress=progress,

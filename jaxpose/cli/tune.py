@@ -11,7 +11,7 @@ from pathlib import Path
 
 from ..config import DATASET_INSTANCES, OCSVM, ROBUST, TUNE
 from ..errors import InvalidInputError, JaxposeError  # (not _validate: it imports NumPy)
-from .common import add_core_options, fail
+from .common import add_core_options, comma_names, fail
 
 __all__ = ["add_parser", "run", "parser", "load_classes"]
 
@@ -77,6 +77,7 @@ def load_classes(folder, names=None, align_core=False, variants=("plain",), seed
     """{class[/variant]: [mesh, ...]} from a folder of class sub-folders (None: the procedural dataset),
     optionally rigid-core aligned (the core a share of ``core_weight``: "vertices" or "area"), in each input variant (:mod:`jaxpose.evaluation.variants`)."""
     from .. import datasets
+    from .._validate import check_names
     from ..evaluation import alignment
     from ..evaluation.consistency import _check_variants
     from ..evaluation.variants import make_class
@@ -87,6 +88,7 @@ def load_classes(folder, names=None, align_core=False, variants=("plain",), seed
     else:
         meshes = datasets.load_folder(folder)
         if names:
+            names = check_names(names, "classes")  # each once
             missing = sorted(set(names) - set(meshes))
             if missing:
                 raise InvalidInputError(f"no classes {missing} in {folder}; found {sorted(meshes)}")
@@ -143,7 +145,7 @@ def _run(args) -> int:
                                     "class of DIR")
         check_core_options(args.align_core, args.core_weight)
         variants = tuple(variant_names(args.variants))
-        names = [name.strip() for name in args.classes.split(",") if name.strip()] if args.classes else None
+        names = comma_names(args.classes) if args.classes else None
         _check_choices(args, options, variants, names)
     except InvalidInputError as exc:  # a usage error: before any work
         return fail(_flag_names(str(exc)), code=2)

@@ -218,10 +218,12 @@ def make_dataset(seed: int = 0, instances: int = 10, classes=None) -> dict[str, 
     """``{class_name: [instance 0, ..., instance instances-1]}`` for `classes` (default: all 12).
 
     Raises:
-      InvalidInputError: an unknown class, `instances` below 1 or above
+      InvalidInputError: an unknown class, one named twice, none, `instances` below 1 or above
         :data:`jaxpose.config.DATASET_INSTANCES` (the dataset is built in memory), a bad `seed`.
     """
     classes = CLASSES if classes is None else check_names(classes, "classes")
+    if not classes:  # (an empty dict was returned)
+        raise InvalidInputError(f"classes names no class; give some of {', '.join(CLASSES)}, or None for all")
     for name in classes:
         _check_class(name)
     instances = check_instances(instances, "instances", 1)  # (at most config.DATASET_INSTANCES: built in memory)

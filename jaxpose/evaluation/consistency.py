@@ -83,30 +83,13 @@ def _check_classes(classes):
                                         f"PointCloud), got {type(mesh).__name__}")
 
 
-def _check_unique(names, what, key=None):
-    """Refuse a name given twice in ``names`` (InvalidInputError naming it; ``key(name)``, default
-    the name itself, tells two spellings of one apart, e.g. ``"depth_weighted_solid:2"`` and
-    ``":2.0"``): each is run once and kept under its name, so a repeat ran twice, and its result
-    (a dict keyed by name) kept one of the runs beside two rows, or doubled a class's instances."""
-    seen = {}
-    for name in names:
-        k = name if key is None else key(name)
-        if k in seen:
-            same = "" if seen[k] == name else f" (as {seen[k]!r})"
-            raise InvalidInputError(f"{what} names {name!r} twice{same}; give each once")
-        seen[k] = name
-    return names
-
-
 def _check_methods(methods):
     from ..pose.estimators import parse_method
 
-    methods = METHODS if methods is None else check_names(methods, "methods")
+    methods = METHODS if methods is None else check_names(methods, "methods", key=parse_method)
     if not methods:
         raise InvalidInputError("methods must not be empty")
-    for spec in methods:
-        parse_method(spec)
-    return _check_unique(methods, "methods", parse_method)
+    return methods
 
 
 def _check_ocsvm(gamma, nu, count, seed, options):
@@ -130,7 +113,7 @@ def _check_variants(variants):
     unknown = [v for v in variants if v not in VARIANTS]
     if unknown or not variants:
         raise InvalidInputError(f"unknown variants {unknown}; valid: {', '.join(VARIANTS)}")
-    return _check_unique(variants, "variants")
+    return variants
 
 
 def _any_ocsvm(methods):

@@ -24,7 +24,7 @@ import numpy as np
 from .._validate import (InvalidInputError, JaxposeError, check_bool, check_callback, check_int, check_known, check_names,
                          is_real_dtype)
 from . import alignment
-from .consistency import _check_classes, _check_unique, _check_variants
+from .consistency import _check_classes, _check_variants
 from .tables import check_result, class_tables
 from .variants import make_class
 
@@ -183,7 +183,6 @@ def evaluate_rotation(classes, methods=None, variants=("plain",), align_core=Fal
     unknown = [m for m in methods if m not in ROTATIONS]
     if unknown or not methods:
         raise InvalidInputError(f"unknown rotation methods {unknown}; valid: {', '.join(ROTATIONS)}")
-    _check_unique(methods, "methods")  # (a repeat doubled each class's instances)
     variants = _check_variants(variants)
     alignment.check_core_weight(core_weight)
     seed = check_int(seed, "seed", 0)  # a NumPy or JAX integer scalar as its int (a bool, a float refused)

@@ -140,12 +140,16 @@ def check_points(points, name: str = "points", min_points: int = MIN_POINTS):
 def compute_dtype(points):
     """The floating dtype JAX computes points in (concrete, or a JAX array or tracer, read from its
     dtype): at least float32 (float16, bfloat16 and integers are promoted), float64 only when x64
-    is enabled."""
+    is enabled; NumPy's longdouble (wider than JAX's widest float) computes as float64 would."""
     from jax import dtypes
 
     given = getattr(points, "dtype", None)  # NumPy and JAX arrays, tracers: no copy
     dtype = np.result_type(np.asarray(points).dtype if given is None else np.dtype(given), np.float32)
-    return np.dtype(dtypes.canonicalize_dtype(dtype if np.issubdtype(dtype, np.floating) else np.float32))
+    if not np.issubdtype(dtype, np.floating):
+        dtype = np.dtype(np.float32)
+    elif dtype.itemsize > 8:  # longdouble (float128): JAX has no such dtype (its TypeError deep in a staged call)
+        dtype = np.dtype(np.float64)
+    return np.dtype(dtypes.canonicalize_dtype(dtype))
 
 
 def check_traced_scalar(value, name):

@@ -190,6 +190,25 @@ def test_a_mesh_or_a_path_given_for_points_is_named_with_the_fix():
             normalize(path)
 
 
+def test_longdouble_points_compute_as_float64_would():
+    """NumPy's longdouble (float128 on x86) points were JAX's TypeError 'Error interpreting argument
+    to stage as a JAX value' from normalize (both methods), normalize_batch and fit_svdd
+    (compute_dtype kept the dtype, which JAX has no name for); they compute as their float64 values
+    do: the same fit and the same pose, bit for bit."""
+    from jaxpose import _validate
+
+    wide = np.asarray(P, np.longdouble)
+    if wide.dtype.itemsize <= 8:
+        pytest.skip("longdouble is float64 on this platform")
+    assert _validate.compute_dtype(wide) == _validate.compute_dtype(P)  # float32, or float64 under x64
+    np.testing.assert_array_equal(np.asarray(fit_svdd(wide, 10.0, 0.5, **FIT).alpha),
+                                  np.asarray(fit_svdd(P, 10.0, 0.5, **FIT).alpha))
+    ref, pose = normalize(P, method="ocsvm"), normalize(wide, method="ocsvm")
+    assert pose.center.dtype == np.float64
+    np.testing.assert_array_equal(pose.center, ref.center)
+    assert float(pose.scale) == float(ref.scale)
+
+
 def test_decision_function_bad_input():
     svdd = fit_svdd(P, 10.0, 0.5, **FIT)
     for x, fragment in [(np.zeros((4, 2)), "shape"), (np.full((2, 3), np.nan), "NaN"), (np.zeros((2, 3), complex), "real")]:

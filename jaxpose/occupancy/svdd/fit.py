@@ -113,8 +113,7 @@ def fit_svdd(points, gamma, nu, *, mask=None, init_alpha=None, config: SolverCon
             raise _validate.InvalidInputError(f"init_alpha must be (m,) real numbers, got dtype {kind}")
         if not _validate.is_traced(init_alpha) and not np.all(np.isfinite(np.asarray(init_alpha, np.float64))):
             raise _validate.InvalidInputError("init_alpha has NaN or inf entries")
-    points = jnp.asarray(points)
-    points = points.astype(_validate.compute_dtype(points))
+    points = jnp.asarray(points, _validate.compute_dtype(points))  # (NumPy's longdouble: JAX's TypeError in jnp.asarray)
     result = solve_svdd(points, gamma, nu, mask, init_alpha, config)
     if throw and not _validate.is_traced(result.converged) and not bool(result.converged):
         raise _validate.ConvergenceError(

@@ -398,6 +398,15 @@ def test_the_inertia_frame_of_a_mesh_without_volume_is_refused():
     (lambda box: rotation.frame_of(box, "ocsvm", ocsvm={"gama": 20.0}), "unknown ocsvm key 'gama'; valid: gamma"),
     (lambda box: rotation.frame_of(box, "ocsvm", ocsvm=5), "ocsvm must be a dict"),
     (lambda box: rotation.frame_of(box, "pca_vertices", ocsvm={"count": 2}), "count must be >= 4"),
+    # a gamma, nu or points in ocsvm['options']: frame_ocsvm's TypeError 'got multiple values for keyword argument'
+    (lambda box: rotation.frame_of(box, "ocsvm", ocsvm={"options": {"gamma": 20.0}}),
+     r"^ocsvm\['options'\] must not hold 'gamma': give it as ocsvm\['gamma'\]"),
+    (lambda box: rotation.frame_of(box, "ocsvm", ocsvm={"nu": 0.3, "options": {"nu": 0.3}}),
+     r"^ocsvm\['options'\] must not hold 'nu': give it as ocsvm\['nu'\]"),
+    (lambda box: rotation.frame_of(box, "ocsvm", ocsvm={"options": {"points": box.vertices}}),
+     r"^ocsvm\['options'\] must not hold 'points': the points are sampled from the geometry"),
+    (lambda box: evaluate_rotation({"a": [box, box]}, methods=["ocsvm"], ocsvm={"options": {"gamma": 20.0}}),
+     r"^ocsvm\['options'\] must not hold 'gamma'"),
     # an option the frame does not read was ignored (the frame ran without it; normalize_mesh refuses them)
     (lambda box: rotation.frame_of(box, "pca_vertices", resolution=64),
      r"^resolution is an option of the core and head frames; rotation 'pca_vertices' does not read it"),

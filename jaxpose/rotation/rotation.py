@@ -45,8 +45,9 @@ OCSVM_FRAME_KEYS = ("gamma", "nu", "count", "seed", "sampling", "options")  # fr
 def check_frame_options(resolution=None, ocsvm=None):
     """:func:`frame_of`'s ``resolution`` (None or :func:`jaxpose.occupancy.solid.check_resolution`'s)
     and ``ocsvm`` (None or a dict of :data:`OCSVM_FRAME_KEYS`, their values checked; ``options`` a
-    dict, checked by :func:`jaxpose.normalize`), as (resolution, ocsvm); InvalidInputError naming
-    the first bad one (a misspelt key was ignored: the default ran)."""
+    dict, checked by :func:`jaxpose.normalize`, without ``gamma``, ``nu`` and ``points``: the dict's own
+    keys and the samples), as (resolution, ocsvm); InvalidInputError naming the first bad one (a
+    misspelt key was ignored: the default ran)."""
     if resolution is not None:
         resolution = solid.check_resolution(resolution)
     if ocsvm is None:
@@ -55,9 +56,16 @@ def check_frame_options(resolution=None, ocsvm=None):
         raise InvalidInputError(f"ocsvm must be a dict of {', '.join(OCSVM_FRAME_KEYS)}, got {ocsvm!r:.80}")
     check_known(ocsvm, OCSVM_FRAME_KEYS, "ocsvm key", repr)
     sample.check_fit_values(ocsvm)
-    if not isinstance(ocsvm.get("options", {}), Mapping):
+    options = ocsvm.get("options", {})
+    if not isinstance(options, Mapping):
         raise InvalidInputError(f"ocsvm['options'] must be a dict of jaxpose.normalize's ocsvm options, got "
-                                f"{ocsvm['options']!r:.80}")
+                                f"{options!r:.80}")
+    # what frame_of passes itself (was frame_ocsvm's TypeError 'got multiple values for keyword argument')
+    own = [key for key in ("gamma", "nu", "points") if key in options]
+    if own:
+        where = "the points are sampled from the geometry" if own[0] == "points" else f"give it as ocsvm[{own[0]!r}]"
+        raise InvalidInputError(f"ocsvm['options'] must not hold {own[0]!r}: {where} (options are "
+                                "jaxpose.normalize's other ocsvm options)")
     return resolution, dict(ocsvm)
 
 

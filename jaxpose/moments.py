@@ -272,7 +272,8 @@ def robust_moments(inside, occupied, origin, pitch, power, bias, extent=None) ->
 
     Args:
       inside: (nx, ny, nz) bool, the solid's voxels; occupied: (nx, ny, nz) bool, voxels that
-        straddle the surface (they count half in the volume; all False for a mesh solid).
+        straddle the surface (they count half in the volume; all False for a mesh solid), or None
+        for none (a mesh :class:`jaxpose.occupancy.solid.Solid`'s ``occupied``).
       origin: (3,) lower corner of voxel (0, 0, 0); pitch: () voxel edge (units).
       power: () depth exponent p >= 0; bias: () voxels subtracted from the distance transform. A
         traced power outside [0, inf) (negative, NaN, inf), which cannot be refused, weighs every
@@ -301,6 +302,8 @@ def robust_moments(inside, occupied, origin, pitch, power, bias, extent=None) ->
     for name, (value, want) in wanted.items():
         if value is not None:  # (a (2,) origin was read as (o0, o1, o1))
             check_shape(name, value, want, ", the shape of inside" if name == "occupied" else "")
+    if occupied is None:  # a mesh solid's (sol.occupied): was JAX's TypeError "unsupported operand type(s) for &"
+        occupied = np.zeros(shape, bool)
     return _robust_moments(inside, occupied, origin, pitch, power, bias, extent)
 
 

@@ -116,6 +116,22 @@ def test_vmap_over_a_batch_of_grids_equals_single_calls():
         assert float(batched.volume[b]) == pytest.approx(float(one.volume), rel=1e-6)
 
 
+def test_occupied_none_is_a_mesh_solids_no_straddling_voxels():
+    """robust_moments(sol.inside, sol.occupied, ...) of a mesh Solid (occupied None) was JAX's
+    TypeError "unsupported operand type(s) for &: 'DynamicJaxprTracer' and 'NoneType'"; None means
+    no voxel straddles the surface: scipy's depth^4-weighted center and the voxel count's volume
+    (the 16^3 grids of the vmap test above: its program)."""
+    idx = np.indices((16, 16, 16)) - 7.5 - np.array([0.3, -0.2, 0.6])[:, None, None, None]
+    grid = np.sum(idx**2, axis=0) < 5 * 5
+    origin, pitch = jnp.zeros(3), jnp.float32(0.1)
+    mom = moments.robust_moments(grid, None, origin, pitch, 4.0, 0.5)
+    d = np.maximum(ndimage.distance_transform_edt(grid) - 0.5, 0.0)[grid]
+    w = (d / d.max()) ** 4.0
+    want = (w @ (0.1 * (np.stack(np.nonzero(grid), axis=1) + 0.5))) / w.sum()
+    np.testing.assert_allclose(np.asarray(mom.center), want, atol=1e-6)
+    assert float(mom.volume) == pytest.approx(grid.sum() * 0.1**3, rel=1e-6)
+
+
 def power_gradients(sol, power=estimators.ROBUST_POWER, step=0.01):
     """jax.grad of the center (3,) and scale in the power, and 1 % central differences."""
     def center_scale(p):  # world units (the affine map of the voxel units, in JAX's float)

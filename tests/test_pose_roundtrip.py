@@ -226,6 +226,16 @@ def test_from_center_scale_takes_a_traced_rotation_beside_a_concrete_center():
     (lambda p: Pose.from_center_scale([1.0, 2.0, 3.0], 1.0, rotation=np.eye(3), ambiguity=-0.25), r"got -0\.25"),
     (lambda p: Pose.from_center_scale(np.ones((2, 3)), np.ones(2), rotation=np.stack([np.eye(3)] * 2),
                                       ambiguity=[0.0, np.inf]), r"\[0, 1\] .*got inf"),
+    # a Pose built directly: a (3,) scale divided each axis on its own (no similarity; matrix (3, 4, 4)),
+    # a string scale '2' was taken as 2, a (2,) center or (2, 2) rotation was NumPy's broadcast error
+    (lambda p: Pose(np.zeros(3), np.array([1.0, 2.0, 3.0])).apply(np.ones((2, 3))), r"scale the center's leading "
+     r"shape \(one number per pose.*got \(3,\) and \(3,\)"),
+    (lambda p: Pose(np.zeros(3), np.array([1.0, 2.0, 3.0])).matrix, r"got \(3,\) and \(3,\)"),
+    (lambda p: p._replace(scale=np.array([1.0, 2.0, 3.0])).inverse(), r"got \(3,\) and \(3,\)"),
+    (lambda p: Pose(np.zeros(3), "2").apply(np.ones((2, 3))), "scale must be real numbers"),
+    (lambda p: Pose(np.zeros(2), 1.0).apply(np.ones((2, 3))), r"center must have shape \(\.\.\., 3\).*got \(2,\) and \(\)"),
+    (lambda p: Pose(np.zeros(3), 1.0, rotation=np.eye(2)).apply(np.ones((2, 3))), r"rotation must have shape \(3, 3\)"),
+    (lambda p: Pose(np.zeros(3), 1.0, rotation=np.eye(2)).inverse().apply(np.ones((2, 3))), r"rotation must have shape"),
 ])
 def test_bad_points_and_fields_are_refused(make, match):
     """Points and fields of the wrong shape or kind are InvalidInputError at the Pose's boundary,

@@ -175,6 +175,25 @@ def _shape_of(value, name):
     return arr.shape
 
 
+def _check_similarity(pose):
+    """The batch axes of a pose whose similarity fields fit (center (..., 3), scale the center's
+    leading shape, rotation None or those axes + (3, 3); real numbers, traced or not), before
+    ``matrix``, ``apply`` or ``inverse`` compute with them; InvalidInputError otherwise. A Pose
+    built directly (``Pose(center, scale)``) is not checked where it is made (JAX rebuilds one
+    from any leaves): a (3,) scale scaled each axis on its own (no similarity) and made a
+    (3, 4, 4) matrix, a string scale '2' was taken as 2, and a center of another shape was NumPy's
+    broadcast error."""
+    c_shape, s_shape = _shape_of(pose.center, "center"), _shape_of(pose.scale, "scale")
+    batch = c_shape[:-1]
+    if c_shape[-1:] != (3,) or s_shape != batch:
+        raise InvalidInputError(f"a Pose's center must have shape (..., 3) and its scale the center's leading shape "
+                                f"(one number per pose: a similarity scales every axis alike), got {c_shape} and "
+                                f"{s_shape}")
+    if pose.rotation is not None and (r_shape := _shape_of(pose.rotation, "rotation")) != batch + (3, 3):
+        raise InvalidInputError(f"a Pose's rotation must have shape {batch + (3, 3)}, got {r_shape}")
+    return batch
+
+
 def _check_points(x, batch):
     """Points given to :meth:`Pose.apply` of a pose with batch axes ``batch`` (its center's
     leading axes): (n, 3) (or one point (3,)) for one pose, batch + (n, 3) for a batch; concrete
@@ -363,6 +382,7 @@ class Pose(NamedTuple):
         pose it inverts."""
         if self.inverse_of is not None:
             return self.inverse_of._inverse_matrix()
+        _check_similarity(self)
         xp = _similarity_xp(self.center, self.scale, self.rotation)
         c, s, r = _floats(xp, self.center, self.scale, self.rotation)
         if r is None:
@@ -374,6 +394,7 @@ class Pose(NamedTuple):
         return _homogeneous(xp, lin, shift)
 
     def _inverse_matrix(self):
+        _check_similarity(self)
         xp = _similarity_xp(self.center, self.scale, self.rotation)
         c, s, r = _floats(xp, self.center, self.scale, self.rotation)
         eye = xp.broadcast_to(xp.eye(3, dtype=c.dtype), c.shape[:-1] + (3, 3))
@@ -395,14 +416,14 @@ class Pose(NamedTuple):
         """
         forward = self.inverse_of
         if forward is not None:
-            _check_points(x, tuple(np.shape(forward.center)[:-1]))
+            _check_points(x, _check_similarity(forward))
             xp = _similarity_xp(x, forward.center, forward.scale, forward.rotation)
             y, c, s, r = _floats(xp, x, forward.center, forward.scale, forward.rotation)
             if r is not None:
                 y = y @ xp.asarray(r, y.dtype)
             c, s = _per_set(c, s)
             return y * s + c
-        _check_points(x, tuple(np.shape(self.center)[:-1]))
+        _check_points(x, _check_similarity(self))
         xp = _similarity_xp(x, self.center, self.scale, self.rotation)
         x, c, s, r = _floats(xp, x, self.center, self.scale, self.rotation)
         c, s = _per_set(c, s)
@@ -418,6 +439,7 @@ class Pose(NamedTuple):
         through the inverted fields). The inverse of an inverse is the pose it inverts."""
         if self.inverse_of is not None:
             return self.inverse_of
+        _check_similarity(self)
         xp = _similarity_xp(self.center, self.scale, self.rotation)
         c, s, r = _floats(xp, self.center, self.scale, self.rotation)
         if r is None:

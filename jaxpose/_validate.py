@@ -23,6 +23,7 @@ __all__ = [
     "check_gamma",
     "check_nu",
     "check_array",
+    "check_faces",
     "check_int",
     "check_bool",
     "check_real",
@@ -135,6 +136,18 @@ def check_points(points, name: str = "points", min_points: int = MIN_POINTS):
         raise InvalidInputError(f"all {arr.shape[0]} {name} are identical as float64 (integers beyond 2**53 round "
                                 "together): no shape to normalize; subtract their offset first")
     return points
+
+
+def check_faces(faces, n):
+    """``faces`` as an (f, 3) integer array of indices of ``n`` vertices (f >= 1), else
+    InvalidInputError (float indices were truncated, out-of-range ones an IndexError)."""
+    faces = np.asarray(faces)
+    if faces.ndim != 2 or faces.shape[1] != 3 or faces.dtype.kind not in "iu":
+        raise InvalidInputError(f"faces must be (f, 3) integer indices of the vertices, got {faces.dtype} {faces.shape}")
+    if faces.min() < 0 or faces.max() >= n:  # (an IndexError deep in the ray votes)
+        raise InvalidInputError(f"faces index vertices that do not exist (indices {faces.min()} ... {faces.max()}, "
+                                f"{n} vertices)")
+    return faces
 
 
 def compute_dtype(points):

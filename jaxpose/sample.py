@@ -4,7 +4,8 @@ from __future__ import annotations
 import numpy as np
 
 from .config import MEMORY_BUDGET, SAMPLING
-from ._validate import InvalidInputError, check_concrete, check_gamma, check_int, check_nu, check_real
+from ._validate import (InvalidInputError, check_array, check_concrete, check_faces, check_gamma, check_int, check_nu,
+                        check_real)
 from .geometry import split_geometry, triangle_areas
 
 __all__ = ["SAMPLING", "SAMPLE_BYTES", "check_count", "check_fit_values", "sample_surface", "lattice_points"]
@@ -88,7 +89,8 @@ def lattice_points(vertices, faces, spacing):
     same points, moved. Neighbouring faces repeat the points of a shared edge.
 
     Args:
-      vertices: (n, 3) float; faces: (f, 3) int (None or empty: the vertices alone).
+      vertices: (n, 3) finite floats; faces: (f, 3) int indices of them (None or empty: the
+        vertices alone); other shapes, kinds or indices are :class:`InvalidInputError`.
       spacing: > 0, in the vertices' units, such that the points fit ``config.MEMORY_BUDGET`` at
         ``LATTICE_BYTES`` each (else :class:`InvalidInputError`, before anything is allocated).
 
@@ -102,10 +104,11 @@ def lattice_points(vertices, faces, spacing):
     """
     spacing = check_real(spacing, "spacing", 0, strict=True)  # (must be > 0: the message names it)
     check_concrete("vertices and faces", vertices, faces)
-    v = np.asarray(vertices, np.float64)
+    # (NaN vertices gave NaN points; float faces were truncated, an index past the vertices an IndexError)
+    v = np.asarray(check_array(vertices, "vertices"), np.float64)
     if faces is None or not len(faces):
         return v.copy()
-    t = v[np.asarray(faces, np.int64)]
+    t = v[np.asarray(check_faces(faces, len(v)), np.int64)]
     longest = np.max(np.linalg.norm(t - np.roll(t, 1, axis=1), axis=2), axis=1)
     with np.errstate(over="ignore"):  # float64 (a tiny spacing's counts overflow an int): inf is too many
         steps = np.ceil(longest / spacing)

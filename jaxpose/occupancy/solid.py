@@ -55,7 +55,7 @@ from scipy import ndimage
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from .._validate import InvalidInputError, check_array, check_bool, check_concrete, check_int, check_real
+from .._validate import InvalidInputError, check_array, check_bool, check_concrete, check_faces, check_int, check_real
 from ..config import MEMORY_BUDGET, RobustConfig
 from ..geometry import surface_labels
 from ..sample import lattice_points
@@ -499,17 +499,6 @@ WIDEN = 3  # meshes: at most this many wider boxes for a fine solid cut at its g
 ZOOM = 4  # meshes: the first pass's grid is laid over the main surface once it spans under 1 / ZOOM of it
 
 
-def _check_faces(faces, n):
-    """`faces` as an (f, 3) integer array of indices of `n` vertices (f >= 1), else InvalidInputError."""
-    faces = np.asarray(faces)
-    if faces.ndim != 2 or faces.shape[1] != 3 or faces.dtype.kind not in "iu":
-        raise InvalidInputError(f"faces must be (f, 3) integer indices of the vertices, got {faces.dtype} {faces.shape}")
-    if faces.min() < 0 or faces.max() >= n:  # (an IndexError deep in the ray votes)
-        raise InvalidInputError(f"faces index vertices that do not exist (indices {faces.min()} ... {faces.max()}, "
-                                f"{n} vertices)")
-    return faces
-
-
 def _check_keep_ratio(keep_ratio):
     if not check_real(keep_ratio, "keep_ratio", 0) <= 1:  # above 1 every part was dropped: an empty solid
         raise InvalidInputError(f"keep_ratio must be in [0, 1], got {keep_ratio!r}")
@@ -552,7 +541,7 @@ def surface_box(vertices, faces, lo, hi, coarse=COARSE, keep_ratio=KEEP_RATIO):
     coarse = check_resolution(coarse, name="coarse")
     _check_keep_ratio(keep_ratio)
     v = np.asarray(vertices, np.float64)
-    faces = np.asarray(_check_faces(faces, len(v)) if len(faces) else faces, np.int64)
+    faces = np.asarray(check_faces(faces, len(v)) if len(faces) else faces, np.int64)
     lo, hi = np.asarray(lo, np.float64), np.asarray(hi, np.float64)
     for _ in range(64):  # (4^64: beyond any float64 box a body could be found in)
         extent = float((hi - lo).max())
@@ -635,7 +624,7 @@ def robust_solid(vertices, faces=None, *, resolution=RESOLUTION, coarse=COARSE, 
     check_concrete("vertices and faces", vertices, faces)
     v = np.asarray(check_array(vertices, "vertices", 1), np.float64)  # a NaN read 'the shape has no extent'
     if faces is not None and len(faces):
-        faces = _check_faces(faces, len(v))
+        faces = check_faces(faces, len(v))
     _check_keep_ratio(keep_ratio)
     if check_int(min_votes, "min_votes", 1) > 6:  # 0: the whole grid inside; above 6: nothing
         raise InvalidInputError(f"min_votes must be in 1 ... 6 (of the 6 one-sided windings), got {min_votes!r}")

@@ -24,6 +24,7 @@ __all__ = [
     "check_nu",
     "check_array",
     "check_faces",
+    "is_name",
     "check_int",
     "check_bool",
     "check_real",
@@ -136,6 +137,13 @@ def check_points(points, name: str = "points", min_points: int = MIN_POINTS):
         raise InvalidInputError(f"all {arr.shape[0]} {name} are identical as float64 (integers beyond 2**53 round "
                                 "together): no shape to normalize; subtract their offset first")
     return points
+
+
+def is_name(value, names) -> bool:
+    """``value`` is a str (or None) among ``names``: the check of an option chosen by name. An
+    array was compared element-wise (NumPy's "truth value of an array is ambiguous" ValueError, or
+    a one-element array taken as its name and then an unhashable dict key)."""
+    return (value is None or isinstance(value, str)) and value in names
 
 
 def check_faces(faces, n):

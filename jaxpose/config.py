@@ -114,7 +114,7 @@ def _bool(value, name):
 
 
 def _choice(value, name, choices):
-    if value not in choices:
+    if not (value is None or isinstance(value, str)) or value not in choices:  # (an array: NumPy's "truth value" ValueError)
         raise InvalidInputError(f"{name} must be one of {', '.join(repr(c) for c in choices)}, got {value!r}")
     return value
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import sample
-from ._validate import InvalidInputError, check_gamma, check_int, check_nu, check_real
+from ._validate import InvalidInputError, check_gamma, check_int, check_nu, check_real, is_name
 from .config import OCSVM, OCSVM_ONLY, PoseConfig
 from .geometry import Surface
 from .io import mesh as io_mesh
@@ -75,7 +75,7 @@ def check_arguments(gamma=None, nu=None, count=None, seed=None, sampling=None, m
     check_nu(ocsvm["nu"])
     sample.check_count(ocsvm["count"])  # validated whatever the method
     check_int(ocsvm["seed"], "seed", minimum=0)
-    if ocsvm["sampling"] not in SAMPLING:
+    if not is_name(ocsvm["sampling"], SAMPLING):
         raise InvalidInputError(f"unknown sampling {ocsvm['sampling']!r}; valid: {', '.join(SAMPLING)}")
     c_name, s_name = estimators.resolve(method, center, scale)
     estimators.check_strict(strict, c_name, s_name)  # refused where ignored, as the command line's --strict

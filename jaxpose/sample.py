@@ -5,7 +5,7 @@ import numpy as np
 
 from .config import MEMORY_BUDGET, SAMPLING
 from ._validate import (InvalidInputError, check_array, check_concrete, check_faces, check_gamma, check_int, check_nu,
-                        check_real)
+                        check_real, is_name as _is_name)
 from .geometry import split_geometry, triangle_areas
 
 __all__ = ["SAMPLING", "SAMPLE_BYTES", "check_count", "check_fit_values", "sample_surface", "lattice_points"]
@@ -32,7 +32,7 @@ def check_fit_values(values):
     for key, value in values.items():
         if key in checks:
             checks[key](value)
-    if "sampling" in values and values["sampling"] not in SAMPLING:
+    if "sampling" in values and not _is_name(values["sampling"], SAMPLING):
         raise InvalidInputError(f"unknown sampling {values['sampling']!r}; valid: {', '.join(SAMPLING)}")
 
 
@@ -56,7 +56,7 @@ def sample_surface(geometry, count, seed=0, method="even"):
     """
     count = check_count(count)
     seed = check_int(seed, "seed", minimum=0)
-    if method not in SAMPLING:
+    if not _is_name(method, SAMPLING):
         raise InvalidInputError(f"unknown sampling {method!r}; valid: {', '.join(SAMPLING)}")
     rng = np.random.default_rng(seed)
     vertices, faces = split_geometry(geometry)

@@ -209,6 +209,32 @@ def test_longdouble_points_compute_as_float64_would():
     assert float(pose.scale) == float(ref.scale)
 
 
+NAMES = np.array(["robust", "ocsvm"])  # names given as an array (a column of a table)
+
+
+@pytest.mark.parametrize("call, message", [
+    # NumPy's "truth value of an array with more than one element is ambiguous" ValueError, or a
+    # one-element array taken as its name and then an unhashable dict key (TypeError)
+    (lambda box: normalize(P, method=NAMES), r"^method must be one of 'robust', 'ocsvm', got array"),
+    (lambda box: jaxpose.normalize_batch([P], strategy=np.array(["map", "vmap"])), r"^strategy must be 'auto', 'map'"),
+    (lambda box: jaxpose.normalize_mesh(box, method=NAMES), r"^unknown method array"),
+    (lambda box: jaxpose.normalize_mesh(box, method=NAMES[:1]), r"^unknown method array\(\['robust'\]"),
+    (lambda box: jaxpose.normalize_mesh(box, center=np.array(["bbox_center", "vertex_mean"])), r"^unknown center array"),
+    (lambda box: jaxpose.normalize_mesh(box, method="ocsvm", sampling=np.array(["even", "random"])),
+     r"^unknown sampling array"),
+    (lambda box: jaxpose.sample_surface(box, 5, method=np.array(["even", "random"])), r"^unknown sampling array"),
+    (lambda box: jaxpose.rotation.rotation.frame_of(box, "ocsvm", ocsvm={"sampling": np.array(["even", "random"])}),
+     r"^unknown sampling array"),
+    (lambda box: jaxpose.SolverConfig.create(kernel=np.array(["dense", "blocked"])), r"^kernel must be one of"),
+    (lambda box: normalize(P, method="ocsvm", derivative=np.array(["exact", "trend"])), r"^derivative must be one of"),
+])
+def test_a_name_given_as_an_array_is_refused_by_name(call, message):
+    import trimesh
+
+    with pytest.raises(InvalidInputError, match=message):
+        call(trimesh.creation.box())
+
+
 def test_decision_function_bad_input():
     svdd = fit_svdd(P, 10.0, 0.5, **FIT)
     for x, fragment in [(np.zeros((4, 2)), "shape"), (np.full((2, 3), np.nan), "NaN"), (np.zeros((2, 3), complex), "real")]:

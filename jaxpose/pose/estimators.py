@@ -36,7 +36,7 @@ from scipy import ndimage
 
 from .. import _validate, baselines, sample
 from ..occupancy import solid, voxels
-from .._validate import InvalidInputError, InvalidPoseWarning, JaxposeError
+from .._validate import InvalidInputError, InvalidPoseWarning, JaxposeError, is_name
 from ..config import OCSVM, ROBUST, PoseConfig
 from ..geometry import Surface, surface_labels, triangle_areas
 from ..host import anchor
@@ -71,16 +71,17 @@ def resolve(method=None, center=None, scale=None):
     ``method`` (default ``"robust"``) gives both; ``center`` / ``scale`` replace either. Raises
     InvalidInputError naming an unknown name.
     """
-    if method is not None and method not in METHODS:
+    if method is not None and not is_name(method, METHODS):
         name, colon, power = str(method).partition(":")
         hint = (f" (the 'name:power' form is evaluate's; here pass method={name!r}, power={power})"
                 if colon and name in METHODS else "")
         raise InvalidInputError(f"unknown method {method!r}; valid: {', '.join(METHODS)}{hint}")
     c, s = METHODS[method or DEFAULT_METHOD]
-    c, s = center or c, scale or s
-    if c not in CENTERS:
+    c = c if center is None or (isinstance(center, str) and not center) else center
+    s = s if scale is None or (isinstance(scale, str) and not scale) else scale
+    if not is_name(c, CENTERS):  # (an array: NumPy's "truth value of an array" ValueError)
         raise InvalidInputError(f"unknown center {c!r}; valid: {', '.join(CENTERS)}")
-    if s not in SCALES:
+    if not is_name(s, SCALES):
         raise InvalidInputError(f"unknown scale {s!r}; valid: {', '.join(SCALES)}")
     return c, s
 

@@ -246,7 +246,7 @@ def _top_level(program, staged, *args, **kwargs):
 def _check_method(method):
     if method is None:  # the default, as normalize_mesh's and estimate's None (it was refused)
         return DEFAULT_METHOD
-    if method not in METHODS:
+    if not _validate.is_name(method, METHODS):
         hint = (" (gamma and nu are keywords: normalize(points, method='ocsvm', gamma=..., nu=...))"
                 if isinstance(method, numbers.Number) else "")
         raise _validate.InvalidInputError(f"method must be one of {', '.join(map(repr, METHODS))}, "
@@ -566,7 +566,7 @@ def normalize_batch(list_of_points: Iterable, method: str | None = DEFAULT_METHO
         poses.center.shape, poses.scale.shape     # (2, 3), (2,); poses.center[1] is normalize(clouds[1]).center
     """
     method = _check_method(method)
-    if strategy not in ("auto", "map", "vmap"):
+    if not _validate.is_name(strategy, ("auto", "map", "vmap")):
         raise _validate.InvalidInputError(f"strategy must be 'auto', 'map' or 'vmap', got {strategy!r}")
     if strategy == "auto":
         strategy = "map" if jax.default_backend() == "cpu" else "vmap"

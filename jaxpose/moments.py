@@ -325,7 +325,11 @@ def solid_moments(sol, power) -> Moments:
 
     The world moments are ``sol.origin + sol.pitch * center`` (then ``@ sol.frame``), ``pitch^3 *
     volume``. Differentiable in ``power`` (a traced power: only its shape and dtype are checked). Raises
-    InvalidInputError for a power that is not a finite number >= 0."""
+    InvalidInputError for a power that is not a finite number >= 0, or a ``sol`` that is no Solid
+    (its AttributeError '... has no attribute inside')."""
+    if not all(hasattr(sol, name) for name in ("inside", "occupied", "bias")):
+        raise InvalidInputError(f"sol must be a Solid (jaxpose.occupancy.solid.robust_solid, "
+                                f"jaxpose.rotation.core.frame_solid), got {type(sol).__name__}")
     check_power(power)
     inside, extent, axes = to_bucket(sol.inside)
     occupied = np.zeros_like(inside) if sol.occupied is None else to_bucket(sol.occupied)[0]

@@ -309,3 +309,35 @@ def test_neighbour_distances_refuses_a_seed_that_is_not_an_int(seed):
         neighbour_distances(points, 4, samples=10, seed=seed)
     np.testing.assert_array_equal(neighbour_distances(points, 4, samples=10, seed=np.int64(3)),
                                   neighbour_distances(points, 4, samples=10, seed=3))
+
+
+def test_near_solid_checks_its_arguments():
+    """solid.near_solid (public): one point (3,) was an IndexError, a NaN point or a pitch 0 read as
+    off the solid (False, no error), grow=-1 scipy's dilation repeated until nothing changed (every
+    voxel near); refused by name. In range: the voxel lookup, checked against the grid by hand."""
+    from jaxpose.occupancy.solid import near_solid
+
+    kept = np.zeros((4, 4, 4), bool)
+    kept[1, 1, 1] = True
+    x = np.array([[1.5, 1.5, 1.5], [2.5, 2.5, 2.5], [3.5, 3.5, 3.5], [-9.0, 0.0, 0.0]])
+    np.testing.assert_array_equal(near_solid(x, kept, np.zeros(3), 1.0, grow=0), [True, False, False, False])
+    np.testing.assert_array_equal(near_solid(x, kept, np.zeros(3), 1.0, grow=1), [True, True, False, False])
+    for call, message in [
+        (lambda: near_solid(x[0], kept, np.zeros(3), 1.0), r"^x must have shape \(m, 3\), got \(3,\)"),
+        (lambda: near_solid(np.full((1, 3), np.nan), kept, np.zeros(3), 1.0), r"^x has 1 rows with NaN or inf"),
+        (lambda: near_solid(x, kept, np.zeros(3), 0.0), r"^pitch must be a finite number > 0, got 0\.0"),
+        (lambda: near_solid(x, kept, np.zeros(3), 1.0, grow=-1), r"^grow must be >= 0, got -1"),
+        (lambda: near_solid(x, kept, np.zeros(2), 1.0), r"^origin must be 3 finite numbers"),
+        (lambda: near_solid(x, kept[0], np.zeros(3), 1.0), r"^kept must be a 3-D grid"),
+    ]:
+        with pytest.raises(InvalidInputError, match=message):
+            call()
+
+
+def test_solid_moments_names_a_sol_that_is_no_solid():
+    """moments.solid_moments(points, 4.0) was AttributeError "'numpy.ndarray' object has no attribute 'inside'"."""
+    from jaxpose import moments
+
+    for sol in (np.zeros((5, 3)), None, (1, 2)):
+        with pytest.raises(InvalidInputError, match=r"^sol must be a Solid \(jaxpose.occupancy.solid.robust_solid"):
+            moments.solid_moments(sol, 4.0)

@@ -457,8 +457,18 @@ def reaches_edge(inside):
 
 def near_solid(x, kept, origin, pitch, grow=1):
     """(m,) bool: the voxel of each point x (m, 3) (the grid's frame, units) lies within ``grow``
-    voxels of ``kept`` ((nx, ny, nz) bool; lower corner ``origin``, edge ``pitch``)."""
+    voxels of ``kept`` ((nx, ny, nz) bool; lower corner ``origin`` (3,), edge ``pitch`` > 0;
+    ``grow`` an int >= 0). InvalidInputError for other shapes or values (one point (3,) was an
+    IndexError; a NaN point or a pitch 0 read as off the solid; grow=-1 dilated until nothing changed)."""
     check_concrete("x, kept, origin and pitch", x, kept, origin, pitch)
+    x = np.asarray(check_array(x, "x"), np.float64)
+    if np.ndim(kept) != 3:
+        raise InvalidInputError(f"kept must be a 3-D grid (nx, ny, nz), got shape {np.shape(kept)}")
+    origin = np.asarray(origin, np.float64)
+    if origin.shape != (3,) or not np.all(np.isfinite(origin)):
+        raise InvalidInputError(f"origin must be 3 finite numbers, got {origin!r:.80}")
+    pitch = check_real(pitch, "pitch", 0, strict=True)
+    grow = check_int(grow, "grow", 0)
     near = ndimage.binary_dilation(kept, structure=np.ones((3, 3, 3), bool), iterations=grow) if grow else kept
     idx = np.floor((x - origin) / pitch).astype(np.int64)
     np.clip(idx, -1, np.array(kept.shape), out=idx)

@@ -407,6 +407,13 @@ def test_the_inertia_frame_of_a_mesh_without_volume_is_refused():
      r"^ocsvm\['options'\] must not hold 'points': the points are sampled from the geometry"),
     (lambda box: evaluate_rotation({"a": [box, box]}, methods=["ocsvm"], ocsvm={"options": {"gamma": 20.0}}),
      r"^ocsvm\['options'\] must not hold 'gamma'"),
+    # rotation.core's public steps: NaN vertices were NumPy's LinAlgError "Eigenvalues did not converge",
+    # float faces truncated (a silently other frame), an index past the vertices an IndexError
+    (lambda box: rotation.pre_frame(np.where(np.arange(8)[:, None] == 0, np.nan, box.vertices), box.faces),
+     r"^vertices has 1 rows with NaN or inf"),
+    (lambda box: rotation.frame_solid(np.full((8, 3), np.inf), box.faces), r"^vertices has 8 rows with NaN or inf"),
+    (lambda box: rotation.pre_frame(box.vertices, box.faces + 0.5), r"^faces must be \(f, 3\) integer indices"),
+    (lambda box: rotation.frame_solid(box.vertices, box.faces + 8), r"^faces index vertices that do not exist"),
     # an option the frame does not read was ignored (the frame ran without it; normalize_mesh refuses them)
     (lambda box: rotation.frame_of(box, "pca_vertices", resolution=64),
      r"^resolution is an option of the core and head frames; rotation 'pca_vertices' does not read it"),

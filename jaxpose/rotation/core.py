@@ -41,7 +41,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage
 
-from .._validate import check_concrete
+from .._validate import check_array, check_concrete, check_faces
 from ..geometry import surface_labels
 from ..occupancy import solid
 from ..orientation import SIGN_MIN, SYMMETRY_MIN, Frame, ambiguity, complete_signs, descending_axes, relative_gaps
@@ -81,6 +81,16 @@ def _third_moments(x, w=None):
     return w @ (d ** 3)
 
 
+def _checked(vertices, faces):
+    """(vertices as (n, 3) finite float64, faces as checked indices or as given where None or
+    empty): InvalidInputError naming what is wrong."""
+    check_concrete("vertices and faces", vertices, faces)
+    v = np.asarray(check_array(vertices, "vertices", 1), np.float64)
+    if faces is not None and len(faces):
+        faces = check_faces(faces, len(v))
+    return v, faces
+
+
 def pre_frame(vertices, faces=None):
     """The grid frame of :func:`frame_solid`: principal axes of the input, signs by third moments.
 
@@ -89,13 +99,16 @@ def pre_frame(vertices, faces=None):
     third moment of the vertices along it, so the frame of a rotated input is the rotated frame.
 
     Args:
-      vertices: (n, 3) float; faces: (f, 3) int or None.
+      vertices: (n, 3) finite floats; faces: (f, 3) int indices of them, or None.
 
     Returns:
       (3, 3) orthonormal rows (largest second moment first; not necessarily proper).
+
+    Raises:
+      InvalidInputError: vertices or faces of another shape or kind, NaN or inf vertices, indices
+        past the vertices (were NumPy's LinAlgError "Eigenvalues did not converge" or IndexError).
     """
-    check_concrete("vertices and faces", vertices, faces)
-    v = np.asarray(vertices, np.float64)
+    v, faces = _checked(vertices, faces)
     if faces is not None and len(faces):
         t = v[np.asarray(faces, np.int64)]
         area = 0.5 * np.linalg.norm(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]), axis=1)
@@ -134,8 +147,7 @@ def frame_solid(vertices, faces=None, resolution=None):
     its points'.)
     """
     resolution = solid.check_resolution(solid.RESOLUTION if resolution is None else resolution)  # 7.5 is not 7
-    check_concrete("vertices and faces", vertices, faces)
-    v = np.asarray(vertices, np.float64)
+    v, faces = _checked(vertices, faces)  # (NaN vertices: NumPy's LinAlgError in pre_frame)
     if faces is None or not len(faces):
         return solid.robust_solid(v, faces, resolution=resolution, frame=pre_frame(v, faces), reach=0)
     f = np.asarray(faces, np.int64)

@@ -44,6 +44,7 @@ from scipy import ndimage
 from .._validate import check_array, check_concrete, check_faces
 from ..geometry import surface_labels
 from ..occupancy import solid
+from . import parts
 from ..orientation import SIGN_MIN, SYMMETRY_MIN, Frame, ambiguity, complete_signs, descending_axes, relative_gaps
 
 __all__ = ["FOOT", "FEET_DEPTH", "FOOT_MIN", "AXES_POWER", "SYMMETRY_POWER", "OFF_SOLID", "pre_frame", "frame_solid",
@@ -262,6 +263,7 @@ def core_frame(sol, power=AXES_POWER, feet=True, cross_check=True) -> Frame:
       :class:`Frame`; ``mirror`` is the mirror axis; ``margins`` the sign cues' margins as
       multiples of their thresholds (< 1: undetermined).
     """
+    parts.check_solid(sol)
     y, d, _ = _grid_centers(sol)
     if len(y) < 4:
         return _undetermined()

@@ -397,6 +397,7 @@ def head_frame(sol, vertices, faces=None) -> Frame:
       >>> v, f = baselines.split_geometry(person)                     # doctest: +SKIP
       >>> head_frame(frame_solid(v, f), v, f).rotation[2]  # back to front, world coordinates  # doctest: +SKIP
     """
+    parts.check_solid(sol)
     found = parts.find_head(sol)
     cloud = faces is None
     closed = not cloud and is_closed(np.asarray(faces))

@@ -48,10 +48,11 @@ import numpy as np
 from scipy import ndimage, sparse
 from scipy.sparse import csgraph
 
+from .._validate import InvalidInputError
 from ..orientation import GAP_MIN
 
 __all__ = ["THICK", "NECK", "TRUNK", "SADDLE", "DISK", "WIDER", "BRANCH", "SHARE", "LOWEST", "Parts", "merge_tree", "find_parts", "find_head",
-           "part_across", "geodesic", "ends", "waist", "terminal_part"]
+           "part_across", "geodesic", "ends", "waist", "terminal_part", "check_solid"]
 
 THICK = 0.5  # a head is at least half as deep as the deepest part of the body (its trunk)
 NECK = 1.1  # a neck is at least 10 % thinner than the shallower of the two parts it joins
@@ -188,6 +189,18 @@ def merge_tree(inside, depth):
     return rows[np.argsort(-(rows[:, 0] - rows[:, 1]), kind="stable")]
 
 
+def check_solid(sol):
+    """Refuse a ``sol`` that is no :class:`jaxpose.occupancy.solid.Solid` with its depth (points, a
+    solid built with ``with_depth=False``): InvalidInputError naming :func:`jaxpose.rotation.core.frame_solid`
+    (was an AttributeError "... has no attribute 'inside'", or a TypeError on the missing depth)."""
+    if not all(hasattr(sol, name) for name in ("inside", "depth", "origin", "pitch", "frame")):
+        raise InvalidInputError(f"sol must be a Solid from jaxpose.rotation.core.frame_solid(vertices, faces), got "
+                                f"{type(sol).__name__}")
+    if sol.depth is None:
+        raise InvalidInputError("sol has no depth (built with with_depth=False): the frames read the depth field; "
+                                "build it with jaxpose.rotation.core.frame_solid(vertices, faces)")
+
+
 def find_parts(sol, thick=THICK, tree=None):
     """The head, trunk and neck of a solid (module docs), or None when no saddle joins two parts
     at least ``thick`` times as deep as the deepest with a saddle at least :data:`NECK` times
@@ -201,6 +214,7 @@ def find_parts(sol, thick=THICK, tree=None):
     Returns:
       :class:`Parts` in the grid's frame, or None.
     """
+    check_solid(sol)
     return _find_parts(sol, thick, tree, _Levels(sol))
 
 
@@ -416,6 +430,7 @@ def terminal_part(sol, tree=None):
       was compared;
       ``terminal`` True, ``beyond`` the part as cut off).
     """
+    check_solid(sol)
     return _terminal_part(sol, tree, _Levels(sol))
 
 
@@ -463,6 +478,7 @@ def find_head(sol, tree=None):
       :class:`Parts` in the grid's frame, or None (no saddle beyond which a part ends the body:
       a ball, a box, a capsule).
     """
+    check_solid(sol)
     tree = merge_tree(sol.inside, sol.depth) if tree is None else tree
     levels = _Levels(sol)
     found = _find_parts(sol, THICK, tree, levels)

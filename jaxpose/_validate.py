@@ -225,10 +225,10 @@ def check_default_float(value: float, name: str, normal: bool = False) -> float:
 
 
 def check_power(power, name: str = "power"):
-    """A depth exponent p: concrete, a finite number >= 0 (:func:`check_real`; a () array of reals
-    is its number) that JAX's default float holds (:func:`check_default_float`: beyond its max it is
-    inf inside the pipeline); traced, a () real (:func:`check_traced_scalar`). Returns ``power``
-    unchanged."""
+    """A depth exponent p (or a depth's ``bias``, the same rule): concrete, a finite number >= 0
+    (:func:`check_real`; a () array of reals is its number) that JAX's default float holds
+    (:func:`check_default_float`: beyond its max it is inf inside the pipeline); traced, a () real
+    (:func:`check_traced_scalar`). Returns ``power`` unchanged."""
     if is_traced(power):
         return check_traced_scalar(power, name)
     check_default_float(check_real(power, name, 0), name)

@@ -190,7 +190,7 @@ def depth_weights(inside, power, bias=0.0, extent=None):
         A traced power outside [0, inf) (negative, NaN, inf), which cannot be refused, gives
         weight 0 on every cell (:func:`jaxpose.weighted.depth_power_weights`; no NaN, derivative 0):
         a result no power in range gives a grid with a True cell.
-      bias: () float, cells subtracted from the distance.
+      bias: () float >= 0, cells subtracted from the distance.
 
     Returns:
       (n_0, ..., n_{d-1}) float weights in [0, 1]; 1 on every True cell when no cell is deeper than
@@ -198,12 +198,13 @@ def depth_weights(inside, power, bias=0.0, extent=None):
       log(ratio) * weight (0 where the depth is 0).
 
     Raises:
-      InvalidInputError: a power that is not a () real (known while tracing too), or concrete and
-        not a finite number >= 0 (:func:`jaxpose._validate.check_power`); a bias that is not ().
+      InvalidInputError: a power or bias that is not a () real (known while tracing too), or
+        concrete and not a finite number >= 0 (:func:`jaxpose._validate.check_power`).
     """
     check_power(power)
     if jnp.ndim(bias) != 0:
         raise InvalidInputError(f"bias must be a scalar, got shape {tuple(jnp.shape(bias))}")
+    check_power(bias, "bias")  # (a string was JAX's TypeError; NaN weighed every cell 0 without a word)
     return _depth_weights(inside, power, bias, extent)
 
 

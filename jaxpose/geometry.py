@@ -14,7 +14,7 @@ import numpy as np
 
 from ._validate import InvalidInputError, OpenMeshWarning, check_concrete, check_points
 
-__all__ = ["Surface", "split_geometry", "triangle_areas", "surface_labels", "is_closed", "require_faces", "warn_if_open"]
+__all__ = ["Surface", "split_geometry", "is_pair", "triangle_areas", "surface_labels", "is_closed", "require_faces", "warn_if_open"]
 
 
 # the extents (largest coordinate range) whose face areas float64 holds: the cross product of two edges
@@ -42,6 +42,18 @@ class Surface(NamedTuple):
     faces: np.ndarray
 
 
+def is_pair(value) -> bool:
+    """Whether ``value`` is a bare tuple or list of two 2-d arrays (vertices and faces), not points
+    nor a :class:`Surface` (a named tuple): such a pair is refused where a geometry is read, with
+    :class:`Surface` as the fix."""
+    if hasattr(value, "vertices"):
+        return False
+    try:
+        return isinstance(value, (tuple, list)) and len(value) == 2 and all(np.ndim(a) == 2 for a in value)
+    except ValueError:  # a ragged element: NumPy refuses its ndim
+        return False
+
+
 def split_geometry(mesh_or_points):
     """Split the input into vertices and faces.
 
@@ -51,7 +63,7 @@ def split_geometry(mesh_or_points):
     faces : (f, 3) int or None   (None for point clouds and meshes without faces)
 
     Raises InvalidInputError for a path (str, bytes or os.PathLike: the message says how to load
-    it), bad vertices or faces, for faces of zero total area ("the mesh has no area": such a mesh
+    it), a (vertices, faces) pair (the message names :class:`Surface`), bad vertices or faces, for faces of zero total area ("the mesh has no area": such a mesh
     is not silently taken as its points), and for traced
     vertices or faces (under jit, vmap or grad: every function that reads a geometry here is NumPy).
 
@@ -67,6 +79,9 @@ def split_geometry(mesh_or_points):
             "and jaxpose.normalize_mesh read a path themselves)")
     check_concrete("the geometry (mesh or points)", getattr(mesh_or_points, "vertices", mesh_or_points),
                    getattr(mesh_or_points, "faces", None))
+    if is_pair(mesh_or_points):  # (NumPy's "inhomogeneous shape" ValueError)
+        raise InvalidInputError("a (vertices, faces) pair: pass jaxpose.geometry.Surface(vertices, faces) for a mesh "
+                                "(an array of points is a point cloud)")
     faces = None
     if hasattr(mesh_or_points, "vertices"):  # Trimesh, PointCloud
         vertices = np.asarray(mesh_or_points.vertices, dtype=np.float64)

@@ -290,8 +290,8 @@ def robust_moments(inside, occupied, origin, pitch, power, bias, extent=None) ->
       occupancy itself carries no derivative.
 
     Raises:
-      InvalidInputError: arguments of other shapes (known while tracing too), a concrete power that
-        is not a finite number >= 0 (:func:`jaxpose._validate.check_power`).
+      InvalidInputError: arguments of other shapes (known while tracing too), a concrete power or
+        bias that is not a finite number >= 0 (:func:`jaxpose._validate.check_power`).
     """
     check_power(power)
     shape = tuple(jnp.shape(inside))
@@ -302,6 +302,7 @@ def robust_moments(inside, occupied, origin, pitch, power, bias, extent=None) ->
     for name, (value, want) in wanted.items():
         if value is not None:  # (a (2,) origin was read as (o0, o1, o1))
             check_shape(name, value, want, ", the shape of inside" if name == "occupied" else "")
+    check_power(bias, "bias")  # (NaN weighed every voxel 0: moments of zero mass, without a word)
     if occupied is None:  # a mesh solid's (sol.occupied): was JAX's TypeError "unsupported operand type(s) for &"
         occupied = np.zeros(shape, bool)
     return _robust_moments(inside, occupied, origin, pitch, power, bias, extent)

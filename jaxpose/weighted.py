@@ -68,12 +68,26 @@ def weighted_center(x, w):
 
     Returns:
       mass () = sum w, center (3,) = sum w x / mass (0 with mass 0).
+
+    Raises:
+      InvalidInputError: ``x`` not 3 arrays (an (n, 3) array of points: pass its transpose).
     """
+    _check_axes(x)
     xp = array_namespace(w, *x)
     w, x = xp.asarray(w), [xp.asarray(xa) for xa in x]  # (lists: the backend's arrays)
     mass = xp.sum(w)
     safe = xp.where(mass > 0, mass, 1.0)
     return mass, xp.stack([xp.sum(w * xa) / safe for xa in x])
+
+
+def _check_axes(x):
+    """``x`` as 3 coordinate arrays; an (n, 3) array of points (n != 3) refused by name, with the
+    fix (its rows were read as n axes: a center of n coordinates, or a broadcasting error)."""
+    shape = getattr(x, "shape", None)
+    if len(x) != 3:
+        got = f"an array of shape {tuple(shape)}" if shape is not None else f"{len(x)} arrays"
+        hint = ": pass points.T (or x[:, 0], x[:, 1], x[:, 2])" if shape is not None and shape[-1:] == (3,) else ""
+        raise InvalidInputError(f"x must be 3 coordinate arrays (one per axis), got {got}{hint}")
 
 
 def weighted_moments(x, w):
@@ -89,7 +103,11 @@ def weighted_moments(x, w):
       mass () = sum w; center (3,) = sum w x / mass; mean distance () = sum w |x - c| / mass;
       second moment (3, 3) = sum w (x - c)(x - c)^T / mass. With mass 0 the center is 0.
       Differentiable in x and w (the distance's square root is kept off 0 by the float's tiny).
+
+    Raises:
+      InvalidInputError: ``x`` not 3 arrays (an (n, 3) array of points: pass its transpose).
     """
+    _check_axes(x)
     xp = array_namespace(w, *x)
     w, x = xp.asarray(w), [xp.asarray(xa) for xa in x]  # (lists: the backend's arrays)
     mass, c = weighted_center(x, w)

@@ -32,6 +32,20 @@ def test_split_geometry_refuses_bad_faces(faces, message):
         geometry.split_geometry(mesh)
 
 
+def test_a_vertices_faces_pair_is_refused_with_the_fix():
+    """A (vertices, faces) tuple where a geometry goes (``rotation.frame_of``, the baselines, every
+    reader of ``split_geometry``) was NumPy's 'inhomogeneous shape' ValueError; sample_surface and
+    normalize_mesh already named jaxpose.geometry.Surface. Surface(vertices, faces) is read as the mesh."""
+    from jaxpose.rotation.rotation import frame_of
+
+    box = trimesh.creation.box()
+    for call in (lambda g: geometry.split_geometry(g), lambda g: frame_of(g, "pca_vertices")):
+        with pytest.raises(InvalidInputError, match=r"^a \(vertices, faces\) pair: pass jaxpose.geometry.Surface"):
+            call((box.vertices, box.faces))
+    v, f = geometry.split_geometry(geometry.Surface(box.vertices, box.faces))
+    np.testing.assert_array_equal(f, box.faces)
+
+
 def test_meshes_whose_areas_float64_cannot_hold_are_refused_by_their_extent():
     """A mesh spanning 1e100 got inf - inf = NaN areas: NumPy's 'repeats may not contain negative
     values' from the sampler, a NaN surface centroid, an OverflowError traceback from the robust

@@ -191,6 +191,10 @@ def test_robust_moments_and_depth_weights_check_their_arguments():
          r"^power must be a real scalar, got a traced float32\[2\]"),
         (lambda: depth.depth_weights(inside, -2.0), r"^power must be a finite number >= 0"),
         (lambda: depth.depth_weights(inside, 2.0, bias=np.ones(2)), r"^bias must be a scalar"),
+        # a NaN bias weighed every cell 0 (moments of zero mass) without a word; a string was JAX's TypeError
+        (lambda: depth.depth_weights(inside, 2.0, bias=np.nan), r"^bias must be a finite number >= 0, got nan"),
+        (lambda: depth.depth_weights(inside, 2.0, bias="x"), r"^bias must be a finite number >= 0, got 'x'"),
+        (lambda: moments.robust_moments(inside, occupied, origin, pitch, 2.0, np.nan), r"^bias must be a finite number >= 0"),
         (lambda: jax.jit(lambda p: depth.depth_weights(inside, p))(jnp.asarray(2.0 + 0j)),
          r"^power must be a real scalar, got a traced complex64\[\]"),
         # a (2,) extent of a 3-D grid was read as (e0, e1, e1) (JAX clamps the index): silently another grid
@@ -200,6 +204,21 @@ def test_robust_moments_and_depth_weights_check_their_arguments():
     for call, message in refused:
         with pytest.raises(InvalidInputError, match=message):
             call()
+
+
+def test_weighted_moments_refuse_points_in_place_of_three_axes():
+    """weighted.weighted_center / weighted_moments take 3 coordinate arrays; an (n, 3) array of
+    points was read as n axes (a center of n coordinates, or NumPy's broadcasting error); refused
+    with the fix. Its transpose gives the points' mean (NumPy's, the oracle)."""
+    from jaxpose import weighted
+
+    points, w = np.random.default_rng(0).normal(size=(10, 3)), np.ones(10)
+    for call in (weighted.weighted_center, weighted.weighted_moments):
+        with pytest.raises(InvalidInputError, match=r"^x must be 3 coordinate arrays .* shape \(10, 3\): pass points.T"):
+            call(points, w)
+        with pytest.raises(InvalidInputError, match=r"^x must be 3 coordinate arrays .*, got 2 arrays"):
+            call([points[:, 0], points[:, 1]], w)
+        np.testing.assert_allclose(call(points.T, w)[1], points.mean(axis=0), rtol=1e-12)
 
 
 def test_grid_moments_checks_its_arguments():

@@ -19,7 +19,7 @@ import numpy as np
 
 from . import formats, readers, writers
 from .._validate import InvalidInputError, check_concrete, check_points
-from ..geometry import Surface
+from ..geometry import Surface, is_pair
 from .atomic import write_atomic
 
 __all__ = [
@@ -111,7 +111,7 @@ def _checked(geometry, source):
         if hasattr(geometry, "vertices") or isinstance(geometry, (np.ndarray, list, tuple)) or (
                 hasattr(geometry, "__array__") and not isinstance(geometry, (str, bytes))):
             points = getattr(geometry, "vertices", geometry)
-            if _is_pair(points):
+            if is_pair(points):
                 raise InvalidInputError(f"{source}: a (vertices, faces) pair: pass jaxpose.geometry.Surface(vertices, "
                                         "faces) for a mesh (an array of points is a point cloud)")
             check_points(points, name=f"points of {source}", min_points=1)
@@ -135,14 +135,6 @@ def _checked(geometry, source):
     if source != "input" and isinstance(geometry, trimesh.Trimesh):
         _merge_vertices(geometry, source)  # STL and friends store each triangle's corners apart
     return geometry
-
-
-def _is_pair(value):
-    """Whether ``value`` is a tuple or list of two 2-d arrays (vertices and faces), not points."""
-    try:
-        return isinstance(value, (tuple, list)) and len(value) == 2 and all(np.ndim(a) == 2 for a in value)
-    except ValueError:  # a ragged element: NumPy refuses its ndim
-        return False
 
 
 def _merge_vertices(geometry, source="input"):

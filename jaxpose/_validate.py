@@ -10,7 +10,7 @@ import sys
 
 import numpy as np
 
-from .config import _bool, _int, _real, check_known  # (config's rules: NumPy-free, config is imported before NumPy)
+from .config import _bool, _int, _real, check_known, is_name  # (config's rules: NumPy-free, config is imported before NumPy)
 from .errors import ConvergenceError, InvalidInputError, InvalidPoseWarning, JaxposeError, OpenMeshWarning
 
 __all__ = [
@@ -139,23 +139,23 @@ def check_points(points, name: str = "points", min_points: int = MIN_POINTS):
     return points
 
 
-def is_name(value, names) -> bool:
-    """``value`` is a str (or None) among ``names``: the check of an option chosen by name. An
-    array was compared element-wise (NumPy's "truth value of an array is ambiguous" ValueError, or
-    a one-element array taken as its name and then an unhashable dict key)."""
-    return (value is None or isinstance(value, str)) and value in names
-
-
 def check_faces(faces, n):
-    """``faces`` as an (f, 3) integer array of indices of ``n`` vertices (f >= 1), else
-    InvalidInputError (float indices were truncated, out-of-range ones an IndexError)."""
+    """``faces`` as an (f, 3) int64 array of indices of ``n`` vertices (f >= 1), else
+    InvalidInputError: integers, or floats holding whole numbers (as :func:`jaxpose.mesh.load`
+    takes them); fractions, bools and other kinds refused (float indices were truncated into
+    other faces, out-of-range ones an IndexError)."""
     faces = np.asarray(faces)
-    if faces.ndim != 2 or faces.shape[1] != 3 or faces.dtype.kind not in "iu":
-        raise InvalidInputError(f"faces must be (f, 3) integer indices of the vertices, got {faces.dtype} {faces.shape}")
+    if faces.ndim != 2 or faces.shape[1] != 3 or not len(faces):
+        raise InvalidInputError(f"faces must be (f, 3) integer indices of the vertices (shape (f, 3), f >= 1), got "
+                                f"shape {faces.shape}")
+    kind = faces.dtype.kind
+    if kind not in "iu" and not (kind == "f" and np.all(np.mod(faces, 1) == 0)):
+        fractions = " with fractions" if kind == "f" else ""
+        raise InvalidInputError(f"faces must be (f, 3) integer indices of the vertices, got {faces.dtype}{fractions}")
     if faces.min() < 0 or faces.max() >= n:  # (an IndexError deep in the ray votes)
-        raise InvalidInputError(f"faces index vertices that do not exist (indices {faces.min()} ... {faces.max()}, "
+        raise InvalidInputError(f"faces index vertices that do not exist (indices {faces.min():g} ... {faces.max():g}, "
                                 f"{n} vertices)")
-    return faces
+    return faces.astype(np.int64, copy=False)
 
 
 def compute_dtype(points):

@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import sample
-from ._validate import InvalidInputError, JaxposeError, check_concrete, is_real_dtype
+from ._validate import InvalidInputError, JaxposeError, check_concrete, is_name, is_real_dtype
 from .geometry import is_closed, require_faces, split_geometry, triangle_areas, warn_if_open
 from .host import anchor
 from .orientation import SIGN_MIN, Frame, ambiguity, complete_signs, proper, relative_gaps
@@ -346,7 +346,7 @@ def sqrt_area(mesh_or_points):
 # --------------------------------------------------------------------------- dispatch
 def center(mesh_or_points, method="surface_centroid"):
     """Center by name, one of :data:`CENTERS`.  Returns center : (3,) float64."""
-    if method not in CENTERS:
+    if not is_name(method, CENTERS):  # (an array: NumPy's "truth value ... ambiguous")
         raise InvalidInputError(f"unknown center method {method!r}; valid: {', '.join(CENTERS)}")
     return _CENTERS[method](mesh_or_points)  # solid ones: defaults (warn on open meshes)
 
@@ -357,7 +357,7 @@ def scale(mesh_or_points, method="mean_distance", center=None):
     center : (3,) float or None (surface centroid; ignored by ``unit_cube``)
     Returns scale : float
     """
-    if method not in SCALES:
+    if not is_name(method, SCALES):
         raise InvalidInputError(f"unknown scale method {method!r}; valid: {', '.join(SCALES)}")
     return _SCALES[method](mesh_or_points, center)
 
@@ -433,7 +433,7 @@ def inertia_frame(mesh_or_points):
 
 def frame(mesh_or_points, method="pca_surface"):
     """Frame by name, one of :data:`FRAMES`.  Returns :class:`jaxpose.orientation.Frame`."""
-    if method not in FRAMES:
+    if not is_name(method, FRAMES):
         raise InvalidInputError(f"unknown frame method {method!r}; valid: {', '.join(FRAMES)}")
     return _FRAMES[method](mesh_or_points)
 

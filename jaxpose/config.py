@@ -113,8 +113,15 @@ def _bool(value, name):
     return bool(value)
 
 
+def is_name(value, names) -> bool:
+    """``value`` is a str (or None) among ``names``: the one check of an option chosen by name. An
+    array was compared element-wise (NumPy's "truth value of an array is ambiguous" ValueError, or
+    a one-element array taken as its name and then an unhashable dict key)."""
+    return (value is None or isinstance(value, str)) and value in names
+
+
 def _choice(value, name, choices):
-    if not (value is None or isinstance(value, str)) or value not in choices:  # (an array: NumPy's "truth value" ValueError)
+    if not is_name(value, choices):
         raise InvalidInputError(f"{name} must be one of {', '.join(repr(c) for c in choices)}, got {value!r}")
     return value
 

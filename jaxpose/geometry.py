@@ -12,7 +12,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ._validate import InvalidInputError, OpenMeshWarning, check_concrete, check_points
+from ._validate import InvalidInputError, OpenMeshWarning, check_concrete, check_faces, check_points
 
 __all__ = ["Surface", "split_geometry", "is_pair", "triangle_areas", "surface_labels", "is_closed", "require_faces", "warn_if_open"]
 
@@ -87,16 +87,13 @@ def split_geometry(mesh_or_points):
         vertices = np.asarray(mesh_or_points.vertices, dtype=np.float64)
         f = getattr(mesh_or_points, "faces", None)
         if f is not None and len(f) > 0:
-            faces = np.asarray(f, dtype=np.int64)
+            faces = np.asarray(f)  # (its kind checked below: a fraction was truncated into another face)
     else:
         vertices = np.asarray(mesh_or_points)
     check_points(vertices, name="vertices", min_points=1)
     vertices = np.asarray(vertices, dtype=np.float64)
     if faces is not None:
-        if faces.ndim != 2 or faces.shape[1] != 3:
-            raise InvalidInputError(f"faces must have shape (f, 3), got {faces.shape}")
-        if faces.min() < 0 or faces.max() >= len(vertices):
-            raise InvalidInputError("faces index vertices that do not exist")
+        faces = check_faces(faces, len(vertices))
         with np.errstate(over="ignore"):  # the flat range bounds every axis's extent, at a tenth of their cost
             wide = float(vertices.max() - vertices.min()) > MAX_EXTENT
         if wide and _extent(vertices) > MAX_EXTENT:  # the areas' squared cross products would overflow: NaN areas

@@ -54,6 +54,7 @@ from ._hyper import instantiate, is_zero
 from ._validate import InvalidInputError, check_power
 from .config import GridConfig
 from .depth import depth_weights, to_bucket
+from .occupancy.solid import check_solid
 from .occupancy.svdd.problem import SVDD, check_svdd
 from .occupancy.grid import (CHILD_OFFSETS, domain, evaluate_children, evaluate_grid, evaluate_on_grid, evaluate_on_grid_jvp,
                    first_true, morton_codes)
@@ -328,9 +329,7 @@ def solid_moments(sol, power) -> Moments:
     volume``. Differentiable in ``power`` (a traced power: only its shape and dtype are checked). Raises
     InvalidInputError for a power that is not a finite number >= 0, or a ``sol`` that is no Solid
     (its AttributeError '... has no attribute inside')."""
-    if not all(hasattr(sol, name) for name in ("inside", "occupied", "bias")):
-        raise InvalidInputError(f"sol must be a Solid (jaxpose.occupancy.solid.robust_solid, "
-                                f"jaxpose.rotation.core.frame_solid), got {type(sol).__name__}")
+    check_solid(sol)
     check_power(power)
     inside, extent, axes = to_bucket(sol.inside)
     occupied = np.zeros_like(inside) if sol.occupied is None else to_bucket(sol.occupied)[0]

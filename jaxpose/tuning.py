@@ -179,7 +179,7 @@ def check_options(method="ocsvm", steps=TUNE.steps, lr=TUNE.lr, reg=TUNE.reg, sc
     Raises:
       InvalidInputError: naming the first bad argument.
     """
-    if method not in METHODS:
+    if not _validate.is_name(method, METHODS):
         raise _validate.InvalidInputError(f"method must be one of {', '.join(map(repr, METHODS))}, got {method!r}")
     given = {"gamma0": gamma0, "nu0": nu0, "power0": power0}
     for key, owner in _STARTS.items():

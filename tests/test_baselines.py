@@ -256,3 +256,24 @@ def test_solid_centroid_is_trimesh_center_mass_for_a_closed_mesh_only():
     claim = next(s for s in re.split(r"(?<=\.) ", doc) if "center_mass" in s)
     assert "closed" in claim, claim  # the equality is a closed mesh's
     assert "open" in doc and "differ" in doc, doc
+
+
+def test_a_method_name_given_as_an_array_is_refused_by_name():
+    """baselines.center / scale / frame (and rotation.frame_of, tuning.tune, evaluation's variants
+    and rotations) compared an array of names element-wise: NumPy's "truth value of an array is
+    ambiguous" ValueError, or a one-element array taken as its name and then "unhashable type".
+    One rule (config.is_name): a name is a str among the valid ones."""
+    from jaxpose.evaluation import variants
+    from jaxpose.rotation.rotation import frame_of
+
+    box = trimesh.creation.box()
+    two, one = np.array(["bbox_center", "vertex_mean"]), np.array(["bbox_center"])
+    for call, message in ((lambda m: baselines.center(box, m), "unknown center method"),
+                          (lambda m: baselines.scale(box, m), "unknown scale method"),
+                          (lambda m: baselines.frame(box, m), "unknown frame method"),
+                          (lambda m: frame_of(box, m), "unknown rotation"),
+                          (lambda m: variants.make_class([box, box], m, 0, 0), "unknown variant")):
+        for name in (two, one):
+            with pytest.raises(InvalidInputError, match=message):
+                call(name)
+    np.testing.assert_allclose(baselines.center(box, "bbox_center"), box.bounds.mean(axis=0))

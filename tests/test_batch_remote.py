@@ -139,3 +139,22 @@ def test_a_remote_gltf_with_buffer_files_is_named_as_read_alone(tmp_path):
                                  "folder to a local one")
     finally:
         fs.rm(base, recursive=True)
+
+
+def test_a_remote_output_folder_holding_only_what_file_browsers_leave_is_taken_as_empty(memory_scans):
+    """A remote OUTDIR kept the old rule: a .DS_Store alone was "files that jaxpose did not write",
+    naming none; now the local folder's rule (batch.journal.check_no_foreign): browser files do not
+    count, a file of the user's is named and left as it was."""
+    from jaxpose.errors import UsageError
+
+    _, base = memory_scans
+    fs = fsspec.filesystem("memory")
+    path = base.split("://", 1)[1]
+    fs.pipe_file(f"{path}/mine/notes.txt", b"mine")
+    fs.pipe_file(f"{path}/mine/.DS_Store", b"x")
+    with pytest.raises(UsageError, match=r"did not write \(notes\.txt\)"):
+        batch.run_batch([f"{base}/scans/sphere.off"], f"{base}/mine", FAST, workers=1, progress=False)
+    assert sorted(p.rpartition("/")[2] for p in fs.ls(f"{path}/mine", detail=False)) == [".DS_Store", "notes.txt"]
+    fs.pipe_file(f"{path}/new/.DS_Store", b"x")
+    result = batch.run_batch([f"{base}/scans/sphere.off"], f"{base}/new", FAST, workers=1, progress=False)
+    assert (result.written, result.failed) == (1, 0)

@@ -150,22 +150,25 @@ def test_load_folder_round_trip(tmp_path, dataset):
 def test_load_folder_skips_hidden_files_and_refuses_a_mixed_root(tmp_path):
     """macOS's ``._pose.ply`` beside ``pose.ply`` was read ("cannot read PLY file"), a hidden folder
     became a class, and mesh files beside class folders were the one class, the classes left out
-    without a word; ``jaxpose normalize`` skips hidden files and its own output folders."""
+    without a word; ``jaxpose normalize`` skips hidden files. A class folder written by ``jaxpose
+    normalize`` (its ``.jaxpose/`` records beside the outputs) is a class (reviewer: "normalize each
+    class, then evaluate the normalized folder" had its classes dropped)."""
     tetra = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"
     for folder in ("a", ".cache", "out"):
         (tmp_path / folder).mkdir()
         for k in range(2):
             (tmp_path / folder / f"pose_{k}.obj").write_text(tetra)
     (tmp_path / "a" / "._pose_0.obj").write_bytes(b"\x00\x05\x16\x07 resource fork")
-    (tmp_path / "out" / ".jaxpose").mkdir()  # a normalize output folder: not a class
+    (tmp_path / "out" / ".jaxpose").mkdir()  # a normalize output folder: a class, its records skipped
     loaded = load_folder(tmp_path)
-    assert list(loaded) == ["a"] and [m.metadata["file_name"] for m in loaded["a"]] == ["pose_0.obj", "pose_1.obj"]
+    assert list(loaded) == ["a", "out"] and [m.metadata["file_name"] for m in loaded["a"]] == ["pose_0.obj", "pose_1.obj"]
     (tmp_path / "template.obj").write_text(tetra)
     (tmp_path / "template_2.obj").write_text(tetra)
     with pytest.raises(InvalidInputError, match=r"holds mesh files \(template.obj, template_2.obj\) beside class "
-                                                r"folders with meshes \(a\): is it one class or a folder of classes"):
+                                                r"folders with meshes \(a, out\): is it one class or a folder of classes"):
         load_folder(tmp_path)
     assert list(load_folder(tmp_path / "out")) == ["out"]  # (its .jaxpose/ is no class)
+    assert len(load_folder(tmp_path / "out")["out"]) == 2
 
 
 def test_load_folder_errors(tmp_path):

@@ -46,6 +46,19 @@ def test_a_vertices_faces_pair_is_refused_with_the_fix():
     np.testing.assert_array_equal(f, box.faces)
 
 
+def test_faces_are_whole_numbers_one_rule_everywhere():
+    """split_geometry (frame_of, the baselines, estimate) cast float faces to int64: [0, 1, 2.5] was
+    truncated into another face without a word, while sample.lattice_points and robust_solid refused
+    every float and jaxpose.mesh.load took whole ones. One rule (_validate.check_faces): whole-number
+    floats are the integers' indices, fractions refused."""
+    box = trimesh.creation.box()
+    v, f = geometry.split_geometry(geometry.Surface(box.vertices, box.faces.astype(float)))
+    np.testing.assert_array_equal(f, box.faces)
+    assert f.dtype == np.int64
+    with pytest.raises(InvalidInputError, match=r"^faces must be \(f, 3\) integer indices .* with fractions"):
+        geometry.split_geometry(geometry.Surface(box.vertices, box.faces + 0.5))
+
+
 def test_meshes_whose_areas_float64_cannot_hold_are_refused_by_their_extent():
     """A mesh spanning 1e100 got inf - inf = NaN areas: NumPy's 'repeats may not contain negative
     values' from the sampler, a NaN surface centroid, an OverflowError traceback from the robust

@@ -415,7 +415,8 @@ def test_the_inertia_frame_of_a_mesh_without_volume_is_refused():
     (lambda box: rotation.pre_frame(box.vertices, box.faces + 0.5), r"^faces must be \(f, 3\) integer indices"),
     (lambda box: rotation.frame_solid(box.vertices, box.faces + 8), r"^faces index vertices that do not exist"),
     # a sol that is no Solid (points), or one without its depth: AttributeError "has no attribute 'inside'"
-    (lambda box: rotation.core_frame(box.vertices), r"^sol must be a Solid from jaxpose.rotation.core.frame_solid"),
+    (lambda box: rotation.core_frame(box.vertices), r"^sol must be a Solid \(jaxpose.occupancy.solid.robust_solid, jaxpose.rotation.core.frame_solid\)"),
+    (lambda box: rotation.frame_of(box, "core", sol=box.vertices), r"^sol must be a Solid"),  # (AttributeError)
     (lambda box: rotation.head_frame(box.vertices, box.vertices, box.faces), r"^sol must be a Solid"),
     (lambda box: parts.find_head(box.vertices), r"^sol must be a Solid"),
     (lambda box: parts.find_parts(rotation.frame_solid(box.vertices, box.faces, 16)._replace(depth=None)),

@@ -209,6 +209,11 @@ def test_cli_tune_one_class_names_the_flag_that_tunes_it(tmp_path, capsys, monke
     assert err == (f"jaxpose: error: --holdout 0.25 holds out whole classes, and {tmp_path} has one ('{tmp_path.name}'): "
                    "pass --holdout 0 to tune on it alone (checked on a fresh draw), or --holdout-data DIR for classes "
                    "to check on")
+    # with --holdout-data given, the message does not send the user to it (reviewer)
+    assert tuning_cli.run(["--data", str(tmp_path), "--holdout-data", str(tmp_path), "--holdout", "0.25",
+                           "--steps", "0"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert err.endswith("pass --holdout 0 to tune on it alone (--holdout-data's classes check it)"), err
 
 
 def test_cli_tune_missing_folders_are_named_before_any_class_is_loaded(tmp_path, capsys, monkeypatch):

@@ -37,7 +37,7 @@ from ..errors import UsageError
 from ..io.atomic import check_folder_writable, is_temporary
 
 __all__ = ["STATE_FOLDER", "OutputFolder", "RemoteOutputFolder", "open_output_folder", "FolderBusyError",
-           "shard_name", "rebase", "moved_input", "former_folder"]
+           "check_no_foreign", "shard_name", "rebase", "moved_input", "former_folder"]
 
 STATE_FOLDER = ".jaxpose"
 
@@ -45,6 +45,16 @@ BROWSER_FILES = frozenset({".DS_Store", "Thumbs.db", "desktop.ini"})
 """What file browsers leave in a folder they show (macOS Finder, Windows Explorer): a new output
 folder holding only these is taken as empty (a folder made, opened in Finder, then given as OUTDIR
 was refused as holding "files that jaxpose did not write")."""
+
+
+def check_no_foreign(root, names):
+    """Refuse an output folder ``root`` (new to jaxpose: no records) holding files of ``names``
+    beyond :data:`BROWSER_FILES`: UsageError naming the first three."""
+    foreign = sorted(name for name in names if name not in BROWSER_FILES)
+    if foreign:
+        listed = ", ".join(foreign[:3]) + (f" and {len(foreign) - 3} more" if len(foreign) > 3 else "")
+        raise UsageError(f"output folder {root} holds files that jaxpose did not write ({listed}); "
+                         "use an empty or new folder (or --force / force=True to write into it)")
 
 
 class FolderBusyError(JaxposeError):
@@ -104,11 +114,7 @@ class OutputFolder:
             self._made += reversed(missing)  # outermost first
         check_folder_writable(self.root, what="output")
         if not self.state.is_dir() and not self.force:
-            foreign = sorted(p.name for p in self.root.iterdir() if p.name not in BROWSER_FILES)
-            if foreign:
-                listed = ", ".join(foreign[:3]) + (f" and {len(foreign) - 3} more" if len(foreign) > 3 else "")
-                raise UsageError(f"output folder {self.root} holds files that jaxpose did not write ({listed}); "
-                                 "use an empty or new folder (or --force / force=True to write into it)")
+            check_no_foreign(self.root, (p.name for p in self.root.iterdir()))
         self._made += [p for p in (self.state, self.state / "lock", self._shard_lock, self.journal)
                        if p is not None and not os.path.lexists(p)]
         self.state.mkdir(exist_ok=True)
@@ -276,9 +282,8 @@ class RemoteOutputFolder:
         if self.root.is_file():
             raise UsageError(f"output folder {self.root} is a file")
         exists = self.root.exists()
-        if not self.force and not self.state.exists() and exists and fs.ls(self.root.path):
-            raise UsageError(f"output folder {self.root} holds files that jaxpose did not write; "
-                                    "use an empty or new folder (or --force / force=True to write into it)")
+        if not self.force and not self.state.exists() and exists:  # (it refused a folder holding only .DS_Store)
+            check_no_foreign(self.root, (str(p).rstrip("/").rpartition("/")[2] for p in fs.ls(self.root.path, detail=False)))
         self.root.mkdir(parents=True, exist_ok=True)
         self._made = not exists
         return self

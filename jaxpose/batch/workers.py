@@ -303,6 +303,11 @@ def check_scheduler(address):
     return address
 
 
+CLOSE_S = 10
+"""Seconds a Dask executor waits for its client and its local cluster to close (a worker blocked
+opening a FIFO takes about 4)."""
+
+
 class DaskExecutor:
     """Tasks on a dask.distributed cluster: a running one (`scheduler` address) or a new
     ``LocalCluster`` of `local` single-threaded worker processes (closed with the executor).
@@ -359,6 +364,14 @@ class DaskExecutor:
             future.release()
 
     def close(self, kill=False):
-        self.client.close()
-        if self.cluster is not None:
-            self.cluster.close()
+        """The client closed, and the cluster this executor started, each within ``CLOSE_S``
+        seconds: a second close after one a Ctrl-C interrupted half-way (the run's clean-up) waited
+        on the first's shutdown forever. Past the limit it goes on (its processes end with this one)."""
+        import asyncio
+
+        try:
+            self.client.close(timeout=CLOSE_S)
+            if self.cluster is not None:
+                self.cluster.close(timeout=CLOSE_S)
+        except (TimeoutError, asyncio.TimeoutError):
+            pass

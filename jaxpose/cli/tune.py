@@ -164,7 +164,8 @@ def _run(args) -> int:
         if holdout > 0 and len(set(base.values())) < 2:  # (the library's words name its arguments, not these flags)
             return fail(f"--holdout {holdout:g} holds out whole classes, and {args.data or 'the dataset'} has one "
                         f"({', '.join(map(repr, sorted(set(base.values()))))}): pass --holdout 0 to tune on it alone "
-                        "(checked on a fresh draw), or --holdout-data DIR for classes to check on")
+                        + ("(--holdout-data's classes check it)" if held else
+                           "(checked on a fresh draw), or --holdout-data DIR for classes to check on"))
         fraction = holdout
         if holdout > 0 and len(variants) > 1:  # split by class, not by class/variant (a variant of a trained class
             from ..tuning import _split        # was held out: the verdict judged the tuner on what it had seen)

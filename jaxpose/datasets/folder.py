@@ -58,9 +58,9 @@ def load_folder(path) -> dict[str, list[trimesh.Trimesh]]:
 
     ``path`` holds one sub-folder per class (classes and files sorted by name; sub-folders
     without mesh files are skipped), or mesh files directly, then loaded as a single class
-    named after the folder. Hidden files and folders (``.name``) are skipped, and so are folders
-    holding ``.jaxpose/`` (``jaxpose normalize``'s outputs), as that command skips them. Symbolic
-    links are followed. Vertices are kept as stored (``process=False``), so meshes sharing a vertex order
+    named after the folder. Hidden files and folders (``.name``: macOS's ``._pose.ply``, and
+    ``jaxpose normalize``'s ``.jaxpose/`` records) are skipped, so an output folder of ``jaxpose
+    normalize`` per class is read as its classes. Symbolic links are followed. Vertices are kept as stored (``process=False``), so meshes sharing a vertex order
     keep it (see :func:`jaxpose.evaluation.align_core`).
 
     Raises
@@ -75,8 +75,7 @@ def load_folder(path) -> dict[str, list[trimesh.Trimesh]]:
         raise InvalidInputError(f"{root} is not a folder")
     files = _mesh_files(root)
     subs = {sub: _mesh_files(sub) for sub in sorted((p for p in root.iterdir() if not p.name.startswith(".")
-                                                      and p.is_dir() and not (p / ".jaxpose").is_dir()),
-                                                     key=lambda p: p.name)}  # (.jaxpose: normalize's outputs)
+                                                      and p.is_dir()), key=lambda p: p.name)}
     subs = {sub: found for sub, found in subs.items() if found}
     if files and subs:  # (the files were taken as the one class, every class folder left out without a word)
         raise InvalidInputError(

@@ -29,7 +29,7 @@ from collections.abc import Iterable, Mapping
 import numpy as np
 
 from .. import baselines
-from .._validate import InvalidInputError, OpenMeshWarning, check_bool, check_callback, check_names
+from .._validate import InvalidInputError, OpenMeshWarning, check_bool, check_callback, check_names, is_name
 from ..config import OCSVM
 from . import alignment
 from .measures import scale_spread, spread
@@ -110,7 +110,7 @@ def _check_ocsvm(gamma, nu, count, seed, options):
 
 def _check_variants(variants):
     variants = check_names(variants, "variants")
-    unknown = [v for v in variants if v not in VARIANTS]
+    unknown = [v for v in variants if not is_name(v, VARIANTS)]
     if unknown or not variants:
         raise InvalidInputError(f"unknown variants {unknown}; valid: {', '.join(VARIANTS)}")
     return variants

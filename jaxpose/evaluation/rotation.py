@@ -22,7 +22,7 @@ import time
 import numpy as np
 
 from .._validate import (InvalidInputError, JaxposeError, check_bool, check_callback, check_int, check_known, check_names,
-                         is_real_dtype)
+                         is_name, is_real_dtype)
 from . import alignment
 from .consistency import _check_classes, _check_variants
 from .tables import check_result, class_tables
@@ -180,7 +180,7 @@ def evaluate_rotation(classes, methods=None, variants=("plain",), align_core=Fal
 
     _check_classes(classes)
     methods = ROTATIONS if methods is None else check_names(methods, "methods")
-    unknown = [m for m in methods if m not in ROTATIONS]
+    unknown = [m for m in methods if not is_name(m, ROTATIONS)]
     if unknown or not methods:
         raise InvalidInputError(f"unknown rotation methods {unknown}; valid: {', '.join(ROTATIONS)}")
     variants = _check_variants(variants)

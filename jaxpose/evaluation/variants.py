@@ -33,7 +33,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from .._validate import InvalidInputError, check_int
+from .._validate import InvalidInputError, check_int, is_name
 
 VARIANTS = ("plain", "outliers", "big_outliers", "points", "holes")
 STRAY_FRACTIONS = {"outliers": (0.02, 0.05), "big_outliers": (0.08, 0.15)}
@@ -146,7 +146,7 @@ def make_variant(mesh, variant: str, rng, *, up: int = 2, stray: bool = True):
     """
     import trimesh
 
-    if variant not in VARIANTS:
+    if not is_name(variant, VARIANTS):
         raise InvalidInputError(f"unknown variant {variant!r}; valid: {', '.join(VARIANTS)}")
     if not isinstance(rng, np.random.Generator):
         raise InvalidInputError(f"rng must be a numpy.random.Generator (np.random.default_rng([seed, class_index, "

@@ -60,7 +60,7 @@ from ..config import MEMORY_BUDGET, RobustConfig
 from ..geometry import surface_labels
 from ..sample import lattice_points
 
-__all__ = ["Solid", "robust_solid", "cap_holes", "ray_vote_solid", "point_solid", "exterior_fill", "keep_main", "MESH_REACH",
+__all__ = ["Solid", "check_solid", "robust_solid", "cap_holes", "ray_vote_solid", "point_solid", "exterior_fill", "keep_main", "MESH_REACH",
            "depth", "make_grid", "closing_radius", "linked_parts", "LINK", "neighbour_distances", "check_resolution", "RESOLUTION", "COARSE",
            "KEEP_RATIO", "ZOOM", "WIDEN", "surface_box", "whole_surfaces", "reaches_edge", "SPACING_SAMPLES", "VOXEL_BYTES", "MESH_BIAS", "POINT_BIAS", "GRID_OFFSET"]
 
@@ -125,6 +125,18 @@ class Solid(NamedTuple):
         if self.occupied is not None:
             n -= 0.5 * float((self.occupied & self.inside).sum())
         return n * self.pitch ** 3
+
+
+def check_solid(sol, depth=False):
+    """Refuse a ``sol`` that is no :class:`Solid` (points, an array: was an AttributeError "... has
+    no attribute 'inside'"), or, with ``depth``, one built without its depth (``with_depth=False``;
+    the frames read the depth field: was a TypeError): InvalidInputError naming how to build one."""
+    if not isinstance(sol, Solid):
+        raise InvalidInputError(f"sol must be a Solid (jaxpose.occupancy.solid.robust_solid, "
+                                f"jaxpose.rotation.core.frame_solid), got {type(sol).__name__}")
+    if depth and sol.depth is None:
+        raise InvalidInputError("sol has no depth (built with with_depth=False): the frames read the depth field; "
+                                "build it with jaxpose.rotation.core.frame_solid(vertices, faces)")
 
 
 # ------------------------------------------------------------------ grids

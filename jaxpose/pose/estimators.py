@@ -658,13 +658,13 @@ def estimate_many(geometry, methods, strict=False, timings=False, **options):
       ``timings`` {method: (that, seconds)}.
 
     Raises:
-      InvalidInputError: as :func:`estimate`, before any work: unknown names or options, a bad
-        value, ``strict=True``, a ``power``, a ``resolution`` or an OCSVM option (``gamma``, ``nu``,
+      InvalidInputError: as :func:`estimate`, before any work: unknown names or options, a method
+        named twice (``"robust:4"`` and ``"robust:4.0"`` alike), a bad value, ``strict=True``, a ``power``, a ``resolution`` or an OCSVM option (``gamma``, ``nu``,
         ``count``, ``seed``, ``sampling``, ``ocsvm``) that none of the methods reads.
     """
     _check_options(options)
     strict, timings = _validate.check_bool(strict, "strict"), _validate.check_bool(timings, "timings")
-    methods = _validate.check_names(methods, "methods")
+    methods = _validate.check_names(methods, "methods", key=parse_method)  # each once (a repeat ran twice)
     parsed = [(resolve(name), key) for name, key in map(parse_method, methods)]  # every name before any work
     _check_read(strict, options, parsed, methods)
     geometry, shift = centered(geometry)

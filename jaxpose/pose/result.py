@@ -166,6 +166,10 @@ def _shape_of(value, name):
         if not is_real_dtype(value.dtype):  # (a complex center or points were taken as complex, bools as 0 / 1)
             raise InvalidInputError(f"{name} must be real numbers, got a traced {np.dtype(value.dtype)} array")
         return tuple(value.shape)
+    if hasattr(value, "shape") and hasattr(value, "dtype"):  # an array (a JAX one on its device: not copied to the host)
+        if not is_real_dtype(value.dtype):
+            raise InvalidInputError(f"{name} must be real numbers, got {value!r:.80}")
+        return tuple(value.shape)
     try:
         arr = np.asarray(value)
     except Exception as exc:  # ragged lists and the like

@@ -49,6 +49,7 @@ from scipy import ndimage, sparse
 from scipy.sparse import csgraph
 
 from .._validate import InvalidInputError
+from ..occupancy import solid
 from ..orientation import GAP_MIN
 
 __all__ = ["THICK", "NECK", "TRUNK", "SADDLE", "DISK", "WIDER", "BRANCH", "SHARE", "LOWEST", "Parts", "merge_tree", "find_parts", "find_head",
@@ -190,15 +191,9 @@ def merge_tree(inside, depth):
 
 
 def check_solid(sol):
-    """Refuse a ``sol`` that is no :class:`jaxpose.occupancy.solid.Solid` with its depth (points, a
-    solid built with ``with_depth=False``): InvalidInputError naming :func:`jaxpose.rotation.core.frame_solid`
-    (was an AttributeError "... has no attribute 'inside'", or a TypeError on the missing depth)."""
-    if not all(hasattr(sol, name) for name in ("inside", "depth", "origin", "pitch", "frame")):
-        raise InvalidInputError(f"sol must be a Solid from jaxpose.rotation.core.frame_solid(vertices, faces), got "
-                                f"{type(sol).__name__}")
-    if sol.depth is None:
-        raise InvalidInputError("sol has no depth (built with with_depth=False): the frames read the depth field; "
-                                "build it with jaxpose.rotation.core.frame_solid(vertices, faces)")
+    """:func:`jaxpose.occupancy.solid.check_solid` with its depth: a :class:`Solid` the parts and
+    frames can read (InvalidInputError otherwise)."""
+    solid.check_solid(sol, depth=True)
 
 
 def find_parts(sol, thick=THICK, tree=None):

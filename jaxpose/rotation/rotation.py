@@ -18,7 +18,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from .. import baselines, sample
-from .._validate import InvalidInputError, JaxposeError, check_known
+from .._validate import InvalidInputError, JaxposeError, check_known, is_name
 from ..config import OCSVM
 from ..occupancy import solid
 from ..orientation import (GAP_MIN, SIGN_MIN, SYMMETRY_MIN, Frame, ambiguity, complete_signs, proper, region_frame,
@@ -98,7 +98,7 @@ def frame_of(geometry, method=DEFAULT_ROTATION, *, resolution=None, sol=None, oc
         frame other than ``core`` and ``head``, ``ocsvm`` for a frame other than ``ocsvm``, a
         ``resolution`` beside a ``sol``.
     """
-    if not isinstance(method, str) or method not in ROTATIONS:
+    if not is_name(method, ROTATIONS):
         raise InvalidInputError(f"unknown rotation {method!r}; valid: {', '.join(ROTATIONS)}")
     checked = check_frame_options(resolution, ocsvm)  # values first, as estimate's
     _check_read(method, resolution=resolution, sol=sol, ocsvm=ocsvm)
@@ -108,6 +108,7 @@ def frame_of(geometry, method=DEFAULT_ROTATION, *, resolution=None, sol=None, oc
             vertices, faces = baselines.split_geometry(geometry)
         if sol is None:
             sol = frame_solid(vertices, faces, resolution)
+        solid.check_solid(sol, depth=True)  # (a sol that is no Solid: AttributeError on sol.inside)
         if not sol.inside.any():
             raise JaxposeError(f"the shape encloses no volume: the {method} frame is undefined; "
                                "use rotation='pca_surface' or 'ocsvm'")

@@ -149,12 +149,14 @@ def check_faces(faces, n):
         raise InvalidInputError(f"faces must be (f, 3) integer indices of the vertices (shape (f, 3), f >= 1), got "
                                 f"shape {faces.shape}")
     kind = faces.dtype.kind
-    if kind not in "iu" and not (kind == "f" and np.all(np.mod(faces, 1) == 0)):
+    with np.errstate(invalid="ignore"):  # (inf: no whole number, refused below, not a RuntimeWarning)
+        whole = kind == "f" and bool(np.all(np.mod(faces, 1) == 0))
+    if kind not in "iu" and not whole:
         fractions = " with fractions" if kind == "f" else ""
         raise InvalidInputError(f"faces must be (f, 3) integer indices of the vertices, got {faces.dtype}{fractions}")
     if faces.min() < 0 or faces.max() >= n:  # (an IndexError deep in the ray votes)
-        raise InvalidInputError(f"faces index vertices that do not exist (indices {faces.min():g} ... {faces.max():g}, "
-                                f"{n} vertices)")
+        low, high = (int(v) for v in (faces.min(), faces.max()))
+        raise InvalidInputError(f"faces index vertices that do not exist (indices {low} ... {high}, {n} vertices)")
     return faces.astype(np.int64, copy=False)
 
 

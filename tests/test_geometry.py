@@ -57,6 +57,12 @@ def test_faces_are_whole_numbers_one_rule_everywhere():
     assert f.dtype == np.int64
     with pytest.raises(InvalidInputError, match=r"^faces must be \(f, 3\) integer indices .* with fractions"):
         geometry.split_geometry(geometry.Surface(box.vertices, box.faces + 0.5))
+    bad = box.faces.astype(float)
+    bad[0, 0] = np.inf  # (NumPy's "invalid value in remainder" RuntimeWarning, an error under the suite's filters)
+    with pytest.raises(InvalidInputError, match=r"^faces must be \(f, 3\) integer indices"):
+        geometry.split_geometry(geometry.Surface(box.vertices, bad))
+    with pytest.raises(InvalidInputError, match=r"^faces index vertices that do not exist \(indices 0 \.\.\. 1234567, 8 "):
+        geometry.split_geometry(geometry.Surface(box.vertices, np.where(box.faces == 7, 1234567, box.faces)))
 
 
 def test_meshes_whose_areas_float64_cannot_hold_are_refused_by_their_extent():

@@ -447,3 +447,21 @@ def test_a_pose_made_directly_of_an_integer_center_is_a_float_pose():
     inverse = jax.jit(lambda p: p.inverse())(want)
     assert isinstance(inverse.inverse_of, Pose)
     np.testing.assert_allclose(np.asarray(inverse.apply(want.apply(x))), np.asarray(x), rtol=1e-5, atol=1e-5)
+
+
+def test_an_array_like_of_another_library_is_read_through_numpy():
+    """An array-like whose dtype NumPy does not name (a torch or TensorFlow tensor, pandas' nullable
+    arrays: ``.shape``, ``.dtype`` and ``__array__``) is read as its NumPy array, as before the Pose's
+    checks read a JAX array's shape directly (they raised "Cannot interpret ... as a data type",
+    reviewer). The stand-in holds the points; the oracle is the similarity applied by hand."""
+    class Tensor:
+        def __init__(self, values):
+            self.values = np.asarray(values, np.float64)
+            self.shape, self.dtype = self.values.shape, "other.float64"
+
+        def __array__(self, dtype=None, copy=None):
+            return self.values if dtype is None else self.values.astype(dtype)
+
+    points = np.array([[1.0, 2.0, 3.0], [0.0, -1.0, 4.0]])
+    pose = Pose(Tensor([1.0, 0.0, 1.0]), 2.0)
+    np.testing.assert_allclose(pose.apply(Tensor(points)), (points - [1.0, 0.0, 1.0]) / 2.0)

@@ -473,3 +473,27 @@ def test_the_command_line_configures_its_process_before_numpy():
     code = "import sys, jaxpose.cli, jaxpose.__main__; print(sorted({'numpy', 'jax'} & set(sys.modules)))"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert done.stdout.strip() == "[]", done.stdout + done.stderr
+
+
+def test_a_dask_executor_closes_its_cluster_within_the_limit_even_when_its_client_does_not():
+    """A Ctrl-C while a --dask-local run closed its cluster could hang the command for good (the
+    clean-up's second close waited on the first's half-done shutdown): each close is bounded by
+    workers.CLOSE_S, and a client past it does not keep the cluster from closing (reviewer: one try
+    around both skipped the cluster's). Stand-ins for the client and cluster record the calls."""
+    from jaxpose.batch import workers
+
+    calls = []
+
+    class Client:
+        def close(self, timeout=None):
+            calls.append(("client", timeout))
+            raise TimeoutError("timed out")
+
+    class Cluster:
+        def close(self, timeout=None):
+            calls.append(("cluster", timeout))
+
+    executor = DaskExecutor.__new__(DaskExecutor)
+    executor.client, executor.cluster = Client(), Cluster()
+    executor.close(kill=True)
+    assert calls == [("client", workers.CLOSE_S), ("cluster", workers.CLOSE_S)]

@@ -369,9 +369,9 @@ class DaskExecutor:
         on the first's shutdown forever. Past the limit it goes on (its processes end with this one)."""
         import asyncio
 
-        try:
-            self.client.close(timeout=CLOSE_S)
-            if self.cluster is not None:
-                self.cluster.close(timeout=CLOSE_S)
-        except (TimeoutError, asyncio.TimeoutError):
-            pass
+        for part in (self.client, self.cluster):  # each on its own (a client past the limit: the cluster still closed)
+            if part is not None:
+                try:
+                    part.close(timeout=CLOSE_S)
+                except (TimeoutError, asyncio.TimeoutError):
+                    pass

@@ -166,10 +166,15 @@ def _shape_of(value, name):
         if not is_real_dtype(value.dtype):  # (a complex center or points were taken as complex, bools as 0 / 1)
             raise InvalidInputError(f"{name} must be real numbers, got a traced {np.dtype(value.dtype)} array")
         return tuple(value.shape)
-    if hasattr(value, "shape") and hasattr(value, "dtype"):  # an array (a JAX one on its device: not copied to the host)
-        if not is_real_dtype(value.dtype):
+    if hasattr(value, "shape") and hasattr(value, "dtype"):  # an array (a JAX one: not copied off its device)
+        try:
+            real = is_real_dtype(value.dtype)
+        except TypeError:  # a dtype NumPy does not name (torch, TensorFlow, pandas' nullable): read below
+            real = None
+        if real is False:
             raise InvalidInputError(f"{name} must be real numbers, got {value!r:.80}")
-        return tuple(value.shape)
+        if real:
+            return tuple(value.shape)
     try:
         arr = np.asarray(value)
     except Exception as exc:  # ragged lists and the like

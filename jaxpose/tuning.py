@@ -340,8 +340,12 @@ def tune(classes, gamma0=None, nu0=None, steps=TUNE.steps, lr=TUNE.lr, scale_wei
     change = judge["sigma_tr_tuned"] / judge["sigma_tr_start"] - 1.0
     result["kept_defaults"] = not lower
     result.update(tuned_params if lower else start)
-    result["verdict"] = (f"tuned ({fmt(tuned_params)}) changes the center spread of the {where} by "
-                         f"{change:+.1%}: " + ("use them" if lower else
-                                               f"they do not transfer; keeping ({fmt(start)})"))
+    if int(steps) == 0:  # (it read "... by +0.0%: they do not transfer" of a start nothing moved)
+        result["verdict"] = (f"steps=0: nothing was tuned; the start ({fmt(start)}) gives a center spread of "
+                             f"{judge['sigma_tr_start']:.5g} on the {where}")
+    else:
+        result["verdict"] = (f"tuned ({fmt(tuned_params)}) changes the center spread of the {where} by "
+                             f"{change:+.1%}: " + ("use them" if lower else
+                                                   f"they do not transfer; keeping ({fmt(start)})"))
     say(result["verdict"])
     return result

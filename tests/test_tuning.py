@@ -94,6 +94,9 @@ def test_tune_zero_steps_and_validation():
     res = tuning.tune({"box": _classes()["box"]}, steps=0, **FAST)
     assert res["holdout"] is None and len(res["trajectory"]) == 1
     assert res["train"]["sigma_tr_tuned"] == pytest.approx(res["train"]["sigma_tr_start"])
+    # nothing was tuned: it said "... by +0.0%: they do not transfer" (reviewer23c's list)
+    assert res["verdict"].startswith("steps=0: nothing was tuned; the start (gamma 47, nu 0.5) gives a center "
+                                     "spread of ") and res["kept_defaults"], res["verdict"]
     assert res["kept_defaults"] and (res["gamma"], res["nu"]) == (47.0, 0.5)
     with pytest.raises(jaxpose.InvalidInputError):
         tuning.tune({"a": [np.zeros((10, 3)) + np.arange(3)]}, steps=0, **FAST)  # one object

@@ -69,7 +69,9 @@ def read_off(data: bytes) -> Loaded:
     Raises:
       Unsupported: anything this reader does not reproduce exactly (read it with trimesh).
       InvalidInputError: fewer vertex or face lines than the counts line says, or a face line
-        with fewer indices than its count (trimesh drops or shortens those without a word).
+        with fewer indices than its count (trimesh drops or shortens those without a word); a
+        counts line that trimesh fails on (fewer than 2 values, one that is not a whole number,
+        ``3 x 0``, one beyond int64, a negative count); a vertex line of fewer than 3 values.
     """
     plain = _off_plain(data)
     if plain is not None:
@@ -86,9 +88,10 @@ def read_off(data: bytes) -> Loaded:
     if not lines:
         raise Unsupported("no counts")
     header = lines[0].split()
-    if len(header) < 2 or not all(t.isascii() and t.isdigit() for t in header[:2]) \
+    _check_counts(lines[0], header)
+    if not all(t.isascii() and t.isdigit() for t in header[:2]) \
             or not all(t.isascii() and t.isdigit() and len(t) <= 18 for t in header[2:]):
-        raise Unsupported("a malformed count line")  # (trimesh reads every count as an int64, or fails)
+        raise Unsupported("an unusual count line")  # ("+12": trimesh reads every count as an int64)
     nv, nf = int(header[0]), int(header[1])
     block = lines[1:nv + 1]
     if nv == 0:
@@ -97,8 +100,10 @@ def read_off(data: bytes) -> Loaded:
         raise InvalidInputError(f"cannot read OFF file: truncated, {len(block)} vertex lines of the {nv} its "
                                 f"counts line says")
     tokens, counts = _tokens(block)
-    if np.any(counts < 3):
-        raise Unsupported("a vertex line with fewer than 3 values")
+    if np.any(counts < 3):  # (trimesh fails: "setting an array element with a sequence", or a reshape)
+        line = int(np.argmax(counts < 3))
+        raise InvalidInputError(f"cannot read OFF file: vertex line {line + 1} holds {int(counts[line])} value{'s' if counts[line] != 1 else ''}, fewer "
+                                f"than its 3 coordinates ({block[line]!r}): a truncated or malformed file")
     starts = _starts(counts)
     vertices = _floats(_take(tokens, (starts[:, None] + np.arange(3)).ravel())) if np.any(counts != 3) \
         else _floats(tokens)
@@ -126,6 +131,32 @@ def read_off(data: bytes) -> Loaded:
     else:
         flat = _ints(_take(tokens, _runs(starts + 1, sizes)))
     return _checked(vertices.reshape(-1, 3), _triangulate(flat, sizes))
+
+
+_INT64_MAX = 2**63 - 1
+
+
+def _check_counts(line, header):
+    """Refuse an OFF counts line that trimesh's reader fails on (it reads every value as an int64):
+    fewer than two values, a value that is not a whole number (``3 x 0``, ``12.0``), one beyond
+    int64 (``99999999999999999999``), and a negative count (trimesh reads lines before the end as
+    vertices, or fails)."""
+    def whole(token):
+        try:
+            return int(token)
+        except ValueError:
+            return None
+
+    values = [whole(t) for t in header]
+    expected = "'vertices faces [edges]' as whole numbers"
+    if len(header) < 2 or None in values:
+        raise InvalidInputError(f"cannot read OFF file: its counts line {line!r} is not {expected}: a malformed file")
+    if any(abs(v) > _INT64_MAX for v in values):
+        raise InvalidInputError(f"cannot read OFF file: its counts line {line!r} holds a count beyond any file's "
+                                f"(more than {_INT64_MAX}): a malformed file")
+    if any(v < 0 for v in values[:2]):
+        raise InvalidInputError(f"cannot read OFF file: its counts line {line!r} holds a negative count: a "
+                                "malformed file")
 
 
 _OFF_HEAD = re.compile(rb"[ \t\n]*C?OFF[ \t]*\n[ \t]*([0-9]+)[ \t]+([0-9]+)(?:[ \t]+[0-9]{1,18})?[ \t]*\n")

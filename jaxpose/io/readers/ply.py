@@ -23,10 +23,19 @@ _PLY_COLORS = ("red", "green", "blue", "alpha")
 
 
 def _ply_header(data):
-    """(elements {name: (count, [(property, type, count type or None)])}, ascii, endian, data start)."""
+    """(elements {name: (count, [(property, type, count type or None)])}, ascii, endian, data start,
+    texture: whether a comment names a texture file).
+
+    Raises InvalidInputError for a header that trimesh's reader fails on too, in its own words: one
+    that ends before its ``end_header`` line (a truncated file), a blank line, an ``element`` line
+    that is not ``element <name> <count>`` with a whole number count (``element face 4e9``), a
+    property of a type PLY does not have; Unsupported for the others this reader does not read."""
     lines, position = [], 0
     while True:
         end = data.find(b"\n", position)
+        if end < 0 and b"ply" in data.split(b"\n", 1)[0].lower() and b"end_header" not in data.split():
+            raise InvalidInputError(f"cannot read PLY file: truncated inside its header, {len(data)} bytes without "
+                                    "the 'end_header' line that ends a PLY header")
         if end < 0 or len(lines) > 10000:
             raise Unsupported("no end of the header")
         lines.append(data[position:end])
@@ -42,12 +51,28 @@ def _ply_header(data):
     fmt = words[0]
     if len(fmt) != 3 or fmt[0] != "format" or fmt[1] not in ("ascii", "binary_little_endian", "binary_big_endian"):
         raise Unsupported("an unknown format line")
-    elements, current = {}, None
-    for word in words[1:-1]:
+    elements, current, texture = {}, None, False
+    for number, word in enumerate(words[1:-1], start=3):
         if word[:1] == ["element"] and len(word) == 3 and word[2].startswith("-") and word[2][1:].isdigit():
             raise InvalidInputError(f"cannot read PLY file: element {word[1]} has a negative count ({word[2]})")
-        if not word or "texturefile" in " ".join(word).lower():
-            raise Unsupported("an empty header line or a texture file")
+        if not word:
+            raise InvalidInputError(f"cannot read PLY file: line {number} of its header is blank (a PLY header "
+                                    "holds none): a malformed file")
+        if word[0] == "element" and (len(word) != 3 or not _is_int(word[2])):
+            raise InvalidInputError(f"cannot read PLY file: header line {number} {' '.join(word)!r} is not "
+                                    "'element <name> <count>' with a whole number count: a malformed file")
+        if word[0] == "property" and current is not None and (
+                (len(word) == 3 and word[1] not in _PLY_TYPES) or (len(word) == 5 and word[1] == "list" and (
+                unknown := [t for t in word[2:4] if t not in _PLY_TYPES]))):
+            kind = word[1] if len(word) == 3 else unknown[0]
+            raise InvalidInputError(f"cannot read PLY file: header line {number} {' '.join(word)!r} has the type "
+                                    f"{kind!r}, which is no PLY type (char, uchar, short, ushort, int, uint, float, double, "
+                                    "or int8 ... float64): a malformed file")
+        if word[0] in ("comment", "obj_info") and "texturefile" in " ".join(word).lower():
+            texture = True  # (refused after the length check: a short file is told as such)
+            continue
+        if "texturefile" in " ".join(word).lower():
+            raise Unsupported("a texture file")
         if word[0] == "element" and len(word) == 3 and word[2].isascii() and word[2].isdigit():
             if word[1] in elements:
                 raise Unsupported("an element declared twice")
@@ -66,7 +91,16 @@ def _ply_header(data):
             raise Unsupported("a property declared twice")
     if words[-1] != ["end_header"]:
         raise Unsupported("an unusual end_header line")
-    return elements, fmt[1] == "ascii", ">" if "big" in fmt[1] else "<", position
+    return elements, fmt[1] == "ascii", ">" if "big" in fmt[1] else "<", position, texture
+
+
+def _is_int(text):
+    """Whether trimesh's ``int(count)`` reads `text`."""
+    try:
+        int(text)
+    except ValueError:
+        return False
+    return True
 
 
 def _ply_check(elements):
@@ -83,7 +117,7 @@ def _ply_check(elements):
         raise Unsupported("no vertices or no faces")
 
 
-def _ply_length(data, start, elements, ascii):
+def _ply_length(data, start, elements, ascii, endian="<"):
     """Refuse a file that cannot hold what its header declares (any elements: checked before the
     elements this reader reads, as trimesh reads a short file's first part, a point cloud's or a
     mesh's vertices without their faces, without a word). Returns an ASCII file's lines (None for
@@ -103,7 +137,37 @@ def _ply_length(data, start, elements, ascii):
     if len(data) - start < least:
         raise InvalidInputError(f"cannot read PLY file: truncated, {len(data) - start} bytes after the header, fewer "
                                 f"than the {least} its {declared} elements need at the least")
+    _binary_length(data, start, elements, endian, declared)
     return None
+
+
+def _binary_length(data, start, elements, endian, declared):
+    """Refuse a binary file whose length after the header is not what its elements take as trimesh
+    reads them (every list of an element as long as its first item's: the count read there), a
+    file that trimesh refuses ("PLY is unexpected length!") or, where the file ends before an
+    element's first list count, reads without that element. Counts are Python integers: a header
+    that claims billions of elements allocates nothing."""
+    have, position, lengths = len(data) - start, start, []
+    for name, (count, props) in elements.items():
+        if count <= 0:
+            continue
+        size = 0
+        for prop, kind, count_kind in props:
+            if count_kind is None:
+                size += np.dtype(kind).itemsize
+                continue
+            width = np.dtype(count_kind).itemsize
+            if position + size + width > len(data):
+                raise InvalidInputError(f"cannot read PLY file: truncated, {have} bytes after the header end before "
+                                        f"its first {name}'s {prop} list (its {declared} elements)")
+            length = int(np.frombuffer(data, endian + count_kind, 1, position + size)[0])
+            lengths.append(f"{name} {prop} of {length}")
+            size += width + max(length, 0) * np.dtype(kind).itemsize
+        position += count * size
+    if have != position - start:
+        lists = f" (every list as long as its element's first: {', '.join(lengths)})" if lengths else ""
+        raise InvalidInputError(f"cannot read PLY file: {have} bytes after the header, where its {declared} elements "
+                                f"take {position - start}{lists}: a truncated or malformed file")
 
 
 _BLANK_LINE = re.compile(rb"\n[ \t\r\f\v]*\n")
@@ -156,10 +220,17 @@ def read_ply(data: bytes) -> Loaded:
         than its count, or a negative element count (trimesh reads part of such a file without a
         word), or an ASCII face index that is not an integer of its type (``4294967296`` or
         ``1e300`` for a ``uint``, ``-1`` for a ``uchar``, ``nan``, ``1.5``: trimesh casts it to some
-        index without a word).
+        index without a word); a binary file whose length is not what its elements take with every
+        list as long as its element's first (trimesh's rule: "PLY is unexpected length!", or a
+        NumPy "C int" error for a list count of billions), a header cut before its
+        ``end_header``, a blank header line, an element count that is not a whole number
+        (``4e9``), a property type PLY does not have (trimesh's own words were "list index out of
+        range", "invalid literal for int()", the type name). Header counts are never allocated.
     """
-    elements, ascii, endian, start = _ply_header(data)
-    lines = _ply_length(data, start, elements, ascii)
+    elements, ascii, endian, start, texture = _ply_header(data)
+    lines = _ply_length(data, start, elements, ascii, endian)
+    if texture:
+        raise Unsupported("a texture file")
     _ply_check(elements)
     if ascii:
         vertex, face, flat, counts = _ply_ascii(lines, elements, endian, data[:start].count(b"\n") + 1)
@@ -239,7 +310,7 @@ def check_vertex_lines(data: bytes):
     with a sequence." there. Returns None otherwise (a binary file, a header this module does not
     read, a line that lacks only a color: trimesh reads it)."""
     try:
-        elements, ascii, _, start = _ply_header(data)
+        elements, ascii, _, start, _ = _ply_header(data)
         if not ascii or "vertex" not in elements:
             return None
         lines = _text(data[start:]).splitlines()

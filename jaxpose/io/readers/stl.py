@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...errors import InvalidInputError
 from .base import Loaded, Unsupported, file_bytes, _checked, _floats, _text, _tokens
 
 __all__ = ["read_stl"]
@@ -18,6 +19,8 @@ def read_stl(data: bytes) -> Loaded:
 
     Raises:
       Unsupported: anything this reader does not reproduce exactly (read it with trimesh).
+      InvalidInputError: an ASCII file whose solid has no ``endsolid`` line (a truncated file:
+        trimesh reads no vertices of it).
     """
     if len(data) >= 84 and 84 + 50 * int.from_bytes(data[80:84], "little") == len(data):
         facets = np.frombuffer(data, _STL_FACET, offset=84)
@@ -34,6 +37,9 @@ def read_stl(data: bytes) -> Loaded:
     text = raw.lower()
     if len(text) != len(raw):
         raise Unsupported("text whose lower case changes its length")
+    if text.startswith("solid") and "endsolid" not in text and "facet" in text:  # (trimesh: no vertices)
+        raise InvalidInputError("cannot read STL file: an ASCII STL without the 'endsolid' line that ends its "
+                                "solid: a truncated file")
     if text.count("endsolid") != 1 or text.count("solid") != 2 or not text.startswith("solid") \
             or text.find("solid", text.find("endsolid") + 8) >= 0:
         raise Unsupported("not one ASCII solid")

@@ -113,6 +113,39 @@ def test_existing_transform_needs_force(tmp_path, capsys):
     assert not (tmp_path / "out.ply").exists()
 
 
+def test_normalize_names_a_truncated_or_malformed_file(tmp_path, capsys):
+    """A binary PLY cut short and an OFF with a malformed counts line: the one error line names the
+    file, says what is wrong and what was expected ("PLY is unexpected length!", "invalid literal
+    for int() with base 10: 'x'" before); nothing is written."""
+    data = trimesh.creation.icosphere(subdivisions=0).export(file_type="ply")
+    body = trimesh.creation.icosphere(subdivisions=0).export(file_type="off").split("\n", 2)[2]
+    cut = tmp_path / "cut.ply"
+    cut.write_bytes(data[:-10])
+    counts = tmp_path / "counts.off"
+    counts.write_text("OFF\n3 x 0\n" + body)
+    for source, fragment in ((cut, f"{cut}: cannot read PLY file: {len(data) - 10 - data.index(b'end_header') - 11} "
+                                   "bytes after the header, where its 12 vertex, 20 face elements take 404"),
+                             (counts, f"{counts}: cannot read OFF file: its counts line '3 x 0' is not 'vertices faces "
+                                      "[edges]' as whole numbers")):
+        code = cli.main(["normalize", str(source), "-o", str(tmp_path / "out.ply")])
+        assert_clean_failure(code, capsys, fragment)
+        assert not (tmp_path / "out.ply").exists()
+
+
+@pytest.mark.parametrize("source, output, fragment, expected", [
+    ("missing.ply", "out", "no such file: {tmp}/missing.ply", 1),       # was: "out: no extension ..." (exit 2)
+    ("missing.ply", "out.ply", "no such file: {tmp}/missing.ply", 1),
+    ("in.ply", "out", "out: no extension to choose an output format", 2),
+])
+def test_normalize_names_a_missing_input_before_the_output(tmp_path, capsys, source, output, fragment, expected):
+    """A missing INPUT is named first, whatever -o says (as it is with a good -o); an existing INPUT
+    with a bad -o is a usage error (exit 2) naming -o."""
+    trimesh.creation.icosphere(subdivisions=0).export(tmp_path / "in.ply")
+    code = cli.main(["normalize", str(tmp_path / source), "-o", str(tmp_path / output)])
+    assert_clean_failure(code, capsys, fragment.format(tmp=tmp_path), expected=expected)
+    assert not (tmp_path / output).exists()
+
+
 @pytest.mark.parametrize(
     "name, content, extra, fragment",
     [

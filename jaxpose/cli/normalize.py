@@ -247,6 +247,10 @@ def _normalize_one(args, options, source, fail):
     use_example = source == EXAMPLE and not Path(source).exists()
     output = Path(args.output) if args.output else None
     json_path = Path(args.transform) if args.transform else (transform_path(output) if output else None)
+    if not use_example:  # a missing input named first, before -o's problems (exit 1, as it is alone)
+        from ..io.mesh import check_input
+
+        check_input(source)
     _check_outputs(None if use_example else Path(source), output, json_path, args.force)
     geometry = mesh.example_shape() if use_example else mesh.load(source)
     if output is not None:

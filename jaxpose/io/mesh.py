@@ -247,7 +247,15 @@ def _from_loaded(loaded, source):
     return _trimesh().Trimesh(vertices=loaded.vertices[keep], faces=inverse[loaded.faces], process=False, **extras)
 
 
-def _read(path):
+def check_input(path):
+    """Refuse, without reading it, a `path` that :func:`load` cannot open: missing, not a file (a
+    folder; a named pipe is a file here), or in a folder this user may not search; the words
+    :func:`load` uses (a command names a missing input before its other arguments' problems).
+
+    Raises:
+      InvalidInputError: naming `path` ("no such file: PATH", "not a file: PATH").
+    """
+    path = Path(path)
     try:  # (pathlib raises PermissionError for a file in a folder this user may not search)
         if not path.exists():
             raise InvalidInputError(f"no such file: {path}")
@@ -255,6 +263,10 @@ def _read(path):
             raise InvalidInputError(f"not a file: {path}")
     except OSError as exc:
         raise InvalidInputError(f"{path}: cannot read: {exc.strerror}") from None
+
+
+def _read(path):
+    check_input(path)
     ext = path.suffix.lower().lstrip(".")
     if ext not in readers.READERS:  # (trimesh's formats: its list, and names of two suffixes)
         known = set(_trimesh().available_formats())

@@ -1281,6 +1281,44 @@ def test_cli_many_files(tmp_path, tree, capsys, monkeypatch):
     assert "0 files" in capsys.readouterr().out  # both done already
 
 
+def test_cli_progress_counts_the_inputs_the_summary_counts(tmp_path, capsys):
+    """An input that fails before any work (a FIFO a folder search meets) is counted in the progress
+    bar as the summary counts it: "[1/5] started, 1 failed" then "2 of 5 inputs failed" (the bar said
+    "[0/4] started" where the summary said "of 5 inputs"); a rerun's bar counts what it handles and
+    says how many more were done already. A truncated binary PLY's row says so, naming the file."""
+    import re
+
+    scans = tmp_path / "scans"
+    scans.mkdir()
+    ico = trimesh.creation.icosphere(subdivisions=0)
+    for i in range(3):
+        ico.export(scans / f"ico{i}.ply")
+    cut = scans / "cut.ply"
+    cut.write_bytes(ico.export(file_type="ply")[:-10])
+    os.mkfifo(scans / "pipe.ply")
+
+    def normalize():
+        code = cli.main(["normalize", str(scans), "-o", str(tmp_path / "out"), "--workers", "1", "--resolution", "16"])
+        err = capsys.readouterr().err
+        started = [line for line in err.splitlines() if line.startswith("jaxpose normalize: [")][0]
+        done, total, more = re.fullmatch(r"jaxpose normalize: \[(\d+)/(\d+)\] started(?: \((\d+) more already done\))?"
+                                         r"(?:, (\d+) failed)?", started).group(1, 2, 3)
+        failed, inputs = re.search(r"jaxpose: error: (\d+) of (\d+) inputs failed", err).group(1, 2)
+        return code, err, started, int(total) + int(more or 0), int(inputs)
+
+    code, err, started, counted, inputs = normalize()
+    assert code == 1 and started == "jaxpose normalize: [1/5] started, 1 failed", err
+    assert counted == inputs == 5 and "2 of 5 inputs failed" in err
+    rows = {Path(r.input).name: r for r in jaxpose.read_transforms(tmp_path / "out" / "transforms.parquet")}
+    assert rows["cut.ply"].status == "failed" and rows["cut.ply"].error.startswith(
+        f"{cut}: cannot read PLY file: ") and "a truncated or malformed file" in rows["cut.ply"].error
+    assert "unexpected length" not in err
+    ico.export(scans / "ico3.ply")
+    code, err, started, counted, inputs = normalize()  # the three done are skipped; the failed two tried again
+    assert code == 1 and started == "jaxpose normalize: [1/3] started (3 more already done), 1 failed", err
+    assert counted == inputs == 6
+
+
 @pytest.mark.parametrize("args, fragment", [
     (["--transform", "t.json"], "--transform is for one INPUT"),
     (["--example"], "'example' is one input"),

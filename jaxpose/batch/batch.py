@@ -146,7 +146,7 @@ def run_batch(inputs, output_dir, options=None, *, glob=None, file_format=None, 
                     remove_temporaries(table)
                 folder.remove_temporaries([item.output for item in items], everywhere=shard is None)
 
-            run = _Run(folder, fixed, fingerprint, fail_fast, progress, len(todo), tidy)
+            run = _Run(folder, fixed, fingerprint, fail_fast, progress, len(todo), tidy, skipped)
             work = []
             for item, key in todo:  # what a folder search met that is not a file: failed unread
                 if item.source in irregular:
@@ -689,20 +689,22 @@ def _failed(error):
 
 class _Lines:
     """progress="lines": the part of tqdm's interface a run uses (``update``, ``set_postfix_str``,
-    ``close``), as plain lines on stderr: ``[0/N] started``, then at most one line every
+    ``close``), as plain lines on stderr: ``[k/N] started`` (N: the inputs this run handles, the
+    summary's "of N inputs" less those already done; k of them failed before any work: a FIFO in a
+    folder, an output that cannot be written), then at most one line every
     :data:`PROGRESS_EVERY_S` seconds with the rate, the time left and the failures so far."""
 
-    def __init__(self, total):
-        self.total, self.n, self.postfix = total, 0, ""
+    def __init__(self, total, initial=0, postfix="", skipped=0):
+        self.total, self.n, self.initial, self.postfix = total, initial, initial, postfix
         self.start = self.last = time.monotonic()
-        self._say("started")
+        self._say("started" + (f" ({skipped} more already done)" if skipped else ""))
 
     def update(self, n=1):
         self.n += n
         now = time.monotonic()
         if self.n < self.total and now - self.last >= PROGRESS_EVERY_S:
             self.last = now
-            rate = self.n / max(now - self.start, 1e-9)
+            rate = (self.n - self.initial) / max(now - self.start, 1e-9)
             self._say(f"{rate:.1f} files/s, about {_duration((self.total - self.n) / rate)} left")
 
     def set_postfix_str(self, text, refresh=True):
@@ -728,9 +730,9 @@ def _duration(seconds):
 class _Run:
     """The waiting loop of one run: submit a window of tasks, write each result as it arrives."""
 
-    def __init__(self, folder, fixed, fingerprint, fail_fast, progress, total, tidy=None):
+    def __init__(self, folder, fixed, fingerprint, fail_fast, progress, total, tidy=None, skipped=0):
         self.folder, self.fixed, self.fingerprint, self.fail_fast = folder, fixed, fingerprint, fail_fast
-        self.progress, self.total, self._tidy = progress, total, tidy
+        self.progress, self.total, self._tidy, self.skipped = progress, total, tidy, skipped
         self.written = self.failed = 0
         self.stopped = False
         self.started = False  # whether the executor started (Dask: connected to its scheduler)
@@ -759,11 +761,17 @@ class _Run:
         except BaseException:
             executor.close(kill=True)
             raise
+        # the bar counts what the summary counts: every input this run handles, those that failed
+        # before any work (recorded already) counted done from the start ("[0/3]" of "1 of 4 failed")
+        done = self.total - len(todo)
+        postfix = f"{self.failed} failed" if self.failed else ""
         if self.progress == "lines":
-            bar = _Lines(len(todo))
+            bar = _Lines(self.total, done, postfix, self.skipped)
         else:
-            bar = tqdm(total=len(todo), unit="file", desc="normalize", dynamic_ncols=True, smoothing=0.05,
-                       disable=None if self.progress is None else not self.progress)
+            bar = tqdm(total=self.total, initial=done, unit="file", desc="normalize", dynamic_ncols=True,
+                       smoothing=0.05, disable=None if self.progress is None else not self.progress)
+            if postfix:
+                bar.set_postfix_str(postfix, refresh=False)
         queue, pending, lost = list(reversed(todo)), {}, {}  # source -> (workers lost after / before starting it)
         window = 2 * executor.workers
         try:

@@ -1031,6 +1031,13 @@ def _broken_files():
     files["longer.ply"] = (ply + b"\0", "truncated or malformed")
     files["texture_cut.ply"] = (ply.replace(b"end_header", b"comment TextureFile a.png\nend_header")[:-5],
                                 "truncated or malformed")
+    # cut right after "end_header", before its line end (trimesh: "PLY is unexpected length!")
+    files["no_body.ply"] = (ply[:header_end - 1], "truncated, 0 bytes after the header, fewer than the 164")
+    # an OBJ cut within its last vertex's number (trimesh: NumPy's "could not be read to its end due to unmatched data")
+    obj = m.export(file_type="obj").encode()
+    line = next(line for line in obj.split(b"\n") if line.startswith(b"v ") and line.split()[3].startswith(b"-"))
+    files["cut_number.obj"] = (obj[:obj.index(line) + line.rindex(b"-") + 1],  # "v 0.0 -0.52573111 -"
+                               "ends in '-', which is not a number: a truncated or malformed file")
     # a header cut before its end_header ("list index out of range", "not enough values to unpack")
     for cut in (40, header_end - 20):
         files[f"head{cut}.ply"] = (ply[:cut], "truncated inside its header")

@@ -65,8 +65,9 @@ def read_obj(data: bytes) -> Loaded:
         line without a word: most often a truncated file's last line; in a file with materials, which
         trimesh reads, the last line only); a face referencing a texture coordinate beyond the
         file's ``vt`` lines (trimesh drops all of the file's UV coordinates without a word:
-        :func:`check_texture_references`). A file cut at the end of a line, or within a number,
-        reads as a valid OBJ file: no reader can tell.
+        :func:`check_texture_references`); a last line that is a vertex whose last value is not a
+        number (``v 0 -0.5 -``: a file cut within it). A file cut at the end of a line, or within
+        a number that stays one, reads as a valid OBJ file: no reader can tell.
 
     A ``#`` comment that ends a data line (``f 1 2 3 # tri``) is cut (:func:`without_comments`).
     Normal references (``v//vn``, ``v/vt/vn``) are not checked, nor texture references of a file
@@ -92,6 +93,7 @@ def read_obj(data: bytes) -> Loaded:
     if sum(1 for line in lines if line[:1] == "f") != len(keyed["f"]):
         raise Unsupported("a line starting with f that is not a face")
     parsed = {key: _tokens(keyed[key], c_numbers=True) for key in ("v", "vt", "vn") if keyed[key]}
+    _cut_last_line(text)  # (a vertex cut within its last number: "v 0 0.5 -"; trimesh: NumPy's "unmatched data")
     if "v" in parsed and np.any(parsed["v"][1] < 3):  # (a point cloud's too: checked before the next line)
         at = int(np.argmax(parsed["v"][1] < 3))
         raise InvalidInputError(f"cannot read OBJ file: vertex {at + 1} has fewer than 3 coordinates "
@@ -215,14 +217,25 @@ def check_texture_references(data: bytes):
 
 
 def _cut_last_line(text):
-    """Raise InvalidInputError where the last line of an OBJ file's `text` (a file the reader leaves
-    to trimesh) is a vertex of fewer than 3 values or a face of fewer than 3 corners: what a file cut
-    within its last line ends in. O(1): the other lines are not looked at."""
+    """Raise InvalidInputError where the last line of an OBJ file's `text` is a vertex of fewer than
+    3 values, a face of fewer than 3 corners, or a vertex whose last value is not a number (``v 0
+    0.5 -``): what a file cut within its last line ends in. O(1): the other lines are not looked at."""
     last = text[-4096:].rstrip().rsplit("\n", 1)[-1].split()  # (a longer line: no "v" or "f" among its last words)
     if last[:1] in (["v"], ["f"]) and len(last) < 4:
         what = "vertex of fewer than 3 values" if last[0] == "v" else "face of fewer than 3 corners"
         raise InvalidInputError(f"cannot read OBJ file: its last line {' '.join(last)!r} is a {what}: a truncated or "
                                 "malformed file")
+    if last[:1] == ["v"] and not _is_number(last[-1]):
+        raise InvalidInputError(f"cannot read OBJ file: its last line {' '.join(last)!r} ends in {last[-1]!r}, which is "
+                                "not a number: a truncated or malformed file")
+
+
+def _is_number(token):
+    try:
+        float(token)
+    except ValueError:
+        return False
+    return True
 
 
 def _obj_mesh(v, vt, vn, colors, faces, tex, norm):

@@ -33,13 +33,15 @@ def _ply_header(data):
     lines, position = [], 0
     while True:
         end = data.find(b"\n", position)
-        if end < 0 and b"ply" in data.split(b"\n", 1)[0].lower() and b"end_header" not in data.split():
+        if end < 0 and b"end_header" in data[position:].split():  # the file ends with it: trimesh's last readline
+            end = len(data)
+        if end < 0 and b"ply" in data.split(b"\n", 1)[0].lower():
             raise InvalidInputError(f"cannot read PLY file: truncated inside its header, {len(data)} bytes without "
                                     "the 'end_header' line that ends a PLY header")
         if end < 0 or len(lines) > 10000:
             raise Unsupported("no end of the header")
         lines.append(data[position:end])
-        position = end + 1
+        position = min(end + 1, len(data))
         if b"end_header" in lines[-1].split():
             break
     if b"ply" not in lines[0].lower() or len(lines) < 3:

@@ -93,7 +93,7 @@ def read_obj(data: bytes) -> Loaded:
     if sum(1 for line in lines if line[:1] == "f") != len(keyed["f"]):
         raise Unsupported("a line starting with f that is not a face")
     parsed = {key: _tokens(keyed[key], c_numbers=True) for key in ("v", "vt", "vn") if keyed[key]}
-    _cut_last_line(text)  # (a vertex cut within its last number: "v 0 0.5 -"; trimesh: NumPy's "unmatched data")
+    _cut_last_number(text)  # (a vertex cut within its last number: "v 0 0.5 -"; trimesh: NumPy's "unmatched data")
     if "v" in parsed and np.any(parsed["v"][1] < 3):  # (a point cloud's too: checked before the next line)
         at = int(np.argmax(parsed["v"][1] < 3))
         raise InvalidInputError(f"cannot read OBJ file: vertex {at + 1} has fewer than 3 coordinates "
@@ -225,7 +225,14 @@ def _cut_last_line(text):
         what = "vertex of fewer than 3 values" if last[0] == "v" else "face of fewer than 3 corners"
         raise InvalidInputError(f"cannot read OBJ file: its last line {' '.join(last)!r} is a {what}: a truncated or "
                                 "malformed file")
-    if last[:1] == ["v"] and not _is_number(last[-1]):
+    _cut_last_number(text)
+
+
+def _cut_last_number(text):
+    """Raise InvalidInputError where the last line of an OBJ file's `text` is a vertex whose last
+    value is not a number (``v 0 0.5 -``: a file cut within it). O(1)."""
+    last = text[-4096:].rstrip().rsplit("\n", 1)[-1].split()
+    if last[:1] == ["v"] and len(last) >= 4 and not _is_number(last[-1]):  # (fewer: the messages of fewer than 3)
         raise InvalidInputError(f"cannot read OBJ file: its last line {' '.join(last)!r} ends in {last[-1]!r}, which is "
                                 "not a number: a truncated or malformed file")
 

@@ -231,7 +231,7 @@ def fake_evaluation(monkeypatch):
     monkeypatch.setattr(evaluation, "format_table", lambda result: "TABLE")
     monkeypatch.setattr(evaluation, "format_per_class", lambda result: "PER CLASS")
     monkeypatch.setattr(datasets, "make_dataset", lambda seed=0, **kw: {"made": seed, **kw})
-    monkeypatch.setattr(datasets, "load_folder", lambda path: {"folder": str(path)})
+    monkeypatch.setattr(datasets, "load_folder", lambda path, classes=None: {"folder": str(path), "classes": classes})
     return calls
 
 
@@ -252,7 +252,7 @@ def test_evaluate_wiring(tmp_path, capsys, fake_evaluation):
     assert_clean_failure(cli.main(["evaluate", "--json", str(out)]), capsys, "exists", expected=2)
     assert cli.main(["evaluate", "--data", str(tmp_path), "--sweep", "--json", str(out), "--force",
                      "--variants", "plain,holes", "--methods", "robust,depth_weighted_solid:4"]) == 0
-    assert fake_evaluation["classes"] == {"folder": str(tmp_path)}
+    assert fake_evaluation["classes"] == {"folder": str(tmp_path), "classes": None}
     assert fake_evaluation["kwargs"]["variants"] == ["plain", "holes"]
     assert fake_evaluation["kwargs"]["methods"] == ["robust", "depth_weighted_solid:4"]
     assert fake_evaluation["kwargs"]["sweep"] is True

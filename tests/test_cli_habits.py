@@ -184,6 +184,55 @@ def test_evaluate_method_lists_may_carry_spaces(capsys, monkeypatch):
     assert "stop: the methods" in _err(capsys)
 
 
+def test_evaluate_and_tune_take_classes_of_data_alike(tmp_path, capsys, monkeypatch):
+    """``jaxpose evaluate --data DIR --classes a,b`` takes those classes of DIR, as ``jaxpose tune``
+    does, through one code path (it was refused: "--classes and --instances choose from the built-in
+    dataset"); an unknown class is refused by both in one message naming the classes DIR holds, a
+    repeat and --instances with --data by both as usage errors."""
+    from jaxpose import evaluation, tuning
+    from jaxpose.errors import JaxposeError
+
+    tetra = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"
+    for name in ("a", "b", "c"):
+        (tmp_path / name).mkdir()
+        for k in range(2):
+            (tmp_path / name / f"pose_{k}.obj").write_text(tetra)
+    (tmp_path / "b" / "broken.ply").write_text("not a mesh: b is not read unless chosen")
+    seen = []
+
+    def stop(classes, **kw):
+        seen.append(sorted(classes))
+        raise JaxposeError("stop: the classes are what this test reads")
+
+    monkeypatch.setattr(evaluation, "evaluate", stop)
+    monkeypatch.setattr(tuning, "tune", lambda classes, **kw: stop(classes))
+    data = ["--data", str(tmp_path)]
+    assert cli.main(["evaluate", *data, "--classes", "c, a", "--methods", "bbox", "--variants", "plain"]) == 1
+    assert cli.main(["tune", *data, "--classes", "c,a", "--holdout", "0", "--steps", "0"]) == 1
+    assert seen == [["a", "c"], ["a", "c"]]
+    assert "stop: the classes" in _err(capsys)
+    errors = []
+    for command in (["evaluate", "--methods", "bbox"], ["tune", "--steps", "0"]):
+        assert cli.main([*command, *data, "--classes", "a,cat"]) == 1
+        errors.append(_err(capsys).strip().splitlines()[-1])
+    assert errors == [f"jaxpose: error: no classes ['cat'] in {tmp_path}; found ['a', 'b', 'c']"] * 2
+    for extra, message in ((["--classes", "a,a"], "--classes names 'a' twice; give each once"),
+                           (["--instances", "3"], "--instances chooses from the built-in dataset; --data takes "
+                                                   "every mesh of each class of DIR")):
+        errors = []
+        for command in (["evaluate", "--methods", "bbox"], ["tune", "--steps", "0"]):
+            assert cli.main([*command, *data, *extra]) == 2, (command, extra)
+            errors.append(_err(capsys).strip())
+        assert errors == [f"jaxpose: error: {message}"] * 2, errors
+    # without --data: the built-in dataset's classes, checked alike before any work (usage errors)
+    errors = []
+    for command in (["evaluate", "--methods", "bbox"], ["tune", "--steps", "0"]):
+        assert cli.main([*command, "--classes", "chair,cat"]) == 2
+        errors.append(_err(capsys).strip())
+    assert errors == ["jaxpose: error: unknown class 'cat'; expected one of human, dolphin, chair, tree, pot, "
+                      "desktop_computer, hand, dog, guitar, piano, spider, horse"] * 2
+
+
 def test_evaluate_output_paths_are_checked_before_the_work(tmp_path, capsys, no_work):
     blocker = tmp_path / "file"
     blocker.write_text("x")

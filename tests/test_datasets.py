@@ -171,6 +171,36 @@ def test_load_folder_skips_hidden_files_and_refuses_a_mixed_root(tmp_path):
     assert len(load_folder(tmp_path / "out")["out"]) == 2
 
 
+def test_load_folder_reads_the_chosen_classes_alone(tmp_path):
+    """``load_folder(path, classes=[...])``: the named classes, in the folder's order, the others'
+    files not read (a broken mesh of another class is no error); an unknown class is refused before
+    any mesh is read, naming the classes the folder holds; a repeat, none or one string refused (the
+    procedural dataset's rule). ``jaxpose evaluate --data`` had no way to take a subset (tune filtered
+    after reading every class)."""
+    tetra = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"
+    for name in ("a", "b", "c"):
+        (tmp_path / name).mkdir()
+        for k in range(2):
+            (tmp_path / name / f"pose_{k}.obj").write_text(tetra.replace("v 1 0 0", f"v {k + 1} 0 0"))
+    (tmp_path / "b" / "broken.ply").write_text("this is not a ply file")
+    with pytest.raises(InvalidInputError, match="broken.ply"):  # (read where it is chosen)
+        load_folder(tmp_path)
+    loaded = load_folder(tmp_path, classes=["c", "a"])
+    assert list(loaded) == ["a", "c"]  # the folder's order
+    for name in ("a", "c"):
+        assert [m.metadata["file_name"] for m in loaded[name]] == ["pose_0.obj", "pose_1.obj"]
+        assert [float(m.vertices[1, 0]) for m in loaded[name]] == [1.0, 2.0]
+    with pytest.raises(InvalidInputError, match=r"^no classes \['cat', 'dog'\] in .*; found \['a', 'b', 'c'\]$"):
+        load_folder(tmp_path, classes=["dog", "a", "cat"])
+    for bad, message in ((["a", "a"], "classes names 'a' twice"), ([], "classes names no class"),
+                         ("a", "classes must be a list of names, got the string 'a'")):
+        with pytest.raises(InvalidInputError, match=message):
+            load_folder(tmp_path, classes=bad)
+    assert list(load_folder(tmp_path / "a", classes=("a",))) == ["a"]  # a flat folder: the one class, its name
+    with pytest.raises(InvalidInputError, match=r"no classes \['b'\] in .*; found \['a'\]"):
+        load_folder(tmp_path / "a", classes=["b"])
+
+
 def test_load_folder_errors(tmp_path):
     with pytest.raises(InvalidInputError, match="not a folder"):
         load_folder(tmp_path / "missing")

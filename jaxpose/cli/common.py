@@ -9,7 +9,7 @@ from ..io.atomic import check_creatable, check_output_file  # shared by the comm
 from ..io.jsontext import json_text  # the commands' JSON records (benchmarks/ write theirs with it too)
 
 __all__ = ["add_svm_options", "fail", "checked", "check_output_file", "check_creatable", "check_dataset_choice",
-           "comma_names", "variant_names", "json_text"]
+           "dataset_classes", "comma_names", "variant_names", "json_text"]
 
 
 def checked(convert, check):
@@ -31,17 +31,45 @@ def checked(convert, check):
     return parse
 
 
-def check_dataset_choice(instances, classes):
-    """The built-in dataset's ``--instances`` (None: the command's default) and ``--classes`` (None:
-    all), checked before any work (evaluate, tune): InvalidInputError, a usage error (exit 2)."""
+def check_dataset_choice(instances, classes, data=None):
+    """``--instances`` (None: the command's default; the built-in dataset's only) and ``--classes``
+    (None: all; of the built-in dataset, or of ``--data``'s folder ``data``), checked before any
+    work (evaluate, tune): InvalidInputError, a usage error (exit 2). The names of ``--data``'s
+    classes are :func:`dataset_classes`' to check (its folder is read there)."""
     if instances is not None:  # at least 2 (a class's spread), at most DATASET_INSTANCES (built in memory)
         check_instances(instances, "--instances", 2)
+        if data is not None:  # (it was ignored without a word)
+            raise InvalidInputError("--instances chooses from the built-in dataset; --data takes every mesh of each "
+                                    "class of DIR")
     if classes is not None:
         from .._validate import check_names  # (NumPy: at run time, not when the parser is built)
 
         if not comma_names(classes):
             raise InvalidInputError(f"--classes names no class ({classes!r}); give some, comma-separated")
         check_names(comma_names(classes), "--classes")  # each once
+        if data is None:
+            from ..datasets.procedural import _check_class
+
+            for name in comma_names(classes):
+                _check_class(name)
+
+
+def dataset_classes(data, names, seed, instances):
+    """``{class: [mesh, ...]}`` of ``--data`` and ``--classes`` (evaluate, tune: the one place both
+    read them): the class folders of ``data`` (:func:`jaxpose.datasets.load_folder`), or with
+    ``data`` None the built-in procedural dataset (``instances`` objects per class, drawn with
+    ``seed``); ``names``, the classes of ``--classes`` (None: every class), take those alone.
+
+    Raises:
+      InvalidInputError: as ``load_folder`` and ``make_dataset``: a class that ``data`` does not
+        hold (``no classes ['cat'] in DIR; found ['dog', 'horse']``, before any mesh is read), an
+        unknown class of the built-in dataset, a missing folder, an unreadable mesh.
+    """
+    from .. import datasets
+
+    if data is None:
+        return datasets.make_dataset(seed, instances=instances, classes=names)
+    return datasets.load_folder(data, classes=names)
 
 
 def comma_names(text):

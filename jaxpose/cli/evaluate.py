@@ -10,7 +10,8 @@ import sys
 from pathlib import Path
 
 from ..config import DATASET_INSTANCES
-from .common import add_core_options, add_svm_options, check_core_options, check_creatable, check_dataset_choice, check_output_file, comma_names, fail, json_text, variant_names
+from .common import (add_core_options, add_svm_options, check_core_options, check_creatable, check_dataset_choice,
+                     check_output_file, comma_names, dataset_classes, fail, json_text, variant_names)
 
 __all__ = ["add_parser", "run"]
 
@@ -22,7 +23,8 @@ def add_parser(sub):
                                    "on the built-in procedural dataset or --data, in seeded input variants. Progress "
                                    "on stderr; a table per variant and a legend on stdout.")
     p.add_argument("--data", help="folder of classes (one subfolder of meshes per class); default: procedural dataset")
-    p.add_argument("--classes", help="built-in dataset: comma-separated subset of its 12 classes (default all)")
+    p.add_argument("--classes", help="comma-separated subset of the classes: of --data's class folders, or of the "
+                                      "built-in dataset's 12 (default all)")
     p.add_argument("--instances", type=int, default=None,
                    help=f"built-in dataset: objects per class (default 10, at most {DATASET_INSTANCES})")
     add_core_options(p)
@@ -90,9 +92,7 @@ def _evaluate_usage(args):
                      f"this evaluation does not run (add ocsvm to {'--rotation' if rotation else '--methods'}"
                      f"{'' if rotation or {'gamma', 'nu'} & set(given) else ' or --sweep'}, or leave "
                      f"{'them' if len(given) > 1 else 'it'} out)")
-    if args.data and (args.classes or args.instances is not None):
-        raise _Usage("--classes and --instances choose from the built-in dataset; --data takes every class of DIR")
-    check_dataset_choice(args.instances, args.classes)
+    check_dataset_choice(args.instances, args.classes, args.data)  # (tune's check)
     check_core_options(args.align_core, args.core_weight)
     checked = NormalizeOptions(method="ocsvm", seed=args.seed, **given)  # gamma > 0, nu in [0, 1], count >= 4, seed
     # what was given, checked (the library fills in the defaults, and refuses what nothing reads)
@@ -123,7 +123,7 @@ def _check_result_paths(args):
 
 def run(args):
     """Run ``jaxpose evaluate`` with parsed `args`. Returns the exit code."""
-    from .. import datasets, evaluation
+    from .. import evaluation
     from ..errors import InvalidInputError
 
     try:
@@ -131,15 +131,8 @@ def run(args):
     except (_Usage, InvalidInputError) as exc:
         return fail(str(exc), code=2)
     _check_result_paths(args)
-    if args.data:
-        classes = datasets.load_folder(args.data)
-    else:
-        names = comma_names(args.classes) if args.classes else None
-        try:
-            classes = datasets.make_dataset(seed=args.seed, instances=10 if args.instances is None else args.instances,
-                                            classes=names)
-        except InvalidInputError as exc:
-            return fail(str(exc), code=2)
+    names = comma_names(args.classes) if args.classes is not None else None
+    classes = dataset_classes(args.data, names, args.seed, 10 if args.instances is None else args.instances)
     if args.rotation is not None:
         return _evaluate_rotation(args, classes, variants, ocsvm)
     with _ProgressBar() as progress:

@@ -75,24 +75,16 @@ def parser():
 def load_classes(folder, names=None, align_core=False, variants=("plain",), seed=0, instances=TUNE.instances,
                  core_weight="vertices"):
     """{class[/variant]: [mesh, ...]} from a folder of class sub-folders (None: the procedural dataset),
-    optionally rigid-core aligned (the core a share of ``core_weight``: "vertices" or "area"), in each input variant (:mod:`jaxpose.evaluation.variants`)."""
-    from .. import datasets
-    from .._validate import check_names
+    optionally rigid-core aligned (the core a share of ``core_weight``: "vertices" or "area"), in each input variant (:mod:`jaxpose.evaluation.variants`);
+    ``names``: the classes to take (None: every class), as ``jaxpose evaluate --classes`` takes them
+    (:func:`jaxpose.cli.common.dataset_classes`)."""
     from ..evaluation import alignment
     from ..evaluation.consistency import _check_variants
     from ..evaluation.variants import make_class
+    from .common import dataset_classes
 
     _check_variants(variants)  # unknown, or one named twice (its classes were one, made twice)
-    if folder is None:
-        meshes = datasets.make_dataset(seed, instances=instances, classes=names)
-    else:
-        meshes = datasets.load_folder(folder)
-        if names:
-            names = check_names(names, "classes")  # each once
-            missing = sorted(set(names) - set(meshes))
-            if missing:
-                raise InvalidInputError(f"no classes {missing} in {folder}; found {sorted(meshes)}")
-            meshes = {k: v for k, v in meshes.items() if k in names}
+    meshes = dataset_classes(folder, names, seed, instances)  # (evaluate's --data and --classes too)
     if align_core:
         meshes = alignment.align_classes(meshes, weight=core_weight)
     out = {}
@@ -139,14 +131,11 @@ def _run(args) -> int:
         check_options(args.method, args.steps, args.lr, args.reg, args.scale_weight,
                       args.holdout if args.holdout is not None else 0.0, args.seed, args.count,
                       **{k: v for k, v in options.items() if k in ("gamma0", "nu0", "power0")})
-        check_dataset_choice(args.instances, args.classes)
-        if args.data and args.instances is not None:  # it was ignored without a word
-            raise InvalidInputError("--instances chooses from the built-in dataset; --data takes every mesh of each "
-                                    "class of DIR")
+        check_dataset_choice(args.instances, args.classes, args.data)  # (evaluate's check)
         check_core_options(args.align_core, args.core_weight)
         variants = tuple(variant_names(args.variants))
         names = comma_names(args.classes) if args.classes else None
-        _check_choices(args, options, variants, names)
+        _check_choices(args, options, variants)
     except InvalidInputError as exc:  # a usage error: before any work
         return fail(_flag_names(str(exc)), code=2)
     try:
@@ -222,19 +211,14 @@ def _failure(result, method):
     return f"{result['error']}; {hint}"
 
 
-def _check_choices(args, options, variants, names):
+def _check_choices(args, options, variants):
     """What the run would refuse only after loading the classes, refused before (InvalidInputError,
-    a usage error): the variants, the built-in dataset's class names, the grid and solver options
+    a usage error): the variants, the grid and solver options
     (``--resolution``, ``--refine``, ``--band``, ``--tol``; the robust method's ``--resolution``)."""
     from ..config import PoseConfig, RobustConfig
     from ..evaluation.consistency import _check_variants
 
     _check_variants(variants)
-    if args.data is None and names:
-        from ..datasets.procedural import _check_class
-
-        for name in names:
-            _check_class(name)
     grid = {k: v for k, v in options.items() if k not in ("gamma0", "nu0", "power0")}
     (RobustConfig if args.method == "robust" else PoseConfig).create(**grid)
 

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from jaxpose._validate import InvalidInputError
+from jaxpose._validate import InvalidInputError, check_names
 from jaxpose.io import readers
 from jaxpose.io.mesh import read_stored
 
@@ -53,7 +53,7 @@ def _load(path: Path) -> trimesh.Trimesh:
     return mesh
 
 
-def load_folder(path) -> dict[str, list[trimesh.Trimesh]]:
+def load_folder(path, classes=None) -> dict[str, list[trimesh.Trimesh]]:
     """Meshes of a folder, grouped by class.
 
     ``path`` holds one sub-folder per class (classes and files sorted by name; sub-folders
@@ -63,10 +63,16 @@ def load_folder(path) -> dict[str, list[trimesh.Trimesh]]:
     normalize`` per class is read as its classes. Symbolic links are followed. Vertices are kept as stored (``process=False``), so meshes sharing a vertex order
     keep it (see :func:`jaxpose.evaluation.align_core`).
 
+    ``classes``: None (every class), or a collection of class names to read, in the folder's
+    order; the others' files are not read. ``load_folder("data", classes=["dog"])`` is
+    ``{"dog": [...]}``.
+
     Raises
     ------
     InvalidInputError : a path that is not a str or Path, missing folder, no mesh files, mesh
-    files beside class sub-folders with some (one class, or classes?), or an unreadable mesh.
+    files beside class sub-folders with some (one class, or classes?), an unreadable mesh;
+    ``classes`` that is one string, names none, names one twice, or names one the folder does not
+    hold (the message names the classes it holds), before any mesh is read.
     """
     if not isinstance(path, (str, os.PathLike)):
         raise InvalidInputError(f"path must be a folder (str or Path), got {path!r:.80}")
@@ -83,10 +89,22 @@ def load_folder(path) -> dict[str, list[trimesh.Trimesh]]:
             f"beside class folders with meshes ({', '.join(sub.name for sub in list(subs)[:3])}"
             f"{', ...' if len(subs) > 3 else ''}): is it one class or a folder of classes? Move the files into a "
             "class folder, or name one class's folder")
-    if files:
-        return {root.resolve().name: [_load(f) for f in files]}
-    classes = {sub.name: [_load(f) for f in found] for sub, found in subs.items()}
-    if not classes:
+    found = {root.resolve().name: files} if files else {sub.name: paths for sub, paths in subs.items()}
+    if not found:
         raise InvalidInputError(
             f"{root} holds no mesh files ({', '.join(sorted(MESH_SUFFIXES))}) nor class sub-folders with some")
-    return classes
+    if classes is not None:  # (checked before any mesh is read; the others are not read)
+        found = {name: found[name] for name in _chosen(classes, found, root)}
+    return {name: [_load(f) for f in paths] for name, paths in found.items()}
+
+
+def _chosen(classes, found, root):
+    """The names of ``classes`` (each once, at least one) that ``found`` holds, in its order;
+    InvalidInputError naming the unknown ones and the classes of ``root`` otherwise."""
+    names = check_names(classes, "classes")
+    if not names:
+        raise InvalidInputError(f"classes names no class; give some of {', '.join(found)}, or None for all")
+    missing = sorted((name for name in names if not isinstance(name, str) or name not in found), key=str)
+    if missing:
+        raise InvalidInputError(f"no classes {missing} in {root}; found {sorted(found)}")
+    return [name for name in found if name in names]

@@ -266,7 +266,9 @@ def check_names(value, name, key=None):
     as 'v', 'e', ...), as is anything that is not iterable, and a name given twice (each is run
     once and kept under its name: a repeat ran twice, its result keyed by name kept one of them).
     ``key(name)``, default the name itself, tells two spellings of one apart (``"depth_weighted_solid:2"``
-    and ``":2.0"``)."""
+    and ``":2.0"``); the refusal names both spellings, and a key that is a str (what the name means,
+    as ``"robust at power 4"``) too: ``methods names 'robust:4' twice (as 'robust'; both are robust at
+    power 4)``."""
     if isinstance(value, (str, bytes)):
         raise InvalidInputError(f"{name} must be a list of names, got the string {value!r}: pass [{value!r}]")
     try:
@@ -281,7 +283,8 @@ def check_names(value, name, key=None):
         except TypeError:  # not a name: the caller's own check names it
             continue
         if k in seen:
-            same = "" if seen[k] == item else f" (as {seen[k]!r})"
+            meaning = f"; both are {k}" if isinstance(k, str) and k not in (item, seen[k]) else ""
+            same = "" if seen[k] == item else f" (as {seen[k]!r}{meaning})"
             raise InvalidInputError(f"{name} names {item!r} twice{same}; give each once")
         seen[k] = item
     return names

@@ -151,7 +151,9 @@ def no_work(monkeypatch):
     # a name given twice: it ran twice, two rows and a 0.0 ms/object, or a class's frames counted twice
     (["--methods", "robust,bbox,robust"], "methods names 'robust' twice"),
     (["--methods", "depth_weighted_solid:2,depth_weighted_solid:2.0"], "names 'depth_weighted_solid:2.0' twice "
-                                                                        "(as 'depth_weighted_solid:2')"),
+                                                                        "(as 'depth_weighted_solid:2'"),
+    # the default power spelled out: one estimator run twice under two names
+    (["--methods", "robust,robust:4"], "methods names 'robust:4' twice (as 'robust'; both are robust at power 4)"),
     (["--variants", "plain,holes,plain"], "variants names 'plain' twice"),
     (["--rotation", "head,pca_vertices,head"], "--rotation names 'head' twice"),
     (["--classes", "human, chair,human"], "--classes names 'human' twice"),  # (was one class, silently)

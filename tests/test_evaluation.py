@@ -267,7 +267,7 @@ def test_align_core_names_the_class_and_the_file_that_differs(tmp_path):
     (lambda: sweep({"boxes": _boxes()}, "gamma", values="47"), "values must be a list of numbers, got the string '47'"),
     # a name given twice ran twice: two rows, one timed 0.0 ms; a frame's class counted each instance twice
     (lambda: evaluate({"boxes": _boxes()}, methods=["bbox", "vertex_mean", "bbox"]), "methods names 'bbox' twice"),
-    (lambda: evaluate({"boxes": _boxes()}, methods=["robust:2", "robust:2.0"]), r"'robust:2.0' twice \(as 'robust:2'\)"),
+    (lambda: evaluate({"boxes": _boxes()}, methods=["robust:2", "robust:2.0"]), r"'robust:2.0' twice \(as 'robust:2'; both are robust at power 2\)"),
     (lambda: evaluate({"boxes": _boxes()}, methods=["bbox"], variants=["plain", "plain"]), "variants names 'plain' twice"),
     (lambda: evaluation.evaluate_rotation({"boxes": _boxes()}, methods=["pca_vertices", "pca_vertices"]),
      "methods names 'pca_vertices' twice"),
@@ -295,6 +295,38 @@ def test_align_core_names_the_class_and_the_file_that_differs(tmp_path):
 def test_arguments_of_the_wrong_kind_are_refused_by_name(call, message):
     with pytest.raises(InvalidInputError, match=message):
         call()
+
+
+def test_a_method_spelled_with_its_default_power_is_a_repeat():
+    """``methods=["robust", "robust:4"]`` ran one estimator twice under two names (robust's power is
+    4 unless given), as did ``depth_weighted_solid`` and ``depth_weighted_solid:2``: refused as a
+    method named twice, both spellings named. Oracle: estimate_many's poses of an asymmetric solid
+    (a cube with an arm) are equal for the two spellings and differ for another power."""
+    from jaxpose.pose.estimators import estimate_many
+
+    arm = trimesh.creation.box(extents=(3.0, 0.3, 0.3))
+    arm.apply_translation((2.0, 0.0, 0.0))
+    shape = trimesh.util.concatenate([trimesh.creation.box(extents=(1.0, 1.0, 1.0)), arm])
+    poses = estimate_many(shape, ["robust", "robust:4", "robust:2", "depth_weighted_solid", "depth_weighted_solid:2",
+                                  "depth_weighted_solid:4"])
+
+    def same(a, b):
+        return np.array_equal(poses[a].center, poses[b].center) and poses[a].scale == poses[b].scale
+
+    assert same("robust", "robust:4") and same("depth_weighted_solid", "depth_weighted_solid:2")
+    assert not same("robust", "robust:2") and not same("depth_weighted_solid", "depth_weighted_solid:4")
+    for methods, message in (
+            (["robust", "bbox", "robust:4"], "methods names 'robust:4' twice (as 'robust'; both are robust at power 4)"),
+            (["depth_weighted_solid:2.0", "depth_weighted_solid"],
+             "methods names 'depth_weighted_solid' twice (as 'depth_weighted_solid:2.0'; both are depth_weighted_solid "
+             "at power 2)")):
+        with pytest.raises(InvalidInputError) as info:
+            evaluate({"boxes": _boxes()}, methods=methods)
+        assert str(info.value) == message + "; give each once"
+    # another power is another method, kept under the name given
+    methods = ["robust", "robust:2", "depth_weighted_solid", "depth_weighted_solid:4"]
+    result = evaluate({"boxes": _boxes()}, methods=methods)
+    assert [row["method"] for row in result["summary"]] == methods
 
 
 def test_align_core_iterations_follow_the_one_int_rule():

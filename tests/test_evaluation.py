@@ -491,7 +491,8 @@ def test_the_formatters_name_the_result_they_take():
     boxes = {"boxes": _boxes()}
     centers = evaluate(boxes, methods=["surface_centroid"])
     frames = evaluation.evaluate_rotation(boxes, methods=["pca_vertices"])
-    assert format_table(centers) and evaluation.format_rotation_table(frames)
+    assert format_table(centers).startswith("1 class x 2 objects, ")  # (one class: "1 classes")
+    assert evaluation.format_rotation_table(frames).startswith("1 class, ")
     for fmt in (format_table, format_per_class):
         with pytest.raises(InvalidInputError, match=r"result must be the dict evaluate\(\) returns: it is "
                                                     "evaluate_rotation's, formatted by format_rotation_table"):
@@ -525,7 +526,7 @@ def test_format_table_explains_itself_and_names_gamma_only_with_the_ocsvm():
               "variants": {"plain": {"summary": [row]}}}
     text = format_table(result)
     header = text.splitlines()[0]
-    assert "gamma" not in header and "nu=" not in header and "1 classes x 10 objects" in header
+    assert "gamma" not in header and "nu=" not in header and header.startswith("1 class x 10 objects,")  # (was "1 classes")
     for term in ("sigma_tr ", "sigma_scale ", "cv_scale ", "ms/object ", "lower is better", "compilation", "units"):
         assert term in text, term
     line = next(l for l in text.splitlines() if l.startswith("robust"))

@@ -269,6 +269,25 @@ def test_cli_tune_variants_all_is_every_variant(monkeypatch, capsys):
     assert "stop: the variants" in capsys.readouterr().err
 
 
+def test_cli_tune_robust_failure_names_the_samples_and_the_grid(tmp_path, capsys, monkeypatch):
+    """``jaxpose tune --method robust`` that tuned nothing (no step had every pose valid: a cloud too
+    sparse for its solid at ``--resolution 8``) sent the user only to "start from another --power",
+    which the solid's reasons do not depend on; it names --count and --resolution as given (or their
+    defaults: config.TUNE's count, config.RobustConfig's resolution)."""
+    from jaxpose.config import TUNE, RobustConfig
+
+    _write_two_classes(tmp_path / "data", trimesh.creation.icosphere(subdivisions=1))
+    reason = "no step had every pose valid, from (power 4); e.g. tall: too sparse: nothing was tuned, no recommendation"
+    monkeypatch.setattr(tuning, "tune", lambda *a, **k: {"error": reason})
+    for extra, count, grid in ((["--resolution", "8", "--count", "50"], 50, 8), ([], TUNE.count, RobustConfig().resolution)):
+        assert tuning_cli.run(["--data", str(tmp_path / "data"), "--method", "robust", "--holdout", "0", "--steps", "0",
+                               *extra]) == 1
+        err = capsys.readouterr().err.strip().splitlines()[-1]
+        assert err == (f"jaxpose: error: {reason}; draw more samples (--count, now {count}) or give another "
+                       f"--resolution (now {grid}: voxels along the body), or start from another --power (the default "
+                       f"{jaxpose.config.ROBUST.power:g})"), err
+
+
 def test_gradient_matches_finite_difference_of_objective():
     classes = {"box": _classes()["box"]}
     config = jaxpose.PoseConfig.create(**FAST)

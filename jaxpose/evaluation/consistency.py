@@ -429,7 +429,8 @@ def format_table(result) -> str:
     sizes = sorted(set(objects.values()))
     size = (f" x {sizes[0]} objects" if len(sizes) == 1 else f", {sum(objects.values())} objects") if sizes else ""
     ocsvm = f", ocsvm: gamma={p.get('gamma')}, nu={p.get('nu')}, count={p.get('count')}" if _uses_ocsvm(result) else ""
-    lines = [f"{len(result.get('per_class', {}))} classes{size}, seed={p.get('seed')}, "
+    n = len(result.get("per_class", {}))
+    lines = [f"{n} class{'es' if n != 1 else ''}{size}, seed={p.get('seed')}, "
              f"align_core={p.get('align_core')}{_core(p)}{ocsvm}"]
     for variant, block in per_variant.items():
         ref = reference_method(variant)

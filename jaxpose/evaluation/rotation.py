@@ -258,7 +258,8 @@ def format_rotation_table(result) -> str:
     check_result(result, "evaluate_rotation")
     core = result["params"].get("core_weight", "vertices")
     core = f" (core by {core})" if result["params"]["align_core"] and core != "vertices" else ""
-    lines = [f"{len(result['params']['classes'])} classes, align_core={result['params']['align_core']}{core}, "
+    n = len(result["params"]["classes"])
+    lines = [f"{n} class{'es' if n != 1 else ''}, align_core={result['params']['align_core']}{core}, "
              "angles to the class frame (chordal mean), degrees, mean / max over instances"]
 
     def num(v, fmt="{:.1f}"):

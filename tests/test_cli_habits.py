@@ -136,6 +136,7 @@ def no_work(monkeypatch):
     # was a dataset built in memory without a word (3.9 GB in 15 s, one class), never reaching the work
     (["--instances", "1000000000"], "--instances must be <= 200 (the built-in dataset is built in memory"),
     (["--classes", ","], "--classes names no class"),  # was exit 1 naming the library's dict argument
+    (["--methods", ""], "--methods names no method (''); give some, comma-separated, or all"),  # ran every method
     # the frames' run reads neither: it measured the frames and dropped them without a word
     (["--rotation", "pca_vertices", "--methods", "bbox"], "--methods chooses what the center and scale run measures"),
     (["--rotation", "--sweep"], "--sweep chooses what the center and scale run measures"),

@@ -59,6 +59,8 @@ def _evaluate_usage(args):
     from ..rotation.rotation import ROTATIONS
     from ..batch.task import NormalizeOptions
 
+    if args.methods is not None and not comma_names(args.methods):  # ('' ran every method, minutes of work)
+        raise _Usage(f"--methods names no method ({args.methods!r}); give some, comma-separated, or all")
     methods = comma_names(args.methods) if args.methods else None
     methods = None if methods == ["all"] else methods  # as --variants all, --rotation all (was "unknown method")
     variants = variant_names(args.variants)

@@ -38,7 +38,8 @@ def parser():
     p.add_argument("--variants", default="plain", help="comma list of input variants (plain, outliers, big_outliers, "
                    "points, holes), or all; each variant of a class counts as a class in the loss, and a class "
                    "held out (--holdout) is held out in every variant (default plain)")
-    p.add_argument("--classes", default=None, help="comma-separated subset of classes")
+    p.add_argument("--classes", default=None, help="comma-separated subset of the classes: of --data's class folders "
+                   "(not --holdout-data's), or of the built-in dataset's 12 (default all)")
     p.add_argument("--instances", type=int, default=None,  # None: not given (refused with --data, as evaluate's)
                    help=f"built-in dataset: objects per class (default {TUNE.instances}, at most {DATASET_INSTANCES})")
     p.add_argument("--steps", type=int, default=TUNE.steps, help=f"Adam steps (default {TUNE.steps})")

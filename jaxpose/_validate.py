@@ -32,6 +32,7 @@ __all__ = [
     "check_known",
     "check_callback",
     "compute_dtype",
+    "jax_value",
     "is_real_dtype",
     "default_float",
     "check_default_float",
@@ -173,6 +174,21 @@ def compute_dtype(points):
     elif dtype.itemsize > 8:  # longdouble (float128): JAX has no such dtype (its TypeError deep in a staged call)
         dtype = np.dtype(np.float64)
     return np.dtype(dtypes.canonicalize_dtype(dtype))
+
+
+def jax_value(value):
+    """``value`` as JAX can take it: a concrete NumPy array or scalar of NumPy's longdouble (float128
+    on x86, wider than JAX's widest float; its complex clongdouble too) as its float64 (complex128)
+    value, the rule of :func:`compute_dtype` (a longdouble computes as float64 would); every other
+    value (Python numbers, other dtypes, JAX arrays, tracers, None) is returned as it is. JAX has no
+    name for longdouble: it was JAX's TypeError 'Error interpreting argument ... as an abstract
+    array' in a staged call."""
+    dtype = getattr(value, "dtype", None)
+    if not isinstance(value, (np.ndarray, np.generic)) or dtype.kind not in "fc":
+        return value
+    if dtype.itemsize > (8 if dtype.kind == "f" else 16):
+        return np.asarray(value, np.float64 if dtype.kind == "f" else np.complex128)
+    return value
 
 
 def check_traced_scalar(value, name):

@@ -209,6 +209,32 @@ def test_longdouble_points_compute_as_float64_would():
     assert float(pose.scale) == float(ref.scale)
 
 
+def test_longdouble_svdd_arguments_compute_as_float64_would():
+    """fit_svdd took longdouble points (as float64) but a longdouble mask, init_alpha, gamma or nu
+    was JAX's TypeError ('Error interpreting argument to _solve_svdd as an abstract array', or
+    'float128 is not a valid dtype for JAX type promotion'), as were solve_svdd's,
+    decision_value_and_grad's x and kkt_violation's arrays: each computes as its float64 value
+    does (the same fit, bit for bit). 8 points: the smallest problem its mask leaves 7 of."""
+    from jaxpose.occupancy.svdd import decision_value_and_grad, kkt_violation, solve_svdd
+
+    if np.dtype(np.longdouble).itemsize <= 8:
+        pytest.skip("longdouble is float64 on this platform")
+    wide = lambda v: np.asarray(v, np.longdouble)
+    q, mask, init = P[:8], np.r_[np.ones(7), 0.0], np.r_[np.full(7, 1 / 7), 0.0]
+    ref = fit_svdd(q, np.float64(10.0), np.float64(0.5), mask=mask, init_alpha=init, **FIT)
+    got = fit_svdd(q, wide(10.0)[()], wide(0.5), mask=wide(mask), init_alpha=wide(init), **FIT)
+    np.testing.assert_array_equal(np.asarray(got.alpha), np.asarray(ref.alpha))
+    assert float(got.alpha[7]) == 0.0 and abs(float(got.alpha.sum()) - 1) < 1e-6  # the masked row out
+    solved = solve_svdd(wide(q), wide(10.0), wide(0.5), wide(mask), wide(init), jaxpose.SolverConfig(tol=1e-3))
+    np.testing.assert_array_equal(np.asarray(solved.alpha), np.asarray(ref.alpha))
+    for a, b in zip(decision_value_and_grad(ref, wide(q)), decision_value_and_grad(ref, q)):
+        np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
+    a = np.asarray(ref.alpha, np.float64)
+    args = (a, np.full(8, 0.5), np.full(8, 0.25), mask > 0)
+    np.testing.assert_array_equal(np.asarray(kkt_violation(*map(wide, args[:3]), args[3])[0]),
+                                  np.asarray(kkt_violation(*args)[0]))
+
+
 NAMES = np.array(["robust", "ocsvm"])  # names given as an array (a column of a table)
 
 

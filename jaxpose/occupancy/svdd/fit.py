@@ -89,6 +89,8 @@ def fit_svdd(points, gamma, nu, *, mask=None, init_alpha=None, config: SolverCon
     elif not isinstance(config, SolverConfig):
         raise _validate.InvalidInputError(f"config must be a SolverConfig, got {type(config).__name__}")
     points = _validate.check_points(points)
+    # NumPy's longdouble (JAX has no such dtype): as float64, as the points (compute_dtype's rule)
+    gamma, nu, mask, init_alpha = (_validate.jax_value(v) for v in (gamma, nu, mask, init_alpha))
     _validate.check_gamma(gamma)
     _validate.check_nu(nu)
     throw = _validate.check_throw(throw, "SVDD.converged", points=points, gamma=gamma, nu=nu, mask=mask,
@@ -131,13 +133,16 @@ def solve_svdd(points, gamma, nu, mask, init_alpha, config: SolverConfig, tol=No
 
     Args as :func:`fit_svdd`; ``mask`` and ``init_alpha`` may be None; ``tol``, ``max_iter``:
     the stopping numbers in place of ``config.tol`` and ``config.max_iter`` (None: those; may be
-    traced). Pure JAX.
+    traced). Pure JAX; NumPy's longdouble arrays are taken as their float64 values
+    (:func:`jaxpose._validate.jax_value`).
 
     Returns:
       :class:`SVDD`; ``converged`` is False where ``gamma`` or ``nu`` is out of range
       (:func:`jaxpose.occupancy.svdd.problem.parameters_in_range`; nothing is refused here, traced
       or not), as :func:`fit_svdd`'s and the OCSVM pose's (``Pose.converged``).
     """
+    points, gamma, nu, mask, init_alpha, tol, max_iter = (  # (longdouble: as float64, jax_value)
+        _validate.jax_value(v) for v in (points, gamma, nu, mask, init_alpha, tol, max_iter))
     static = dataclasses.replace(config, tol=SolverConfig.tol, max_iter=SolverConfig.max_iter,
                                  solver=pick_solver(config.solver, jnp.shape(points)[0]))
     return _solve_svdd(points, gamma, nu, mask, init_alpha, config.tol if tol is None else tol,

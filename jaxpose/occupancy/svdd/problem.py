@@ -103,7 +103,7 @@ def check_svdd(svdd, use: str):
 
 def upper_bound(nu, m):
     """C = 1 / (nu m), capped at 1 (nu = 0: no upper bound); safe to differentiate. () float."""
-    nm = nu * m
+    nm = _validate.jax_value(nu) * _validate.jax_value(m)  # (longdouble: float64)
     return jnp.where(nm > 1.0, 1.0 / jnp.where(nm > 1.0, nm, 1.0), 1.0)
 
 
@@ -148,6 +148,9 @@ def kkt_violation(alpha, Ka, caps, mask):
     minimum enclosing ball's own rule at nu = 0. At the exact solution the violation is 0, and
     f at the training points is then within about 2 tol s of its exact value.
     """
+    # NumPy input as JAX arrays (longdouble as float64: _validate.jax_value); JAX's and tracers as they are
+    alpha, Ka, caps, mask = (v if isinstance(v, jax.Array) else jnp.asarray(_validate.jax_value(v))
+                             for v in (alpha, Ka, caps, mask))
     inf = jnp.asarray(jnp.inf, Ka.dtype)
     obj = jnp.vdot(alpha, Ka)
     up = jnp.max(jnp.where(mask & (alpha > 0), Ka, -inf))
@@ -181,6 +184,7 @@ def decision_value_and_grad(svdd: SVDD, x, block=BLOCK):
       f (n,) and grad f (n, 3) = -4 gamma sum_i alpha_i k(x, x_i) (x - x_i). Memory O(block m).
     """
     p, a, g = svdd.points, svdd.alpha, svdd.gamma
+    x = _validate.jax_value(x)  # (NumPy's longdouble: its float64 values)
 
     def one_block(xb):
         d = xb[:, None, :] - p[None, :, :]

@@ -68,12 +68,22 @@ def _is_traced(value) -> bool:
     return any(kind.__name__ == "Tracer" and kind.__module__.startswith("jax") for kind in type(value).__mro__)
 
 
+def _not_static(value, name, what):
+    """The InvalidInputError of a traced ``value`` given for an option that must be ``what`` ("a
+    concrete int", "a static Python number", "a static Python bool"), else None: the one check
+    (:func:`_int`, :func:`_real`, :func:`_bool`) of every option that sets what is compiled (sizes,
+    counts, tolerances, ratios, flags) and so must be known while tracing; it says how to pass one
+    (``jax.jit``'s ``static_argnames``, or ``functools.partial`` outside the transformation)."""
+    if not _is_traced(value):
+        return None
+    return InvalidInputError(f"{name} must be {what}, not a traced value (under jit, vmap or grad): pass {name} as a "
+                             f"static argument (jax.jit(f, static_argnames=...)) or bind it outside the transformation "
+                             f"(functools.partial(f, {name}=...)), got {value!r}")
+
+
 def _not_an_int(value, name):
     """The InvalidInputError of a value :func:`_integer` refuses."""
-    if _is_traced(value):
-        return InvalidInputError(f"{name} must be a concrete int, not a traced value (under jit, vmap or grad: "
-                                 f"pass {name} as a static argument or a Python int), got {value!r}")
-    return InvalidInputError(f"{name} must be an int, got {value!r}")
+    return _not_static(value, name, "a concrete int") or InvalidInputError(f"{name} must be an int, got {value!r}")
 
 
 def _int(value, name, minimum):
@@ -109,7 +119,8 @@ def _bool(value, name):
     before NumPy, to give NumPy one BLAS thread first: :func:`jaxpose.batch.workers.configure_process`)."""
     kind = type(value)
     if not (kind is bool or (kind.__module__ == "numpy" and kind.__name__ in ("bool", "bool_"))):
-        raise InvalidInputError(f"{name} must be True or False, got {value!r}")
+        raise _not_static(value, name, "a static Python bool") or InvalidInputError(
+            f"{name} must be True or False, got {value!r}")
     return bool(value)
 
 
@@ -171,7 +182,11 @@ def _real(value, name, low, high=math.inf, closed=True, interval=None, closed_hi
     The message: ``"{name} must be a finite number >= {low}"`` (``> {low}`` with ``closed=False``)
     where ``high`` is inf, ``"{name} must be a number in {interval}"`` where it is finite
     (``interval`` default from low, high, closed: ``[0, 1]``); then ``", got {value}"``, a () array
-    shown as its number."""
+    shown as its number. A traced value: ``"{name} must be a static Python number, not a traced
+    value ..."`` with how to pass one (:func:`_not_static`)."""
+    traced = _not_static(value, name, "a static Python number")
+    if traced is not None:  # (it read "tol must be a finite number > 0, got JitTracer(~float32[])")
+        raise traced
     dtype, shown = getattr(value, "dtype", None), None
     if (isinstance(value, (bool, str, bytes)) or getattr(value, "shape", ()) != ()
             or (dtype is not None and getattr(dtype, "kind", None) not in ("f", "i", "u", "V"))
@@ -495,12 +510,7 @@ class RobustConfig:
     spacing_samples: int = 10_000
 
     def __post_init__(self):
-        try:
-            ratio = float(self.keep_ratio)
-        except (TypeError, ValueError):
-            ratio = math.nan
-        if isinstance(self.keep_ratio, bool) or not 0.0 <= ratio <= 1.0:
-            raise InvalidInputError(f"keep_ratio must be in [0, 1], got {self.keep_ratio!r}")
+        ratio = _real(self.keep_ratio, "keep_ratio", 0.0, 1.0)  # the number rule (float() took "0.5", a traced one)
         _set(self, resolution=_int(self.resolution, "resolution", 8), coarse=_int(self.coarse, "coarse", 8),
              keep_ratio=ratio, max_closing=_int(self.max_closing, "max_closing", 1),
              spacing_samples=_int(self.spacing_samples, "spacing_samples", 1))

@@ -418,3 +418,38 @@ def test_number_rules_take_what_they_took():
     assert SolverConfig(tol=1e-3).tol == 1e-3 and PoseConfig.create(gamma_delta=0.49, nu_delta=1e-9).gamma_delta == 0.49
     assert PoseConfig.create(nu_tol=1e-6).nu_tol == 1e-6 and PoseConfig.create().nu_tol is None
     assert _validate.check_gamma(47) == 47 and _validate.check_nu(0) == 0 and _validate.check_nu(1.0) == 1.0
+
+
+def test_a_traced_static_option_says_how_to_pass_it():
+    """A traced tol, keep_ratio, gamma_delta, ... (under jit, vmap or grad) read "tol must be a finite
+    number > 0, got JitTracer(~float32[])" or "keep_ratio must be in [0, 1], got JitTracer(...)",
+    as if its value were wrong; every option that must be static (config._real, _int, _bool: one
+    check, config._not_static) says so and how to pass it. Refused while tracing: nothing compiles.
+    RobustConfig's keep_ratio, its own check, took the string "0.5" (float()); the number rule refuses it."""
+    import jaxpose
+    from jaxpose.config import RobustConfig
+    from jaxpose.occupancy.solid import robust_solid
+
+    p = np.random.default_rng(0).normal(size=(50, 3))
+    how = r"not a traced value \(under jit, vmap or grad\): pass {0} as a static argument \(jax\.jit\(f, " \
+          r"static_argnames=\.\.\.\)\) or bind it outside the transformation \(functools\.partial\(f, {0}=\.\.\.\)\)"
+    numbers = {
+        "tol": [lambda t: jaxpose.fit_svdd(p, 1.0, 0.5, tol=t), lambda t: jaxpose.normalize(p, method="ocsvm", tol=t),
+                lambda t: SolverConfig(tol=t)],
+        "keep_ratio": [lambda t: jaxpose.normalize(p, keep_ratio=t), lambda t: jaxpose.normalize_batch([p], keep_ratio=t),
+                       lambda t: RobustConfig(keep_ratio=t), lambda t: robust_solid(p, keep_ratio=t)],
+        "gamma_delta": [lambda t: jaxpose.normalize(p, method="ocsvm", gamma_delta=t)],
+        "nu_tol": [lambda t: PoseConfig.create(nu_tol=t)],
+    }
+    for name, calls in numbers.items():
+        for call in calls:
+            for transform in (jax.jit, jax.vmap):
+                with pytest.raises(InvalidInputError, match=f"^{name} must be a static Python number, {how.format(name)}"):
+                    transform(call)(jnp.full((2,) if transform is jax.vmap else (), 0.1))
+    with pytest.raises(InvalidInputError, match=f"^max_iter must be a concrete int, {how.format('max_iter')}"):
+        jax.jit(lambda n: jaxpose.fit_svdd(p, 1.0, 0.5, max_iter=n))(10)
+    with pytest.raises(InvalidInputError, match=f"^extrapolate must be a static Python bool, {how.format('extrapolate')}"):
+        jax.jit(lambda e: GridConfig(extrapolate=e))(True)
+    with pytest.raises(InvalidInputError, match=r"^keep_ratio must be a number in \[0, 1\], got '0.5'"):
+        RobustConfig(keep_ratio="0.5")
+    assert RobustConfig(keep_ratio=np.float32(0.25)).keep_ratio == 0.25 and RobustConfig(keep_ratio=1).keep_ratio == 1.0

@@ -302,6 +302,64 @@ def x64_off():
     yield
 
 
+REFLECTION = np.diag([1.0, 1.0, -1.0])  # det -1
+SKEWED = np.array([[1.0, 0.02, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])  # det +1, rows not orthonormal
+
+
+def test_a_pose_built_directly_refuses_what_from_center_scale_refuses():
+    """Pose(center, scale, rotation=R) with R a reflection (det -1) or not orthonormal was applied as
+    given (a mirrored body; an inverse by R^T that does not invert), while from_center_scale refused
+    both: matrix, apply and inverse check the rotation by the same rule (_check_rotation), where its
+    values are concrete; under jit its shape is checked and its values are not read."""
+    x = np.array([[1.0, 2.0, 3.0], [0.5, -1.0, 2.0]])
+    for bad, fragment in ((REFLECTION, r"got determinant -1: a reflection"), (SKEWED, "rows are not orthonormal"),
+                          (np.full((3, 3), np.nan), "got NaN or inf")):
+        for r in (bad, jnp.asarray(bad, jnp.float32)):
+            pose = Pose(np.zeros(3), 2.0, rotation=r)
+            for use in (lambda p: p.apply(x), lambda p: p.matrix, lambda p: p.inverse(),
+                        lambda p: p._replace(rotation=r).inverse().apply(x)):
+                with pytest.raises(InvalidInputError, match=r"^a Pose's rotation must be a proper rotation .*" + fragment):
+                    use(pose)
+        with pytest.raises(InvalidInputError, match=r"^rotation must be a proper rotation .*" + fragment):
+            Pose.from_center_scale(np.zeros(3), 2.0, rotation=bad)
+    batch = Pose(np.zeros((2, 3)), np.ones(2), rotation=np.stack([np.eye(3), REFLECTION]))
+    with pytest.raises(InvalidInputError, match="a reflection"):
+        batch.apply(np.ones((2, 4, 3)))
+    # traced: the values cannot be read (no call back to the host); the shape still is
+    traced = jax.jit(lambda r: Pose(jnp.zeros(3), 2.0, rotation=r).matrix)(jnp.asarray(REFLECTION))
+    np.testing.assert_allclose(np.asarray(traced)[:3, :3], REFLECTION / 2.0)
+    with pytest.raises(InvalidInputError, match=r"a Pose's rotation must have shape \(3, 3\), got \(3, 2\)"):
+        jax.jit(lambda r: Pose(jnp.zeros(3), 2.0, rotation=r).matrix)(jnp.ones((3, 2)))
+
+
+@pytest.mark.parametrize("x64_on", [False, True])
+def test_rotations_of_the_library_pass_the_rotation_rule(x64_on, request):
+    """The library's own rotations (normalize(..., rotation=True), the ocsvm frame: float32, off by
+    about 1e-7 from orthonormal; float64 with x64) pass the rule a Pose built of them is checked by
+    (ROTATION_TOL)."""
+    from jaxpose.pose.result import ROTATION_TOL
+
+    from conftest import clusters
+
+    if x64_on:  # 400 points at resolution 32: test_rotation.py's float64 rotation program
+        request.getfixturevalue("x64")
+        v = clusters(400, seed=2)
+        pose = jaxpose.normalize(v, method="ocsvm", resolution=32, rotation=True)
+    else:  # 600 points at resolution 16: test_normalize_pose_far_from_the_origin_applies_in_float64's program
+        rng = np.random.default_rng(5)
+        v = rng.normal(size=(600, 3)) * [1.0, 0.6, 0.3]
+        v = v / np.linalg.norm(v, axis=1, keepdims=True) * [1.0, 0.6, 0.3]
+        pose = jaxpose.normalize(v, method="ocsvm", rotation=True, resolution=16)
+    assert pose.rotation.dtype == (jnp.float64 if x64_on else jnp.float32)
+    r = np.asarray(pose.rotation, np.float64)
+    assert np.abs(r @ r.T - np.eye(3)).max() <= ROTATION_TOL / 10 and np.linalg.det(r) > 0
+    direct = Pose(pose.center, pose.scale, rotation=pose.rotation)
+    np.testing.assert_allclose(direct.apply(v), (v - np.asarray(pose.center, np.float64)) @ r.T / float(pose.scale),
+                               rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(direct.inverse().apply(direct.apply(v)), v, rtol=0, atol=1e-5)
+    Pose.from_center_scale(pose.center, pose.scale, rotation=pose.rotation)
+
+
 def test_host_refuses_a_traced_pose_or_no_pose():
     """host() of a traced pose was a TypeError, of a (center, scale) pair an AttributeError: each an
     InvalidInputError naming the field or the type, and the fix."""

@@ -20,6 +20,7 @@ if TYPE_CHECKING:  # annotations only
     import jax
 
 __all__ = ["Pose", "host", "Status", "status_message", "MAX_SPACING", "MAX_CELL", "MIN_SPREAD", "MAX_ROUNDING", "MIN_POINT_VOXELS",
+           "ROTATION_TOL",
            "SECOND_BODY"]
 
 MAX_SPACING = 2.0  # median nearest-neighbour distance of the samples, in kernel widths
@@ -186,7 +187,8 @@ def _shape_of(value, name):
 
 def _check_similarity(pose):
     """The batch axes of a pose whose similarity fields fit (center (..., 3), scale the center's
-    leading shape, rotation None or those axes + (3, 3); real numbers, traced or not), before
+    leading shape, rotation None or those axes + (3, 3); real numbers, traced or not; a concrete
+    rotation proper, :func:`_check_rotation`, :meth:`Pose.from_center_scale`'s rule), before
     ``matrix``, ``apply`` or ``inverse`` compute with them; InvalidInputError otherwise. A Pose
     built directly (``Pose(center, scale)``) is not checked where it is made (JAX rebuilds one
     from any leaves): a (3,) scale scaled each axis on its own (no similarity) and made a
@@ -198,8 +200,8 @@ def _check_similarity(pose):
         raise InvalidInputError(f"a Pose's center must have shape (..., 3) and its scale the center's leading shape "
                                 f"(one number per pose: a similarity scales every axis alike), got {c_shape} and "
                                 f"{s_shape}")
-    if pose.rotation is not None and (r_shape := _shape_of(pose.rotation, "rotation")) != batch + (3, 3):
-        raise InvalidInputError(f"a Pose's rotation must have shape {batch + (3, 3)}, got {r_shape}")
+    if pose.rotation is not None:  # (an improper or skewed one was applied as given)
+        _check_rotation(pose.rotation, batch, "a Pose's rotation")
     return batch
 
 
@@ -544,18 +546,32 @@ def _per_set(center, scale):
     return center, scale
 
 
-def _check_rotation(rotation, batch):
-    """A rotation (batch + (3, 3)) that is proper (R R^T = I to 1e-5, det R > 0) where concrete."""
-    shape = _shape_of(rotation, "rotation")
+ROTATION_TOL = 1e-5  # |R R^T - I| of a proper rotation, at most (float32 rotations of the library: ~1e-6)
+
+
+def _check_rotation(rotation, batch, name="rotation"):
+    """The one rotation rule of a Pose (:meth:`Pose.from_center_scale`, and ``matrix``, ``apply``,
+    ``inverse`` of a Pose built directly): shape batch + (3, 3), real numbers, traced or not; where
+    concrete (its values read on the host; a traced one's are not, under jit, vmap or grad) a
+    proper rotation: finite, orthonormal rows (every entry of R R^T - I within ``ROTATION_TOL``,
+    which float32 rotations pass) and det R > 0 (a reflection, det -1, is refused).
+    InvalidInputError naming ``name`` otherwise."""
+    shape = _shape_of(rotation, name)
     if shape != batch + (3, 3):
-        raise InvalidInputError(f"rotation must have shape {batch + (3, 3)}, got {shape}")
+        raise InvalidInputError(f"{name} must have shape {batch + (3, 3)}, got {shape}")
     if is_traced(rotation):
         return
     r = np.asarray(rotation, np.float64)
     eye = np.broadcast_to(np.eye(3), r.shape)
-    if not (np.all(np.isfinite(r)) and np.abs(r @ np.swapaxes(r, -1, -2) - eye).max() <= 1e-5
-            and np.all(np.linalg.det(r) > 0)):
-        raise InvalidInputError("rotation must be a proper rotation (orthonormal rows, determinant +1)")
+    if not np.all(np.isfinite(r)):
+        raise InvalidInputError(f"{name} must be a proper rotation (orthonormal rows, determinant +1), got NaN or inf")
+    skew = float(np.abs(r @ np.swapaxes(r, -1, -2) - eye).max()) if r.size else 0.0
+    if skew > ROTATION_TOL:
+        raise InvalidInputError(f"{name} must be a proper rotation (orthonormal rows, determinant +1): its rows are "
+                                f"not orthonormal (R R^T differs from I by {skew:.3g} > {ROTATION_TOL:g})")
+    if r.size and not np.all((det := np.linalg.det(r)) > 0):
+        raise InvalidInputError(f"{name} must be a proper rotation (orthonormal rows, determinant +1), got determinant "
+                                f"{float(np.min(det)):.3g}: a reflection (negate one row to make it proper)")
 
 
 def _homogeneous(xp, lin, shift):

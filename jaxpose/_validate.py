@@ -33,6 +33,7 @@ __all__ = [
     "check_callback",
     "compute_dtype",
     "jax_value",
+    "check_shape",
     "is_real_dtype",
     "default_float",
     "check_default_float",
@@ -189,6 +190,27 @@ def jax_value(value):
     if dtype.itemsize > (8 if dtype.kind == "f" else 16):
         return np.asarray(value, np.float64 if dtype.kind == "f" else np.complex128)
     return value
+
+
+def check_shape(value, name, shape, finite=False):
+    """``value`` as a NumPy array of real numbers of exactly ``shape`` (its dtype kept, not copied
+    where it is one); InvalidInputError naming ``name`` otherwise, and for NaN or inf where
+    ``finite`` (low-level host functions of fixed shapes: a wrong one was NumPy's IndexError,
+    LinAlgError or broadcast error deep inside). A traced value is refused by name: the callers
+    compute on the host."""
+    want = f"({', '.join(map(str, shape))}{',' if len(shape) == 1 else ''})"
+    if is_traced(value):
+        raise InvalidInputError(f"{name}: a traced array (under jit, vmap or grad); this function computes on the host "
+                                "in NumPy: call it on concrete values")
+    try:
+        a = np.asarray(value)
+    except Exception as exc:  # ragged lists and the like
+        raise InvalidInputError(f"{name} must be real numbers of shape {want}: {exc}") from None
+    if not is_real_dtype(a.dtype) or a.shape != tuple(shape):
+        raise InvalidInputError(f"{name} must be real numbers of shape {want}, got {a.dtype} of shape {a.shape}")
+    if finite and not np.all(np.isfinite(a)):
+        raise InvalidInputError(f"{name} must be finite, got NaN or inf")
+    return a
 
 
 def check_traced_scalar(value, name):

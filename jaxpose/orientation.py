@@ -34,6 +34,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ._validate import InvalidInputError, check_int, check_shape
+
 __all__ = ["Frame", "GAP_MIN", "SIGN_MIN", "SYMMETRY_MIN", "ZERO_EIGENVALUE", "proper", "descending_axes",
            "relative_gaps", "ambiguity", "complete_signs", "region_frame"]
 
@@ -75,16 +77,19 @@ class Frame(NamedTuple):
 
 
 def proper(r):
-    """r (3, 3) with its last row negated when det r < 0: a proper rotation from orthonormal rows."""
-    r = np.array(r, np.float64)
+    """r (3, 3) with its last row negated when det r < 0: a proper rotation from orthonormal rows.
+    InvalidInputError for another shape or kind (NumPy's LinAlgError)."""
+    r = np.array(check_shape(r, "r", (3, 3)), np.float64)
     if np.linalg.det(r) < 0:
         r[2] = -r[2]
     return r
 
 
 def descending_axes(cov):
-    """Eigenvalues (3,) descending and eigenvectors as rows (3, 3) of a symmetric (3, 3) matrix."""
-    lam, vec = np.linalg.eigh(np.asarray(cov, np.float64))
+    """Eigenvalues (3,) descending and eigenvectors as rows (3, 3) of a symmetric (3, 3) matrix
+    (finite: InvalidInputError for another shape, kind or NaN, NumPy's LinAlgError "Eigenvalues did
+    not converge")."""
+    lam, vec = np.linalg.eigh(np.asarray(check_shape(cov, "cov", (3, 3), finite=True), np.float64))
     return lam[::-1], vec[:, ::-1].T
 
 
@@ -98,9 +103,10 @@ def relative_gaps(lam):
     An eigenvalue below :data:`ZERO_EIGENVALUE` of the largest counts as 0 (a covariance's computed
     eigenvalues carry rounding errors of about eps times the largest, either sign), and the gap
     between two zeros is 0: the axes of a flat or a straight point set across it are not determined
-    (two points: gaps (1, 0), the two minor axes interchangeable).
+    (two points: gaps (1, 0), the two minor axes interchangeable). InvalidInputError for ``lam``
+    of another shape or kind (two values: NumPy's IndexError).
     """
-    lam = np.asarray(lam, np.float64)
+    lam = np.asarray(check_shape(lam, "lam", (3,)), np.float64)
     lam = np.where(lam > ZERO_EIGENVALUE * max(lam[0], 0.0), lam, 0.0)
     return np.array([(lam[0] - lam[1]) / max(lam[0], 1e-300), (lam[1] - lam[2]) / max(lam[1], 1e-300)])
 
@@ -108,7 +114,13 @@ def relative_gaps(lam):
 def ambiguity(gaps, sign_ratio, contrast=None):
     """clip(1 - min(g1 / GAP_MIN, g2 / GAP_MIN, sign_ratio[, k / SYMMETRY_MIN]), 0, 1) (module docs).
 
-    ``sign_ratio``: the weakest used sign margin as a multiple of its threshold (e.g. m / SIGN_MIN)."""
+    ``sign_ratio``: the weakest used sign margin as a multiple of its threshold (e.g. m / SIGN_MIN).
+    ``gaps`` (2,) (:func:`relative_gaps`), ``sign_ratio`` and ``contrast`` () real numbers;
+    InvalidInputError for other shapes or kinds (an IndexError or a TypeError of ``abs``)."""
+    check_shape(gaps, "gaps", (2,))
+    check_shape(sign_ratio, "sign_ratio", ())
+    if contrast is not None:
+        check_shape(contrast, "contrast", ())
     ratios = [gaps[0] / GAP_MIN, gaps[1] / GAP_MIN, abs(sign_ratio)]
     if contrast is not None:
         ratios.append(contrast / SYMMETRY_MIN)
@@ -127,13 +139,20 @@ def complete_signs(axes, stat, completed=None, to_world=None):
     Returns:
       rotation (3, 3) proper, in world coordinates; margins (3,) the stats after the flips
       (0 on the completed axis); the completed axis.
+
+    Raises:
+      InvalidInputError: arrays of other shapes or kinds, ``completed`` no int in 0 ... 2 (NumPy's
+        broadcast error or IndexError).
     """
-    stat = np.asarray(stat, np.float64)
+    stat = np.asarray(check_shape(stat, "stat", (3,)), np.float64)
+    axes = check_shape(axes, "axes", (3, 3))
+    if completed is not None and check_int(completed, "completed", 0) > 2:
+        raise InvalidInputError(f"completed must be an axis, 0, 1 or 2, got {completed!r}")
     k = int(np.argmin(np.abs(stat))) if completed is None else int(completed)
     s = np.where(stat >= 0, 1.0, -1.0)
     r = np.asarray(axes, np.float64) * s[:, None]
     if to_world is not None:
-        r = r @ np.asarray(to_world, np.float64)
+        r = r @ np.asarray(check_shape(to_world, "to_world", (3, 3)), np.float64)
     if np.linalg.det(r) < 0:
         r[k] = -r[k]
     margins = np.abs(stat)
@@ -166,6 +185,7 @@ def region_frame(second_moment, center, y, mask, axes, report=False):
     import jax
     import jax.numpy as jnp
 
+    _check_region_frame(second_moment, center, y, mask, axes)
     second_moment, center, y, axes = (jax.lax.stop_gradient(a) for a in (second_moment, center, y, axes))
     lam, vec = jnp.linalg.eigh(second_moment)
     lam, e = lam[::-1], vec[:, ::-1].T  # rows, largest first
@@ -187,3 +207,16 @@ def region_frame(second_moment, center, y, mask, axes, report=False):
         diagnostics = {"eigenvalues": lam, "stat": stat, "completed": k, "ok": ok}
         return jnp.where(ok, rot, jnp.eye(3, dtype=y.dtype)), jnp.where(ok, amb, 1.0), diagnostics
     return jnp.where(ok, rot, jnp.eye(3, dtype=y.dtype)), jnp.where(ok, amb, 1.0)
+
+
+def _check_region_frame(second_moment, center, y, mask, axes):
+    """The shapes of :func:`region_frame`'s arrays (known while tracing; their values are not
+    read): InvalidInputError naming the one that does not fit (JAX's dot_general or axis errors)."""
+    shape = lambda v: tuple(np.shape(v))
+    for name, value, want in (("second_moment", second_moment, (3, 3)), ("center", center, (3,)), ("axes", axes, (3, 3))):
+        if shape(value) != want:
+            raise InvalidInputError(f"{name} must have shape {want}, got {shape(value)}")
+    if len(shape(y)) != 2 or shape(y)[1] != 3:
+        raise InvalidInputError(f"y must have shape (m, 3), got {shape(y)}")
+    if mask is not None and shape(mask) != shape(y)[:1]:
+        raise InvalidInputError(f"mask must have shape {shape(y)[:1]}, one flag per point of y, got {shape(mask)}")

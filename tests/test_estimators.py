@@ -383,3 +383,21 @@ def test_evaluate_gives_estimate_many_only_the_options_its_methods_read():
     result = evaluate(classes, methods=["bbox", "vertex_mean"])
     assert [row["method"] for row in result["summary"]] == ["bbox", "vertex_mean"]
     assert all(row.get("error") is None for row in result["summary"]), result["summary"]
+
+
+def test_solid_center_volume_refuses_no_solid_and_an_empty_one():
+    """solid_center_volume (estimators' __all__) read sol.inside: a tuple was an AttributeError, and a
+    Solid with no voxel inside gave a center of no voxel (a number) beside a volume 0. Both are
+    refused by name; a box's solid is still centered on the box (its closed form: the origin)."""
+    from jaxpose.occupancy.solid import robust_solid
+
+    box = trimesh.creation.box(extents=(2.0, 1.0, 0.5))
+    sol = robust_solid(box.vertices, box.faces, resolution=16, with_depth=False)
+    with pytest.raises(InvalidInputError, match="^sol must be a Solid"):
+        estimators.solid_center_volume((sol.inside, sol.origin))
+    with pytest.raises(InvalidInputError, match="^sol has no voxel inside"):
+        estimators.solid_center_volume(sol._replace(inside=np.zeros_like(sol.inside)))
+    center, volume = estimators.solid_center_volume(sol)
+    np.testing.assert_allclose(center, 0.0, atol=2 * float(sol.pitch))
+    assert volume == pytest.approx(1.0, rel=0.25)  # 2 x 1 x 0.5, at 16 voxels along its length
+

@@ -3,6 +3,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+import jaxpose
 from jaxpose import orientation
 
 
@@ -91,3 +92,29 @@ def test_region_frame_of_a_known_moment_and_skewed_points(x64):
     sym = np.concatenate([y * [1, 1, 1], y * [-1, -1, 1]])  # point-symmetric in x, y: no skew
     _, amb_sym = orientation.region_frame(jnp.asarray(second), jnp.zeros(3), jnp.asarray(sym), None, jnp.asarray(world))
     assert float(amb_sym) > 0.0
+
+
+@pytest.mark.parametrize("call, message", [
+    # each was NumPy's IndexError, LinAlgError, broadcast error or abs()'s TypeError, naming no argument
+    (lambda: orientation.relative_gaps([2.0, 1.0]), r"^lam must be real numbers of shape \(3,\), got float64 of shape \(2,\)"),
+    (lambda: orientation.relative_gaps([]), r"^lam must be .* shape \(0,\)"),
+    (lambda: orientation.relative_gaps(np.eye(3)), r"^lam must be .* shape \(3, 3\)"),  # NumPy's 'truth value ... ambiguous'
+    (lambda: orientation.ambiguity([0.5], 1.0), r"^gaps must be real numbers of shape \(2,\)"),
+    (lambda: orientation.ambiguity([0.5, 0.5], [1.0, 2.0, 3.0]), r"^sign_ratio must be real numbers of shape \(\)"),
+    (lambda: orientation.ambiguity([0.5, 0.5], 1.0, [0.1, 0.2]), r"^contrast must be real numbers of shape \(\)"),
+    (lambda: orientation.proper(np.ones(3)), r"^r must be real numbers of shape \(3, 3\)"),
+    (lambda: orientation.descending_axes(np.eye(2)), r"^cov must be real numbers of shape \(3, 3\)"),
+    (lambda: orientation.descending_axes(np.full((3, 3), np.nan)), "^cov must be finite"),  # 'Eigenvalues did not converge'
+    (lambda: orientation.complete_signs(np.eye(3), [1.0, 2.0]), r"^stat must be real numbers of shape \(3,\)"),
+    (lambda: orientation.complete_signs(np.eye(3), [1.0, 2.0, 3.0], completed=5), "^completed must be an axis, 0, 1 or 2"),
+    (lambda: orientation.complete_signs(np.eye(3), [1.0, 2.0, 3.0], to_world=np.eye(2)), r"^to_world must be .* \(3, 3\)"),
+    (lambda: orientation.region_frame(np.eye(2), np.zeros(3), np.ones((4, 3)), None, np.eye(3)),
+     r"^second_moment must have shape \(3, 3\), got \(2, 2\)"),  # JAX's dot_general error
+    (lambda: orientation.region_frame(np.eye(3), np.zeros(3), np.ones(3), None, np.eye(3)), r"^y must have shape \(m, 3\)"),
+])
+def test_frame_pieces_refuse_other_shapes_by_name(call, message):
+    with pytest.raises(jaxpose.InvalidInputError, match=message):
+        call()
+    # what they take is unchanged: three eigenvalues, two gaps (closed forms)
+    np.testing.assert_allclose(orientation.relative_gaps([9.0, 4.0, 1.0]), [5.0 / 9.0, 3.0 / 4.0], rtol=1e-15)
+    assert orientation.ambiguity([0.05, 0.5], 3.0) == pytest.approx(0.5)

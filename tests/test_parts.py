@@ -458,3 +458,36 @@ def test_a_second_end_only_beyond_a_distinct_neck():
         found = find_head(sol)
         heads.append((sol.origin + pitch * (np.stack(np.nonzero(found.head), 1) + 0.5)).mean(axis=0))
     np.testing.assert_allclose(heads, [[1.75, 0, 0], [-1.5, 0, 0]], atol=0.1)
+
+
+def test_frame_pieces_of_a_solid_refuse_other_shapes_by_name():
+    """Low-level frame pieces of rotation.core, .head and .parts (docs/api.md) given other shapes were
+    NumPy's errors naming nothing: symmetry_scores' (2, 2) axes or (2,) center a matmul or broadcast
+    ValueError, feet_offset's (3,) axes or up=5 an IndexError, merge_tree's two shapes a broadcast
+    error (a 2-D grid: an empty tree), waist's array float()'s TypeError, mirror_error's (2,) normal a
+    matmul error and no points a NaN. Each is refused by name; what they take is unchanged (a ball is
+    its own mirror image about any plane through its center: scores 1, error 0)."""
+    import jaxpose
+    from jaxpose.rotation.core import feet_offset, symmetry_scores
+    from jaxpose.rotation.head import mirror_error
+
+    sol = voxel_solid([ball((0.0, 0.0, 0.0), 0.8)], pitch=0.2, lo=(-1.2, -1.2, -1.2), hi=(1.2, 1.2, 1.2))
+    center = np.zeros(3)
+    points = np.random.default_rng(0).normal(size=(40, 3))
+    for call, message in (
+            (lambda: symmetry_scores(sol, np.eye(2), center), r"^axes must be real numbers of shape \(3, 3\)"),
+            (lambda: symmetry_scores(sol, np.eye(3), np.zeros(2)), r"^center must be real numbers of shape \(3,\)"),
+            (lambda: symmetry_scores(sol.inside, np.eye(3), center), "^sol must be a Solid"),
+            (lambda: feet_offset(sol, np.ones(3)), r"^axes must be real numbers of shape \(3, 3\)"),
+            (lambda: feet_offset(sol, np.eye(3), up=5), "^up and forward must be two different axes, 0, 1 or 2"),
+            (lambda: feet_offset(sol, np.eye(3), up=2, forward=2), "^up and forward must be two different axes"),
+            (lambda: merge_tree(sol.inside, sol.depth[:, :, :-1]), "^inside and depth must be one 3-D grid"),
+            (lambda: merge_tree(sol.inside[0], sol.depth[0]), r"^inside and depth must be one 3-D grid .*got shapes \(12, 12\)"),
+            (lambda: waist(np.zeros(2), 0.45), "^death must be a finite number >= 0"),
+            (lambda: mirror_error(points, center, np.array([1.0, 0.0])), r"^normal must be real numbers of shape \(3,\)"),
+            (lambda: mirror_error(np.zeros((0, 3)), center, np.array([1.0, 0.0, 0.0])), "^points needs at least 1 points")):
+        with pytest.raises(jaxpose.InvalidInputError, match=message):
+            call()
+    np.testing.assert_allclose(symmetry_scores(sol, np.eye(3), center), 1.0)
+    assert mirror_error(np.r_[points, points * [-1, 1, 1]], center, np.array([1.0, 0.0, 0.0])) == 0.0
+    assert waist(0.36, 0.45) and not waist(0.25, 0.45)  # 0.45 < 1.5 x 0.36; 0.45 > 1.5 x 0.25

@@ -261,6 +261,33 @@ def test_a_name_given_as_an_array_is_refused_by_name(call, message):
         call(trimesh.creation.box())
 
 
+def test_svdd_helpers_refuse_what_they_read_wrongly():
+    """decision_value_and_grad (svdd's __all__) checked nothing: a tuple for the model was an
+    AttributeError, one point (3,) an IndexError; kkt_violation's empty or mismatched arrays were
+    "zero-size array to reduction operation max" and dot_general's shape error. Each is refused as
+    decision_function refuses it; what they take is unchanged (f and its gradient: decision_function
+    and the closed form -4 gamma sum_i a_i k(x, x_i) (x - x_i))."""
+    from jaxpose.occupancy.svdd import decision_value_and_grad, kkt_violation
+
+    svdd = fit_svdd(P, 10.0, 0.5, **FIT)
+    for call, message in ((lambda: decision_value_and_grad((1, 2), P), "^svdd must be an SVDD from fit_svdd, got tuple"),
+                          (lambda: decision_value_and_grad(svdd, P[0]), r"^x must have shape \(m, 3\), got \(3,\)"),
+                          (lambda: decision_value_and_grad(svdd, P[:2], block=0), "^block must be >= 1"),
+                          (lambda: kkt_violation(*[np.zeros(0)] * 3, np.zeros(0, bool)),
+                           r"^alpha, Ka, caps and mask must have one shape \(m,\) with m >= 1, got \(0,\)"),
+                          (lambda: kkt_violation(np.zeros(3), np.zeros(2), np.zeros(3), np.ones(3, bool)),
+                           r"got \(3,\), \(2,\), \(3,\), \(3,\)")):
+        with pytest.raises(InvalidInputError, match=message):
+            call()
+    x = P[:2] * 0.5
+    f, grad = decision_value_and_grad(svdd, x)
+    np.testing.assert_allclose(np.asarray(f), np.asarray(decision_function(svdd, x)), rtol=1e-5, atol=1e-6)
+    p, a = np.asarray(svdd.points, np.float64), np.asarray(svdd.alpha, np.float64)
+    d = x[:, None, :] - p[None]
+    want = -4 * 10.0 * np.einsum("nm,nmk->nk", a * np.exp(-10.0 * (d * d).sum(-1)), d)
+    np.testing.assert_allclose(np.asarray(grad), want, rtol=1e-4, atol=1e-5)
+
+
 def test_decision_function_bad_input():
     svdd = fit_svdd(P, 10.0, 0.5, **FIT)
     for x, fragment in [(np.zeros((4, 2)), "shape"), (np.full((2, 3), np.nan), "NaN"), (np.zeros((2, 3), complex), "real")]:

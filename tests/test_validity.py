@@ -6,6 +6,7 @@ import trimesh
 
 import jaxpose
 from jaxpose import InvalidInputError, InvalidPoseWarning, JaxposeError, Status
+from jaxpose.pose import validity
 from jaxpose.pose.validity import MAX_CELL, MAX_SPACING, median_distance, median_spacing, status_message
 from conftest import sphere_with_arm
 
@@ -90,3 +91,27 @@ def test_status_per_object_of_a_batch():
     assert [int(c) for c in batch.count] == [400, 8] and list(np.asarray(batch.valid)) == [True, False]
     with pytest.raises(JaxposeError, match=r"no valid pose \(point set 1: the samples are too sparse"):
         jaxpose.normalize_batch([pts, few], method="ocsvm", resolution=32, throw=True)
+
+
+@pytest.mark.parametrize("call, message", [
+    # empty points were "zero-size array to reduction operation min which has no identity" (or an
+    # IndexError); other shapes JAX's broadcast or axis errors
+    (lambda: median_spacing(np.zeros((0, 3))), r"^y must have shape \(m, 3\) with m >= 1 points, got \(0, 3\)"),
+    (lambda: median_spacing(np.ones(3)), r"^y must have shape \(m, 3\) .*got \(3,\)"),
+    (lambda: median_spacing(np.ones((5, 2))), r"^y must have shape \(m, 3\) .*got \(5, 2\)"),
+    (lambda: median_spacing(np.ones((2, 3)), np.ones(3, bool)), r"^mask must have shape \(2,\), one flag per point of y"),
+    (lambda: median_distance(np.zeros((0, 3)), np.zeros(3)), r"^y must have shape \(m, 3\) with m >= 1"),
+    (lambda: median_distance(np.ones((2, 3)), np.zeros(2)), r"^center must have shape \(3,\), got \(2,\)"),
+    (lambda: median_spacing(np.array([["a", "b", "c"]] * 2)), "^y must be real numbers, got dtype <U1"),
+    (lambda: validity.no_extent(np.zeros((0, 3))), r"^points must have shape \(m, 3\) with m >= 1"),
+    (lambda: validity.unresolved_size(np.zeros((0, 3))), r"^points must have shape \(m, 3\) with m >= 1"),
+    (lambda: validity.unresolved_offset(np.zeros((0, 3))), r"^points must have shape \(m, 3\) with m >= 1"),
+    (lambda: validity.unresolved_offset(np.ones((2, 2, 3))), r"^points must have shape \(m, 3\) .*got \(2, 2, 3\)"),
+])
+def test_checks_refuse_empty_and_misshapen_points_by_name(call, message):
+    with pytest.raises(InvalidInputError, match=message):
+        call()
+    # one and two points are what they are: no other point (inf), the distance of the two
+    two = np.array([[0.0, 0.0, 0.0], [3.0, 4.0, 0.0]])
+    assert float(median_spacing(two)) == pytest.approx(np.linalg.norm(two[1] - two[0]))
+    assert float(median_spacing(two[:1])) == np.inf and bool(validity.no_extent(two[:1]))

@@ -410,10 +410,16 @@ def solid_center_volume(sol, power=ROBUST_POWER):
     :func:`jaxpose.moments.solid_moments` for a derivative in ``power``.
 
     Raises:
-      InvalidInputError: a power that is not a finite number >= 0.
+      InvalidInputError: a power that is not a finite number >= 0; ``sol`` no Solid
+        (:func:`jaxpose.occupancy.solid.check_solid`; was an AttributeError), or one with no voxel
+        inside (no center: its center was a number of no voxel beside a volume 0).
     """
+    solid.check_solid(sol)
     _validate.check_real(power, "power", 0)
     inside = np.asarray(sol.inside, bool)
+    if inside.ndim != 3 or not inside.any():
+        raise InvalidInputError(f"sol has no voxel inside (its inside is {inside.shape}, {int(inside.sum())} voxels "
+                                "set): an empty solid has no center; robust_center_scale says why a shape has none")
     occupied = np.zeros_like(inside) if sol.occupied is None else np.asarray(sol.occupied, bool)
     crop = _crop(inside)
     inside, occupied = inside[crop], occupied[crop]

@@ -45,7 +45,9 @@ import math
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
+from .._validate import InvalidInputError, is_real_dtype
 from ..occupancy.kernels import map_blocks
 from .frame import REFERENCE_RMS, reference_frame
 from .result import MAX_CELL, MAX_ROUNDING, MAX_SPACING, MIN_SPREAD, Status, status_message
@@ -54,6 +56,22 @@ __all__ = ["Status", "MAX_SPACING", "MAX_CELL", "MIN_SPREAD", "MAX_ROUNDING", "s
            "median_spacing", "median_distance", "no_extent", "unresolved_offset", "flag_offset", "unresolved_size",
            "flag_range"]
 
+
+
+def _check_points(y, mask=None, name="y"):
+    """The shapes (and kinds) the checks read, known while tracing (values are not read): ``y``
+    (m, 3) real with m >= 1, ``mask`` None or (m,). InvalidInputError naming the one that does
+    not fit: empty points were NumPy's / JAX's "zero-size array to reduction operation" ValueError
+    or an IndexError, other shapes their broadcast or axis errors. Returns None."""
+    shape = tuple(jnp.shape(y))
+    if len(shape) != 2 or shape[1] != 3 or shape[0] < 1:
+        raise InvalidInputError(f"{name} must have shape (m, 3) with m >= 1 points, got {shape}")
+    dtype = y.dtype if hasattr(y, "dtype") else np.asarray(y).dtype  # (a tracer's is known; a list's)
+    if not is_real_dtype(dtype):
+        raise InvalidInputError(f"{name} must be real numbers, got dtype {np.dtype(dtype)}")
+    if mask is not None and tuple(jnp.shape(mask)) != shape[:1]:
+        raise InvalidInputError(f"mask must have shape {shape[:1]}, one flag per point of {name}, got "
+                                f"{tuple(jnp.shape(mask))}")
 
 
 def _masked_median(values, mask):
@@ -71,8 +89,13 @@ def median_spacing(y, mask=None, block=512):
       block: rows per block (memory O(block * m)).
 
     Returns:
-      () float in the units of ``y`` (0 when points repeat). Not differentiated.
+      () float in the units of ``y`` (0 when points repeat; inf for one point, which has no other).
+      Not differentiated.
+
+    Raises:
+      InvalidInputError: ``y`` not (m, 3) real with m >= 1, ``mask`` not (m,) (:func:`_check_points`).
     """
+    _check_points(y, mask)
     y = jax.lax.stop_gradient(jnp.asarray(y))  # an array of the default float type, NumPy input too
     m = y.shape[0]
     mask = jnp.ones((m,), bool) if mask is None else jnp.asarray(mask, bool)
@@ -89,7 +112,11 @@ def median_spacing(y, mask=None, block=512):
 
 
 def median_distance(y, center, mask=None):
-    """Median distance of the points y (m, 3) (over ``mask``) from center (3,). () float."""
+    """Median distance of the points y (m, 3) (over ``mask``) from center (3,). () float.
+    InvalidInputError for y not (m, 3) real with m >= 1, center not (3,), mask not (m,)."""
+    _check_points(y, mask)
+    if tuple(jnp.shape(center)) != (3,):
+        raise InvalidInputError(f"center must have shape (3,), got {tuple(jnp.shape(center))}")
     y = jax.lax.stop_gradient(jnp.asarray(y))  # an array of the default float type, NumPy input too
     mask = jnp.ones(y.shape[:1], bool) if mask is None else jnp.asarray(mask, bool)
     return _masked_median(jnp.linalg.norm(y - jax.lax.stop_gradient(center), axis=-1), mask)
@@ -134,8 +161,10 @@ def no_extent(points, mask=None):
     (:attr:`Status.DEGENERATE_INPUT`), whatever else is computed from it. Not differentiated.
 
     Args:
-      points: (m, 3) float; mask: optional (m,) bool (False rows are padding, left out).
+      points: (m, 3) float, m >= 1; mask: optional (m,) bool (False rows are padding, left out).
+        Other shapes: InvalidInputError (:func:`_check_points`).
     """
+    _check_points(points, mask, "points")
     x = jax.lax.stop_gradient(jnp.asarray(points))
     mask = jnp.ones(x.shape[:1], bool) if mask is None else jnp.asarray(mask, bool)
     lo = jnp.min(jnp.where(mask[:, None], x, jnp.inf), axis=0)
@@ -159,12 +188,14 @@ def unresolved_size(points, mask=None):
     differentiated.
 
     Args:
-      points: (m, 3) float, as given to the pipeline (traced); mask: optional (m,) bool.
+      points: (m, 3) float, m >= 1, as given to the pipeline (traced); mask: optional (m,) bool.
+        Other shapes: InvalidInputError (:func:`_check_points`).
 
     Example::
 
         unresolved_size(jnp.asarray(points * 1e-20, jnp.float32))   # True
     """
+    _check_points(points, mask, "points")
     x = jax.lax.stop_gradient(jnp.asarray(points))
     _, size = reference_frame(x, mask)
     finfo = jnp.finfo(x.dtype)
@@ -189,7 +220,9 @@ def unresolved_offset(points, mask=None):
     from the origin (|x| >> spread) has lost its shape before any computation, and every result
     computed from it is off by about that rounding. Concrete inputs are moved near the origin on
     the host first (:func:`jaxpose.host.host_frame`) and never trip this. Not differentiated.
+    ``points`` (m, 3), m >= 1, ``mask`` None or (m,): InvalidInputError otherwise.
     """
+    _check_points(points, mask, "points")
     x = jax.lax.stop_gradient(jnp.asarray(points))
     w = jnp.ones(x.shape[:1], bool) if mask is None else jnp.asarray(mask, bool)
     n = jnp.maximum(jnp.sum(w), 1).astype(x.dtype)

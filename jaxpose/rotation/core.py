@@ -41,7 +41,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage
 
-from .._validate import check_array, check_concrete, check_faces
+from .._validate import InvalidInputError, check_array, check_concrete, check_faces, check_int, check_real, check_shape
 from ..geometry import surface_labels
 from ..occupancy import solid
 from . import parts
@@ -185,7 +185,14 @@ def _weights(d, power):
 def symmetry_scores(sol, axes, center, power=SYMMETRY_POWER):
     """Mirror self-overlap (3,) of the depth^p-weighted solid about the plane through ``center``
     orthogonal to each row of ``axes`` (grid coordinates): s_a = sum min(w(x), w(M_a x)) / sum w(x),
-    M_a the reflection, w read at the voxel nearest M_a x (0 outside). 1 for a mirror-symmetric solid."""
+    M_a the reflection, w read at the voxel nearest M_a x (0 outside). 1 for a mirror-symmetric solid.
+    InvalidInputError for a ``sol`` that is no Solid with its depth (:func:`parts.check_solid`),
+    ``axes`` not (3, 3), ``center`` not (3,), a power not a finite number >= 0 (NumPy's broadcast
+    errors)."""
+    parts.check_solid(sol)
+    check_shape(axes, "axes", (3, 3), finite=True)
+    center = check_shape(center, "center", (3,), finite=True)
+    check_real(power, "power", 0)
     y, d, _ = _grid_centers(sol)
     w = _weights(d, power)
     grid = np.zeros(sol.inside.shape)
@@ -218,7 +225,15 @@ def feet_offset(sol, axes, up=0, forward=2):
 
     Returns:
       () the offset s (0 when no part is found).
+
+    Raises:
+      InvalidInputError: ``sol`` no Solid with its depth, ``axes`` not (3, 3), ``up`` and
+        ``forward`` not two different axes 0, 1, 2 (NumPy's IndexError).
     """
+    parts.check_solid(sol)
+    check_shape(axes, "axes", (3, 3), finite=True)
+    if check_int(up, "up", 0) > 2 or check_int(forward, "forward", 0) > 2 or up == forward:
+        raise InvalidInputError(f"up and forward must be two different axes, 0, 1 or 2, got {up!r} and {forward!r}")
     y, d, idx = _grid_centers(sol)
     z = _turned(y - y.mean(axis=0), np.asarray(axes, np.float64).T)
     h, f = z[:, up], z[:, forward]

@@ -48,7 +48,7 @@ import numpy as np
 from scipy import ndimage, sparse
 from scipy.sparse import csgraph
 
-from .._validate import InvalidInputError
+from .._validate import InvalidInputError, check_real
 from ..occupancy import solid
 from ..orientation import GAP_MIN
 
@@ -116,7 +116,8 @@ def merge_tree(inside, depth):
     grid padded by one voxel) filled in neighbour order (offsets a, b, c in -1, 0, 1, row-major).
 
     Args:
-      inside: (nx, ny, nz) bool; depth: (nx, ny, nz) float (only ``inside`` voxels are read).
+      inside: (nx, ny, nz) bool; depth: (nx, ny, nz) float (only ``inside`` voxels are read);
+        another shape, or two shapes: InvalidInputError (NumPy's broadcast error).
 
     Returns:
       (m, 5) float64 rows (birth, death, peak, saddle, joins), one per local maximum, most
@@ -130,6 +131,9 @@ def merge_tree(inside, depth):
         tree = merge_tree(sol.inside, sol.depth)
         birth, death, peak, saddle, joins = tree[1]   # the most persistent maximum but the deepest
     """
+    if np.ndim(inside) != 3 or np.shape(depth) != np.shape(inside):
+        raise InvalidInputError(f"inside and depth must be one 3-D grid (nx, ny, nz), got shapes {np.shape(inside)} and "
+                                f"{np.shape(depth)}")
     inside = np.pad(np.asarray(inside, bool), 1)  # a border of outside voxels: no bounds checks
     shape = inside.shape
     d = np.where(inside, np.pad(np.asarray(depth, np.float64), 1), -np.inf).ravel()
@@ -368,8 +372,11 @@ def waist(death, top, trunk=TRUNK):
 
         waist(0.36, 0.45)   # True: 0.45 < 1.5 x 0.36, a waist between a chest and a rump
         waist(0.25, 0.45)   # False: a neck
+
+    ``death``, ``top``: numbers >= 0 (depths), ``trunk`` > 0; InvalidInputError otherwise (float()'s
+    TypeError for an array).
     """
-    return float(death) * trunk > float(top)
+    return check_real(death, "death", 0) * check_real(trunk, "trunk", 0, strict=True) > check_real(top, "top", 0)
 
 
 def _terminal(sol, row, head_peak, disks=(DISK,), most=1, thin=0.0, slide=False, levels=None):

@@ -131,7 +131,8 @@ def kkt_violation(alpha, Ka, caps, mask):
     """The stopping rule: libsvm's maximal KKT violation in units of the kernel's own spread.
 
     Args:
-      alpha: (m,) feasible point; Ka: (m,) K alpha; caps: (m,) upper bounds; mask: (m,) bool.
+      alpha: (m,) feasible point; Ka: (m,) K alpha; caps: (m,) upper bounds; mask: (m,) bool;
+        m >= 1 (other shapes: InvalidInputError, while tracing too).
 
     Returns:
       (violation, objective): violation = max_{a_j > 0} (Ka)_j - min_{a_i < C} (Ka)_i divided by
@@ -151,6 +152,10 @@ def kkt_violation(alpha, Ka, caps, mask):
     # NumPy input as JAX arrays (longdouble as float64: _validate.jax_value); JAX's and tracers as they are
     alpha, Ka, caps, mask = (v if isinstance(v, jax.Array) else jnp.asarray(_validate.jax_value(v))
                              for v in (alpha, Ka, caps, mask))
+    shapes = [tuple(v.shape) for v in (alpha, Ka, caps, mask)]  # (known while tracing)
+    if len(shapes[0]) != 1 or not shapes[0][0] or any(s != shapes[0] for s in shapes):
+        raise _validate.InvalidInputError(f"alpha, Ka, caps and mask must have one shape (m,) with m >= 1, got "
+                                          f"{', '.join(map(str, shapes))}")
     inf = jnp.asarray(jnp.inf, Ka.dtype)
     obj = jnp.vdot(alpha, Ka)
     up = jnp.max(jnp.where(mask & (alpha > 0), Ka, -inf))
@@ -182,7 +187,14 @@ def decision_value_and_grad(svdd: SVDD, x, block=BLOCK):
 
     Returns:
       f (n,) and grad f (n, 3) = -4 gamma sum_i alpha_i k(x, x_i) (x - x_i). Memory O(block m).
+
+    Raises:
+      InvalidInputError: as :func:`decision_function`'s checks of ``svdd``, ``x`` and ``block``
+        (``svdd`` no SVDD was an AttributeError, x of another shape an IndexError).
     """
+    check_svdd(svdd, "jax.vmap(decision_value_and_grad, in_axes=(0, None))(svdd, x)")
+    _validate.check_array(x, name="x")
+    block = _validate.check_int(block, "block", 1)
     p, a, g = svdd.points, svdd.alpha, svdd.gamma
     x = _validate.jax_value(x)  # (NumPy's longdouble: its float64 values)
 

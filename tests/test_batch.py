@@ -1319,6 +1319,20 @@ def test_cli_progress_counts_the_inputs_the_summary_counts(tmp_path, capsys):
     assert counted == inputs == 6
 
 
+def test_progress_bar_shows_the_failed_in_its_first_frame(tmp_path, capsys):
+    """The bar's first frame, drawn before the first file is done, counts an input that failed
+    before any work ("1/3 ... 1 failed"); the note was set after the bar had drawn it, so a large
+    first mesh left "1/3" without it on screen (review)."""
+    scans = tmp_path / "scans"
+    scans.mkdir()
+    trimesh.creation.icosphere(subdivisions=0).export(scans / "ico.ply")
+    (scans / "cut.ply").write_bytes(b"ply\nformat binary_little_endian 1.0\nelement vertex 3\n")
+    os.mkfifo(scans / "pipe.ply")
+    jaxpose.normalize_files(scans, tmp_path / "out", resolution=16, workers=1, progress=True)
+    first = capsys.readouterr().err.split("\r")[1]  # (tqdm: "\r" before each frame)
+    assert first.startswith("normalize:") and "1/3" in first and "1 failed" in first, first
+
+
 @pytest.mark.parametrize("args, fragment", [
     (["--transform", "t.json"], "--transform is for one INPUT"),
     (["--example"], "'example' is one input"),

@@ -653,17 +653,47 @@ def test_ply_ascii_value_beyond_its_type_is_left_to_trimesh():
         readers.read(data.replace(b"3 0 2 3\n", b"3 0 2 4294967296\n"), "ply")
 
 
-def test_ply_binary_lists_of_several_lengths_refused():
-    """Lists of several lengths in a binary file: trimesh reads the first one's length for all and
-    refuses the file ("PLY is unexpected length!"); so does the reader, in its own words."""
-    from jaxpose.errors import InvalidInputError
+MIXED_VERTEX = ([("float", "x"), ("float", "y"), ("float", "z")], SQUARE + [(2.0, 1.5, 0.3), (3.0, 1.0, 0.0)])
+MIXED_FACE = (["int before", "list uchar int vertex_indices", "float after", "uchar red", "uchar green", "uchar blue"],
+              [(7, (0, 1, 2, 3), 0.5, 1, 2, 3), (8, (1, 4, 2), 0.25, 4, 5, 6), (9, (4, 6, 5, 2, 1), 1.5, 7, 8, 9),
+               (1, (0, 1, 2), 2.5, 9, 9, 9)])
 
-    data = ply_bytes("binary_little_endian", ([("float", "x"), ("float", "y"), ("float", "z")], SQUARE),
-                     (["list uchar int vertex_indices"], [((0, 1, 2, 3),), ((1, 4, 2),)]))
+
+@pytest.mark.parametrize("encoding", ["binary_little_endian", "binary_big_endian"])
+def test_ply_binary_faces_of_several_sizes_read_as_their_ascii_file(tmp_path, encoding):
+    """A binary PLY of triangles, quads and a pentagon (Blender and MeshLab write such files):
+    trimesh refuses it ("PLY is unexpected length!": it reads every list as long as the first), and
+    so did jaxpose, calling the file truncated. Read now, as trimesh reads the same faces written
+    as ASCII PLY (vertices, the triangulated faces, the face colors)."""
+    from jaxpose import mesh as jmesh
+
+    data = ply_bytes(encoding, MIXED_VERTEX, MIXED_FACE)
     with pytest.raises(ValueError):
         trimesh_load(data, "ply")
-    with pytest.raises(InvalidInputError, match="where its 5 vertex, 2 face elements take 94 .*face vertex_indices of 4"):
-        readers.read(data, "ply")
+    expected = trimesh_load(ply_bytes("ascii", MIXED_VERTEX, MIXED_FACE), "ply")
+    got = readers.read(data, "ply")
+    np.testing.assert_array_equal(got.vertices, expected.vertices)
+    np.testing.assert_array_equal(got.faces, expected.faces)
+    np.testing.assert_array_equal(got.extras["face_colors"], expected.visual.face_colors[:, :3])
+    (tmp_path / "mixed.ply").write_bytes(data)
+    np.testing.assert_array_equal(jmesh.load(tmp_path / "mixed.ply").faces, expected.faces)
+
+
+def test_ply_binary_faces_of_several_sizes_cut_or_beside_other_elements():
+    """Such a file cut short, or with bytes after its last face, is named so, with the face where it
+    ends; beside an element this reader does not read (which trimesh cannot read either), the file
+    is refused saying what it holds and what to do, not called truncated."""
+    from jaxpose.errors import InvalidInputError
+
+    data = ply_bytes("binary_little_endian", MIXED_VERTEX, MIXED_FACE)
+    with pytest.raises(InvalidInputError, match="truncated, 185 bytes after the header end inside its face 4 of 4"):
+        readers.read(data[:-7], "ply")
+    with pytest.raises(InvalidInputError, match="2 bytes after its last element .*take 192, every list as long as"):
+        readers.read(data + b"xx", "ply")
+    edges = data.replace(b"end_header\n", b"element edge 1\nproperty int vertex1\nproperty int vertex2\nend_header\n")
+    with pytest.raises(InvalidInputError, match=r"lists have several lengths \(3, 4, 5\) and elements other than "
+                                                "vertex then face: .*save it as ASCII PLY"):
+        readers.read(edges + np.array([0, 1], "<i4").tobytes(), "ply")
 
 
 @pytest.mark.parametrize("data", [
@@ -1038,6 +1068,12 @@ def _broken_files():
     line = next(line for line in obj.split(b"\n") if line.startswith(b"v ") and line.split()[3].startswith(b"-"))
     files["cut_number.obj"] = (obj[:obj.index(line) + line.rindex(b"-") + 1],  # "v 0.0 -0.52573111 -"
                                "ends in '-', which is not a number: a truncated or malformed file")
+    # ... within a normal's or a texture coordinate's last number (the same NumPy words; review)
+    files["cut_normal.obj"] = (b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 -", "'vn 0 0 -' ends in '-', which is not a number")
+    files["cut_uv.obj"] = (b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nvt 1 -", "'vt 1 -' ends in '-', which is not a number")
+    # classic Mac OS line ends (the same NumPy words; before the review's fix, the whole file quoted as its last line)
+    files["lone_cr.obj"] = (b"v 0 0 0\rv 1 0 0\rv 0 1 0\rvt 0 0\rvt 1 0\rvt 0 1\rf 1/1 2/2 3/3\r",
+                            "its lines end in a lone carriage return")
     # a header cut before its end_header ("list index out of range", "not enough values to unpack")
     for cut in (40, header_end - 20):
         files[f"head{cut}.ply"] = (ply[:cut], "truncated inside its header")

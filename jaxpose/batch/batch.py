@@ -769,9 +769,8 @@ class _Run:
             bar = _Lines(self.total, done, postfix, self.skipped)
         else:
             bar = tqdm(total=self.total, initial=done, unit="file", desc="normalize", dynamic_ncols=True,
-                       smoothing=0.05, disable=None if self.progress is None else not self.progress)
-            if postfix:
-                bar.set_postfix_str(postfix, refresh=False)
+                       smoothing=0.05, disable=None if self.progress is None else not self.progress,
+                       postfix=postfix or None)  # (in its first frame: set after, it waited for the next)
         queue, pending, lost = list(reversed(todo)), {}, {}  # source -> (workers lost after / before starting it)
         window = 2 * executor.workers
         try:

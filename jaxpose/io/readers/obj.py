@@ -66,7 +66,9 @@ def read_obj(data: bytes) -> Loaded:
         trimesh reads, the last line only); a face referencing a texture coordinate beyond the
         file's ``vt`` lines (trimesh drops all of the file's UV coordinates without a word:
         :func:`check_texture_references`); a last line that is a vertex whose last value is not a
-        number (``v 0 -0.5 -``: a file cut within it). A file cut at the end of a line, or within
+        number (``v 0 -0.5 -``: a file cut within it), or a texture coordinate or a normal of that
+        kind; lines that end in a lone carriage return (trimesh: NumPy's "could not be read to its
+        end due to unmatched data"). A file cut at the end of a line, or within
         a number that stays one, reads as a valid OBJ file: no reader can tell.
 
     A ``#`` comment that ends a data line (``f 1 2 3 # tri``) is cut (:func:`without_comments`).
@@ -78,6 +80,9 @@ def read_obj(data: bytes) -> Loaded:
     # as values); "  v 0 0 0": the line's indent (trimesh dropped the line)
     text = text.replace("\t", " ")  # white space (trimesh knows "v " and "f ": it dropped "v\t" lines)
     text = "\n{}\n".format(text.strip().replace("\r\n", "\n")).replace("\\\n", "")
+    if "\r" in text and "\n" not in text.strip():  # (trimesh: NumPy's "could not be read to its end ...")
+        raise InvalidInputError("cannot read OBJ file: its lines end in a lone carriage return (classic Mac OS "
+                                "line ends), which jaxpose does not read: convert them to \\n")
     if "usemtl" in text or "+e" in text or "-e" in text or "\r" in text:
         _cut_last_line(text)  # (a cut file's last line: trimesh drops it without a word)
         raise Unsupported("materials, or text trimesh's OBJ loader rewrites")
@@ -220,7 +225,7 @@ def _cut_last_line(text):
     """Raise InvalidInputError where the last line of an OBJ file's `text` is a vertex of fewer than
     3 values, a face of fewer than 3 corners, or a vertex whose last value is not a number (``v 0
     0.5 -``): what a file cut within its last line ends in. O(1): the other lines are not looked at."""
-    last = text[-4096:].rstrip().rsplit("\n", 1)[-1].split()  # (a longer line: no "v" or "f" among its last words)
+    last = _last_line(text)  # (a longer line: no "v" or "f" among its last words)
     if last[:1] in (["v"], ["f"]) and len(last) < 4:
         what = "vertex of fewer than 3 values" if last[0] == "v" else "face of fewer than 3 corners"
         raise InvalidInputError(f"cannot read OBJ file: its last line {' '.join(last)!r} is a {what}: a truncated or "
@@ -228,11 +233,19 @@ def _cut_last_line(text):
     _cut_last_number(text)
 
 
+def _last_line(text):
+    """The words of the last line of an OBJ file's `text` (lines end in \\n, \\r\\n or a lone \\r).
+    O(1): the last 4096 characters."""
+    return re.split(r"[\r\n]", text[-4096:].rstrip())[-1].split()
+
+
 def _cut_last_number(text):
-    """Raise InvalidInputError where the last line of an OBJ file's `text` is a vertex whose last
-    value is not a number (``v 0 0.5 -``: a file cut within it). O(1)."""
-    last = text[-4096:].rstrip().rsplit("\n", 1)[-1].split()
-    if last[:1] == ["v"] and len(last) >= 4 and not _is_number(last[-1]):  # (fewer: the messages of fewer than 3)
+    """Raise InvalidInputError where the last line of an OBJ file's `text` is a vertex, a texture
+    coordinate or a normal whose last value is not a number (``v 0 0.5 -``, ``vn 0 0 -``: a file
+    cut within it). O(1)."""
+    last = _last_line(text)
+    if (last[:1] == ["v"] and len(last) >= 4 or last[:1] in (["vt"], ["vn"]) and len(last) >= 2) and not _is_number(
+            last[-1]):  # (a vertex of fewer values: the messages of fewer than 3)
         raise InvalidInputError(f"cannot read OBJ file: its last line {' '.join(last)!r} ends in {last[-1]!r}, which is "
                                 "not a number: a truncated or malformed file")
 

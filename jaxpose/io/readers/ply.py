@@ -122,8 +122,8 @@ def _ply_check(elements):
 def _ply_length(data, start, elements, ascii, endian="<"):
     """Refuse a file that cannot hold what its header declares (any elements: checked before the
     elements this reader reads, as trimesh reads a short file's first part, a point cloud's or a
-    mesh's vertices without their faces, without a word). Returns an ASCII file's lines (None for
-    a binary one)."""
+    mesh's vertices without their faces, without a word). Returns an ASCII file's lines; for a
+    binary one, :func:`_binary_length`'s walk of lists of several lengths, or None."""
     counts = {name: count for name, (count, _) in elements.items()}
     declared = ", ".join(f"{count} {name}" for name, count in counts.items())
     if ascii:  # trimesh reads one element per line
@@ -139,16 +139,19 @@ def _ply_length(data, start, elements, ascii, endian="<"):
     if len(data) - start < least:
         raise InvalidInputError(f"cannot read PLY file: truncated, {len(data) - start} bytes after the header, fewer "
                                 f"than the {least} its {declared} elements need at the least")
-    _binary_length(data, start, elements, endian, declared)
-    return None
+    return _binary_length(data, start, elements, endian, declared)
 
 
 def _binary_length(data, start, elements, endian, declared):
-    """Refuse a binary file whose length after the header is not what its elements take as trimesh
-    reads them (every list of an element as long as its first item's: the count read there), a
-    file that trimesh refuses ("PLY is unexpected length!") or, where the file ends before an
-    element's first list count, reads without that element. Counts are Python integers: a header
-    that claims billions of elements allocates nothing."""
+    """Refuse a binary file whose length after the header is not what its elements take. Where
+    every list of an element is as long as its first item's (trimesh's rule), the length is
+    computed from the header and the first lists; otherwise the lists are walked one by one
+    (:func:`_walk`): a file that ends inside an element, or holds bytes after its last one, is
+    refused, naming where; a file whose lists have several lengths and whose length is exactly what
+    they take is valid (Blender's and MeshLab's binary PLY of triangles and quads): returns the
+    walk, {name: (starts, lengths) or None}, which :func:`read_ply` reads. Returns None for a file
+    of the first rule. Counts are Python integers: a header that claims billions of elements
+    allocates nothing."""
     have, position, lengths = len(data) - start, start, []
     for name, (count, props) in elements.items():
         if count <= 0:
@@ -166,10 +169,71 @@ def _binary_length(data, start, elements, endian, declared):
             lengths.append(f"{name} {prop} of {length}")
             size += width + max(length, 0) * np.dtype(kind).itemsize
         position += count * size
-    if have != position - start:
-        lists = f" (every list as long as its element's first: {', '.join(lengths)})" if lengths else ""
-        raise InvalidInputError(f"cannot read PLY file: {have} bytes after the header, where its {declared} elements "
-                                f"take {position - start}{lists}: a truncated or malformed file")
+    if have == position - start:
+        return None
+    walked = _walk(data, start, elements, endian) if lengths else None
+    if isinstance(walked, dict):
+        return walked
+    if walked is not None:  # (name, index, end): the walk's verdict
+        name, index, end = walked
+        if end > len(data):
+            raise InvalidInputError(f"cannot read PLY file: truncated, {have} bytes after the header end inside its "
+                                    f"{name} {index + 1} of {elements[name][0]} (its {declared} elements, every list "
+                                    "as long as its count): a truncated or malformed file")
+        raise InvalidInputError(f"cannot read PLY file: {len(data) - end} bytes after its last element (its {declared} "
+                                f"elements take {end - start}, every list as long as its count): a truncated or malformed file")
+    lists = f" (every list as long as its element's first: {', '.join(lengths)})" if lengths else ""
+    raise InvalidInputError(f"cannot read PLY file: {have} bytes after the header, where its {declared} elements "
+                            f"take {position - start}{lists}: a truncated or malformed file")
+
+
+_STRUCT = {"i1": "b", "u1": "B", "i2": "h", "u2": "H", "i4": "i", "u4": "I", "i8": "q", "u8": "Q"}
+
+
+def _walk(data, start, elements, endian):
+    """Walk a binary file's elements item by item, each list as long as its own count: {name:
+    (starts (count,) int64 of each item's first byte, lengths (count, lists) int64) or None for an
+    element without lists} where the elements end exactly at the file's end; else (name, index,
+    end): the element and item where the walk ran past the end (end > len(data)), or the end of the
+    last element where bytes are left after it. Runs over the items in Python: the elements' counts
+    are bounded by the file's bytes (:func:`_ply_length` checked each item's least size first)."""
+    import struct
+
+    out, position, size = {}, start, len(data)
+    for name, (count, props) in elements.items():
+        if count <= 0:
+            out[name] = None
+            continue
+        if all(p[2] is None for p in props):
+            out[name] = None
+            item = sum(np.dtype(kind).itemsize for _, kind, _ in props)
+            if position + count * item > size:
+                index = (size - position) // item if item else 0
+                return name, index, position + (index + 1) * item
+            position += count * item
+            continue
+        segments, fixed = [], 0
+        for _, kind, count_kind in props:
+            if count_kind is None:
+                fixed += np.dtype(kind).itemsize
+            else:
+                segments.append((fixed, struct.Struct(endian + _STRUCT[count_kind]), np.dtype(kind).itemsize))
+                fixed = 0
+        starts, lengths = [], []
+        for index in range(count):
+            starts.append(position)
+            for skip, unpack, item in segments:
+                position += skip
+                if position + unpack.size > size:
+                    return name, index, position + unpack.size
+                length = unpack.unpack_from(data, position)[0]
+                lengths.append(length)
+                position += unpack.size + max(length, 0) * item
+            position += fixed
+            if position > size:
+                return name, index, position
+        out[name] = (np.asarray(starts, np.int64), np.asarray(lengths, np.int64).reshape(count, len(segments)))
+    return out if position == size else (name, count - 1, position)
 
 
 _BLANK_LINE = re.compile(rb"\n[ \t\r\f\v]*\n")
@@ -210,7 +274,10 @@ def _ply_extras(vertex, face):
 
 @file_bytes
 def read_ply(data: bytes) -> Loaded:
-    """A PLY file's mesh, as ``trimesh.load(..., file_type="ply", process=False)``.
+    """A PLY file's mesh, as ``trimesh.load(..., file_type="ply", process=False)``; a binary file of
+    vertices and faces whose face lists have several lengths (triangles and quads: Blender and
+    MeshLab write such files; trimesh refuses them, "PLY is unexpected length!") as trimesh reads
+    the same faces written as ASCII PLY (polygons triangulated, face colors kept).
 
     Raises:
       Unsupported: anything this reader does not reproduce exactly (read it with trimesh).
@@ -222,20 +289,33 @@ def read_ply(data: bytes) -> Loaded:
         than its count, or a negative element count (trimesh reads part of such a file without a
         word), or an ASCII face index that is not an integer of its type (``4294967296`` or
         ``1e300`` for a ``uint``, ``-1`` for a ``uchar``, ``nan``, ``1.5``: trimesh casts it to some
-        index without a word); a binary file whose length is not what its elements take with every
-        list as long as its element's first (trimesh's rule: "PLY is unexpected length!", or a
-        NumPy "C int" error for a list count of billions), a header cut before its
+        index without a word); a binary file whose length is not what its elements take, every list
+        as long as its count (one that ends inside an element, or holds bytes after its last: named;
+        trimesh's words were "PLY is unexpected length!", or a NumPy "C int" error for a list count
+        of billions), a binary file of lists of several lengths beside elements other than vertex
+        and face (which trimesh refuses too), a header cut before its
         ``end_header``, a blank header line, an element count that is not a whole number
         (``4e9``), a property type PLY does not have (trimesh's own words were "list index out of
         range", "invalid literal for int()", the type name). Header counts are never allocated.
     """
     elements, ascii, endian, start, texture = _ply_header(data)
     lines = _ply_length(data, start, elements, ascii, endian)
-    if texture:
-        raise Unsupported("a texture file")
-    _ply_check(elements)
+    walked = None if ascii else lines  # (binary lists of several lengths: trimesh refuses the file)
+    try:
+        if texture:
+            raise Unsupported("a texture file")
+        _ply_check(elements)
+    except Unsupported as exc:
+        if walked is None:
+            raise
+        several = sorted({n for w in walked.values() if w is not None for n in np.unique(w[1]).tolist()})
+        raise InvalidInputError(f"cannot read PLY file: a binary PLY whose lists have several lengths "
+                                f"({', '.join(map(str, several))}) and {exc}: jaxpose reads such lists in a file of "
+                                "vertices and faces alone; save it as ASCII PLY") from None
     if ascii:
         vertex, face, flat, counts = _ply_ascii(lines, elements, endian, data[:start].count(b"\n") + 1)
+    elif walked is not None:
+        vertex, face, flat, counts = _ply_walked(data, start, elements, endian, walked["face"])
     else:
         vertex, face, flat, counts = _ply_binary(data, start, elements, endian)
     vertices = np.column_stack([vertex[k] for k in "xyz"])
@@ -266,6 +346,30 @@ def _ply_binary(data, start, elements, endian):
     columns = {p[0]: face[p[0]] for p in fprops if p[2] is None}
     return ({k: vertex[k] for k in vertex.dtype.names}, columns, face[name]["f1"].reshape(-1),
             np.full(nf, size, np.int64))
+
+
+def _ply_walked(data, start, elements, endian, walked):
+    """:func:`_ply_binary`'s columns of a file whose face lists have several lengths (`walked`:
+    :func:`_walk`'s starts and lengths of the face element)."""
+    (nv, vprops), (nf, fprops) = elements["vertex"], elements["face"]
+    vertex = np.frombuffer(data, np.dtype([(name, endian + kind) for name, kind, _ in vprops]), nv, start)
+    sizes = walked[1][:, 0]
+    if np.any(sizes < 3):
+        at = int(np.argmax(sizes < 3))
+        raise InvalidInputError(f"cannot read PLY file: face {at + 1} has {int(sizes[at])} corners, fewer than 3: "
+                                "a malformed file")
+    raw, offset, columns = np.frombuffer(data, np.uint8), walked[0], {}
+    read = lambda where, dtype: raw[where[:, None] + np.arange(dtype.itemsize)].copy().view(dtype).reshape(-1)
+    for name, kind, count_kind in fprops:  # (one list: _ply_check)
+        dtype = np.dtype(endian + kind)
+        if count_kind is None:
+            columns[name] = read(offset, dtype)
+            offset = offset + dtype.itemsize
+        else:
+            offset = offset + np.dtype(count_kind).itemsize
+            flat = read(_runs(offset, sizes * dtype.itemsize)[::dtype.itemsize], dtype)
+            offset = offset + sizes * dtype.itemsize
+    return {k: vertex[k] for k in vertex.dtype.names}, columns, flat, sizes
 
 
 def _in_range(values, dtype):

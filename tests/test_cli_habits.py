@@ -236,6 +236,24 @@ def test_evaluate_and_tune_take_classes_of_data_alike(tmp_path, capsys, monkeypa
                       "desktop_computer, hand, dog, guitar, piano, spider, horse"] * 2
 
 
+def test_an_empty_folder_name_is_refused(tmp_path, capsys, monkeypatch):
+    """``--data ""`` (an unset shell variable) read the working directory's sub-folders as the
+    classes (review: evaluate since --classes took --data's classes, tune before), and tune's
+    ``--holdout-data ""`` was taken as none: each is refused as a usage error, before any work."""
+    from jaxpose import evaluation, tuning
+
+    (tmp_path / "k1").mkdir()
+    trimesh.creation.box().export(tmp_path / "k1" / "a.ply")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(evaluation, "evaluate", lambda *a, **k: pytest.fail("the work started"))
+    monkeypatch.setattr(tuning, "tune", lambda *a, **k: pytest.fail("the work started"))
+    for argv, flag in ((["evaluate", "--data", "", "--methods", "bbox"], "--data"),
+                       (["tune", "--data", " ", "--steps", "0"], "--data"),
+                       (["tune", "--holdout-data", "", "--steps", "0"], "--holdout-data")):
+        assert cli.main(argv) == 2, argv
+        assert _err(capsys).strip().splitlines()[-1].startswith(f"jaxpose: error: {flag} names no folder ("), argv
+
+
 def test_evaluate_output_paths_are_checked_before_the_work(tmp_path, capsys, no_work):
     blocker = tmp_path / "file"
     blocker.write_text("x")

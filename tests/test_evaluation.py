@@ -307,8 +307,8 @@ def test_a_method_spelled_with_its_default_power_is_a_repeat():
     arm = trimesh.creation.box(extents=(3.0, 0.3, 0.3))
     arm.apply_translation((2.0, 0.0, 0.0))
     shape = trimesh.util.concatenate([trimesh.creation.box(extents=(1.0, 1.0, 1.0)), arm])
-    poses = estimate_many(shape, ["robust", "robust:4", "robust:2", "depth_weighted_solid", "depth_weighted_solid:2",
-                                  "depth_weighted_solid:4"])
+    poses = {**estimate_many(shape, ["robust", "robust:2", "depth_weighted_solid", "depth_weighted_solid:4"]),
+             **estimate_many(shape, ["robust:4", "depth_weighted_solid:2"])}
 
     def same(a, b):
         return np.array_equal(poses[a].center, poses[b].center) and poses[a].scale == poses[b].scale
@@ -323,6 +323,15 @@ def test_a_method_spelled_with_its_default_power_is_a_repeat():
         with pytest.raises(InvalidInputError) as info:
             evaluate({"boxes": _boxes()}, methods=methods)
         assert str(info.value) == message + "; give each once"
+    # estimate_many: the same rule (it ran both), with the power of its options where given (review)
+    with pytest.raises(InvalidInputError, match=r"^methods names 'robust:4' twice \(as 'robust'; both are robust at "
+                                                r"power 4\); give each once$"):
+        estimate_many(shape, ["robust", "robust:4"])
+    with pytest.raises(InvalidInputError, match="both are robust at power 3"):
+        estimate_many(shape, ["robust", "robust:3"], power=3)
+    powered = estimate_many(shape, ["robust", "robust:4"], power=3)  # robust at 3 and at 4: two methods
+    assert not np.array_equal(powered["robust"].center, powered["robust:4"].center)
+    np.testing.assert_array_equal(powered["robust:4"].center, poses["robust"].center)
     # another power is another method, kept under the name given
     methods = ["robust", "robust:2", "depth_weighted_solid", "depth_weighted_solid:4"]
     result = evaluate({"boxes": _boxes()}, methods=methods)

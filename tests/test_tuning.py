@@ -217,6 +217,15 @@ def test_cli_tune_one_class_names_the_flag_that_tunes_it(tmp_path, capsys, monke
                            "--steps", "0"]) == 1
     err = capsys.readouterr().err.strip().splitlines()[-1]
     assert err.endswith("pass --holdout 0 to tune on it alone (--holdout-data's classes check it)"), err
+    # one class chosen by --classes of a folder of two: the message names --classes (it said DIR "has one")
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    for k in range(2):
+        (tmp_path / f"pose_{k}.ply").rename(tmp_path / "a" / f"pose_{k}.ply")
+        trimesh.creation.box([1.0, 1.0, 1.0 + k]).export(tmp_path / "b" / f"pose_{k}.ply")
+    assert tuning_cli.run(["--data", str(tmp_path), "--classes", "a", "--steps", "0"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert err.startswith("jaxpose: error: --holdout 0.25 holds out whole classes, and --classes a chooses one ('a')"), err
 
 
 def test_cli_tune_missing_folders_are_named_before_any_class_is_loaded(tmp_path, capsys, monkeypatch):

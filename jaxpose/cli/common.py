@@ -31,11 +31,20 @@ def checked(convert, check):
     return parse
 
 
+def check_folder_name(folder, flag):
+    """Refuse a folder option given as an empty name (``--data ""``, an unset shell variable): the
+    path "" is the working directory, whose sub-folders would be read as classes. None passes."""
+    if folder is not None and not str(folder).strip():
+        raise InvalidInputError(f"{flag} names no folder ({str(folder)!r}); give a folder of class folders, or leave "
+                                f"{flag} out")
+
+
 def check_dataset_choice(instances, classes, data=None):
     """``--instances`` (None: the command's default; the built-in dataset's only) and ``--classes``
     (None: all; of the built-in dataset, or of ``--data``'s folder ``data``), checked before any
     work (evaluate, tune): InvalidInputError, a usage error (exit 2). The names of ``--data``'s
     classes are :func:`dataset_classes`' to check (its folder is read there)."""
+    check_folder_name(data, "--data")
     if instances is not None:  # at least 2 (a class's spread), at most DATASET_INSTANCES (built in memory)
         check_instances(instances, "--instances", 2)
         if data is not None:  # (it was ignored without a word)

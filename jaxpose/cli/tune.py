@@ -124,7 +124,7 @@ def run(argv) -> int:
 def _run(args) -> int:
     from ..mesh import write_atomic
     from ..tuning import check_options, tune
-    from .common import check_core_options, check_dataset_choice, json_text, variant_names
+    from .common import check_core_options, check_dataset_choice, check_folder_name, json_text, variant_names
 
     say = lambda s: print(s, file=sys.stderr, flush=True)
     try:
@@ -133,6 +133,7 @@ def _run(args) -> int:
                       args.holdout if args.holdout is not None else 0.0, args.seed, args.count,
                       **{k: v for k, v in options.items() if k in ("gamma0", "nu0", "power0")})
         check_dataset_choice(args.instances, args.classes, args.data)  # (evaluate's check)
+        check_folder_name(args.holdout_data, "--holdout-data")
         check_core_options(args.align_core, args.core_weight)
         variants = tuple(variant_names(args.variants))
         names = comma_names(args.classes) if args.classes else None
@@ -152,7 +153,8 @@ def _run(args) -> int:
         # a class's variants ("dog/plain", "dog/holes") are one class: held out together
         base = {name: name.rpartition("/")[0] if len(variants) > 1 else name for name in classes}
         if holdout > 0 and len(set(base.values())) < 2:  # (the library's words name its arguments, not these flags)
-            return fail(f"--holdout {holdout:g} holds out whole classes, and {args.data or 'the dataset'} has one "
+            chosen = f"--classes {args.classes} chooses" if args.classes else f"{args.data or 'the dataset'} has"
+            return fail(f"--holdout {holdout:g} holds out whole classes, and {chosen} one "
                         f"({', '.join(map(repr, sorted(set(base.values()))))}): pass --holdout 0 to tune on it alone "
                         + ("(--holdout-data's classes check it)" if held else
                            "(checked on a fresh draw), or --holdout-data DIR for classes to check on"))

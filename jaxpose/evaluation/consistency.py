@@ -84,7 +84,9 @@ def _check_classes(classes):
 
 
 def _check_methods(methods):
-    methods = METHODS if methods is None else check_names(methods, "methods", key=_method_key)
+    from ..pose.estimators import method_key  # (lazily, as the other uses here: JAX at run time)
+
+    methods = METHODS if methods is None else check_names(methods, "methods", key=method_key)
     if not methods:
         raise InvalidInputError("methods must not be empty")
     return methods
@@ -104,29 +106,6 @@ def _check_ocsvm(gamma, nu, count, seed, options):
     seed = _validate.check_int(seed, "seed", 0)
     PoseConfig.create(**options)
     return seed
-
-
-def _method_key(spec):
-    """The method ``spec`` (``"name"`` or ``"name:p"``, :func:`jaxpose.pose.estimators.parse_method`)
-    as it runs, for telling two spellings of one method apart: the name, and for a depth-weighted
-    center its power, the default one where none is given (``"robust"``, ``"robust:4"`` and
-    ``"robust:4.0"`` are ``"robust at power 4"``: :data:`jaxpose.config.ROBUST`'s; ``"depth_weighted_solid"``
-    is ``"depth_weighted_solid at power 2"``: :data:`jaxpose.occupancy.voxels.DEPTH_POWER`). Powers are
-    compared exactly (``4`` and ``4.000001`` are two methods).
-
-    Raises:
-      InvalidInputError: as ``parse_method``: an unknown name or a bad power.
-    """
-    from ..occupancy.voxels import DEPTH_POWER
-    from ..pose.estimators import METHODS as NAMES, POWERED, ROBUST_POWER, parse_method
-
-    name, power = parse_method(spec)
-    center = NAMES[name][0]
-    if center not in POWERED:  # (no power to compare)
-        return name
-    power = float(power if power is not None else ROBUST_POWER if center == "robust_depth" else DEPTH_POWER) + 0.0
-    text = repr(power)  # (the shortest text that reads back as this float: 4.0, 2.5, 1e-05; + 0.0: -0 is 0)
-    return f"{name} at power {text[:-2] if text.endswith('.0') else text}"
 
 
 def _check_variants(variants):

@@ -43,7 +43,8 @@ from ..host import anchor
 from ..weighted import depth_power_weights, grid_axes, solid_occupancy, weighted_center
 from .result import MIN_POINT_VOXELS, SECOND_BODY, Pose, host, status_message
 
-__all__ = ["METHODS", "CENTERS", "SCALES", "DEFAULT_METHOD", "ROBUST_POWER", "POWERED", "CLOSED_FORMS", "resolve",
+__all__ = ["METHODS", "CENTERS", "SCALES", "DEFAULT_METHOD", "ROBUST_POWER", "POWERED", "default_power", "method_key",
+           "CLOSED_FORMS", "resolve",
            "parse_method", "check_strict", "strict_unread", "estimate",
            "estimate_many", "robust_center_scale", "solid_center_volume", "centered", "check_ocsvm_unused"]
 
@@ -87,6 +88,40 @@ def resolve(method=None, center=None, scale=None):
 
 
 POWERED = ("robust_depth", "depth_weighted_solid")  # the centers whose depth weights take a power
+
+
+def default_power(center, options=None):
+    """The depth power a :data:`POWERED` center runs at where its method's name gives none: the
+    ``"power"`` of ``options`` where given, else the center's own, :data:`ROBUST_POWER` (4) for
+    ``robust_depth`` and :data:`jaxpose.occupancy.voxels.DEPTH_POWER` (2) for
+    ``depth_weighted_solid``. None for a center without depth weights."""
+    if center not in POWERED:
+        return None
+    if options and options.get("power") is not None:
+        return options["power"]
+    return ROBUST_POWER if center == "robust_depth" else voxels.DEPTH_POWER
+
+
+def method_key(spec, options=None):
+    """The method ``spec`` (``"name"`` or ``"name:p"``, :func:`parse_method`) as it runs, telling two
+    spellings of one method apart: its name, and for a depth-weighted center the power it runs at
+    (:func:`default_power` where none is given): ``"robust"``, ``"robust:4"`` and ``"robust:4.0"``
+    are all ``"robust at power 4"``; with ``options={"power": 3}``, ``"robust"`` is ``"robust at
+    power 3"``. Powers are compared exactly (``4`` and ``4.000001`` are two methods).
+
+    Raises:
+      InvalidInputError: as :func:`parse_method`: an unknown name or a bad power.
+
+    Example:
+      >>> method_key("robust"), method_key("depth_weighted_solid:2.0"), method_key("bbox")
+      ('robust at power 4', 'depth_weighted_solid at power 2', 'bbox')
+    """
+    name, power = parse_method(spec)
+    power = default_power(METHODS[name][0], options) if power is None else power
+    if power is None:  # (no power to compare)
+        return name
+    text = repr(float(power) + 0.0)  # (the shortest text that reads back as this float: 4.0, 2.5, 1e-05; -0 is 0)
+    return f"{name} at power {text[:-2] if text.endswith('.0') else text}"
 CLOSED_FORMS = ("solid_centroid", "gyration_radius", "depth_weighted_solid")  # what strict=True applies to
 
 
@@ -468,7 +503,7 @@ class _Shape:
         """World center and volume of the robust solid at this shape's power."""
         if self._robust is None:
             sol = self.robust_solid()
-            self._robust = solid_center_volume(sol, self.options.get("power", ROBUST_POWER))
+            self._robust = solid_center_volume(sol, default_power("robust_depth", self.options))
         return self._robust
 
     def solid_moments(self, strict):
@@ -509,7 +544,7 @@ class _Shape:
         if self._voxels is None:
             self._voxels = voxels.filled_voxels(self.geometry, strict=strict)
         x, d = self._voxels
-        return voxels.weighted_centroid(x, d ** float(self.options.get("power", voxels.DEPTH_POWER)))
+        return voxels.weighted_centroid(x, d ** float(default_power("depth_weighted_solid", self.options)))
 
     def gyration_radius(self, center, strict):
         _, c, second = self.solid_moments(strict)
@@ -665,12 +700,13 @@ def estimate_many(geometry, methods, strict=False, timings=False, **options):
 
     Raises:
       InvalidInputError: as :func:`estimate`, before any work: unknown names or options, a method
-        named twice (``"robust:4"`` and ``"robust:4.0"`` alike), a bad value, ``strict=True``, a ``power``, a ``resolution`` or an OCSVM option (``gamma``, ``nu``,
+        named twice (two spellings of one method alike: ``"robust"``, ``"robust:4"``, ``"robust:4.0"``;
+        :func:`method_key`), a bad value, ``strict=True``, a ``power``, a ``resolution`` or an OCSVM option (``gamma``, ``nu``,
         ``count``, ``seed``, ``sampling``, ``ocsvm``) that none of the methods reads.
     """
     _check_options(options)
     strict, timings = _validate.check_bool(strict, "strict"), _validate.check_bool(timings, "timings")
-    methods = _validate.check_names(methods, "methods", key=parse_method)  # each once (a repeat ran twice)
+    methods = _validate.check_names(methods, "methods", key=lambda spec: method_key(spec, options))  # each once
     parsed = [(resolve(name), key) for name, key in map(parse_method, methods)]  # every name before any work
     _check_read(strict, options, parsed, methods)
     geometry, shift = centered(geometry)

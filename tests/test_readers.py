@@ -277,6 +277,27 @@ def test_off_truncated_is_an_error(tmp_path, mesh, cut):
         jmesh.load(path)
 
 
+@pytest.mark.parametrize("newline", ["\n", "\r\n"])
+@pytest.mark.parametrize("bad, what", [("1 0", "vertex 2"), ("3 0 1", "face 2")])
+def test_off_short_lines_are_named_by_their_line_in_the_file(tmp_path, newline, bad, what):
+    """A short OFF vertex or face line is named by its place among the vertices (faces) and its
+    line number in the file, as the PLY reader names a short vertex line (comments, blank lines
+    and the header counted: the number an editor shows; it said 'vertex line 2' before)."""
+    from jaxpose import mesh as jmesh
+    from jaxpose.errors import InvalidInputError
+
+    lines = ["# a tetrahedron", "", "OFF", "# counts", "4 2 0", "", "0 0 0", "1 0 0  # two", "0 1 0", "0 0 1", "",
+             "3 0 1 2", "3 0 1 3"]
+    at = 7 if what.startswith("vertex") else 12  # (0-based) the second vertex line, the second face line
+    lines[at] = bad
+    path = tmp_path / "short.off"
+    path.write_bytes(newline.join(lines).encode() + newline.encode())
+    line = path.read_bytes().decode().splitlines().index(bad) + 1  # the oracle: the line an editor shows
+    with pytest.raises(InvalidInputError, match=f"short.off: cannot read OFF file: {what} \\(line {line} of the file\\) "
+                       "holds .*truncated or malformed"):
+        jmesh.load(path)
+
+
 @pytest.mark.parametrize("cut", ["face_line", "mid_face", "counts", "negative"])
 def test_ply_truncated_is_an_error(tmp_path, mesh, cut):
     """A truncated ASCII PLY file is an error naming it, where trimesh reads part of it without a
@@ -445,6 +466,35 @@ def test_broken_references_are_errors(tmp_path, name, text, match):
     path.write_text(text)
     with pytest.raises(InvalidInputError, match=match):
         jmesh.load(path)
+
+
+@pytest.mark.parametrize("faces, whole", [
+    ("f 1 3 2\nf 1 2 -", "-1"), ("f 1 3 2\nf 1 2 4 -", "-2"), ("f 1 3 2\nf 1 2 4/", "4"),
+    ("vt 0 0\nf 1/1 3/1 2/1\nf 1/1 2/1 4/", "4/1"), ("vt 0 0\nf 1/1 3/1 2/1\nf 1/1 2/1 4/-", "4/-1"),
+    ("vt 0 0\nvn 0 0 1\nf 1/1/1 3/1/1 2/1/1\nf 1/1/1 2/1/1 4/1", "4/1/1"),
+    ("vn 0 0 1\nf 1//1 3//1 2//1\nf -1//1 -2//1 -3//", "-3//1")])
+@pytest.mark.parametrize("material", ["", "usemtl a\n"])
+def test_an_obj_cut_within_its_last_face_is_an_error(tmp_path, faces, whole, material):
+    """An OBJ file cut within its last face line's last corner ('f 1 2 -', 'f 1 2 4/', 'f 1/1/1
+    2/1/1 4/1'): trimesh read '-' as vertex 0 and '4/' as 4 (a wrong face, or a wrong mesh, without
+    a word) or failed with Python's "invalid literal for int()"; refused as a cut vertex line is, on
+    the fast reader's path and trimesh's (materials). The line with its last corner whole reads as
+    trimesh reads it."""
+    from jaxpose import mesh as jmesh
+    from jaxpose.errors import InvalidInputError
+
+    path = tmp_path / "cut.obj"
+    path.write_text(OBJ_TET + material + faces)
+    last = faces.rsplit("\n", 1)[1]
+    with pytest.raises(InvalidInputError, match=f"cut.obj: cannot read OBJ file: its last line '{re.escape(last)}' "
+                       f"ends in '{re.escape(last.split()[-1])}', which is not a reference of the form of its first "
+                       "corner .*truncated"):
+        jmesh.load(path)
+    path.write_text(OBJ_TET + material + faces.rsplit(" ", 1)[0] + f" {whole}\n")
+    expected = trimesh.load(path, process=False)
+    got = jmesh.read(path)
+    np.testing.assert_array_equal(np.asarray(got.vertices)[np.asarray(got.faces)],
+                                  np.asarray(expected.vertices)[np.asarray(expected.faces)])
 
 
 def test_normal_references_and_uv_references_without_uv_are_not_checked(tmp_path):
@@ -1097,8 +1147,8 @@ def _broken_files():
     files["counts_negative.off"] = (b"OFF\n-3 1 0\n" + body, "negative count")
     files["count_4e9.ply"] = (ply.replace(b"element face 20", b"element face 4e9"), "whole number count")
     # a vertex line cut short ("setting an array element with a sequence")
-    cut = off.index(b"\n", off.index(b"\n", off.index(b"\n") + 1) + 1) + 6  # inside the first vertex line
-    files["vertex_cut.off"] = (off[:cut] + b"\n" + body[body.index(b"\n") + 1:], r"vertex line \d+ holds 1 value, fewer than its 3 coordinates")
+    cut = off.index(b"\n", off.index(b"\n", off.index(b"\n") + 1) + 1) + 6  # inside the second vertex line (line 4)
+    files["vertex_cut.off"] = (off[:cut] + b"\n" + body[body.index(b"\n") + 1:], r"vertex 2 \(line 4 of the file\) holds 1 value, fewer than its 3 coordinates")
     # an ASCII STL cut before its endsolid ("empty geometry ... not STL")
     for cut in (len(stl_text) // 3, len(stl_text) - 20):
         files[f"cut{cut}_ascii.stl"] = (stl_text[:cut], "without the 'endsolid' line")

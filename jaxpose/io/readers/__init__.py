@@ -64,7 +64,8 @@ def read(data: bytes, file_type: str) -> Loaded:
         point cloud too), a face line with fewer indices than its count, a PLY element with a
         negative count, an ASCII PLY face index that is not an integer of its type, an OBJ face
         referencing vertex 0 (OBJ counts from 1), an OBJ face of fewer than 3 corners or vertex of
-        fewer than 3 values, a file that trimesh fails on for a reason the reader can name
+        fewer than 3 values, an OBJ cut within its last line's last value or reference (``v 0 0
+        -``, ``f 1 2 -``, ``f 1 2 3/``), a file that trimesh fails on for a reason the reader can name
         (a binary PLY whose length is not what its header's elements take, a PLY header cut before
         its end or with a count that is not a whole number, an OFF counts line that is not whole
         numbers, an OFF vertex line of fewer than 3 values, an ASCII STL without ``endsolid``)

@@ -67,7 +67,8 @@ def read_obj(data: bytes) -> Loaded:
         file's ``vt`` lines (trimesh drops all of the file's UV coordinates without a word:
         :func:`check_texture_references`); a last line that is a vertex whose last value is not a
         number (``v 0 -0.5 -``: a file cut within it), or a texture coordinate or a normal of that
-        kind; lines that end in a lone carriage return (trimesh: NumPy's "could not be read to its
+        kind, or a face whose last corner is not a reference of its first corner's form (``f 1 2
+        -``, ``f 1 2 3/``: trimesh reads a wrong face); lines that end in a lone carriage return (trimesh: NumPy's "could not be read to its
         end due to unmatched data"). A file cut at the end of a line, or within
         a number that stays one, reads as a valid OBJ file: no reader can tell.
 
@@ -83,6 +84,8 @@ def read_obj(data: bytes) -> Loaded:
     if "\r" in text and "\n" not in text.strip():  # (trimesh: NumPy's "could not be read to its end ...")
         raise InvalidInputError("cannot read OBJ file: its lines end in a lone carriage return (classic Mac OS "
                                 "line ends), which jaxpose does not read: convert them to \\n")
+    _cut_last_number(text)  # (a vertex cut within its last number, "v 0 0.5 -": trimesh's NumPy "unmatched data"; a
+    # face within its last corner, "f 1 2 -", "f 1 2 3/": a wrong face), for every file, whichever reader reads it
     if "usemtl" in text or "+e" in text or "-e" in text or "\r" in text:
         _cut_last_line(text)  # (a cut file's last line: trimesh drops it without a word)
         raise Unsupported("materials, or text trimesh's OBJ loader rewrites")
@@ -98,7 +101,6 @@ def read_obj(data: bytes) -> Loaded:
     if sum(1 for line in lines if line[:1] == "f") != len(keyed["f"]):
         raise Unsupported("a line starting with f that is not a face")
     parsed = {key: _tokens(keyed[key], c_numbers=True) for key in ("v", "vt", "vn") if keyed[key]}
-    _cut_last_number(text)  # (a vertex cut within its last number: "v 0 0.5 -"; trimesh: NumPy's "unmatched data")
     if "v" in parsed and np.any(parsed["v"][1] < 3):  # (a point cloud's too: checked before the next line)
         at = int(np.argmax(parsed["v"][1] < 3))
         raise InvalidInputError(f"cannot read OBJ file: vertex {at + 1} has fewer than 3 coordinates "
@@ -223,8 +225,8 @@ def check_texture_references(data: bytes):
 
 def _cut_last_line(text):
     """Raise InvalidInputError where the last line of an OBJ file's `text` is a vertex of fewer than
-    3 values, a face of fewer than 3 corners, or a vertex whose last value is not a number (``v 0
-    0.5 -``): what a file cut within its last line ends in. O(1): the other lines are not looked at."""
+    3 values, a face of fewer than 3 corners, or a line :func:`_cut_last_number` refuses (``v 0
+    0.5 -``, ``f 1 2 -``): what a file cut within its last line ends in. O(1): the other lines are not looked at."""
     last = _last_line(text)  # (a longer line: no "v" or "f" among its last words)
     if last[:1] in (["v"], ["f"]) and len(last) < 4:
         what = "vertex of fewer than 3 values" if last[0] == "v" else "face of fewer than 3 corners"
@@ -241,13 +243,24 @@ def _last_line(text):
 
 def _cut_last_number(text):
     """Raise InvalidInputError where the last line of an OBJ file's `text` is a vertex, a texture
-    coordinate or a normal whose last value is not a number (``v 0 0.5 -``, ``vn 0 0 -``: a file
-    cut within it). O(1)."""
+    coordinate or a normal whose last value is not a number (``v 0 0.5 -``, ``vn 0 0 -``), or a
+    face of 3 corners or more whose last corner is not a reference of its first corner's form
+    (``f 1 2 -``, ``f 1 2 3/``, ``f 1/1 2/2 3/``, ``f 1/1/1 2/2/2 3/3``; a form is ``v``, ``v/vt``,
+    ``v//vn`` or ``v/vt/vn``): a file cut within it (trimesh reads ``-`` as vertex 0 and ``3/`` as
+    ``3``: a wrong face, without a word). O(1)."""
     last = _last_line(text)
     if (last[:1] == ["v"] and len(last) >= 4 or last[:1] in (["vt"], ["vn"]) and len(last) >= 2) and not _is_number(
             last[-1]):  # (a vertex of fewer values: the messages of fewer than 3)
         raise InvalidInputError(f"cannot read OBJ file: its last line {' '.join(last)!r} ends in {last[-1]!r}, which is "
                                 "not a number: a truncated or malformed file")
+    if last[:1] == ["f"] and len(last) >= 4 and _CORNER.sub("N", last[-1]) != _CORNER.sub("N", last[1]):
+        # (a face of fewer corners: the messages of fewer than 3)
+        raise InvalidInputError(f"cannot read OBJ file: its last line {' '.join(last)!r} ends in {last[-1]!r}, which is "
+                                f"not a reference of the form of its first corner {last[1]!r}: a truncated or "
+                                "malformed file")
+
+
+_CORNER = re.compile(r"-?[0-9]+")  # a number of a face's corner: the rest is its form ("N", "N/N", "N//N", "N/N/N")
 
 
 def _is_number(token):

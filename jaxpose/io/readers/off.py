@@ -41,13 +41,13 @@ _OFF = re.compile("(COFF|OFF)")
 
 
 def _comment_strip(text):
-    """Each line cut at its first ``#`` (a comment runs to the end of its line), as
+    """Each line cut at its first ``#`` (a comment runs to the end of its line; every line kept), as
     ``trimesh.util.comment_strip`` does where the text before the first ``#`` holds no line end
     (a file that starts with a comment, or whose first comment is on its first line). Where it
     does, trimesh repeats that text's lines after the first (``OFF\\n4 4 0\\n# vertices\\n...``:
     ``4 4 0`` a second time, read as the first vertex, every vertex one line late, the last face
     lost, without a word); here the file is read as it says."""
-    return "\n".join(line.split("#", 1)[0] for line in text.split("\n")).strip()
+    return "\n".join(line.split("#", 1)[0] for line in text.split("\n"))
 
 
 def without_comments(data: bytes) -> bytes:
@@ -78,15 +78,16 @@ def read_off(data: bytes) -> Loaded:
         return plain
     text = _text(data)
     if "#" in text:
-        text = _comment_strip(text)
-    text = text.strip()
+        text = _comment_strip(text)  # (the file's lines kept: their numbers are named)
     found = _OFF.search(text)
-    if found is None:
-        raise Unsupported("no OFF header")
-    raw = text[found.end():]
-    lines = list(filter(None, map(str.strip, raw.splitlines())))
-    if not lines:
-        raise Unsupported("no counts")
+    if found is None or not text[found.end():].strip():  # (nothing after it: the counts line is missing)
+        raise Unsupported("no OFF header" if found is None else "no counts")
+    # each line after the header's word that holds a value, and its number in the file (the header's line: 1 + the
+    # lines before it)
+    header_line = len(text[:found.end()].splitlines())
+    numbered = [(header_line + n, line.strip()) for n, line in enumerate(text[found.end():].splitlines()) if
+                line.strip()]
+    lines = [line for _, line in numbered]
     header = lines[0].split()
     _check_counts(lines[0], header)
     if not all(t.isascii() and t.isdigit() for t in header[:2]) \
@@ -102,8 +103,9 @@ def read_off(data: bytes) -> Loaded:
     tokens, counts = _tokens(block)
     if np.any(counts < 3):  # (trimesh fails: "setting an array element with a sequence", or a reshape)
         line = int(np.argmax(counts < 3))
-        raise InvalidInputError(f"cannot read OFF file: vertex line {line + 1} holds {int(counts[line])} value{'s' if counts[line] != 1 else ''}, fewer "
-                                f"than its 3 coordinates ({block[line]!r}): a truncated or malformed file")
+        raise InvalidInputError(f"cannot read OFF file: vertex {line + 1} (line {numbered[1 + line][0]} of the file) "
+                                f"holds {int(counts[line])} value{'s' if counts[line] != 1 else ''}, fewer than its 3 "
+                                f"coordinates ({block[line]!r}): a truncated or malformed file")
     starts = _starts(counts)
     vertices = _floats(_take(tokens, (starts[:, None] + np.arange(3)).ravel())) if np.any(counts != 3) \
         else _floats(tokens)
@@ -121,8 +123,9 @@ def read_off(data: bytes) -> Loaded:
     sizes = _ints(_take(tokens, starts))
     if np.any(sizes + 1 > counts):
         line = int(np.argmax(sizes + 1 > counts))
-        raise InvalidInputError(f"cannot read OFF file: face line {line + 1} holds fewer indices than its count "
-                                f"({block[line]!r}): a truncated or malformed file")
+        raise InvalidInputError(f"cannot read OFF file: face {line + 1} (line {numbered[1 + nv + line][0]} of the "
+                                f"file) holds fewer indices than its count ({block[line]!r}): a truncated or "
+                                "malformed file")
     if np.any(sizes < 3):
         raise Unsupported("a face with fewer than 3 corners")
     if np.all(counts == counts[0]) and np.all(sizes + 1 == counts):  # "3 a b c" lines, nothing more

@@ -1319,6 +1319,36 @@ def test_cli_progress_counts_the_inputs_the_summary_counts(tmp_path, capsys):
     assert counted == inputs == 6
 
 
+def test_cli_progress_lines_count_the_failure_just_recorded(tmp_path, capsys, monkeypatch):
+    """Off a terminal (plain progress lines), each line counts every input that failed up to it, the
+    one just done included: the failure count was set after the line was printed, so a line printed
+    as a failure arrived showed the count before it ("[2/6] ..." without "1 failed" after
+    "jaxpose: failed: ...cut.ply")."""
+    import re
+
+    monkeypatch.setattr(batch, "PROGRESS_EVERY_S", 0.0, raising=False)  # a line after every file
+    scans = tmp_path / "scans"
+    scans.mkdir()
+    ico = trimesh.creation.icosphere(subdivisions=0)
+    for name in ("a.ply", "c.ply", "e.ply"):
+        ico.export(scans / name)
+    for name in ("b_cut.ply", "d_cut.ply"):  # failures between good files
+        (scans / name).write_bytes(ico.export(file_type="ply")[:-10])
+    os.mkfifo(scans / "pipe.ply")  # failed before any work
+    code = cli.main(["normalize", str(scans), "-o", str(tmp_path / "out"), "--workers", "1", "--resolution", "16"])
+    err = capsys.readouterr().err
+    assert code == 1 and "3 of 6 inputs failed" in err, err
+    failures, checked = 0, 0
+    for line in err.splitlines():  # in the order printed: each failure logged, then its progress line
+        if line.startswith("jaxpose: failed:"):
+            failures += 1
+        elif line.startswith("jaxpose normalize: [") and failures:
+            shown = re.search(r", (\d+) failed$", line)
+            assert shown is not None and int(shown.group(1)) == failures, err
+            checked += 1
+    assert failures == 3 and checked >= 3, err
+
+
 def test_progress_bar_shows_the_failed_in_its_first_frame(tmp_path, capsys):
     """The bar's first frame, drawn before the first file is done, counts an input that failed
     before any work ("1/3 ... 1 failed"); the note was set after the bar had drawn it, so a large

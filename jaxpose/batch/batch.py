@@ -799,9 +799,9 @@ class _Run:
                     except Exception as exc:  # the task itself broke (not the input): recorded as well
                         result = _failed(one_line(exc))
                     self.finish(item, key, result)
-                    bar.update(1)
-                    if self.failed:
+                    if self.failed:  # (before the update: the line or frame it draws counts this input's failure)
                         bar.set_postfix_str(f"{self.failed} failed", refresh=False)
+                    bar.update(1)
                 if self.stopped:
                     break
             executor.close(kill=self.stopped)

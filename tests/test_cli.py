@@ -264,13 +264,14 @@ def test_evaluate_wiring(tmp_path, capsys, fake_evaluation):
     assert cli.main(["evaluate", "--core-weight", "area"]) == 2  # it says how --align-core chooses; alone it is refused
     err = capsys.readouterr().err
     assert "add --align-core" in err and "Traceback" not in err, err
-    for bad, unknown in (("bogus", "['bogus']"), ("core,Head", "['Head']"), (",", "[]"), ("", "[]")):
+    for bad, unknown in (("bogus", "['bogus']"), ("core,Head", "['Head']"), (",", None), ("", None)):
         # a usage error before the dataset is made (exit 1 from the evaluation, after making it; '' ran the
         # center/scale evaluation instead)
         fake_evaluation.clear()
         assert cli.main(["evaluate", "--rotation", bad]) == 2
         err = capsys.readouterr().err
-        assert f"--rotation: unknown rotation methods {unknown}; valid: all, core, head" in err, err
+        assert (f"--rotation: unknown rotation methods {unknown}; valid: all, core, head" if unknown else
+                f"--rotation names no rotation method ({bad!r}); give some, comma-separated, or all") in err, err
         assert "classes" not in fake_evaluation
 
 

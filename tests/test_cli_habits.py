@@ -236,6 +236,29 @@ def test_evaluate_and_tune_take_classes_of_data_alike(tmp_path, capsys, monkeypa
                       "desktop_computer, hand, dog, guitar, piano, spider, horse"] * 2
 
 
+@pytest.mark.parametrize("flag, what, every", [("--methods", "method", True), ("--variants", "variant", True),
+                                               ("--rotation", "rotation method", True), ("--classes", "class", False)])
+@pytest.mark.parametrize("text", ["", " , "])
+def test_every_comma_list_option_that_names_nothing_is_refused_alike(capsys, monkeypatch, flag, what, every, text):
+    """A comma-list option of evaluate or tune given no name ('' from an unset shell variable, ' , ')
+    is refused in one wording, before any work: --variants '' and --rotation '' said "unknown
+    variants []" and "unknown rotation methods []" where --methods '' and --classes '' said
+    "--methods names no method (''); give some, comma-separated, or all"."""
+    from jaxpose import datasets, evaluation, tuning
+
+    for module, name in ((evaluation, "evaluate"), (evaluation, "evaluate_rotation"), (tuning, "tune"),
+                         (datasets, "make_dataset")):
+        monkeypatch.setattr(module, name, lambda *a, **k: pytest.fail("the work started"))
+    expected = (f"jaxpose: error: {flag} names no {what} ({text!r}); give some, comma-separated"
+                + (", or all" if every else ""))
+    commands = [["evaluate"] + (["--rotation", "head"] if flag == "--variants" else [])]
+    if flag in ("--variants", "--classes"):  # tune's comma lists
+        commands.append(["tune", "--steps", "0"])
+    for command in commands:
+        assert cli.main([*command, flag, text]) == 2, command
+        assert _err(capsys).strip() == expected, command
+
+
 def test_an_empty_folder_name_is_refused(tmp_path, capsys, monkeypatch):
     """``--data ""`` (an unset shell variable) read the working directory's sub-folders as the
     classes (review: evaluate since --classes took --data's classes, tune before), and tune's

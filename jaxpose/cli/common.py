@@ -9,7 +9,7 @@ from ..io.atomic import check_creatable, check_output_file  # shared by the comm
 from ..io.jsontext import json_text  # the commands' JSON records (benchmarks/ write theirs with it too)
 
 __all__ = ["add_svm_options", "fail", "checked", "check_output_file", "check_creatable", "check_dataset_choice",
-           "dataset_classes", "comma_names", "variant_names", "json_text"]
+           "dataset_classes", "comma_names", "given_names", "variant_names", "json_text"]
 
 
 def checked(convert, check):
@@ -53,9 +53,7 @@ def check_dataset_choice(instances, classes, data=None):
     if classes is not None:
         from .._validate import check_names  # (NumPy: at run time, not when the parser is built)
 
-        if not comma_names(classes):
-            raise InvalidInputError(f"--classes names no class ({classes!r}); give some, comma-separated")
-        check_names(comma_names(classes), "--classes")  # each once
+        check_names(given_names(classes, "--classes", "class", every=False), "--classes")  # some, each once
         if data is None:
             from ..datasets.procedural import _check_class
 
@@ -87,13 +85,27 @@ def comma_names(text):
     return [name.strip() for name in text.split(",") if name.strip()]
 
 
+def given_names(text, flag, what, every=True):
+    """:func:`comma_names` of the comma-list option `flag` given as `text` (evaluate's and tune's
+    ``--methods``, ``--variants``, ``--rotation``, ``--classes``: one rule), refusing a list that
+    names none (``''``, ``','``: an unset shell variable; ``--methods ''`` ran every method) with
+    InvalidInputError, a usage error: "--variants names no variant (''); give some,
+    comma-separated, or all". `what`: what one name names; `every`: whether ``all`` is a choice
+    of the option (it is said)."""
+    names = comma_names(text)
+    if not names:
+        raise InvalidInputError(f"{flag} names no {what} ({text!r}); give some, comma-separated"
+                                + (", or all" if every else ""))
+    return names
+
+
 def variant_names(text):
     """``--variants``' comma list (evaluate, tune): the names, spaces around them dropped; ``all``
-    alone is every variant (:data:`jaxpose.evaluation.variants.VARIANTS`). Unknown names are the
-    caller's to refuse (with the valid ones)."""
+    alone is every variant (:data:`jaxpose.evaluation.variants.VARIANTS`); a list that names none
+    refused (:func:`given_names`). Unknown names are the caller's to refuse (with the valid ones)."""
     from ..evaluation.variants import VARIANTS  # (NumPy: at run time, not when the parser is built)
 
-    names = comma_names(text)
+    names = given_names(text, "--variants", "variant")
     return list(VARIANTS) if names == ["all"] else names
 
 

@@ -11,7 +11,8 @@ from pathlib import Path
 
 from ..config import DATASET_INSTANCES
 from .common import (add_core_options, add_svm_options, check_core_options, check_creatable, check_dataset_choice,
-                     check_output_file, comma_names, dataset_classes, fail, json_text, variant_names)
+                     check_output_file, comma_names, dataset_classes, fail, given_names, json_text,
+                     variant_names)
 
 __all__ = ["add_parser", "run"]
 
@@ -59,9 +60,8 @@ def _evaluate_usage(args):
     from ..rotation.rotation import ROTATIONS
     from ..batch.task import NormalizeOptions
 
-    if args.methods is not None and not comma_names(args.methods):  # ('' ran every method, minutes of work)
-        raise _Usage(f"--methods names no method ({args.methods!r}); give some, comma-separated, or all")
-    methods = comma_names(args.methods) if args.methods else None
+    # ('' ran every method, minutes of work; --rotation '' and --variants '' were "unknown ... []")
+    methods = given_names(args.methods, "--methods", "method") if args.methods is not None else None
     methods = None if methods == ["all"] else methods  # as --variants all, --rotation all (was "unknown method")
     variants = variant_names(args.variants)
     _check_variants(variants)
@@ -72,9 +72,10 @@ def _evaluate_usage(args):
             raise _Usage(f"{' and '.join(ignored)} {'choose' if len(ignored) > 1 else 'chooses'} what the center "
                          "and scale run measures; --rotation measures canonical frames instead (name its methods "
                          f"there: --rotation {','.join(ROTATIONS[:2])}), so drop {'them' if len(ignored) > 1 else 'it'}")
-        rotations = ROTATIONS if args.rotation == "all" else comma_names(args.rotation)
+        rotations = ROTATIONS if args.rotation == "all" else given_names(args.rotation, "--rotation",
+                                                                          "rotation method")
         unknown = [m for m in rotations if m not in ROTATIONS]
-        if unknown or not rotations:  # the evaluation's own check, before the dataset is made or read
+        if unknown:  # the evaluation's own check, before the dataset is made or read
             raise _Usage(f"--rotation: unknown rotation methods {unknown}; valid: all, {', '.join(ROTATIONS)}")
         check_names(rotations, "--rotation")  # (each once)
         uses_ocsvm = "ocsvm" in rotations

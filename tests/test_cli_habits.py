@@ -236,6 +236,37 @@ def test_evaluate_and_tune_take_classes_of_data_alike(tmp_path, capsys, monkeypa
                       "desktop_computer, hand, dog, guitar, piano, spider, horse"] * 2
 
 
+def test_a_class_that_is_an_empty_folder_or_a_near_name_is_told_so(tmp_path, capsys, monkeypatch):
+    """``--data DIR --classes x`` (evaluate, tune, one code path): a folder DIR/x that holds no
+    meshes is said to ("DIR/x holds no mesh files"), and a name that differs from a class only by
+    case or by Unicode normalization (NFD, as macOS stores names, against the NFC typed) names the
+    class meant; both said "no classes ['x'] in DIR", as of a name DIR does not hold at all."""
+    import unicodedata
+
+    from jaxpose import evaluation, tuning
+
+    monkeypatch.setattr(evaluation, "evaluate", lambda *a, **k: pytest.fail("the work started"))
+    monkeypatch.setattr(tuning, "tune", lambda *a, **k: pytest.fail("the work started"))
+    tetra = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"
+    cafe = unicodedata.normalize("NFC", "Caf\u00e9")
+    for name in ("Dog", cafe):
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "pose_0.obj").write_text(tetra)
+    (tmp_path / "empty").mkdir()
+    (tmp_path / "empty" / "notes.txt").write_text("no mesh here")
+    typed = unicodedata.normalize("NFD", cafe)
+    assert typed != cafe  # (the oracle: two spellings of one name)
+    cases = [("empty", f"{tmp_path / 'empty'} holds no mesh files (.glb, .gltf, .obj, .off, .ply, .stl)"),
+             ("dog", f"no class 'dog' in {tmp_path} (did you mean 'Dog'?)"),
+             (typed, f"no class {typed!r} in {tmp_path} (did you mean {cafe!r}?: the same letters in another Unicode "
+                     f"normalization, {ascii(typed)} is not {ascii(cafe)})"),
+             ("cat", f"no classes ['cat'] in {tmp_path}; found [{cafe!r}, 'Dog']")]
+    for classes, message in cases:
+        for command in (["evaluate", "--methods", "bbox"], ["tune", "--steps", "0"]):
+            assert cli.main([*command, "--data", str(tmp_path), "--classes", classes]) == 1, (command, classes)
+            assert _err(capsys).strip().splitlines()[-1] == f"jaxpose: error: {message}", (command, classes)
+
+
 @pytest.mark.parametrize("flag, what, every", [("--methods", "method", True), ("--variants", "variant", True),
                                                ("--rotation", "rotation method", True), ("--classes", "class", False)])
 @pytest.mark.parametrize("text", ["", " , "])

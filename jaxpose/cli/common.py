@@ -69,7 +69,8 @@ def dataset_classes(data, names, seed, instances):
 
     Raises:
       InvalidInputError: as ``load_folder`` and ``make_dataset``: a class that ``data`` does not
-        hold (``no classes ['cat'] in DIR; found ['dog', 'horse']``, before any mesh is read), an
+        hold (``no classes ['cat'] in DIR; found ['dog', 'horse']``; ``DIR/cat holds no mesh files``;
+        ``no class 'dog' in DIR (did you mean 'Dog'?)``; before any mesh is read), an
         unknown class of the built-in dataset, a missing folder, an unreadable mesh.
     """
     from .. import datasets

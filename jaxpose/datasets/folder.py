@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import os
+import unicodedata
 from pathlib import Path
 
 import numpy as np
@@ -72,7 +73,9 @@ def load_folder(path, classes=None) -> dict[str, list[trimesh.Trimesh]]:
     InvalidInputError : a path that is not a str or Path, missing folder, no mesh files, mesh
     files beside class sub-folders with some (one class, or classes?), an unreadable mesh;
     ``classes`` that is one string, names none, names one twice, or names one the folder does not
-    hold (the message names the classes it holds), before any mesh is read.
+    hold (the message names the classes it holds; a sub-folder of that name that holds no mesh
+    files, "DIR/x holds no mesh files"; a class the name differs from only by case or Unicode
+    normalization, "did you mean 'Dog'?"), before any mesh is read.
     """
     if not isinstance(path, (str, os.PathLike)):
         raise InvalidInputError(f"path must be a folder (str or Path), got {path!r:.80}")
@@ -106,5 +109,40 @@ def _chosen(classes, found, root):
         raise InvalidInputError(f"classes names no class; give some of {', '.join(found)}, or None for all")
     missing = sorted((name for name in names if not isinstance(name, str) or name not in found), key=str)
     if missing:
-        raise InvalidInputError(f"no classes {missing} in {root}; found {sorted(found)}")
+        raise InvalidInputError(_missing(missing, found, root))
     return [name for name in found if name in names]
+
+
+def _loose(name):
+    """A class name as a person may mean it: one Unicode normalization (NFC: an ``é`` typed as one
+    character or as ``e`` and its accent, as macOS stores names) and no case."""
+    return unicodedata.normalize("NFC", name).casefold()
+
+
+def _missing(missing, found, root):
+    """Why the class names ``missing`` are not among the classes ``found`` in ``root``: a folder of
+    that name that holds no mesh files is said to ("DIR/x holds no mesh files"), a name that differs
+    from a class only by case or Unicode normalization names it ("no class 'dog' in DIR (did you mean
+    'Dog'?)"; a normalization named, as the two look alike), the others
+    are listed with the classes found."""
+    try:  # (the folders as the listing names them: a case-insensitive file system finds 'dog' for 'Dog')
+        folders = {p.name for p in root.iterdir() if not p.name.startswith(".") and p.is_dir()}
+    except OSError:
+        folders = set()
+    close = {}
+    for name in found:
+        close.setdefault(_loose(name), name)
+    parts, unknown = [], []
+    for name in missing:
+        if isinstance(name, str) and name in folders:
+            parts.append(f"{root / name} holds no mesh files ({', '.join(sorted(MESH_SUFFIXES))})")
+        elif isinstance(name, str) and _loose(name) in close:
+            match = close[_loose(name)]
+            form = (f": the same letters in another Unicode normalization, {ascii(name)} is not {ascii(match)}"
+                    if unicodedata.normalize("NFC", name) == unicodedata.normalize("NFC", match) else "")
+            parts.append(f"no class {name!r} in {root} (did you mean {match!r}?{form})")
+        else:
+            unknown.append(name)
+    if unknown:
+        parts.append(f"no classes {unknown} in {root}; found {sorted(found)}")
+    return "; ".join(parts)

@@ -184,7 +184,7 @@ def test_cli_tune_bad_numbers_are_usage_errors(capsys):
                            (["--classes", ","], "--classes names no class"),
                            # these were exit 1 after loading every class
                            (["--variants", "plain,bogus"], "unknown variants ['bogus']"),
-                           (["--variants", ","], "unknown variants []"),
+                           (["--variants", ","], "--variants names no variant (','); give some, comma-separated, or all"),
                            # its classes were made twice, under one name each
                            (["--variants", "plain,holes,plain"], "variants names 'plain' twice"),
                            (["--classes", "human,nope"], "unknown class 'nope'"),
@@ -281,20 +281,27 @@ def test_cli_tune_variants_all_is_every_variant(monkeypatch, capsys):
 def test_cli_tune_robust_failure_names_the_samples_and_the_grid(tmp_path, capsys, monkeypatch):
     """``jaxpose tune --method robust`` that tuned nothing (no step had every pose valid: a cloud too
     sparse for its solid at ``--resolution 8``) sent the user only to "start from another --power",
-    which the solid's reasons do not depend on; it names --count and --resolution as given (or their
-    defaults: config.TUNE's count, config.RobustConfig's resolution)."""
+    which the solid's reasons do not depend on; it names --count, --resolution and --power as given
+    (or their defaults: config.TUNE's count, config.RobustConfig's resolution, config.ROBUST's
+    power; --power 2 was told as "the default 4"). The OCSVM's hint names --count's value too."""
     from jaxpose.config import TUNE, RobustConfig
 
     _write_two_classes(tmp_path / "data", trimesh.creation.icosphere(subdivisions=1))
     reason = "no step had every pose valid, from (power 4); e.g. tall: too sparse: nothing was tuned, no recommendation"
     monkeypatch.setattr(tuning, "tune", lambda *a, **k: {"error": reason})
-    for extra, count, grid in ((["--resolution", "8", "--count", "50"], 50, 8), ([], TUNE.count, RobustConfig().resolution)):
+    for extra, count, grid, power in ((["--resolution", "8", "--count", "50", "--power", "2"], 50, 8, 2.0),
+                                      ([], TUNE.count, RobustConfig().resolution, jaxpose.config.ROBUST.power)):
+        # (the power given was told as "the default 4" where --power 2 was given)
         assert tuning_cli.run(["--data", str(tmp_path / "data"), "--method", "robust", "--holdout", "0", "--steps", "0",
                                *extra]) == 1
         err = capsys.readouterr().err.strip().splitlines()[-1]
         assert err == (f"jaxpose: error: {reason}; draw more samples (--count, now {count}) or give another "
-                       f"--resolution (now {grid}: voxels along the body), or start from another --power (the default "
-                       f"{jaxpose.config.ROBUST.power:g})"), err
+                       f"--resolution (now {grid}: voxels along the body), or start from another --power (now "
+                       f"{power:g})"), err
+    assert tuning_cli.run(["--data", str(tmp_path / "data"), "--holdout", "0", "--steps", "0", "--count", "60"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert err == (f"jaxpose: error: {reason}; start nearer the defaults (--gamma {jaxpose.config.OCSVM.gamma:g} --nu "
+                   f"{jaxpose.config.OCSVM.nu:g}) or draw more samples (--count, now 60)"), err
 
 
 def test_gradient_matches_finite_difference_of_objective():

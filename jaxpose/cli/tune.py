@@ -175,7 +175,7 @@ def _run(args) -> int:
         return fail(exc)
     result["data"] = dict(data=args.data, holdout_data=args.holdout_data, align_core=bool(args.align_core),
                           core_weight=args.core_weight, variants=list(variants), holdout=fraction)
-    failure = _failure(result, args.method, args.count, args.resolution)
+    failure = _failure(result, args.method, args.count, args.resolution, args.power)
     if args.json:
         Path(args.json).parent.mkdir(parents=True, exist_ok=True)
         write_atomic(args.json, json_text(result).encode(), force=True)  # checked before the run
@@ -202,10 +202,11 @@ def _flag_names(message):
     return f"{_FLAGS[name]} {rest}" if space and name in _FLAGS else message
 
 
-def _failure(result, method, count=TUNE.count, resolution=None):
+def _failure(result, method, count=TUNE.count, resolution=None, power=None):
     """None, or the command's one-line error for a run that tuned nothing (no step had every pose
-    valid: :func:`jaxpose.tuning.tune`'s ``error``), with the options to try (``count``, ``resolution``:
-    the run's ``--count`` and ``--resolution``, None where not given)."""
+    valid: :func:`jaxpose.tuning.tune`'s ``error``), with the options to try, each with the value
+    the run had (``count``, ``resolution``, ``power``: the run's ``--count``, ``--resolution`` and
+    ``--power``, None where not given: their defaults)."""
     if not result.get("error"):
         return None
     if method == "robust":  # (its reasons are the solid's, which the power does not change: the samples, the grid)
@@ -213,9 +214,10 @@ def _failure(result, method, count=TUNE.count, resolution=None):
 
         grid = RobustConfig().resolution if resolution is None else resolution
         hint = (f"draw more samples (--count, now {count}) or give another --resolution (now {grid}: voxels along "
-                f"the body), or start from another --power (the default {ROBUST.power:g})")
+                f"the body), or start from another --power (now {ROBUST.power if power is None else power:g})")
     else:
-        hint = f"start nearer the defaults (--gamma {OCSVM.gamma:g} --nu {OCSVM.nu:g}) or draw more samples (--count)"
+        hint = (f"start nearer the defaults (--gamma {OCSVM.gamma:g} --nu {OCSVM.nu:g}) or draw more samples "
+                f"(--count, now {count})")
     return f"{result['error']}; {hint}"
 
 

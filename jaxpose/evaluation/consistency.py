@@ -33,7 +33,7 @@ from .._validate import InvalidInputError, OpenMeshWarning, check_bool, check_ca
 from ..config import OCSVM
 from . import alignment
 from .measures import scale_spread, spread
-from .tables import check_result, class_tables
+from .tables import check_result, class_tables, counted
 from .variants import VARIANTS, make_class
 
 __all__ = ["METHODS", "LEGEND", "evaluate", "sweep", "format_table", "format_per_class", "SWEEP_VALUES", "SWEEP_FIXED"]
@@ -409,7 +409,7 @@ def format_table(result) -> str:
     size = (f" x {sizes[0]} objects" if len(sizes) == 1 else f", {sum(objects.values())} objects") if sizes else ""
     ocsvm = f", ocsvm: gamma={p.get('gamma')}, nu={p.get('nu')}, count={p.get('count')}" if _uses_ocsvm(result) else ""
     n = len(result.get("per_class", {}))
-    lines = [f"{n} class{'es' if n != 1 else ''}{size}, seed={p.get('seed')}, "
+    lines = [f"{counted(n, 'class')}{size}, seed={p.get('seed')}, "
              f"align_core={p.get('align_core')}{_core(p)}{ocsvm}"]
     for variant, block in per_variant.items():
         ref = reference_method(variant)

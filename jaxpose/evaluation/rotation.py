@@ -25,7 +25,7 @@ from .._validate import (InvalidInputError, JaxposeError, check_bool, check_call
                          is_name, is_real_dtype)
 from . import alignment
 from .consistency import _check_classes, _check_variants
-from .tables import check_result, class_tables
+from .tables import check_result, class_tables, counted
 from .variants import make_class
 
 __all__ = ["PROPER_FLIPS", "angle", "chordal_mean", "class_angles", "sign_free_angles", "evaluate_rotation",
@@ -259,7 +259,7 @@ def format_rotation_table(result) -> str:
     core = result["params"].get("core_weight", "vertices")
     core = f" (core by {core})" if result["params"]["align_core"] and core != "vertices" else ""
     n = len(result["params"]["classes"])
-    lines = [f"{n} class{'es' if n != 1 else ''}, align_core={result['params']['align_core']}{core}, "
+    lines = [f"{counted(n, 'class')}, align_core={result['params']['align_core']}{core}, "
              "angles to the class frame (chordal mean), degrees, mean / max over instances"]
 
     def num(v, fmt="{:.1f}"):

@@ -3,10 +3,21 @@ from __future__ import annotations
 
 from typing import Callable
 
-__all__ = ["class_tables", "check_result"]
+__all__ = ["class_tables", "check_result", "counted"]
 
 _KINDS = {"evaluate": ("sigma_tr", "format_table / format_per_class"),
           "evaluate_rotation": ("raw_mean", "format_rotation_table / format_rotation_per_class")}
+
+
+def counted(n: int, noun: str, plural: str | None = None) -> str:
+    """``n`` and ``noun`` in the number ``n`` takes: ``counted(1, "class")`` is ``"1 class"``,
+    ``counted(0, "class")`` ``"0 classes"`` (the plural: ``plural``, else ``noun`` + "es" after
+    s, x, z, ch, sh, else + "s"); the one rule of the tables' headers."""
+    if n == 1:
+        return f"{n} {noun}"
+    if plural is None:
+        plural = noun + ("es" if noun.endswith(("s", "x", "z", "ch", "sh")) else "s")
+    return f"{n} {plural}"
 
 
 def check_result(result, kind: str) -> dict:

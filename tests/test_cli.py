@@ -123,8 +123,9 @@ def test_normalize_names_a_truncated_or_malformed_file(tmp_path, capsys):
     cut.write_bytes(data[:-10])
     counts = tmp_path / "counts.off"
     counts.write_text("OFF\n3 x 0\n" + body)
-    for source, fragment in ((cut, f"{cut}: cannot read PLY file: {len(data) - 10 - data.index(b'end_header') - 11} "
-                                   "bytes after the header, where its 12 vertex, 20 face elements take 404"),
+    # (12 vertices of 12 bytes, 20 faces of 13: 404 bytes; 10 cut, the last face's)
+    for source, fragment in ((cut, f"{cut}: cannot read PLY file: truncated, {len(data) - 10 - data.index(b'end_header') - 11} "
+                                   "bytes after the header end inside its face 20 of 20 (its 12 vertex, 20 face elements"),
                              (counts, f"{counts}: cannot read OFF file: its counts line '3 x 0' is not 'vertices faces "
                                       "[edges]' as whole numbers")):
         code = cli.main(["normalize", str(source), "-o", str(tmp_path / "out.ply")])

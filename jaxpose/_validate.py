@@ -23,6 +23,7 @@ __all__ = [
     "check_gamma",
     "check_nu",
     "check_array",
+    "check_mask",
     "check_faces",
     "is_name",
     "check_int",
@@ -86,11 +87,14 @@ def is_real_dtype(dtype) -> bool:
     return True
 
 
-def check_array(x, name: str = "x", min_rows: int = 0):
-    """Check an (n, 3) array of finite real numbers (n >= min_rows); return it unchanged.
+def check_array(x, name: str = "x", min_rows: int = 0, finite: bool = True):
+    """Check an (n, 3) array of real numbers (n >= min_rows), finite where ``finite``; return it
+    unchanged.
 
-    Tracers are returned as they are (only their shape and dtype are checked). A mesh or a path
-    given for the array is named so, with the fix (it read "must have shape (m, 3), got ()").
+    Tracers are returned as they are (only their shape and dtype are checked); ``finite=False``
+    checks a concrete array's shape and dtype alone too (JAX functions whose NaN the pose's status
+    reports). A mesh or a path given for the array is named so, with the fix (it read "must have
+    shape (m, 3), got ()").
     """
     if hasattr(x, "vertices"):  # a Trimesh, PointCloud (its .shape is its vertices') or Surface
         raise InvalidInputError(f"{name} must have shape (m, 3), an array, got a {type(x).__name__}: pass its vertices "
@@ -110,7 +114,7 @@ def check_array(x, name: str = "x", min_rows: int = 0):
     if len(shape) != 2 or shape[1] != 3:
         raise InvalidInputError(f"{name} must have shape (m, 3), got {tuple(shape)}")
     if shape[0] < min_rows:
-        raise InvalidInputError(f"{name} needs at least {min_rows} points, got {shape[0]}")
+        raise InvalidInputError(f"{name} needs at least {min_rows} point{'' if min_rows == 1 else 's'}, got {shape[0]}")
     if is_traced(x):
         if not is_real_dtype(x.dtype):  # known when tracing
             raise InvalidInputError(f"{name} must be real numbers, got dtype {x.dtype}")
@@ -118,10 +122,20 @@ def check_array(x, name: str = "x", min_rows: int = 0):
     arr = np.asarray(x)
     if not is_real_dtype(arr.dtype):
         raise InvalidInputError(f"{name} must be real numbers, got dtype {arr.dtype}")
-    if not np.all(np.isfinite(arr)):
+    if finite and not np.all(np.isfinite(arr)):
         bad = int(np.count_nonzero(~np.isfinite(arr).all(axis=1)))
         raise InvalidInputError(f"{name} has {bad} rows with NaN or inf coordinates")
     return x
+
+
+def check_mask(mask, rows: int, name: str = "points"):
+    """``mask`` None or of shape (rows,), one flag per point of the (rows, 3) array ``name``
+    (its shape is known while tracing; its values are not read); InvalidInputError otherwise (JAX's
+    broadcast errors). Returns ``mask`` unchanged."""
+    if mask is not None and tuple(np.shape(mask)) != (rows,):
+        raise InvalidInputError(f"mask must have shape ({rows},), one flag per point of {name}, got "
+                                f"{tuple(np.shape(mask))}")
+    return mask
 
 
 def check_points(points, name: str = "points", min_points: int = MIN_POINTS):

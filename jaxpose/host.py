@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._validate import InvalidInputError, check_concrete, compute_dtype, is_real_dtype
+from ._validate import InvalidInputError, check_array, check_concrete, compute_dtype
 
 __all__ = ["host_frame", "anchor", "check_cast", "check_query_cast", "MAX_ROUNDING"]
 
@@ -28,13 +28,13 @@ def host_frame(points, name: str = "points"):
       coordinates of order 1 that keep their shape in float32, whatever the offset or the units.
 
     Raises:
-      InvalidInputError: traced or complex points (named ``name``); a frame the compute dtype cannot
-        represent.
+      InvalidInputError: traced points, points not (m, 3) finite real numbers with m >= 1
+        (:func:`jaxpose._validate.check_array`; complex ones lost their imaginary part with a NumPy
+        warning, none were NumPy's 'zero-size array to reduction'), named ``name``; a frame the
+        compute dtype cannot represent.
     """
     check_concrete(name, points)  # (np.asarray of a tracer: JAX's TracerArrayConversionError)
-    given = np.asarray(points)
-    if not is_real_dtype(given.dtype):  # (a complex one lost its imaginary part with a NumPy warning)
-        raise InvalidInputError(f"{name} must be real numbers, got dtype {given.dtype}")
+    given = np.asarray(check_array(points, name, 1))
     arr = np.asarray(given, dtype=np.float64)
     big = float(np.max(np.abs(arr)))
     # the mean as an input point plus the mean of the differences from it: far from the origin the

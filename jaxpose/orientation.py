@@ -34,7 +34,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ._validate import InvalidInputError, check_int, check_shape
+from ._validate import InvalidInputError, check_array, check_int, check_mask, check_shape
 
 __all__ = ["Frame", "GAP_MIN", "SIGN_MIN", "SYMMETRY_MIN", "ZERO_EIGENVALUE", "proper", "descending_axes",
            "relative_gaps", "ambiguity", "complete_signs", "region_frame"]
@@ -116,7 +116,10 @@ def ambiguity(gaps, sign_ratio, contrast=None):
 
     ``sign_ratio``: the weakest used sign margin as a multiple of its threshold (e.g. m / SIGN_MIN).
     ``gaps`` (2,) (:func:`relative_gaps`), ``sign_ratio`` and ``contrast`` () real numbers;
-    InvalidInputError for other shapes or kinds (an IndexError or a TypeError of ``abs``)."""
+    InvalidInputError for other shapes or kinds (an IndexError or a TypeError of ``abs``). A NaN
+    cue is one that could not be measured (a 0 / 0 third moment: coordinates whose cubes under- or
+    overflow float64), so it determines nothing: ambiguity 1 (it was 0, "every cue clears its
+    threshold", or NaN, by its place among the others)."""
     check_shape(gaps, "gaps", (2,))
     check_shape(sign_ratio, "sign_ratio", ())
     if contrast is not None:
@@ -124,6 +127,8 @@ def ambiguity(gaps, sign_ratio, contrast=None):
     ratios = [gaps[0] / GAP_MIN, gaps[1] / GAP_MIN, abs(sign_ratio)]
     if contrast is not None:
         ratios.append(contrast / SYMMETRY_MIN)
+    if np.any(np.isnan(np.asarray(ratios, np.float64))):
+        return 1.0
     return float(np.clip(1.0 - min(ratios), 0.0, 1.0))
 
 
@@ -216,7 +221,5 @@ def _check_region_frame(second_moment, center, y, mask, axes):
     for name, value, want in (("second_moment", second_moment, (3, 3)), ("center", center, (3,)), ("axes", axes, (3, 3))):
         if shape(value) != want:
             raise InvalidInputError(f"{name} must have shape {want}, got {shape(value)}")
-    if len(shape(y)) != 2 or shape(y)[1] != 3:
-        raise InvalidInputError(f"y must have shape (m, 3), got {shape(y)}")
-    if mask is not None and shape(mask) != shape(y)[:1]:
-        raise InvalidInputError(f"mask must have shape {shape(y)[:1]}, one flag per point of y, got {shape(mask)}")
+    check_array(y, "y", finite=False)
+    check_mask(mask, shape(y)[0], "y")

@@ -66,3 +66,25 @@ def test_host_frame_keeps_digits_far_from_the_origin(offset):
 def test_host_frame_refuses_what_the_dtype_cannot_hold():
     with pytest.raises(InvalidInputError, match="outside the range"):
         host_frame(np.full((4, 3), 1e300) * np.arange(4)[:, None])
+
+
+def test_frames_refuse_empty_and_misshapen_points_by_name():
+    """prescale of one point (3,) or a batch (2, 2, 3) was einsum's 'subscript ... does not contain
+    the correct number of indices'; reference_frame of no points a NaN mean and size; host_frame of
+    none NumPy's 'zero-size array to reduction operation maximum'. Refused by name
+    (_validate.check_array, the library's rule; the mask's shape by check_mask) before anything is
+    traced; a single point is what it is (its own mean, size 0)."""
+    for call, message in (
+            (lambda: prescale(np.ones(3)), r"^points must have shape \(m, 3\), got \(3,\)"),
+            (lambda: prescale(np.ones((2, 2, 3))), r"^points must have shape \(m, 3\), got \(2, 2, 3\)"),
+            (lambda: prescale(np.ones((4, 3)), np.ones(3, bool)), r"^mask must have shape \(4,\), one flag per point"),
+            (lambda: reference_frame(np.zeros((0, 3))), r"^points needs at least 1 point, got 0$"),
+            (lambda: principal_axes(np.ones((4, 2))), r"^y must have shape \(m, 3\), got \(4, 2\)"),
+            (lambda: host_frame(np.zeros((0, 3))), r"^points needs at least 1 point, got 0$"),
+            (lambda: host_frame(np.zeros((0, 3)), name="the model's points"), "^the model's points needs at least 1 point")):
+        with pytest.raises(InvalidInputError, match=message):
+            call()
+    one = np.array([[1.0, 2.0, 3.0]])
+    mean, size = host_frame(np.r_[one, one + [0.0, 0.0, 2.0]])
+    np.testing.assert_allclose(mean, [1.0, 2.0, 4.0])
+    assert size == pytest.approx(1.0)  # each point 1 from their mean

@@ -118,3 +118,27 @@ def test_frame_pieces_refuse_other_shapes_by_name(call, message):
     # what they take is unchanged: three eigenvalues, two gaps (closed forms)
     np.testing.assert_allclose(orientation.relative_gaps([9.0, 4.0, 1.0]), [5.0 / 9.0, 3.0 / 4.0], rtol=1e-15)
     assert orientation.ambiguity([0.05, 0.5], 3.0) == pytest.approx(0.5)
+
+
+def test_a_nan_cue_is_no_cue():
+    """ambiguity took a NaN cue for one that clears its threshold: 0.0 ("well determined") where the
+    gaps came first, NaN where a NaN gap did (Python's min skips NaN but after the first). The PCA
+    frame of float64 points at 1e-120 (or 1e105) feeds it one: their cubed coordinates under- (or
+    over-)flow, the third moments are 0 / 0, the signs unread; its gaps, which clear their
+    threshold, made it 0.0. A NaN cue now determines nothing: ambiguity 1 (flagged); finite cues
+    keep the closed form."""
+    from jaxpose.rotation.rotation import frame_of
+
+    for gaps, sign, contrast in (([0.5, 0.5], np.nan, None), ([np.nan, 0.5], 2.0, None), ([0.5, 0.5], 2.0, np.nan)):
+        assert orientation.ambiguity(gaps, sign, contrast) == 1.0
+    assert orientation.ambiguity([0.5, 0.5], 2.0, 0.5 * orientation.SYMMETRY_MIN) == pytest.approx(0.5)
+    rng = np.random.default_rng(0)
+    pts = rng.normal(size=(300, 3)) * [3.0, 2.0, 1.0]
+    pts[:, 0] = np.abs(pts[:, 0]) ** 1.5  # skewed along its long axis
+    unit = frame_of(pts, "pca_vertices")
+    assert np.all(unit.gaps > orientation.GAP_MIN)  # the gaps alone clear their threshold
+    for scale in (1e-120, 1e105):
+        with np.errstate(invalid="ignore", over="ignore"):  # (baselines' 0 / 0 and overflow of the cubes)
+            tiny = frame_of(pts * scale, "pca_vertices")
+        np.testing.assert_allclose(tiny.gaps, unit.gaps, rtol=1e-9)  # the second moments are resolved
+        assert tiny.ambiguity == 1.0 and tiny.flag  # the third moments are not (was 0.0, not flagged)

@@ -485,9 +485,30 @@ def test_frame_pieces_of_a_solid_refuse_other_shapes_by_name():
             (lambda: merge_tree(sol.inside[0], sol.depth[0]), r"^inside and depth must be one 3-D grid .*got shapes \(12, 12\)"),
             (lambda: waist(np.zeros(2), 0.45), "^death must be a finite number >= 0"),
             (lambda: mirror_error(points, center, np.array([1.0, 0.0])), r"^normal must be real numbers of shape \(3,\)"),
-            (lambda: mirror_error(np.zeros((0, 3)), center, np.array([1.0, 0.0, 0.0])), "^points needs at least 1 points")):
+            (lambda: mirror_error(np.zeros((0, 3)), center, np.array([1.0, 0.0, 0.0])), "^points needs at least 1 point, got 0")):
         with pytest.raises(jaxpose.InvalidInputError, match=message):
             call()
     np.testing.assert_allclose(symmetry_scores(sol, np.eye(3), center), 1.0)
     assert mirror_error(np.r_[points, points * [-1, 1, 1]], center, np.array([1.0, 0.0, 0.0])) == 0.0
     assert waist(0.36, 0.45) and not waist(0.25, 0.45)  # 0.45 < 1.5 x 0.36; 0.45 > 1.5 x 0.25
+
+
+def test_mirror_scores_and_feet_of_an_empty_solid_are_refused_by_name():
+    """symmetry_scores and feet_offset (rotation.core, docs/api.md) of a solid with no voxel inside
+    were NumPy's 'zero-size array to reduction operation maximum'. Refused by name; their callers
+    never pass one (core_frame and head_frame flag such a solid: ambiguity 1, as before)."""
+    import jaxpose
+    from jaxpose.rotation.core import core_frame, feet_offset, symmetry_scores
+    from jaxpose.rotation.head import head_frame
+
+    sol = voxel_solid([ball((0.0, 0.0, 0.0), 0.8)], pitch=0.2, lo=(-1.2, -1.2, -1.2), hi=(1.2, 1.2, 1.2))
+    empty = sol._replace(inside=np.zeros_like(sol.inside), depth=np.zeros_like(sol.depth))
+    for call, what in ((lambda: symmetry_scores(empty, np.eye(3), np.zeros(3)), "no mirror score"),
+                       (lambda: feet_offset(empty, np.eye(3)), "no feet")):
+        with pytest.raises(jaxpose.InvalidInputError, match=rf"^sol has no voxel inside .*0 voxels set\): an empty solid has {what}"):
+            call()
+    vertices = np.random.default_rng(0).normal(size=(10, 3))
+    for frame in (core_frame(empty), head_frame(empty, vertices)):
+        assert frame.ambiguity == 1.0 and frame.flag
+        np.testing.assert_array_equal(frame.rotation, np.eye(3))
+    np.testing.assert_allclose(symmetry_scores(sol, np.eye(3), np.zeros(3)), 1.0)  # a ball: its own mirror image

@@ -446,6 +446,25 @@ def test_decision_function_refuses_queries_its_float32_cast_cannot_resolve():
     assert np.all(np.isfinite(np.asarray(decision_function(near, P[:5] + 1e-3))))
 
 
+def test_decision_value_and_grad_checks_the_cast_of_its_queries():
+    """decision_value_and_grad (svdd's __all__) cast float64 queries of a float32 model at 1e5 to
+    float32 without a word, as decision_function did before it refused them: f of other points
+    (the cast moves them by up to 0.004, 0.01 of the model's spread). It now makes decision_function's
+    check (host.check_query_cast, the dtype x is computed in: float32 without x64); exact casts
+    give what float32 queries give, bit for bit."""
+    from jaxpose.occupancy.svdd import decision_value_and_grad
+
+    if jax.config.jax_enable_x64:
+        pytest.skip("float32 only")
+    p32 = (P + 1e5).astype(np.float32)
+    svdd = fit_svdd(p32, 10.0, 0.5, **FIT)
+    with pytest.raises(InvalidInputError, match=r"^x lies so far from the origin, relative to the model's spread"):
+        decision_value_and_grad(svdd, p32[:2].astype(np.float64) + 1e-3)  # (float32's step there: 0.0078)
+    exact = decision_value_and_grad(svdd, p32[:2].astype(np.float64))
+    for got, want in zip(exact, decision_value_and_grad(svdd, p32[:2])):
+        np.testing.assert_array_equal(np.asarray(got), np.asarray(want))
+
+
 def test_gamma_and_power_beyond_the_default_float_are_refused_by_name():
     """A finite gamma (or power) that float32, JAX's default float, cannot hold became inf or 0
     inside the pipeline: a NaN pose whose status said 'gamma finite and > 0' (normalize_mesh and the

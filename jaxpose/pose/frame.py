@@ -21,6 +21,7 @@ import math
 import jax
 import jax.numpy as jnp
 
+from .._validate import check_array, check_mask
 from ..host import anchor, host_frame
 
 __all__ = ["REFERENCE_RMS", "reference_frame", "principal_axes", "prescale", "host_frame", "anchor"]
@@ -38,7 +39,13 @@ def reference_frame(points, mask=None):
     Returns:
       mean (3,) and s_ref () in the units of ``points`` (module docs). The mean takes a second
       pass over the residuals, so offsets far from the origin lose no digits.
+
+    Raises:
+      InvalidInputError: ``points`` not (m, 3) real numbers with m >= 1, or ``mask`` not (m,)
+        (shapes, known while tracing; no points gave a NaN frame, a (3,) point JAX's broadcast
+        error).
     """
+    _check(points, mask)
     m = points.shape[0]
     w = jnp.ones((m,), points.dtype) if mask is None else jnp.asarray(mask, points.dtype)
     n = jnp.sum(w)
@@ -61,7 +68,11 @@ def principal_axes(y, mask=None):
     Returns:
       (3, 3) float, eigenvectors as columns, eigenvalues ascending. Treated as a constant for
       differentiation: the exact moments do not depend on the frame the grid is laid out in.
+
+    Raises:
+      InvalidInputError: as :func:`reference_frame` (a (3,) point was an einsum error).
     """
+    _check(y, mask, "y")
     w = jnp.ones(y.shape[:1], y.dtype) if mask is None else jnp.asarray(mask, y.dtype)
     cov = jnp.einsum("m,mi,mj->ij", w, y, y) / jnp.sum(w)
     _, axes = jnp.linalg.eigh(jax.lax.stop_gradient(cov))
@@ -78,9 +89,20 @@ def prescale(points, mask=None):
       y (m, 3) = ((points - mean) / s_ref) @ axes; ``to_world``, the map of a point c of that
       frame back to mean + s_ref * axes @ c; and s_ref () (0 for degenerate input, where y is
       computed with 1 instead).
+
+    Raises:
+      InvalidInputError: as :func:`reference_frame` (a (3,) point or a batch (B, m, 3) was an
+        einsum error).
     """
     mean, size = reference_frame(points, mask)
     safe = jnp.where(size > 0, size, 1.0)
     axes = principal_axes(points - mean, mask)
     y = ((points - mean) / safe) @ axes
     return y, (lambda c: mean + safe * (axes @ c)), size
+
+
+def _check(points, mask, name="points"):
+    """(m, 3) real ``points`` with m >= 1 and a ``mask`` None or (m,), by their shapes and dtype
+    (known while tracing; values are not read: a NaN is the pose's status to report)."""
+    check_array(points, name, 1, finite=False)
+    check_mask(mask, jnp.shape(points)[0], name)

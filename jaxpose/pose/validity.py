@@ -47,7 +47,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._validate import InvalidInputError, is_real_dtype
+from .._validate import InvalidInputError, check_array, check_mask
 from ..occupancy.kernels import map_blocks
 from .frame import REFERENCE_RMS, reference_frame
 from .result import MAX_CELL, MAX_ROUNDING, MAX_SPACING, MIN_SPREAD, Status, status_message
@@ -60,18 +60,12 @@ __all__ = ["Status", "MAX_SPACING", "MAX_CELL", "MIN_SPREAD", "MAX_ROUNDING", "s
 
 def _check_points(y, mask=None, name="y"):
     """The shapes (and kinds) the checks read, known while tracing (values are not read): ``y``
-    (m, 3) real with m >= 1, ``mask`` None or (m,). InvalidInputError naming the one that does
-    not fit: empty points were NumPy's / JAX's "zero-size array to reduction operation" ValueError
-    or an IndexError, other shapes their broadcast or axis errors. Returns None."""
-    shape = tuple(jnp.shape(y))
-    if len(shape) != 2 or shape[1] != 3 or shape[0] < 1:
-        raise InvalidInputError(f"{name} must have shape (m, 3) with m >= 1 points, got {shape}")
-    dtype = y.dtype if hasattr(y, "dtype") else np.asarray(y).dtype  # (a tracer's is known; a list's)
-    if not is_real_dtype(dtype):
-        raise InvalidInputError(f"{name} must be real numbers, got dtype {np.dtype(dtype)}")
-    if mask is not None and tuple(jnp.shape(mask)) != shape[:1]:
-        raise InvalidInputError(f"mask must have shape {shape[:1]}, one flag per point of {name}, got "
-                                f"{tuple(jnp.shape(mask))}")
+    (m, 3) real with m >= 1 (:func:`jaxpose._validate.check_array`, the library's rule), ``mask``
+    None or (m,) (:func:`jaxpose._validate.check_mask`). InvalidInputError naming the one that
+    does not fit: empty points were NumPy's / JAX's "zero-size array to reduction operation"
+    ValueError or an IndexError, other shapes their broadcast or axis errors. Returns None."""
+    check_array(y, name, 1, finite=False)
+    check_mask(mask, tuple(jnp.shape(y))[0], name)
 
 
 def _masked_median(values, mask):

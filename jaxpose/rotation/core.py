@@ -182,14 +182,23 @@ def _weights(d, power):
     return (d / top) ** float(power) if top > 0 else np.ones_like(d)
 
 
+def _check_voxels(sol, what):
+    """``sol`` a Solid with its depth (:func:`parts.check_solid`) and at least one voxel inside;
+    InvalidInputError saying ``what`` an empty one has otherwise."""
+    parts.check_solid(sol)
+    if not np.any(sol.inside):
+        raise InvalidInputError(f"sol has no voxel inside (its inside is {np.shape(sol.inside)}, 0 voxels set): an "
+                                f"empty solid has {what}; core_frame and head_frame flag such a solid instead")
+
+
 def symmetry_scores(sol, axes, center, power=SYMMETRY_POWER):
     """Mirror self-overlap (3,) of the depth^p-weighted solid about the plane through ``center``
     orthogonal to each row of ``axes`` (grid coordinates): s_a = sum min(w(x), w(M_a x)) / sum w(x),
     M_a the reflection, w read at the voxel nearest M_a x (0 outside). 1 for a mirror-symmetric solid.
-    InvalidInputError for a ``sol`` that is no Solid with its depth (:func:`parts.check_solid`),
-    ``axes`` not (3, 3), ``center`` not (3,), a power not a finite number >= 0 (NumPy's broadcast
-    errors)."""
-    parts.check_solid(sol)
+    InvalidInputError for a ``sol`` that is no Solid with its depth (:func:`parts.check_solid`) or
+    has no voxel inside (no score: NumPy's 'zero-size array to reduction'), ``axes`` not (3, 3),
+    ``center`` not (3,), a power not a finite number >= 0 (NumPy's broadcast errors)."""
+    _check_voxels(sol, "no mirror score")
     check_shape(axes, "axes", (3, 3), finite=True)
     center = check_shape(center, "center", (3,), finite=True)
     check_real(power, "power", 0)
@@ -227,10 +236,11 @@ def feet_offset(sol, axes, up=0, forward=2):
       () the offset s (0 when no part is found).
 
     Raises:
-      InvalidInputError: ``sol`` no Solid with its depth, ``axes`` not (3, 3), ``up`` and
-        ``forward`` not two different axes 0, 1, 2 (NumPy's IndexError).
+      InvalidInputError: ``sol`` no Solid with its depth, or one with no voxel inside (NumPy's
+        'zero-size array to reduction'), ``axes`` not (3, 3), ``up`` and ``forward`` not two
+        different axes 0, 1, 2 (NumPy's IndexError).
     """
-    parts.check_solid(sol)
+    _check_voxels(sol, "no feet")
     check_shape(axes, "axes", (3, 3), finite=True)
     if check_int(up, "up", 0) > 2 or check_int(forward, "forward", 0) > 2 or up == forward:
         raise InvalidInputError(f"up and forward must be two different axes, 0, 1 or 2, got {up!r} and {forward!r}")

@@ -21,6 +21,7 @@ from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from ... import _validate
 from ...config import BLOCK
@@ -190,11 +191,16 @@ def decision_value_and_grad(svdd: SVDD, x, block=BLOCK):
 
     Raises:
       InvalidInputError: as :func:`decision_function`'s checks of ``svdd``, ``x`` and ``block``
-        (``svdd`` no SVDD was an AttributeError, x of another shape an IndexError).
+        (``svdd`` no SVDD was an AttributeError, x of another shape an IndexError), its check of
+        the cast of concrete x too (:func:`jaxpose.host.check_query_cast`), against the dtype x is
+        computed in with the model's points: float64 queries of a float32 model without x64 are
+        cast to float32 (they were, silently, where that cast moved them off the model), with x64
+        they are computed in float64 and nothing is cast.
     """
     check_svdd(svdd, "jax.vmap(decision_value_and_grad, in_axes=(0, None))(svdd, x)")
     _validate.check_array(x, name="x")
     block = _validate.check_int(block, "block", 1)
+    _check_cast(svdd, x, np.result_type(_validate.compute_dtype(x), np.dtype(svdd.points.dtype)))
     p, a, g = svdd.points, svdd.alpha, svdd.gamma
     x = _validate.jax_value(x)  # (NumPy's longdouble: its float64 values)
 
@@ -244,14 +250,13 @@ def decision_function(svdd: SVDD, x, block=BLOCK):
     return map_blocks(lambda xb: 2.0 * (gaussian_kernel(xb, p, g) @ a) - svdd.offset, x, block)
 
 
-def _check_cast(svdd, x):
+def _check_cast(svdd, x, dtype=None):
     """:func:`jaxpose.host.check_query_cast` of concrete x against a concrete model: the model's
-    spread is that of its points (the rows its mask keeps); only where the cast changes x."""
-    import numpy as np
-
+    spread is that of its points (the rows its mask keeps); only where the cast to ``dtype`` (None:
+    the model's) changes x."""
     from ...host import check_query_cast, host_frame
 
-    dtype = np.dtype(svdd.points.dtype)
+    dtype = np.dtype(svdd.points.dtype if dtype is None else dtype)
     given = getattr(x, "dtype", None)  # (NumPy and JAX arrays: no copy where nothing is cast)
     if _validate.is_traced(x) or (given is not None and np.dtype(given) == dtype):
         return

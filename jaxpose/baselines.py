@@ -28,7 +28,7 @@ from . import sample
 from ._validate import InvalidInputError, JaxposeError, check_concrete, is_name, is_real_dtype
 from .geometry import is_closed, require_faces, split_geometry, triangle_areas, warn_if_open
 from .host import anchor
-from .orientation import SIGN_MIN, Frame, ambiguity, complete_signs, proper, relative_gaps
+from .orientation import SIGN_MIN, Frame, ambiguity, complete_signs, proper, relative_gaps, third_moments
 from .occupancy.voxels import depth_weighted_solid, filled_voxels, weighted_centroid
 
 __all__ = [
@@ -370,8 +370,7 @@ def _skew_frame(x):
     lam, vec = np.linalg.eigh(d.T @ d / len(x))
     lam, axes = lam[::-1], vec[:, ::-1].T
     z = d @ axes.T
-    r = np.sqrt(np.mean(np.sum(z * z, axis=1)))
-    stat = np.mean(z ** 3, axis=0) / r ** 3 / SIGN_MIN
+    stat = third_moments(z) / SIGN_MIN  # (scale-free: cubes beyond 1e102 or below 1e-103 were inf or 0 / 0)
     rot, margins, k = complete_signs(axes, stat)
     gaps = relative_gaps(lam)
     return Frame(rot, ambiguity(gaps, np.min(np.delete(margins, k))), lam, gaps, margins, k, np.full(3, np.nan))

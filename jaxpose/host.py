@@ -30,8 +30,8 @@ def host_frame(points, name: str = "points"):
     Raises:
       InvalidInputError: traced points, points not (m, 3) finite real numbers with m >= 1
         (:func:`jaxpose._validate.check_array`; complex ones lost their imaginary part with a NumPy
-        warning, none were NumPy's 'zero-size array to reduction'), named ``name``; a frame the
-        compute dtype cannot represent.
+        warning, none were NumPy's 'zero-size array to reduction'), named ``name``; points all
+        identical (one point: no spread); a frame the compute dtype cannot represent.
     """
     check_concrete(name, points)  # (np.asarray of a tracer: JAX's TracerArrayConversionError)
     given = np.asarray(check_array(points, name, 1))
@@ -49,6 +49,9 @@ def host_frame(points, name: str = "points"):
     spread = float(np.max(np.abs(d)))
     rms = spread * float(np.sqrt(np.mean(np.sum((d / spread) ** 2, axis=1)))) if spread > 0 else 0.0
     finfo = np.finfo(compute_dtype(points))
+    if rms == 0 and big <= float(finfo.max):  # (it read "outside the range of float32 (rescale the input ...)")
+        same = "one point" if len(arr) == 1 else f"all {len(arr)} identical"
+        raise InvalidInputError(f"{name} have no spread to scale by ({same}); give at least two distinct points")
     if not (np.all(np.isfinite(mean)) and np.isfinite(rms)) or big > float(finfo.max) or not rms > float(finfo.tiny):
         raise InvalidInputError(
             f"{name} span {rms:.3g} at coordinates up to {big:.3g}: outside the range of {finfo.dtype} "

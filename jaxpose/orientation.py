@@ -34,10 +34,10 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ._validate import InvalidInputError, check_array, check_int, check_mask, check_shape
+from ._validate import InvalidInputError, check_array, check_int, check_mask, check_shape, is_real_dtype
 
-__all__ = ["Frame", "GAP_MIN", "SIGN_MIN", "SYMMETRY_MIN", "ZERO_EIGENVALUE", "proper", "descending_axes",
-           "relative_gaps", "ambiguity", "complete_signs", "region_frame"]
+__all__ = ["Frame", "GAP_MIN", "SIGN_MIN", "SYMMETRY_MIN", "ZERO_EIGENVALUE", "SAFE_SPREAD", "proper", "descending_axes",
+           "relative_gaps", "third_moments", "ambiguity", "complete_signs", "region_frame"]
 
 GAP_MIN = 0.10  # relative eigen-gap below which two axes are called interchangeable
 SIGN_MIN = 0.02  # third moment E[z^3] / r^3 below which a sign is called undetermined
@@ -78,8 +78,9 @@ class Frame(NamedTuple):
 
 def proper(r):
     """r (3, 3) with its last row negated when det r < 0: a proper rotation from orthonormal rows.
-    InvalidInputError for another shape or kind (NumPy's LinAlgError)."""
-    r = np.array(check_shape(r, "r", (3, 3)), np.float64)
+    InvalidInputError for another shape or kind (NumPy's LinAlgError), or NaN or inf (returned as
+    NaN, with NumPy's RuntimeWarning)."""
+    r = np.array(check_shape(r, "r", (3, 3), finite=True), np.float64)
     if np.linalg.det(r) < 0:
         r[2] = -r[2]
     return r
@@ -109,6 +110,36 @@ def relative_gaps(lam):
     lam = np.asarray(check_shape(lam, "lam", (3,)), np.float64)
     lam = np.where(lam > ZERO_EIGENVALUE * max(lam[0], 0.0), lam, 0.0)
     return np.array([(lam[0] - lam[1]) / max(lam[0], 1e-300), (lam[1] - lam[2]) / max(lam[1], 1e-300)])
+
+
+SAFE_SPREAD = (1e-90, 1e90)  # RMS spreads whose cubed coordinates float64 sums without under- or overflow
+
+
+def third_moments(z):
+    """(k,) the signed third moments E[z_j^3] / r^3 of centered coordinates ``z`` (n, k) along each
+    column, r^2 = E[|z|^2] (the sign statistics of the frames, scale-free).
+
+    Computed as written where the RMS spread r lies in :data:`SAFE_SPREAD`; outside, ``z`` is first
+    scaled by a power of 2 (exact) to a spread near 1: cubes of coordinates beyond about 1e102
+    overflow float64 and below about 1e-103 underflow, which made the statistic inf or 0 / 0 (NaN)
+    and the frame's signs unread. InvalidInputError for ``z`` no (n, k) real array with n >= 1.
+
+    Example::
+
+        third_moments(np.array([[-1.0], [-1.0], [2.0]]))   # [0.7071]: E[z^3] = 2 over r^3 = sqrt(2)^3
+    """
+    given = np.asarray(z)
+    if given.ndim != 2 or not len(given) or not is_real_dtype(given.dtype):
+        raise InvalidInputError(f"z must be real numbers of shape (n, k) with n >= 1, got {given.dtype} of shape "
+                                f"{given.shape}")
+    z = given.astype(np.float64, copy=False)
+    r = np.sqrt(np.mean(np.sum(z * z, axis=1)))
+    if not SAFE_SPREAD[0] < r < SAFE_SPREAD[1]:
+        top = float(np.max(np.abs(z)))
+        if top > 0:  # (all zero: 0 / 0, no direction to read)
+            z = np.ldexp(z, -np.frexp(top)[1])  # |z| <= 1, exact
+            r = np.sqrt(np.mean(np.sum(z * z, axis=1)))
+    return np.mean(z ** 3, axis=0) / r ** 3
 
 
 def ambiguity(gaps, sign_ratio, contrast=None):

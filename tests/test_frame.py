@@ -85,6 +85,11 @@ def test_frames_refuse_empty_and_misshapen_points_by_name():
         with pytest.raises(InvalidInputError, match=message):
             call()
     one = np.array([[1.0, 2.0, 3.0]])
+    # one point, or one repeated, read "span 0 ...: outside the range of float32 (rescale the input, or
+    # enable jax_enable_x64)": no rescaling or x64 gives them a spread
+    for same, what in ((one, "one point"), (np.repeat(one, 5, axis=0), "all 5 identical")):
+        with pytest.raises(InvalidInputError, match=rf"^points have no spread to scale by \({what}\)"):
+            host_frame(same)
     mean, size = host_frame(np.r_[one, one + [0.0, 0.0, 2.0]])
     np.testing.assert_allclose(mean, [1.0, 2.0, 4.0])
     assert size == pytest.approx(1.0)  # each point 1 from their mean

@@ -122,23 +122,36 @@ def test_frame_pieces_refuse_other_shapes_by_name(call, message):
 
 def test_a_nan_cue_is_no_cue():
     """ambiguity took a NaN cue for one that clears its threshold: 0.0 ("well determined") where the
-    gaps came first, NaN where a NaN gap did (Python's min skips NaN but after the first). The PCA
-    frame of float64 points at 1e-120 (or 1e105) feeds it one: their cubed coordinates under- (or
-    over-)flow, the third moments are 0 / 0, the signs unread; its gaps, which clear their
-    threshold, made it 0.0. A NaN cue now determines nothing: ambiguity 1 (flagged); finite cues
-    keep the closed form."""
-    from jaxpose.rotation.rotation import frame_of
-
+    gaps came first, NaN where a NaN gap did (Python's min skips NaN but after the first). A cue that
+    could not be measured determines nothing: ambiguity 1 (flagged); finite cues keep the closed form."""
     for gaps, sign, contrast in (([0.5, 0.5], np.nan, None), ([np.nan, 0.5], 2.0, None), ([0.5, 0.5], 2.0, np.nan)):
         assert orientation.ambiguity(gaps, sign, contrast) == 1.0
     assert orientation.ambiguity([0.5, 0.5], 2.0, 0.5 * orientation.SYMMETRY_MIN) == pytest.approx(0.5)
+
+
+def test_sign_cues_are_scale_free():
+    """The PCA frames (and core's) fed ambiguity a NaN or inf sign cue for float64 points at 1e-120
+    or 1e105: their cubed coordinates under- or overflow, the third moments were 0 / 0 or inf, the
+    signs unread, and the frame was reported determined (ambiguity 0.0) where the same points at
+    unit scale have a sign cue at 0.21 of its threshold (ambiguity 0.79, flagged). orientation.third_moments
+    scales such coordinates by a power of 2 first (exact): the frame of a scaled copy is the frame."""
+    from jaxpose.rotation.rotation import frame_of
+
     rng = np.random.default_rng(0)
     pts = rng.normal(size=(300, 3)) * [3.0, 2.0, 1.0]
     pts[:, 0] = np.abs(pts[:, 0]) ** 1.5  # skewed along its long axis
     unit = frame_of(pts, "pca_vertices")
-    assert np.all(unit.gaps > orientation.GAP_MIN)  # the gaps alone clear their threshold
+    assert 0 < unit.ambiguity < 1 and np.all(unit.gaps > orientation.GAP_MIN)  # the weak cue is a sign
     for scale in (1e-120, 1e105):
-        with np.errstate(invalid="ignore", over="ignore"):  # (baselines' 0 / 0 and overflow of the cubes)
-            tiny = frame_of(pts * scale, "pca_vertices")
-        np.testing.assert_allclose(tiny.gaps, unit.gaps, rtol=1e-9)  # the second moments are resolved
-        assert tiny.ambiguity == 1.0 and tiny.flag  # the third moments are not (was 0.0, not flagged)
+        scaled = frame_of(pts * scale, "pca_vertices")
+        np.testing.assert_allclose(scaled.rotation, unit.rotation, atol=1e-12)
+        np.testing.assert_allclose(scaled.margins, unit.margins, rtol=1e-12)
+        assert scaled.ambiguity == pytest.approx(unit.ambiguity, rel=1e-12)  # was 0.0
+    z = np.array([[-1.0, 3.0], [-1.0, -1.0], [2.0, -2.0]])  # closed form: E[z^3] / E[|z|^2]^(3/2)
+    want = np.mean(z ** 3, axis=0) / np.mean(np.sum(z * z, axis=1)) ** 1.5
+    for scale in (1.0, 1e-150, 1e150):
+        np.testing.assert_allclose(orientation.third_moments(z * scale), want, rtol=1e-14)
+    with pytest.raises(jaxpose.InvalidInputError, match=r"^z must be real numbers of shape \(n, k\)"):
+        orientation.third_moments(np.zeros((0, 3)))
+    with pytest.raises(jaxpose.InvalidInputError, match="^r must be finite"):  # was a NaN rotation and a RuntimeWarning
+        orientation.proper(np.full((3, 3), np.nan))

@@ -512,3 +512,23 @@ def test_mirror_scores_and_feet_of_an_empty_solid_are_refused_by_name():
         assert frame.ambiguity == 1.0 and frame.flag
         np.testing.assert_array_equal(frame.rotation, np.eye(3))
     np.testing.assert_allclose(symmetry_scores(sol, np.eye(3), np.zeros(3)), 1.0)  # a ball: its own mirror image
+
+
+def test_mirror_error_reads_the_normal_as_a_direction():
+    """head.mirror_error (docs/api.md) took its normal as a unit vector without a word: a zero
+    normal read 0.0 (a perfect mirror) for any points, a normal of length 2 reflected them off the
+    plane (a line's mirror error about its own perpendicular plane read 0.5). The plane is the one
+    normal to the direction; a zero normal is refused by name."""
+    import jaxpose
+    from jaxpose.rotation.head import mirror_error
+
+    line = np.c_[np.linspace(-1.0, 1.0, 21), np.zeros(21), np.zeros(21)]  # symmetric about x = 0
+    skew = line[line[:, 0] >= -0.5]  # x in [-0.5, 1]: reflected in x = 0, 10 of 16 land on points
+    e = np.array([1.0, 0.0, 0.0])
+    # independent oracle: the reflection x -> -x, nearest neighbours by brute force
+    want = np.mean([np.min(np.abs(skew[:, 0] + x)) for x in skew[:, 0]])
+    for normal in (e, 2.0 * e, 1e-3 * e):
+        assert mirror_error(line, np.zeros(3), normal) == pytest.approx(0.0, abs=1e-12)
+        assert mirror_error(skew, np.zeros(3), normal) == pytest.approx(want, rel=1e-12)
+    with pytest.raises(jaxpose.InvalidInputError, match="^normal is zero: no plane to mirror in"):
+        mirror_error(line, np.zeros(3), np.zeros(3))

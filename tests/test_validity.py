@@ -115,3 +115,16 @@ def test_checks_refuse_empty_and_misshapen_points_by_name(call, message):
     two = np.array([[0.0, 0.0, 0.0], [3.0, 4.0, 0.0]])
     assert float(median_spacing(two)) == pytest.approx(np.linalg.norm(two[1] - two[0]))
     assert float(median_spacing(two[:1])) == np.inf and bool(validity.no_extent(two[:1]))
+
+
+def test_range_and_offset_checks_of_integer_points():
+    """validity.unresolved_size and unresolved_offset (docs/api.md) of integer points (real numbers,
+    as every points argument takes them) leaked JAX's "data type <class 'numpy.int32'> not inexact"
+    (finfo of an integer dtype). Integers are judged in the float dtype they compute in (float32
+    here, as normalize casts them): the answers of their float32 cast."""
+    pts = np.round(sphere_with_arm(64, seed=0) * 100).astype(np.int64)
+    for check in (validity.unresolved_size, validity.unresolved_offset):
+        assert bool(check(pts)) == bool(check(pts.astype(np.float32))) is False
+        assert bool(check(pts, np.arange(64) < 60)) == bool(check(pts.astype(np.float32), np.arange(64) < 60))
+    far = pts + 2 ** 20  # (float32's step there, eps 2**20 = 0.125, exceeds 1e-3 of their spread)
+    assert bool(validity.unresolved_offset(far)) and bool(validity.unresolved_offset(far.astype(np.float32)))

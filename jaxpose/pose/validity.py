@@ -47,7 +47,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._validate import InvalidInputError, check_array, check_mask
+from .._validate import InvalidInputError, check_array, check_mask, compute_dtype, is_traced
 from ..occupancy.kernels import map_blocks
 from .frame import REFERENCE_RMS, reference_frame
 from .result import MAX_CELL, MAX_ROUNDING, MAX_SPACING, MIN_SPREAD, Status, status_message
@@ -66,6 +66,17 @@ def _check_points(y, mask=None, name="y"):
     ValueError or an IndexError, other shapes their broadcast or axis errors. Returns None."""
     check_array(y, name, 1, finite=False)
     check_mask(mask, tuple(jnp.shape(y))[0], name)
+
+
+def _floats(points):
+    """``points`` as a JAX array of floats: a float dtype as it is (bfloat16 too), integers in the
+    dtype they are computed in (:func:`jaxpose._validate.compute_dtype`: float32, float64 with x64;
+    cast before JAX sees them, so int64 beyond int32 keeps its value)."""
+    given = getattr(points, "dtype", None)
+    if given is not None and jnp.issubdtype(given, jnp.inexact):
+        return jnp.asarray(points)
+    x = points if is_traced(points) else np.asarray(points)
+    return jnp.asarray(x if jnp.issubdtype(x.dtype, jnp.inexact) else x.astype(compute_dtype(x)))
 
 
 def _masked_median(values, mask):
@@ -182,7 +193,8 @@ def unresolved_size(points, mask=None):
     differentiated.
 
     Args:
-      points: (m, 3) float, m >= 1, as given to the pipeline (traced); mask: optional (m,) bool.
+      points: (m, 3) real, m >= 1, as given to the pipeline (traced; integers are judged in the
+        float dtype they compute in, :func:`jaxpose._validate.compute_dtype`); mask: optional (m,) bool.
         Other shapes: InvalidInputError (:func:`_check_points`).
 
     Example::
@@ -190,7 +202,7 @@ def unresolved_size(points, mask=None):
         unresolved_size(jnp.asarray(points * 1e-20, jnp.float32))   # True
     """
     _check_points(points, mask, "points")
-    x = jax.lax.stop_gradient(jnp.asarray(points))
+    x = jax.lax.stop_gradient(_floats(points))  # (integers: the float dtype they compute in; was finfo's ValueError)
     _, size = reference_frame(x, mask)
     finfo = jnp.finfo(x.dtype)
     smallest = math.sqrt(1.5 * float(finfo.tiny) / MAX_ROUNDING)  # the least RMS whose size is trusted
@@ -214,10 +226,11 @@ def unresolved_offset(points, mask=None):
     from the origin (|x| >> spread) has lost its shape before any computation, and every result
     computed from it is off by about that rounding. Concrete inputs are moved near the origin on
     the host first (:func:`jaxpose.host.host_frame`) and never trip this. Not differentiated.
-    ``points`` (m, 3), m >= 1, ``mask`` None or (m,): InvalidInputError otherwise.
+    ``points`` (m, 3) real (integers judged in the float dtype they compute in), m >= 1, ``mask``
+    None or (m,): InvalidInputError otherwise.
     """
     _check_points(points, mask, "points")
-    x = jax.lax.stop_gradient(jnp.asarray(points))
+    x = jax.lax.stop_gradient(_floats(points))  # (integers: the float dtype they compute in; was finfo's ValueError)
     w = jnp.ones(x.shape[:1], bool) if mask is None else jnp.asarray(mask, bool)
     n = jnp.maximum(jnp.sum(w), 1).astype(x.dtype)
     big = jnp.max(jnp.where(w[:, None], jnp.abs(x), 0))

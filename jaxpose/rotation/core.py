@@ -45,7 +45,7 @@ from .._validate import InvalidInputError, check_array, check_concrete, check_fa
 from ..geometry import surface_labels
 from ..occupancy import solid
 from . import parts
-from ..orientation import SIGN_MIN, SYMMETRY_MIN, Frame, ambiguity, complete_signs, descending_axes, relative_gaps
+from ..orientation import SIGN_MIN, SYMMETRY_MIN, Frame, ambiguity, complete_signs, descending_axes, relative_gaps, third_moments
 
 __all__ = ["FOOT", "FEET_DEPTH", "FOOT_MIN", "AXES_POWER", "SYMMETRY_POWER", "OFF_SOLID", "pre_frame", "frame_solid",
            "symmetry_scores", "feet_offset", "core_frame"]
@@ -297,8 +297,7 @@ def core_frame(sol, power=AXES_POWER, feet=True, cross_check=True) -> Frame:
     z = y - c
     lam, axes = descending_axes((z * w[:, None]).T @ z / w.sum())
     zc = _turned(y - y.mean(axis=0), axes.T)
-    r = np.sqrt(np.mean(np.sum(zc * zc, axis=1)))
-    stat = np.mean(zc ** 3, axis=0) / r ** 3 / SIGN_MIN  # signed, in multiples of the threshold
+    stat = third_moments(zc) / SIGN_MIN  # signed, in multiples of the threshold
     conf = np.abs(stat)
     w2 = _weights(d, SYMMETRY_POWER)
     sym = symmetry_scores(sol, axes, (w2 @ y) / w2.sum())

@@ -81,7 +81,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .. import sample
-from .._validate import check_array, check_shape
+from .._validate import InvalidInputError, check_array, check_shape
 from ..geometry import is_closed
 from . import parts
 from ..orientation import GAP_MIN, SYMMETRY_MIN, Frame, ambiguity
@@ -297,12 +297,17 @@ def front_back_cues(geo, front_back):
 
 def mirror_error(points, center, normal):
     """Mean distance (units) from each of the (n, 3) points reflected in the plane through
-    ``center`` normal to ``normal`` (unit) to the nearest of the points: 0 for a mirror-symmetric set.
-    InvalidInputError for points not (n, 3) finite with n >= 1 (none: a NaN), ``center`` or ``normal``
-    not (3,) finite (NumPy's broadcast errors)."""
+    ``center`` normal to ``normal`` (any length: its direction) to the nearest of the points: 0 for
+    a mirror-symmetric set. InvalidInputError for points not (n, 3) finite with n >= 1 (none: a
+    NaN), ``center`` or ``normal`` not (3,) finite (NumPy's broadcast errors), a zero ``normal`` (no
+    plane: it read 0, a perfect mirror; a normal of another length reflected off the plane)."""
     points = np.asarray(check_array(points, "points", 1), np.float64)
     center = check_shape(center, "center", (3,), finite=True)
-    normal = check_shape(normal, "normal", (3,), finite=True)
+    normal = np.asarray(check_shape(normal, "normal", (3,), finite=True), np.float64)
+    length = float(np.linalg.norm(normal))
+    if not length > 0:
+        raise InvalidInputError("normal is zero: no plane to mirror in; give the plane's normal direction")
+    normal = normal / length
     reflected = points - 2.0 * ((points - center) @ normal)[:, None] * normal
     return float(cKDTree(points).query(reflected)[0].mean())
 

@@ -329,6 +329,11 @@ def test_a_method_spelled_with_its_default_power_is_a_repeat():
         estimate_many(shape, ["robust", "robust:4"])
     with pytest.raises(InvalidInputError, match="both are robust at power 3"):
         estimate_many(shape, ["robust", "robust:3"], power=3)
+    from jaxpose.pose.estimators import method_key
+
+    for bad in (float("nan"), True, 10 ** 400):  # (method_key read them: 'robust at power nan', OverflowError; review)
+        with pytest.raises(InvalidInputError, match="power must be"):
+            method_key("robust", {"power": bad})
     powered = estimate_many(shape, ["robust", "robust:4"], power=3)  # robust at 3 and at 4: two methods
     assert not np.array_equal(powered["robust"].center, powered["robust:4"].center)
     np.testing.assert_array_equal(powered["robust:4"].center, poses["robust"].center)

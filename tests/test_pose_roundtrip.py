@@ -332,6 +332,28 @@ def test_a_pose_built_directly_refuses_what_from_center_scale_refuses():
         jax.jit(lambda r: Pose(jnp.zeros(3), 2.0, rotation=r).matrix)(jnp.ones((3, 2)))
 
 
+def test_the_rotation_rule_holds_a_rotation_to_its_own_precision():
+    """A proper rotation stored in float16 or bfloat16 (|R R^T - I| 2e-4 and 3e-3: their rounding) was
+    refused by a fixed 1e-5 (review); the rule is 8 epsilons of such a dtype (rotation_tol), 1e-4 for
+    float32 and float64 (a rotation written with 5 decimals passes; one 1e-3 off is refused), one
+    rule for a Pose and for evaluate_rotation's rotations. Oracle: trimesh's rotation matrix."""
+    from jaxpose.evaluation.rotation import _rotations
+    from jaxpose.pose.result import rotation_tol
+
+    r = trimesh.transformations.rotation_matrix(0.7, (1.0, 2.0, 3.0))[:3, :3]
+    x = np.array([[1.0, 2.0, 3.0], [0.5, -1.0, 2.0]])
+    for dtype in (jnp.float16, jnp.bfloat16, np.float32):
+        low = jnp.asarray(r, dtype)
+        got = np.asarray(Pose(np.zeros(3), 2.0, rotation=low).apply(x), np.float64)
+        np.testing.assert_allclose(got, x @ r.T / 2.0, atol=8 * float(jnp.finfo(dtype).eps) * 10)
+        _rotations(low[None])
+    assert rotation_tol(jnp.bfloat16) == 0.0625 and rotation_tol(np.float64) == 1e-4
+    Pose(np.zeros(3), 1.0, rotation=np.round(r, 5)).apply(x)  # (5 decimals: ~1e-5 off)
+    for check in (lambda m: Pose(np.zeros(3), 1.0, rotation=m).apply(x), lambda m: _rotations(m[None])):
+        with pytest.raises(InvalidInputError, match="within 0.0001|> 0.0001"):
+            check(r + np.diag([1e-3, 0.0, 0.0]))
+
+
 @pytest.mark.parametrize("x64_on", [False, True])
 def test_rotations_of_the_library_pass_the_rotation_rule(x64_on, request):
     """The library's own rotations (normalize(..., rotation=True), the ocsvm frame: float32, off by

@@ -50,20 +50,20 @@ def _real_array(value, name, shape, what):
     return arr.astype(np.float64)
 
 
-_ROTATION_TOL = 1e-4  # |R R^T - I| (largest entry) a rotation may carry: float32 frames sit near 1e-6
-
-
 def _rotations(rotations):
     """rotations as an (n, 3, 3) float64 array (n >= 1) of finite numbers, each a proper rotation
-    (R R^T = I within _ROTATION_TOL, det R > 0); InvalidInputError otherwise (a matrix that
+    (R R^T = I within :func:`jaxpose.pose.result.rotation_tol` of its dtype, the Pose's rule; det R > 0); InvalidInputError otherwise (a matrix that
     is not one gave an angle all the same: zeros read 180 degrees from their "mean")."""
+    from ..pose.result import rotation_tol
+
+    tol = rotation_tol(getattr(rotations, "dtype", None))
     rs = _real_array(rotations, "rotations", lambda s: len(s) == 3 and s[0] >= 1 and s[1:] == (3, 3),
                      "an (n, 3, 3) array of finite numbers, n >= 1")
     deviation = np.max(np.abs(rs @ np.swapaxes(rs, 1, 2) - np.eye(3)), axis=(1, 2))
-    bad = np.flatnonzero((deviation > _ROTATION_TOL) | (np.linalg.det(rs) <= 0))
+    bad = np.flatnonzero((deviation > tol) | (np.linalg.det(rs) <= 0))
     if len(bad):
         k = int(bad[0])
-        raise InvalidInputError(f"rotations must be proper rotations (R R^T = I within {_ROTATION_TOL:g}, det R = +1); "
+        raise InvalidInputError(f"rotations must be proper rotations (R R^T = I within {tol:g}, det R = +1); "
                                 f"{len(bad)} of {len(rs)} are not, e.g. rotations[{k}] (|R R^T - I| "
                                 f"{deviation[k]:.3g}, det {np.linalg.det(rs[k]):.3g})")
     return rs

@@ -97,8 +97,8 @@ def default_power(center, options=None):
     ``depth_weighted_solid``. None for a center without depth weights."""
     if center not in POWERED:
         return None
-    if options and options.get("power") is not None:
-        return options["power"]
+    if options and options.get("power") is not None:  # (a NaN, a bool or 1e400: refused by name)
+        return _validate.check_real(options["power"], "power", 0)
     return ROBUST_POWER if center == "robust_depth" else voxels.DEPTH_POWER
 
 

@@ -20,7 +20,7 @@ if TYPE_CHECKING:  # annotations only
     import jax
 
 __all__ = ["Pose", "host", "Status", "status_message", "MAX_SPACING", "MAX_CELL", "MIN_SPREAD", "MAX_ROUNDING", "MIN_POINT_VOXELS",
-           "ROTATION_TOL",
+           "ROTATION_TOL", "rotation_tol",
            "SECOND_BODY"]
 
 MAX_SPACING = 2.0  # median nearest-neighbour distance of the samples, in kernel widths
@@ -546,7 +546,25 @@ def _per_set(center, scale):
     return center, scale
 
 
-ROTATION_TOL = 1e-5  # |R R^T - I| of a proper rotation, at most (float32 rotations of the library: ~1e-6)
+ROTATION_TOL = 1e-4  # |R R^T - I| of a proper float32/float64 rotation, at most (the library's float32 ones: ~1e-6)
+
+
+def rotation_tol(dtype=None):
+    """The largest entry of |R R^T - I| a proper rotation of ``dtype`` may carry: :data:`ROTATION_TOL`
+    (1e-4: the library's float32 rotations sit near 1e-6, and a rotation written with 5 decimals
+    passes), or 8 machine epsilons of a coarser float (float16 0.0078, bfloat16 0.0625).
+
+    Example:
+      >>> rotation_tol(np.float32), rotation_tol(np.float16)
+      (0.0001, 0.0078125)
+    """
+    import ml_dtypes  # (JAX's own dependency: its finfo knows bfloat16)
+
+    try:
+        eps = float(ml_dtypes.finfo(np.dtype(dtype if dtype is not None else np.float64)).eps)
+    except (TypeError, ValueError):  # an integer or other dtype: no epsilon of its own
+        eps = 0.0
+    return max(ROTATION_TOL, 8.0 * eps)
 
 
 def _check_rotation(rotation, batch, name="rotation"):
@@ -554,21 +572,22 @@ def _check_rotation(rotation, batch, name="rotation"):
     ``inverse`` of a Pose built directly): shape batch + (3, 3), real numbers, traced or not; where
     concrete (its values read on the host; a traced one's are not, under jit, vmap or grad) a
     proper rotation: finite, orthonormal rows (every entry of R R^T - I within ``ROTATION_TOL``,
-    which float32 rotations pass) and det R > 0 (a reflection, det -1, is refused).
+    :func:`rotation_tol` of its dtype: float32 rotations pass, float16 ones at their precision) and det R > 0 (a reflection, det -1, is refused).
     InvalidInputError naming ``name`` otherwise."""
     shape = _shape_of(rotation, name)
     if shape != batch + (3, 3):
         raise InvalidInputError(f"{name} must have shape {batch + (3, 3)}, got {shape}")
     if is_traced(rotation):
         return
+    tol = rotation_tol(getattr(rotation, "dtype", None))
     r = np.asarray(rotation, np.float64)
     eye = np.broadcast_to(np.eye(3), r.shape)
     if not np.all(np.isfinite(r)):
         raise InvalidInputError(f"{name} must be a proper rotation (orthonormal rows, determinant +1), got NaN or inf")
     skew = float(np.abs(r @ np.swapaxes(r, -1, -2) - eye).max()) if r.size else 0.0
-    if skew > ROTATION_TOL:
+    if skew > tol:
         raise InvalidInputError(f"{name} must be a proper rotation (orthonormal rows, determinant +1): its rows are "
-                                f"not orthonormal (R R^T differs from I by {skew:.3g} > {ROTATION_TOL:g})")
+                                f"not orthonormal (R R^T differs from I by {skew:.3g} > {tol:g})")
     if r.size and not np.all((det := np.linalg.det(r)) > 0):
         raise InvalidInputError(f"{name} must be a proper rotation (orthonormal rows, determinant +1), got determinant "
                                 f"{float(np.min(det)):.3g}: a reflection (negate one row to make it proper)")

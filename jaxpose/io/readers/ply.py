@@ -143,14 +143,14 @@ def _ply_length(data, start, elements, ascii, endian="<"):
 
 
 def _binary_length(data, start, elements, endian, declared):
-    """Refuse a binary file whose length after the header is not what its elements take. Where
-    every list of an element is as long as its first item's (trimesh's rule), the length is
-    computed from the header and the first lists; otherwise the lists are walked one by one
-    (:func:`_walk`): a file that ends inside an element, or holds bytes after its last one, is
-    refused, naming where; a file whose lists have several lengths and whose length is exactly what
-    they take is valid (Blender's and MeshLab's binary PLY of triangles and quads): returns the
-    walk, {name: (starts, lengths) or None}, which :func:`read_ply` reads. Returns None for a file
-    of the first rule. Counts are Python integers: a header that claims billions of elements
+    """Refuse a binary file whose length after the header is not what its elements take, each list
+    as long as its count. Where every list of an element is as long as its first item's (trimesh's
+    rule), the length is computed from the header and the first lists, in O(1); where it differs,
+    the elements are walked (:func:`_walk`): a file that ends inside an element, or holds bytes
+    after its last one, is refused, naming where; one whose lists have several lengths and whose
+    length is exactly what they take is valid (Blender's and MeshLab's binary PLY of triangles and
+    quads): returns the walk, which :func:`read_ply` reads. Returns None where the first rule's
+    length is the file's. Counts are Python integers: a header that claims billions of elements
     allocates nothing."""
     have, position, lengths = len(data) - start, start, []
     for name, (count, props) in elements.items():
@@ -171,68 +171,102 @@ def _binary_length(data, start, elements, endian, declared):
         position += count * size
     if have == position - start:
         return None
-    walked = _walk(data, start, elements, endian) if lengths else None
+    walked = _walk(data, start, elements, endian)
     if isinstance(walked, dict):
         return walked
-    if walked is not None:  # (name, index, end): the walk's verdict
-        name, index, end = walked
-        if end > len(data):
-            raise InvalidInputError(f"cannot read PLY file: truncated, {have} bytes after the header end inside its "
-                                    f"{name} {index + 1} of {elements[name][0]} (its {declared} elements, every list "
-                                    "as long as its count): a truncated or malformed file")
-        raise InvalidInputError(f"cannot read PLY file: {len(data) - end} bytes after its last element (its {declared} "
-                                f"elements take {end - start}, every list as long as its count): a truncated or malformed file")
-    lists = f" (every list as long as its element's first: {', '.join(lengths)})" if lengths else ""
-    raise InvalidInputError(f"cannot read PLY file: {have} bytes after the header, where its {declared} elements "
-                            f"take {position - start}{lists}: a truncated or malformed file")
+    name, index, end = walked
+    if end > len(data):
+        raise InvalidInputError(f"cannot read PLY file: truncated, {have} bytes after the header end inside its {name} "
+                                f"{index + 1} of {elements[name][0]} (its {declared} elements, every list as long as "
+                                "its count): a truncated or malformed file")
+    extra = len(data) - end
+    raise InvalidInputError(f"cannot read PLY file: {extra} byte{'s' if extra != 1 else ''} after its last element "
+                            f"(its {declared} elements take {end - start}, every list as long as its count): a "
+                            "truncated or malformed file")
 
 
 _STRUCT = {"i1": "b", "u1": "B", "i2": "h", "u2": "H", "i4": "i", "u4": "I", "i8": "q", "u8": "Q"}
 
 
+def _gather(data, positions, dtype):
+    """The values of `dtype` (with its byte order) that start at the byte `positions` (int64) of
+    `data`, aligned or not: (len(positions),) of dtype. Reads each through one of the dtype's
+    itemsize shifted views of the bytes: no per-byte index."""
+    size, out = dtype.itemsize, np.empty(len(positions), dtype)
+    shift = positions % size
+    for k in np.unique(shift).tolist():
+        chosen = shift == k
+        view = np.frombuffer(data, dtype, (len(data) - k) // size, k)
+        out[chosen] = view[positions[chosen] // size]
+    return out
+
+
 def _walk(data, start, elements, endian):
-    """Walk a binary file's elements item by item, each list as long as its own count: {name:
-    (starts (count,) int64 of each item's first byte, lengths (count, lists) int64) or None for an
-    element without lists} where the elements end exactly at the file's end; else (name, index,
-    end): the element and item where the walk ran past the end (end > len(data)), or the end of the
-    last element where bytes are left after it. Runs over the items in Python: the elements' counts
-    are bounded by the file's bytes (:func:`_ply_length` checked each item's least size first)."""
+    """The binary file's elements item by item, each list as long as its own count: {name: (first
+    byte, starts, lengths)}, ``starts`` (count,) int64 the first byte of each item and ``lengths``
+    (count, lists) int64 for an element with lists of several lengths, None and None for one
+    without lists or whose lists all have its first item's lengths; where the elements end exactly
+    at the file's end. Else (name, index, end): the element and item where the file ends inside it
+    (end > len(data), the end that item would need), or the last element's end where bytes are left
+    after it. An element's items are first tried at its first item's lengths (NumPy, O(1) in
+    Python); only an element whose lists differ is walked item by item in Python (its count is
+    bounded by the file's bytes: :func:`_ply_length` checked each item's least size first)."""
     import struct
+    from array import array
 
     out, position, size = {}, start, len(data)
     for name, (count, props) in elements.items():
+        begin = position
         if count <= 0:
-            out[name] = None
+            out[name] = (begin, None, None)
             continue
-        if all(p[2] is None for p in props):
-            out[name] = None
-            item = sum(np.dtype(kind).itemsize for _, kind, _ in props)
-            if position + count * item > size:
-                index = (size - position) // item if item else 0
-                return name, index, position + (index + 1) * item
-            position += count * item
-            continue
-        segments, fixed = [], 0
+        segments, fixed = [], 0  # (bytes before the list, its count's struct, the size of one of its items)
         for _, kind, count_kind in props:
             if count_kind is None:
                 fixed += np.dtype(kind).itemsize
             else:
                 segments.append((fixed, struct.Struct(endian + _STRUCT[count_kind]), np.dtype(kind).itemsize))
                 fixed = 0
-        starts, lengths = [], []
+        first, item, at = [], 0, position  # the first item's lengths, its size
+        for skip, unpack, width in segments:
+            at += skip
+            if at + unpack.size > size:
+                return name, 0, at + unpack.size
+            first.append(unpack.unpack_from(data, at)[0])
+            at += unpack.size + max(first[-1], 0) * width
+        item = at + fixed - position
+        fits = min(count, (size - position) // item) if item else count
+        uniform, offset = True, 0
+        reach = fits + 1 if fits < count else fits  # (and the item the file ends in, where its counts are there)
+        for (skip, unpack, width), length in zip(segments, first):  # every such item's counts at the first's
+            offset += skip
+            places = position + offset + item * np.arange(reach, dtype=np.int64)
+            places = places[places + unpack.size <= size]
+            if np.any(_gather(data, places, np.dtype(unpack.format)) != length):
+                uniform = False
+                break
+            offset += unpack.size + max(length, 0) * width
+        if uniform:
+            if fits < count:  # (the first lengths to the end: the file ends inside item `fits`)
+                return name, fits, position + (fits + 1) * item
+            position += count * item
+            out[name] = (begin, None, None)
+            continue
+        starts, lengths = array("q"), array("q")
         for index in range(count):
             starts.append(position)
-            for skip, unpack, item in segments:
+            for skip, unpack, width in segments:
                 position += skip
                 if position + unpack.size > size:
                     return name, index, position + unpack.size
                 length = unpack.unpack_from(data, position)[0]
                 lengths.append(length)
-                position += unpack.size + max(length, 0) * item
+                position += unpack.size + max(length, 0) * width
             position += fixed
             if position > size:
                 return name, index, position
-        out[name] = (np.asarray(starts, np.int64), np.asarray(lengths, np.int64).reshape(count, len(segments)))
+        out[name] = (begin, np.frombuffer(starts, np.int64),
+                     np.frombuffer(lengths, np.int64).reshape(count, len(segments)))
     return out if position == size else (name, count - 1, position)
 
 
@@ -300,26 +334,35 @@ def read_ply(data: bytes) -> Loaded:
     """
     elements, ascii, endian, start, texture = _ply_header(data)
     lines = _ply_length(data, start, elements, ascii, endian)
-    walked = None if ascii else lines  # (binary lists of several lengths: trimesh refuses the file)
-    try:
-        if texture:
-            raise Unsupported("a texture file")
-        _ply_check(elements)
-    except Unsupported as exc:
-        if walked is None:
-            raise
-        several = sorted({n for w in walked.values() if w is not None for n in np.unique(w[1]).tolist()})
-        raise InvalidInputError(f"cannot read PLY file: a binary PLY whose lists have several lengths "
-                                f"({', '.join(map(str, several))}) and {exc}: jaxpose reads such lists in a file of "
-                                "vertices and faces alone; save it as ASCII PLY") from None
-    if ascii:
-        vertex, face, flat, counts = _ply_ascii(lines, elements, endian, data[:start].count(b"\n") + 1)
-    elif walked is not None:
-        vertex, face, flat, counts = _ply_walked(data, start, elements, endian, walked["face"])
-    else:
-        vertex, face, flat, counts = _ply_binary(data, start, elements, endian)
+    walked = None if ascii else lines
+    if walked is None:
+        try:
+            if texture:
+                raise Unsupported("a texture file")
+            _ply_check(elements)
+        except Unsupported:  # trimesh reads it, unless its lists have several lengths whose bytes add up
+            several = None if ascii else _walk(data, start, elements, endian)
+            if not isinstance(several, dict) or all(w[1] is None for w in several.values()):
+                raise
+            walked = several
+    if walked is None:
+        if ascii:
+            vertex, face, flat, counts = _ply_ascii(lines, elements, endian, data[:start].count(b"\n") + 1)
+        else:
+            got = _ply_binary(data, start, elements, endian)
+            walked = _walk(data, start, elements, endian) if got is None else None  # (several lengths that fit)
+            if got is None and not isinstance(walked, dict):
+                raise InvalidInputError(f"cannot read PLY file: its {walked[0]} {walked[1] + 1} has lists that do not "
+                                        "end where its file does: a malformed file")
+            vertex, face, flat, counts = got or (None,) * 4
+    if walked is not None:  # binary lists of several lengths (trimesh refuses the file: "unexpected length")
+        vertex, face, flat, counts = _ply_walked(data, elements, endian, walked)
     vertices = np.column_stack([vertex[k] for k in "xyz"])
     faces = _triangulate(flat, counts)
+    if walked is not None and len(faces) and (faces.min() < 0 or faces.max() >= len(vertices)):
+        bad = int(faces.min()) if faces.min() < 0 else int(faces.max())  # (trimesh cannot read it: said here)
+        raise InvalidInputError(f"cannot read PLY file: a face references vertex {bad} of {len(vertices)}: a "
+                                "malformed file")
     return _checked(vertices, faces, _ply_extras(vertex, face))
 
 
@@ -341,35 +384,69 @@ def _ply_binary(data, start, elements, endian):
         raise Unsupported("a file length that does not match its header (or lists of several lengths)")
     vertex = np.frombuffer(data, vtype, nv, start)
     face = np.frombuffer(data, ftype, nf, face_start)
-    if np.any(face[name]["f0"] != size):
-        raise Unsupported("face lists of several lengths")
+    if np.any(face[name]["f0"] != size):  # (lists of several lengths whose bytes add up: read_ply walks them)
+        return None
     columns = {p[0]: face[p[0]] for p in fprops if p[2] is None}
     return ({k: vertex[k] for k in vertex.dtype.names}, columns, face[name]["f1"].reshape(-1),
             np.full(nf, size, np.int64))
 
 
-def _ply_walked(data, start, elements, endian, walked):
+def _ply_walked(data, elements, endian, walked):
     """:func:`_ply_binary`'s columns of a file whose face lists have several lengths (`walked`:
-    :func:`_walk`'s starts and lengths of the face element)."""
-    (nv, vprops), (nf, fprops) = elements["vertex"], elements["face"]
-    vertex = np.frombuffer(data, np.dtype([(name, endian + kind) for name, kind, _ in vprops]), nv, start)
-    sizes = walked[1][:, 0]
+    :func:`_walk`'s). Reads the vertices' scalars (texture coordinates dropped: nothing reads
+    them) and the faces' vertex indices and scalars, whatever other elements the file holds;
+    InvalidInputError where the file has no such vertices and faces (trimesh refuses such a file)."""
+    vertex, face = elements.get("vertex"), elements.get("face")
+    lists = [p for p in face[1] if p[2]] if face else []
+    problem = ("no vertex element" if vertex is None else "no face element" if face is None else
+               "vertices without x, y, z, or with lists" if not {"x", "y", "z"} <= {p[0] for p in vertex[1]}
+               or any(p[2] for p in vertex[1]) else
+               "faces without one vertex_indices list of integers, or with other lists"
+               if len(lists) != 1 or lists[0][0] not in _PLY_INDEX or lists[0][1][0] not in "ui" else
+               "no vertices or no faces" if vertex[0] == 0 or face[0] == 0 else None)
+    if problem:
+        several = sorted({n for w in walked.values() if w[2] is not None for n in np.unique(w[2]).tolist()})
+        raise InvalidInputError(f"cannot read PLY file: a binary PLY whose lists have several lengths "
+                                f"({', '.join(map(str, several))}) and {problem}: jaxpose does not read it (nor does "
+                                "trimesh)")
+    (nv, vprops), (nf, fprops) = vertex, face
+    columns = np.frombuffer(data, np.dtype([(n, endian + kind) for n, kind, _ in vprops]), nv, walked["vertex"][0])
+    begin, offset, sizes = walked["face"]
+    if offset is None:  # (a face element of one length beside lists of several elsewhere)
+        return {k: columns[k] for k in columns.dtype.names}, *_uniform_faces(data, begin, face, endian)
+    sizes = sizes[:, 0]
     if np.any(sizes < 3):
         at = int(np.argmax(sizes < 3))
         raise InvalidInputError(f"cannot read PLY file: face {at + 1} has {int(sizes[at])} corners, fewer than 3: "
                                 "a malformed file")
-    raw, offset, columns = np.frombuffer(data, np.uint8), walked[0], {}
-    read = lambda where, dtype: raw[where[:, None] + np.arange(dtype.itemsize)].copy().view(dtype).reshape(-1)
-    for name, kind, count_kind in fprops:  # (one list: _ply_check)
+    out = {}
+    for name, kind, count_kind in fprops:
         dtype = np.dtype(endian + kind)
         if count_kind is None:
-            columns[name] = read(offset, dtype)
+            out[name] = _gather(data, offset, dtype)
             offset = offset + dtype.itemsize
         else:
             offset = offset + np.dtype(count_kind).itemsize
-            flat = read(_runs(offset, sizes * dtype.itemsize)[::dtype.itemsize], dtype)
+            corner = np.arange(int(sizes.sum())) - np.repeat(np.cumsum(sizes) - sizes, sizes)
+            flat = _gather(data, np.repeat(offset, sizes) + dtype.itemsize * corner, dtype)
             offset = offset + sizes * dtype.itemsize
-    return {k: vertex[k] for k in vertex.dtype.names}, columns, flat, sizes
+    return {k: columns[k] for k in columns.dtype.names}, out, flat, sizes
+
+
+def _uniform_faces(data, begin, face, endian):
+    """The face element at byte `begin` whose lists all have its first item's length (walked:
+    lists of several lengths elsewhere in the file): (columns, flat, counts)."""
+    count, fprops = face
+    position = [p[2] is not None for p in fprops].index(True)
+    before = sum(np.dtype(p[1]).itemsize for p in fprops[:position])
+    size = int(np.frombuffer(data, endian + fprops[position][2], 1, begin + before)[0])
+    if size < 3:
+        raise InvalidInputError(f"cannot read PLY file: its faces have {size} corners, fewer than 3: a malformed file")
+    ftype = np.dtype([(p[0], endian + p[1]) if p[2] is None else
+                      (p[0], [("f0", endian + p[2]), ("f1", endian + p[1], (size,))]) for p in fprops])
+    rows = np.frombuffer(data, ftype, count, begin)
+    columns = {p[0]: rows[p[0]] for p in fprops if p[2] is None}
+    return columns, rows[fprops[position][0]]["f1"].reshape(-1), np.full(count, size, np.int64)
 
 
 def _in_range(values, dtype):

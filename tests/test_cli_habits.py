@@ -256,15 +256,39 @@ def test_a_class_that_is_an_empty_folder_or_a_near_name_is_told_so(tmp_path, cap
     (tmp_path / "empty" / "notes.txt").write_text("no mesh here")
     typed = unicodedata.normalize("NFD", cafe)
     assert typed != cafe  # (the oracle: two spellings of one name)
-    cases = [("empty", f"{tmp_path / 'empty'} holds no mesh files (.glb, .gltf, .obj, .off, .ply, .stl)"),
-             ("dog", f"no class 'dog' in {tmp_path} (did you mean 'Dog'?)"),
+    found = f"; found [{cafe!r}, 'Dog']"  # (the classes to choose from, in every case: review)
+    cases = [("empty", f"{tmp_path / 'empty'} holds no mesh files (.glb, .gltf, .obj, .off, .ply, .stl){found}"),
+             ("dog", f"no class 'dog' in {tmp_path} (did you mean 'Dog'?){found}"),
              (typed, f"no class {typed!r} in {tmp_path} (did you mean {cafe!r}?: the same letters in another Unicode "
-                     f"normalization, {ascii(typed)} is not {ascii(cafe)})"),
-             ("cat", f"no classes ['cat'] in {tmp_path}; found [{cafe!r}, 'Dog']")]
+                     f"normalization, {ascii(typed)} is not {ascii(cafe)}){found}"),
+             ("cat", f"no classes ['cat'] in {tmp_path}{found}")]
     for classes, message in cases:
         for command in (["evaluate", "--methods", "bbox"], ["tune", "--steps", "0"]):
             assert cli.main([*command, "--data", str(tmp_path), "--classes", classes]) == 1, (command, classes)
             assert _err(capsys).strip().splitlines()[-1] == f"jaxpose: error: {message}", (command, classes)
+
+
+def test_rotation_all_reads_as_the_other_lists_all(capsys, monkeypatch):
+    """``--rotation 'all,'`` / ``' all'`` was "unknown rotation methods ['all']" (the raw text was
+    compared with "all"), where ``--variants 'all,'`` and ``--methods ' all '`` are every one (review):
+    every frame; a list of names stays that list."""
+    from jaxpose import evaluation
+    from jaxpose.errors import JaxposeError
+
+    seen = []
+
+    def stop(classes, methods=None, **kw):
+        seen.append(methods)
+        raise JaxposeError("stop: the methods are what this test reads")
+
+    monkeypatch.setattr(evaluation, "evaluate_rotation", stop)
+    for text in ("all,", " all", "all"):
+        assert cli.main(["evaluate", "--rotation", text, "--classes", "chair", "--instances", "2",
+                         "--variants", "plain"]) == 1, text
+        assert "stop: the methods" in _err(capsys)
+    assert cli.main(["evaluate", "--rotation", "core, pca_vertices", "--classes", "chair", "--instances", "2",
+                     "--variants", "plain"]) == 1
+    assert seen == [None, None, None, ["core", "pca_vertices"]]
 
 
 @pytest.mark.parametrize("flag, what, every", [("--methods", "method", True), ("--variants", "variant", True),

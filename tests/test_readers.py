@@ -497,6 +497,21 @@ def test_an_obj_cut_within_its_last_face_is_an_error(tmp_path, faces, whole, mat
                                   np.asarray(expected.vertices)[np.asarray(expected.faces)])
 
 
+@pytest.mark.parametrize("last", ["f 1 2 +3", "f 1/1 2/1 +3/+1", "f +1 2 3"])
+def test_an_obj_last_face_with_explicit_plus_signs_reads_as_trimesh_reads_it(tmp_path, last):
+    """A last face whose corners carry a '+' sign on some of them only ('f 1 2 +3') is a whole face:
+    the cut-face rule took '+3' for another form than '1' and refused the file (review); read as
+    trimesh reads it."""
+    from jaxpose import mesh as jmesh
+
+    path = tmp_path / "plus.obj"
+    path.write_text(OBJ_TET + "vt 0 0\n" + last + "\n")
+    expected = trimesh.load(path, process=False)
+    got = jmesh.read(path)
+    np.testing.assert_array_equal(np.asarray(got.vertices)[np.asarray(got.faces)],
+                                  np.asarray(expected.vertices)[np.asarray(expected.faces)])
+
+
 def test_normal_references_and_uv_references_without_uv_are_not_checked(tmp_path):
     """Out-of-range normal references, and texture references in a file without 'vt' lines, read
     as the file without them on both paths (the fast reader's and trimesh's, with materials): the

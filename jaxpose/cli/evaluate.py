@@ -72,8 +72,7 @@ def _evaluate_usage(args):
             raise _Usage(f"{' and '.join(ignored)} {'choose' if len(ignored) > 1 else 'chooses'} what the center "
                          "and scale run measures; --rotation measures canonical frames instead (name its methods "
                          f"there: --rotation {','.join(ROTATIONS[:2])}), so drop {'them' if len(ignored) > 1 else 'it'}")
-        rotations = ROTATIONS if args.rotation == "all" else given_names(args.rotation, "--rotation",
-                                                                          "rotation method")
+        rotations = _rotation_names(args.rotation) or list(ROTATIONS)
         unknown = [m for m in rotations if m not in ROTATIONS]
         if unknown:  # the evaluation's own check, before the dataset is made or read
             raise _Usage(f"--rotation: unknown rotation methods {unknown}; valid: all, {', '.join(ROTATIONS)}")
@@ -149,10 +148,18 @@ def run(args):
     return 0
 
 
+def _rotation_names(text):
+    """``--rotation``'s comma list: its names (:func:`given_names`: one that names none refused), or
+    None for ``all`` alone (spaces and a trailing comma aside, as ``--variants`` and ``--methods``
+    read it: ``'all,'`` was "unknown rotation methods ['all']")."""
+    names = given_names(text, "--rotation", "rotation method")
+    return None if names == ["all"] else names
+
+
 def _evaluate_rotation(args, classes, variants, ocsvm):
     from .. import evaluation
 
-    methods = None if args.rotation == "all" else comma_names(args.rotation)
+    methods = _rotation_names(args.rotation)
     with _ProgressBar() as progress:
         result = evaluation.evaluate_rotation(classes, methods=methods, variants=variants, align_core=args.align_core,
                                               core_weight=args.core_weight, seed=args.seed, progress=progress,

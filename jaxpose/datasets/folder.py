@@ -144,5 +144,5 @@ def _missing(missing, found, root):
         else:
             unknown.append(name)
     if unknown:
-        parts.append(f"no classes {unknown} in {root}; found {sorted(found)}")
-    return "; ".join(parts)
+        parts.append(f"no classes {unknown} in {root}")
+    return "; ".join(parts) + f"; found {sorted(found)}"  # (what there is to choose from, in every case)

@@ -260,7 +260,7 @@ def _cut_last_number(text):
                                 "malformed file")
 
 
-_CORNER = re.compile(r"-?[0-9]+")  # a number of a face's corner: the rest is its form ("N", "N/N", "N//N", "N/N/N")
+_CORNER = re.compile(r"[-+]?[0-9]+")  # a number of a face's corner: the rest is its form ("N", "N/N", "N//N", "N/N/N")
 
 
 def _is_number(token):

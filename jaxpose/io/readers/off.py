@@ -59,6 +59,20 @@ def without_comments(data: bytes) -> bytes:
     return re.sub(rb"#[^\r\n]*", b"", data)
 
 
+def _file_line(text, start, k):
+    """The file's line number (from 1; a line ends in \\n, \\r\\n or a lone \\r, as an editor counts
+    them) of the `k`-th (from 0) of the lines after ``text[start]`` that hold a value, as
+    :func:`read_off` counts those (``str.splitlines``, blank ones left out). Only for a message."""
+    at = start
+    for piece in text[start:].splitlines(keepends=True):
+        if piece.strip():
+            if k == 0:
+                break
+            k -= 1
+        at += len(piece)
+    return len(re.findall(r"\r\n|\r|\n", text[:at])) + 1
+
+
 @file_bytes
 def read_off(data: bytes) -> Loaded:
     """An OFF file's mesh, as ``trimesh.load(..., file_type="off", process=False)``.
@@ -82,12 +96,7 @@ def read_off(data: bytes) -> Loaded:
     found = _OFF.search(text)
     if found is None or not text[found.end():].strip():  # (nothing after it: the counts line is missing)
         raise Unsupported("no OFF header" if found is None else "no counts")
-    # each line after the header's word that holds a value, and its number in the file (the header's line: 1 + the
-    # lines before it)
-    header_line = len(text[:found.end()].splitlines())
-    numbered = [(header_line + n, line.strip()) for n, line in enumerate(text[found.end():].splitlines()) if
-                line.strip()]
-    lines = [line for _, line in numbered]
+    lines = list(filter(None, map(str.strip, text[found.end():].splitlines())))  # each line after it that holds a value
     header = lines[0].split()
     _check_counts(lines[0], header)
     if not all(t.isascii() and t.isdigit() for t in header[:2]) \
@@ -103,7 +112,7 @@ def read_off(data: bytes) -> Loaded:
     tokens, counts = _tokens(block)
     if np.any(counts < 3):  # (trimesh fails: "setting an array element with a sequence", or a reshape)
         line = int(np.argmax(counts < 3))
-        raise InvalidInputError(f"cannot read OFF file: vertex {line + 1} (line {numbered[1 + line][0]} of the file) "
+        raise InvalidInputError(f"cannot read OFF file: vertex {line + 1} (line {_file_line(text, found.end(), 1 + line)} of the file) "
                                 f"holds {int(counts[line])} value{'s' if counts[line] != 1 else ''}, fewer than its 3 "
                                 f"coordinates ({block[line]!r}): a truncated or malformed file")
     starts = _starts(counts)
@@ -123,7 +132,7 @@ def read_off(data: bytes) -> Loaded:
     sizes = _ints(_take(tokens, starts))
     if np.any(sizes + 1 > counts):
         line = int(np.argmax(sizes + 1 > counts))
-        raise InvalidInputError(f"cannot read OFF file: face {line + 1} (line {numbered[1 + nv + line][0]} of the "
+        raise InvalidInputError(f"cannot read OFF file: face {line + 1} (line {_file_line(text, found.end(), 1 + nv + line)} of the "
                                 f"file) holds fewer indices than its count ({block[line]!r}): a truncated or "
                                 "malformed file")
     if np.any(sizes < 3):

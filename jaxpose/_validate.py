@@ -115,16 +115,20 @@ def check_array(x, name: str = "x", min_rows: int = 0, finite: bool = True):
         raise InvalidInputError(f"{name} must have shape (m, 3), got {tuple(shape)}")
     if shape[0] < min_rows:
         raise InvalidInputError(f"{name} needs at least {min_rows} point{'' if min_rows == 1 else 's'}, got {shape[0]}")
-    if is_traced(x):
-        if not is_real_dtype(x.dtype):  # known when tracing
-            raise InvalidInputError(f"{name} must be real numbers, got dtype {x.dtype}")
+    if is_traced(x) or not finite:  # (the dtype read where the array says it: no copy to the host)
+        try:
+            dtype = np.dtype(x.dtype)
+        except (AttributeError, TypeError):  # a list, or an array whose dtype NumPy does not name (torch)
+            dtype = np.asarray(x).dtype
+        if not is_real_dtype(dtype):  # known when tracing
+            raise InvalidInputError(f"{name} must be real numbers, got dtype {dtype}")
         return x
     arr = np.asarray(x)
     if not is_real_dtype(arr.dtype):
         raise InvalidInputError(f"{name} must be real numbers, got dtype {arr.dtype}")
     if finite and not np.all(np.isfinite(arr)):
         bad = int(np.count_nonzero(~np.isfinite(arr).all(axis=1)))
-        raise InvalidInputError(f"{name} has {bad} rows with NaN or inf coordinates")
+        raise InvalidInputError(f"{name} has {bad} row{'s' if bad != 1 else ''} with NaN or inf coordinates")
     return x
 
 

@@ -527,7 +527,7 @@ def test_mirror_error_reads_the_normal_as_a_direction():
     e = np.array([1.0, 0.0, 0.0])
     # independent oracle: the reflection x -> -x, nearest neighbours by brute force
     want = np.mean([np.min(np.abs(skew[:, 0] + x)) for x in skew[:, 0]])
-    for normal in (e, 2.0 * e, 1e-3 * e):
+    for normal in (e, 2.0 * e, 1e-3 * e, 1e200 * e, 1e-170 * e):  # (1e200, 1e-170: the norm over- and underflowed; review)
         assert mirror_error(line, np.zeros(3), normal) == pytest.approx(0.0, abs=1e-12)
         assert mirror_error(skew, np.zeros(3), normal) == pytest.approx(want, rel=1e-12)
     with pytest.raises(jaxpose.InvalidInputError, match="^normal is zero: no plane to mirror in"):

@@ -111,7 +111,7 @@ _POINTS = np.random.default_rng(0).normal(size=(60, 3))
     (lambda shape: plot.region_slices(_POINTS, pixels=0), "pixels must be >= 2, got 0"),
     (lambda shape: plot.region_slices(_POINTS, center=(0.0, 0.0)), "center must be 3 finite numbers"),
     # the NaN was counted after the points were rescaled by their NaN mean: 'points has 61 rows ...'
-    (lambda shape: plot.region_slices(np.vstack([_POINTS, [np.nan] * 3])), "points has 1 rows with NaN"),
+    (lambda shape: plot.region_slices(np.vstack([_POINTS, [np.nan] * 3])), "points has 1 row with NaN"),
     (lambda shape: plot.centers_plot(shape, ((0.0, 0.0, 0.0), 1.0), count=200, plane="zx"), "plane must be one of"),
     (lambda shape: plot.centers_plot(shape, (np.zeros((2, 3)), np.ones(2)), count=200, methods=()),
      r"a pose must be one center \(3,\) and a scale \(\) > 0.*got shapes \(2, 3\) and \(2,\)"),

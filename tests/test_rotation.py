@@ -410,7 +410,7 @@ def test_the_inertia_frame_of_a_mesh_without_volume_is_refused():
     # rotation.core's public steps: NaN vertices were NumPy's LinAlgError "Eigenvalues did not converge",
     # float faces truncated (a silently other frame), an index past the vertices an IndexError
     (lambda box: rotation.pre_frame(np.where(np.arange(8)[:, None] == 0, np.nan, box.vertices), box.faces),
-     r"^vertices has 1 rows with NaN or inf"),
+     r"^vertices has 1 row with NaN or inf"),
     (lambda box: rotation.frame_solid(np.full((8, 3), np.inf), box.faces), r"^vertices has 8 rows with NaN or inf"),
     (lambda box: rotation.pre_frame(box.vertices, box.faces + 0.5), r"^faces must be \(f, 3\) integer indices"),
     (lambda box: rotation.frame_solid(box.vertices, box.faces + 8), r"^faces index vertices that do not exist"),

@@ -139,7 +139,7 @@ def test_lattice_points_refuse_a_spacing_that_is_not_positive(spacing):
     # NaN vertices gave NaN points; float faces were truncated (0.5 read as 0), an index past the vertices
     # NumPy's IndexError, (n, 2) vertices NumPy's reshape ValueError
     (lambda box: np.where(np.arange(8)[:, None] == 0, np.nan, box.vertices), lambda box: box.faces,
-     r"^vertices has 1 rows with NaN or inf coordinates"),
+     r"^vertices has 1 row with NaN or inf coordinates"),
     (lambda box: box.vertices, lambda box: box.faces + 0.5, r"^faces must be \(f, 3\) integer indices of the vertices"),
     (lambda box: box.vertices, lambda box: box.faces + 100, r"^faces index vertices that do not exist"),
     (lambda box: box.vertices, lambda box: box.faces - 1, r"^faces index vertices that do not exist \(indices -1"),

@@ -247,7 +247,7 @@ def test_degenerate_input():
     (dict(faces=np.array([[0, 1, 100]])), "faces index vertices that do not exist"),
     # (whole-number floats are indices, as jaxpose.mesh.load takes them; a fraction was truncated)
     (dict(faces=np.array([[0.0, 1.0, 2.5]])), r"faces must be \(f, 3\) integer indices .* with fractions"),
-    (dict(vertices=np.array([[0.0, 0.0, 0.0], [np.nan, 1.0, 0.0], [1.0, 0.0, 0.0]])), "vertices has 1 rows with NaN"),
+    (dict(vertices=np.array([[0.0, 0.0, 0.0], [np.nan, 1.0, 0.0], [1.0, 0.0, 0.0]])), "vertices has 1 row with NaN"),
 ])
 def test_bad_arguments_are_refused_by_name(kw, message):
     box = trimesh.creation.box()
@@ -325,7 +325,7 @@ def test_near_solid_checks_its_arguments():
     np.testing.assert_array_equal(near_solid(x, kept, np.zeros(3), 1.0, grow=1), [True, True, False, False])
     for call, message in [
         (lambda: near_solid(x[0], kept, np.zeros(3), 1.0), r"^x must have shape \(m, 3\), got \(3,\)"),
-        (lambda: near_solid(np.full((1, 3), np.nan), kept, np.zeros(3), 1.0), r"^x has 1 rows with NaN or inf"),
+        (lambda: near_solid(np.full((1, 3), np.nan), kept, np.zeros(3), 1.0), r"^x has 1 row with NaN or inf"),
         (lambda: near_solid(x, kept, np.zeros(3), 0.0), r"^pitch must be a finite number > 0, got 0\.0"),
         (lambda: near_solid(x, kept, np.zeros(3), 1.0, grow=-1), r"^grow must be >= 0, got -1"),
         (lambda: near_solid(x, kept, np.zeros(2), 1.0), r"^origin must be 3 finite numbers"),

@@ -286,6 +286,30 @@ def test_svdd_helpers_refuse_what_they_read_wrongly():
     d = x[:, None, :] - p[None]
     want = -4 * 10.0 * np.einsum("nm,nmk->nk", a * np.exp(-10.0 * (d * d).sum(-1)), d)
     np.testing.assert_allclose(np.asarray(grad), want, rtol=1e-4, atol=1e-5)
+    # a list of points, as decision_function takes (it was an AttributeError: review)
+    for got, expected in zip(decision_value_and_grad(svdd, x.tolist()), (f, grad)):
+        np.testing.assert_array_equal(np.asarray(got), np.asarray(expected))
+
+
+def test_shape_checks_of_traced_style_functions_read_no_values():
+    """check_array(finite=False) (the JAX functions' check: reference_frame, prescale,
+    unresolved_size, ...) read a concrete array's dtype by copying it to the host (np.asarray: a
+    device sync per call on an accelerator; review): it reads ``x.dtype``. An array-like that cannot
+    be copied passes the check."""
+    from jaxpose._validate import check_array
+
+    class NoCopy:  # an array whose values cannot be read on the host
+        shape, dtype = (5, 3), np.dtype(np.float32)
+
+        def __array__(self, *args, **kwargs):
+            raise AssertionError("copied to the host")
+
+    x = NoCopy()
+    assert check_array(x, "points", 1, finite=False) is x
+    with pytest.raises(AssertionError, match="copied"):
+        check_array(x, "points", 1)  # (finite: the values are read, as they must be)
+    with pytest.raises(InvalidInputError, match="has 1 row with NaN"):  # ('1 rows': review)
+        check_array(np.array([[0.0, 0.0, np.nan], [1.0, 2.0, 3.0]]), "points")
 
 
 def test_decision_function_bad_input():

@@ -304,6 +304,9 @@ def mirror_error(points, center, normal):
     points = np.asarray(check_array(points, "points", 1), np.float64)
     center = check_shape(center, "center", (3,), finite=True)
     normal = np.asarray(check_shape(normal, "normal", (3,), finite=True), np.float64)
+    top = float(np.max(np.abs(normal)))
+    if top > 0 and not 1e-150 < top < 1e150:  # (its norm over- or underflowed: 1e200 read 0, a mirror; 1e-170 zero)
+        normal = normal / top
     length = float(np.linalg.norm(normal))
     if not length > 0:
         raise InvalidInputError("normal is zero: no plane to mirror in; give the plane's normal direction")

@@ -192,17 +192,21 @@ def decision_value_and_grad(svdd: SVDD, x, block=BLOCK):
     Raises:
       InvalidInputError: as :func:`decision_function`'s checks of ``svdd``, ``x`` and ``block``
         (``svdd`` no SVDD was an AttributeError, x of another shape an IndexError), its check of
-        the cast of concrete x too (:func:`jaxpose.host.check_query_cast`), against the dtype x is
-        computed in with the model's points: float64 queries of a float32 model without x64 are
+        the cast of concrete x too (:func:`jaxpose.host.check_query_cast`), against the dtype JAX
+        computes x in with the model's points: float64 queries of a float32 model without x64 are
         cast to float32 (they were, silently, where that cast moved them off the model), with x64
-        they are computed in float64 and nothing is cast.
+        they are computed in float64 and nothing is cast; integer queries of a float32 model are
+        float32 either way. x may be a list of points, as for :func:`decision_function`.
     """
     check_svdd(svdd, "jax.vmap(decision_value_and_grad, in_axes=(0, None))(svdd, x)")
     _validate.check_array(x, name="x")
     block = _validate.check_int(block, "block", 1)
-    _check_cast(svdd, x, np.result_type(_validate.compute_dtype(x), np.dtype(svdd.points.dtype)))
-    p, a, g = svdd.points, svdd.alpha, svdd.gamma
     x = _validate.jax_value(x)  # (NumPy's longdouble: its float64 values)
+    if not hasattr(x, "dtype"):  # a list of points, as decision_function takes (it was an AttributeError)
+        x = np.asarray(x)
+    computed = jnp.promote_types(jax.dtypes.canonicalize_dtype(x.dtype), svdd.points.dtype)  # (JAX's promotion:
+    _check_cast(svdd, x, computed)  # int64 queries of a float32 model are float32 even with x64)
+    p, a, g = svdd.points, svdd.alpha, svdd.gamma
 
     def one_block(xb):
         d = xb[:, None, :] - p[None, :, :]

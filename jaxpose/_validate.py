@@ -316,7 +316,7 @@ def check_bool(value, name):
     return _bool(value, name)  # config's rule (NumPy-free: config is imported before NumPy)
 
 
-def check_names(value, name, key=None):
+def check_names(value, name, key=None, what=None):
     """``value``, a collection of names (a list, tuple, set, ...), as a tuple; one string is
     refused by name (its characters would be taken as the names: ``methods="vertex_mean"`` read
     as 'v', 'e', ...), as is anything that is not iterable, and a name given twice (each is run
@@ -324,7 +324,8 @@ def check_names(value, name, key=None):
     ``key(name)``, default the name itself, tells two spellings of one apart (``"depth_weighted_solid:2"``
     and ``":2.0"``); the refusal names both spellings, and a key that is a str (what the name means,
     as ``"robust at power 4"``) too: ``methods names 'robust:4' twice (as 'robust'; both are robust at
-    power 4)``."""
+    power 4)``. With ``what`` (what one name names), a collection of none is refused too: "methods
+    names no method; give at least one"."""
     if isinstance(value, (str, bytes)):
         raise InvalidInputError(f"{name} must be a list of names, got the string {value!r}: pass [{value!r}]")
     try:
@@ -343,6 +344,8 @@ def check_names(value, name, key=None):
             same = "" if seen[k] == item else f" (as {seen[k]!r}{meaning})"
             raise InvalidInputError(f"{name} names {item!r} twice{same}; give each once")
         seen[k] = item
+    if what is not None and not names:
+        raise InvalidInputError(f"{name} names no {what}; give at least one")
     return names
 
 

@@ -344,8 +344,10 @@ def tune(classes, gamma0=None, nu0=None, steps=TUNE.steps, lr=TUNE.lr, scale_wei
         result["verdict"] = (f"steps=0: nothing was tuned; the start ({fmt(start)}) gives a center spread of "
                              f"{judge['sigma_tr_start']:.5g} on the {where}")
     else:
+        one = len(tuned_params) == 1  # (robust's power: "use it", not "use them")
         result["verdict"] = (f"tuned ({fmt(tuned_params)}) changes the center spread of the {where} by "
-                             f"{change:+.1%}: " + ("use them" if lower else
-                                                   f"they do not transfer; keeping ({fmt(start)})"))
+                             f"{change:+.1%}: " + (f"use {'it' if one else 'them'}" if lower else
+                                                   f"{'it does' if one else 'they do'} not transfer; keeping "
+                                                   f"({fmt(start)})"))
     say(result["verdict"])
     return result

@@ -1279,6 +1279,11 @@ def test_cli_many_files(tmp_path, tree, capsys, monkeypatch):
     assert cli.main(["normalize", str(tmp_path / "scans" / "a" / "capsule.ply"), str(tmp_path / "scans" / "sphere.off"),
                      "-o", str(out), "--workers", "1", "--resolution", "16", "--table", str(tmp_path / "t.csv")]) == 0
     assert "0 files" in capsys.readouterr().out  # both done already
+    (tmp_path / "one").mkdir()
+    (tmp_path / "one" / "sphere.off").write_bytes((tmp_path / "scans" / "sphere.off").read_bytes())
+    assert cli.main(["normalize", str(tmp_path / "one"), "-o", str(tmp_path / "one-out"), "--workers", "1",
+                     "--resolution", "16"]) == 0
+    assert capsys.readouterr().out.startswith("normalized 1 file in ")  # (was "1 files")
 
 
 def test_cli_progress_counts_the_inputs_the_summary_counts(tmp_path, capsys):

@@ -343,6 +343,20 @@ def test_a_method_spelled_with_its_default_power_is_a_repeat():
     assert [row["method"] for row in result["summary"]] == methods
 
 
+def test_an_empty_list_of_names_is_refused_alike():
+    """evaluate(methods=[]) said "methods must not be empty", evaluate(variants=[]) "unknown variants
+    []", evaluate_rotation(methods=[]) "unknown rotation methods []": one wording, check_names'
+    ("methods names no method; give at least one"), as the command line's empty lists have."""
+    from jaxpose.evaluation import evaluate_rotation
+
+    for call, message in ((lambda: evaluate({"boxes": _boxes()}, methods=[]), "methods names no method"),
+                          (lambda: evaluate({"boxes": _boxes()}, variants=()), "variants names no variant"),
+                          (lambda: evaluate_rotation({"boxes": _boxes()}, methods=[]),
+                           "methods names no rotation method")):
+        with pytest.raises(InvalidInputError, match=f"^{message}; give at least one$"):
+            call()
+
+
 def test_align_core_iterations_follow_the_one_int_rule():
     """iterations is an int >= 0 as every count is (jaxpose._validate.check_int): 2.0 and True
     were taken as 2 and 1, None was int()'s TypeError."""

@@ -421,6 +421,8 @@ def test_tune_robust_power():
     assert first["power"] == pytest.approx(4.0) and second["power"] != pytest.approx(4.0)
     assert np.all(np.isfinite(first["grad"])) and len(first["grad"]) == 1 and first["grad"][0] != 0.0
     assert first["valid"] and "power" in res["verdict"]
+    assert res["verdict"].endswith(("use it", "it does not transfer; keeping (power 4)")), res["verdict"]  # (one
+    # parameter: "use them" / "they do not transfer" read as of two)
     # the gradient is d loss / d log(power): the central difference of the class spread agrees
     class_loss, _ = tuning._make_loss(jaxpose.config.RobustConfig(resolution=24, coarse=16), 0.0, "robust")
     arrays = {k: tuning._sampler({k: v}, 600, "c")[k](0) for k, v in classes.items()}

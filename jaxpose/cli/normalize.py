@@ -344,8 +344,10 @@ def _normalize_many(args, options, fail):
     rate = result.written / result.seconds if result.seconds > 0 else 0.0
     peaks = sorted(result.peak_mb.values())
     memory = f"; peak memory per worker {peaks[0]:.0f}-{peaks[-1]:.0f} MiB" if peaks else ""
-    print(f"normalized {result.written} files in {result.seconds:.1f} s ({rate:.1f}/s), {result.skipped} already "
-          f"done{memory}; table {result.table}")
+    from ..evaluation.tables import counted  # (the one plural rule: "normalized 1 file")
+
+    print(f"normalized {counted(result.written, 'file')} in {result.seconds:.1f} s ({rate:.1f}/s), "
+          f"{result.skipped} already done{memory}; table {result.table}")
     if result.failed:
         first = next(r for r in result.rows if not r.ok)
         stop = "stopped at the first failure (--fail-fast)" if result.stopped else \

@@ -86,10 +86,7 @@ def _check_classes(classes):
 def _check_methods(methods):
     from ..pose.estimators import method_key  # (lazily, as the other uses here: JAX at run time)
 
-    methods = METHODS if methods is None else check_names(methods, "methods", key=method_key)
-    if not methods:
-        raise InvalidInputError("methods must not be empty")
-    return methods
+    return METHODS if methods is None else check_names(methods, "methods", key=method_key, what="method")
 
 
 def _check_ocsvm(gamma, nu, count, seed, options):
@@ -109,9 +106,9 @@ def _check_ocsvm(gamma, nu, count, seed, options):
 
 
 def _check_variants(variants):
-    variants = check_names(variants, "variants")
+    variants = check_names(variants, "variants", what="variant")
     unknown = [v for v in variants if not is_name(v, VARIANTS)]
-    if unknown or not variants:
+    if unknown:
         raise InvalidInputError(f"unknown variants {unknown}; valid: {', '.join(VARIANTS)}")
     return variants
 

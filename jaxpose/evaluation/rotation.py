@@ -179,9 +179,9 @@ def evaluate_rotation(classes, methods=None, variants=("plain",), align_core=Fal
     from .. import baselines
 
     _check_classes(classes)
-    methods = ROTATIONS if methods is None else check_names(methods, "methods")
+    methods = ROTATIONS if methods is None else check_names(methods, "methods", what="rotation method")
     unknown = [m for m in methods if not is_name(m, ROTATIONS)]
-    if unknown or not methods:
+    if unknown:
         raise InvalidInputError(f"unknown rotation methods {unknown}; valid: {', '.join(ROTATIONS)}")
     variants = _check_variants(variants)
     alignment.check_core_weight(core_weight)

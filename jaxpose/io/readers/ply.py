@@ -378,8 +378,7 @@ def _ply_binary(data, start, elements, endian):
     if len(size) != 1 or not 3 <= int(size[0]) <= 1000:
         raise Unsupported("a face list of fewer than 3 corners")
     size = int(size[0])
-    ftype = np.dtype([(p[0], endian + p[1]) if p[2] is None else
-                      (p[0], [("f0", endian + p[2]), ("f1", endian + p[1], (size,))]) for p in fprops])
+    ftype = _face_type(fprops, endian, size)
     if len(data) - start != nv * vtype.itemsize + nf * ftype.itemsize:
         raise Unsupported("a file length that does not match its header (or lists of several lengths)")
     vertex = np.frombuffer(data, vtype, nv, start)
@@ -389,6 +388,13 @@ def _ply_binary(data, start, elements, endian):
     columns = {p[0]: face[p[0]] for p in fprops if p[2] is None}
     return ({k: vertex[k] for k in vertex.dtype.names}, columns, face[name]["f1"].reshape(-1),
             np.full(nf, size, np.int64))
+
+
+def _face_type(fprops, endian, size):
+    """The row dtype of a binary face element whose one list is `size` long in every row (trimesh's
+    rule): its scalars by name, the list as (``f0`` its count, ``f1`` its `size` items)."""
+    return np.dtype([(p[0], endian + p[1]) if p[2] is None else
+                     (p[0], [("f0", endian + p[2]), ("f1", endian + p[1], (size,))]) for p in fprops])
 
 
 def _ply_walked(data, elements, endian, walked):
@@ -427,7 +433,7 @@ def _ply_walked(data, elements, endian, walked):
             offset = offset + dtype.itemsize
         else:
             offset = offset + np.dtype(count_kind).itemsize
-            corner = np.arange(int(sizes.sum())) - np.repeat(np.cumsum(sizes) - sizes, sizes)
+            corner = _runs(np.zeros(len(sizes), np.int64), sizes)  # 0 .. size - 1, face after face
             flat = _gather(data, np.repeat(offset, sizes) + dtype.itemsize * corner, dtype)
             offset = offset + sizes * dtype.itemsize
     return {k: columns[k] for k in columns.dtype.names}, out, flat, sizes
@@ -442,9 +448,7 @@ def _uniform_faces(data, begin, face, endian):
     size = int(np.frombuffer(data, endian + fprops[position][2], 1, begin + before)[0])
     if size < 3:
         raise InvalidInputError(f"cannot read PLY file: its faces have {size} corners, fewer than 3: a malformed file")
-    ftype = np.dtype([(p[0], endian + p[1]) if p[2] is None else
-                      (p[0], [("f0", endian + p[2]), ("f1", endian + p[1], (size,))]) for p in fprops])
-    rows = np.frombuffer(data, ftype, count, begin)
+    rows = np.frombuffer(data, _face_type(fprops, endian, size), count, begin)
     columns = {p[0]: rows[p[0]] for p in fprops if p[2] is None}
     return columns, rows[fprops[position][0]]["f1"].reshape(-1), np.full(count, size, np.int64)
 
